@@ -1,0 +1,121 @@
+# voxdag - plain Makefile, the one build system.
+#
+#   make                      build every executable into out/bin/
+#   make run                  voxelize the bundled scene (installs deps first)
+#   make test                 every test, unit tests under ASan+UBSan too
+#   make bench                benchmarks on ../shared/data (skipped if absent)
+#   make config=sanitize      the same build with AddressSanitizer and UBSan
+#   make deps                 install the Debian packages the build needs
+#
+# Layout: stages/lib/*.c(c) is libvoxdag; every other stages/<name>/main.c is
+# one executable; tests/unit/test_*.c are unit test programs.
+
+config ?= release
+O ?= out
+
+CC  ?= cc
+CXX ?= g++
+ifeq ($(CC),cc)
+CC := gcc
+endif
+
+WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wno-unused-parameter
+CPPFLAGS += -D_GNU_SOURCE -Istages/lib
+CFLAGS   += -std=c11 $(WARN) -g
+CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
+LDLIBS   += -ltbb -lzstd -lxxhash -lm -lpthread
+
+ifeq ($(config),release)
+OUT := $(O)
+CFLAGS   += -O2
+CXXFLAGS += -O2
+else ifeq ($(config),sanitize)
+OUT := $(O)/sanitize
+SAN := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+CFLAGS   += -O1 $(SAN)
+CXXFLAGS += -O1 $(SAN)
+LDFLAGS  += $(SAN)
+else
+$(error unknown config '$(config)': use release or sanitize)
+endif
+
+# The Debian packages the build and the tests need (checked by `make deps`).
+DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev \
+                libpng-dev time
+
+LIB_C    := $(wildcard stages/lib/*.c)
+LIB_CC   := $(wildcard stages/lib/*.cc)
+LIB_OBJ  := $(LIB_C:stages/lib/%.c=$(OUT)/obj/lib/%.o) \
+            $(LIB_CC:stages/lib/%.cc=$(OUT)/obj/lib/%.o)
+LIB      := $(OUT)/lib/libvoxdag.a
+TOOLS    := $(patsubst stages/%/main.c,%,$(wildcard stages/*/main.c))
+BINS     := $(TOOLS:%=$(OUT)/bin/%)
+TEST_SRC := $(wildcard tests/unit/test_*.c)
+TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
+HEADERS  := $(wildcard stages/lib/*.h) $(wildcard tests/unit/*.h)
+
+.PHONY: all run test bench deps clean tests
+.DEFAULT_GOAL := all
+
+all: $(BINS)
+tests: $(TESTS)
+
+$(OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@ $<
+
+$(OUT)/obj/lib/%.o: stages/lib/%.cc $(HEADERS)
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c -o $@ $<
+
+$(LIB): $(LIB_OBJ)
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+$(OUT)/obj/%/main.o: stages/%/main.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@ $<
+
+# Linked with the C++ driver because TBB's runtime is C++.
+$(OUT)/bin/%: $(OUT)/obj/%/main.o $(LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
+
+$(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
+	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
+
+# Installs missing Debian packages; silent when everything is there.
+deps:
+	@missing=$$(for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+		echo "make deps: installing" $$missing; \
+		sudo=; [ "$$(id -u)" = 0 ] || sudo=sudo; \
+		$$sudo apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y -qq $$missing >/dev/null || \
+		{ echo "make deps: apt-get failed; install by hand:" $$missing >&2; exit 1; }; \
+	fi
+
+SCENE ?= tests/data/bunny.ply
+LEVELS ?= 9
+run: deps
+	@$(MAKE) --no-print-directory all
+	rm -rf out/default
+	$(OUT)/bin/voxelize $(SCENE) -o out/default --levels $(LEVELS)
+	$(OUT)/bin/chunk-check out/default/*.svo
+	@echo "run: $(SCENE) voxelized at $$((1 << $(LEVELS)))^3 into out/default/:"
+	@echo "run:   $$(ls out/default/*.svo | wc -l) SVO chunk files (one per non-empty cell), statistics in out/default/voxelize.stats.json"
+	@sed -n 's/^  "\(voxels\|chunks\|chunk_level\|peak_rss_bytes\)": \(.*\),*$$/run:   \1 = \2/p' out/default/voxelize.stats.json
+
+test: deps
+	@$(MAKE) --no-print-directory all tests
+	@$(MAKE) --no-print-directory config=sanitize all tests
+	@tests/run.sh
+
+bench: deps
+	@$(MAKE) --no-print-directory all
+	@tests/bench.sh
+
+clean:
+	rm -rf out

@@ -1,0 +1,437 @@
+/* voxdag.h - the one public header of libvoxdag, the library every voxdag
+ * stage links.
+ *
+ * Conventions that hold everywhere below:
+ * - Functions that can fail return an `int` error code: VD_OK (0) or one of
+ *   enum vd_error. vd_strerror() names it; vd_error_detail() gives the
+ *   calling thread's one-line detail of the last failure ("line 12: vertex
+ *   index 900 out of range"), empty when there is none.
+ * - `_open`/`_close` acquire and release a handle; `_free` releases memory
+ *   the library allocated and accepts NULL.
+ * - Grid conventions: a grid of `levels` L has 2^L voxels per side. Node
+ *   levels run from 0 (the root) to L-1 (2x2x2 masks); level L is the voxels.
+ *   Child index c = 4*x + 2*y + z (bit 2 = +X, bit 1 = +Y, bit 0 = +Z).
+ *   A Morton code is the sequence of child indices from the root, most
+ *   significant first, so sorting by Morton code is depth-first order.
+ * - Bricks: a brick is the 4x4x4 block of voxels below one level-(L-2) node,
+ *   stored as a uint64_t whose bit b is the voxel with local Morton code b
+ *   (b = morton3(x&3, y&3, z&3)). Byte c of a brick is therefore the 2x2x2
+ *   mask of the brick's child c, whose bit c' is that child's voxel c'.
+ *   A brick key is the Morton code of the brick's coordinates (voxel >> 2)
+ *   in the whole grid. Grids with L < 2 have one brick, key 0, partly used.
+ */
+#ifndef VOXDAG_H
+#define VOXDAG_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VD_VERSION_STRING "0.1.0"
+
+/* Largest grid depth: voxel Morton codes need 3*L bits of a uint64_t. */
+#define VD_MAX_LEVELS 21
+
+/* ------------------------------------------------------------------ errors */
+
+enum vd_error {
+	VD_OK = 0,
+	VD_ERR_IO,             /* a system call failed; the detail has strerror */
+	VD_ERR_NOMEM,          /* allocation failed */
+	VD_ERR_NOT_CHUNK,      /* file does not start with the chunk magic */
+	VD_ERR_NEWER_VERSION,  /* chunk format major version newer than ours */
+	VD_ERR_WRONG_KIND,     /* chunk of another kind than the caller expects */
+	VD_ERR_TRUNCATED,      /* file ends before its structure does */
+	VD_ERR_CHECKSUM,       /* a stored checksum does not match the bytes */
+	VD_ERR_TRAILING,       /* bytes after the end of the structure */
+	VD_ERR_CORRUPT,        /* checksums match but the content is inconsistent */
+	VD_ERR_FORMAT,         /* malformed input file (mesh syntax, bad header) */
+	VD_ERR_UNSUPPORTED,    /* valid but unsupported input (format, feature) */
+	VD_ERR_RANGE,          /* a value out of its allowed range */
+	VD_ERR_BUDGET,         /* the work cannot fit the memory budget */
+	VD_ERR_EMPTY,          /* nothing to work on (no triangles, no voxels) */
+	VD_ERR_ARG,            /* invalid argument from the caller */
+	VD_ERR_COMPRESS,       /* zstd failed */
+	VD_ERR_MISMATCH,       /* inputs that must agree do not (depth, cells) */
+	VD_ERR_INTERNAL,       /* a bug; the detail says where */
+	VD_ERR_COUNT_
+};
+
+/* Returns a static, one-phrase description of `err` ("truncated file"). */
+const char *vd_strerror(int err);
+
+/* Returns the calling thread's detail for the last error set by the library
+ * (never NULL; "" when none). Valid until the next library call on this
+ * thread. */
+const char *vd_error_detail(void);
+
+/* Sets the calling thread's detail (printf format) and returns `err`, so
+ * callers can write `return vd_fail(VD_ERR_RANGE, "index %u", i);`. */
+int vd_fail(int err, const char *fmt, ...)
+	__attribute__((format(printf, 2, 3)));
+
+/* Clears the calling thread's detail. */
+void vd_error_clear(void);
+
+/* ------------------------------------------------------------ Morton maths */
+
+/* Spreads the low 21 bits of v so that bit i lands at bit 3i. */
+static inline uint64_t vd_morton_spread(uint64_t v)
+{
+	v &= 0x1fffff;
+	v = (v | v << 32) & 0x1f00000000ffffULL;
+	v = (v | v << 16) & 0x1f0000ff0000ffULL;
+	v = (v | v << 8) & 0x100f00f00f00f00fULL;
+	v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+	v = (v | v << 2) & 0x1249249249249249ULL;
+	return v;
+}
+
+/* Inverse of vd_morton_spread: gathers bits 3i into bit i. */
+static inline uint64_t vd_morton_compact(uint64_t v)
+{
+	v &= 0x1249249249249249ULL;
+	v = (v ^ (v >> 2)) & 0x10c30c30c30c30c3ULL;
+	v = (v ^ (v >> 4)) & 0x100f00f00f00f00fULL;
+	v = (v ^ (v >> 8)) & 0x1f0000ff0000ffULL;
+	v = (v ^ (v >> 16)) & 0x1f00000000ffffULL;
+	v = (v ^ (v >> 32)) & 0x1fffff;
+	return v;
+}
+
+/* Morton code of (x, y, z), each < 2^21; x is the most significant. */
+static inline uint64_t vd_morton3(uint32_t x, uint32_t y, uint32_t z)
+{
+	return vd_morton_spread(x) << 2 | vd_morton_spread(y) << 1 |
+	       vd_morton_spread(z);
+}
+
+static inline void vd_morton3_decode(uint64_t m, uint32_t *x, uint32_t *y,
+				     uint32_t *z)
+{
+	*x = (uint32_t)vd_morton_compact(m >> 2);
+	*y = (uint32_t)vd_morton_compact(m >> 1);
+	*z = (uint32_t)vd_morton_compact(m);
+}
+
+/* --------------------------------------------------------- world transform */
+
+/* Where the grid sits in the world. The cube's side is the largest extent
+ * of the input's tight bounding box, centred on the box centre (the SymVox
+ * convention, see schemas/chunk-format.md); bbox and side are kept as float32
+ * because the SymVox encodings store them so. */
+struct vd_transform {
+	float bbox_min[3];   /* tight bounding box of the input, world units */
+	float bbox_max[3];
+	float root_side;     /* side of the cube, world units */
+	double origin[3];    /* world position of the grid's (0,0,0) corner */
+	double voxel_size;   /* world units per voxel at the grid's depth */
+};
+
+/* Fills `t` for the given tight bounding box and grid depth. Returns
+ * VD_ERR_EMPTY if the box has zero extent on every axis, VD_ERR_RANGE if it
+ * is not finite. */
+int vd_transform_init(struct vd_transform *t, const float bbox_min[3],
+		      const float bbox_max[3], int levels);
+
+/* -------------------------------------------------------------- chunk files
+ * The binary format every stage reads and writes; specified in
+ * schemas/chunk-format.md. A writer streams sections to a temporary file and
+ * renames it to the final name only in vd_chunk_writer_commit(), so a killed
+ * writer never leaves a file that looks complete. A reader verifies every
+ * checksum before handing out any content. */
+
+#define VD_CHUNK_MAJOR 1
+#define VD_CHUNK_MINOR 0
+
+enum vd_chunk_kind {
+	VD_KIND_ANY = 0,     /* for readers: accept every kind */
+	VD_KIND_SVO = 1,     /* sparse voxel octree bricks of one L0 cell */
+	VD_KIND_DAG = 2,     /* SVDAG: identical subtrees merged */
+	VD_KIND_SSVDAG = 3,  /* SSVDAG: subtrees equal up to reflection merged */
+	VD_KIND_ENCODED = 4, /* compact encodings (encode stage) */
+	VD_KIND_COLOURS = 5, /* voxel colours (colorize stage) */
+	VD_KIND_COUNT_
+};
+
+/* Returns "svo", "dag", ... or "unknown". */
+const char *vd_chunk_kind_name(uint32_t kind);
+
+/* Section tags are four ASCII bytes read as a little-endian uint32. */
+#define VD_TAG(a, b, c, d)                                                   \
+	((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 |          \
+	 (uint32_t)(d) << 24)
+#define VD_TAG_PROV VD_TAG('P', 'R', 'O', 'V') /* provenance text */
+#define VD_TAG_BRKS VD_TAG('B', 'R', 'K', 'S') /* SVO bricks, see the spec */
+
+/* The fixed part of a chunk header. */
+struct vd_chunk_header {
+	uint16_t major, minor;  /* format version of the file (filled by writer) */
+	uint32_t kind;          /* enum vd_chunk_kind */
+	uint32_t levels;        /* grid depth L */
+	uint32_t chunk_level;   /* level of the cell this chunk covers (L0) */
+	uint64_t cell_morton;   /* Morton code of the cell at chunk_level */
+	struct vd_transform transform;
+	/* Non-empty node counts inside the cell for levels chunk_level..levels
+	 * (level `levels` is the voxel count): level_count == levels -
+	 * chunk_level + 1 entries, at most VD_MAX_LEVELS + 1. */
+	uint32_t level_count;
+	uint64_t level_nodes[VD_MAX_LEVELS + 1];
+};
+
+struct vd_chunk_writer;
+
+/* Creates `path`.tmp.<pid> and writes a provisional header. `h->major` and
+ * `h->minor` are ignored (the writer's version is written). `provenance` is
+ * a text such as "tool=voxelize version=0.1.0 args=..." stored in a PROV
+ * section; NULL for none. On success *out must later go to exactly one of
+ * vd_chunk_writer_commit() or vd_chunk_writer_abort(). */
+int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
+			 const struct vd_chunk_header *h,
+			 const char *provenance);
+
+/* Starts a section; data is streamed through zstd at `zstd_level` (0 means
+ * the default level 3). Only one section is open at a time. */
+int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
+			  int zstd_level);
+/* Appends `n` bytes to the open section. */
+int vd_chunk_writer_write(struct vd_chunk_writer *w, const void *data,
+			  size_t n);
+/* Closes the open section. */
+int vd_chunk_writer_end(struct vd_chunk_writer *w);
+/* begin + write + end in one call. */
+int vd_chunk_writer_section(struct vd_chunk_writer *w, uint32_t tag,
+			    const void *data, size_t n);
+
+/* Replaces the per-level counts of the header (they are often known only
+ * after the sections are written). `level_count` must equal the one given
+ * at open. */
+int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
+			       const uint64_t *level_nodes,
+			       uint32_t level_count);
+
+/* Writes the footer, flushes, fsyncs and renames the file to its final
+ * name. Frees `w` whatever the outcome; on failure the temporary file is
+ * removed and nothing is left at the final path by this writer. */
+int vd_chunk_writer_commit(struct vd_chunk_writer *w);
+
+/* Removes the temporary file and frees `w`. Accepts NULL. */
+void vd_chunk_writer_abort(struct vd_chunk_writer *w);
+
+struct vd_chunk;
+
+/* Reads and verifies the whole file `path`: magic, version, header checksum,
+ * kind (unless `kind` is VD_KIND_ANY), structure, whole-file and section
+ * checksums. Distinct errors for: not a chunk file, newer major version,
+ * wrong kind, truncated, checksum mismatch, trailing bytes. The detail names
+ * what was found. On success the caller frees *out with vd_chunk_free(). */
+int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind);
+
+/* The same on an in-memory image (copied); `name` is used in details. */
+int vd_chunk_open_mem(struct vd_chunk **out, const void *data, size_t size,
+		      uint32_t kind);
+
+const struct vd_chunk_header *vd_chunk_header(const struct vd_chunk *c);
+
+/* Decompresses section `tag` into a new buffer (*data, free with free();
+ * *data is non-NULL even for an empty section) of *size bytes. Returns
+ * VD_ERR_CORRUPT if the section is missing (detail names it). */
+int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
+			  void **data, size_t *size);
+
+/* Returns 1 if section `tag` is present. */
+int vd_chunk_has_section(const struct vd_chunk *c, uint32_t tag);
+
+/* The provenance text ("" if none); owned by `c`. */
+const char *vd_chunk_provenance(const struct vd_chunk *c);
+
+/* Number of sections and the tag of section i, for listing. */
+uint32_t vd_chunk_section_count(const struct vd_chunk *c);
+uint32_t vd_chunk_section_tag(const struct vd_chunk *c, uint32_t i);
+
+void vd_chunk_free(struct vd_chunk *c);
+
+/* ------------------------------------------------------------------- SVO
+ * The content of an SVO chunk: the non-empty bricks of one cell in Morton
+ * order. This is also the in-memory form stages pass around. */
+struct vd_svo {
+	int levels;            /* grid depth L */
+	int chunk_level;       /* L0 of the cell */
+	uint64_t cell_morton;  /* cell Morton code at chunk_level */
+	size_t count;          /* number of non-empty bricks */
+	uint64_t *keys;        /* brick keys, strictly increasing */
+	uint64_t *masks;       /* brick masks, never 0 */
+};
+
+/* Reads an SVO chunk file and verifies that its bricks are strictly
+ * increasing, non-empty, inside the cell and the grid, and agree with the
+ * header's counts. Free with vd_svo_release(). */
+int vd_svo_load(struct vd_svo *svo, struct vd_chunk_header *h,
+		const char *path);
+
+/* Same, from an already opened chunk of kind SVO. */
+int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c);
+
+/* Computes the per-level non-empty node counts of the bricks in `svo` for
+ * levels chunk_level..levels into counts[0..levels-chunk_level]. */
+void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts);
+
+/* Writes `svo` as an SVO chunk file at `path` (atomic). `t` is the world
+ * transform, `provenance` as for vd_chunk_writer_open(). */
+int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
+		const char *path, const char *provenance);
+
+void vd_svo_release(struct vd_svo *svo);
+
+/* ---------------------------------------------------------------- meshes
+ * Streaming triangle readers for PLY (binary little/big endian and ASCII),
+ * OBJ and STL (binary and ASCII). Indexed formats keep their vertex
+ * positions in memory (12 bytes per vertex); triangles are streamed. */
+
+struct vd_triangle {
+	float v[3][3]; /* three vertices, x y z each, world units */
+};
+
+/* What the reader saw. A face with fewer than 3 corners is dropped and
+ * counted; a face with more is fan-triangulated. A vertex with a NaN or
+ * infinite coordinate is an error (VD_ERR_RANGE) as soon as a face uses it;
+ * unused vertices are never checked. */
+struct vd_mesh_stats {
+	uint64_t triangles_read;     /* triangles handed to the caller */
+	uint64_t faces_dropped_short;/* faces with fewer than 3 corners */
+	uint64_t polygons_split;     /* faces with more than 3 corners */
+	uint64_t vertices;           /* vertices declared (indexed formats) */
+};
+
+struct vd_mesh;
+
+/* Opens `path`, detecting the format from its first bytes (PLY magic, STL
+ * binary size rule / "solid", OBJ otherwise only if the extension is .obj).
+ * Parses the header; the body is read by vd_mesh_read(). Errors:
+ * VD_ERR_IO, VD_ERR_UNSUPPORTED (unknown format), VD_ERR_FORMAT (bad
+ * header), VD_ERR_TRUNCATED. */
+int vd_mesh_open(struct vd_mesh **out, const char *path);
+
+/* Reads up to `cap` triangles into `buf` and sets *n; *n == 0 means the
+ * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
+ * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
+ * coordinate), VD_ERR_TRUNCATED (file ends inside the body). */
+int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
+		 size_t *n);
+
+/* Restarts reading at the first triangle (for a second pass); counts
+ * restart too. */
+int vd_mesh_rewind(struct vd_mesh *m);
+
+/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
+const char *vd_mesh_format(const struct vd_mesh *m);
+/* Bytes of memory the reader holds (vertex arrays), for budgets. */
+size_t vd_mesh_memory_bytes(const struct vd_mesh *m);
+const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
+void vd_mesh_close(struct vd_mesh *m);
+
+/* ---------------------------------------------------- triangle/box overlap
+ * Voxelization decides overlap exactly on snapped coordinates: a vertex's
+ * grid coordinate g = (v - origin) / voxel_size is rounded to the nearest
+ * multiple of 2^-VD_SNAP_BITS of a voxel (vd_snap), and then every test is
+ * integer arithmetic without rounding, so touching counts as overlap with no
+ * epsilon and results never depend on evaluation order. */
+#define VD_SNAP_BITS 16
+
+/* Snapped grid coordinates of a triangle, in units of 2^-VD_SNAP_BITS
+ * voxels. */
+struct vd_snapped_tri {
+	int64_t v[3][3];
+};
+
+/* Snaps `t` into grid space of `tr`. Returns VD_ERR_RANGE if a coordinate
+ * is not finite. */
+int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
+		     const struct vd_transform *tr);
+
+/* Returns 1 if the closed triangle and the closed axis-aligned cube
+ * [lo, lo + size] (in voxels, per axis) overlap, else 0. Degenerate
+ * triangles are treated as the segment or point they are. */
+int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
+		       int64_t size);
+
+/* -------------------------------------------------------------- parallel
+ * A small C interface to TBB. Runs fn(ctx, i, worker) for i in [0, n) on up
+ * to `threads` threads (0: all cores); `worker` is in [0, threads) and
+ * unique among concurrently running calls. Returns VD_OK, or VD_ERR_INTERNAL
+ * if TBB threw (the exception never crosses into C). */
+int vd_parallel_for(size_t n, int threads,
+		    void (*fn)(void *ctx, size_t i, int worker), void *ctx);
+
+/* Number of hardware threads. */
+int vd_hardware_threads(void);
+
+/* ------------------------------------------------------------- utilities */
+
+/* Parses "1024", "512K", "2M", "2GiB", "1.5G" (powers of 1024) into bytes.
+ * Returns VD_ERR_ARG on anything else. */
+int vd_parse_size(const char *s, uint64_t *bytes);
+
+/* Peak resident set size of this process so far, in bytes. */
+uint64_t vd_peak_rss_bytes(void);
+
+/* Monotonic seconds. */
+double vd_seconds(void);
+
+/* XXH3 64-bit hash (the library's one hash). */
+uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
+
+/* ------------------------------------------------------------ voxelizer */
+
+struct vd_voxelize_opts {
+	int levels;               /* L, 1..VD_MAX_LEVELS */
+	int chunk_level;          /* L0, or -1 to choose from the budget */
+	uint64_t mem_budget_bytes;/* per-process budget */
+	int threads;              /* 0: all cores */
+	int quiet;                /* no progress on stderr */
+	const char *provenance;   /* stored in every chunk */
+	const char *tool;         /* prefix for progress lines */
+};
+
+struct vd_voxelize_result {
+	int levels, chunk_level;
+	struct vd_transform transform;
+	struct vd_mesh_stats mesh;
+	uint64_t triangles_binned;   /* triangle-cell pairs written to bins */
+	uint64_t voxels;
+	uint64_t chunks;
+	uint64_t bricks;
+	uint64_t level_nodes[VD_MAX_LEVELS + 1]; /* whole grid, levels 0..L */
+	double seconds_bounds, seconds_bin, seconds_voxelize, seconds_total;
+	uint64_t peak_rss_bytes;
+};
+
+/* Voxelizes the mesh at `mesh_path` into SVO chunk files
+ * OUTDIR/chunk-L<L0>-<morton>.svo, one per non-empty cell. Existing chunk
+ * files of an earlier run in `outdir` are removed first. */
+int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
+		     const struct vd_voxelize_opts *opts,
+		     struct vd_voxelize_result *res);
+
+/* Writes `res` as JSON to `path` (atomic). */
+int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
+			    const char *path);
+
+/* Name of a cell's chunk file inside a directory: "chunk-L3-000123.svo".
+ * Writes at most `cap` bytes into `buf`. */
+void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
+			uint64_t cell_morton, const char *ext);
+
+/* ------------------------------------------------- DAG and SSVDAG (dag.c) */
+
+/* ------------------------------------------------------ end of DAG block */
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOXDAG_H */

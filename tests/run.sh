@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Runs every test and prints one closing line: "N passed, N failed".
+# Unit tests run from the sanitizer build; command-line tests run the
+# release executables from the outside (tests/cli/*.sh).
+set -u
+cd "$(dirname "$0")/.."
+passed=0 failed=0 skipped=0
+log=out/tests.log
+: > "$log"
+
+tally() { # reads PASS/FAIL/SKIP lines on stdin, echoes them, counts them
+	while IFS= read -r line; do
+		echo "$line"
+		case "$line" in
+		PASS*) passed=$((passed + 1)) ;;
+		FAIL*) failed=$((failed + 1)) ;;
+		SKIP*) skipped=$((skipped + 1)) ;;
+		esac
+	done
+}
+
+for t in out/sanitize/tests/test_*; do
+	case "$t" in *.o) continue ;; esac
+	echo "== $t"
+	tally < <(ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+		"$t" 2>>"$log"; rc=$?; [ $rc -le 1 ] || echo "FAIL $t exited $rc")
+done
+for t in tests/cli/*.sh; do
+	echo "== $t"
+	tally < <(bash "$t" 2>>"$log"; rc=$?; [ $rc -eq 0 ] || echo "FAIL $t exited $rc")
+done
+if [ "$failed" -gt 0 ]; then
+	echo "--- stderr of the tests (out/tests.log), last 60 lines:"
+	tail -n 60 "$log"
+fi
+echo "$passed passed, $failed failed, $skipped skipped"
+[ "$failed" -eq 0 ]
