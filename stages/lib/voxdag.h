@@ -195,7 +195,8 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
 			 const char *provenance);
 
 /* Starts a section; data is streamed through zstd at `zstd_level` (0 means
- * the default level 3). Only one section is open at a time. */
+ * the default level 3; negative stores the bytes uncompressed). Only one
+ * section is open at a time. */
 int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
 			  int zstd_level);
 /* Appends `n` bytes to the open section. */
@@ -231,7 +232,7 @@ struct vd_chunk;
  * what was found. On success the caller frees *out with vd_chunk_free(). */
 int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind);
 
-/* The same on an in-memory image (copied); `name` is used in details. */
+/* The same on an in-memory image of `size` bytes (copied). */
 int vd_chunk_open_mem(struct vd_chunk **out, const void *data, size_t size,
 		      uint32_t kind);
 

@@ -58,7 +58,7 @@ static inline const char *test_tmpdir(const char *name)
 {
 	static char buf[512];
 	snprintf(buf, sizeof buf, "out/tmp/%s", name);
-	char cmd[600];
+	char cmd[1200];
 	snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", buf, buf);
 	if (system(cmd) != 0) {
 		fprintf(stderr, "cannot create %s\n", buf);

@@ -1,0 +1,715 @@
+/* chunk.c - reading and writing chunk files (schemas/chunk-format.md).
+ *
+ * Fields are encoded one by one as little-endian; no struct is ever written
+ * as it lies in memory. A writer streams zstd-compressed sections into a
+ * temporary file, patches sizes and counts at the end, appends the footer
+ * with the whole-file checksum and only then renames the file into place.
+ */
+#include "voxdag.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <libgen.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+#include <zstd.h>
+
+static const uint8_t chunk_magic[8] = {0x89, 'V', 'X', 'D', '\r', '\n', 0x1a, '\n'};
+static const uint8_t footer_magic[8] = {0x89, 'V', 'X', 'D', 'E', 'N', 'D', '\n'};
+
+enum {
+	HEADER_FIXED = 104,   /* bytes before the per-level counts */
+	SECTION_HEADER = 32,
+	FOOTER = 24,
+	CODEC_STORED = 0,
+	CODEC_ZSTD = 1,
+	/* Header sizes beyond this are corrupt, not a future extension. */
+	HEADER_MAX = 4096,
+};
+
+/* ------------------------------------------------------ little-endian I/O */
+
+static void put16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
+static void put32(uint8_t *p, uint32_t v)
+{
+	for (int i = 0; i < 4; i++)
+		p[i] = (uint8_t)(v >> 8 * i);
+}
+static void put64(uint8_t *p, uint64_t v)
+{
+	for (int i = 0; i < 8; i++)
+		p[i] = (uint8_t)(v >> 8 * i);
+}
+static void putf32(uint8_t *p, float f) { uint32_t v; memcpy(&v, &f, 4); put32(p, v); }
+static void putf64(uint8_t *p, double f) { uint64_t v; memcpy(&v, &f, 8); put64(p, v); }
+static uint16_t get16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+static uint32_t get32(const uint8_t *p)
+{
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+	       (uint32_t)p[3] << 24;
+}
+static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
+static float getf32(const uint8_t *p) { uint32_t v = get32(p); float f; memcpy(&f, &v, 4); return f; }
+static double getf64(const uint8_t *p) { uint64_t v = get64(p); double f; memcpy(&f, &v, 8); return f; }
+
+const char *vd_chunk_kind_name(uint32_t kind)
+{
+	static const char *const names[] = {"any", "svo", "dag", "ssvdag",
+					    "encoded", "colours"};
+	return kind < VD_KIND_COUNT_ ? names[kind] : "unknown";
+}
+
+static size_t header_size(uint32_t level_count)
+{
+	return HEADER_FIXED + 8 * (size_t)level_count + 8;
+}
+
+/* Encodes `h` with `section_count` into buf (header_size() bytes) and its
+ * checksum. */
+static void encode_header(uint8_t *buf, const struct vd_chunk_header *h,
+			  uint32_t section_count)
+{
+	size_t n = header_size(h->level_count);
+	memset(buf, 0, n);
+	memcpy(buf, chunk_magic, 8);
+	put16(buf + 8, VD_CHUNK_MAJOR);
+	put16(buf + 10, VD_CHUNK_MINOR);
+	put32(buf + 12, (uint32_t)n);
+	put32(buf + 16, h->kind);
+	put32(buf + 20, h->levels);
+	put32(buf + 24, h->chunk_level);
+	put32(buf + 28, h->level_count);
+	put64(buf + 32, h->cell_morton);
+	for (int a = 0; a < 3; a++)
+		putf64(buf + 40 + 8 * a, h->transform.origin[a]);
+	putf64(buf + 64, h->transform.voxel_size);
+	for (int a = 0; a < 3; a++) {
+		putf32(buf + 72 + 4 * a, h->transform.bbox_min[a]);
+		putf32(buf + 84 + 4 * a, h->transform.bbox_max[a]);
+	}
+	putf32(buf + 96, h->transform.root_side);
+	put32(buf + 100, section_count);
+	for (uint32_t i = 0; i < h->level_count; i++)
+		put64(buf + HEADER_FIXED + 8 * i, h->level_nodes[i]);
+	put64(buf + n - 8, XXH3_64bits(buf, n - 8));
+}
+
+/* ---------------------------------------------------------------- writer */
+
+struct vd_chunk_writer {
+	FILE *f;
+	char *path, *tmp;
+	struct vd_chunk_header h;
+	uint32_t section_count;
+	/* the open section */
+	int in_section;
+	off_t section_pos;
+	uint64_t raw_size, stored_size;
+	uint32_t tag, codec;
+	XXH3_state_t *hash;
+	ZSTD_CCtx *zc;
+	uint8_t *zbuf;
+	size_t zbuf_cap;
+	int failed;
+};
+
+static int writer_io_error(struct vd_chunk_writer *w, const char *what)
+{
+	w->failed = 1;
+	return vd_fail(VD_ERR_IO, "%s '%s': %s", what, w->tmp, strerror(errno));
+}
+
+static int write_all(struct vd_chunk_writer *w, const void *p, size_t n)
+{
+	if (n && fwrite(p, 1, n, w->f) != n)
+		return writer_io_error(w, "cannot write");
+	return VD_OK;
+}
+
+int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
+			 const struct vd_chunk_header *h,
+			 const char *provenance)
+{
+	*out = NULL;
+	if (h->level_count > VD_MAX_LEVELS + 1 || h->kind == VD_KIND_ANY ||
+	    h->kind >= VD_KIND_COUNT_)
+		return vd_fail(VD_ERR_ARG, "bad chunk header for '%s'", path);
+	struct vd_chunk_writer *w = calloc(1, sizeof *w);
+	if (!w)
+		return vd_fail(VD_ERR_NOMEM, "chunk writer");
+	w->h = *h;
+	w->path = strdup(path);
+	size_t tn = strlen(path) + 32;
+	w->tmp = malloc(tn);
+	w->hash = XXH3_createState();
+	if (!w->path || !w->tmp || !w->hash) {
+		vd_chunk_writer_abort(w);
+		return vd_fail(VD_ERR_NOMEM, "chunk writer");
+	}
+	snprintf(w->tmp, tn, "%s.tmp.%ld", path, (long)getpid());
+	w->f = fopen(w->tmp, "w+b"); /* read back for the file checksum */
+	if (!w->f) {
+		int e = errno;
+		int err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", w->tmp,
+				  strerror(e));
+		free(w->tmp);
+		w->tmp = NULL;
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	uint8_t buf[HEADER_MAX];
+	encode_header(buf, &w->h, 0);
+	int err = write_all(w, buf, header_size(w->h.level_count));
+	if (!err && provenance) {
+		err = vd_chunk_writer_begin(w, VD_TAG_PROV, -1);
+		if (!err)
+			err = vd_chunk_writer_write(w, provenance,
+						    strlen(provenance));
+		if (!err)
+			err = vd_chunk_writer_end(w);
+	}
+	if (err) {
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	*out = w;
+	return VD_OK;
+}
+
+/* zstd_level < 0 stores the section uncompressed (used for short text). */
+int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
+			  int zstd_level)
+{
+	if (w->failed || w->in_section)
+		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
+	w->section_pos = ftello(w->f);
+	uint8_t hdr[SECTION_HEADER] = {0};
+	int err = write_all(w, hdr, sizeof hdr); /* patched in _end */
+	if (err)
+		return err;
+	w->tag = tag;
+	w->codec = zstd_level < 0 ? CODEC_STORED : CODEC_ZSTD;
+	w->raw_size = w->stored_size = 0;
+	XXH3_64bits_reset(w->hash);
+	if (w->codec == CODEC_ZSTD) {
+		if (!w->zc) {
+			w->zc = ZSTD_createCCtx();
+			w->zbuf_cap = ZSTD_CStreamOutSize();
+			w->zbuf = malloc(w->zbuf_cap);
+			if (!w->zc || !w->zbuf)
+				return vd_fail(VD_ERR_NOMEM, "zstd context");
+		}
+		ZSTD_CCtx_reset(w->zc, ZSTD_reset_session_and_parameters);
+		ZSTD_CCtx_setParameter(w->zc, ZSTD_c_compressionLevel,
+				       zstd_level ? zstd_level : 3);
+		ZSTD_CCtx_setParameter(w->zc, ZSTD_c_checksumFlag, 0);
+	}
+	w->in_section = 1;
+	return VD_OK;
+}
+
+static int emit_stored(struct vd_chunk_writer *w, const void *p, size_t n)
+{
+	XXH3_64bits_update(w->hash, p, n);
+	w->stored_size += n;
+	return write_all(w, p, n);
+}
+
+static int zstd_pump(struct vd_chunk_writer *w, ZSTD_inBuffer *in,
+		     ZSTD_EndDirective mode)
+{
+	for (;;) {
+		ZSTD_outBuffer out = {w->zbuf, w->zbuf_cap, 0};
+		size_t left = ZSTD_compressStream2(w->zc, &out, in, mode);
+		if (ZSTD_isError(left)) {
+			w->failed = 1;
+			return vd_fail(VD_ERR_COMPRESS, "zstd: %s",
+				       ZSTD_getErrorName(left));
+		}
+		int err = emit_stored(w, w->zbuf, out.pos);
+		if (err)
+			return err;
+		if (mode == ZSTD_e_end ? left == 0 : in->pos == in->size)
+			return VD_OK;
+	}
+}
+
+int vd_chunk_writer_write(struct vd_chunk_writer *w, const void *data,
+			  size_t n)
+{
+	if (w->failed || !w->in_section)
+		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->tmp);
+	w->raw_size += n;
+	if (w->codec == CODEC_STORED)
+		return emit_stored(w, data, n);
+	ZSTD_inBuffer in = {data, n, 0};
+	return zstd_pump(w, &in, ZSTD_e_continue);
+}
+
+int vd_chunk_writer_end(struct vd_chunk_writer *w)
+{
+	if (w->failed || !w->in_section)
+		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->tmp);
+	if (w->codec == CODEC_ZSTD) {
+		ZSTD_inBuffer in = {NULL, 0, 0};
+		int err = zstd_pump(w, &in, ZSTD_e_end);
+		if (err)
+			return err;
+	}
+	uint8_t hdr[SECTION_HEADER];
+	put32(hdr, w->tag);
+	put32(hdr + 4, w->codec);
+	put64(hdr + 8, w->raw_size);
+	put64(hdr + 16, w->stored_size);
+	put64(hdr + 24, XXH3_64bits_digest(w->hash));
+	off_t end = ftello(w->f);
+	if (fseeko(w->f, w->section_pos, SEEK_SET) != 0 ||
+	    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
+	    fseeko(w->f, end, SEEK_SET) != 0)
+		return writer_io_error(w, "cannot write");
+	w->in_section = 0;
+	w->section_count++;
+	return VD_OK;
+}
+
+int vd_chunk_writer_section(struct vd_chunk_writer *w, uint32_t tag,
+			    const void *data, size_t n)
+{
+	int err = vd_chunk_writer_begin(w, tag, 0);
+	if (!err)
+		err = vd_chunk_writer_write(w, data, n);
+	if (!err)
+		err = vd_chunk_writer_end(w);
+	return err;
+}
+
+int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
+			       const uint64_t *level_nodes,
+			       uint32_t level_count)
+{
+	if (level_count != w->h.level_count)
+		return vd_fail(VD_ERR_ARG, "level count %u, header has %u",
+			       level_count, w->h.level_count);
+	memcpy(w->h.level_nodes, level_nodes, 8 * (size_t)level_count);
+	return VD_OK;
+}
+
+/* fsync the directory holding `path` so the rename survives a crash. */
+static void sync_dir(const char *path)
+{
+	char *copy = strdup(path);
+	if (!copy)
+		return;
+	int fd = open(dirname(copy), O_RDONLY | O_DIRECTORY);
+	if (fd >= 0) {
+		fsync(fd);
+		close(fd);
+	}
+	free(copy);
+}
+
+int vd_chunk_writer_commit(struct vd_chunk_writer *w)
+{
+	int err = VD_OK;
+	if (w->failed || w->in_section)
+		err = vd_fail(VD_ERR_ARG, "cannot commit '%s': %s", w->path,
+			      w->in_section ? "a section is open"
+					    : "an earlier write failed");
+	uint8_t buf[HEADER_MAX];
+	if (!err) {
+		encode_header(buf, &w->h, w->section_count);
+		if (fseeko(w->f, 0, SEEK_SET) != 0 ||
+		    fwrite(buf, 1, header_size(w->h.level_count), w->f) !=
+			    header_size(w->h.level_count) ||
+		    fflush(w->f) != 0)
+			err = writer_io_error(w, "cannot write");
+	}
+	/* The whole-file checksum is taken from the bytes as they are on disk
+	 * (after patching), read back through the page cache. */
+	uint64_t size = 0;
+	if (!err) {
+		XXH3_64bits_reset(w->hash);
+		if (fseeko(w->f, 0, SEEK_SET) != 0)
+			err = writer_io_error(w, "cannot seek");
+		size_t n;
+		while (!err && (n = fread(buf, 1, sizeof buf, w->f)) > 0) {
+			XXH3_64bits_update(w->hash, buf, n);
+			size += n;
+		}
+		if (!err && ferror(w->f))
+			err = writer_io_error(w, "cannot read back");
+	}
+	if (!err) {
+		uint8_t foot[FOOTER];
+		memcpy(foot, footer_magic, 8);
+		put64(foot + 8, size + FOOTER);
+		XXH3_64bits_update(w->hash, foot, 16);
+		put64(foot + 16, XXH3_64bits_digest(w->hash));
+		if (fseeko(w->f, 0, SEEK_END) != 0 ||
+		    fwrite(foot, 1, FOOTER, w->f) != FOOTER ||
+		    fflush(w->f) != 0 || fsync(fileno(w->f)) != 0)
+			err = writer_io_error(w, "cannot write");
+	}
+	if (!err) {
+		int rc = fclose(w->f);
+		w->f = NULL;
+		if (rc != 0)
+			err = writer_io_error(w, "cannot close");
+	}
+	if (!err && rename(w->tmp, w->path) != 0)
+		err = vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
+			      w->tmp, w->path, strerror(errno));
+	if (!err) {
+		sync_dir(w->path);
+		free(w->tmp);
+		w->tmp = NULL; /* nothing for abort to remove */
+	}
+	vd_chunk_writer_abort(w);
+	return err;
+}
+
+void vd_chunk_writer_abort(struct vd_chunk_writer *w)
+{
+	if (!w)
+		return;
+	if (w->f)
+		fclose(w->f);
+	if (w->tmp)
+		unlink(w->tmp);
+	free(w->tmp);
+	free(w->path);
+	XXH3_freeState(w->hash);
+	ZSTD_freeCCtx(w->zc);
+	free(w->zbuf);
+	free(w);
+}
+
+/* ---------------------------------------------------------------- reader */
+
+struct section {
+	uint32_t tag, codec;
+	uint64_t raw_size, stored_size;
+	size_t offset; /* of the stored bytes in the image */
+};
+
+struct vd_chunk {
+	struct vd_chunk_header h;
+	uint8_t *image;
+	size_t size;
+	uint32_t section_count;
+	struct section *sections;
+	char *provenance;
+};
+
+/* Walks the sections after the header. Returns the footer position, or an
+ * error: TRUNCATED if the structure runs past `len`. */
+static int walk_sections(struct vd_chunk *c, size_t hsize, uint32_t count,
+			 size_t len, size_t *footer_pos)
+{
+	size_t p = hsize;
+	for (uint32_t i = 0; i < count; i++) {
+		if (len - p < SECTION_HEADER)
+			return vd_fail(VD_ERR_TRUNCATED, "file ends in the header "
+				       "of section %u of %u", i + 1, count);
+		const uint8_t *s = c->image + p;
+		struct section *sec = &c->sections[i];
+		sec->tag = get32(s);
+		sec->codec = get32(s + 4);
+		sec->raw_size = get64(s + 8);
+		sec->stored_size = get64(s + 16);
+		sec->offset = p + SECTION_HEADER;
+		if (sec->stored_size > len - sec->offset)
+			return vd_fail(VD_ERR_TRUNCATED, "file ends inside section "
+				       "%u of %u (%llu bytes missing)", i + 1,
+				       count,
+				       (unsigned long long)(sec->stored_size -
+							    (len - sec->offset)));
+		p = sec->offset + sec->stored_size;
+	}
+	*footer_pos = p;
+	return VD_OK;
+}
+
+static int has_footer_at(const struct vd_chunk *c, size_t p)
+{
+	return c->size - p >= FOOTER &&
+	       memcmp(c->image + p, footer_magic, 8) == 0 &&
+	       get64(c->image + p + 8) == p + FOOTER;
+}
+
+static int parse(struct vd_chunk *c, uint32_t want_kind)
+{
+	const uint8_t *b = c->image;
+	size_t len = c->size;
+	if (len < 8) {
+		if (len > 0 && memcmp(b, chunk_magic, len) == 0)
+			return vd_fail(VD_ERR_TRUNCATED, "only %zu bytes", len);
+		return vd_fail(VD_ERR_NOT_CHUNK, "no chunk magic number");
+	}
+	if (memcmp(b, chunk_magic, 8) != 0)
+		return vd_fail(VD_ERR_NOT_CHUNK, "no chunk magic number");
+	if (len < 12)
+		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
+	uint16_t major = get16(b + 8), minor = get16(b + 10);
+	if (major > VD_CHUNK_MAJOR)
+		return vd_fail(VD_ERR_NEWER_VERSION, "format %u.%u, this voxdag "
+			       "reads up to %u.x; upgrade voxdag", major, minor,
+			       VD_CHUNK_MAJOR);
+	if (major == 0)
+		return vd_fail(VD_ERR_CORRUPT, "format major version 0");
+	if (len < HEADER_FIXED + 8)
+		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
+	uint32_t hsize = get32(b + 12), level_count = get32(b + 28);
+	if (hsize > HEADER_MAX || level_count > VD_MAX_LEVELS + 1 ||
+	    hsize < header_size(level_count)) {
+		/* These fields are under the header checksum: a mismatch says
+		 * corruption better than a size complaint would. */
+		if (hsize <= len && hsize >= 16 &&
+		    XXH3_64bits(b, hsize - 8) != get64(b + hsize - 8))
+			return vd_fail(VD_ERR_CHECKSUM, "header checksum");
+		return vd_fail(VD_ERR_CORRUPT, "header size %u for %u levels",
+			       hsize, level_count);
+	}
+	if (len < hsize)
+		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
+	if (XXH3_64bits(b, hsize - 8) != get64(b + hsize - 8))
+		return vd_fail(VD_ERR_CHECKSUM, "header checksum");
+
+	struct vd_chunk_header *h = &c->h;
+	h->major = major;
+	h->minor = minor;
+	h->kind = get32(b + 16);
+	h->levels = get32(b + 20);
+	h->chunk_level = get32(b + 24);
+	h->level_count = level_count;
+	h->cell_morton = get64(b + 32);
+	for (int a = 0; a < 3; a++) {
+		h->transform.origin[a] = getf64(b + 40 + 8 * a);
+		h->transform.bbox_min[a] = getf32(b + 72 + 4 * a);
+		h->transform.bbox_max[a] = getf32(b + 84 + 4 * a);
+	}
+	h->transform.voxel_size = getf64(b + 64);
+	h->transform.root_side = getf32(b + 96);
+	for (uint32_t i = 0; i < level_count; i++)
+		h->level_nodes[i] = get64(b + HEADER_FIXED + 8 * i);
+	if (want_kind != VD_KIND_ANY && h->kind != want_kind)
+		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
+			       vd_chunk_kind_name(h->kind),
+			       vd_chunk_kind_name(want_kind));
+	if (h->levels < 1 || h->levels > VD_MAX_LEVELS ||
+	    h->chunk_level > h->levels)
+		return vd_fail(VD_ERR_CORRUPT, "levels %u, chunk level %u",
+			       h->levels, h->chunk_level);
+
+	uint32_t count = get32(b + 100);
+	/* The count is under the header checksum, so more sections than the
+	 * rest of the file can hold means bytes are missing. */
+	if (count > (len - hsize) / SECTION_HEADER)
+		return vd_fail(VD_ERR_TRUNCATED, "%u sections cannot fit in "
+			       "the %zu bytes after the header", count,
+			       len - hsize);
+	c->sections = calloc(count ? count : 1, sizeof *c->sections);
+	if (!c->sections)
+		return vd_fail(VD_ERR_NOMEM, "%u sections", count);
+	c->section_count = count;
+
+	/* A complete file ends with a footer that states its size; then the
+	 * whole-file checksum decides. Otherwise the structure tells whether
+	 * bytes are missing or extra. */
+	size_t fpos;
+	if (len >= hsize + FOOTER && has_footer_at(c, len - FOOTER)) {
+		uint64_t sum = XXH3_64bits(b, len - 8);
+		if (sum != get64(b + len - 8))
+			return vd_fail(VD_ERR_CHECKSUM, "whole-file checksum");
+		int err = walk_sections(c, hsize, count, len - FOOTER, &fpos);
+		if (err || fpos != len - FOOTER)
+			return vd_fail(VD_ERR_CORRUPT, "sections do not fill "
+				       "the file");
+	} else {
+		int err = walk_sections(c, hsize, count, len, &fpos);
+		if (err)
+			return err;
+		if (len - fpos < FOOTER)
+			return vd_fail(VD_ERR_TRUNCATED, "file ends before "
+				       "its footer");
+		if (has_footer_at(c, fpos))
+			return vd_fail(VD_ERR_TRAILING, "%zu bytes after the "
+				       "footer", len - fpos - FOOTER);
+		return vd_fail(VD_ERR_CORRUPT, "no footer where the sections "
+			       "end");
+	}
+	for (uint32_t i = 0; i < count; i++) {
+		const struct section *s = &c->sections[i];
+		uint64_t want = get64(b + s->offset - 8);
+		if (XXH3_64bits(b + s->offset, s->stored_size) != want)
+			return vd_fail(VD_ERR_CHECKSUM, "section %u", i + 1);
+		if (s->codec > CODEC_ZSTD)
+			return vd_fail(VD_ERR_UNSUPPORTED, "section %u has "
+				       "codec %u", i + 1, s->codec);
+		if (s->codec == CODEC_STORED && s->raw_size != s->stored_size)
+			return vd_fail(VD_ERR_CORRUPT, "section %u sizes", i + 1);
+	}
+	if (vd_chunk_has_section(c, VD_TAG_PROV)) {
+		void *text;
+		size_t n;
+		int err = vd_chunk_read_section(c, VD_TAG_PROV, &text, &n);
+		if (err)
+			return err;
+		c->provenance = realloc(text, n + 1);
+		if (!c->provenance) {
+			free(text);
+			return vd_fail(VD_ERR_NOMEM, "provenance");
+		}
+		c->provenance[n] = 0;
+	}
+	return VD_OK;
+}
+
+int vd_chunk_open_mem(struct vd_chunk **out, const void *data, size_t size,
+		      uint32_t kind)
+{
+	*out = NULL;
+	struct vd_chunk *c = calloc(1, sizeof *c);
+	if (!c || !(c->image = malloc(size ? size : 1))) {
+		free(c);
+		return vd_fail(VD_ERR_NOMEM, "%zu bytes", size);
+	}
+	memcpy(c->image, data, size);
+	c->size = size;
+	int err = parse(c, kind);
+	if (err) {
+		vd_chunk_free(c);
+		return err;
+	}
+	*out = c;
+	return VD_OK;
+}
+
+int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind)
+{
+	*out = NULL;
+	int fd = open(path, O_RDONLY);
+	if (fd < 0)
+		return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+	struct stat st;
+	if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+		int e = errno;
+		close(fd);
+		return vd_fail(VD_ERR_IO, "%s", S_ISDIR(st.st_mode) ?
+			       "is a directory" : strerror(e));
+	}
+	struct vd_chunk *c = calloc(1, sizeof *c);
+	size_t size = (size_t)st.st_size;
+	if (!c || !(c->image = malloc(size ? size : 1))) {
+		free(c);
+		close(fd);
+		return vd_fail(VD_ERR_NOMEM, "%zu bytes", size);
+	}
+	size_t got = 0;
+	while (got < size) {
+		ssize_t r = read(fd, c->image + got, size - got);
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (r <= 0) {
+			int e = errno;
+			close(fd);
+			vd_chunk_free(c);
+			return vd_fail(VD_ERR_IO, "%s", r ? strerror(e) :
+				       "file shrank while reading");
+		}
+		got += (size_t)r;
+	}
+	close(fd);
+	c->size = size;
+	int err = parse(c, kind);
+	if (err) {
+		vd_chunk_free(c);
+		return err;
+	}
+	*out = c;
+	return VD_OK;
+}
+
+const struct vd_chunk_header *vd_chunk_header(const struct vd_chunk *c)
+{
+	return &c->h;
+}
+
+static const struct section *find_section(const struct vd_chunk *c,
+					  uint32_t tag)
+{
+	for (uint32_t i = 0; i < c->section_count; i++)
+		if (c->sections[i].tag == tag)
+			return &c->sections[i];
+	return NULL;
+}
+
+int vd_chunk_has_section(const struct vd_chunk *c, uint32_t tag)
+{
+	return find_section(c, tag) != NULL;
+}
+
+int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
+			  void **data, size_t *size)
+{
+	*data = NULL;
+	*size = 0;
+	const struct section *s = find_section(c, tag);
+	if (!s)
+		return vd_fail(VD_ERR_CORRUPT, "no '%.4s' section",
+			       (const char *)&tag);
+	if (s->raw_size > SIZE_MAX - 1)
+		return vd_fail(VD_ERR_CORRUPT, "section size");
+	uint8_t *buf = malloc(s->raw_size ? s->raw_size : 1);
+	if (!buf)
+		return vd_fail(VD_ERR_NOMEM, "section '%.4s' of %llu bytes",
+			       (const char *)&tag,
+			       (unsigned long long)s->raw_size);
+	if (s->codec == CODEC_STORED) {
+		memcpy(buf, c->image + s->offset, s->raw_size);
+	} else {
+		size_t n = ZSTD_decompress(buf, s->raw_size, c->image + s->offset,
+					   s->stored_size);
+		if (ZSTD_isError(n) || n != s->raw_size) {
+			free(buf);
+			return vd_fail(VD_ERR_CORRUPT, "section '%.4s' does not "
+				       "decompress to its size: %s",
+				       (const char *)&tag,
+				       ZSTD_isError(n) ? ZSTD_getErrorName(n)
+						       : "size differs");
+		}
+	}
+	*data = buf;
+	*size = s->raw_size;
+	return VD_OK;
+}
+
+const char *vd_chunk_provenance(const struct vd_chunk *c)
+{
+	return c->provenance ? c->provenance : "";
+}
+
+uint32_t vd_chunk_section_count(const struct vd_chunk *c)
+{
+	return c->section_count;
+}
+
+uint32_t vd_chunk_section_tag(const struct vd_chunk *c, uint32_t i)
+{
+	return i < c->section_count ? c->sections[i].tag : 0;
+}
+
+void vd_chunk_free(struct vd_chunk *c)
+{
+	if (!c)
+		return;
+	free(c->image);
+	free(c->sections);
+	free(c->provenance);
+	free(c);
+}

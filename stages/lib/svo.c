@@ -1,0 +1,211 @@
+/* svo.c - SVO chunks: the non-empty 4x4x4 bricks of one cell, Morton order.
+ *
+ * Section BRKS (schemas/chunk-format.md): uint64 count, then count key
+ * deltas (the first key, then key[i] - key[i-1]), then count masks, all
+ * little-endian uint64. Deltas because sorted keys differ little, which
+ * zstd then squeezes to about a byte per brick.
+ */
+#include "voxdag.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void put64(uint8_t *p, uint64_t v)
+{
+	for (int i = 0; i < 8; i++)
+		p[i] = (uint8_t)(v >> 8 * i);
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+	uint64_t v = 0;
+	for (int i = 7; i >= 0; i--)
+		v = v << 8 | p[i];
+	return v;
+}
+
+void vd_svo_release(struct vd_svo *svo)
+{
+	free(svo->keys);
+	free(svo->masks);
+	svo->keys = svo->masks = NULL;
+	svo->count = 0;
+}
+
+/* Bits of a brick key below the cell's prefix: the cell at chunk_level
+ * spans levels chunk_level..L-2 of brick keys, 3 bits a level. */
+static int brick_levels(int levels)
+{
+	return levels >= 2 ? levels - 2 : 0;
+}
+
+void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts)
+{
+	int L = svo->levels, L0 = svo->chunk_level, bl = brick_levels(L);
+	for (int l = L0; l <= L; l++)
+		counts[l - L0] = 0;
+	for (size_t i = 0; i < svo->count; i++) {
+		uint64_t k = svo->keys[i], m = svo->masks[i];
+		/* A node at level l < L-2 is new when the key differs from the
+		 * previous one above the bits below l. */
+		for (int l = L0; l < bl; l++) {
+			int shift = 3 * (bl - l);
+			if (i == 0 || (svo->keys[i - 1] >> shift) != (k >> shift))
+				counts[l - L0]++;
+		}
+		if (L >= 2) {
+			if (bl >= L0)
+				counts[bl - L0]++;
+			int kids = 0;
+			for (int c = 0; c < 8; c++)
+				kids += ((m >> 8 * c) & 0xff) != 0;
+			if (L - 1 >= L0)
+				counts[L - 1 - L0] += (uint64_t)kids;
+		} else if (L0 == 0) {
+			counts[0] += 1; /* L == 1: the root is the 2x2x2 mask */
+		}
+		counts[L - L0] += (uint64_t)__builtin_popcountll(m);
+	}
+}
+
+int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
+		const char *path, const char *provenance)
+{
+	struct vd_chunk_header h = {0};
+	h.kind = VD_KIND_SVO;
+	h.levels = (uint32_t)svo->levels;
+	h.chunk_level = (uint32_t)svo->chunk_level;
+	h.cell_morton = svo->cell_morton;
+	h.transform = *t;
+	h.level_count = (uint32_t)(svo->levels - svo->chunk_level + 1);
+	vd_svo_count_levels(svo, h.level_nodes);
+
+	struct vd_chunk_writer *w;
+	int err = vd_chunk_writer_open(&w, path, &h, provenance);
+	if (err)
+		return err;
+	enum { BATCH = 4096 };
+	uint8_t buf[8 * BATCH];
+	put64(buf, svo->count);
+	err = vd_chunk_writer_begin(w, VD_TAG_BRKS, 0);
+	if (!err)
+		err = vd_chunk_writer_write(w, buf, 8);
+	for (int pass = 0; pass < 2 && !err; pass++) {
+		for (size_t i = 0; i < svo->count && !err; i += BATCH) {
+			size_t n = svo->count - i < BATCH ? svo->count - i : BATCH;
+			for (size_t j = 0; j < n; j++) {
+				size_t k = i + j;
+				uint64_t v = pass ? svo->masks[k]
+					   : k ? svo->keys[k] - svo->keys[k - 1]
+					       : svo->keys[0];
+				put64(buf + 8 * j, v);
+			}
+			err = vd_chunk_writer_write(w, buf, 8 * n);
+		}
+	}
+	if (!err)
+		err = vd_chunk_writer_end(w);
+	if (err) {
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	return vd_chunk_writer_commit(w);
+}
+
+int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
+{
+	memset(svo, 0, sizeof *svo);
+	const struct vd_chunk_header *h = vd_chunk_header(c);
+	if (h->kind != VD_KIND_SVO)
+		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected svo",
+			       vd_chunk_kind_name(h->kind));
+	svo->levels = (int)h->levels;
+	svo->chunk_level = (int)h->chunk_level;
+	svo->cell_morton = h->cell_morton;
+	if (h->level_count != h->levels - h->chunk_level + 1)
+		return vd_fail(VD_ERR_CORRUPT, "%u level counts for levels "
+			       "%u..%u", h->level_count, h->chunk_level,
+			       h->levels);
+	int bl = brick_levels(svo->levels);
+	if (svo->chunk_level > bl && svo->levels >= 2)
+		return vd_fail(VD_ERR_CORRUPT, "chunk level %d below the brick "
+			       "level %d", svo->chunk_level, bl);
+	void *data;
+	size_t size;
+	int err = vd_chunk_read_section(c, VD_TAG_BRKS, &data, &size);
+	if (err)
+		return err;
+	const uint8_t *p = data;
+	uint64_t n = size >= 8 ? get64(p) : 0;
+	if (size < 8 || (size - 8) / 16 != n || (size - 8) % 16) {
+		free(data);
+		return vd_fail(VD_ERR_CORRUPT, "brick section of %zu bytes", size);
+	}
+	svo->keys = malloc(n ? 8 * n : 1);
+	svo->masks = malloc(n ? 8 * n : 1);
+	if (!svo->keys || !svo->masks) {
+		free(data);
+		vd_svo_release(svo);
+		return vd_fail(VD_ERR_NOMEM, "%llu bricks", (unsigned long long)n);
+	}
+	svo->count = n;
+	/* Bricks must lie in the cell: their key's bits above the cell level
+	 * are the cell's Morton code. */
+	int below = 3 * (bl - svo->chunk_level);
+	uint64_t cell = svo->cell_morton;
+	uint64_t key = 0;
+	for (uint64_t i = 0; i < n && !err; i++) {
+		uint64_t d = get64(p + 8 + 8 * i);
+		if (i > 0 && (d == 0 || key + d < key))
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu out of order",
+				      (unsigned long long)i);
+		key = i ? key + d : d;
+		uint64_t m = get64(p + 8 + 8 * n + 8 * i);
+		if (m == 0)
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu is empty",
+				      (unsigned long long)i);
+		if (key >> below != cell || key >> 3 * bl != 0)
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu lies outside "
+				      "cell %llx", (unsigned long long)i,
+				      (unsigned long long)cell);
+		svo->keys[i] = key;
+		svo->masks[i] = m;
+	}
+	free(data);
+	if (!err && svo->levels < 2) {
+		/* a 2^L grid with L < 2 uses only the voxels < 2^L per axis */
+		uint64_t allowed = svo->levels == 1 ? 0xff : 0x1;
+		if (n > 1 || (n == 1 && (svo->masks[0] & ~allowed)))
+			err = vd_fail(VD_ERR_CORRUPT, "voxels outside a 2^%d grid",
+				      svo->levels);
+	}
+	if (!err) {
+		uint64_t counts[VD_MAX_LEVELS + 1];
+		vd_svo_count_levels(svo, counts);
+		for (uint32_t l = 0; l < h->level_count && !err; l++)
+			if (counts[l] != h->level_nodes[l])
+				err = vd_fail(VD_ERR_CORRUPT, "level %u has %llu "
+					      "nodes, header says %llu",
+					      h->chunk_level + l,
+					      (unsigned long long)counts[l],
+					      (unsigned long long)h->level_nodes[l]);
+	}
+	if (err)
+		vd_svo_release(svo);
+	return err;
+}
+
+int vd_svo_load(struct vd_svo *svo, struct vd_chunk_header *h,
+		const char *path)
+{
+	memset(svo, 0, sizeof *svo);
+	struct vd_chunk *c;
+	int err = vd_chunk_open(&c, path, VD_KIND_SVO);
+	if (err)
+		return err;
+	if (h)
+		*h = *vd_chunk_header(c);
+	err = vd_svo_from_chunk(svo, c);
+	vd_chunk_free(c);
+	return err;
+}

@@ -1,0 +1,368 @@
+/* test_chunk.c - chunk container: golden bytes, round trips, every
+ * truncation, each corruption its own error. */
+#include "check.h"
+#include "voxdag.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+static const char *dir;
+
+static uint8_t *slurp(const char *path, size_t *n)
+{
+	FILE *f = fopen(path, "rb");
+	*n = 0;
+	if (!f)
+		return calloc(1, 1);
+	fseek(f, 0, SEEK_END);
+	long len = ftell(f);
+	fseek(f, 0, SEEK_SET);
+	uint8_t *b = malloc((size_t)len + 1);
+	*n = fread(b, 1, (size_t)len, f);
+	fclose(f);
+	return b;
+}
+
+/* Little-endian byte builder, written apart from chunk.c on purpose. */
+struct bytes {
+	uint8_t b[1024];
+	size_t n;
+};
+static void le(struct bytes *o, uint64_t v, int width)
+{
+	for (int i = 0; i < width; i++)
+		o->b[o->n++] = (uint8_t)(v >> 8 * i);
+}
+static void raw(struct bytes *o, const void *p, size_t n)
+{
+	memcpy(o->b + o->n, p, n);
+	o->n += n;
+}
+static void f64(struct bytes *o, double d)
+{
+	uint64_t v;
+	memcpy(&v, &d, 8);
+	le(o, v, 8);
+}
+static void f32(struct bytes *o, float d)
+{
+	uint32_t v;
+	memcpy(&v, &d, 4);
+	le(o, v, 4);
+}
+
+static struct vd_chunk_header tiny_header(void)
+{
+	struct vd_chunk_header h = {0};
+	h.kind = VD_KIND_SVO;
+	h.levels = 3;
+	h.chunk_level = 1;
+	h.cell_morton = 5;
+	h.transform.origin[0] = -1.5;
+	h.transform.origin[1] = 2.0;
+	h.transform.origin[2] = 0.25;
+	h.transform.voxel_size = 0.5;
+	h.transform.bbox_min[0] = -1.5f;
+	h.transform.bbox_max[0] = 2.5f;
+	h.transform.root_side = 4.0f;
+	h.level_count = 3;
+	h.level_nodes[0] = 1;
+	h.level_nodes[1] = 2;
+	h.level_nodes[2] = 9;
+	return h;
+}
+
+/* A chunk with two stored sections, so its bytes do not depend on the
+ * zstd version; every byte is worked out here from the specification. */
+static void test_golden_bytes(void)
+{
+	char path[600];
+	snprintf(path, sizeof path, "%s/golden.chk", dir);
+	struct vd_chunk_header h = tiny_header();
+	struct vd_chunk_writer *w;
+	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, "tool=t"), VD_OK);
+	CHECK_EQ(vd_chunk_writer_begin(w, VD_TAG('T', 'E', 'S', 'T'), -1), VD_OK);
+	CHECK_EQ(vd_chunk_writer_write(w, "abc", 3), VD_OK);
+	CHECK_EQ(vd_chunk_writer_end(w), VD_OK);
+	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
+
+	struct bytes e = {.n = 0};
+	static const uint8_t magic[8] = {0x89, 'V', 'X', 'D', 13, 10, 26, 10};
+	raw(&e, magic, 8);
+	le(&e, 1, 2);            /* major */
+	le(&e, 0, 2);            /* minor */
+	le(&e, 104 + 24 + 8, 4); /* header size: fixed + 3 counts + checksum */
+	le(&e, 1, 4);            /* kind svo */
+	le(&e, 3, 4);            /* levels */
+	le(&e, 1, 4);            /* chunk level */
+	le(&e, 3, 4);            /* level count */
+	le(&e, 5, 8);            /* cell */
+	f64(&e, -1.5), f64(&e, 2.0), f64(&e, 0.25), f64(&e, 0.5);
+	f32(&e, -1.5f), f32(&e, 0), f32(&e, 0);
+	f32(&e, 2.5f), f32(&e, 0), f32(&e, 0);
+	f32(&e, 4.0f);
+	le(&e, 2, 4);            /* sections */
+	le(&e, 1, 8), le(&e, 2, 8), le(&e, 9, 8);
+	le(&e, XXH3_64bits(e.b, e.n), 8);
+	raw(&e, "PROV", 4), le(&e, 0, 4), le(&e, 6, 8), le(&e, 6, 8);
+	le(&e, XXH3_64bits("tool=t", 6), 8);
+	raw(&e, "tool=t", 6);
+	raw(&e, "TEST", 4), le(&e, 0, 4), le(&e, 3, 8), le(&e, 3, 8);
+	le(&e, XXH3_64bits("abc", 3), 8);
+	raw(&e, "abc", 3);
+	static const uint8_t end[8] = {0x89, 'V', 'X', 'D', 'E', 'N', 'D', 10};
+	raw(&e, end, 8);
+	le(&e, e.n + 16, 8);
+	le(&e, XXH3_64bits(e.b, e.n), 8);
+
+	size_t n;
+	uint8_t *got = slurp(path, &n);
+	CHECK(got != NULL);
+	CHECK_EQ(n, e.n);
+	CHECK(got && n == e.n && memcmp(got, e.b, n) == 0);
+
+	struct vd_chunk *c;
+	CHECK_EQ(vd_chunk_open(&c, path, VD_KIND_SVO), VD_OK);
+	if (c) {
+		const struct vd_chunk_header *r = vd_chunk_header(c);
+		CHECK_EQ(r->levels, 3);
+		CHECK_EQ(r->cell_morton, 5);
+		CHECK(r->transform.origin[2] == 0.25);
+		CHECK(r->transform.root_side == 4.0f);
+		CHECK_EQ(r->level_nodes[2], 9);
+		CHECK(strcmp(vd_chunk_provenance(c), "tool=t") == 0);
+		void *d;
+		size_t dn;
+		CHECK_EQ(vd_chunk_read_section(c, VD_TAG('T', 'E', 'S', 'T'), &d,
+					       &dn), VD_OK);
+		CHECK(dn == 3 && memcmp(d, "abc", 3) == 0);
+		free(d);
+		CHECK_EQ(vd_chunk_read_section(c, VD_TAG('N', 'O', 'P', 'E'), &d,
+					       &dn), VD_ERR_CORRUPT);
+		vd_chunk_free(c);
+	}
+	free(got);
+}
+
+/* A realistic chunk: an SVO with zstd sections. */
+static void write_sample_svo(const char *path)
+{
+	struct vd_svo s = {.levels = 6, .chunk_level = 1, .cell_morton = 3};
+	s.count = 300;
+	s.keys = malloc(8 * s.count);
+	s.masks = malloc(8 * s.count);
+	for (size_t i = 0; i < s.count; i++) {
+		s.keys[i] = (3ull << 9) | (i * 7 % 512 / 1); /* filled below */
+		s.masks[i] = 0x8001ull * (i + 1);
+	}
+	/* strictly increasing keys inside cell 3 at level 1 (9 bits below) */
+	for (size_t i = 0; i < s.count; i++)
+		s.keys[i] = (3ull << 9) | (i + i / 3);
+	struct vd_transform t = {.voxel_size = 1, .root_side = 64};
+	CHECK_EQ(vd_svo_save(&s, &t, path, "tool=test"), VD_OK);
+	vd_svo_release(&s);
+}
+
+static void test_svo_round_trip(void)
+{
+	char path[600];
+	snprintf(path, sizeof path, "%s/svo.chk", dir);
+	write_sample_svo(path);
+	struct vd_svo s;
+	struct vd_chunk_header h;
+	CHECK_EQ(vd_svo_load(&s, &h, path), VD_OK);
+	CHECK_EQ(s.count, 300);
+	uint64_t voxels = 0;
+	for (size_t i = 0; i < s.count; i++) {
+		CHECK_EQ(s.keys[i], (3ull << 9) | (i + i / 3));
+		CHECK_EQ(s.masks[i], 0x8001ull * (i + 1));
+		voxels += (uint64_t)__builtin_popcountll(s.masks[i]);
+	}
+	CHECK_EQ(h.level_count, 6);
+	CHECK_EQ(h.level_nodes[5], voxels);      /* level 6: voxels */
+	CHECK_EQ(h.level_nodes[3], 300);         /* level 4: bricks */
+	CHECK_EQ(h.level_nodes[0], 1);           /* level 1: the cell */
+	vd_svo_release(&s);
+	/* no temporary file left behind */
+	char tmp[700];
+	snprintf(tmp, sizeof tmp, "%s/svo.chk.tmp.%ld", dir, (long)getpid());
+	CHECK(access(tmp, F_OK) != 0);
+}
+
+static int open_bytes(const uint8_t *b, size_t n, uint32_t kind)
+{
+	struct vd_chunk *c;
+	int err = vd_chunk_open_mem(&c, b, n, kind);
+	vd_chunk_free(c);
+	return err;
+}
+
+static void test_every_truncation(void)
+{
+	char path[600];
+	snprintf(path, sizeof path, "%s/svo.chk", dir);
+	write_sample_svo(path);
+	size_t n;
+	uint8_t *b = slurp(path, &n);
+	CHECK_EQ(open_bytes(b, n, VD_KIND_SVO), VD_OK);
+	int bad = 0;
+	for (size_t len = 0; len < n; len++) {
+		int err = open_bytes(b, len, VD_KIND_SVO);
+		int want = len == 0 ? VD_ERR_NOT_CHUNK : VD_ERR_TRUNCATED;
+		if (err != want) {
+			if (!bad++)
+				fprintf(stderr, "length %zu of %zu: %s (%s)\n", len,
+					n, vd_strerror(err), vd_error_detail());
+		}
+	}
+	CHECK_EQ(bad, 0);
+	free(b);
+}
+
+static void test_each_corruption(void)
+{
+	char path[600];
+	snprintf(path, sizeof path, "%s/svo.chk", dir);
+	write_sample_svo(path);
+	size_t n;
+	uint8_t *b = slurp(path, &n);
+	uint8_t *x = malloc(n + 24);
+
+	memcpy(x, b, n);
+	x[1] = 'W';
+	CHECK_EQ(open_bytes(x, n, VD_KIND_SVO), VD_ERR_NOT_CHUNK);
+	CHECK_EQ(open_bytes((const uint8_t *)"ply\nformat", 10, VD_KIND_SVO),
+		 VD_ERR_NOT_CHUNK);
+
+	memcpy(x, b, n);
+	x[8] = 2; /* major 2 */
+	CHECK_EQ(open_bytes(x, n, VD_KIND_SVO), VD_ERR_NEWER_VERSION);
+
+	memcpy(x, b, n);
+	x[10] = 7; /* a newer minor version is read (header checksum fails
+		    * here only because we edited the bytes) */
+	CHECK_EQ(open_bytes(x, n, VD_KIND_SVO), VD_ERR_CHECKSUM);
+
+	CHECK_EQ(open_bytes(b, n, VD_KIND_DAG), VD_ERR_WRONG_KIND);
+	CHECK_EQ(open_bytes(b, n, VD_KIND_ANY), VD_OK);
+
+	/* a flipped bit anywhere after the header: checksum */
+	int bad = 0;
+	for (size_t i = 0; i < n; i++) {
+		memcpy(x, b, n);
+		x[i] ^= 0x10;
+		int err = open_bytes(x, n, VD_KIND_SVO);
+		/* the magic and version bytes have their own verdicts */
+		if (i < 12)
+			continue;
+		if (err != VD_ERR_CHECKSUM && err != VD_ERR_CORRUPT) {
+			if (!bad++)
+				fprintf(stderr, "flip at %zu: %s (%s)\n", i,
+					vd_strerror(err), vd_error_detail());
+		}
+	}
+	CHECK_EQ(bad, 0);
+
+	memcpy(x, b, n);
+	memcpy(x + n, "garbage!", 8);
+	CHECK_EQ(open_bytes(x, n + 8, VD_KIND_SVO), VD_ERR_TRAILING);
+	memcpy(x + n, b + n - 24, 24); /* a second copy of the footer */
+	CHECK_EQ(open_bytes(x, n + 24, VD_KIND_SVO), VD_ERR_TRAILING);
+	free(x);
+	free(b);
+}
+
+static void test_abort_leaves_nothing(void)
+{
+	char path[600];
+	snprintf(path, sizeof path, "%s/aborted.chk", dir);
+	struct vd_chunk_header h = tiny_header();
+	struct vd_chunk_writer *w;
+	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
+	CHECK_EQ(vd_chunk_writer_section(w, VD_TAG_BRKS, "x", 1), VD_OK);
+	vd_chunk_writer_abort(w);
+	CHECK(access(path, F_OK) != 0);
+	char cmd[700];
+	snprintf(cmd, sizeof cmd, "ls '%s' | grep -q aborted", dir);
+	CHECK(system(cmd) != 0);
+	/* an unwritable directory is an I/O error, not a crash */
+	snprintf(path, sizeof path, "%s/no/such/dir/x.chk", dir);
+	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_ERR_IO);
+	struct vd_chunk *c;
+	CHECK_EQ(vd_chunk_open(&c, path, VD_KIND_ANY), VD_ERR_IO);
+	CHECK_EQ(vd_chunk_open(&c, dir, VD_KIND_ANY), VD_ERR_IO);
+}
+
+static void test_svo_content_checks(void)
+{
+	/* A well-formed container whose bricks leave their cell. */
+	char path[600];
+	snprintf(path, sizeof path, "%s/outside.chk", dir);
+	struct vd_svo s = {.levels = 6, .chunk_level = 1, .cell_morton = 3};
+	uint64_t key = 2ull << 9, mask = 1;
+	s.count = 1;
+	s.keys = &key;
+	s.masks = &mask;
+	struct vd_transform t = {.voxel_size = 1, .root_side = 64};
+	CHECK_EQ(vd_svo_save(&s, &t, path, NULL), VD_OK);
+	struct vd_svo r;
+	CHECK_EQ(vd_svo_load(&r, NULL, path), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "outside") != NULL);
+}
+
+static void test_parse_size(void)
+{
+	uint64_t v;
+	CHECK_EQ(vd_parse_size("1024", &v), VD_OK);
+	CHECK_EQ(v, 1024);
+	CHECK_EQ(vd_parse_size("2GiB", &v), VD_OK);
+	CHECK_EQ(v, 2ull << 30);
+	CHECK_EQ(vd_parse_size("512M", &v), VD_OK);
+	CHECK_EQ(v, 512ull << 20);
+	CHECK_EQ(vd_parse_size("1.5k", &v), VD_OK);
+	CHECK_EQ(v, 1536);
+	CHECK_EQ(vd_parse_size("lots", &v), VD_ERR_ARG);
+	CHECK_EQ(vd_parse_size("12Q", &v), VD_ERR_ARG);
+	CHECK_EQ(vd_parse_size("-5", &v), VD_ERR_ARG);
+	CHECK_EQ(vd_parse_size("", &v), VD_ERR_ARG);
+}
+
+static void test_morton(void)
+{
+	CHECK_EQ(vd_morton3(1, 0, 0), 4);
+	CHECK_EQ(vd_morton3(0, 1, 0), 2);
+	CHECK_EQ(vd_morton3(0, 0, 1), 1);
+	CHECK_EQ(vd_morton3(2, 0, 0), 32);
+	uint32_t x, y, z;
+	uint64_t seed = 12345;
+	for (int i = 0; i < 10000; i++) {
+		seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+		uint32_t a = (uint32_t)(seed >> 11) & 0x1fffff,
+			 b = (uint32_t)(seed >> 32) & 0x1fffff,
+			 c = (uint32_t)(seed >> 40) & 0x1fffff;
+		vd_morton3_decode(vd_morton3(a, b, c), &x, &y, &z);
+		CHECK(x == a && y == b && z == c);
+		/* bit by bit reference */
+		uint64_t m = 0;
+		for (int bit = 0; bit < 21; bit++)
+			m |= (uint64_t)((a >> bit) & 1) << (3 * bit + 2) |
+			     (uint64_t)((b >> bit) & 1) << (3 * bit + 1) |
+			     (uint64_t)((c >> bit) & 1) << (3 * bit);
+		CHECK_EQ(vd_morton3(a, b, c), m);
+	}
+}
+
+int main(void)
+{
+	dir = test_tmpdir("chunk");
+	RUN(test_golden_bytes);
+	RUN(test_svo_round_trip);
+	RUN(test_every_truncation);
+	RUN(test_each_corruption);
+	RUN(test_abort_leaves_nothing);
+	RUN(test_svo_content_checks);
+	RUN(test_parse_size);
+	RUN(test_morton);
+	return CHECK_DONE();
+}
