@@ -918,6 +918,12 @@ static int vd_ply_layout(struct vd_mesh *m)
 	m->vert_elem = m->face_elem = m->nelems;
 	m->ix = m->iy = m->iz = m->ilist = -1;
 	for (size_t i = 0; i < m->nelems; i++) {
+		/* Items of nothing take no bytes: a huge count would spin
+		 * without ever reaching the end of the file. */
+		if (m->elems[i].count > 0 && m->elems[i].nprops == 0)
+			return vd_fail(VD_ERR_FORMAT, "PLY element '%s' has %"
+				       PRIu64 " items but no properties",
+				       m->elems[i].name, m->elems[i].count);
 		if (!strcmp(m->elems[i].name, "vertex") &&
 		    m->vert_elem == m->nelems)
 			m->vert_elem = i;

@@ -663,6 +663,8 @@ static void test_ply_header_errors(void)
 		{"ply\nformat ascii 1.0\nproperty float x\nend_header\n", "f"},
 		{"ply\nformat ascii 1.0\nvertex 3\nend_header\n", "f"},
 		{"ply\nelement vertex 0\nend_header\n", "f"},
+		{"ply\nformat binary_little_endian 1.0\nelement nothing "
+		 "9000000000000000000\nend_header\n", "f"},
 		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
 		 "property float y\nelement face 0\nproperty list uchar int "
 		 "vertex_indices\nend_header\n0 0\n", "f"},
@@ -823,6 +825,48 @@ static void test_every_truncation(void)
 			 VD_ERR_TRUNCATED);
 }
 
+/* Every byte of every fixture replaced by a few telling values: any
+ * outcome but a crash, a hang or an error without a detail. Run under ASan
+ * this is a small deterministic fuzzer. */
+static void corrupt_each_byte(const char *name, const unsigned char *d,
+			      size_t n)
+{
+	static const unsigned char vals[] = {0x00, 0xff, '\n', '9', ' ', '-'};
+	unsigned char *c = malloc(n);
+	for (size_t i = 0; i < n; i++)
+		for (size_t v = 0; v < sizeof vals; v++) {
+			memcpy(c, d, n);
+			c[i] = vals[v];
+			int e = mesh_error(write_bytes(name, c, n));
+			CHECK(e >= VD_OK && e < VD_ERR_COUNT_);
+			if (e != VD_OK && vd_error_detail()[0] == 0) {
+				fprintf(stderr, "%s: byte %zu = %02x: no "
+					"detail\n", name, i, vals[v]);
+				CHECK(0);
+			}
+		}
+	free(c);
+}
+
+static void test_corrupt_bytes(void)
+{
+	static struct bytes b;
+	ply_le_reference(&b);
+	corrupt_each_byte("fz-le.ply", b.d, b.n);
+	ply_be_reference(&b);
+	corrupt_each_byte("fz-be.ply", b.d, b.n);
+	stl_bin_reference(&b, "solid binary");
+	corrupt_each_byte("fz.stl", b.d, b.n);
+	corrupt_each_byte("fz-ascii.ply",
+			  (const unsigned char *)ply_ascii_reference,
+			  strlen(ply_ascii_reference));
+	corrupt_each_byte("fz.obj", (const unsigned char *)obj_reference,
+			  strlen(obj_reference));
+	corrupt_each_byte("fz-ascii.stl",
+			  (const unsigned char *)stl_ascii_reference,
+			  strlen(stl_ascii_reference));
+}
+
 /* All six encodings of the reference mesh give one triangle list, and a
  * rewind gives it again. */
 static void test_formats_agree_and_rewind(void)
@@ -958,6 +1002,7 @@ int main(void)
 	RUN(test_list_counts);
 	RUN(test_not_meshes);
 	RUN(test_every_truncation);
+	RUN(test_corrupt_bytes);
 	RUN(test_formats_agree_and_rewind);
 	RUN(test_error_is_sticky);
 	RUN(test_bunny);
