@@ -980,9 +980,9 @@ static int vd_ply_layout(struct vd_mesh *m)
 	 * caught here, before anything is allocated for it. */
 	size_t last = m->face_elem < m->nelems ? m->face_elem
 		: m->vert_elem < m->nelems ? m->vert_elem : 0;
-	uint64_t left = m->file_bytes - (m->r.off + m->r.pos), need = 0;
-	if (m->kind == MESH_PLY_ASCII)
-		left++; /* the last line may lack its newline */
+	uint64_t after = m->file_bytes - (m->r.off + m->r.pos), need = 0;
+	/* The last text line may lack its newline. */
+	uint64_t left = after + (m->kind == MESH_PLY_ASCII);
 	for (size_t i = 0; i < m->nelems && i <= last; i++) {
 		const struct vd_ply_elem *el = &m->elems[i];
 		uint64_t per = m->kind == MESH_PLY_ASCII ? 2 * el->nprops
@@ -991,8 +991,10 @@ static int vd_ply_layout(struct vd_mesh *m)
 			return vd_fail(VD_ERR_TRUNCATED,
 				"PLY header declares %" PRIu64 " items of "
 				"element '%s' (at least %" PRIu64 " bytes each)"
-				" but only %" PRIu64 " bytes follow the header",
-				el->count, el->name, per, left);
+				" but only %" PRIu64 " of the %" PRIu64 " bytes "
+				"after the header are left for them", el->count,
+				el->name, per, need > after ? 0 : after - need,
+				after);
 		need += el->count * per;
 	}
 	return VD_OK;
