@@ -311,16 +311,20 @@ struct vd_mesh_stats {
 struct vd_mesh;
 
 /* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise only if the extension is .obj).
- * Parses the header; the body is read by vd_mesh_read(). Errors:
- * VD_ERR_IO, VD_ERR_UNSUPPORTED (unknown format), VD_ERR_FORMAT (bad
- * header), VD_ERR_TRUNCATED. */
+ * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
+ * first statement is an OBJ one). Parses the header (PLY: also loads the
+ * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+ * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
+ * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
+ * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
 int vd_mesh_open(struct vd_mesh **out, const char *path);
 
 /* Reads up to `cap` triangles into `buf` and sets *n; *n == 0 means the
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
- * coordinate), VD_ERR_TRUNCATED (file ends inside the body). */
+ * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
 
@@ -330,7 +334,9 @@ int vd_mesh_rewind(struct vd_mesh *m);
 
 /* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
-/* Bytes of memory the reader holds (vertex arrays), for budgets. */
+/* Bytes of memory the reader holds (vertex arrays, read buffer), for
+ * budgets. OBJ vertices are collected while reading, so for OBJ this is
+ * final only after a whole pass. */
 size_t vd_mesh_memory_bytes(const struct vd_mesh *m);
 const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
 void vd_mesh_close(struct vd_mesh *m);
