@@ -7,11 +7,12 @@
  * axis that is the zero vector (degenerate triangles) separates nothing,
  * which is exactly right for segments and points.
  *
- * Coordinates are snapped integers (VD_SNAP_BITS fractional bits), so every
+ * Coordinates are snapped integers (VD_SNAP_ROOT_BITS lattice), so every
  * projection is an exact integer. Magnitudes: with coordinates relative to a
  * point near the triangle and extent E (snapped units), edge axes have
  * components <= E, normals <= 2E^2, projections <= 3*2E^2*E. int64 holds
- * that for E < 2^20 (256 voxels); larger triangles use __int128 (E < 2^40).
+ * that for E < 2^19 (2^(L-5) voxels at depth L); larger triangles use
+ * __int128 (E < 2^40).
  */
 #include "voxdag.h"
 #include "voxelize_internal.h"
@@ -24,7 +25,7 @@ typedef __int128 i128;
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr)
 {
-	const double scale = ldexp(1.0, VD_SNAP_BITS) / tr->voxel_size;
+	const double scale = ldexp(1.0, VD_SNAP_ROOT_BITS) / (double)tr->root_side;
 	for (int k = 0; k < 3; k++)
 		for (int a = 0; a < 3; a++) {
 			double g = ((double)t->v[k][a] - tr->origin[a]) * scale;
@@ -118,10 +119,10 @@ static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
 	return q - (a % b != 0 && a < 0);
 }
 
-int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
-		       int64_t size)
+int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
+		       const int64_t lo[3], int64_t size)
 {
-	const int64_t s = size << VD_SNAP_BITS;
+	const int64_t unit = vd_snap_voxel(levels), s = size * unit;
 	int64_t p[3];
 	for (int a = 0; a < 3; a++) {
 		/* the 3 box axes */
@@ -132,7 +133,7 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 			if (t->v[k][a] > mx)
 				mx = t->v[k][a];
 		}
-		p[a] = lo[a] << VD_SNAP_BITS;
+		p[a] = lo[a] * unit;
 		if (mx < p[a] || mn > p[a] + s)
 			return 0;
 	}
@@ -156,9 +157,9 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 #define DEFINE_RASTER(T, NAME, AXES)                                           \
 	static void NAME(const struct vd_snapped_tri *tri,                     \
 			 const int64_t vlo[3], const int64_t vhi[3],           \
-			 const int64_t origin[3], vd_voxel_fn fn, void *ctx)   \
+			 const int64_t origin[3], int64_t s, vd_voxel_fn fn,   \
+			 void *ctx)                                            \
 	{                                                                      \
-		const int64_t s = (int64_t)1 << VD_SNAP_BITS;                  \
 		int64_t t[3][3];                                               \
 		for (int k = 0; k < 3; k++)                                    \
 			for (int a = 0; a < 3; a++)                            \
@@ -260,10 +261,11 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 DEFINE_RASTER(int64_t, raster64, axes64)
 DEFINE_RASTER(i128, raster128, axes128)
 
-void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3],
-			const int64_t clip_hi[3], vd_voxel_fn fn, void *ctx)
+void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
+			const int64_t clip_lo[3], const int64_t clip_hi[3],
+			vd_voxel_fn fn, void *ctx)
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS;
+	const int64_t s = vd_snap_voxel(levels);
 	int64_t vlo[3], vhi[3], origin[3], extent = 0;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
@@ -293,7 +295,7 @@ void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3]
 			extent = e;
 	}
 	if (extent < ((int64_t)1 << 19))
-		raster64(t, vlo, vhi, origin, fn, ctx);
+		raster64(t, vlo, vhi, origin, s, fn, ctx);
 	else
-		raster128(t, vlo, vhi, origin, fn, ctx);
+		raster128(t, vlo, vhi, origin, s, fn, ctx);
 }

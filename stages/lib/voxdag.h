@@ -342,31 +342,39 @@ const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
 void vd_mesh_close(struct vd_mesh *m);
 
 /* ---------------------------------------------------- triangle/box overlap
- * Voxelization decides overlap exactly on snapped coordinates: a vertex's
- * grid coordinate g = (v - origin) / voxel_size is rounded to the nearest
- * multiple of 2^-VD_SNAP_BITS of a voxel (vd_snap_triangle), and then every
- * test is integer arithmetic without rounding, so touching counts as overlap
- * with no epsilon and results never depend on evaluation order. 1/4096 of a
- * voxel is finer than float32 input resolves at 2^12 and above, and snapping
- * puts vertices that lie on voxel faces exactly on them. */
-#define VD_SNAP_BITS 12
+ * Voxelization decides overlap exactly on snapped coordinates: a vertex is
+ * placed on a lattice of 2^-VD_SNAP_ROOT_BITS of the cube's side
+ * (vd_snap_triangle), and then every test is integer arithmetic without
+ * rounding, so touching counts as overlap with no epsilon and results never
+ * depend on evaluation order. The lattice is the same at every grid depth,
+ * so a coarse voxel is set exactly when one of its children is; 2^-24 of
+ * the side is about what float32 coordinates resolve, and a voxel at depth
+ * L is 2^(24-L) lattice steps (8 at the deepest, L = 21). */
+#define VD_SNAP_ROOT_BITS 24
 
-/* Snapped grid coordinates of a triangle, in units of 2^-VD_SNAP_BITS
- * voxels. */
+/* Lattice steps per voxel at grid depth `levels`. */
+static inline int64_t vd_snap_voxel(int levels)
+{
+	return (int64_t)1 << (VD_SNAP_ROOT_BITS - levels);
+}
+
+/* Snapped coordinates of a triangle, in lattice steps from the grid's
+ * (0,0,0) corner. */
 struct vd_snapped_tri {
 	int64_t v[3][3];
 };
 
-/* Snaps `t` into grid space of `tr`. Returns VD_ERR_RANGE if a coordinate
+/* Snaps `t` onto the lattice of `tr`. Returns VD_ERR_RANGE if a coordinate
  * is not finite. */
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr);
 
 /* Returns 1 if the closed triangle and the closed axis-aligned cube
- * [lo, lo + size] (in voxels, per axis) overlap, else 0. Degenerate
- * triangles are treated as the segment or point they are. */
-int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
-		       int64_t size);
+ * [lo, lo + size] (in voxels of a grid of depth `levels`, per axis)
+ * overlap, else 0. Degenerate triangles are treated as the segment or point
+ * they are. */
+int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
+		       const int64_t lo[3], int64_t size);
 
 /* -------------------------------------------------------------- parallel
  * A small C interface to TBB. Runs fn(ctx, i, worker) for i in [0, n) on up

@@ -122,7 +122,7 @@ struct grid {
 static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 			   int64_t lo[3], int64_t hi[3])
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS, top = ((int64_t)1 << L) - 1;
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
@@ -216,7 +216,7 @@ static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			for (int64_t y = b0[1]; y <= b1[1]; y++)
 				for (int64_t z = b0[2]; z <= b1[2]; z++) {
 					int64_t blo[3] = {x << BLOCK_SHIFT, y << BLOCK_SHIFT, z << BLOCK_SHIFT};
-					if (exact && !vd_tri_box_overlap(&st, blo, 1 << BLOCK_SHIFT))
+					if (exact && !vd_tri_box_overlap(&st, e->g.L, blo, 1 << BLOCK_SHIFT))
 						continue;
 					err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z));
 					if (err)
@@ -360,7 +360,7 @@ static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			for (int64_t cy = c0[1]; cy <= c1[1] && !err; cy++)
 				for (int64_t cz = c0[2]; cz <= c1[2] && !err; cz++) {
 					int64_t cell_lo[3] = {cx << shift, cy << shift, cz << shift};
-					if (!single && !vd_tri_box_overlap(&st, cell_lo, (int64_t)1 << shift))
+					if (!single && !vd_tri_box_overlap(&st, b->g.L, cell_lo, (int64_t)1 << shift))
 						continue;
 					err = bin_add(b, vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz), &t[i]);
 				}
@@ -687,7 +687,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			memcpy(t.v, fb + 9 * i, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle(&st, rc.lo, hi, set_voxel, &rc);
+				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
 		}
 		if (w->map.over)
 			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "

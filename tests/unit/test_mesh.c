@@ -1,38 +1,13 @@
 /* test_mesh.c - the mesh readers on fixtures written here, byte by byte,
  * with expected triangles typed in by hand, and on the bundled bunny and
  * the shared scenes (skipped when absent). Run from the repository root. */
-/* check.h's test_tmpdir() sizes its command buffer below the worst case
- * that GCC's -Wformat-truncation computes; the paths used are short. The
- * pragma keeps this file warning-free until check.h is fixed on main. */
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wformat-truncation"
 #include "check.h"
-#pragma GCC diagnostic pop
 #include "voxdag.h"
 
 #include <math.h>
 #include <stdarg.h>
 #include <sys/stat.h>
 
-/* ---- temporary stand-in for stages/lib/error.c --------------------------
- * error.c is being written on main; until it is merged here the tests need
- * these four. The block disappears by itself once the file exists; delete
- * it then. */
-#if !__has_include("../../stages/lib/error.c")
-static _Thread_local char test_detail_[512];
-int vd_fail(int err, const char *fmt, ...)
-{
-	va_list ap;
-	va_start(ap, fmt);
-	vsnprintf(test_detail_, sizeof test_detail_, fmt, ap);
-	va_end(ap);
-	return err;
-}
-const char *vd_error_detail(void) { return test_detail_; }
-void vd_error_clear(void) { test_detail_[0] = 0; }
-const char *vd_strerror(int err) { return err ? "error" : "success"; }
-#endif
-/* ---- end of stand-in ---------------------------------------------------- */
 
 static const char *dir;
 

@@ -99,6 +99,8 @@ static int cmp_u64(const void *a, const void *b)
 
 static void vset_finish(struct vset *s)
 {
+	if (!s->n)
+		return;
 	qsort(s->v, s->n, sizeof *s->v, cmp_u64);
 	size_t m = 0;
 	for (size_t i = 0; i < s->n; i++)
@@ -140,7 +142,7 @@ static void collect(void *ctx, int64_t x, int64_t y, int64_t z)
 /* Every voxel of the grid near the triangle, tested by the reference. */
 static void ref_voxels(const struct vd_snapped_tri *t, int L, struct vset *out)
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS, top = ((int64_t)1 << L) - 1;
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
 	int64_t lo[3], hi[3];
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
@@ -179,7 +181,7 @@ static int64_t uniform(int64_t n) { return (int64_t)(next() % (uint64_t)n); }
  * faces, axis-aligned, degenerate to a segment or a point. */
 static void random_triangle(struct vd_snapped_tri *t, int L, int kind)
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS, side = s << L;
+	const int64_t s = vd_snap_voxel(L), side = s << L;
 	int64_t c[3];
 	for (int a = 0; a < 3; a++)
 		c[a] = uniform(side + 1);
@@ -194,13 +196,13 @@ static void random_triangle(struct vd_snapped_tri *t, int L, int kind)
 				v = c[a] + uniform(2 * s) - s;
 				break;
 			case 2: /* on the voxel lattice: touching faces and edges */
-				v = uniform((side >> VD_SNAP_BITS) + 1) * s;
+				v = uniform((side / s) + 1) * s;
 				break;
 			case 3: /* axis-aligned plane on a voxel face */
 				v = a == 0 ? (c[0] / s) * s : uniform(side + 1);
 				break;
 			case 4: /* half-voxel lattice */
-				v = uniform(2 * (side >> VD_SNAP_BITS) + 1) * (s / 2);
+				v = uniform(2 * (side / s) + 1) * (s / 2);
 				break;
 			default: /* small, a few voxels */
 				v = c[a] + uniform(8 * s) - 4 * s;
@@ -220,16 +222,18 @@ static void random_triangle(struct vd_snapped_tri *t, int L, int kind)
 			t->v[2][a] = (t->v[0][a] + t->v[1][a]) / 2;
 }
 
-static void test_random_triangles(void)
+/* At depth 4 every triangle takes the __int128 path; at depth 14 the
+ * small ones take the int64 path. */
+static void random_triangles_at(int L, int count)
 {
-	const int L = 4;
-	const int64_t lo[3] = {0, 0, 0}, hi[3] = {15, 15, 15};
+	const int64_t top = ((int64_t)1 << L) - 1;
+	const int64_t lo[3] = {0, 0, 0}, hi[3] = {top, top, top};
 	int bad = 0;
-	for (int i = 0; i < 6000 && bad < 3; i++) {
+	for (int i = 0; i < count && bad < 3; i++) {
 		struct vd_snapped_tri t;
-		random_triangle(&t, L, i % 6);
+		random_triangle(&t, L, L > 8 ? (i % 2 ? 1 : 5) : i % 6);
 		struct vset got = {0}, want = {0};
-		vd_raster_triangle(&t, lo, hi, collect, &got);
+		vd_raster_triangle(&t, L, lo, hi, collect, &got);
 		size_t raw = got.n;
 		vset_finish(&got);
 		ref_voxels(&t, L, &want);
@@ -254,11 +258,17 @@ static void test_random_triangles(void)
 	CHECK_EQ(bad, 0);
 }
 
+static void test_random_triangles(void)
+{
+	random_triangles_at(4, 6000);
+	random_triangles_at(14, 6000);
+}
+
 /* Large triangles take the __int128 path; a clip box restricts output. */
 static void test_large_and_clipped(void)
 {
 	const int L = 10;
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS;
+	const int64_t s = vd_snap_voxel(L);
 	int bad = 0;
 	for (int i = 0; i < 40 && !bad; i++) {
 		struct vd_snapped_tri t;
@@ -276,7 +286,7 @@ static void test_large_and_clipped(void)
 			hi[a] = lo[a] + 23;
 		}
 		struct vset got = {0}, want = {0};
-		vd_raster_triangle(&t, lo, hi, collect, &got);
+		vd_raster_triangle(&t, L, lo, hi, collect, &got);
 		vset_finish(&got);
 		for (int64_t x = lo[0]; x <= hi[0]; x++)
 			for (int64_t y = lo[1]; y <= hi[1]; y++)
@@ -298,7 +308,7 @@ static void test_large_and_clipped(void)
 static void test_box_overlap(void)
 {
 	const int L = 6;
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS;
+	const int64_t s = vd_snap_voxel(L);
 	int bad = 0;
 	for (int i = 0; i < 20000; i++) {
 		struct vd_snapped_tri t;
@@ -308,7 +318,7 @@ static void test_box_overlap(void)
 			lo[a] = uniform(64);
 			blo[a] = lo[a] * s;
 		}
-		bad += vd_tri_box_overlap(&t, lo, size) != ref_overlap(t.v, blo, size * s);
+		bad += vd_tri_box_overlap(&t, L, lo, size) != ref_overlap(t.v, blo, size * s);
 	}
 	CHECK_EQ(bad, 0);
 }
