@@ -761,28 +761,36 @@ static void remove_bins(const char *dir)
 	rmdir(bins);
 }
 
+/* Removes the chunk files (and their temporaries) and the statistics in
+ * `dir`: what an earlier run left, or what a failed run must not leave. */
+static void remove_chunks(const char *dir)
+{
+	DIR *d = opendir(dir);
+	if (!d)
+		return;
+	struct dirent *e;
+	char path[4400];
+	while ((e = readdir(d))) {
+		size_t n = strlen(e->d_name);
+		if ((strncmp(e->d_name, "chunk-L", 7) == 0 &&
+		     ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
+		      strstr(e->d_name, ".svo.tmp."))) ||
+		    strcmp(e->d_name, "voxelize.stats.json") == 0) {
+			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+			unlink(path);
+		}
+	}
+	closedir(d);
+}
+
 /* Deletes chunk files and bins of an earlier run in `dir`. */
 static int clean_outdir(const char *dir)
 {
 	if (mkdir(dir, 0777) != 0 && errno != EEXIST)
 		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", dir,
 			       strerror(errno));
-	DIR *d = opendir(dir);
-	if (!d)
-		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", dir,
-			       strerror(errno));
-	struct dirent *e;
+	remove_chunks(dir);
 	char path[4096];
-	while ((e = readdir(d))) {
-		size_t n = strlen(e->d_name);
-		if (strncmp(e->d_name, "chunk-L", 7) == 0 &&
-		    ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
-		     strstr(e->d_name, ".svo.tmp."))) {
-			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-			unlink(path);
-		}
-	}
-	closedir(d);
 	remove_bins(dir);
 	snprintf(path, sizeof path, "%s/bins.tmp", dir);
 	if (mkdir(path, 0777) != 0)
@@ -861,6 +869,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1];
 	uint64_t *bkeys = NULL;
 	size_t nbkeys = 0;
+	int cleaned = 0;
 	if (!tris) {
 		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
 		goto out;
@@ -928,6 +937,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	err = clean_outdir(outdir);
 	if (err)
 		goto out;
+	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
 	b.cap = bin_bytes / (9 * sizeof(float) * 2); /* x2: realloc slack */
@@ -1066,6 +1076,8 @@ out:
 	free(tris);
 	vd_mesh_close(mesh);
 	remove_bins(outdir);
+	if (err && cleaned)
+		remove_chunks(outdir); /* no partial set of chunks survives */
 	return err;
 }
 
