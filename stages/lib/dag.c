@@ -18,9 +18,12 @@
  */
 #include "dag_internal.h"
 
+#include <errno.h>
 #include <inttypes.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 
@@ -1088,4 +1091,297 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
 	for (int l = dag->chunk_level; l < dag->levels; l++)
 		h->level_nodes[l - dag->chunk_level] = dag->lv[l].nodes;
 	h->level_nodes[dag->levels - dag->chunk_level] = dag->voxels;
+}
+
+/* ----------------------------------------------------------- chunk files */
+
+static void put32(uint8_t *p, uint32_t v)
+{
+	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+	       (uint32_t)p[3] << 24;
+}
+
+int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
+		const char *path, const char *provenance)
+{
+	int err = vd_dag_validate(dag);
+	if (err) return err;
+	struct vd_chunk_header h = {0};
+	vd_dag_header(dag, &h);
+	h.transform = *t;
+	struct vd_chunk_writer *w;
+	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
+	int A = dag->chunk_level, L = dag->levels;
+	int sym = dag->kind == VD_KIND_SSVDAG;
+	/* DAGM: the masks of levels A..L-1, level after level. */
+	err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
+	for (int l = A; l < L && !err; l++)
+		err = vd_chunk_writer_write(w, dag->lv[l].mask,
+					    (size_t)dag->lv[l].nodes);
+	if (!err) err = vd_chunk_writer_end(w);
+	/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
+	if (!err) err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
+	enum { BATCH = 4096 };
+	uint8_t buf[4 * BATCH];
+	for (int l = A; l < L - 1 && !err; l++) {
+		const struct vd_dag_level *lv = &dag->lv[l];
+		for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
+			size_t n = lv->refs - i < BATCH ? (size_t)(lv->refs - i) : BATCH;
+			for (size_t j = 0; j < n; j++)
+				put32(buf + 4 * j, lv->child[i + j]);
+			err = vd_chunk_writer_write(w, buf, 4 * n);
+		}
+	}
+	if (!err) err = vd_chunk_writer_end(w);
+	/* DAGR: reflections of the same references, one byte each. */
+	if (sym && !err) {
+		err = vd_chunk_writer_begin(w, VD_TAG_DAGR, 0);
+		for (int l = A; l < L - 1 && !err; l++)
+			err = vd_chunk_writer_write(w, dag->lv[l].refl,
+						    (size_t)dag->lv[l].refs);
+		if (!err) err = vd_chunk_writer_end(w);
+	}
+	if (err) {
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	return vd_chunk_writer_commit(w);
+}
+
+/* Voxels under the root, counted bottom-up (reflections keep counts). */
+static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
+{
+	int L = d->levels, A = d->chunk_level;
+	*voxels = 0;
+	if (!d->lv[A].nodes) return VD_OK;
+	uint64_t *below = malloc((size_t)(d->lv[L - 1].nodes ? d->lv[L - 1].nodes : 1) * 8);
+	if (!below) return NOMEM();
+	for (uint64_t i = 0; i < d->lv[L - 1].nodes; i++)
+		below[i] = (uint64_t)__builtin_popcount(d->lv[L - 1].mask[i]);
+	for (int l = L - 2; l >= A; l--) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		uint64_t *cur = malloc((size_t)(lv->nodes ? lv->nodes : 1) * 8);
+		if (!cur) {
+			free(below);
+			return NOMEM();
+		}
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint64_t s = 0;
+			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
+				s += below[lv->child[j]];
+			cur[i] = s;
+		}
+		free(below);
+		below = cur;
+	}
+	*voxels = below[0];
+	free(below);
+	return VD_OK;
+}
+
+int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
+		      uint32_t kind)
+{
+	memset(dag, 0, sizeof *dag);
+	const struct vd_chunk_header *h = vd_chunk_header(c);
+	int ok_kind = h->kind == VD_KIND_DAG || h->kind == VD_KIND_SSVDAG;
+	if (!ok_kind || (kind != VD_KIND_ANY && h->kind != kind))
+		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
+			       vd_chunk_kind_name(h->kind),
+			       kind == VD_KIND_ANY ? "dag or ssvdag"
+						   : vd_chunk_kind_name(kind));
+	int L = (int)h->levels, A = (int)h->chunk_level;
+	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1 ||
+	    h->level_count != (uint32_t)(L - A + 1))
+		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d, %u "
+			       "level counts", L, A, h->level_count);
+	dag->kind = h->kind;
+	dag->levels = L;
+	dag->chunk_level = A;
+	dag->cell_morton = h->cell_morton;
+	int sym = h->kind == VD_KIND_SSVDAG;
+	void *m = NULL, *cdata = NULL, *r = NULL;
+	size_t msize, csize, rsize = 0;
+	int err = vd_chunk_read_section(c, VD_TAG_DAGM, &m, &msize);
+	if (!err) err = vd_chunk_read_section(c, VD_TAG_DAGC, &cdata, &csize);
+	if (!err && sym) err = vd_chunk_read_section(c, VD_TAG_DAGR, &r, &rsize);
+	if (err) goto out;
+	/* masks, and from them the reference counts */
+	uint64_t need = 0, nref = 0;
+	for (int l = A; l < L; l++) need += h->level_nodes[l - A];
+	if (need != msize) {
+		err = vd_fail(VD_ERR_CORRUPT, "mask section of %zu bytes, the "
+			      "level counts say %" PRIu64, msize, need);
+		goto out;
+	}
+	const uint8_t *mp = m;
+	for (int l = A; l < L; l++) {
+		struct vd_dag_level *lv = &dag->lv[l];
+		lv->nodes = h->level_nodes[l - A];
+		lv->mask = malloc(lv->nodes ? (size_t)lv->nodes : 1);
+		if (!lv->mask) {
+			err = NOMEM();
+			goto out;
+		}
+		memcpy(lv->mask, mp, (size_t)lv->nodes);
+		mp += lv->nodes;
+		if (l == L - 1) break;
+		lv->first = malloc((size_t)(lv->nodes + 1) * 8);
+		if (!lv->first) {
+			err = NOMEM();
+			goto out;
+		}
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			lv->first[i] = j;
+			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+		}
+		lv->first[lv->nodes] = j;
+		lv->refs = j;
+		nref += j;
+	}
+	if (csize != 4 * nref || (sym && rsize != nref)) {
+		err = vd_fail(VD_ERR_CORRUPT, "reference sections of %zu and %zu"
+			      " bytes for %" PRIu64 " references", csize, rsize,
+			      nref);
+		goto out;
+	}
+	const uint8_t *cp = cdata, *rp = r;
+	for (int l = A; l < L - 1; l++) {
+		struct vd_dag_level *lv = &dag->lv[l];
+		lv->child = malloc(lv->refs ? (size_t)lv->refs * 4 : 4);
+		if (sym) lv->refl = malloc(lv->refs ? (size_t)lv->refs : 1);
+		if (!lv->child || (sym && !lv->refl)) {
+			err = NOMEM();
+			goto out;
+		}
+		for (uint64_t j = 0; j < lv->refs; j++) lv->child[j] = get32(cp + 4 * j);
+		cp += 4 * lv->refs;
+		if (sym) {
+			memcpy(lv->refl, rp, (size_t)lv->refs);
+			rp += lv->refs;
+		}
+	}
+	/* bricks of level L-2 (checked indices first) */
+	dag->bricks = NULL;
+	if (A <= L - 2 && dag->lv[A].nodes) {
+		const struct vd_dag_level *lb = &dag->lv[L - 2];
+		for (uint64_t j = 0; j < lb->refs; j++)
+			if (lb->child[j] >= dag->lv[L - 1].nodes) {
+				err = vd_fail(VD_ERR_CORRUPT, "level %d reference %"
+					      PRIu64 " to leaf %u of %" PRIu64,
+					      L - 2, j, lb->child[j],
+					      dag->lv[L - 1].nodes);
+				goto out;
+			}
+		dag->bricks = malloc((size_t)(lb->nodes ? lb->nodes : 1) * 8);
+		if (!dag->bricks) {
+			err = NOMEM();
+			goto out;
+		}
+		for (uint64_t i = 0; i < lb->nodes; i++) {
+			uint64_t v = 0, j = lb->first[i];
+			for (unsigned s = 0; s < 8; s++) {
+				if (!(lb->mask[i] >> s & 1)) continue;
+				uint8_t x = dag->lv[L - 1].mask[lb->child[j]];
+				if (lb->refl) x = vd_mask_reflect(x, lb->refl[j] & 7);
+				v |= (uint64_t)x << 8 * s;
+				j++;
+			}
+			dag->bricks[i] = v;
+		}
+	}
+	dag->voxels = h->level_nodes[L - A];
+	if ((err = vd_dag_validate(dag))) goto out;
+	uint64_t v;
+	if ((err = dag_count_voxels(dag, &v))) goto out;
+	if (v != dag->voxels)
+		err = vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " voxels, the header "
+			      "says %" PRIu64, v, dag->voxels);
+out:
+	free(m);
+	free(cdata);
+	free(r);
+	if (err) vd_dag_release(dag);
+	return err;
+}
+
+int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
+		const char *path, uint32_t kind)
+{
+	memset(dag, 0, sizeof *dag);
+	struct vd_chunk *c;
+	int err = vd_chunk_open(&c, path, VD_KIND_ANY);
+	if (err) return err;
+	if (h) *h = *vd_chunk_header(c);
+	err = vd_dag_from_chunk(dag, c, kind);
+	vd_chunk_free(c);
+	return err;
+}
+
+/* ------------------------------------------------------------ statistics */
+
+int vd_dag_write_stats(const struct vd_dag *dag,
+		       const struct vd_dag_stats *st, const char *tool,
+		       double seconds_load, double seconds_save,
+		       const char *path)
+{
+	size_t plen = strlen(path);
+	char *tmp = malloc(plen + 32);
+	if (!tmp) return NOMEM();
+	snprintf(tmp, plen + 32, "%s.tmp.%ld", path, (long)getpid());
+	FILE *f = fopen(tmp, "w");
+	if (!f) {
+		int e = errno;
+		free(tmp);
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", path,
+			       strerror(e));
+	}
+	int A = dag->chunk_level, L = dag->levels;
+	uint64_t total = 0, total_refs = 0;
+	fprintf(f, "{\n  \"tool\": \"%s\",\n  \"version\": \"%s\",\n", tool,
+		VD_VERSION_STRING);
+	fprintf(f, "  \"kind\": \"%s\",\n  \"levels\": %d,\n  \"chunk_level\": "
+		"%d,\n  \"cell_morton\": %" PRIu64 ",\n",
+		vd_chunk_kind_name(dag->kind), L, A, dag->cell_morton);
+	fprintf(f, "  \"input_voxels\": %" PRIu64 ",\n  \"input_nodes\": %"
+		PRIu64 ",\n  \"voxels\": %" PRIu64 ",\n", st->input_voxels,
+		st->input_nodes, dag->voxels);
+	fprintf(f, "  \"level_nodes\": [");
+	for (int l = A; l < L; l++) {
+		fprintf(f, "%s%" PRIu64, l > A ? ", " : "", dag->lv[l].nodes);
+		total += dag->lv[l].nodes;
+	}
+	fprintf(f, "],\n  \"level_refs\": [");
+	for (int l = A; l < L; l++) {
+		fprintf(f, "%s%" PRIu64, l > A ? ", " : "", dag->lv[l].refs);
+		total_refs += dag->lv[l].refs;
+	}
+	fprintf(f, "],\n  \"nodes\": %" PRIu64 ",\n  \"refs\": %" PRIu64 ",\n",
+		total, total_refs);
+	fprintf(f, "  \"seconds_level\": [");
+	for (int l = A; l < L; l++)
+		fprintf(f, "%s%.6f", l > A ? ", " : "", st->seconds_level[l]);
+	double vps = st->seconds_build > 0 ? st->input_voxels / st->seconds_build : 0;
+	fprintf(f, "],\n  \"seconds_load\": %.6f,\n  \"seconds_build\": %.6f,\n"
+		"  \"seconds_save\": %.6f,\n  \"voxels_per_second\": %.0f,\n",
+		seconds_load, st->seconds_build, seconds_save, vps);
+	fprintf(f, "  \"memory_estimate_bytes\": %" PRIu64 ",\n"
+		"  \"peak_rss_bytes\": %" PRIu64 "\n}\n",
+		st->memory_estimate_bytes, vd_peak_rss_bytes());
+	int bad = ferror(f);
+	if (fclose(f) || bad || rename(tmp, path)) {
+		int e = errno;
+		remove(tmp);
+		free(tmp);
+		return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+			       strerror(e));
+	}
+	free(tmp);
+	return VD_OK;
 }

@@ -360,6 +360,114 @@ static void test_edge_cases(void)
 	grid_free(&g);
 }
 
+static int file_copy_prefix(const char *src, const char *dst, long n)
+{
+	FILE *a = fopen(src, "rb"), *b = fopen(dst, "wb");
+	if (!a || !b) return -1;
+	for (long i = 0; i < n; i++) {
+		int c = fgetc(a);
+		if (c == EOF) break;
+		fputc(c, b);
+	}
+	fclose(a);
+	return fclose(b);
+}
+
+/* Save and load give back the same DAG; wrong kinds, truncation and a
+ * corrupted reference are each refused. */
+static void test_chunk_files(void)
+{
+	const char *dir = test_tmpdir("test_dag");
+	char path[600], cut[600];
+	struct vd_transform t;
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 2, 3};
+	for (int kind = VD_KIND_DAG; kind <= VD_KIND_SSVDAG; kind++)
+		for (int L = 1; L <= 5; L++) {
+			struct grid g;
+			make_scene(&g, L, SC_TILES);
+			CHECK_EQ(vd_transform_init(&t, lo, hi, L), VD_OK);
+			struct vd_svo s;
+			int L0 = L >= 3 ? 1 : 0;
+			grid_to_svo(&g, L0, 1 % (1u << (3 * L0)), &s);
+			struct vd_dag d, e;
+			CHECK_EQ(vd_dag_from_svo(&d, &s, (uint32_t)kind, &opts, NULL), 0);
+			snprintf(path, sizeof path, "%s/k%d-L%d.dag", dir, kind, L);
+			CHECK_EQ(vd_dag_save(&d, &t, path, "tool=test"), VD_OK);
+			struct vd_chunk_header h;
+			CHECK_EQ(vd_dag_load(&e, &h, path, VD_KIND_ANY), VD_OK);
+			CHECK_EQ(h.kind, kind);
+			CHECK_EQ(h.level_count, L - L0 + 1);
+			CHECK_EQ(h.level_nodes[L - L0], d.voxels);
+			CHECK(counts_equal(&d, &e));
+			CHECK_EQ(e.kind, kind);
+			CHECK_EQ(e.cell_morton, d.cell_morton);
+			for (int l = L0; l < L; l++) {
+				CHECK(!memcmp(d.lv[l].mask, e.lv[l].mask, d.lv[l].nodes));
+				if (l < L - 1)
+					CHECK(!memcmp(d.lv[l].child, e.lv[l].child,
+						      d.lv[l].refs * 4));
+				if (l < L - 1 && kind == VD_KIND_SSVDAG)
+					CHECK(!memcmp(d.lv[l].refl, e.lv[l].refl,
+						      d.lv[l].refs));
+			}
+			struct vd_svo a, b;
+			CHECK_EQ(vd_dag_to_svo(&d, &a), 0);
+			CHECK_EQ(vd_dag_to_svo(&e, &b), 0);
+			CHECK(a.count == s.count && b.count == s.count);
+			CHECK(!memcmp(b.keys, s.keys, s.count * 8));
+			CHECK(!memcmp(b.masks, s.masks, s.count * 8));
+			svo_free(&a);
+			svo_free(&b);
+			vd_dag_release(&e);
+			/* the other DAG kind, and an SVO file, are refused */
+			CHECK_EQ(vd_dag_load(&e, NULL, path, kind == VD_KIND_DAG ?
+					     VD_KIND_SSVDAG : VD_KIND_DAG),
+				 VD_ERR_WRONG_KIND);
+			vd_dag_release(&e);
+			snprintf(cut, sizeof cut, "%s/k%d-L%d.svo", dir, kind, L);
+			CHECK_EQ(vd_svo_save(&s, &t, cut, NULL), VD_OK);
+			CHECK_EQ(vd_dag_load(&e, NULL, cut, VD_KIND_ANY),
+				 VD_ERR_WRONG_KIND);
+			CHECK(strstr(vd_error_detail(), "svo") != NULL);
+			vd_dag_release(&e);
+			/* every cut of the file is an error, never a DAG */
+			FILE *f = fopen(path, "rb");
+			fseek(f, 0, SEEK_END);
+			long size = ftell(f);
+			fclose(f);
+			snprintf(cut, sizeof cut, "%s/cut.dag", dir);
+			for (long n = 0; n < size; n += (n < 200 ? 1 : 7)) {
+				file_copy_prefix(path, cut, n);
+				int err = vd_dag_load(&e, NULL, cut, VD_KIND_ANY);
+				CHECK(err != VD_OK);
+				vd_dag_release(&e);
+			}
+			svo_free(&s);
+			vd_dag_release(&d);
+			grid_free(&g);
+		}
+	/* content that passes the checksums but not validation */
+	struct grid g;
+	make_scene(&g, 4, SC_RANDOM);
+	struct vd_svo s;
+	grid_to_svo(&g, 0, 0, &s);
+	struct vd_dag d, e;
+	vd_dag_from_svo(&d, &s, VD_KIND_DAG, &opts, NULL);
+	d.lv[0].child[0] = 999;
+	CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
+	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_ERR_CORRUPT);
+	d.lv[0].child[0] = 0;
+	d.voxels++;
+	snprintf(path, sizeof path, "%s/badcount.dag", dir);
+	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_OK);
+	CHECK_EQ(vd_dag_load(&e, NULL, path, VD_KIND_DAG), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "voxels") != NULL);
+	vd_dag_release(&e);
+	vd_dag_release(&d);
+	svo_free(&s);
+	grid_free(&g);
+}
+
 int main(void)
 {
 	RUN(test_lossless_monolithic);
@@ -368,5 +476,6 @@ int main(void)
 	RUN(test_merge_partial_and_mixed);
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
+	RUN(test_chunk_files);
 	return CHECK_DONE();
 }
