@@ -6,6 +6,7 @@
  * zstd then squeezes to about a byte per brick.
  */
 #include "voxdag.h"
+#include "voxelize_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -39,33 +40,37 @@ static int brick_levels(int levels)
 	return levels >= 2 ? levels - 2 : 0;
 }
 
+void vd_svo_count_brick(uint64_t *counts, int levels, int chunk_level,
+			int first, uint64_t prev, uint64_t key, uint64_t mask)
+{
+	int L = levels, L0 = chunk_level, bl = brick_levels(L);
+	/* A node at level l < L-2 is new when the key differs from the
+	 * previous one in the bits above level l's children. */
+	for (int l = L0; l < bl; l++) {
+		int shift = 3 * (bl - l);
+		if (first || (prev >> shift) != (key >> shift))
+			counts[l - L0]++;
+	}
+	if (L >= 2) {
+		counts[bl - L0]++;
+		int kids = 0;
+		for (int c = 0; c < 8; c++)
+			kids += ((mask >> 8 * c) & 0xff) != 0;
+		counts[L - 1 - L0] += (uint64_t)kids;
+	} else {
+		counts[0] += 1; /* L == 1: the root is the 2x2x2 mask */
+	}
+	counts[L - L0] += (uint64_t)__builtin_popcountll(mask);
+}
+
 void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts)
 {
-	int L = svo->levels, L0 = svo->chunk_level, bl = brick_levels(L);
-	for (int l = L0; l <= L; l++)
-		counts[l - L0] = 0;
-	for (size_t i = 0; i < svo->count; i++) {
-		uint64_t k = svo->keys[i], m = svo->masks[i];
-		/* A node at level l < L-2 is new when the key differs from the
-		 * previous one above the bits below l. */
-		for (int l = L0; l < bl; l++) {
-			int shift = 3 * (bl - l);
-			if (i == 0 || (svo->keys[i - 1] >> shift) != (k >> shift))
-				counts[l - L0]++;
-		}
-		if (L >= 2) {
-			if (bl >= L0)
-				counts[bl - L0]++;
-			int kids = 0;
-			for (int c = 0; c < 8; c++)
-				kids += ((m >> 8 * c) & 0xff) != 0;
-			if (L - 1 >= L0)
-				counts[L - 1 - L0] += (uint64_t)kids;
-		} else if (L0 == 0) {
-			counts[0] += 1; /* L == 1: the root is the 2x2x2 mask */
-		}
-		counts[L - L0] += (uint64_t)__builtin_popcountll(m);
-	}
+	for (int l = svo->chunk_level; l <= svo->levels; l++)
+		counts[l - svo->chunk_level] = 0;
+	for (size_t i = 0; i < svo->count; i++)
+		vd_svo_count_brick(counts, svo->levels, svo->chunk_level, i == 0,
+				   i ? svo->keys[i - 1] : 0, svo->keys[i],
+				   svo->masks[i]);
 }
 
 int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,

@@ -103,3 +103,32 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 	snprintf(buf, cap, "chunk-L%d-%0*llx.%s", chunk_level, digits,
 		 (unsigned long long)cell_morton, ext);
 }
+
+char *vd_provenance_new(const char *tool, int argc, char **argv)
+{
+	size_t n = strlen(tool) + 64;
+	for (int i = 1; i < argc; i++)
+		n += 4 * strlen(argv[i]) + 3;
+	char *s = malloc(n), *p = s;
+	if (!s)
+		return NULL;
+	p += sprintf(p, "tool=%s version=%s args=", tool, VD_VERSION_STRING);
+	for (int i = 1; i < argc; i++) {
+		/* shell-quoted, so the line can be pasted back */
+		*p++ = i > 1 ? ' ' : '\0';
+		if (i == 1)
+			p--;
+		*p++ = '\'';
+		for (const char *c = argv[i]; *c; c++) {
+			if (*c == '\'') {
+				memcpy(p, "'\\''", 4);
+				p += 4;
+			} else {
+				*p++ = *c;
+			}
+		}
+		*p++ = '\'';
+	}
+	*p = 0;
+	return s;
+}

@@ -338,10 +338,12 @@ void vd_mesh_close(struct vd_mesh *m);
 /* ---------------------------------------------------- triangle/box overlap
  * Voxelization decides overlap exactly on snapped coordinates: a vertex's
  * grid coordinate g = (v - origin) / voxel_size is rounded to the nearest
- * multiple of 2^-VD_SNAP_BITS of a voxel (vd_snap), and then every test is
- * integer arithmetic without rounding, so touching counts as overlap with no
- * epsilon and results never depend on evaluation order. */
-#define VD_SNAP_BITS 16
+ * multiple of 2^-VD_SNAP_BITS of a voxel (vd_snap_triangle), and then every
+ * test is integer arithmetic without rounding, so touching counts as overlap
+ * with no epsilon and results never depend on evaluation order. 1/4096 of a
+ * voxel is finer than float32 input resolves at 2^12 and above, and snapping
+ * puts vertices that lie on voxel faces exactly on them. */
+#define VD_SNAP_BITS 12
 
 /* Snapped grid coordinates of a triangle, in units of 2^-VD_SNAP_BITS
  * voxels. */
@@ -383,8 +385,32 @@ uint64_t vd_peak_rss_bytes(void);
 /* Monotonic seconds. */
 double vd_seconds(void);
 
+/* Builds the provenance text stored in chunk files:
+ * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
+ * with free()), NULL when out of memory. */
+char *vd_provenance_new(const char *tool, int argc, char **argv);
+
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
+
+/* ------------------------------------------------------- JSON statistics
+ * A minimal writer for the statistics files beside every output. The file
+ * appears under its name only when vd_json_close() succeeds. Keys are
+ * written as given (no escaping): use plain identifiers. Inside arrays pass
+ * key NULL. */
+struct vd_json;
+int vd_json_open(struct vd_json **j, const char *path);
+void vd_json_object(struct vd_json *j, const char *key);
+void vd_json_end_object(struct vd_json *j);
+void vd_json_array(struct vd_json *j, const char *key);
+void vd_json_end_array(struct vd_json *j);
+void vd_json_u64(struct vd_json *j, const char *key, uint64_t v);
+void vd_json_f64(struct vd_json *j, const char *key, double v);
+void vd_json_str(struct vd_json *j, const char *key, const char *s);
+void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
+		       size_t n);
+/* Closes the top-level object, flushes and renames; frees j. */
+int vd_json_close(struct vd_json *j);
 
 /* ------------------------------------------------------------ voxelizer */
 
@@ -409,6 +435,9 @@ struct vd_voxelize_result {
 	uint64_t level_nodes[VD_MAX_LEVELS + 1]; /* whole grid, levels 0..L */
 	double seconds_bounds, seconds_bin, seconds_voxelize, seconds_total;
 	uint64_t peak_rss_bytes;
+	uint64_t mem_budget_bytes;
+	int threads;                 /* workers used for the cells */
+	char format[32];             /* input format, vd_mesh_format() */
 };
 
 /* Voxelizes the mesh at `mesh_path` into SVO chunk files

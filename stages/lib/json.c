@@ -1,0 +1,137 @@
+/* json.c - the small JSON writer every stage's statistics go through.
+ * Written to a temporary name and renamed on close, like chunk files. */
+#include "voxdag.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+struct vd_json {
+	FILE *f;
+	char *path, *tmp;
+	int depth;
+	int count[32]; /* members written so far at each depth */
+};
+
+int vd_json_open(struct vd_json **out, const char *path)
+{
+	struct vd_json *j = calloc(1, sizeof *j);
+	size_t n = strlen(path) + 32;
+	if (!j || !(j->path = strdup(path)) || !(j->tmp = malloc(n))) {
+		if (j)
+			free(j->path);
+		free(j);
+		return vd_fail(VD_ERR_NOMEM, "json");
+	}
+	snprintf(j->tmp, n, "%s.tmp.%ld", path, (long)getpid());
+	if (!(j->f = fopen(j->tmp, "w"))) {
+		int err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", j->tmp,
+				  strerror(errno));
+		free(j->tmp);
+		free(j->path);
+		free(j);
+		return err;
+	}
+	fputc('{', j->f);
+	*out = j;
+	return VD_OK;
+}
+
+static void sep(struct vd_json *j, const char *key)
+{
+	fputs(j->count[j->depth]++ ? ",\n" : "\n", j->f);
+	for (int i = 0; i <= j->depth; i++)
+		fputs("  ", j->f);
+	if (key)
+		fprintf(j->f, "\"%s\": ", key);
+}
+
+static void open_nested(struct vd_json *j, const char *key, char c)
+{
+	sep(j, key);
+	fputc(c, j->f);
+	if (j->depth < 31)
+		j->count[++j->depth] = 0;
+}
+
+void vd_json_object(struct vd_json *j, const char *key) { open_nested(j, key, '{'); }
+void vd_json_array(struct vd_json *j, const char *key) { open_nested(j, key, '['); }
+
+void vd_json_end_object(struct vd_json *j)
+{
+	j->depth--;
+	fputs("\n", j->f);
+	for (int i = 0; i <= j->depth; i++)
+		fputs("  ", j->f);
+	fputc('}', j->f);
+}
+
+void vd_json_end_array(struct vd_json *j)
+{
+	j->depth--;
+	fputc(']', j->f);
+}
+
+void vd_json_u64(struct vd_json *j, const char *key, uint64_t v)
+{
+	sep(j, key);
+	fprintf(j->f, "%llu", (unsigned long long)v);
+}
+
+void vd_json_f64(struct vd_json *j, const char *key, double v)
+{
+	sep(j, key);
+	if (isfinite(v))
+		fprintf(j->f, "%.6g", v);
+	else
+		fputs("null", j->f);
+}
+
+void vd_json_str(struct vd_json *j, const char *key, const char *s)
+{
+	sep(j, key);
+	fputc('"', j->f);
+	for (; *s; s++) {
+		unsigned char c = (unsigned char)*s;
+		if (c == '"' || c == '\\')
+			fprintf(j->f, "\\%c", c);
+		else if (c < 0x20)
+			fprintf(j->f, "\\u%04x", c);
+		else
+			fputc(c, j->f);
+	}
+	fputc('"', j->f);
+}
+
+void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
+		       size_t n)
+{
+	sep(j, key);
+	fputc('[', j->f);
+	for (size_t i = 0; i < n; i++)
+		fprintf(j->f, "%s%llu", i ? ", " : "", (unsigned long long)v[i]);
+	fputc(']', j->f);
+}
+
+int vd_json_close(struct vd_json *j)
+{
+	fputs("\n}\n", j->f);
+	int err = VD_OK;
+	if (fflush(j->f) != 0 || ferror(j->f))
+		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
+			      strerror(errno));
+	if (fclose(j->f) != 0 && !err)
+		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
+			      strerror(errno));
+	if (!err && rename(j->tmp, j->path) != 0)
+		err = vd_fail(VD_ERR_IO, "cannot rename '%s': %s", j->tmp,
+			      strerror(errno));
+	if (err)
+		unlink(j->tmp);
+	free(j->tmp);
+	free(j->path);
+	free(j);
+	return err;
+}

@@ -1,0 +1,1643 @@
+/* mesh.c - streaming triangle readers for PLY, OBJ and STL.
+ *
+ * Memory is bounded by the vertex positions (12 bytes per vertex) plus one
+ * read buffer: the face body is decoded from a fixed buffer as the caller
+ * asks for triangles, never loaded whole, so meshes far larger than memory
+ * stream through as long as their vertices fit.
+ *
+ * Decisions worth knowing:
+ * - PLY vertices are loaded at open (they precede the faces in every file
+ *   we know; a face element before the vertex element is refused), then the
+ *   file offset of the face element is remembered so rewind is one seek.
+ * - OBJ is read in one pass: vertices are appended as they appear and a face
+ *   may use only vertices defined before it (the rule negative indices
+ *   already imply). A positive index to a later vertex is VD_ERR_RANGE
+ *   rather than a silent pre-pass that would double the I/O of every file.
+ * - Polygons are fan-triangulated (0,i,i+1), so the triangle order is the
+ *   file order and a rewind reproduces it exactly.
+ * - Non-finite coordinates are checked per corner only when the file has
+ *   any, so the common clean file pays nothing for the rule.
+ */
+#include "voxdag.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <float.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* Large enough that read() calls are rare, small enough to never matter
+ * against a memory budget; also the longest text line we accept. */
+#define MESH_BUF_BYTES (1u << 20)
+
+/* Polygons with more corners than this are taken as corruption: no real
+ * exporter writes them and the bound keeps a list fully in the buffer. */
+#define MESH_MAX_CORNERS 65535
+
+/* ------------------------------------------------------------ read buffer */
+
+struct vd_rd {
+	int fd;
+	unsigned char *buf; /* cap + 1 bytes: room for a NUL after a last line */
+	size_t cap, pos, len;
+	uint64_t off;       /* file offset of buf[0] */
+	uint64_t lines;     /* physical lines consumed by vd_rd_line */
+	int eof;
+};
+
+/* Returns 1 if bytes were added, 0 at end of file or when the buffer is full
+ * of unread bytes, -1 after a failed read (detail set). */
+static int vd_rd_fill(struct vd_rd *r)
+{
+	if (r->pos > 0) {
+		memmove(r->buf, r->buf + r->pos, r->len - r->pos);
+		r->off += r->pos;
+		r->len -= r->pos;
+		r->pos = 0;
+	}
+	if (r->eof || r->len == r->cap)
+		return 0;
+	for (;;) {
+		ssize_t k = read(r->fd, r->buf + r->len, r->cap - r->len);
+		if (k < 0 && errno == EINTR)
+			continue;
+		if (k < 0) {
+			vd_fail(VD_ERR_IO, "read failed at byte %" PRIu64 ": %s",
+				r->off + r->len, strerror(errno));
+			return -1;
+		}
+		if (k == 0) {
+			r->eof = 1;
+			return 0;
+		}
+		r->len += (size_t)k;
+		return 1;
+	}
+}
+
+/* Makes n (<= cap) bytes available at buf + pos. Returns VD_OK,
+ * VD_ERR_TRUNCATED without a detail (the caller knows what was cut), or
+ * VD_ERR_IO with one. */
+static int vd_rd_need(struct vd_rd *r, size_t n)
+{
+	while (r->len - r->pos < n) {
+		int f = vd_rd_fill(r);
+		if (f < 0)
+			return VD_ERR_IO;
+		if (f == 0)
+			return VD_ERR_TRUNCATED;
+	}
+	return VD_OK;
+}
+
+/* Skips n bytes, which may be more than the buffer holds. Same returns as
+ * vd_rd_need. */
+static int vd_rd_skip(struct vd_rd *r, uint64_t n)
+{
+	while (n > 0) {
+		if (r->pos == r->len) {
+			int f = vd_rd_fill(r);
+			if (f < 0)
+				return VD_ERR_IO;
+			if (f == 0)
+				return VD_ERR_TRUNCATED;
+		}
+		size_t take = r->len - r->pos;
+		if (take > n)
+			take = (size_t)n;
+		r->pos += take;
+		n -= take;
+	}
+	return VD_OK;
+}
+
+static int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
+{
+	if (lseek(r->fd, (off_t)off, SEEK_SET) < 0)
+		return vd_fail(VD_ERR_IO, "seek to byte %" PRIu64 ": %s", off,
+			       strerror(errno));
+	r->off = off;
+	r->pos = r->len = 0;
+	r->eof = 0;
+	r->lines = lines;
+	return VD_OK;
+}
+
+/* Returns the next line in *s (NUL-terminated, without "\n" or "\r\n",
+ * valid until the next vd_rd_* call) and its length. With `join`, a line
+ * ending in a backslash continues on the next one (OBJ). Returns 1 for a
+ * line, 0 at the end of the file, VD_ERR_IO, or VD_ERR_FORMAT for a line
+ * longer than the buffer. */
+static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
+{
+	size_t scan = r->pos;
+	for (;;) {
+		unsigned char *nl =
+			memchr(r->buf + scan, '\n', r->len - scan);
+		if (nl) {
+			size_t e = (size_t)(nl - r->buf), end = e;
+			r->lines++;
+			if (end > r->pos && r->buf[end - 1] == '\r')
+				end--;
+			if (join && end > r->pos && r->buf[end - 1] == '\\') {
+				memset(r->buf + end - 1, ' ', e - end + 2);
+				scan = e + 1;
+				continue;
+			}
+			r->buf[end] = 0;
+			*s = (char *)r->buf + r->pos;
+			*len = end - r->pos;
+			r->pos = e + 1;
+			return 1;
+		}
+		size_t rel = r->len - r->pos;
+		int f = vd_rd_fill(r);
+		scan = rel;
+		if (f < 0)
+			return VD_ERR_IO;
+		if (f > 0)
+			continue;
+		if (r->len == r->cap)
+			return vd_fail(VD_ERR_FORMAT,
+				       "line %" PRIu64 ": longer than %u bytes",
+				       r->lines + 1, MESH_BUF_BYTES);
+		if (r->pos == r->len)
+			return 0;
+		/* A last line without its newline. */
+		size_t end = r->len;
+		r->lines++;
+		if (end > r->pos && r->buf[end - 1] == '\r')
+			end--;
+		r->buf[end] = 0;
+		*s = (char *)r->buf + r->pos;
+		*len = end - r->pos;
+		r->pos = r->len;
+		return 1;
+	}
+}
+
+/* --------------------------------------------------------- number parsing
+ * Hand-written because strtod dominates text parsing; the fast path below is
+ * Clinger's: a mantissa below 2^53 times an exact power of ten up to 1e22 is
+ * one correctly rounded IEEE operation, so results equal strtod's. Anything
+ * else (long mantissas, big exponents, nan, inf, hex) goes to strtod. */
+
+static int vd_is_space(char c)
+{
+	return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+static int vd_is_end(char c)
+{
+	return c == 0 || vd_is_space(c);
+}
+
+static const char *vd_skip_space(const char *p)
+{
+	while (vd_is_space(*p))
+		p++;
+	return p;
+}
+
+static const char *vd_token_end(const char *p)
+{
+	while (!vd_is_end(*p))
+		p++;
+	return p;
+}
+
+/* Parses one number token at p (no leading space). Returns the character
+ * after it, or NULL if the token is not a number. */
+static const char *vd_parse_double(const char *p, double *out)
+{
+	static const double pow10[] = {
+		1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+		1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+		1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+	const char *s = p;
+	int neg = 0, any = 0, inexact = 0, digits = 0;
+	long exp10 = 0;
+	uint64_t mant = 0;
+
+	if (*p == '-' || *p == '+')
+		neg = *p++ == '-';
+	for (; *p >= '0' && *p <= '9'; p++, any = 1) {
+		if (digits < 19) {
+			mant = mant * 10 + (uint64_t)(*p - '0');
+			digits += mant != 0;
+		} else {
+			exp10++;
+			inexact |= *p != '0';
+		}
+	}
+	if (*p == '.') {
+		for (p++; *p >= '0' && *p <= '9'; p++, any = 1) {
+			if (digits < 19) {
+				mant = mant * 10 + (uint64_t)(*p - '0');
+				digits += mant != 0;
+				exp10--;
+			} else {
+				inexact |= *p != '0';
+			}
+		}
+	}
+	if (!any)
+		goto slow;
+	if (*p == 'e' || *p == 'E') {
+		int eneg = 0;
+		long e = 0;
+		p++;
+		if (*p == '-' || *p == '+')
+			eneg = *p++ == '-';
+		if (!(*p >= '0' && *p <= '9'))
+			return NULL;
+		for (; *p >= '0' && *p <= '9'; p++)
+			if (e < 100000)
+				e = e * 10 + (*p - '0');
+		exp10 += eneg ? -e : e;
+	}
+	if (!vd_is_end(*p))
+		return NULL;
+	if (inexact || mant > (1ULL << 53) || exp10 < -22 || exp10 > 22)
+		goto slow;
+	double d = (double)mant;
+	d = exp10 < 0 ? d / pow10[-exp10] : d * pow10[exp10];
+	*out = neg ? -d : d;
+	return p;
+slow:;
+	char *end;
+	errno = 0;
+	*out = strtod(s, &end);
+	if (end == s || !vd_is_end(*end))
+		return NULL;
+	return end;
+}
+
+/* Parses an integer token; NULL if it is not one or exceeds 2^62. */
+static const char *vd_parse_int(const char *p, int64_t *out)
+{
+	int neg = 0;
+	int64_t v = 0;
+	if (*p == '-' || *p == '+')
+		neg = *p++ == '-';
+	if (!(*p >= '0' && *p <= '9'))
+		return NULL;
+	for (; *p >= '0' && *p <= '9'; p++) {
+		if (v > (INT64_C(1) << 62) / 10)
+			return NULL;
+		v = v * 10 + (*p - '0');
+	}
+	*out = neg ? -v : v;
+	return p;
+}
+
+/* Out-of-range doubles become infinities explicitly: the plain conversion
+ * is undefined behaviour, and the face check then reports them. */
+static float vd_to_f32(double d)
+{
+	if (d > FLT_MAX)
+		return INFINITY;
+	if (d < -FLT_MAX)
+		return -INFINITY;
+	return (float)d;
+}
+
+/* ------------------------------------------------------------------- PLY */
+
+enum vd_ply_type {
+	PLY_NONE, PLY_I8, PLY_U8, PLY_I16, PLY_U16, PLY_I32, PLY_U32,
+	PLY_F32, PLY_F64
+};
+
+static const unsigned char vd_ply_size[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
+
+static const struct {
+	const char *name;
+	unsigned char type;
+} vd_ply_types[] = {
+	{"char", PLY_I8},    {"int8", PLY_I8},     {"uchar", PLY_U8},
+	{"uint8", PLY_U8},   {"short", PLY_I16},   {"int16", PLY_I16},
+	{"ushort", PLY_U16}, {"uint16", PLY_U16},  {"int", PLY_I32},
+	{"int32", PLY_I32},  {"uint", PLY_U32},    {"uint32", PLY_U32},
+	{"float", PLY_F32},  {"float32", PLY_F32}, {"double", PLY_F64},
+	{"float64", PLY_F64},
+};
+
+static int vd_ply_type_of(const char *name)
+{
+	for (size_t i = 0; i < sizeof vd_ply_types / sizeof *vd_ply_types; i++)
+		if (!strcmp(name, vd_ply_types[i].name))
+			return vd_ply_types[i].type;
+	return PLY_NONE;
+}
+
+struct vd_ply_prop {
+	char name[32];         /* longer names are cut; we match short ones */
+	unsigned char type;    /* scalar type, or the list's item type */
+	unsigned char count;   /* list count type; PLY_NONE for a scalar */
+};
+
+struct vd_ply_elem {
+	char name[32];
+	uint64_t count;
+	struct vd_ply_prop *props;
+	size_t nprops, cap;
+	size_t min_bytes;      /* binary bytes of one item with empty lists */
+	int fixed;             /* no list properties: every item min_bytes */
+};
+
+static uint64_t vd_ld(const unsigned char *p, int n, int be)
+{
+	uint64_t v = 0;
+	for (int i = 0; i < n; i++)
+		v |= (uint64_t)p[be ? n - 1 - i : i] << (8 * i);
+	return v;
+}
+
+static double vd_ply_decode(const unsigned char *p, int type, int be)
+{
+	switch (type) {
+	case PLY_I8: return (int8_t)p[0];
+	case PLY_U8: return p[0];
+	case PLY_I16: return (int16_t)(uint16_t)vd_ld(p, 2, be);
+	case PLY_U16: return (uint16_t)vd_ld(p, 2, be);
+	case PLY_I32: return (int32_t)(uint32_t)vd_ld(p, 4, be);
+	case PLY_U32: return (uint32_t)vd_ld(p, 4, be);
+	case PLY_F32: {
+		uint32_t u = (uint32_t)vd_ld(p, 4, be);
+		float f;
+		memcpy(&f, &u, 4);
+		return f;
+	}
+	case PLY_F64: {
+		uint64_t u = vd_ld(p, 8, be);
+		double d;
+		memcpy(&d, &u, 8);
+		return d;
+	}
+	}
+	return 0;
+}
+
+/* Integer types only (checked in the header), so no rounding. */
+static int64_t vd_ply_decode_int(const unsigned char *p, int type, int be)
+{
+	switch (type) {
+	case PLY_I8: return (int8_t)p[0];
+	case PLY_U8: return p[0];
+	case PLY_I16: return (int16_t)(uint16_t)vd_ld(p, 2, be);
+	case PLY_U16: return (uint16_t)vd_ld(p, 2, be);
+	case PLY_I32: return (int32_t)(uint32_t)vd_ld(p, 4, be);
+	case PLY_U32: return (uint32_t)vd_ld(p, 4, be);
+	}
+	return 0;
+}
+
+/* ------------------------------------------------------------ the reader */
+
+enum vd_mesh_kind {
+	MESH_PLY_LE, MESH_PLY_BE, MESH_PLY_ASCII, MESH_OBJ, MESH_STL_BIN,
+	MESH_STL_ASCII
+};
+
+static const char *const vd_mesh_kind_names[] = {
+	"ply-binary-le", "ply-binary-be", "ply-ascii", "obj", "stl-binary",
+	"stl-ascii"};
+
+struct vd_mesh {
+	int kind;
+	struct vd_rd r;
+	uint64_t file_bytes;
+	uint64_t body_off, body_lines; /* where rewind restarts */
+
+	float *verts;          /* x y z per vertex */
+	uint64_t nverts, verts_cap;
+	int nonfinite;         /* some vertex has a NaN/inf coordinate */
+
+	/* The polygon being fanned out: vertex indices into verts. */
+	uint32_t *poly;
+	size_t poly_n, poly_next, poly_cap;
+	uint64_t poly_face;    /* 1-based face number, for messages */
+	uint64_t poly_line;    /* its line in text formats */
+
+	/* PLY */
+	struct vd_ply_elem *elems;
+	size_t nelems;
+	size_t vert_elem, face_elem; /* indices into elems; nelems if none */
+	int ix, iy, iz, ilist;       /* property indices */
+	uint64_t faces_done;
+
+	/* STL */
+	uint64_t stl_count;    /* binary: triangles in the file */
+	int stl_in_solid;      /* text: between 'solid' and 'endsolid' */
+	char *stl_rest;        /* text: unread part of the current line */
+
+	struct vd_mesh_stats stats;
+	int done;
+	int err;               /* sticky: reads after a failure repeat it */
+	char err_detail[512];
+};
+
+static int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
+{
+	if (need <= m->poly_cap)
+		return VD_OK;
+	size_t cap = m->poly_cap ? m->poly_cap * 2 : 64;
+	while (cap < need)
+		cap *= 2;
+	uint32_t *p = realloc(m->poly, cap * sizeof *p);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "polygon of %zu corners", need);
+	m->poly = p;
+	m->poly_cap = cap;
+	return VD_OK;
+}
+
+static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
+{
+	if (m->nverts == m->verts_cap) {
+		uint64_t cap = m->verts_cap ? m->verts_cap * 2 : 4096;
+		if (cap > UINT32_MAX)
+			cap = UINT32_MAX;
+		if (m->nverts >= cap)
+			return vd_fail(VD_ERR_RANGE,
+				       "more than %" PRIu32 " vertices",
+				       UINT32_MAX);
+		float *p = realloc(m->verts, (size_t)cap * 12);
+		if (!p)
+			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
+				       cap);
+		m->verts = p;
+		m->verts_cap = cap;
+	}
+	float *d = m->verts + 3 * m->nverts++;
+	d[0] = v[0];
+	d[1] = v[1];
+	d[2] = v[2];
+	if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
+		m->nonfinite = 1;
+	return VD_OK;
+}
+
+/* "line 12: " for text formats, "" otherwise, for details. */
+static const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
+				 size_t cap)
+{
+	if (m->kind == MESH_PLY_ASCII || m->kind == MESH_OBJ ||
+	    m->kind == MESH_STL_ASCII)
+		snprintf(buf, cap, "line %" PRIu64 ": ", m->poly_line);
+	else
+		buf[0] = 0;
+	return buf;
+}
+
+/* Called once a polygon is complete: applies the corner-count rules and the
+ * non-finite rule. Sets poly_n to 0 for a dropped face. */
+static int vd_mesh_poly_done(struct vd_mesh *m)
+{
+	if (m->poly_n < 3) {
+		m->stats.faces_dropped_short++;
+		m->poly_n = 0;
+		return VD_OK;
+	}
+	if (m->poly_n > 3)
+		m->stats.polygons_split++;
+	if (m->nonfinite) {
+		for (size_t i = 0; i < m->poly_n; i++) {
+			const float *v = m->verts + 3 * (size_t)m->poly[i];
+			if (isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]))
+				continue;
+			char w[48];
+			vd_mesh_where(m, w, sizeof w);
+			if (m->kind == MESH_STL_ASCII)
+				return vd_fail(VD_ERR_RANGE,
+					"%sfacet %" PRIu64 " has a non-finite "
+					"vertex (%g %g %g)", w, m->poly_face,
+					v[0], v[1], v[2]);
+			return vd_fail(VD_ERR_RANGE,
+				"%sface %" PRIu64 " uses vertex %" PRIu32
+				"%s whose position is not finite (%g %g %g)",
+				w, m->poly_face,
+				m->poly[i] + (m->kind == MESH_OBJ),
+				m->kind == MESH_OBJ ? " (1-based)" : "",
+				v[0], v[1], v[2]);
+		}
+	}
+	m->poly_next = 1;
+	return VD_OK;
+}
+
+/* Checks a raw index of a PLY face and stores it. */
+static int vd_ply_corner(struct vd_mesh *m, int64_t idx)
+{
+	if (idx < 0 || (uint64_t)idx >= m->nverts) {
+		char w[48];
+		return vd_fail(VD_ERR_RANGE,
+			       "%sface %" PRIu64 ": vertex index %" PRId64
+			       " out of range (the file has %" PRIu64
+			       " vertices)", vd_mesh_where(m, w, sizeof w),
+			       m->poly_face, idx, m->nverts);
+	}
+	m->poly[m->poly_n++] = (uint32_t)idx;
+	return VD_OK;
+}
+
+static int vd_ply_bad_count(struct vd_mesh *m, int64_t n)
+{
+	char w[48];
+	return vd_fail(VD_ERR_FORMAT,
+		       "%sface %" PRIu64 ": %" PRId64 " corners (at most %d "
+		       "accepted)", vd_mesh_where(m, w, sizeof w),
+		       m->poly_face, n, MESH_MAX_CORNERS);
+}
+
+static int vd_ply_truncated(struct vd_mesh *m, int e, const char *what,
+			    uint64_t i, uint64_t n)
+{
+	if (e != VD_ERR_TRUNCATED)
+		return e;
+	return vd_fail(VD_ERR_TRUNCATED, "file ends inside %s %" PRIu64
+		       " of %" PRIu64 " (at byte %" PRIu64 ")", what, i + 1, n,
+		       m->r.off + m->r.len);
+}
+
+/* Skips or decodes one binary item of element e. With `vert`, stores the
+ * position in v; with `face`, collects the corner list in m->poly. */
+static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
+			   float *v, int face)
+{
+	int be = m->kind == MESH_PLY_BE, e;
+	struct vd_rd *r = &m->r;
+	if (el->fixed && !face) {
+		if ((e = vd_rd_need(r, el->min_bytes)))
+			return e;
+		if (v) {
+			const unsigned char *p = r->buf + r->pos;
+			for (size_t i = 0; i < el->nprops; i++) {
+				int k = (int)i == m->ix ? 0 : (int)i == m->iy ? 1
+					: (int)i == m->iz ? 2 : -1;
+				if (k >= 0)
+					v[k] = vd_to_f32(vd_ply_decode(
+						p, el->props[i].type, be));
+				p += vd_ply_size[el->props[i].type];
+			}
+		}
+		r->pos += el->min_bytes;
+		return VD_OK;
+	}
+	for (size_t i = 0; i < el->nprops; i++) {
+		const struct vd_ply_prop *pr = &el->props[i];
+		size_t size = vd_ply_size[pr->type];
+		if (pr->count == PLY_NONE) {
+			if ((e = vd_rd_need(r, size)))
+				return e;
+			if (v && ((int)i == m->ix || (int)i == m->iy ||
+				  (int)i == m->iz))
+				v[(int)i == m->ix ? 0 : (int)i == m->iy ? 1 : 2]
+					= vd_to_f32(vd_ply_decode(
+						r->buf + r->pos, pr->type, be));
+			r->pos += size;
+			continue;
+		}
+		if ((e = vd_rd_need(r, vd_ply_size[pr->count])))
+			return e;
+		int64_t n = vd_ply_decode_int(r->buf + r->pos, pr->count, be);
+		r->pos += vd_ply_size[pr->count];
+		if (face && (int)i == m->ilist) {
+			if (n < 0 || n > MESH_MAX_CORNERS)
+				return vd_ply_bad_count(m, n);
+			if ((e = vd_mesh_grow_poly(m, (size_t)n)) ||
+			    (e = vd_rd_need(r, (size_t)n * size)))
+				return e;
+			const unsigned char *p = r->buf + r->pos;
+			m->poly_n = 0;
+			for (int64_t j = 0; j < n; j++, p += size)
+				if ((e = vd_ply_corner(m,
+					vd_ply_decode_int(p, pr->type, be))))
+					return e;
+			r->pos += (size_t)n * size;
+			continue;
+		}
+		if (n < 0)
+			return vd_fail(VD_ERR_FORMAT,
+				       "element '%s': negative list count "
+				       "%" PRId64, el->name, n);
+		if ((e = vd_rd_skip(r, (uint64_t)n * size)))
+			return e;
+	}
+	return VD_OK;
+}
+
+/* The same for one ASCII line. */
+static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
+			     float *v, int face, uint64_t index)
+{
+	char *s;
+	size_t len;
+	int e;
+	do {
+		e = vd_rd_line(&m->r, &s, &len, 0);
+		if (e < 0)
+			return e;
+		if (e == 0)
+			return vd_fail(VD_ERR_TRUNCATED,
+				       "file ends after %" PRIu64 " of %" PRIu64
+				       " items of element '%s' (line %" PRIu64
+				       ")", index, el->count, el->name,
+				       m->r.lines);
+		if (strlen(s) != len)
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+				       "byte in an ASCII PLY body", m->r.lines);
+		s = (char *)vd_skip_space(s);
+	} while (*s == 0);
+	m->poly_line = m->r.lines;
+	const char *p = s;
+	for (size_t i = 0; i < el->nprops; i++) {
+		const struct vd_ply_prop *pr = &el->props[i];
+		p = vd_skip_space(p);
+		if (*p == 0)
+			return vd_fail(VD_ERR_FORMAT,
+				       "line %" PRIu64 ": %s %" PRIu64
+				       " ends before property '%s'", m->r.lines,
+				       el->name, index + 1, pr->name);
+		const char *t = p;
+		if (pr->count == PLY_NONE) {
+			double d;
+			if (!(p = vd_parse_double(t, &d)))
+				goto bad;
+			if (v && ((int)i == m->ix || (int)i == m->iy ||
+				  (int)i == m->iz))
+				v[(int)i == m->ix ? 0 : (int)i == m->iy ? 1 : 2]
+					= vd_to_f32(d);
+			continue;
+		}
+		int64_t n;
+		if (!(p = vd_parse_int(t, &n)) || !vd_is_end(*p))
+			goto bad;
+		int corners = face && (int)i == m->ilist;
+		if (corners) {
+			if (n < 0 || n > MESH_MAX_CORNERS)
+				return vd_ply_bad_count(m, n);
+			if ((e = vd_mesh_grow_poly(m, (size_t)n)))
+				return e;
+			m->poly_n = 0;
+		} else if (n < 0) {
+			return vd_fail(VD_ERR_FORMAT,
+				       "line %" PRIu64 ": negative list count "
+				       "%" PRId64, m->r.lines, n);
+		}
+		for (int64_t j = 0; j < n; j++) {
+			p = vd_skip_space(p);
+			t = p;
+			if (*p == 0)
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": list '%s' ends after "
+					"%" PRId64 " of %" PRId64 " items",
+					m->r.lines, pr->name, j, n);
+			if (corners) {
+				int64_t idx;
+				if (!(p = vd_parse_int(t, &idx)) ||
+				    !vd_is_end(*p))
+					goto bad;
+				if ((e = vd_ply_corner(m, idx)))
+					return e;
+			} else {
+				double d;
+				if (!(p = vd_parse_double(t, &d)))
+					goto bad;
+			}
+		}
+		continue;
+	bad:
+		return vd_fail(VD_ERR_FORMAT,
+			       "line %" PRIu64 ": malformed number '%.*s' for "
+			       "property '%s'", m->r.lines,
+			       (int)(vd_token_end(t) - t > 40 ? 40 :
+				     vd_token_end(t) - t), t, pr->name);
+	}
+	p = vd_skip_space(p);
+	if (*p != 0)
+		return vd_fail(VD_ERR_FORMAT,
+			       "line %" PRIu64 ": unexpected '%.*s' after the "
+			       "%zu properties of element '%s'", m->r.lines,
+			       (int)(vd_token_end(p) - p > 40 ? 40 :
+				     vd_token_end(p) - p), p, el->nprops,
+			       el->name);
+	return VD_OK;
+}
+
+static int vd_ply_item(struct vd_mesh *m, const struct vd_ply_elem *el,
+		       float *v, int face, uint64_t index)
+{
+	if (m->kind == MESH_PLY_ASCII)
+		return vd_ply_ascii_item(m, el, v, face, index);
+	int e = vd_ply_bin_item(m, el, v, face);
+	return e ? vd_ply_truncated(m, e, el->name, index, el->count) : VD_OK;
+}
+
+static int vd_ply_add_elem(struct vd_mesh *m, const char *name,
+			   uint64_t count)
+{
+	struct vd_ply_elem *p =
+		realloc(m->elems, (m->nelems + 1) * sizeof *p);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "PLY header");
+	m->elems = p;
+	struct vd_ply_elem *el = &m->elems[m->nelems++];
+	memset(el, 0, sizeof *el);
+	snprintf(el->name, sizeof el->name, "%s", name);
+	el->count = count;
+	el->fixed = 1;
+	return VD_OK;
+}
+
+static int vd_ply_add_prop(struct vd_mesh *m, const char *name, int type,
+			   int count)
+{
+	struct vd_ply_elem *el = &m->elems[m->nelems - 1];
+	if (el->nprops == el->cap) {
+		size_t cap = el->cap ? el->cap * 2 : 8;
+		struct vd_ply_prop *p = realloc(el->props, cap * sizeof *p);
+		if (!p)
+			return vd_fail(VD_ERR_NOMEM, "PLY header");
+		el->props = p;
+		el->cap = cap;
+	}
+	struct vd_ply_prop *pr = &el->props[el->nprops++];
+	snprintf(pr->name, sizeof pr->name, "%s", name);
+	pr->type = (unsigned char)type;
+	pr->count = (unsigned char)count;
+	if (count != PLY_NONE) {
+		el->fixed = 0;
+		el->min_bytes += vd_ply_size[count];
+	} else {
+		el->min_bytes += vd_ply_size[type];
+	}
+	return VD_OK;
+}
+
+/* Splits s in place at spaces into at most max tokens; returns how many
+ * there were (max + 1 means more). */
+static int vd_split(char *s, char **tok, int max)
+{
+	int n = 0;
+	for (;;) {
+		while (vd_is_space(*s))
+			*s++ = 0;
+		if (!*s)
+			return n;
+		if (n == max)
+			return n + 1;
+		tok[n++] = s;
+		while (*s && !vd_is_space(*s))
+			s++;
+	}
+}
+
+static int vd_ply_header(struct vd_mesh *m)
+{
+	char *s, *tok[8];
+	size_t len;
+	int e, have_format = 0;
+	for (;;) {
+		e = vd_rd_line(&m->r, &s, &len, 0);
+		if (e < 0)
+			return e;
+		if (e == 0)
+			return vd_fail(VD_ERR_TRUNCATED,
+				       "PLY header ends at byte %" PRIu64
+				       " (line %" PRIu64 ") without end_header",
+				       m->file_bytes, m->r.lines);
+		uint64_t ln = m->r.lines;
+		for (size_t i = 0; i < len; i++)
+			if (s[i] == 0 || (unsigned char)s[i] >= 0x7f ||
+			    ((unsigned char)s[i] < 0x20 && !vd_is_space(s[i])))
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": binary bytes in the "
+					"PLY header (end_header missing?)", ln);
+		if (ln == 1) /* "ply", checked by the detection */
+			continue;
+		int n = vd_split(s, tok, 8);
+		if (n == 0)
+			continue;
+		if (!strcmp(tok[0], "comment") || !strcmp(tok[0], "obj_info"))
+			continue;
+		if (!strcmp(tok[0], "end_header"))
+			break;
+		if (!strcmp(tok[0], "format")) {
+			if (n != 3)
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": expected 'format "
+					"<type> 1.0'", ln);
+			if (!strcmp(tok[1], "ascii"))
+				m->kind = MESH_PLY_ASCII;
+			else if (!strcmp(tok[1], "binary_little_endian"))
+				m->kind = MESH_PLY_LE;
+			else if (!strcmp(tok[1], "binary_big_endian"))
+				m->kind = MESH_PLY_BE;
+			else
+				return vd_fail(VD_ERR_UNSUPPORTED,
+					"line %" PRIu64 ": unknown PLY format "
+					"'%.40s'", ln, tok[1]);
+			if (strcmp(tok[2], "1.0") && strcmp(tok[2], "1"))
+				return vd_fail(VD_ERR_UNSUPPORTED,
+					"line %" PRIu64 ": PLY version '%.20s' "
+					"(only 1.0 is known)", ln, tok[2]);
+			have_format = 1;
+			continue;
+		}
+		if (!strcmp(tok[0], "element")) {
+			int64_t count;
+			const char *p;
+			if (n != 3 || !(p = vd_parse_int(tok[2], &count)) ||
+			    *p || count < 0)
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": expected 'element "
+					"<name> <count>'", ln);
+			if ((e = vd_ply_add_elem(m, tok[1], (uint64_t)count)))
+				return e;
+			continue;
+		}
+		if (!strcmp(tok[0], "property")) {
+			if (m->nelems == 0)
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": property before "
+					"any element", ln);
+			int list = n >= 2 && !strcmp(tok[1], "list");
+			if (n != (list ? 5 : 3))
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": expected 'property "
+					"<type> <name>' or 'property list "
+					"<count type> <type> <name>'", ln);
+			int count = PLY_NONE, type;
+			for (int i = 1 + list; i < n - 1; i++)
+				if (vd_ply_type_of(tok[i]) == PLY_NONE)
+					return vd_fail(VD_ERR_FORMAT,
+						"line %" PRIu64 ": unknown PLY "
+						"type '%.40s'", ln, tok[i]);
+			if (list) {
+				count = vd_ply_type_of(tok[2]);
+				if (count >= PLY_F32)
+					return vd_fail(VD_ERR_FORMAT,
+						"line %" PRIu64 ": list count "
+						"type '%s' is not an integer",
+						ln, tok[2]);
+			}
+			type = vd_ply_type_of(tok[n - 2]);
+			if ((e = vd_ply_add_prop(m, tok[n - 1], type, count)))
+				return e;
+			continue;
+		}
+		return vd_fail(VD_ERR_FORMAT,
+			       "line %" PRIu64 ": unknown PLY header keyword "
+			       "'%.40s'", ln, tok[0]);
+	}
+	if (!have_format)
+		return vd_fail(VD_ERR_FORMAT, "PLY header has no format line");
+	return VD_OK;
+}
+
+/* Finds the vertex and face elements and refuses what we cannot stream. */
+static int vd_ply_layout(struct vd_mesh *m)
+{
+	m->vert_elem = m->face_elem = m->nelems;
+	m->ix = m->iy = m->iz = m->ilist = -1;
+	for (size_t i = 0; i < m->nelems; i++) {
+		if (!strcmp(m->elems[i].name, "vertex") &&
+		    m->vert_elem == m->nelems)
+			m->vert_elem = i;
+		if (!strcmp(m->elems[i].name, "face") &&
+		    m->face_elem == m->nelems)
+			m->face_elem = i;
+	}
+	if (m->face_elem < m->nelems) {
+		const struct vd_ply_elem *f = &m->elems[m->face_elem];
+		for (size_t i = 0; i < f->nprops; i++)
+			if (!strcmp(f->props[i].name, "vertex_indices") ||
+			    !strcmp(f->props[i].name, "vertex_index"))
+				m->ilist = (int)i;
+		if (m->ilist < 0)
+			return vd_fail(VD_ERR_FORMAT, "PLY element 'face' has "
+				       "no vertex_indices property");
+		const struct vd_ply_prop *p = &f->props[m->ilist];
+		if (p->count == PLY_NONE || p->type >= PLY_F32)
+			return vd_fail(VD_ERR_FORMAT, "PLY face property '%s' "
+				       "must be a list of integers", p->name);
+		if (m->vert_elem == m->nelems)
+			return vd_fail(VD_ERR_FORMAT, "PLY file has faces but "
+				       "no element 'vertex'");
+		if (m->face_elem < m->vert_elem)
+			return vd_fail(VD_ERR_UNSUPPORTED, "PLY element 'face' "
+				       "comes before element 'vertex'");
+	}
+	if (m->vert_elem < m->nelems) {
+		const struct vd_ply_elem *v = &m->elems[m->vert_elem];
+		for (size_t i = 0; i < v->nprops; i++) {
+			int *slot = !strcmp(v->props[i].name, "x") ? &m->ix
+				: !strcmp(v->props[i].name, "y") ? &m->iy
+				: !strcmp(v->props[i].name, "z") ? &m->iz
+				: NULL;
+			if (!slot || *slot >= 0)
+				continue;
+			if (v->props[i].count != PLY_NONE)
+				return vd_fail(VD_ERR_FORMAT, "PLY vertex "
+					"property '%s' is a list",
+					v->props[i].name);
+			*slot = (int)i;
+		}
+		if (m->ix < 0 || m->iy < 0 || m->iz < 0)
+			return vd_fail(VD_ERR_FORMAT, "PLY element 'vertex' "
+				       "lacks property %s",
+				       m->ix < 0 ? "x" : m->iy < 0 ? "y" : "z");
+		if (v->count > UINT32_MAX)
+			return vd_fail(VD_ERR_RANGE, "PLY file declares %"
+				       PRIu64 " vertices (at most %" PRIu32
+				       " supported)", v->count, UINT32_MAX);
+	}
+	/* Every item takes at least min_bytes (binary) or two characters per
+	 * property (text), so a count the rest of the file cannot hold is
+	 * caught here, before anything is allocated for it. */
+	size_t last = m->face_elem < m->nelems ? m->face_elem
+		: m->vert_elem < m->nelems ? m->vert_elem : 0;
+	uint64_t left = m->file_bytes - (m->r.off + m->r.pos), need = 0;
+	if (m->kind == MESH_PLY_ASCII)
+		left++; /* the last line may lack its newline */
+	for (size_t i = 0; i < m->nelems && i <= last; i++) {
+		const struct vd_ply_elem *el = &m->elems[i];
+		uint64_t per = m->kind == MESH_PLY_ASCII ? 2 * el->nprops
+			: el->min_bytes;
+		if (per && el->count > (left - need) / per)
+			return vd_fail(VD_ERR_TRUNCATED,
+				"PLY header declares %" PRIu64 " items of "
+				"element '%s' (at least %" PRIu64 " bytes each)"
+				" but only %" PRIu64 " bytes follow the header",
+				el->count, el->name, per, left);
+		need += el->count * per;
+	}
+	return VD_OK;
+}
+
+static int vd_ply_open(struct vd_mesh *m)
+{
+	int e;
+	if ((e = vd_ply_header(m)) || (e = vd_ply_layout(m)))
+		return e;
+	if (m->vert_elem == m->nelems) {
+		m->done = 1;
+		return VD_OK;
+	}
+	const struct vd_ply_elem *ve = &m->elems[m->vert_elem];
+	size_t end = m->face_elem < m->nelems ? m->face_elem : m->vert_elem + 1;
+	for (size_t i = 0; i < end; i++) {
+		const struct vd_ply_elem *el = &m->elems[i];
+		if (i != m->vert_elem) {
+			for (uint64_t j = 0; j < el->count; j++)
+				if ((e = vd_ply_item(m, el, NULL, 0, j)))
+					return e;
+			continue;
+		}
+		m->verts = malloc(ve->count ? (size_t)ve->count * 12 : 12);
+		if (!m->verts)
+			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
+				       ve->count);
+		m->verts_cap = ve->count;
+		m->stats.vertices = ve->count;
+		for (uint64_t j = 0; j < ve->count; j++) {
+			float v[3];
+			if ((e = vd_ply_item(m, ve, v, 0, j)) ||
+			    (e = vd_mesh_push_vertex(m, v)))
+				return e;
+		}
+	}
+	m->body_off = m->r.off + m->r.pos;
+	m->body_lines = m->r.lines;
+	if (m->face_elem == m->nelems)
+		m->done = 1;
+	return VD_OK;
+}
+
+/* Reads the next face into m->poly; *got = 0 at the end. */
+static int vd_ply_next(struct vd_mesh *m, int *got)
+{
+	const struct vd_ply_elem *f = &m->elems[m->face_elem];
+	if (m->faces_done == f->count) {
+		*got = 0;
+		return VD_OK;
+	}
+	m->poly_face = ++m->faces_done;
+	m->poly_n = 0;
+	int e = vd_ply_item(m, f, NULL, 1, m->faces_done - 1);
+	if (e)
+		return e;
+	*got = 1;
+	return VD_OK;
+}
+
+/* ------------------------------------------------------------------- OBJ */
+
+static int vd_obj_next(struct vd_mesh *m, int *got)
+{
+	char *s;
+	size_t len;
+	int e;
+	for (;;) {
+		e = vd_rd_line(&m->r, &s, &len, 1);
+		if (e < 0)
+			return e;
+		if (e == 0) {
+			*got = 0;
+			return VD_OK;
+		}
+		uint64_t ln = m->r.lines;
+		if (strlen(s) != len)
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+				       "byte in an OBJ file", ln);
+		const char *p = vd_skip_space(s);
+		if (*p == 0 || *p == '#')
+			continue;
+		if (p[0] == 'v' && vd_is_space(p[1])) {
+			float v[3];
+			p += 2;
+			for (int k = 0; k < 3; k++) {
+				double d;
+				const char *t = vd_skip_space(p);
+				if (*t == 0)
+					return vd_fail(VD_ERR_FORMAT,
+						"line %" PRIu64 ": vertex has "
+						"%d coordinates, needs 3", ln,
+						k);
+				if (!(p = vd_parse_double(t, &d)))
+					return vd_fail(VD_ERR_FORMAT,
+						"line %" PRIu64 ": malformed "
+						"number '%.*s'", ln,
+						(int)(vd_token_end(t) - t > 40
+						      ? 40 : vd_token_end(t) - t),
+						t);
+				v[k] = vd_to_f32(d);
+			}
+			/* w and vertex colours may follow; not ours. */
+			if ((e = vd_mesh_push_vertex(m, v)))
+				return e;
+			m->stats.vertices = m->nverts;
+			continue;
+		}
+		if (p[0] == 'f' && vd_is_space(p[1])) {
+			m->poly_face++;
+			m->poly_line = ln;
+			m->poly_n = 0;
+			for (p += 2;;) {
+				const char *t = vd_skip_space(p);
+				if (*t == 0)
+					break;
+				int64_t i;
+				if (!(p = vd_parse_int(t, &i)))
+					goto bad_corner;
+				/* texture and normal indices: not ours */
+				if (*p == '/')
+					while ((*p >= '0' && *p <= '9') ||
+					       *p == '/' || *p == '-')
+						p++;
+				if (!vd_is_end(*p))
+					goto bad_corner;
+				if (i == 0)
+					return vd_fail(VD_ERR_RANGE,
+						"line %" PRIu64 ": face %" PRIu64
+						": vertex index 0 (OBJ indices "
+						"start at 1)", ln, m->poly_face);
+				int64_t idx = i > 0 ? i - 1 : (int64_t)m->nverts + i;
+				if (idx < 0 || (uint64_t)idx >= m->nverts)
+					return vd_fail(VD_ERR_RANGE,
+						"line %" PRIu64 ": face %" PRIu64
+						": vertex index %" PRId64 " out "
+						"of range (%" PRIu64 " vertices "
+						"defined so far)", ln,
+						m->poly_face, i, m->nverts);
+				if (m->poly_n == MESH_MAX_CORNERS)
+					return vd_fail(VD_ERR_FORMAT,
+						"line %" PRIu64 ": face %" PRIu64
+						" has more than %d corners", ln,
+						m->poly_face, MESH_MAX_CORNERS);
+				if ((e = vd_mesh_grow_poly(m, m->poly_n + 1)))
+					return e;
+				m->poly[m->poly_n++] = (uint32_t)idx;
+				continue;
+			bad_corner:
+				return vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": malformed face "
+					"corner '%.*s'", ln,
+					(int)(vd_token_end(t) - t > 40 ? 40 :
+					      vd_token_end(t) - t), t);
+			}
+			*got = 1;
+			return VD_OK;
+		}
+		/* vn vt o g s usemtl mtllib l p and the rest of the spec
+		 * describe things we do not voxelize. Only non-words are
+		 * refused, to catch binary files named .obj. */
+		if ((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') ||
+		    *p == '_')
+			continue;
+		return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": unexpected "
+			       "'%.*s' in an OBJ file", ln,
+			       (int)(vd_token_end(p) - p > 40 ? 40 :
+				     vd_token_end(p) - p), p);
+	}
+}
+
+/* ------------------------------------------------------------------- STL */
+
+/* ------------------------------------------------------------------- STL */
+
+/* Returns 1 with the next whitespace-separated token in *t, 0 at the end.
+ * ASCII STL is read by tokens, not lines, because writers disagree on line
+ * breaks. stl_rest stays valid between calls: the buffer only moves inside
+ * vd_rd_line, after the current line is used up. */
+static int vd_stl_token(struct vd_mesh *m, char **t)
+{
+	for (;;) {
+		if (m->stl_rest) {
+			char *p = (char *)vd_skip_space(m->stl_rest);
+			if (*p) {
+				char *q = (char *)vd_token_end(p);
+				m->stl_rest = *q ? q + 1 : q;
+				*q = 0;
+				*t = p;
+				return 1;
+			}
+		}
+		char *s;
+		size_t len;
+		int e = vd_rd_line(&m->r, &s, &len, 0);
+		if (e <= 0)
+			return e;
+		if (strlen(s) != len)
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+				       "byte in an ASCII STL file", m->r.lines);
+		m->stl_rest = s;
+	}
+}
+
+/* Reads a token that must be there (we are inside a facet). */
+static int vd_stl_inner(struct vd_mesh *m, char **t)
+{
+	int e = vd_stl_token(m, t);
+	if (e == 0)
+		return vd_fail(VD_ERR_TRUNCATED, "file ends inside facet %"
+			       PRIu64 " (line %" PRIu64 ")", m->poly_face,
+			       m->r.lines);
+	return e < 0 ? e : VD_OK;
+}
+
+static int vd_stl_expect(struct vd_mesh *m, const char *want)
+{
+	char *t;
+	int e = vd_stl_inner(m, &t);
+	if (e)
+		return e;
+	if (strcasecmp(t, want))
+		return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": expected "
+			       "'%s', found '%.40s'", m->r.lines, want, t);
+	return VD_OK;
+}
+
+static int vd_stl_numbers(struct vd_mesh *m, float v[3])
+{
+	for (int k = 0; k < 3; k++) {
+		char *t;
+		double d;
+		int e = vd_stl_inner(m, &t);
+		if (e)
+			return e;
+		if (!vd_parse_double(t, &d))
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": "
+				       "malformed number '%.40s'", m->r.lines,
+				       t);
+		v[k] = vd_to_f32(d);
+	}
+	return VD_OK;
+}
+
+/* The facet's corners go to m->verts (reset per facet) so that the polygon
+ * code is shared with the indexed formats. */
+static int vd_stl_ascii_next(struct vd_mesh *m, int *got)
+{
+	char *t;
+	float v[3];
+	int e;
+	for (;;) {
+		e = vd_stl_token(m, &t);
+		if (e < 0)
+			return e;
+		if (e == 0) {
+			/* A missing endsolid loses nothing; tolerate it. */
+			*got = 0;
+			return VD_OK;
+		}
+		if (!m->stl_in_solid) {
+			if (strcasecmp(t, "solid"))
+				return vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					       ": expected 'solid', found "
+					       "'%.40s'", m->r.lines, t);
+			m->stl_in_solid = 1;
+			m->stl_rest = NULL; /* the solid's name */
+			continue;
+		}
+		if (!strcasecmp(t, "endsolid")) {
+			m->stl_in_solid = 0;
+			m->stl_rest = NULL;
+			continue;
+		}
+		if (strcasecmp(t, "facet"))
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": "
+				       "expected 'facet' or 'endsolid', found "
+				       "'%.40s'", m->r.lines, t);
+		m->poly_face++;
+		m->poly_line = m->r.lines;
+		if ((e = vd_stl_expect(m, "normal")) ||
+		    (e = vd_stl_numbers(m, v)) ||
+		    (e = vd_stl_expect(m, "outer")) ||
+		    (e = vd_stl_expect(m, "loop")))
+			return e;
+		m->nverts = 0;
+		m->nonfinite = 0;
+		m->poly_n = 0;
+		for (;;) {
+			if ((e = vd_stl_inner(m, &t)))
+				return e;
+			if (!strcasecmp(t, "endloop"))
+				break;
+			if (strcasecmp(t, "vertex"))
+				return vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					       ": expected 'vertex' or "
+					       "'endloop', found '%.40s'",
+					       m->r.lines, t);
+			if (m->poly_n == MESH_MAX_CORNERS)
+				return vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					       ": facet %" PRIu64 " has more "
+					       "than %d vertices", m->r.lines,
+					       m->poly_face, MESH_MAX_CORNERS);
+			if ((e = vd_stl_numbers(m, v)) ||
+			    (e = vd_mesh_push_vertex(m, v)) ||
+			    (e = vd_mesh_grow_poly(m, m->poly_n + 1)))
+				return e;
+			m->poly[m->poly_n] = (uint32_t)m->poly_n;
+			m->poly_n++;
+		}
+		if ((e = vd_stl_expect(m, "endfacet")))
+			return e;
+		*got = 1;
+		return VD_OK;
+	}
+}
+
+static float vd_ld_f32le(const unsigned char *p)
+{
+	uint32_t u = (uint32_t)vd_ld(p, 4, 0);
+	float f;
+	memcpy(&f, &u, 4);
+	return f;
+}
+
+static int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
+			   size_t cap, size_t *n)
+{
+	struct vd_rd *r = &m->r;
+	size_t k = 0;
+	while (k < cap && m->faces_done < m->stl_count) {
+		int e = vd_rd_need(r, 50);
+		if (e) {
+			*n = k;
+			return e == VD_ERR_TRUNCATED ? vd_fail(e,
+				"file ends inside triangle %" PRIu64 " of %"
+				PRIu64, m->faces_done + 1, m->stl_count) : e;
+		}
+		/* A record: normal (ignored; we trust the corners), three
+		 * corners, attribute word; all little-endian float32. */
+		const unsigned char *p = r->buf + r->pos + 12;
+		struct vd_triangle *t = &buf[k];
+		for (int c = 0; c < 3; c++)
+			for (int a = 0; a < 3; a++)
+				t->v[c][a] = vd_ld_f32le(p + 12 * c + 4 * a);
+		for (int c = 0; c < 3; c++)
+			if (!isfinite(t->v[c][0]) || !isfinite(t->v[c][1]) ||
+			    !isfinite(t->v[c][2])) {
+				*n = k;
+				return vd_fail(VD_ERR_RANGE, "triangle %" PRIu64
+					       " has a non-finite vertex (%g %g"
+					       " %g)", m->faces_done + 1,
+					       t->v[c][0], t->v[c][1],
+					       t->v[c][2]);
+			}
+		r->pos += 50;
+		m->faces_done++;
+		k++;
+	}
+	*n = k;
+	return VD_OK;
+}
+
+/* ------------------------------------------------------------- detection */
+
+static int vd_has_ext(const char *path, const char *ext)
+{
+	size_t n = strlen(path), e = strlen(ext);
+	return n > e && !strcasecmp(path + n - e, ext);
+}
+
+/* Text as far as we can tell: no NUL or control bytes but whitespace.
+ * Bytes >= 0x80 pass so that UTF-8 names and comments are fine. */
+static int vd_is_text(const unsigned char *p, size_t n)
+{
+	for (size_t i = 0; i < n; i++)
+		if ((p[i] < 0x20 && p[i] != '\n' && !vd_is_space((char)p[i])) ||
+		    p[i] == 0x7f)
+			return 0;
+	return 1;
+}
+
+/* The first statement is one only OBJ files start with. */
+static int vd_looks_like_obj(const unsigned char *p, size_t n)
+{
+	static const char *const kw[] = {"v", "vn", "vt", "vp", "f", "o", "g",
+					 "s", "usemtl", "mtllib", "l", "p"};
+	if (!vd_is_text(p, n))
+		return 0;
+	size_t i = 0;
+	while (i < n) {
+		while (i < n && (vd_is_space((char)p[i]) || p[i] == '\n'))
+			i++;
+		if (i < n && p[i] == '#') {
+			while (i < n && p[i] != '\n')
+				i++;
+			continue;
+		}
+		size_t j = i;
+		while (j < n && p[j] > ' ')
+			j++;
+		if (j == n || !vd_is_space((char)p[j]))
+			return 0;
+		for (size_t k = 0; k < sizeof kw / sizeof *kw; k++)
+			if (strlen(kw[k]) == j - i &&
+			    !memcmp(kw[k], p + i, j - i))
+				return 1;
+		return 0;
+	}
+	return 0;
+}
+
+/* Says what the file starts with, for the "unsupported" detail. */
+static void vd_describe_start(const unsigned char *p, size_t n, char *out,
+			      size_t cap)
+{
+	size_t k = 0;
+	while (k < n && k < 24 && p[k] >= 0x20 && p[k] < 0x7f)
+		k++;
+	if (k >= 4 || k == n) {
+		snprintf(out, cap, "starts with '%.*s'", (int)k,
+			 (const char *)p);
+		return;
+	}
+	size_t w = (size_t)snprintf(out, cap, "starts with bytes");
+	for (size_t i = 0; i < n && i < 8 && w + 4 < cap; i++)
+		w += (size_t)snprintf(out + w, cap - w, " %02x", p[i]);
+}
+
+static int vd_stl_size_error(struct vd_mesh *m, const unsigned char *head,
+			     size_t hn)
+{
+	if (m->file_bytes < 84)
+		return vd_fail(VD_ERR_TRUNCATED, "binary STL needs at least 84 "
+			       "bytes, the file has %" PRIu64, m->file_bytes);
+	uint64_t count = vd_ld(head + 80, 4, 0), want = 84 + 50 * count;
+	return vd_fail(want > m->file_bytes ? VD_ERR_TRUNCATED
+		       : VD_ERR_TRAILING, "binary STL declares %" PRIu64
+		       " triangles (%" PRIu64 " bytes) but the file has %"
+		       PRIu64 " bytes", count, want, m->file_bytes);
+}
+
+static int vd_mesh_detect(struct vd_mesh *m, const char *path)
+{
+	struct vd_rd *r = &m->r;
+	size_t want = m->file_bytes < 4096 ? (size_t)m->file_bytes : 4096;
+	int e = vd_rd_need(r, want);
+	if (e == VD_ERR_TRUNCATED)
+		return vd_fail(e, "'%s' shrank while being opened", path);
+	if (e)
+		return e;
+	const unsigned char *head = r->buf;
+	size_t hn = r->len;
+
+	if (hn >= 3 && !memcmp(head, "ply", 3) &&
+	    (hn == 3 || head[3] == '\n' || head[3] == '\r'))
+		return vd_ply_open(m);
+
+	if (m->file_bytes >= 84 &&
+	    84 + 50 * vd_ld(head + 80, 4, 0) == m->file_bytes) {
+		m->kind = MESH_STL_BIN;
+		m->stl_count = vd_ld(head + 80, 4, 0);
+		m->body_off = 84;
+		return vd_rd_seek(r, m->body_off, 0);
+	}
+	size_t i = 0;
+	while (i < hn && (vd_is_space((char)head[i]) || head[i] == '\n'))
+		i++;
+	int solid = hn - i >= 5 && !strncasecmp((const char *)head + i,
+						"solid", 5) &&
+		(hn - i == 5 || vd_is_end((char)head[i + 5]) ||
+		 head[i + 5] == '\n');
+	if (solid && vd_is_text(head, hn)) {
+		m->kind = MESH_STL_ASCII;
+		return vd_rd_seek(r, 0, 0);
+	}
+	if (solid || vd_has_ext(path, ".stl"))
+		return vd_stl_size_error(m, head, hn);
+	if (vd_has_ext(path, ".obj") || vd_looks_like_obj(head, hn)) {
+		m->kind = MESH_OBJ;
+		return vd_rd_seek(r, 0, 0);
+	}
+	char what[80];
+	vd_describe_start(head, hn, what, sizeof what);
+	return vd_fail(VD_ERR_UNSUPPORTED, "not a PLY, OBJ or STL file (%s)",
+		       what);
+}
+
+/* ------------------------------------------------------------ public API */
+
+int vd_mesh_open(struct vd_mesh **out, const char *path)
+{
+	if (!out || !path)
+		return vd_fail(VD_ERR_ARG, "vd_mesh_open: NULL argument");
+	*out = NULL;
+	struct vd_mesh *m = calloc(1, sizeof *m);
+	if (!m)
+		return vd_fail(VD_ERR_NOMEM, "mesh reader");
+	m->r.fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (m->r.fd < 0) {
+		int e = vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
+				strerror(errno));
+		free(m);
+		return e;
+	}
+	int e;
+	struct stat st;
+	if (fstat(m->r.fd, &st) < 0)
+		e = vd_fail(VD_ERR_IO, "cannot stat '%s': %s", path,
+			    strerror(errno));
+	else if (S_ISDIR(st.st_mode))
+		e = vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
+			    strerror(EISDIR));
+	else if (!S_ISREG(st.st_mode))
+		/* Rewind and the size checks need a seekable, sized file. */
+		e = vd_fail(VD_ERR_UNSUPPORTED, "'%s' is not a regular file",
+			    path);
+	else if (st.st_size == 0)
+		e = vd_fail(VD_ERR_EMPTY, "'%s' is empty (0 bytes)", path);
+	else if (!(m->r.buf = malloc(MESH_BUF_BYTES + 1)))
+		e = vd_fail(VD_ERR_NOMEM, "read buffer");
+	else {
+		m->r.cap = MESH_BUF_BYTES;
+		m->file_bytes = (uint64_t)st.st_size;
+		e = vd_mesh_detect(m, path);
+	}
+	if (e) {
+		vd_mesh_close(m);
+		return e;
+	}
+	*out = m;
+	return VD_OK;
+}
+
+static int vd_mesh_next(struct vd_mesh *m, int *got)
+{
+	switch (m->kind) {
+	case MESH_OBJ: return vd_obj_next(m, got);
+	case MESH_STL_ASCII: return vd_stl_ascii_next(m, got);
+	default: return vd_ply_next(m, got);
+	}
+}
+
+int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
+		 size_t *n)
+{
+	if (!n)
+		return vd_fail(VD_ERR_ARG, "vd_mesh_read: NULL count");
+	*n = 0;
+	if (!m || !buf || cap == 0)
+		return vd_fail(VD_ERR_ARG, "vd_mesh_read: no mesh or no room");
+	if (m->err)
+		return vd_fail(m->err, "%s", m->err_detail);
+	size_t k = 0;
+	int e = VD_OK;
+	if (m->kind == MESH_STL_BIN) {
+		e = vd_stl_bin_read(m, buf, cap, &k);
+	} else {
+		while (k < cap) {
+			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
+				struct vd_triangle *t = &buf[k++];
+				const uint32_t c[3] = {
+					m->poly[0], m->poly[m->poly_next],
+					m->poly[m->poly_next + 1]};
+				for (int j = 0; j < 3; j++)
+					memcpy(t->v[j], m->verts +
+					       3 * (size_t)c[j], 12);
+				m->poly_next++;
+				continue;
+			}
+			if (m->done)
+				break;
+			int got = 0;
+			m->poly_n = m->poly_next = 0;
+			if ((e = vd_mesh_next(m, &got)))
+				break;
+			if (!got) {
+				m->done = 1;
+				break;
+			}
+			if ((e = vd_mesh_poly_done(m)))
+				break;
+		}
+	}
+	m->stats.triangles_read += k;
+	*n = k;
+	if (e) {
+		m->err = e;
+		snprintf(m->err_detail, sizeof m->err_detail, "%s",
+			 vd_error_detail());
+	}
+	return e;
+}
+
+int vd_mesh_rewind(struct vd_mesh *m)
+{
+	if (!m)
+		return vd_fail(VD_ERR_ARG, "vd_mesh_rewind: NULL mesh");
+	m->err = 0;
+	m->done = 0;
+	m->poly_n = m->poly_next = 0;
+	m->poly_face = 0;
+	m->faces_done = 0;
+	m->stats.triangles_read = 0;
+	m->stats.faces_dropped_short = 0;
+	m->stats.polygons_split = 0;
+	switch (m->kind) {
+	case MESH_OBJ:
+	case MESH_STL_ASCII:
+		m->nverts = 0;
+		m->nonfinite = 0;
+		m->stl_in_solid = 0;
+		m->stl_rest = NULL;
+		if (m->kind == MESH_OBJ)
+			m->stats.vertices = 0;
+		return vd_rd_seek(&m->r, 0, 0);
+	case MESH_STL_BIN:
+		return vd_rd_seek(&m->r, m->body_off, 0);
+	default:
+		if (m->face_elem == m->nelems) {
+			m->done = 1;
+			return VD_OK;
+		}
+		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
+	}
+}
+
+const char *vd_mesh_format(const struct vd_mesh *m)
+{
+	return m ? vd_mesh_kind_names[m->kind] : "none";
+}
+
+size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
+{
+	if (!m)
+		return 0;
+	size_t b = sizeof *m + (m->r.buf ? m->r.cap + 1 : 0) +
+		   (size_t)m->verts_cap * 12 + m->poly_cap * sizeof *m->poly;
+	for (size_t i = 0; i < m->nelems; i++)
+		b += sizeof m->elems[i] +
+		     m->elems[i].cap * sizeof *m->elems[i].props;
+	return b;
+}
+
+const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m)
+{
+	return &m->stats;
+}
+
+void vd_mesh_close(struct vd_mesh *m)
+{
+	if (!m)
+		return;
+	if (m->r.fd >= 0)
+		close(m->r.fd);
+	free(m->r.buf);
+	free(m->verts);
+	free(m->poly);
+	for (size_t i = 0; i < m->nelems; i++)
+		free(m->elems[i].props);
+	free(m->elems);
+	free(m);
+}

@@ -1,0 +1,1034 @@
+/* voxelize.c - out-of-core surface voxelization of a triangle mesh into SVO
+ * chunks, one per non-empty cell of the chunk level L0.
+ *
+ * Passes over the mesh:
+ *   1. bounds: the tight bounding box fixes the grid;
+ *   2. estimate (only when L0 is chosen automatically): an upper bound of
+ *      each cell's in-core memory at every candidate level;
+ *   3. binning: every triangle is appended to the bin file of each cell it
+ *      overlaps (bounded in-memory buffers, flushed to disk);
+ * then each cell's bin is rasterized in core, in parallel, and written as
+ * one SVO chunk.
+ *
+ * In core, a cell is a hash map of 32^3-voxel blocks allocated when a
+ * triangle first touches them, each 512 bricks in Morton order, so memory
+ * follows the surface area, not the cell's volume. Emitting the chunk is a
+ * walk over the blocks in key order, which is Morton order of the bricks.
+ */
+#include "voxdag.h"
+#include "voxelize_internal.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+enum {
+	BLOCK_SHIFT = 5,                  /* blocks of 32^3 voxels */
+	BLOCK_WORDS = 512,                /* 8^3 bricks */
+	BLOCK_BYTES = BLOCK_WORDS * 8,
+	BLOCK_COST = BLOCK_BYTES + 48,    /* with malloc and map overhead */
+	MAX_CHUNK_LEVEL = 7,              /* 2M cells: per-cell arrays stay small */
+	TRI_BATCH = 16384,
+	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
+};
+
+/* ------------------------------------------------------------ progress */
+
+struct progress {
+	int quiet;
+	const char *tool;
+	double start, last;
+	pthread_mutex_t lock;
+};
+
+static void progress_say(struct progress *p, int force, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static void progress_say(struct progress *p, int force, const char *fmt, ...)
+{
+	if (p->quiet)
+		return;
+	double now = vd_seconds();
+	pthread_mutex_lock(&p->lock);
+	if (force || now - p->last >= 1.0) {
+		p->last = now;
+		va_list ap;
+		va_start(ap, fmt);
+		fprintf(stderr, "%s: [%6.1fs] ", p->tool, now - p->start);
+		vfprintf(stderr, fmt, ap);
+		fputc('\n', stderr);
+		va_end(ap);
+	}
+	pthread_mutex_unlock(&p->lock);
+}
+
+/* ------------------------------------------------------- mesh streaming */
+
+/* Reads the mesh once, calling fn for each batch of triangles. */
+static int for_each_batch(struct vd_mesh *m, struct vd_triangle *buf,
+			  int (*fn)(void *ctx, const struct vd_triangle *t,
+				    size_t n),
+			  void *ctx)
+{
+	int err = vd_mesh_rewind(m);
+	while (!err) {
+		size_t n;
+		err = vd_mesh_read(m, buf, TRI_BATCH, &n);
+		if (err || n == 0)
+			break;
+		err = fn(ctx, buf, n);
+	}
+	return err;
+}
+
+struct bounds {
+	float lo[3], hi[3];
+	uint64_t n;
+};
+
+static int bounds_batch(void *ctx, const struct vd_triangle *t, size_t n)
+{
+	struct bounds *b = ctx;
+	for (size_t i = 0; i < n; i++)
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++) {
+				float v = t[i].v[k][a];
+				if (b->n == 0 && i == 0 && k == 0)
+					b->lo[a] = b->hi[a] = v;
+				if (v < b->lo[a])
+					b->lo[a] = v;
+				if (v > b->hi[a])
+					b->hi[a] = v;
+			}
+	b->n += n;
+	return VD_OK;
+}
+
+/* ------------------------------------------------- cells and estimates */
+
+struct grid {
+	int L, L0;
+	struct vd_transform tr;
+};
+
+/* Inclusive voxel range of the triangle's bounding box, clipped to the
+ * grid; 0 if it lies outside. */
+static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
+			   int64_t lo[3], int64_t hi[3])
+{
+	const int64_t s = (int64_t)1 << VD_SNAP_BITS, top = ((int64_t)1 << L) - 1;
+	for (int a = 0; a < 3; a++) {
+		int64_t mn = t->v[0][a], mx = t->v[0][a];
+		for (int k = 1; k < 3; k++) {
+			mn = t->v[k][a] < mn ? t->v[k][a] : mn;
+			mx = t->v[k][a] > mx ? t->v[k][a] : mx;
+		}
+		/* closed voxels: i touches [i*s, (i+1)*s] */
+		lo[a] = (mn + s - 1 >= 0 ? (mn + s - 1) / s : -1) - 1;
+		hi[a] = mx >= 0 ? mx / s : -1;
+		lo[a] = lo[a] < 0 ? 0 : lo[a];
+		hi[a] = hi[a] > top ? top : hi[a];
+		if (lo[a] > hi[a])
+			return 0;
+	}
+	return 1;
+}
+
+struct estimate {
+	struct grid g;
+	int F;               /* finest candidate level */
+	uint64_t *blocks;    /* per cell at level F: upper bound of blocks */
+};
+
+static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
+{
+	struct estimate *e = ctx;
+	int shift = e->g.L - e->F; /* cell side 2^shift voxels */
+	for (size_t i = 0; i < n; i++) {
+		struct vd_snapped_tri st;
+		int64_t lo[3], hi[3];
+		int err = vd_snap_triangle(&st, &t[i], &e->g.tr);
+		if (err)
+			return err;
+		if (!tri_voxel_range(&st, e->g.L, lo, hi))
+			continue;
+		int64_t c0[3], c1[3];
+		for (int a = 0; a < 3; a++)
+			c0[a] = lo[a] >> shift, c1[a] = hi[a] >> shift;
+		for (int64_t cx = c0[0]; cx <= c1[0]; cx++)
+			for (int64_t cy = c0[1]; cy <= c1[1]; cy++)
+				for (int64_t cz = c0[2]; cz <= c1[2]; cz++) {
+					int64_t c[3] = {cx, cy, cz};
+					uint64_t nb = 1;
+					for (int a = 0; a < 3; a++) {
+						int64_t l = lo[a] > c[a] << shift ? lo[a] : c[a] << shift;
+						int64_t h = hi[a] < ((c[a] + 1) << shift) - 1 ? hi[a] : ((c[a] + 1) << shift) - 1;
+						nb *= (uint64_t)((h >> BLOCK_SHIFT) - (l >> BLOCK_SHIFT) + 1);
+					}
+					e->blocks[vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz)] += nb;
+				}
+	}
+	return VD_OK;
+}
+
+/* Blocks a whole cell at level l can hold. */
+static uint64_t cell_block_cap(int L, int l)
+{
+	int k = L - l - BLOCK_SHIFT;
+	return k <= 0 ? 1 : (uint64_t)1 << 3 * k;
+}
+
+/* ------------------------------------------------------------- binning */
+
+struct bin {
+	float *buf;      /* 9 floats a triangle */
+	uint32_t n, cap;
+	uint64_t total;  /* triangles binned to this cell */
+	uint64_t blocks; /* estimate, for scheduling and the budget */
+};
+
+struct binner {
+	struct grid g;
+	const char *dir;
+	struct bin *bins;      /* 8^L0 */
+	size_t buffered, cap;  /* triangles held in memory */
+	uint64_t pairs;
+};
+
+static void bin_path(char *buf, size_t cap, const char *dir, uint64_t cell)
+{
+	snprintf(buf, cap, "%s/bins.tmp/%llx.tri", dir, (unsigned long long)cell);
+}
+
+/* Bins are scratch files read back by this same process, so they hold the
+ * floats as they lie in memory; they are never a format. */
+static int flush_bins(struct binner *b)
+{
+	size_t ncell = (size_t)1 << 3 * b->g.L0;
+	char path[4096];
+	for (size_t c = 0; c < ncell; c++) {
+		struct bin *bn = &b->bins[c];
+		if (!bn->n)
+			continue;
+		bin_path(path, sizeof path, b->dir, c);
+		FILE *f = fopen(path, "ab");
+		if (!f)
+			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				       strerror(errno));
+		size_t w = fwrite(bn->buf, 9 * sizeof(float), bn->n, f);
+		int rc = fclose(f);
+		if (w != bn->n || rc != 0)
+			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				       strerror(errno));
+		bn->n = 0;
+	}
+	b->buffered = 0;
+	return VD_OK;
+}
+
+static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
+{
+	struct bin *bn = &b->bins[cell];
+	if (bn->n == bn->cap) {
+		uint32_t cap = bn->cap ? bn->cap * 2 : 64;
+		float *p = realloc(bn->buf, (size_t)cap * 9 * sizeof(float));
+		if (!p)
+			return vd_fail(VD_ERR_NOMEM, "bin buffer");
+		bn->buf = p;
+		bn->cap = cap;
+	}
+	memcpy(bn->buf + 9 * (size_t)bn->n, t->v, 9 * sizeof(float));
+	bn->n++;
+	bn->total++;
+	b->pairs++;
+	if (++b->buffered >= b->cap)
+		return flush_bins(b);
+	return VD_OK;
+}
+
+static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
+{
+	struct binner *b = ctx;
+	int shift = b->g.L - b->g.L0;
+	for (size_t i = 0; i < n; i++) {
+		struct vd_snapped_tri st;
+		int64_t lo[3], hi[3];
+		int err = vd_snap_triangle(&st, &t[i], &b->g.tr);
+		if (err)
+			return err;
+		if (!tri_voxel_range(&st, b->g.L, lo, hi))
+			continue;
+		int64_t c0[3], c1[3];
+		for (int a = 0; a < 3; a++)
+			c0[a] = lo[a] >> shift, c1[a] = hi[a] >> shift;
+		int single = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2];
+		for (int64_t cx = c0[0]; cx <= c1[0] && !err; cx++)
+			for (int64_t cy = c0[1]; cy <= c1[1] && !err; cy++)
+				for (int64_t cz = c0[2]; cz <= c1[2] && !err; cz++) {
+					int64_t cell_lo[3] = {cx << shift, cy << shift, cz << shift};
+					if (!single && !vd_tri_box_overlap(&st, cell_lo, (int64_t)1 << shift))
+						continue;
+					err = bin_add(b, vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz), &t[i]);
+				}
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+/* ------------------------------------------------ per-cell rasterization */
+
+struct block_map {
+	uint64_t *keys;      /* block key + 1; 0 is an empty slot */
+	uint64_t **vals;
+	size_t cap, count;
+	uint64_t **spare;    /* zeroed blocks kept from earlier cells */
+	size_t nspare, spare_cap;
+	uint64_t last_key;   /* one-entry cache: consecutive voxels */
+	uint64_t *last_val;
+	size_t limit;        /* blocks allowed by the budget */
+	int over;            /* the limit was hit */
+};
+
+static uint64_t mix(uint64_t k)
+{
+	k ^= k >> 33;
+	k *= 0xff51afd7ed558ccdULL;
+	k ^= k >> 33;
+	return k;
+}
+
+static int map_grow(struct block_map *m)
+{
+	size_t cap = m->cap ? m->cap * 2 : 1024;
+	uint64_t *keys = calloc(cap, sizeof *keys);
+	uint64_t **vals = calloc(cap, sizeof *vals);
+	if (!keys || !vals) {
+		free(keys);
+		free(vals);
+		return VD_ERR_NOMEM;
+	}
+	for (size_t i = 0; i < m->cap; i++) {
+		if (!m->keys[i])
+			continue;
+		size_t j = mix(m->keys[i]) & (cap - 1);
+		while (keys[j])
+			j = (j + 1) & (cap - 1);
+		keys[j] = m->keys[i];
+		vals[j] = m->vals[i];
+	}
+	free(m->keys);
+	free(m->vals);
+	m->keys = keys;
+	m->vals = vals;
+	m->cap = cap;
+	return VD_OK;
+}
+
+static uint64_t *map_get(struct block_map *m, uint64_t key)
+{
+	if (m->last_val && m->last_key == key)
+		return m->last_val;
+	uint64_t k1 = key + 1;
+	size_t j = m->cap ? mix(k1) & (m->cap - 1) : 0;
+	if (m->cap) {
+		while (m->keys[j]) {
+			if (m->keys[j] == k1) {
+				m->last_key = key;
+				return m->last_val = m->vals[j];
+			}
+			j = (j + 1) & (m->cap - 1);
+		}
+	}
+	if (m->count >= m->limit) {
+		m->over = 1;
+		return NULL;
+	}
+	if (2 * (m->count + 1) > m->cap) {
+		if (map_grow(m)) {
+			m->over = 1;
+			return NULL;
+		}
+		j = mix(k1) & (m->cap - 1);
+		while (m->keys[j])
+			j = (j + 1) & (m->cap - 1);
+	}
+	uint64_t *blk = m->nspare ? m->spare[--m->nspare]
+				  : calloc(BLOCK_WORDS, sizeof(uint64_t));
+	if (!blk) {
+		m->over = 1;
+		return NULL;
+	}
+	m->keys[j] = k1;
+	m->vals[j] = blk;
+	m->count++;
+	m->last_key = key;
+	return m->last_val = blk;
+}
+
+/* Returns every block to the spare list, zeroed, and empties the map. */
+static int map_reset(struct block_map *m)
+{
+	if (m->nspare + m->count > m->spare_cap) {
+		size_t cap = m->nspare + m->count + 64;
+		uint64_t **s = realloc(m->spare, cap * sizeof *s);
+		if (!s)
+			return VD_ERR_NOMEM;
+		m->spare = s;
+		m->spare_cap = cap;
+	}
+	for (size_t i = 0; i < m->cap; i++)
+		if (m->keys[i]) {
+			memset(m->vals[i], 0, BLOCK_BYTES);
+			m->spare[m->nspare++] = m->vals[i];
+			m->keys[i] = 0;
+		}
+	m->count = 0;
+	m->last_val = NULL;
+	m->over = 0;
+	return VD_OK;
+}
+
+static void map_free(struct block_map *m)
+{
+	map_reset(m);
+	for (size_t i = 0; i < m->nspare; i++)
+		free(m->spare[i]);
+	free(m->spare);
+	free(m->keys);
+	free(m->vals);
+	memset(m, 0, sizeof *m);
+}
+
+/* Morton spreading of 3-bit and 2-bit values. */
+static const uint16_t spread3[8] = {0, 1, 8, 9, 64, 65, 72, 73};
+
+struct raster_ctx {
+	struct block_map *map;
+	int64_t lo[3];        /* cell corner, voxels */
+};
+
+static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
+{
+	struct raster_ctx *r = vctx;
+	uint32_t lx = (uint32_t)(x - r->lo[0]), ly = (uint32_t)(y - r->lo[1]),
+		 lz = (uint32_t)(z - r->lo[2]);
+	uint64_t key = vd_morton3(lx >> BLOCK_SHIFT, ly >> BLOCK_SHIFT,
+				  lz >> BLOCK_SHIFT);
+	uint64_t *blk = map_get(r->map, key);
+	if (!blk)
+		return;
+	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
+		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
+		      spread3[(lz >> 2) & 7];
+	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
+		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
+	blk[wi] |= 1ull << bit;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return (x > y) - (x < y);
+}
+
+struct worker {
+	struct block_map map;
+	struct vd_triangle *tris;
+	uint64_t *order;
+	size_t order_cap;
+};
+
+struct cell_job {
+	uint64_t cell;
+	uint64_t blocks;
+};
+
+struct run {
+	struct grid g;
+	const char *outdir;
+	const struct vd_voxelize_opts *opts;
+	struct cell_job *jobs;
+	size_t njobs;
+	struct worker *workers;
+	int nworkers;
+	size_t block_limit;
+	struct progress *prog;
+	atomic_size_t done;
+	atomic_ullong voxels, bricks;
+	uint64_t *level_nodes;  /* levels L0..L, summed under lock */
+	pthread_mutex_t lock;
+	atomic_int failed;
+	int err;
+	char detail[512];
+};
+
+static void run_fail(struct run *r, int err)
+{
+	pthread_mutex_lock(&r->lock);
+	if (!r->err) {
+		r->err = err;
+		snprintf(r->detail, sizeof r->detail, "%s", vd_error_detail());
+	}
+	atomic_store(&r->failed, 1);
+	pthread_mutex_unlock(&r->lock);
+}
+
+/* Streams the cell's bricks, in Morton order, into an SVO chunk. */
+static int write_cell(struct run *r, struct worker *w, uint64_t cell,
+		      uint64_t *counts, uint64_t *nbricks)
+{
+	struct block_map *m = &w->map;
+	int L = r->g.L, L0 = r->g.L0, k = L - L0;
+	if (m->count > w->order_cap) {
+		uint64_t *o = realloc(w->order, m->count * sizeof *o * 2);
+		if (!o)
+			return vd_fail(VD_ERR_NOMEM, "block order");
+		w->order = o;
+		w->order_cap = m->count * 2;
+	}
+	size_t nb = 0;
+	for (size_t i = 0; i < m->cap; i++)
+		if (m->keys[i])
+			w->order[nb++] = m->keys[i] - 1;
+	qsort(w->order, nb, sizeof *w->order, cmp_u64);
+	/* brick key = cell prefix | block key | brick within block */
+	int cell_shift = k >= 2 ? 3 * (k - 2) : 0;
+	uint64_t prefix = cell << cell_shift;
+
+	uint64_t count = 0;
+	for (int l = 0; l <= k; l++)
+		counts[l] = 0;
+	for (size_t i = 0; i < nb; i++) {
+		const uint64_t *blk = map_get(m, w->order[i]);
+		for (int j = 0; j < BLOCK_WORDS; j++)
+			count += blk[j] != 0;
+	}
+	*nbricks = count;
+	if (count == 0)
+		return VD_OK; /* touched only by triangles outside its voxels */
+
+	struct vd_chunk_header h = {0};
+	h.kind = VD_KIND_SVO;
+	h.levels = (uint32_t)L;
+	h.chunk_level = (uint32_t)L0;
+	h.cell_morton = cell;
+	h.transform = r->g.tr;
+	h.level_count = (uint32_t)k + 1;
+	char path[4096], name[64];
+	vd_chunk_file_name(name, sizeof name, L0, cell, "svo");
+	snprintf(path, sizeof path, "%s/%s", r->outdir, name);
+	struct vd_chunk_writer *cw;
+	int err = vd_chunk_writer_open(&cw, path, &h, r->opts->provenance);
+	if (err)
+		return err;
+	uint8_t buf[8 * BLOCK_WORDS];
+	for (int i = 0; i < 8; i++)
+		buf[i] = (uint8_t)(count >> 8 * i);
+	err = vd_chunk_writer_begin(cw, VD_TAG_BRKS, 0);
+	if (!err)
+		err = vd_chunk_writer_write(cw, buf, 8);
+	for (int pass = 0; pass < 2 && !err; pass++) {
+		uint64_t prev = 0;
+		int first = 1;
+		for (size_t i = 0; i < nb && !err; i++) {
+			const uint64_t *blk = map_get(m, w->order[i]);
+			uint64_t base = prefix | w->order[i] << 9;
+			size_t n = 0;
+			for (int j = 0; j < BLOCK_WORDS; j++) {
+				if (!blk[j])
+					continue;
+				uint64_t key = base | (uint64_t)j, v;
+				if (pass == 0) {
+					v = first ? key : key - prev;
+					vd_svo_count_brick(counts, L, L0, first,
+							   prev, key, blk[j]);
+					prev = key;
+					first = 0;
+				} else {
+					v = blk[j];
+				}
+				for (int b = 0; b < 8; b++)
+					buf[8 * n + b] = (uint8_t)(v >> 8 * b);
+				n++;
+			}
+			err = vd_chunk_writer_write(cw, buf, 8 * n);
+		}
+	}
+	if (!err)
+		err = vd_chunk_writer_end(cw);
+	if (!err)
+		err = vd_chunk_writer_set_counts(cw, counts, h.level_count);
+	if (err) {
+		vd_chunk_writer_abort(cw);
+		return err;
+	}
+	return vd_chunk_writer_commit(cw);
+}
+
+static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t cx, cy, cz;
+	vd_morton3_decode(cell, &cx, &cy, &cz);
+	struct raster_ctx rc = {.map = &w->map};
+	rc.lo[0] = (int64_t)cx << shift;
+	rc.lo[1] = (int64_t)cy << shift;
+	rc.lo[2] = (int64_t)cz << shift;
+	int64_t hi[3];
+	int64_t top = ((int64_t)1 << r->g.L) - 1;
+	for (int a = 0; a < 3; a++) {
+		hi[a] = rc.lo[a] + ((int64_t)1 << shift) - 1;
+		if (hi[a] > top)
+			hi[a] = top;
+	}
+	w->map.limit = r->block_limit;
+
+	char path[4096];
+	bin_path(path, sizeof path, r->outdir, cell);
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
+			       strerror(errno));
+	int err = VD_OK;
+	size_t n;
+	float *fb = (float *)w->tris;
+	while (!err && (n = fread(fb, 9 * sizeof(float), TRI_BATCH, f)) > 0) {
+		for (size_t i = 0; i < n && !err; i++) {
+			struct vd_triangle t;
+			struct vd_snapped_tri st;
+			memcpy(t.v, fb + 9 * i, sizeof t.v);
+			err = vd_snap_triangle(&st, &t, &r->g.tr);
+			if (!err)
+				vd_raster_triangle(&st, rc.lo, hi, set_voxel, &rc);
+		}
+		if (w->map.over)
+			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
+				      "%zu blocks of %d KiB (the budget's share "
+				      "per worker); use a smaller --chunk-level "
+				      "or a larger --mem-budget",
+				      (unsigned long long)cell, w->map.limit,
+				      BLOCK_BYTES >> 10);
+	}
+	if (!err && ferror(f))
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
+	fclose(f);
+	unlink(path);
+	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0;
+	if (!err)
+		err = write_cell(r, w, cell, counts, &nbricks);
+	if (!err && nbricks) {
+		atomic_fetch_add(&r->bricks, nbricks);
+		atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
+		pthread_mutex_lock(&r->lock);
+		for (int l = 0; l <= r->g.L - r->g.L0; l++)
+			r->level_nodes[l] += counts[l];
+		pthread_mutex_unlock(&r->lock);
+	}
+	if (map_reset(&w->map) && !err)
+		err = vd_fail(VD_ERR_NOMEM, "block list");
+	return err;
+}
+
+static void cell_task(void *ctx, size_t i, int worker)
+{
+	struct run *r = ctx;
+	if (atomic_load(&r->failed))
+		return;
+	int err = voxelize_cell(r, &r->workers[worker], r->jobs[i].cell);
+	if (err) {
+		run_fail(r, err);
+		return;
+	}
+	size_t done = atomic_fetch_add(&r->done, 1) + 1;
+	double el = vd_seconds() - r->prog->start;
+	progress_say(r->prog, 0, "voxelizing cells %zu/%zu, %llu voxels, "
+		     "ETA %.0fs", done, r->njobs,
+		     (unsigned long long)atomic_load(&r->voxels),
+		     el / (double)done * (double)(r->njobs - done));
+}
+
+static int cmp_jobs(const void *a, const void *b)
+{
+	const struct cell_job *x = a, *y = b;
+	if (x->blocks != y->blocks)
+		return x->blocks < y->blocks ? 1 : -1; /* largest first */
+	return (x->cell > y->cell) - (x->cell < y->cell);
+}
+
+/* Removes the scratch directory of bins. */
+static void remove_bins(const char *dir)
+{
+	char bins[4096], f[4400];
+	snprintf(bins, sizeof bins, "%s/bins.tmp", dir);
+	DIR *d = opendir(bins);
+	if (!d)
+		return;
+	struct dirent *e;
+	while ((e = readdir(d)))
+		if (e->d_name[0] != '.') {
+			snprintf(f, sizeof f, "%s/%s", bins, e->d_name);
+			unlink(f);
+		}
+	closedir(d);
+	rmdir(bins);
+}
+
+/* Deletes chunk files and bins of an earlier run in `dir`. */
+static int clean_outdir(const char *dir)
+{
+	if (mkdir(dir, 0777) != 0 && errno != EEXIST)
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", dir,
+			       strerror(errno));
+	DIR *d = opendir(dir);
+	if (!d)
+		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", dir,
+			       strerror(errno));
+	struct dirent *e;
+	char path[4096];
+	while ((e = readdir(d))) {
+		size_t n = strlen(e->d_name);
+		if (strncmp(e->d_name, "chunk-L", 7) == 0 &&
+		    ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
+		     strstr(e->d_name, ".svo.tmp."))) {
+			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+			unlink(path);
+		}
+	}
+	closedir(d);
+	remove_bins(dir);
+	snprintf(path, sizeof path, "%s/bins.tmp", dir);
+	if (mkdir(path, 0777) != 0)
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", path,
+			       strerror(errno));
+	return VD_OK;
+}
+
+/* ------------------------------------------------------------ the driver */
+
+struct plan {
+	int L0, threads;
+	size_t block_limit;
+};
+
+/* Memory the workers may use: the budget less what the process holds. */
+static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
+		       int max_level, const uint64_t *max_blocks, int L,
+		       struct plan *p)
+{
+	int threads = o->threads > 0 ? o->threads : vd_hardware_threads();
+	uint64_t avail = o->mem_budget_bytes > base ? o->mem_budget_bytes - base : 0;
+	for (int want = threads; want >= 1; want = want > 1 ? 1 : 0) {
+		for (int l = 0; l <= max_level; l++) {
+			if (max_blocks[l] == UINT64_MAX)
+				continue; /* level not a candidate */
+			uint64_t cells = (uint64_t)1 << 3 * l;
+			int t = (uint64_t)want > cells ? (int)cells : want;
+			uint64_t per = max_blocks[l] * BLOCK_COST + WORKER_OVERHEAD;
+			if ((uint64_t)t * per <= avail) {
+				p->L0 = l;
+				p->threads = t;
+				/* each worker may grow to its share */
+				uint64_t share = avail / (uint64_t)t - WORKER_OVERHEAD;
+				p->block_limit = (size_t)(share / BLOCK_COST);
+				return VD_OK;
+			}
+		}
+	}
+	uint64_t need = max_blocks[max_level] * BLOCK_COST + WORKER_OVERHEAD + base;
+	(void)L;
+	return vd_fail(VD_ERR_BUDGET, "--mem-budget %llu bytes cannot hold one "
+		       "cell even at chunk level %d (about %llu MiB needed)",
+		       (unsigned long long)o->mem_budget_bytes, max_level,
+		       (unsigned long long)(need >> 20) + 1);
+}
+
+int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
+		     const struct vd_voxelize_opts *opts,
+		     struct vd_voxelize_result *res)
+{
+	memset(res, 0, sizeof *res);
+	double t0 = vd_seconds();
+	int L = opts->levels;
+	if (L < 1 || L > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_RANGE, "--levels %d is outside 1..%d", L,
+			       VD_MAX_LEVELS);
+	int max_level = L - 2 > 0 ? L - 2 : 0;
+	if (max_level > MAX_CHUNK_LEVEL)
+		max_level = MAX_CHUNK_LEVEL;
+	if (opts->chunk_level > max_level)
+		return vd_fail(VD_ERR_RANGE, "--chunk-level %d is outside 0..%d "
+			       "for --levels %d", opts->chunk_level, max_level, L);
+	struct progress prog = {.quiet = opts->quiet,
+				.tool = opts->tool ? opts->tool : "voxelize",
+				.start = t0,
+				.lock = PTHREAD_MUTEX_INITIALIZER};
+	struct vd_mesh *mesh;
+	int err = vd_mesh_open(&mesh, mesh_path);
+	if (err)
+		return err;
+	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
+	struct run r = {.lock = PTHREAD_MUTEX_INITIALIZER};
+	struct binner b = {0};
+	struct estimate est = {0};
+	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1];
+	if (!tris) {
+		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
+		goto out;
+	}
+
+	/* 1. bounds */
+	struct bounds bd = {0};
+	progress_say(&prog, 1, "reading %s (%s)", mesh_path, vd_mesh_format(mesh));
+	err = for_each_batch(mesh, tris, bounds_batch, &bd);
+	if (err)
+		goto out;
+	res->mesh = *vd_mesh_stats(mesh);
+	if (bd.n == 0) {
+		err = vd_fail(VD_ERR_EMPTY, "'%s' has no triangles", mesh_path);
+		goto out;
+	}
+	err = vd_transform_init(&r.g.tr, bd.lo, bd.hi, L);
+	if (err)
+		goto out;
+	r.g.L = L;
+	res->seconds_bounds = vd_seconds() - t0;
+
+	/* 2. estimate and plan */
+	double t1 = vd_seconds();
+	est.g = r.g;
+	est.F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
+	est.blocks = calloc((size_t)1 << 3 * est.F, sizeof *est.blocks);
+	if (!est.blocks) {
+		err = vd_fail(VD_ERR_NOMEM, "estimates");
+		goto out;
+	}
+	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
+		     (unsigned long long)bd.n);
+	err = for_each_batch(mesh, tris, estimate_batch, &est);
+	if (err)
+		goto out;
+	/* per level: the largest cell's bound; coarser levels sum children */
+	size_t ncells = (size_t)1 << 3 * est.F;
+	uint64_t *lvl = malloc(ncells * sizeof *lvl);
+	if (!lvl) {
+		err = vd_fail(VD_ERR_NOMEM, "estimates");
+		goto out;
+	}
+	memcpy(lvl, est.blocks, ncells * sizeof *lvl);
+	for (int l = 0; l <= MAX_CHUNK_LEVEL; l++)
+		max_blocks[l] = UINT64_MAX;
+	for (int l = est.F; l >= 0; l--) {
+		size_t n = (size_t)1 << 3 * l;
+		uint64_t mx = 0, cap = cell_block_cap(L, l);
+		if (l < est.F)
+			for (size_t c = 0; c < n; c++) {
+				uint64_t s = 0;
+				for (int k = 0; k < 8; k++)
+					s += lvl[8 * c + k];
+				lvl[c] = s;
+			}
+		for (size_t c = 0; c < n; c++)
+			mx = lvl[c] > mx ? lvl[c] : mx;
+		mx = mx < cap ? mx : cap;
+		if (opts->chunk_level < 0 || l == opts->chunk_level)
+			max_blocks[l] = mx;
+	}
+	free(lvl);
+	uint64_t base = vd_peak_rss_bytes() + vd_mesh_memory_bytes(mesh);
+	/* bin buffers: an eighth of the budget, 16 MiB to 256 MiB */
+	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
+	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
+	struct plan plan = {0};
+	err = plan_budget(opts, base + bin_bytes, est.F, max_blocks, L, &plan);
+	if (err)
+		goto out;
+	r.g.L0 = plan.L0;
+	res->seconds_bin = vd_seconds() - t1;
+
+	/* 3. binning at L0 */
+	t1 = vd_seconds();
+	err = clean_outdir(outdir);
+	if (err)
+		goto out;
+	b.g = r.g;
+	b.dir = outdir;
+	b.cap = bin_bytes / (9 * sizeof(float) * 2); /* x2: realloc slack */
+	b.bins = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.bins);
+	if (!b.bins) {
+		err = vd_fail(VD_ERR_NOMEM, "bins");
+		goto out;
+	}
+	progress_say(&prog, 1, "binning triangles into cells of level %d "
+		     "(%d threads, budget %llu MiB)", r.g.L0, plan.threads,
+		     (unsigned long long)(opts->mem_budget_bytes >> 20));
+	err = for_each_batch(mesh, tris, bin_batch, &b);
+	if (!err)
+		err = flush_bins(&b);
+	if (err)
+		goto out;
+	res->triangles_binned = b.pairs;
+	res->seconds_bin += vd_seconds() - t1;
+
+	/* 4. rasterize the cells */
+	t1 = vd_seconds();
+	size_t ncell = (size_t)1 << 3 * r.g.L0;
+	r.jobs = malloc(ncell * sizeof *r.jobs);
+	if (!r.jobs) {
+		err = vd_fail(VD_ERR_NOMEM, "jobs");
+		goto out;
+	}
+	int fshift = 3 * (est.F - r.g.L0);
+	for (size_t c = 0; c < ncell; c++) {
+		if (!b.bins[c].total)
+			continue;
+		uint64_t blocks = 0;
+		for (size_t k = c << fshift; k < (c + 1) << fshift; k++)
+			blocks += est.blocks[k];
+		r.jobs[r.njobs++] = (struct cell_job){c, blocks};
+	}
+	for (size_t c = 0; c < ncell; c++)
+		free(b.bins[c].buf);
+	free(b.bins);
+	b.bins = NULL;
+	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_jobs);
+	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
+	r.level_nodes = nodes;
+	r.outdir = outdir;
+	r.opts = opts;
+	r.prog = &prog;
+	r.block_limit = plan.block_limit;
+	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
+	if (!r.workers) {
+		err = vd_fail(VD_ERR_NOMEM, "workers");
+		goto out;
+	}
+	r.nworkers = plan.threads;
+	for (int i = 0; i < plan.threads; i++)
+		if (!(r.workers[i].tris = malloc(TRI_BATCH * sizeof(struct vd_triangle)))) {
+			err = vd_fail(VD_ERR_NOMEM, "workers");
+			goto out;
+		}
+	err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+	if (!err && r.err)
+		err = vd_fail(r.err, "%s", r.detail);
+	if (err)
+		goto out;
+	res->seconds_voxelize = vd_seconds() - t1;
+
+	/* levels above L0: distinct prefixes of the non-empty cells */
+	uint64_t *cells = malloc((r.njobs ? r.njobs : 1) * sizeof *cells);
+	size_t nonempty = 0;
+	if (!cells) {
+		err = vd_fail(VD_ERR_NOMEM, "cells");
+		goto out;
+	}
+	char name[64], path[4096];
+	for (size_t i = 0; i < r.njobs; i++) {
+		vd_chunk_file_name(name, sizeof name, r.g.L0, r.jobs[i].cell, "svo");
+		snprintf(path, sizeof path, "%s/%s", outdir, name);
+		if (access(path, F_OK) == 0)
+			cells[nonempty++] = r.jobs[i].cell;
+	}
+	qsort(cells, nonempty, sizeof *cells, cmp_u64);
+	for (int l = 0; l < r.g.L0; l++) {
+		uint64_t n = 0;
+		int sh = 3 * (r.g.L0 - l);
+		for (size_t i = 0; i < nonempty; i++)
+			n += i == 0 || cells[i] >> sh != cells[i - 1] >> sh;
+		res->level_nodes[l] = n;
+	}
+	free(cells);
+	for (int l = r.g.L0; l <= L; l++)
+		res->level_nodes[l] = nodes[l - r.g.L0];
+	res->levels = L;
+	res->chunk_level = r.g.L0;
+	res->threads = plan.threads;
+	res->mem_budget_bytes = opts->mem_budget_bytes;
+	snprintf(res->format, sizeof res->format, "%s", vd_mesh_format(mesh));
+	res->transform = r.g.tr;
+	res->voxels = atomic_load(&r.voxels);
+	res->bricks = atomic_load(&r.bricks);
+	res->chunks = nonempty;
+	res->seconds_total = vd_seconds() - t0;
+	res->peak_rss_bytes = vd_peak_rss_bytes();
+	progress_say(&prog, 1, "%llu voxels in %llu chunks, %.2fs",
+		     (unsigned long long)res->voxels,
+		     (unsigned long long)res->chunks, res->seconds_total);
+	if (res->peak_rss_bytes > opts->mem_budget_bytes)
+		err = vd_fail(VD_ERR_BUDGET, "peak memory %llu MiB exceeded "
+			      "--mem-budget %llu MiB",
+			      (unsigned long long)(res->peak_rss_bytes >> 20),
+			      (unsigned long long)(opts->mem_budget_bytes >> 20));
+out:
+	if (b.bins) {
+		for (size_t c = 0; c < ((size_t)1 << 3 * b.g.L0); c++)
+			free(b.bins[c].buf);
+		free(b.bins);
+	}
+	if (r.workers) {
+		for (int i = 0; i < r.nworkers; i++) {
+			map_free(&r.workers[i].map);
+			free(r.workers[i].tris);
+			free(r.workers[i].order);
+		}
+		free(r.workers);
+	}
+	free(r.jobs);
+	free(est.blocks);
+	free(tris);
+	vd_mesh_close(mesh);
+	remove_bins(outdir);
+	return err;
+}
+
+int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
+			    const char *path)
+{
+	struct vd_json *j;
+	int err = vd_json_open(&j, path);
+	if (err)
+		return err;
+	vd_json_str(j, "stage", "voxelize");
+	vd_json_str(j, "version", VD_VERSION_STRING);
+	vd_json_str(j, "input_format", res->format);
+	vd_json_u64(j, "levels", (uint64_t)res->levels);
+	vd_json_u64(j, "chunk_level", (uint64_t)res->chunk_level);
+	vd_json_u64(j, "triangles_read", res->mesh.triangles_read);
+	vd_json_object(j, "triangles_dropped");
+	vd_json_u64(j, "short_face", res->mesh.faces_dropped_short);
+	vd_json_end_object(j);
+	vd_json_u64(j, "polygons_split", res->mesh.polygons_split);
+	vd_json_u64(j, "triangle_cell_pairs", res->triangles_binned);
+	vd_json_u64(j, "voxels", res->voxels);
+	vd_json_u64(j, "bricks", res->bricks);
+	vd_json_u64(j, "chunks", res->chunks);
+	vd_json_u64_array(j, "level_nodes", res->level_nodes,
+			  (size_t)res->levels + 1);
+	vd_json_object(j, "seconds");
+	vd_json_f64(j, "bounds", res->seconds_bounds);
+	vd_json_f64(j, "plan_and_bin", res->seconds_bin);
+	vd_json_f64(j, "voxelize", res->seconds_voxelize);
+	vd_json_f64(j, "total", res->seconds_total);
+	vd_json_end_object(j);
+	double t = res->seconds_total > 0 ? res->seconds_total : 1e-9;
+	vd_json_f64(j, "triangles_per_second", (double)res->mesh.triangles_read / t);
+	vd_json_f64(j, "voxels_per_second", (double)res->voxels / t);
+	vd_json_u64(j, "threads", (uint64_t)res->threads);
+	vd_json_u64(j, "peak_rss_bytes", res->peak_rss_bytes);
+	vd_json_u64(j, "mem_budget_bytes", res->mem_budget_bytes);
+	vd_json_object(j, "transform");
+	vd_json_f64(j, "origin_x", res->transform.origin[0]);
+	vd_json_f64(j, "origin_y", res->transform.origin[1]);
+	vd_json_f64(j, "origin_z", res->transform.origin[2]);
+	vd_json_f64(j, "voxel_size", res->transform.voxel_size);
+	vd_json_f64(j, "root_side", res->transform.root_side);
+	vd_json_end_object(j);
+	return vd_json_close(j);
+}

@@ -1,0 +1,21 @@
+/* voxelize_internal.h - pieces of the voxelizer shared between its files
+ * and the tests; not part of the public API. */
+#ifndef VOXELIZE_INTERNAL_H
+#define VOXELIZE_INTERNAL_H
+
+#include "voxdag.h"
+
+/* Receives one voxel (grid coordinates) that a triangle overlaps. */
+typedef void (*vd_voxel_fn)(void *ctx, int64_t x, int64_t y, int64_t z);
+
+/* Calls fn once for every voxel inside [clip_lo, clip_hi] (inclusive, in
+ * voxels) whose closed cube overlaps the closed triangle `t`. */
+void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3],
+			const int64_t clip_hi[3], vd_voxel_fn fn, void *ctx);
+
+/* Adds one brick to streaming per-level counts (as vd_svo_count_levels):
+ * `prev` is the previous brick's key, `first` says there is none. */
+void vd_svo_count_brick(uint64_t *counts, int levels, int chunk_level,
+			int first, uint64_t prev, uint64_t key, uint64_t mask);
+
+#endif
