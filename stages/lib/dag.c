@@ -18,12 +18,10 @@
  */
 #include "dag_internal.h"
 
-#include <errno.h>
 #include <inttypes.h>
-#include <stdio.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 
@@ -778,6 +776,7 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 
 struct part_ref {
 	const struct vd_dag *d;
+	size_t idx;
 	uint64_t start, end; /* voxel Morton range of the cell */
 };
 
@@ -794,11 +793,22 @@ static uint64_t cell_span(int L, int level)
 	return (uint64_t)1 << (3 * (L - level));
 }
 
+/* How a detail names part i: its file name when the caller gave names. */
+#define PART(i, b) part_name(opts, i, namebuf[b])
+static const char *part_name(const struct vd_dag_opts *o, size_t i,
+			     char *buf)
+{
+	if (o && o->part_names) return o->part_names[i];
+	snprintf(buf, 32, "part %zu", i);
+	return buf;
+}
+
 int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		 size_t n, uint32_t kind, int chunk_level,
 		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats)
 {
 	memset(out, 0, sizeof *out);
+	char namebuf[2][32];
 	int err = check_kind_out(kind);
 	if (err) return err;
 	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no chunks to merge");
@@ -806,14 +816,15 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_dag *d = parts[i];
 		if (d->kind != VD_KIND_DAG && d->kind != VD_KIND_SSVDAG)
-			return vd_fail(VD_ERR_WRONG_KIND, "part %zu is of kind "
-				       "%s", i, vd_chunk_kind_name(d->kind));
+			return vd_fail(VD_ERR_WRONG_KIND, "%s is a %s chunk",
+				       PART(i, 0), vd_chunk_kind_name(d->kind));
 		if (kind == VD_KIND_DAG && d->kind != VD_KIND_DAG)
-			return vd_fail(VD_ERR_WRONG_KIND, "part %zu is an ssvdag;"
-				       " a dag merge needs dag chunks", i);
+			return vd_fail(VD_ERR_WRONG_KIND, "%s is an ssvdag "
+				       "chunk; a dag merge needs dag chunks",
+				       PART(i, 0));
 		if (d->levels != L)
-			return vd_fail(VD_ERR_MISMATCH, "part %zu has %d levels,"
-				       " part 0 has %d", i, d->levels, L);
+			return vd_fail(VD_ERR_MISMATCH, "%s has %d levels, %s "
+				       "has %d", PART(i, 0), d->levels, PART(0, 1), L);
 		if (d->chunk_level < top) top = d->chunk_level;
 	}
 	int A = chunk_level;
@@ -841,13 +852,15 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		const struct vd_dag *d = parts[i];
 		uint64_t c = d->cell_morton >> (3 * (d->chunk_level - A));
 		if (c != cellA) {
-			err = vd_fail(VD_ERR_MISMATCH, "part %zu (cell %" PRIu64
+			err = vd_fail(VD_ERR_MISMATCH, "%s (cell %" PRIu64
 				      " at level %d) is not inside cell %" PRIu64
-				      " at level %d, like part 0", i,
-				      d->cell_morton, d->chunk_level, cellA, A);
+				      " at level %d, like %s", PART(i, 0),
+				      d->cell_morton, d->chunk_level, cellA, A,
+				      PART(0, 1));
 			goto out;
 		}
 		pr[i].d = d;
+		pr[i].idx = i;
 		pr[i].start = d->chunk_level == 0 ? 0 :
 			d->cell_morton * cell_span(L, d->chunk_level);
 		pr[i].end = pr[i].start + cell_span(L, d->chunk_level);
@@ -860,10 +873,11 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 	qsort(pr, n, sizeof *pr, part_cmp);
 	for (size_t i = 0; i + 1 < n; i++)
 		if (pr[i].end > pr[i + 1].start) {
-			err = vd_fail(VD_ERR_MISMATCH, "overlapping cells: cell %"
-				      PRIu64 " at level %d and cell %" PRIu64
-				      " at level %d", pr[i].d->cell_morton,
-				      pr[i].d->chunk_level,
+			err = vd_fail(VD_ERR_MISMATCH, "overlapping cells: %s "
+				      "(cell %" PRIu64 " at level %d) and %s "
+				      "(cell %" PRIu64 " at level %d)",
+				      PART(pr[i].idx, 0), pr[i].d->cell_morton,
+				      pr[i].d->chunk_level, PART(pr[i + 1].idx, 1),
 				      pr[i + 1].d->cell_morton,
 				      pr[i + 1].d->chunk_level);
 			goto out;
@@ -1331,57 +1345,301 @@ int vd_dag_write_stats(const struct vd_dag *dag,
 		       double seconds_load, double seconds_save,
 		       const char *path)
 {
-	size_t plen = strlen(path);
-	char *tmp = malloc(plen + 32);
-	if (!tmp) return NOMEM();
-	snprintf(tmp, plen + 32, "%s.tmp.%ld", path, (long)getpid());
-	FILE *f = fopen(tmp, "w");
-	if (!f) {
-		int e = errno;
-		free(tmp);
-		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", path,
-			       strerror(e));
-	}
+	struct vd_json *j;
+	int err = vd_json_open(&j, path);
+	if (err) return err;
 	int A = dag->chunk_level, L = dag->levels;
-	uint64_t total = 0, total_refs = 0;
-	fprintf(f, "{\n  \"tool\": \"%s\",\n  \"version\": \"%s\",\n", tool,
-		VD_VERSION_STRING);
-	fprintf(f, "  \"kind\": \"%s\",\n  \"levels\": %d,\n  \"chunk_level\": "
-		"%d,\n  \"cell_morton\": %" PRIu64 ",\n",
-		vd_chunk_kind_name(dag->kind), L, A, dag->cell_morton);
-	fprintf(f, "  \"input_voxels\": %" PRIu64 ",\n  \"input_nodes\": %"
-		PRIu64 ",\n  \"voxels\": %" PRIu64 ",\n", st->input_voxels,
-		st->input_nodes, dag->voxels);
-	fprintf(f, "  \"level_nodes\": [");
+	uint64_t nodes[VD_MAX_LEVELS], refs[VD_MAX_LEVELS], tn = 0, tr = 0;
 	for (int l = A; l < L; l++) {
-		fprintf(f, "%s%" PRIu64, l > A ? ", " : "", dag->lv[l].nodes);
-		total += dag->lv[l].nodes;
+		nodes[l - A] = dag->lv[l].nodes;
+		refs[l - A] = dag->lv[l].refs;
+		tn += nodes[l - A];
+		tr += refs[l - A];
 	}
-	fprintf(f, "],\n  \"level_refs\": [");
-	for (int l = A; l < L; l++) {
-		fprintf(f, "%s%" PRIu64, l > A ? ", " : "", dag->lv[l].refs);
-		total_refs += dag->lv[l].refs;
+	vd_json_str(j, "tool", tool);
+	vd_json_str(j, "version", VD_VERSION_STRING);
+	vd_json_str(j, "kind", vd_chunk_kind_name(dag->kind));
+	vd_json_u64(j, "levels", (uint64_t)L);
+	vd_json_u64(j, "chunk_level", (uint64_t)A);
+	vd_json_u64(j, "cell_morton", dag->cell_morton);
+	vd_json_u64(j, "input_voxels", st->input_voxels);
+	vd_json_u64(j, "input_nodes", st->input_nodes);
+	vd_json_u64(j, "voxels", dag->voxels);
+	/* level_nodes[i] and level_refs[i] are of level chunk_level + i */
+	vd_json_u64_array(j, "level_nodes", nodes, (size_t)(L - A));
+	vd_json_u64_array(j, "level_refs", refs, (size_t)(L - A));
+	vd_json_u64(j, "nodes", tn);
+	vd_json_u64(j, "refs", tr);
+	vd_json_array(j, "seconds_level");
+	for (int l = A; l < L; l++) vd_json_f64(j, NULL, st->seconds_level[l]);
+	vd_json_end_array(j);
+	vd_json_f64(j, "seconds_load", seconds_load);
+	vd_json_f64(j, "seconds_build", st->seconds_build);
+	vd_json_f64(j, "seconds_save", seconds_save);
+	vd_json_f64(j, "voxels_per_second", st->seconds_build > 0 ?
+		    (double)st->input_voxels / st->seconds_build : 0);
+	vd_json_u64(j, "memory_estimate_bytes", st->memory_estimate_bytes);
+	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	return vd_json_close(j);
+}
+
+/* ------------------------------------------------------------ stage runs */
+
+/* Rewrites the current error as "<what> '<subject>': <cause>: <detail>". */
+static int reword(int err, const char *what, const char *subject)
+{
+	char d[512];
+	snprintf(d, sizeof d, "%s", vd_error_detail());
+	return vd_fail(err, "%s '%s': %s%s%s", what, subject, vd_strerror(err),
+		       *d ? ": " : "", d);
+}
+
+static int same_transform(const struct vd_transform *a,
+			  const struct vd_transform *b)
+{
+	for (int i = 0; i < 3; i++)
+		if (a->bbox_min[i] != b->bbox_min[i] ||
+		    a->bbox_max[i] != b->bbox_max[i] ||
+		    a->origin[i] != b->origin[i])
+			return 0;
+	return a->root_side == b->root_side && a->voxel_size == b->voxel_size;
+}
+
+/* Nodes a chunk header announces over levels chunk_level..L-1. */
+static uint64_t header_nodes(const struct vd_chunk_header *h)
+{
+	uint64_t n = 0;
+	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
+	return n;
+}
+
+int vd_dag_run(const struct vd_dag_job *job)
+{
+	const char *tool = job->tool;
+	const struct vd_dag_opts *o = &job->opts;
+	struct vd_dag out = {0}, *parts = NULL;
+	struct vd_dag_stats st = {0};
+	struct vd_transform tr = {0};
+	struct vd_chunk *c = NULL;
+	int err = VD_OK, sym = job->kind == VD_KIND_SSVDAG;
+	double t0 = vd_seconds(), t_load = 0, t_save = 0;
+	size_t n = job->n_inputs;
+	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no input chunks");
+	if (!job->merge && n != 1)
+		return vd_fail(VD_ERR_ARG, "%zu inputs without --merge", n);
+	if (!job->merge && job->kind == VD_KIND_DAG) {
+		/* svo-to-dag: one SVO chunk */
+		const char *in = job->inputs[0];
+		if ((err = vd_chunk_open(&c, in, VD_KIND_SVO)))
+			return reword(err, "cannot read", in);
+		const struct vd_chunk_header *h = vd_chunk_header(c);
+		tr = h->transform;
+		uint64_t bricks = h->level_count >= 3 ?
+			h->level_nodes[h->level_count - 3] : 1;
+		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks), &st))) {
+			vd_chunk_free(c);
+			return reword(err, "cannot build the DAG of", in);
+		}
+		struct vd_svo svo;
+		err = vd_svo_from_chunk(&svo, c);
+		vd_chunk_free(c);
+		if (err) return reword(err, "cannot read", in);
+		t_load = vd_seconds() - t0;
+		err = vd_dag_from_svo(&out, &svo, VD_KIND_DAG, o, &st);
+		vd_svo_release(&svo);
+		if (err) {
+			vd_dag_release(&out);
+			return reword(err, "cannot build the DAG of", in);
+		}
+	} else {
+		/* DAG chunks: one to symmetry-merge, or several to merge */
+		parts = calloc(n, sizeof *parts);
+		const struct vd_dag **pp = malloc(n * sizeof *pp);
+		if (!parts || !pp) {
+			free(parts);
+			free(pp);
+			return NOMEM();
+		}
+		uint64_t nodes = 0, refs = 0;
+		for (size_t i = 0; i < n && !err; i++) {
+			const char *in = job->inputs[i];
+			uint32_t want = sym && job->merge ? VD_KIND_ANY : VD_KIND_DAG;
+			if ((err = vd_chunk_open(&c, in, want))) {
+				err = reword(err, "cannot read", in);
+				break;
+			}
+			const struct vd_chunk_header *h = vd_chunk_header(c);
+			if (i == 0) tr = h->transform;
+			if (!same_transform(&tr, &h->transform))
+				err = vd_fail(VD_ERR_MISMATCH, "cannot merge '%s': "
+					      "its world transform differs from "
+					      "'%s' (chunks of another scene or "
+					      "resolution?)", in, job->inputs[0]);
+			/* the references of a part not yet loaded: at most 8
+			 * per node */
+			uint64_t hn = header_nodes(h);
+			if (!err && (err = check_budget(o, vd_dag_estimate_merge(
+					nodes + hn, refs + 8 * hn), &st)))
+				err = reword(err, "cannot load", in);
+			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
+				err = reword(err, "cannot read", in);
+			vd_chunk_free(c);
+			c = NULL;
+			for (int l = parts[i].chunk_level; !err && l < parts[i].levels; l++) {
+				nodes += parts[i].lv[l].nodes;
+				refs += parts[i].lv[l].refs;
+			}
+			pp[i] = &parts[i];
+		}
+		t_load = vd_seconds() - t0;
+		if (!err) {
+			struct vd_dag_opts mo = *o;
+			mo.part_names = job->inputs;
+			int level = job->merge ? job->to_level : parts[0].chunk_level;
+			err = vd_dag_merge(&out, pp, n, job->kind, level, &mo, &st);
+			if (err)
+				err = reword(err, job->merge ? "cannot merge"
+					     : "cannot symmetry-merge",
+					     n == 1 ? job->inputs[0] : "the inputs");
+		}
+		for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
+		free(parts);
+		free(pp);
+		if (err) {
+			vd_dag_release(&out);
+			return err;
+		}
 	}
-	fprintf(f, "],\n  \"nodes\": %" PRIu64 ",\n  \"refs\": %" PRIu64 ",\n",
-		total, total_refs);
-	fprintf(f, "  \"seconds_level\": [");
-	for (int l = A; l < L; l++)
-		fprintf(f, "%s%.6f", l > A ? ", " : "", st->seconds_level[l]);
-	double vps = st->seconds_build > 0 ? st->input_voxels / st->seconds_build : 0;
-	fprintf(f, "],\n  \"seconds_load\": %.6f,\n  \"seconds_build\": %.6f,\n"
-		"  \"seconds_save\": %.6f,\n  \"voxels_per_second\": %.0f,\n",
-		seconds_load, st->seconds_build, seconds_save, vps);
-	fprintf(f, "  \"memory_estimate_bytes\": %" PRIu64 ",\n"
-		"  \"peak_rss_bytes\": %" PRIu64 "\n}\n",
-		st->memory_estimate_bytes, vd_peak_rss_bytes());
-	int bad = ferror(f);
-	if (fclose(f) || bad || rename(tmp, path)) {
-		int e = errno;
-		remove(tmp);
-		free(tmp);
-		return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
-			       strerror(e));
+	double t1 = vd_seconds();
+	err = vd_dag_save(&out, &tr, job->output, job->provenance);
+	t_save = vd_seconds() - t1;
+	if (err) {
+		vd_dag_release(&out);
+		return reword(err, "cannot write", job->output);
 	}
-	free(tmp);
-	return VD_OK;
+	size_t plen = strlen(job->output) + 16;
+	char *sp = malloc(plen);
+	if (!sp) {
+		vd_dag_release(&out);
+		return NOMEM();
+	}
+	snprintf(sp, plen, "%s.stats.json", job->output);
+	err = vd_dag_write_stats(&out, &st, tool, t_load, t_save, sp);
+	if (err) err = reword(err, "cannot write", sp);
+	free(sp);
+	if (!err && !job->quiet) {
+		uint64_t tn = 0;
+		for (int l = out.chunk_level; l < out.levels; l++) tn += out.lv[l].nodes;
+		fprintf(stderr, "%s: wrote '%s': %s of %" PRIu64 " voxels, %"
+			PRIu64 " nodes on levels %d..%d, %.3f s build (%.1f M "
+			"voxels/s), %.3f s total\n", tool, job->output,
+			vd_chunk_kind_name(out.kind), out.voxels, tn,
+			out.chunk_level, out.levels - 1, st.seconds_build,
+			st.seconds_build > 0 ? st.input_voxels / st.seconds_build / 1e6 : 0,
+			vd_seconds() - t0);
+	}
+	vd_dag_release(&out);
+	return err;
+}
+
+/* ------------------------------------------------------------ comparison */
+
+struct svo_ref {
+	const struct vd_svo *s;
+	uint64_t start, end; /* voxel Morton range of the cell */
+};
+
+static int svo_ref_cmp(const void *a, const void *b)
+{
+	uint64_t x = ((const struct svo_ref *)a)->start,
+		 y = ((const struct svo_ref *)b)->start;
+	return x < y ? -1 : x > y;
+}
+
+struct cmp_state {
+	const struct svo_ref *r;
+	size_t n, i, j;      /* cursor: SVO i, brick j */
+	int L;
+	struct vd_dag_diff *diff;
+};
+
+static void cmp_note(struct cmp_state *c, uint64_t key, uint64_t x,
+		     uint64_t in_dag)
+{
+	if (!x) return;
+	if (!c->diff->differing_voxels) {
+		int b = __builtin_ctzll(x);
+		c->diff->first_voxel_morton =
+			c->L >= 2 ? key << 6 | (uint64_t)b : (uint64_t)b;
+		c->diff->first_in_dag = (int)(in_dag >> b & 1);
+	}
+	c->diff->differing_voxels += popcount64(x);
+}
+
+/* Steps the SVO cursor past every brick before `key`, noting each. */
+static void cmp_advance(struct cmp_state *c, uint64_t key, int all)
+{
+	while (c->i < c->n) {
+		const struct vd_svo *s = c->r[c->i].s;
+		if (c->j >= s->count) {
+			c->i++;
+			c->j = 0;
+			continue;
+		}
+		if (!all && s->keys[c->j] >= key) return;
+		cmp_note(c, s->keys[c->j], s->masks[c->j], 0);
+		c->j++;
+	}
+}
+
+static int cmp_brick(void *ctx, uint64_t key, uint64_t brick)
+{
+	struct cmp_state *c = ctx;
+	cmp_advance(c, key, 0);
+	uint64_t svo = 0;
+	if (c->i < c->n && c->r[c->i].s->keys[c->j] == key)
+		svo = c->r[c->i].s->masks[c->j++];
+	cmp_note(c, key, brick ^ svo, brick);
+	return 0;
+}
+
+int vd_dag_compare_svo(const struct vd_dag *dag,
+		       const struct vd_svo *const *svos, size_t n,
+		       struct vd_dag_diff *diff)
+{
+	memset(diff, 0, sizeof *diff);
+	int L = dag->levels, A = dag->chunk_level;
+	struct svo_ref *r = malloc((n ? n : 1) * sizeof *r);
+	if (!r) return NOMEM();
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_svo *s = svos[i];
+		if (s->levels != L || s->chunk_level < A ||
+		    s->cell_morton >> (3 * (s->chunk_level - A)) != dag->cell_morton) {
+			free(r);
+			return vd_fail(VD_ERR_MISMATCH, "SVO chunk %zu (%d levels, "
+				       "cell %" PRIu64 " at level %d) is not "
+				       "inside the DAG's cell %" PRIu64 " at "
+				       "level %d of %d levels", i, s->levels,
+				       s->cell_morton, s->chunk_level,
+				       dag->cell_morton, A, L);
+		}
+		r[i].s = s;
+		r[i].start = s->chunk_level ? s->cell_morton *
+			cell_span(L, s->chunk_level) : 0;
+		r[i].end = r[i].start + cell_span(L, s->chunk_level);
+	}
+	qsort(r, n, sizeof *r, svo_ref_cmp);
+	for (size_t i = 0; i + 1 < n; i++)
+		if (r[i].end > r[i + 1].start) {
+			free(r);
+			return vd_fail(VD_ERR_MISMATCH, "two SVO chunks cover cell "
+				       "%" PRIu64 " at level %d",
+				       r[i + 1].s->cell_morton,
+				       r[i + 1].s->chunk_level);
+		}
+	struct cmp_state c = {r, n, 0, 0, L, diff};
+	int err = vd_dag_expand(dag, cmp_brick, &c);
+	if (!err) cmp_advance(&c, 0, 1);
+	free(r);
+	return err;
 }

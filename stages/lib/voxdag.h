@@ -514,6 +514,8 @@ struct vd_dag {
 struct vd_dag_opts {
 	int threads;               /* 0: all cores */
 	uint64_t mem_budget_bytes; /* 0: no limit */
+	const char *const *part_names; /* merge: names of the parts for error
+					  details (file names), or NULL */
 };
 
 /* What a build or merge measured. */
@@ -603,6 +605,25 @@ int vd_dag_expand(const struct vd_dag *dag,
 		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
 		  void *ctx);
 
+/* The outcome of vd_dag_compare_svo(). */
+struct vd_dag_diff {
+	uint64_t differing_voxels;   /* 0: equal */
+	uint64_t first_voxel_morton; /* the first difference in Morton order,
+					a voxel Morton code (3*L bits) */
+	int first_in_dag;            /* 1: that voxel is set in the DAG only,
+					0: in the SVO chunks only */
+};
+
+/* Compares the voxels of `dag` with the union of the SVO chunks
+ * svos[0..n-1] (any order), streaming the DAG's expansion. The SVO cells
+ * must lie inside the DAG's cell, have its depth and not overlap
+ * (VD_ERR_MISMATCH otherwise); voxels of the DAG outside every SVO cell
+ * count as differences. Fills *diff and returns VD_OK whether or not they
+ * differ. */
+int vd_dag_compare_svo(const struct vd_dag *dag,
+		       const struct vd_svo *const *svos, size_t n,
+		       struct vd_dag_diff *diff);
+
 /* Expands `dag` into a new SVO (release with vd_svo_release()). */
 int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo);
 
@@ -647,6 +668,30 @@ int vd_dag_write_stats(const struct vd_dag *dag,
 		       const struct vd_dag_stats *st, const char *tool,
 		       double seconds_load, double seconds_save,
 		       const char *path);
+
+/* One run of the svo-to-dag or symmetry-merge stage, as its main() sets
+ * it up from the command line. */
+struct vd_dag_job {
+	const char *tool;          /* "svo-to-dag": messages and statistics */
+	uint32_t kind;             /* output: VD_KIND_DAG or VD_KIND_SSVDAG */
+	int merge;                 /* inputs are DAG chunks to merge */
+	int to_level;              /* merge: output chunk level, -1 default */
+	const char *const *inputs; /* input chunk files */
+	size_t n_inputs;
+	const char *output;        /* output chunk file; statistics go to
+				      output + ".stats.json" */
+	const char *provenance;    /* stored in the output, or NULL */
+	struct vd_dag_opts opts;
+	int quiet;                 /* no summary line on stderr */
+};
+
+/* Loads the inputs (an SVO chunk for VD_KIND_DAG, a DAG chunk for
+ * VD_KIND_SSVDAG; with `merge`, DAG chunks, and for VD_KIND_SSVDAG also
+ * SSVDAG chunks), checks the memory budget before each load, builds,
+ * saves the output atomically and writes the statistics. On failure the
+ * detail is the whole message after the tool name ("cannot read 'x.svo':
+ * truncated file: ...") and nothing is left at the output path. */
+int vd_dag_run(const struct vd_dag_job *job);
 
 /* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
 void vd_dag_release(struct vd_dag *dag);
