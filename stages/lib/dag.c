@@ -991,7 +991,10 @@ int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo)
 	svo->chunk_level = dag->chunk_level;
 	svo->cell_morton = dag->cell_morton;
 	struct svo_sink k = {svo, 0};
-	int err = vd_dag_expand(dag, svo_sink_add, &k);
+	/* arrays are never NULL, even for an empty DAG */
+	int err = svo_sink_add(&k, 0, 0);
+	svo->count = 0;
+	if (!err) err = vd_dag_expand(dag, svo_sink_add, &k);
 	if (err) {
 		free(svo->keys);
 		free(svo->masks);
@@ -1631,11 +1634,12 @@ int vd_dag_compare_svo(const struct vd_dag *dag,
 	qsort(r, n, sizeof *r, svo_ref_cmp);
 	for (size_t i = 0; i + 1 < n; i++)
 		if (r[i].end > r[i + 1].start) {
+			int err = vd_fail(VD_ERR_MISMATCH, "two SVO chunks cover "
+					  "cell %" PRIu64 " at level %d",
+					  r[i + 1].s->cell_morton,
+					  r[i + 1].s->chunk_level);
 			free(r);
-			return vd_fail(VD_ERR_MISMATCH, "two SVO chunks cover cell "
-				       "%" PRIu64 " at level %d",
-				       r[i + 1].s->cell_morton,
-				       r[i + 1].s->chunk_level);
+			return err;
 		}
 	struct cmp_state c = {r, n, 0, 0, L, diff};
 	int err = vd_dag_expand(dag, cmp_brick, &c);

@@ -3,7 +3,7 @@
  * build, merge errors, edge cases, chunk files. */
 #include "dag_test_util.h"
 
-static struct vd_dag_opts opts = {1, 0};
+static struct vd_dag_opts opts = {1, 0, NULL};
 
 static int counts_equal(const struct vd_dag *a, const struct vd_dag *b)
 {
@@ -258,7 +258,7 @@ static void test_merge_errors(void)
 		 VD_ERR_EMPTY);
 	vd_dag_release(&out);
 	/* a budget too small for the estimate */
-	struct vd_dag_opts tight = {1, 1000};
+	struct vd_dag_opts tight = {1, 1000, NULL};
 	pp[0] = &a;
 	CHECK_EQ(vd_dag_merge(&out, pp, 1, VD_KIND_DAG, -1, &tight, NULL),
 		 VD_ERR_BUDGET);
@@ -401,7 +401,7 @@ static void test_chunk_files(void)
 			CHECK(counts_equal(&d, &e));
 			CHECK_EQ(e.kind, kind);
 			CHECK_EQ(e.cell_morton, d.cell_morton);
-			for (int l = L0; l < L; l++) {
+			for (int l = L0; l < L && d.lv[L0].nodes; l++) {
 				CHECK(!memcmp(d.lv[l].mask, e.lv[l].mask, d.lv[l].nodes));
 				if (l < L - 1)
 					CHECK(!memcmp(d.lv[l].child, e.lv[l].child,
@@ -468,6 +468,106 @@ static void test_chunk_files(void)
 	grid_free(&g);
 }
 
+/* Real meshes: voxelize monolithically and with L0 = 1, 2, 3; build DAG
+ * and SSVDAG chunks, merge them to the root (all at once and 8 siblings at
+ * a time), and check: the voxels equal the SVO chunks', and the per-level
+ * counts equal the monolithic build's. */
+static void real_mesh(const char *mesh, int L)
+{
+	const char *base = test_tmpdir("test_dag_mesh");
+	struct vd_dag mono[2];
+	memset(mono, 0, sizeof mono);
+	for (int L0 = 0; L0 <= 3; L0++) {
+		char dir[700];
+		snprintf(dir, sizeof dir, "%s/L0-%d", base, L0);
+		struct vd_voxelize_opts vo = {.levels = L, .chunk_level = L0,
+					      .mem_budget_bytes = 1ull << 30,
+					      .threads = 2, .quiet = 1,
+					      .tool = "test_dag"};
+		struct vd_voxelize_result res;
+		int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
+		CHECK_EQ(err, VD_OK);
+		if (err) {
+			fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
+			return;
+		}
+		uint64_t cells = 1ULL << (3 * L0), n = 0;
+		struct vd_svo *svo = calloc(cells, sizeof *svo);
+		const struct vd_svo **sp = calloc(cells, sizeof *sp);
+		struct vd_dag *parts[2];
+		parts[0] = calloc(cells, sizeof(struct vd_dag));
+		parts[1] = calloc(cells, sizeof(struct vd_dag));
+		for (uint64_t c = 0; c < cells; c++) {
+			char name[64], path[800];
+			vd_chunk_file_name(name, sizeof name, L0, c, "svo");
+			snprintf(path, sizeof path, "%s/%s", dir, name);
+			FILE *f = fopen(path, "rb");
+			if (!f) continue;
+			fclose(f);
+			CHECK_EQ(vd_svo_load(&svo[n], NULL, path), VD_OK);
+			sp[n] = &svo[n];
+			for (int k = 0; k < 2; k++)
+				CHECK_EQ(vd_dag_from_svo(&parts[k][n], &svo[n],
+							 k ? VD_KIND_SSVDAG : VD_KIND_DAG,
+							 &opts, NULL), VD_OK);
+			n++;
+		}
+		CHECK_EQ(n, res.chunks);
+		for (int k = 0; k < 2; k++) {
+			struct vd_dag root;
+			if (L0 == 0) {
+				root = parts[k][0];
+				parts[k][0] = (struct vd_dag){0};
+			} else {
+				const struct vd_dag **pp = malloc(n * sizeof *pp);
+				for (uint64_t i = 0; i < n; i++) pp[i] = &parts[k][i];
+				CHECK_EQ(vd_dag_merge(&root, pp, n, k ? VD_KIND_SSVDAG :
+						      VD_KIND_DAG, 0, &opts, NULL), 0);
+				free(pp);
+			}
+			CHECK_EQ(vd_dag_validate(&root), VD_OK);
+			CHECK_EQ(root.voxels, res.voxels);
+			struct vd_dag_diff diff;
+			CHECK_EQ(vd_dag_compare_svo(&root, sp, n, &diff), VD_OK);
+			CHECK_EQ(diff.differing_voxels, 0);
+			if (L0 == 0)
+				mono[k] = root;
+			else {
+				CHECK(counts_equal(&root, &mono[k]));
+				vd_dag_release(&root);
+			}
+		}
+		for (uint64_t i = 0; i < n; i++) {
+			vd_svo_release(&svo[i]);
+			vd_dag_release(&parts[0][i]);
+			vd_dag_release(&parts[1][i]);
+		}
+		free(svo);
+		free(sp);
+		free(parts[0]);
+		free(parts[1]);
+	}
+	for (int l = 0; l < L; l++) CHECK(mono[1].lv[l].nodes <= mono[0].lv[l].nodes);
+	vd_dag_release(&mono[0]);
+	vd_dag_release(&mono[1]);
+}
+
+static void test_real_meshes(void)
+{
+	char dragon[600];
+	snprintf(dragon, sizeof dragon, "%s/stanford_dragon_res2.ply",
+		 test_shared_data());
+	FILE *f = fopen(dragon, "rb");
+	for (int L = 8; L <= 10; L += 2) {
+		real_mesh("tests/data/bunny.ply", L);
+		if (f) real_mesh(dragon, L);
+	}
+	if (f)
+		fclose(f);
+	else
+		printf("SKIP test_real_meshes_dragon (no %s)\n", dragon);
+}
+
 int main(void)
 {
 	RUN(test_lossless_monolithic);
@@ -477,5 +577,6 @@ int main(void)
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
 	RUN(test_chunk_files);
+	RUN(test_real_meshes);
 	return CHECK_DONE();
 }

@@ -4,7 +4,7 @@
  * expansion, and the DAG -> SSVDAG path equal to the direct one. */
 #include "dag_test_util.h"
 
-static struct vd_dag_opts opts = {1, 0};
+static struct vd_dag_opts opts = {1, 0, NULL};
 
 /* Mask reflected by m through coordinates: voxel (x, y, z) -> mirrored. */
 static unsigned coord_reflect8(unsigned v, unsigned m)
