@@ -1473,7 +1473,8 @@ int vd_dag_run(const struct vd_dag_job *job)
 			}
 			const struct vd_chunk_header *h = vd_chunk_header(c);
 			if (i == 0) tr = h->transform;
-			if (!same_transform(&tr, &h->transform))
+			if (i > 0 && (int)h->levels == parts[0].levels &&
+			    !same_transform(&tr, &h->transform))
 				err = vd_fail(VD_ERR_MISMATCH, "cannot merge '%s': "
 					      "its world transform differs from "
 					      "'%s' (chunks of another scene or "
