@@ -48,6 +48,7 @@ struct vd_rd {
 	uint64_t off;       /* file offset of buf[0] */
 	uint64_t lines;     /* physical lines consumed by vd_rd_line */
 	int eof;
+	int cut;            /* the last line had no newline: end of file */
 };
 
 /* Returns 1 if bytes were added, 0 at end of file or when the buffer is full
@@ -153,6 +154,7 @@ static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 			*s = (char *)r->buf + r->pos;
 			*len = end - r->pos;
 			r->pos = e + 1;
+			r->cut = 0;
 			return 1;
 		}
 		size_t rel = r->len - r->pos;
@@ -177,6 +179,7 @@ static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 		*s = (char *)r->buf + r->pos;
 		*len = end - r->pos;
 		r->pos = r->len;
+		r->cut = 1;
 		return 1;
 	}
 }
@@ -820,6 +823,13 @@ static int vd_ply_header(struct vd_mesh *m)
 				return vd_fail(VD_ERR_FORMAT,
 					"line %" PRIu64 ": binary bytes in the "
 					"PLY header (end_header missing?)", ln);
+		/* A header line cut by the end of the file says nothing
+		 * reliable (a cut keyword, a cut version number). */
+		if (m->r.cut && strncmp(s, "end_header", 10))
+			return vd_fail(VD_ERR_TRUNCATED,
+				       "PLY header ends at byte %" PRIu64
+				       " (line %" PRIu64 ") without end_header",
+				       m->file_bytes, m->r.lines);
 		if (ln == 1) /* "ply", checked by the detection */
 			continue;
 		int n = vd_split(s, tok, 8);
@@ -908,6 +918,12 @@ static int vd_ply_layout(struct vd_mesh *m)
 	m->vert_elem = m->face_elem = m->nelems;
 	m->ix = m->iy = m->iz = m->ilist = -1;
 	for (size_t i = 0; i < m->nelems; i++) {
+		/* Items of nothing take no bytes: a huge count would spin
+		 * without ever reaching the end of the file. */
+		if (m->elems[i].count > 0 && m->elems[i].nprops == 0)
+			return vd_fail(VD_ERR_FORMAT, "PLY element '%s' has %"
+				       PRIu64 " items but no properties",
+				       m->elems[i].name, m->elems[i].count);
 		if (!strcmp(m->elems[i].name, "vertex") &&
 		    m->vert_elem == m->nelems)
 			m->vert_elem = i;
@@ -964,9 +980,9 @@ static int vd_ply_layout(struct vd_mesh *m)
 	 * caught here, before anything is allocated for it. */
 	size_t last = m->face_elem < m->nelems ? m->face_elem
 		: m->vert_elem < m->nelems ? m->vert_elem : 0;
-	uint64_t left = m->file_bytes - (m->r.off + m->r.pos), need = 0;
-	if (m->kind == MESH_PLY_ASCII)
-		left++; /* the last line may lack its newline */
+	uint64_t after = m->file_bytes - (m->r.off + m->r.pos), need = 0;
+	/* The last text line may lack its newline. */
+	uint64_t left = after + (m->kind == MESH_PLY_ASCII);
 	for (size_t i = 0; i < m->nelems && i <= last; i++) {
 		const struct vd_ply_elem *el = &m->elems[i];
 		uint64_t per = m->kind == MESH_PLY_ASCII ? 2 * el->nprops
@@ -975,8 +991,10 @@ static int vd_ply_layout(struct vd_mesh *m)
 			return vd_fail(VD_ERR_TRUNCATED,
 				"PLY header declares %" PRIu64 " items of "
 				"element '%s' (at least %" PRIu64 " bytes each)"
-				" but only %" PRIu64 " bytes follow the header",
-				el->count, el->name, per, left);
+				" but only %" PRIu64 " of the %" PRIu64 " bytes "
+				"after the header are left for them", el->count,
+				el->name, per, need > after ? 0 : after - need,
+				after);
 		need += el->count * per;
 	}
 	return VD_OK;
@@ -1026,6 +1044,15 @@ static int vd_ply_next(struct vd_mesh *m, int *got)
 {
 	const struct vd_ply_elem *f = &m->elems[m->face_elem];
 	if (m->faces_done == f->count) {
+		/* Elements after the faces carry nothing we use, but walking
+		 * them is how a file cut inside them is noticed. */
+		for (size_t i = m->face_elem + 1; i < m->nelems; i++)
+			for (uint64_t j = 0; j < m->elems[i].count; j++) {
+				int e = vd_ply_item(m, &m->elems[i], NULL, 0,
+						    j);
+				if (e)
+					return e;
+			}
 		*got = 0;
 		return VD_OK;
 	}
@@ -1060,9 +1087,9 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 		const char *p = vd_skip_space(s);
 		if (*p == 0 || *p == '#')
 			continue;
-		if (p[0] == 'v' && vd_is_space(p[1])) {
+		if (p[0] == 'v' && vd_is_end(p[1])) {
 			float v[3];
-			p += 2;
+			p++;
 			for (int k = 0; k < 3; k++) {
 				double d;
 				const char *t = vd_skip_space(p);
@@ -1086,11 +1113,11 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 			m->stats.vertices = m->nverts;
 			continue;
 		}
-		if (p[0] == 'f' && vd_is_space(p[1])) {
+		if (p[0] == 'f' && vd_is_end(p[1])) {
 			m->poly_face++;
 			m->poly_line = ln;
 			m->poly_n = 0;
-			for (p += 2;;) {
+			for (p++;;) {
 				const char *t = vd_skip_space(p);
 				if (*t == 0)
 					break;

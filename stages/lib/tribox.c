@@ -7,11 +7,12 @@
  * axis that is the zero vector (degenerate triangles) separates nothing,
  * which is exactly right for segments and points.
  *
- * Coordinates are snapped integers (VD_SNAP_BITS fractional bits), so every
+ * Coordinates are snapped integers (VD_SNAP_ROOT_BITS lattice), so every
  * projection is an exact integer. Magnitudes: with coordinates relative to a
  * point near the triangle and extent E (snapped units), edge axes have
  * components <= E, normals <= 2E^2, projections <= 3*2E^2*E. int64 holds
- * that for E < 2^20 (256 voxels); larger triangles use __int128 (E < 2^40).
+ * that for E < 2^19 (2^(L-5) voxels at depth L); larger triangles use
+ * __int128 (E < 2^40).
  */
 #include "voxdag.h"
 #include "voxelize_internal.h"
@@ -24,7 +25,7 @@ typedef __int128 i128;
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr)
 {
-	const double scale = ldexp(1.0, VD_SNAP_BITS) / tr->voxel_size;
+	const double scale = ldexp(1.0, VD_SNAP_ROOT_BITS) / (double)tr->root_side;
 	for (int k = 0; k < 3; k++)
 		for (int a = 0; a < 3; a++) {
 			double g = ((double)t->v[k][a] - tr->origin[a]) * scale;
@@ -118,10 +119,10 @@ static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
 	return q - (a % b != 0 && a < 0);
 }
 
-int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
-		       int64_t size)
+int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
+		       const int64_t lo[3], int64_t size)
 {
-	const int64_t s = size << VD_SNAP_BITS;
+	const int64_t unit = vd_snap_voxel(levels), s = size * unit;
 	int64_t p[3];
 	for (int a = 0; a < 3; a++) {
 		/* the 3 box axes */
@@ -132,7 +133,7 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 			if (t->v[k][a] > mx)
 				mx = t->v[k][a];
 		}
-		p[a] = lo[a] << VD_SNAP_BITS;
+		p[a] = lo[a] * unit;
 		if (mx < p[a] || mn > p[a] + s)
 			return 0;
 	}
@@ -148,14 +149,17 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 
 /* Visits every voxel of [clip_lo, clip_hi] (inclusive, voxels) that the
  * triangle overlaps. Columns run along the axis w where the normal is
- * largest; in each column only the voxels near the plane are tested, so the
- * work follows the triangle's area, not its bounding box volume. */
+ * largest, so the plane crosses few voxels of a column; the edge axes
+ * perpendicular to w do not change along a column and are tested once per
+ * column; the others are stepped incrementally. Only the voxels near the
+ * plane (found in double, widened by one voxel each way) are tested, and
+ * every test is exact. */
 #define DEFINE_RASTER(T, NAME, AXES)                                           \
 	static void NAME(const struct vd_snapped_tri *tri,                     \
 			 const int64_t vlo[3], const int64_t vhi[3],           \
-			 const int64_t origin[3], vd_voxel_fn fn, void *ctx)   \
+			 const int64_t origin[3], int64_t s, vd_voxel_fn fn,   \
+			 void *ctx)                                            \
 	{                                                                      \
-		const int64_t s = (int64_t)1 << VD_SNAP_BITS;                  \
 		int64_t t[3][3];                                               \
 		for (int k = 0; k < 3; k++)                                    \
 			for (int a = 0; a < 3; a++)                            \
@@ -170,53 +174,98 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
 				best = m, w = a;                               \
 		}                                                              \
 		int u = (w + 1) % 3, v = (w + 2) % 3;                          \
+		/* axes 1 + 3k + w are e_k x (unit w): zero w component */     \
+		int col[3], nvox = 0, vox_ax[7];                               \
+		for (int k = 0; k < 3; k++)                                    \
+			col[k] = 1 + 3 * k + w;                                \
+		vox_ax[nvox++] = 0;                                            \
+		for (int j = 1; j < 10; j++)                                   \
+			if ((j - 1) % 3 != w)                                  \
+				vox_ax[nvox++] = j;                            \
+		T step[7];                                                     \
+		for (int i = 0; i < 7; i++)                                    \
+			step[i] = x.a[vox_ax[i]][w] * s;                       \
 		double nw = (double)x.a[0][w];                                 \
-		int64_t p[3], vox[3];                                          \
-		for (vox[u] = vlo[u]; vox[u] <= vhi[u]; vox[u]++)              \
-			for (vox[v] = vlo[v]; vox[v] <= vhi[v]; vox[v]++) {    \
+		double inv_s = 1.0 / (double)s;                                \
+		for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {                \
+			int64_t pu = cu * s - origin[u];                       \
+			for (int64_t cv = vlo[v]; cv <= vhi[v]; cv++) {        \
+				int64_t pv = cv * s - origin[v];               \
+				int skip = 0;                                  \
+				for (int k = 0; k < 3 && !skip; k++) {         \
+					const T *ax = x.a[col[k]];             \
+					T d = ax[u] * pu + ax[v] * pv;         \
+					skip = d + x.bhi[col[k]] <             \
+						       x.tmin[col[k]] ||       \
+					       d + x.blo[col[k]] >             \
+						       x.tmax[col[k]];         \
+				}                                              \
+				if (skip)                                      \
+					continue;                              \
 				int64_t w0 = vlo[w], w1 = vhi[w];              \
-				p[u] = vox[u] * s - origin[u];                 \
-				p[v] = vox[v] * s - origin[v];                 \
 				if (nw != 0) {                                 \
-					/* voxels whose box interval on the    \
-					 * normal contains the plane offset,   \
-					 * estimated in double and widened;    \
-					 * the exact test below decides. */    \
 					double r = (double)(x.tmin[0] -        \
-						x.a[0][u] * p[u] -             \
-						x.a[0][v] * p[v]);             \
+						x.a[0][u] * pu -               \
+						x.a[0][v] * pv);               \
 					double ga = (r - (double)x.bhi[0]) /   \
 						    nw,                        \
 					       gb = (r - (double)x.blo[0]) /   \
 						    nw;                        \
 					double g0 = ga < gb ? ga : gb,         \
 					       g1 = ga < gb ? gb : ga;         \
+					/* [g0, g1]: low corners passing the  \
+					 * plane test; the double error is    \
+					 * far below the 1e-6 voxel margin.  \
+					 */                                   \
 					double o = (double)origin[w];          \
-					int64_t c0 = (int64_t)floor((g0 + o) / \
-						     (double)s) - 1;           \
-					int64_t c1 = (int64_t)floor((g1 + o) / \
-						     (double)s) + 1;           \
-					if (c0 > w0)                           \
-						w0 = c0;                       \
-					if (c1 < w1)                           \
-						w1 = c1;                       \
+					double f0 = ceil((g0 + o) * inv_s -    \
+							 1e-6),                \
+					       f1 = floor((g1 + o) * inv_s +   \
+							  1e-6);               \
+					if (f0 > (double)w0)                   \
+						w0 = (int64_t)f0;              \
+					if (f1 < (double)w1)                   \
+						w1 = (int64_t)f1;              \
 				}                                              \
-				for (vox[w] = w0; vox[w] <= w1; vox[w]++) {    \
-					p[w] = vox[w] * s - origin[w];         \
-					if (AXES##_overlap(&x, p))             \
+				if (w0 > w1)                                   \
+					continue;                              \
+				T d[7];                                        \
+				int64_t pw = w0 * s - origin[w];               \
+				for (int i = 0; i < 7; i++) {                  \
+					const T *ax = x.a[vox_ax[i]];          \
+					d[i] = ax[u] * pu + ax[v] * pv +       \
+					       ax[w] * pw;                     \
+				}                                              \
+				int64_t vox[3];                                \
+				vox[u] = cu, vox[v] = cv;                      \
+				for (int64_t cw = w0; cw <= w1; cw++) {        \
+					int ok = 1;                            \
+					for (int i = 0; i < 7; i++) {          \
+						int j = vox_ax[i];             \
+						ok &= d[i] + x.bhi[j] >=       \
+							      x.tmin[j] &&     \
+						      d[i] + x.blo[j] <=       \
+							      x.tmax[j];       \
+						d[i] += step[i];               \
+					}                                      \
+					if (ok) {                              \
+						vox[w] = cw;                   \
 						fn(ctx, vox[0], vox[1],        \
 						   vox[2]);                    \
+					}                                      \
 				}                                              \
-			}                                                      \
+			}                                              \
+		}                                                      \
 	}
 
 DEFINE_RASTER(int64_t, raster64, axes64)
 DEFINE_RASTER(i128, raster128, axes128)
 
-void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3],
-			const int64_t clip_hi[3], vd_voxel_fn fn, void *ctx)
+void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
+			const int64_t clip_lo[3], const int64_t clip_hi[3],
+			vd_voxel_fn fn, void *ctx)
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS;
+	const int64_t s = vd_snap_voxel(levels);
 	int64_t vlo[3], vhi[3], origin[3], extent = 0;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
@@ -246,7 +295,7 @@ void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3]
 			extent = e;
 	}
 	if (extent < ((int64_t)1 << 19))
-		raster64(t, vlo, vhi, origin, fn, ctx);
+		raster64(t, vlo, vhi, origin, s, fn, ctx);
 	else
-		raster128(t, vlo, vhi, origin, fn, ctx);
+		raster128(t, vlo, vhi, origin, s, fn, ctx);
 }

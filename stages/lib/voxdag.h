@@ -311,16 +311,20 @@ struct vd_mesh_stats {
 struct vd_mesh;
 
 /* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise only if the extension is .obj).
- * Parses the header; the body is read by vd_mesh_read(). Errors:
- * VD_ERR_IO, VD_ERR_UNSUPPORTED (unknown format), VD_ERR_FORMAT (bad
- * header), VD_ERR_TRUNCATED. */
+ * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
+ * first statement is an OBJ one). Parses the header (PLY: also loads the
+ * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+ * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
+ * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
+ * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
 int vd_mesh_open(struct vd_mesh **out, const char *path);
 
 /* Reads up to `cap` triangles into `buf` and sets *n; *n == 0 means the
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
- * coordinate), VD_ERR_TRUNCATED (file ends inside the body). */
+ * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
 
@@ -330,37 +334,47 @@ int vd_mesh_rewind(struct vd_mesh *m);
 
 /* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
-/* Bytes of memory the reader holds (vertex arrays), for budgets. */
+/* Bytes of memory the reader holds (vertex arrays, read buffer), for
+ * budgets. OBJ vertices are collected while reading, so for OBJ this is
+ * final only after a whole pass. */
 size_t vd_mesh_memory_bytes(const struct vd_mesh *m);
 const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
 void vd_mesh_close(struct vd_mesh *m);
 
 /* ---------------------------------------------------- triangle/box overlap
- * Voxelization decides overlap exactly on snapped coordinates: a vertex's
- * grid coordinate g = (v - origin) / voxel_size is rounded to the nearest
- * multiple of 2^-VD_SNAP_BITS of a voxel (vd_snap_triangle), and then every
- * test is integer arithmetic without rounding, so touching counts as overlap
- * with no epsilon and results never depend on evaluation order. 1/4096 of a
- * voxel is finer than float32 input resolves at 2^12 and above, and snapping
- * puts vertices that lie on voxel faces exactly on them. */
-#define VD_SNAP_BITS 12
+ * Voxelization decides overlap exactly on snapped coordinates: a vertex is
+ * placed on a lattice of 2^-VD_SNAP_ROOT_BITS of the cube's side
+ * (vd_snap_triangle), and then every test is integer arithmetic without
+ * rounding, so touching counts as overlap with no epsilon and results never
+ * depend on evaluation order. The lattice is the same at every grid depth,
+ * so a coarse voxel is set exactly when one of its children is; 2^-24 of
+ * the side is about what float32 coordinates resolve, and a voxel at depth
+ * L is 2^(24-L) lattice steps (8 at the deepest, L = 21). */
+#define VD_SNAP_ROOT_BITS 24
 
-/* Snapped grid coordinates of a triangle, in units of 2^-VD_SNAP_BITS
- * voxels. */
+/* Lattice steps per voxel at grid depth `levels`. */
+static inline int64_t vd_snap_voxel(int levels)
+{
+	return (int64_t)1 << (VD_SNAP_ROOT_BITS - levels);
+}
+
+/* Snapped coordinates of a triangle, in lattice steps from the grid's
+ * (0,0,0) corner. */
 struct vd_snapped_tri {
 	int64_t v[3][3];
 };
 
-/* Snaps `t` into grid space of `tr`. Returns VD_ERR_RANGE if a coordinate
+/* Snaps `t` onto the lattice of `tr`. Returns VD_ERR_RANGE if a coordinate
  * is not finite. */
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr);
 
 /* Returns 1 if the closed triangle and the closed axis-aligned cube
- * [lo, lo + size] (in voxels, per axis) overlap, else 0. Degenerate
- * triangles are treated as the segment or point they are. */
-int vd_tri_box_overlap(const struct vd_snapped_tri *t, const int64_t lo[3],
-		       int64_t size);
+ * [lo, lo + size] (in voxels of a grid of depth `levels`, per axis)
+ * overlap, else 0. Degenerate triangles are treated as the segment or point
+ * they are. */
+int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
+		       const int64_t lo[3], int64_t size);
 
 /* -------------------------------------------------------------- parallel
  * A small C interface to TBB. Runs fn(ctx, i, worker) for i in [0, n) on up

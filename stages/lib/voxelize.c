@@ -122,7 +122,7 @@ struct grid {
 static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 			   int64_t lo[3], int64_t hi[3])
 {
-	const int64_t s = (int64_t)1 << VD_SNAP_BITS, top = ((int64_t)1 << L) - 1;
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
@@ -140,16 +140,63 @@ static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 	return 1;
 }
 
+/* A set of 64-bit keys (open addressing; key + 1 stored, 0 is empty). */
+struct keyset {
+	uint64_t *slots;
+	size_t cap, count;
+};
+
+static uint64_t mix(uint64_t k)
+{
+	k ^= k >> 33;
+	k *= 0xff51afd7ed558ccdULL;
+	k ^= k >> 33;
+	return k;
+}
+
+static int keyset_add(struct keyset *s, uint64_t key)
+{
+	if (2 * (s->count + 1) > s->cap) {
+		size_t cap = s->cap ? 2 * s->cap : 4096;
+		uint64_t *n = calloc(cap, sizeof *n);
+		if (!n)
+			return vd_fail(VD_ERR_NOMEM, "block estimate set");
+		for (size_t i = 0; i < s->cap; i++)
+			if (s->slots[i]) {
+				size_t j = mix(s->slots[i]) & (cap - 1);
+				while (n[j])
+					j = (j + 1) & (cap - 1);
+				n[j] = s->slots[i];
+			}
+		free(s->slots);
+		s->slots = n;
+		s->cap = cap;
+	}
+	uint64_t k1 = key + 1;
+	size_t j = mix(k1) & (s->cap - 1);
+	while (s->slots[j]) {
+		if (s->slots[j] == k1)
+			return VD_OK;
+		j = (j + 1) & (s->cap - 1);
+	}
+	s->slots[j] = k1;
+	s->count++;
+	return VD_OK;
+}
+
+/* The memory bound: the distinct 32^3 blocks that triangles may touch.
+ * Blocks are aligned with every cell of 32 voxels or more, so per-cell
+ * counts partition them exactly and coarser levels just add up. */
 struct estimate {
 	struct grid g;
-	int F;               /* finest candidate level */
-	uint64_t *blocks;    /* per cell at level F: upper bound of blocks */
+	struct keyset blocks;  /* Morton keys of candidate blocks */
 };
 
 static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 {
 	struct estimate *e = ctx;
-	int shift = e->g.L - e->F; /* cell side 2^shift voxels */
+	if (e->g.L <= BLOCK_SHIFT)
+		return VD_OK; /* one block holds the whole grid */
 	for (size_t i = 0; i < n; i++) {
 		struct vd_snapped_tri st;
 		int64_t lo[3], hi[3];
@@ -158,23 +205,64 @@ static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			return err;
 		if (!tri_voxel_range(&st, e->g.L, lo, hi))
 			continue;
-		int64_t c0[3], c1[3];
-		for (int a = 0; a < 3; a++)
-			c0[a] = lo[a] >> shift, c1[a] = hi[a] >> shift;
-		for (int64_t cx = c0[0]; cx <= c1[0]; cx++)
-			for (int64_t cy = c0[1]; cy <= c1[1]; cy++)
-				for (int64_t cz = c0[2]; cz <= c1[2]; cz++) {
-					int64_t c[3] = {cx, cy, cz};
-					uint64_t nb = 1;
-					for (int a = 0; a < 3; a++) {
-						int64_t l = lo[a] > c[a] << shift ? lo[a] : c[a] << shift;
-						int64_t h = hi[a] < ((c[a] + 1) << shift) - 1 ? hi[a] : ((c[a] + 1) << shift) - 1;
-						nb *= (uint64_t)((h >> BLOCK_SHIFT) - (l >> BLOCK_SHIFT) + 1);
-					}
-					e->blocks[vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz)] += nb;
+		int64_t b0[3], b1[3], nb = 1;
+		for (int a = 0; a < 3; a++) {
+			b0[a] = lo[a] >> BLOCK_SHIFT, b1[a] = hi[a] >> BLOCK_SHIFT;
+			nb *= b1[a] - b0[a] + 1;
+		}
+		/* a large triangle: keep only the blocks it really meets */
+		int exact = nb > 8;
+		for (int64_t x = b0[0]; x <= b1[0]; x++)
+			for (int64_t y = b0[1]; y <= b1[1]; y++)
+				for (int64_t z = b0[2]; z <= b1[2]; z++) {
+					int64_t blo[3] = {x << BLOCK_SHIFT, y << BLOCK_SHIFT, z << BLOCK_SHIFT};
+					if (exact && !vd_tri_box_overlap(&st, e->g.L, blo, 1 << BLOCK_SHIFT))
+						continue;
+					err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z));
+					if (err)
+						return err;
 				}
 	}
 	return VD_OK;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return (x > y) - (x < y);
+}
+
+/* Moves the candidate block keys into a sorted array (the cells' Morton
+ * order) and frees the set. */
+static int estimate_sorted(struct estimate *e, uint64_t **keys, size_t *n)
+{
+	uint64_t *k = malloc((e->blocks.count ? e->blocks.count : 1) * sizeof *k);
+	if (!k)
+		return vd_fail(VD_ERR_NOMEM, "block estimate");
+	size_t m = 0;
+	for (size_t i = 0; i < e->blocks.cap; i++)
+		if (e->blocks.slots[i])
+			k[m++] = e->blocks.slots[i] - 1;
+	free(e->blocks.slots);
+	e->blocks.slots = NULL;
+	qsort(k, m, sizeof *k, cmp_u64);
+	*keys = k;
+	*n = m;
+	return VD_OK;
+}
+
+/* End of the run of sorted block keys, starting at i, that lie in the same
+ * cell of level l. */
+static size_t cell_blocks_end(const uint64_t *keys, size_t n, size_t i, int L,
+			      int l)
+{
+	int sh = L - BLOCK_SHIFT - l;
+	if (sh < 0)
+		return i + 1;
+	uint64_t c = keys[i] >> 3 * sh;
+	while (i < n && keys[i] >> 3 * sh == c)
+		i++;
+	return i;
 }
 
 /* Blocks a whole cell at level l can hold. */
@@ -272,7 +360,7 @@ static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			for (int64_t cy = c0[1]; cy <= c1[1] && !err; cy++)
 				for (int64_t cz = c0[2]; cz <= c1[2] && !err; cz++) {
 					int64_t cell_lo[3] = {cx << shift, cy << shift, cz << shift};
-					if (!single && !vd_tri_box_overlap(&st, cell_lo, (int64_t)1 << shift))
+					if (!single && !vd_tri_box_overlap(&st, b->g.L, cell_lo, (int64_t)1 << shift))
 						continue;
 					err = bin_add(b, vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz), &t[i]);
 				}
@@ -295,14 +383,6 @@ struct block_map {
 	size_t limit;        /* blocks allowed by the budget */
 	int over;            /* the limit was hit */
 };
-
-static uint64_t mix(uint64_t k)
-{
-	k ^= k >> 33;
-	k *= 0xff51afd7ed558ccdULL;
-	k ^= k >> 33;
-	return k;
-}
 
 static int map_grow(struct block_map *m)
 {
@@ -412,6 +492,8 @@ static const uint16_t spread3[8] = {0, 1, 8, 9, 64, 65, 72, 73};
 struct raster_ctx {
 	struct block_map *map;
 	int64_t lo[3];        /* cell corner, voxels */
+	uint32_t bx, by, bz;  /* block of `blk` */
+	uint64_t *blk;
 };
 
 static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
@@ -419,11 +501,15 @@ static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	struct raster_ctx *r = vctx;
 	uint32_t lx = (uint32_t)(x - r->lo[0]), ly = (uint32_t)(y - r->lo[1]),
 		 lz = (uint32_t)(z - r->lo[2]);
-	uint64_t key = vd_morton3(lx >> BLOCK_SHIFT, ly >> BLOCK_SHIFT,
-				  lz >> BLOCK_SHIFT);
-	uint64_t *blk = map_get(r->map, key);
-	if (!blk)
-		return;
+	uint32_t bx = lx >> BLOCK_SHIFT, by = ly >> BLOCK_SHIFT,
+		 bz = lz >> BLOCK_SHIFT;
+	uint64_t *blk = r->blk;
+	if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
+		blk = map_get(r->map, vd_morton3(bx, by, bz));
+		if (!blk)
+			return;
+		r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
+	}
 	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
 		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
 		      spread3[(lz >> 2) & 7];
@@ -432,11 +518,6 @@ static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	blk[wi] |= 1ull << bit;
 }
 
-static int cmp_u64(const void *a, const void *b)
-{
-	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-	return (x > y) - (x < y);
-}
 
 struct worker {
 	struct block_map map;
@@ -606,7 +687,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			memcpy(t.v, fb + 9 * i, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle(&st, rc.lo, hi, set_voxel, &rc);
+				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
 		}
 		if (w->map.over)
 			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
@@ -680,28 +761,36 @@ static void remove_bins(const char *dir)
 	rmdir(bins);
 }
 
+/* Removes the chunk files (and their temporaries) and the statistics in
+ * `dir`: what an earlier run left, or what a failed run must not leave. */
+static void remove_chunks(const char *dir)
+{
+	DIR *d = opendir(dir);
+	if (!d)
+		return;
+	struct dirent *e;
+	char path[4400];
+	while ((e = readdir(d))) {
+		size_t n = strlen(e->d_name);
+		if ((strncmp(e->d_name, "chunk-L", 7) == 0 &&
+		     ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
+		      strstr(e->d_name, ".svo.tmp."))) ||
+		    strcmp(e->d_name, "voxelize.stats.json") == 0) {
+			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+			unlink(path);
+		}
+	}
+	closedir(d);
+}
+
 /* Deletes chunk files and bins of an earlier run in `dir`. */
 static int clean_outdir(const char *dir)
 {
 	if (mkdir(dir, 0777) != 0 && errno != EEXIST)
 		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", dir,
 			       strerror(errno));
-	DIR *d = opendir(dir);
-	if (!d)
-		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", dir,
-			       strerror(errno));
-	struct dirent *e;
+	remove_chunks(dir);
 	char path[4096];
-	while ((e = readdir(d))) {
-		size_t n = strlen(e->d_name);
-		if (strncmp(e->d_name, "chunk-L", 7) == 0 &&
-		    ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
-		     strstr(e->d_name, ".svo.tmp."))) {
-			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-			unlink(path);
-		}
-	}
-	closedir(d);
 	remove_bins(dir);
 	snprintf(path, sizeof path, "%s/bins.tmp", dir);
 	if (mkdir(path, 0777) != 0)
@@ -778,6 +867,9 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	struct binner b = {0};
 	struct estimate est = {0};
 	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1];
+	uint64_t *bkeys = NULL;
+	size_t nbkeys = 0;
+	int cleaned = 0;
 	if (!tris) {
 		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
 		goto out;
@@ -803,50 +895,38 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* 2. estimate and plan */
 	double t1 = vd_seconds();
 	est.g = r.g;
-	est.F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
-	est.blocks = calloc((size_t)1 << 3 * est.F, sizeof *est.blocks);
-	if (!est.blocks) {
-		err = vd_fail(VD_ERR_NOMEM, "estimates");
-		goto out;
-	}
+	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
 	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)bd.n);
 	err = for_each_batch(mesh, tris, estimate_batch, &est);
+	if (!err)
+		err = estimate_sorted(&est, &bkeys, &nbkeys);
 	if (err)
 		goto out;
-	/* per level: the largest cell's bound; coarser levels sum children */
-	size_t ncells = (size_t)1 << 3 * est.F;
-	uint64_t *lvl = malloc(ncells * sizeof *lvl);
-	if (!lvl) {
-		err = vd_fail(VD_ERR_NOMEM, "estimates");
-		goto out;
-	}
-	memcpy(lvl, est.blocks, ncells * sizeof *lvl);
+	/* per level: the largest cell's bound */
 	for (int l = 0; l <= MAX_CHUNK_LEVEL; l++)
 		max_blocks[l] = UINT64_MAX;
-	for (int l = est.F; l >= 0; l--) {
-		size_t n = (size_t)1 << 3 * l;
-		uint64_t mx = 0, cap = cell_block_cap(L, l);
-		if (l < est.F)
-			for (size_t c = 0; c < n; c++) {
-				uint64_t s = 0;
-				for (int k = 0; k < 8; k++)
-					s += lvl[8 * c + k];
-				lvl[c] = s;
-			}
-		for (size_t c = 0; c < n; c++)
-			mx = lvl[c] > mx ? lvl[c] : mx;
-		mx = mx < cap ? mx : cap;
-		if (opts->chunk_level < 0 || l == opts->chunk_level)
-			max_blocks[l] = mx;
+	for (int l = 0; l <= F; l++) {
+		if (opts->chunk_level >= 0 && l != opts->chunk_level)
+			continue;
+		max_blocks[l] = 0;
+		for (size_t i = 0; i < nbkeys;) {
+			size_t j = cell_blocks_end(bkeys, nbkeys, i, L, l);
+			if (j - i > max_blocks[l])
+				max_blocks[l] = j - i;
+			i = j;
+		}
+		uint64_t cap = cell_block_cap(L, l);
+		if (max_blocks[l] > cap || L - l <= BLOCK_SHIFT)
+			max_blocks[l] = cap;
 	}
-	free(lvl);
-	uint64_t base = vd_peak_rss_bytes() + vd_mesh_memory_bytes(mesh);
+	/* what the process holds already: vertices, buffers, the estimate */
+	uint64_t base = vd_peak_rss_bytes();
 	/* bin buffers: an eighth of the budget, 16 MiB to 256 MiB */
 	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
 	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
 	struct plan plan = {0};
-	err = plan_budget(opts, base + bin_bytes, est.F, max_blocks, L, &plan);
+	err = plan_budget(opts, base + bin_bytes, F, max_blocks, L, &plan);
 	if (err)
 		goto out;
 	r.g.L0 = plan.L0;
@@ -857,6 +937,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	err = clean_outdir(outdir);
 	if (err)
 		goto out;
+	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
 	b.cap = bin_bytes / (9 * sizeof(float) * 2); /* x2: realloc slack */
@@ -884,15 +965,24 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		err = vd_fail(VD_ERR_NOMEM, "jobs");
 		goto out;
 	}
-	int fshift = 3 * (est.F - r.g.L0);
-	for (size_t c = 0; c < ncell; c++) {
-		if (!b.bins[c].total)
-			continue;
-		uint64_t blocks = 0;
-		for (size_t k = c << fshift; k < (c + 1) << fshift; k++)
-			blocks += est.blocks[k];
-		r.jobs[r.njobs++] = (struct cell_job){c, blocks};
+	for (size_t c = 0, i = 0; c < ncell; c++) {
+		/* bkeys are sorted, cells visited in order: one merge walk */
+		size_t j = i;
+		if (L - r.g.L0 > BLOCK_SHIFT) {
+			int sh = 3 * (L - BLOCK_SHIFT - r.g.L0);
+			while (i < nbkeys && bkeys[i] >> sh < c)
+				i++;
+			j = i;
+			while (j < nbkeys && bkeys[j] >> sh == c)
+				j++;
+		}
+		if (b.bins[c].total)
+			r.jobs[r.njobs++] = (struct cell_job){
+				c, L - r.g.L0 > BLOCK_SHIFT ? j - i : 1};
+		i = j;
 	}
+	free(bkeys);
+	bkeys = NULL;
 	for (size_t c = 0; c < ncell; c++)
 		free(b.bins[c].buf);
 	free(b.bins);
@@ -981,10 +1071,13 @@ out:
 		free(r.workers);
 	}
 	free(r.jobs);
-	free(est.blocks);
+	free(est.blocks.slots);
+	free(bkeys);
 	free(tris);
 	vd_mesh_close(mesh);
 	remove_bins(outdir);
+	if (err && cleaned)
+		remove_chunks(outdir); /* no partial set of chunks survives */
 	return err;
 }
 

@@ -9,9 +9,11 @@
 typedef void (*vd_voxel_fn)(void *ctx, int64_t x, int64_t y, int64_t z);
 
 /* Calls fn once for every voxel inside [clip_lo, clip_hi] (inclusive, in
- * voxels) whose closed cube overlaps the closed triangle `t`. */
-void vd_raster_triangle(const struct vd_snapped_tri *t, const int64_t clip_lo[3],
-			const int64_t clip_hi[3], vd_voxel_fn fn, void *ctx);
+ * voxels of a grid of depth `levels`) whose closed cube overlaps the closed
+ * triangle `t`. */
+void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
+			const int64_t clip_lo[3], const int64_t clip_hi[3],
+			vd_voxel_fn fn, void *ctx);
 
 /* Adds one brick to streaming per-level counts (as vd_svo_count_levels):
  * `prev` is the previous brick's key, `first` says there is none. */

@@ -60,6 +60,8 @@ int main(int argc, char **argv)
 				     .tool = "voxelize"};
 	const char *outdir = NULL;
 	int c, have_levels = 0;
+	/* before getopt_long permutes argv */
+	char *provenance = vd_provenance_new("voxelize", argc, argv);
 	while ((c = getopt_long(argc, argv, "o:l:c:m:j:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -106,7 +108,7 @@ int main(int argc, char **argv)
 	if (!have_levels)
 		return usage_error("%s", "no grid depth (--levels L) given");
 	const char *mesh = argv[optind];
-	o.provenance = vd_provenance_new("voxelize", argc, argv);
+	o.provenance = provenance;
 
 	struct vd_voxelize_result res;
 	int err = vd_voxelize_mesh(mesh, outdir, &o, &res);
@@ -115,7 +117,7 @@ int main(int argc, char **argv)
 		snprintf(path, sizeof path, "%s/voxelize.stats.json", outdir);
 		err = vd_voxelize_write_stats(&res, path);
 	}
-	free((char *)o.provenance);
+	free(provenance);
 	if (err) {
 		const char *d = vd_error_detail();
 		fprintf(stderr, "voxelize: cannot voxelize '%s': %s%s%s\n", mesh,

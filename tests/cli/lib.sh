@@ -1,0 +1,58 @@
+# lib.sh - helpers for command-line tests, sourced by tests/cli/*.sh.
+# Each case prints one "PASS name" or "FAIL name" line; details go to stderr.
+
+BIN=${BIN:-out/bin}
+T=$(mktemp -d "${TMPDIR:-/tmp}/voxdag-cli.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1"; shift; printf '  %s\n' "$@" >&2; }
+
+# expect NAME CODE PATTERN CMD...: runs CMD; passes when the exit code is
+# CODE and stderr (or stdout for code 0 with a pattern) matches the
+# extended regular expression PATTERN ('' matches anything). A failing
+# command must print exactly one line on stderr.
+expect() {
+	local name=$1 code=$2 pattern=$3
+	shift 3
+	"$@" >"$T/out" 2>"$T/err"
+	local rc=$?
+	if [ "$rc" -ne "$code" ]; then
+		fail "$name" "exit $rc, expected $code: $*" "$(head -c 600 "$T/err")"
+		return
+	fi
+	if [ -n "$pattern" ] && ! grep -Eq -- "$pattern" "$T/err" "$T/out"; then
+		fail "$name" "output does not match /$pattern/: $*" "$(head -c 600 "$T/err")"
+		return
+	fi
+	if [ "$code" -eq 1 ] && [ "$(grep -vc '^Try ' "$T/err")" -ne 1 ]; then
+		fail "$name" "expected one error line, got:" "$(head -c 600 "$T/err")"
+		return
+	fi
+	pass "$name"
+}
+
+# No file in DIR that looks like a finished chunk, nor a temporary.
+expect_no_chunks() {
+	local name=$1 dir=$2
+	if ls "$dir" 2>/dev/null | grep -Eq '\.(svo|dag|ssvdag)$|\.tmp\.|stats\.json'; then
+		fail "$name" "files left in $dir:" "$(ls "$dir")"
+	else
+		pass "$name"
+	fi
+}
+
+# help_lists_options NAME TOOL SOURCE: every long option in the source's
+# option table is documented in --help, and --help lists no other.
+help_lists_options() {
+	local name=$1 tool=$2 src=$3
+	local code help
+	code=$(grep -oE '^\s*\{"[a-z-]+", (no|required|optional)_argument' "$src" |
+		grep -oE '"[a-z-]+"' | tr -d '"' | sort -u)
+	help=$("$BIN/$tool" --help | grep -oE -- '--[a-z][a-z-]+' | sed 's/^--//' | sort -u)
+	if [ "$code" = "$help" ] && [ -n "$code" ]; then
+		pass "$name"
+	else
+		fail "$name" "options in code: $(echo $code)" "options in --help: $(echo $help)"
+	fi
+}

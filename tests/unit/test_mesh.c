@@ -1,0 +1,992 @@
+/* test_mesh.c - the mesh readers on fixtures written here, byte by byte,
+ * with expected triangles typed in by hand, and on the bundled bunny and
+ * the shared scenes (skipped when absent). Run from the repository root. */
+#include "check.h"
+#include "voxdag.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <sys/stat.h>
+
+
+static const char *dir;
+
+static const char *fixture_path(const char *name)
+{
+	static char buf[4][600];
+	static int k;
+	k = (k + 1) % 4;
+	snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
+	return buf[k];
+}
+
+static const char *write_bytes(const char *name, const void *data, size_t n)
+{
+	const char *p = fixture_path(name);
+	FILE *f = fopen(p, "wb");
+	if (!f || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
+		fprintf(stderr, "cannot write %s\n", p);
+		exit(2);
+	}
+	return p;
+}
+
+static const char *write_text(const char *name, const char *text)
+{
+	return write_bytes(name, text, strlen(text));
+}
+
+/* A growing byte buffer with explicit-endian writers, so fixtures do not
+ * depend on the host's byte order. */
+struct bytes {
+	unsigned char d[1 << 16];
+	size_t n;
+};
+
+static void put(struct bytes *b, uint64_t v, int size, int be)
+{
+	for (int i = 0; i < size; i++)
+		b->d[b->n + (be ? size - 1 - i : i)] = (unsigned char)(v >> 8 * i);
+	b->n += (size_t)size;
+}
+
+static void put_f32(struct bytes *b, float f, int be)
+{
+	uint32_t u;
+	memcpy(&u, &f, 4);
+	put(b, u, 4, be);
+}
+
+static void put_f64(struct bytes *b, double f, int be)
+{
+	uint64_t u;
+	memcpy(&u, &f, 8);
+	put(b, u, 8, be);
+}
+
+static void put_str(struct bytes *b, const char *s)
+{
+	size_t n = strlen(s);
+	memcpy(b->d + b->n, s, n);
+	b->n += n;
+}
+
+/* Reads the whole mesh in chunks of `chunk` triangles into *out (malloc'd,
+ * caller frees). Returns the first error of open or read. */
+static int read_mesh(const char *path, size_t chunk, struct vd_triangle **out,
+		     size_t *count, struct vd_mesh_stats *stats)
+{
+	struct vd_mesh *m;
+	*out = NULL;
+	*count = 0;
+	int e = vd_mesh_open(&m, path);
+	if (e)
+		return e;
+	struct vd_triangle *buf = malloc(chunk * sizeof *buf);
+	size_t cap = 0, n;
+	while (!(e = vd_mesh_read(m, buf, chunk, &n)) && n > 0) {
+		if (*count + n > cap) {
+			cap = (*count + n) * 2;
+			*out = realloc(*out, cap * sizeof **out);
+		}
+		memcpy(*out + *count, buf, n * sizeof *buf);
+		*count += n;
+	}
+	if (stats)
+		*stats = *vd_mesh_stats(m);
+	free(buf);
+	vd_mesh_close(m);
+	return e;
+}
+
+/* The error code of reading `path` to the end (VD_OK if it reads). */
+static int mesh_error(const char *path)
+{
+	struct vd_triangle *t;
+	size_t n;
+	int e = read_mesh(path, 7, &t, &n, NULL);
+	free(t);
+	return e;
+}
+
+static int detail_has(const char *s)
+{
+	if (strstr(vd_error_detail(), s))
+		return 1;
+	fprintf(stderr, "detail '%s' lacks '%s'\n", vd_error_detail(), s);
+	return 0;
+}
+
+/* ------------------------------------------------------ the shared mesh
+ * Five vertices, a quad 0 1 2 3 and a triangle 1 4 2. Fanning the quad
+ * gives (0 1 2) (0 2 3). 0.1 checks that decimal text rounds like the
+ * float literal. */
+static const float V[5][3] = {
+	{0, 0, 0}, {1.5f, 0, 0}, {1.5f, 2.25f, 0.1f}, {0, 2.25f, 0.1f},
+	{-0.75f, 1, -3.125f}};
+static const int TRI[3][3] = {{0, 1, 2}, {0, 2, 3}, {1, 4, 2}};
+
+static int same_as_reference(const struct vd_triangle *t, size_t n)
+{
+	if (n != 3) {
+		fprintf(stderr, "got %zu triangles, want 3\n", n);
+		return 0;
+	}
+	for (int i = 0; i < 3; i++)
+		for (int c = 0; c < 3; c++)
+			if (memcmp(t[i].v[c], V[TRI[i][c]], 12)) {
+				fprintf(stderr, "triangle %d corner %d: %g %g %g\n",
+					i, c, t[i].v[c][0], t[i].v[c][1],
+					t[i].v[c][2]);
+				return 0;
+			}
+	return 1;
+}
+
+static size_t ply_le_reference(struct bytes *b)
+{
+	b->n = 0;
+	put_str(b, "ply\nformat binary_little_endian 1.0\ncomment test\n"
+		   "element vertex 5\nproperty float x\nproperty float y\n"
+		   "property float z\nelement face 2\n"
+		   "property list uchar int vertex_indices\nend_header\n");
+	size_t header = b->n;
+	for (int i = 0; i < 5; i++)
+		for (int a = 0; a < 3; a++)
+			put_f32(b, V[i][a], 0);
+	put(b, 4, 1, 0);
+	for (int i = 0; i < 4; i++)
+		put(b, (uint64_t)i, 4, 0);
+	put(b, 3, 1, 0);
+	put(b, 1, 4, 0);
+	put(b, 4, 4, 0);
+	put(b, 2, 4, 0);
+	return header;
+}
+
+/* Big-endian, with every kind of thing a reader must skip: a list-bearing
+ * element before the vertices, extra scalar and list properties around
+ * x y z, doubles, int8-style type names, CRLF header lines, extra face
+ * properties, an element after the faces. */
+static void ply_be_reference(struct bytes *b)
+{
+	b->n = 0;
+	put_str(b, "ply\r\nformat binary_big_endian 1.0\r\n"
+		   "obj_info made by hand\r\n"
+		   "element material 2\r\nproperty list uchar float diffuse\r\n"
+		   "property uchar id\r\n"
+		   "element vertex 5\r\nproperty float32 nx\r\n"
+		   "property double x\r\nproperty int16 confidence\r\n"
+		   "property float64 y\r\nproperty list uint8 int32 texidx\r\n"
+		   "property double z\r\nproperty uchar red\r\n"
+		   "property uchar green\r\nproperty uchar blue\r\n"
+		   "property uchar alpha\r\n"
+		   "element face 2\r\nproperty uchar flags\r\n"
+		   "property list uint16 uint32 vertex_index\r\n"
+		   "property float quality\r\n"
+		   "element edge 1\r\nproperty int vertex1\r\n"
+		   "property list uchar int more\r\nend_header\r\n");
+	put(b, 3, 1, 1); /* material 0: 3 floats, id */
+	for (int i = 0; i < 3; i++)
+		put_f32(b, 0.5f, 1);
+	put(b, 7, 1, 1);
+	put(b, 0, 1, 1); /* material 1: empty list */
+	put(b, 8, 1, 1);
+	for (int i = 0; i < 5; i++) {
+		put_f32(b, 1.0f, 1);
+		put_f64(b, V[i][0], 1);
+		put(b, (uint64_t)-5, 2, 1);
+		put_f64(b, V[i][1], 1);
+		put(b, (uint64_t)i, 1, 1); /* texidx list of i items */
+		for (int j = 0; j < i; j++)
+			put(b, 0xdeadbeef, 4, 1);
+		put_f64(b, V[i][2], 1);
+		put(b, 0x11223344, 4, 1);
+	}
+	put(b, 9, 1, 1);
+	put(b, 4, 2, 1);
+	for (int i = 0; i < 4; i++)
+		put(b, (uint64_t)i, 4, 1);
+	put_f32(b, 0.25f, 1);
+	put(b, 9, 1, 1);
+	put(b, 3, 2, 1);
+	put(b, 1, 4, 1);
+	put(b, 4, 4, 1);
+	put(b, 2, 4, 1);
+	put_f32(b, 0.25f, 1);
+	put(b, 1, 4, 1); /* the edge */
+	put(b, 2, 1, 1);
+	put(b, 0, 4, 1);
+	put(b, 1, 4, 1);
+}
+
+static const char *const ply_ascii_reference =
+	"ply\r\nformat ascii 1.0\r\ncomment hand written\r\n"
+	"element vertex 5\r\nproperty float nx\r\nproperty float ny\r\n"
+	"property float nz\r\nproperty float x\r\nproperty float y\r\n"
+	"property float z\r\nproperty uchar red\r\nproperty uchar green\r\n"
+	"property uchar blue\r\nproperty float confidence\r\n"
+	"element face 2\r\nproperty list uchar int vertex_indices\r\n"
+	"element edge 1\r\nproperty list uchar int vertex_indices\r\n"
+	"end_header\r\n"
+	"0 0 1 0 0 0 255 0 0 1.0\r\n"
+	"0 0 1 1.5 0 0 0 255 0 1e0\r\n"
+	"0 0 1 1.5 2.25 0.1 0 0 255 .5\r\n"
+	"0 0 1   0\t2.25   0.1 1 2 3 -0.5\r\n"
+	"\r\n"
+	"0 0 1 -0.75 1.0 -3.125e0 4 5 6 0\r\n"
+	"4 0 1 2 3\r\n"
+	"3 1 4 2\r\n"
+	"2 0 1\r\n";
+
+static const char *const obj_reference =
+	"# a comment\r\n"
+	"mtllib scene.mtl\r\n"
+	"o thing\r\n"
+	"v 0 0 0\r\n"
+	"v 1.5 0.0 0 1.0\r\n"
+	"v 1.5 2.25 0.1 0.5 0.25 1\r\n"
+	"v 0 \\\r\n  2.25 0.1\r\n"
+	"vt 0 0\n"
+	"vn 0 0 1\n"
+	"\n"
+	"g group\ns 1\nusemtl red\n"
+	"f 1/1/1 2/1/1 3/1/1 4/1/1\n"
+	"   \t\n"
+	"v -0.75 1 -3.125\n"
+	"l 1 2\n"
+	"p 1\n"
+	"f -4//1 -1//1 -3//1";
+
+static size_t stl_bin_reference(struct bytes *b, const char *header)
+{
+	b->n = 0;
+	memset(b->d, ' ', 80);
+	memcpy(b->d, header, strlen(header));
+	b->n = 80;
+	put(b, 3, 4, 0);
+	for (int i = 0; i < 3; i++) {
+		put_f32(b, 0, 0);
+		put_f32(b, 0, 0);
+		put_f32(b, 1, 0);
+		for (int c = 0; c < 3; c++)
+			for (int a = 0; a < 3; a++)
+				put_f32(b, V[TRI[i][c]][a], 0);
+		put(b, 0, 2, 0);
+	}
+	return b->n;
+}
+
+static const char *const stl_ascii_reference =
+	"solid test mesh\n"
+	"  facet normal 0 0 1\n"
+	"    outer loop\n"
+	"      vertex 0 0 0\n"
+	"      vertex 1.5 0 0\n"
+	"      vertex 1.5 2.25 0.1\n"
+	"    endloop\n"
+	"  endfacet\r\n"
+	"FACET NORMAL 0 0 1\r\n\tOUTER   LOOP\r\n"
+	"\tVERTEX 0 0 0\r\n\tVertex 1.5E0 2.25 0.1\r\n\tvertex 0 2.25 0.1\r\n"
+	"\tENDLOOP\r\nENDFACET\r\n"
+	"facet normal 0 0 0 outer loop vertex 1.5 0 0 vertex -0.75 1 -3.125 "
+	"vertex 1.5 2.25 0.1 endloop endfacet\n"
+	"endsolid test mesh\n";
+
+static void check_reference(const char *path, const char *format,
+			    uint64_t split)
+{
+	static const size_t chunks[] = {1, 2, 3, 1000};
+	for (size_t k = 0; k < sizeof chunks / sizeof *chunks; k++) {
+		struct vd_triangle *t;
+		struct vd_mesh_stats st;
+		size_t n;
+		int e = read_mesh(path, chunks[k], &t, &n, &st);
+		CHECK_EQ(e, VD_OK);
+		if (e)
+			fprintf(stderr, "%s: %s\n", path, vd_error_detail());
+		CHECK(same_as_reference(t, n));
+		CHECK_EQ(st.triangles_read, 3);
+		CHECK_EQ(st.polygons_split, split);
+		free(t);
+	}
+	struct vd_mesh *m;
+	if (vd_mesh_open(&m, path) == VD_OK) {
+		CHECK(!strcmp(vd_mesh_format(m), format));
+		vd_mesh_close(m);
+	}
+}
+
+static void test_ply_binary_le(void)
+{
+	struct bytes b;
+	ply_le_reference(&b);
+	check_reference(write_bytes("le.ply", b.d, b.n), "ply-binary-le", 1);
+}
+
+static void test_ply_binary_be(void)
+{
+	static struct bytes b;
+	ply_be_reference(&b);
+	check_reference(write_bytes("be.ply", b.d, b.n), "ply-binary-be", 1);
+}
+
+static void test_ply_ascii(void)
+{
+	const char *p = write_text("ascii.ply", ply_ascii_reference);
+	check_reference(p, "ply-ascii", 1);
+	struct vd_mesh_stats st;
+	struct vd_triangle *t;
+	size_t n;
+	CHECK_EQ(read_mesh(p, 10, &t, &n, &st), VD_OK);
+	CHECK_EQ(st.vertices, 5);
+	free(t);
+}
+
+static void test_obj(void)
+{
+	const char *p = write_text("ref.obj", obj_reference);
+	check_reference(p, "obj", 1);
+	/* Detected by content without the extension. */
+	check_reference(write_text("ref.txt", obj_reference), "obj", 1);
+}
+
+static void test_stl_binary(void)
+{
+	struct bytes b;
+	stl_bin_reference(&b, "binary test");
+	check_reference(write_bytes("ref.stl", b.d, b.n), "stl-binary", 0);
+	/* Many exporters start binary headers with "solid": the size rule
+	 * must win. */
+	stl_bin_reference(&b, "solid fooled you");
+	check_reference(write_bytes("solid.dat", b.d, b.n), "stl-binary", 0);
+}
+
+static void test_stl_ascii(void)
+{
+	check_reference(write_text("ref-ascii.stl", stl_ascii_reference),
+			"stl-ascii", 0);
+	/* No endsolid and no final newline loses nothing. */
+	char text[2048];
+	snprintf(text, sizeof text, "%s", stl_ascii_reference);
+	*strstr(text, "endsolid") = 0;
+	text[strlen(text) - 1] = 0;
+	check_reference(write_text("noend.stl", text), "stl-ascii", 0);
+}
+
+/* Integer coordinate types convert exactly. */
+static void test_ply_integer_coordinates(void)
+{
+	struct bytes b = {.n = 0};
+	put_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+		    "property int x\nproperty char y\nproperty ushort z\n"
+		    "element face 1\nproperty list int uint vertex_indices\n"
+		    "end_header\n");
+	const int xs[3] = {-100000, 7, 0}, ys[3] = {-128, 127, 1},
+		  zs[3] = {65535, 0, 300};
+	for (int i = 0; i < 3; i++) {
+		put(&b, (uint64_t)(int64_t)xs[i], 4, 0);
+		put(&b, (uint64_t)(int64_t)ys[i], 1, 0);
+		put(&b, (uint64_t)zs[i], 2, 0);
+	}
+	put(&b, 3, 4, 0);
+	put(&b, 2, 4, 0);
+	put(&b, 1, 4, 0);
+	put(&b, 0, 4, 0);
+	struct vd_triangle *t;
+	size_t n;
+	CHECK_EQ(read_mesh(write_bytes("int.ply", b.d, b.n), 4, &t, &n, NULL),
+		 VD_OK);
+	CHECK_EQ(n, 1);
+	if (n == 1) {
+		const float want[3][3] = {{0, 1, 300}, {7, 127, 0},
+					  {-100000, -128, 65535}};
+		CHECK(!memcmp(t[0].v, want, sizeof want));
+	}
+	free(t);
+}
+
+/* 0, 1 and 2 corners are dropped and counted; many corners fan out. */
+static void test_short_and_long_faces(void)
+{
+	struct bytes b = {.n = 0};
+	put_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+		    "property float x\nproperty float y\nproperty float z\n"
+		    "element face 5\nproperty list ushort int vertex_indices\n"
+		    "end_header\n");
+	for (int i = 0; i < 9; i++)
+		put_f32(&b, (float)i, 0);
+	put(&b, 0, 2, 0);
+	put(&b, 1, 2, 0);
+	put(&b, 2, 4, 0);
+	put(&b, 2, 2, 0);
+	put(&b, 0, 4, 0);
+	put(&b, 1, 4, 0);
+	put(&b, 1000, 2, 0);
+	for (int i = 0; i < 1000; i++)
+		put(&b, (uint64_t)(i % 3), 4, 0);
+	put(&b, 3, 2, 0);
+	put(&b, 2, 4, 0);
+	put(&b, 0, 4, 0);
+	put(&b, 1, 4, 0);
+	struct vd_triangle *t;
+	struct vd_mesh_stats st;
+	size_t n;
+	CHECK_EQ(read_mesh(write_bytes("short.ply", b.d, b.n), 100, &t, &n,
+			   &st), VD_OK);
+	CHECK_EQ(n, 998 + 1);
+	CHECK_EQ(st.faces_dropped_short, 3);
+	CHECK_EQ(st.polygons_split, 1);
+	if (n == 999) {
+		/* Fan triangle k is (c0, c(k+1), c(k+2)) with c(i) = i % 3. */
+		CHECK_EQ(t[0].v[0][0], 0);
+		CHECK_EQ(t[0].v[1][0], 3);
+		CHECK_EQ(t[0].v[2][0], 6);
+		CHECK_EQ(t[997].v[1][0], 998 % 3 * 3);
+		CHECK_EQ(t[997].v[2][0], 999 % 3 * 3);
+		CHECK_EQ(t[998].v[0][0], 6);
+	}
+	free(t);
+	/* The same in text, and in OBJ. */
+	const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"element face 4\nproperty list uchar int vertex_indices\n"
+		"end_header\n0 0 0\n1 0 0\n0 1 0\n0\n1 2\n2 0 1\n3 2 1 0\n";
+	CHECK_EQ(read_mesh(write_text("short-ascii.ply", ply), 10, &t, &n,
+			   &st), VD_OK);
+	CHECK_EQ(n, 1);
+	CHECK_EQ(st.faces_dropped_short, 3);
+	free(t);
+	const char *obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1\nf 1 2\n"
+		"f\nf 1 2 4 3\n";
+	CHECK_EQ(read_mesh(write_text("short.obj", obj), 10, &t, &n, &st),
+		 VD_OK);
+	CHECK_EQ(n, 2);
+	CHECK_EQ(st.faces_dropped_short, 3);
+	CHECK_EQ(st.polygons_split, 1);
+	free(t);
+}
+
+static void test_obj_forward_reference(void)
+{
+	/* Supported OBJ rule: a face uses vertices defined before it. A
+	 * positive index to a later vertex is refused, not guessed. */
+	const char *p = write_text("fwd.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n"
+				   "v 0 1 0\n");
+	CHECK_EQ(mesh_error(p), VD_ERR_RANGE);
+	CHECK(detail_has("line 3"));
+	CHECK(detail_has("defined so far"));
+}
+
+static void test_obj_bad_indices(void)
+{
+	CHECK_EQ(mesh_error(write_text("zero.obj", "v 0 0 0\nv 1 0 0\n"
+				       "v 0 1 0\nf 1 2 0\n")), VD_ERR_RANGE);
+	CHECK(detail_has("line 4"));
+	CHECK(detail_has("index 0"));
+	CHECK_EQ(mesh_error(write_text("big.obj", "v 0 0 0\nv 1 0 0\n"
+				       "v 0 1 0\nf 1 2 4\n")), VD_ERR_RANGE);
+	CHECK(detail_has("line 4"));
+	CHECK_EQ(mesh_error(write_text("neg.obj", "v 0 0 0\nv 1 0 0\n"
+				       "v 0 1 0\n\nf -1 -2 -4\n")),
+		 VD_ERR_RANGE);
+	CHECK(detail_has("line 5"));
+	CHECK(detail_has("face 1"));
+	CHECK_EQ(mesh_error(write_text("huge.obj", "v 0 0 0\nv 1 0 0\n"
+				       "v 0 1 0\nf 1 2 99999999999999999999\n")),
+		 VD_ERR_FORMAT);
+	CHECK_EQ(mesh_error(write_text("corner.obj", "v 0 0 0\nv 1 0 0\n"
+				       "v 0 1 0\nf 1 2 3x\n")), VD_ERR_FORMAT);
+	CHECK(detail_has("3x"));
+}
+
+static void test_malformed_numbers(void)
+{
+	CHECK_EQ(mesh_error(write_text("num.obj", "# c\nv 0 0 0\nv 1 0 0\n"
+				       "v 0 1e 0\nf 1 2 3\n")), VD_ERR_FORMAT);
+	CHECK(detail_has("line 4"));
+	CHECK(detail_has("1e"));
+	CHECK_EQ(mesh_error(write_text("few.obj", "v 0 0\n")), VD_ERR_FORMAT);
+	CHECK(detail_has("line 1"));
+	const char *head = "ply\nformat ascii 1.0\nelement vertex 3\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"element face 1\nproperty list uchar int vertex_indices\n"
+		"end_header\n";
+	char text[1024];
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1.0.0 0\n3 0 1 2\n",
+		 head);
+	CHECK_EQ(mesh_error(write_text("num.ply", text)), VD_ERR_FORMAT);
+	CHECK(detail_has("line 12"));
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\n3 0 1 2.5\n",
+		 head);
+	CHECK_EQ(mesh_error(write_text("idx.ply", text)), VD_ERR_FORMAT);
+	CHECK(detail_has("line 13"));
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1\n3 0 1 2\n", head);
+	CHECK_EQ(mesh_error(write_text("missing.ply", text)), VD_ERR_FORMAT);
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0 9\n3 0 1 2\n",
+		 head);
+	CHECK_EQ(mesh_error(write_text("extra.ply", text)), VD_ERR_FORMAT);
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\n3 0 1\n", head);
+	CHECK_EQ(mesh_error(write_text("shortlist.ply", text)), VD_ERR_FORMAT);
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", head);
+	CHECK_EQ(mesh_error(write_text("range.ply", text)), VD_ERR_RANGE);
+	CHECK(detail_has("line 13"));
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
+		 head);
+	CHECK_EQ(mesh_error(write_text("negidx.ply", text)), VD_ERR_RANGE);
+	/* Fewer lines than the header says. */
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\n", head);
+	CHECK_EQ(mesh_error(write_text("nofaces.ply", text)),
+		 VD_ERR_TRUNCATED);
+	CHECK_EQ(mesh_error(write_text("stl-num.stl",
+		"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+		"vertex 1 0 0\nvertex 0 one 0\nendloop\nendfacet\n")),
+		VD_ERR_FORMAT);
+	CHECK(detail_has("line 6"));
+	CHECK_EQ(mesh_error(write_text("stl-kw.stl",
+		"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+		"vertex 1 0 0\nvertex 0 1 0\nendloop\nendface\n")),
+		VD_ERR_FORMAT);
+	CHECK(detail_has("endfacet"));
+	CHECK_EQ(mesh_error(write_text("stl-cut.stl",
+		"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+		"vertex 1 0 0\n")), VD_ERR_TRUNCATED);
+}
+
+/* The non-finite rule: an error naming the vertex as soon as a face uses
+ * it, never when nothing uses it. */
+static void test_non_finite(void)
+{
+	const char *head = "ply\nformat ascii 1.0\nelement vertex 4\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"element face 1\nproperty list uchar int vertex_indices\n"
+		"end_header\n";
+	char text[1024];
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\nnan 0 0\n"
+		 "3 0 1 2\n", head);
+	CHECK_EQ(mesh_error(write_text("unused-nan.ply", text)), VD_OK);
+	snprintf(text, sizeof text, "%s0 0 0\n1 0 0\n0 1 0\nnan 0 0\n"
+		 "3 0 3 2\n", head);
+	CHECK_EQ(mesh_error(write_text("nan.ply", text)), VD_ERR_RANGE);
+	CHECK(detail_has("vertex 3"));
+	CHECK(detail_has("line 14"));
+
+	struct bytes b = {.n = 0};
+	put_str(&b, "ply\nformat binary_big_endian 1.0\nelement vertex 3\n"
+		    "property double x\nproperty double y\nproperty double z\n"
+		    "element face 1\nproperty list uchar int vertex_indices\n"
+		    "end_header\n");
+	for (int i = 0; i < 9; i++)
+		put_f64(&b, i == 5 ? 1e300 : 0.0, 1); /* beyond float range */
+	put(&b, 3, 1, 1);
+	put(&b, 0, 4, 1);
+	put(&b, 1, 4, 1);
+	put(&b, 2, 4, 1);
+	CHECK_EQ(mesh_error(write_bytes("inf.ply", b.d, b.n)), VD_ERR_RANGE);
+	CHECK(detail_has("vertex 1"));
+
+	CHECK_EQ(mesh_error(write_text("nan.obj", "v 0 0 0\nv inf 0 0\n"
+				       "v 0 1 0\nf 1 2 3\n")), VD_ERR_RANGE);
+	CHECK(detail_has("vertex 2"));
+	CHECK_EQ(mesh_error(write_text("nan-unused.obj", "v 0 0 0\n"
+				       "v inf 0 0\nv 0 1 0\nv 1 1 1\n"
+				       "f 1 4 3\n")), VD_OK);
+	CHECK_EQ(mesh_error(write_text("nan.stl",
+		"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+		"vertex 1 NaN 0\nvertex 0 1 0\nendloop\nendfacet\n")),
+		VD_ERR_RANGE);
+
+	/* A quiet NaN as the y of triangle 2's first corner. */
+	stl_bin_reference(&b, "binary");
+	for (int i = 0; i < 4; i++)
+		b.d[84 + 50 + 12 + 4 + i] = (unsigned char)(0x7fc00000u >> 8 * i);
+	CHECK_EQ(mesh_error(write_bytes("nan-bin.stl", b.d, b.n)),
+		 VD_ERR_RANGE);
+	CHECK(detail_has("triangle 2"));
+}
+
+static void test_ply_header_errors(void)
+{
+	/* Ends inside the header. */
+	CHECK_EQ(mesh_error(write_text("cut-header.ply", "ply\nformat ascii "
+				       "1.0\nelement vertex 3\n")),
+		 VD_ERR_TRUNCATED);
+	CHECK(detail_has("end_header"));
+	CHECK_EQ(mesh_error(write_text("just-ply.ply", "ply")),
+		 VD_ERR_TRUNCATED);
+	/* No end_header before binary bytes. */
+	struct bytes b = {.n = 0};
+	put_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 1\n"
+		    "property float x\nproperty float y\nproperty float z\n");
+	put_f32(&b, 1.0f, 0);
+	put_f32(&b, 2.0f, 0);
+	put_f32(&b, 3.0f, 0);
+	CHECK_EQ(mesh_error(write_bytes("no-end.ply", b.d, b.n)),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 7"));
+	const char *cases[][2] = {
+		{"ply\nformat binary_middle_endian 1.0\nend_header\n", "u"},
+		{"ply\nformat ascii 2.0\nend_header\n", "u"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x"
+		 "\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty list float "
+		 "int x\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float\n"
+		 "end_header\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex many\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex -1\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nproperty float x\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nvertex 3\nend_header\n", "f"},
+		{"ply\nelement vertex 0\nend_header\n", "f"},
+		{"ply\nformat binary_little_endian 1.0\nelement nothing "
+		 "9000000000000000000\nend_header\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+		 "property float y\nelement face 0\nproperty list uchar int "
+		 "vertex_indices\nend_header\n0 0\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+		 "property float y\nproperty float z\nelement face 0\n"
+		 "property list uchar float vertex_indices\nend_header\n"
+		 "0 0 0\n", "f"},
+		{"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+		 "property float y\nproperty float z\nelement face 0\n"
+		 "property int vertex_indices\nend_header\n0 0 0\n", "f"},
+		{"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar "
+		 "int vertex_indices\nend_header\n3 0 1 2\n", "f"},
+		{"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar "
+		 "int vertex_indices\nelement vertex 3\nproperty float x\n"
+		 "property float y\nproperty float z\nend_header\n3 0 1 2\n"
+		 "0 0 0\n0 0 0\n0 0 0\n", "u"},
+		/* Counts the rest of the file cannot hold: refused before
+		 * any allocation. */
+		{"ply\nformat binary_little_endian 1.0\nelement vertex "
+		 "4000000000\nproperty float x\nproperty float y\n"
+		 "property float z\nend_header\n0123456789ab", "t"},
+		{"ply\nformat binary_little_endian 1.0\nelement vertex "
+		 "99999999999999\nproperty float x\nproperty float y\n"
+		 "property float z\nend_header\n0123456789ab", "r"},
+		{"ply\nformat ascii 1.0\nelement vertex 1000000\n"
+		 "property float x\nproperty float y\nproperty float z\n"
+		 "end_header\n0 0 0\n", "t"},
+		{"ply\nformat binary_little_endian 1.0\nelement vertex 0\n"
+		 "property float x\nproperty float y\nproperty float z\n"
+		 "element face 3000000000\nproperty list uchar int "
+		 "vertex_indices\nend_header\n", "t"},
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+		int want = cases[i][1][0] == 'u' ? VD_ERR_UNSUPPORTED
+			: cases[i][1][0] == 't' ? VD_ERR_TRUNCATED
+			: cases[i][1][0] == 'r' ? VD_ERR_RANGE : VD_ERR_FORMAT;
+		int got = mesh_error(write_text("hdr.ply", cases[i][0]));
+		if (got != want)
+			fprintf(stderr, "header case %zu: %s\n", i,
+				vd_error_detail());
+		CHECK_EQ(got, want);
+		CHECK(vd_error_detail()[0] != 0);
+	}
+}
+
+static void test_list_counts(void)
+{
+	const char *head = "ply\nformat ascii 1.0\nelement vertex 3\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"element face 1\nproperty list int int vertex_indices\n"
+		"end_header\n0 0 0\n1 0 0\n0 1 0\n";
+	char text[1024];
+	snprintf(text, sizeof text, "%s70000 0 1 2\n", head);
+	CHECK_EQ(mesh_error(write_text("many.ply", text)), VD_ERR_FORMAT);
+	CHECK(detail_has("70000"));
+	snprintf(text, sizeof text, "%s-3 0 1 2\n", head);
+	CHECK_EQ(mesh_error(write_text("negcount.ply", text)), VD_ERR_FORMAT);
+	struct bytes b = {.n = 0};
+	put_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+		    "property float x\nproperty float y\nproperty float z\n"
+		    "element face 1\nproperty list uint int vertex_indices\n"
+		    "end_header\n");
+	for (int i = 0; i < 9; i++)
+		put_f32(&b, 0, 0);
+	put(&b, 4000000000u, 4, 0);
+	for (int i = 0; i < 3; i++)
+		put(&b, 0, 4, 0);
+	CHECK_EQ(mesh_error(write_bytes("many.ply", b.d, b.n)), VD_ERR_FORMAT);
+	CHECK(detail_has("face 1"));
+	/* Binary index out of range names the face. */
+	b.n -= 16;
+	put(&b, 3, 4, 0);
+	put(&b, 0, 4, 0);
+	put(&b, 3, 4, 0);
+	put(&b, 1, 4, 0);
+	CHECK_EQ(mesh_error(write_bytes("range.ply", b.d, b.n)), VD_ERR_RANGE);
+	CHECK(detail_has("face 1"));
+	CHECK(detail_has("index 3"));
+}
+
+static void test_not_meshes(void)
+{
+	CHECK_EQ(mesh_error(fixture_path("does-not-exist.ply")), VD_ERR_IO);
+	CHECK(detail_has("No such file"));
+	char sub[600];
+	snprintf(sub, sizeof sub, "%s/adir.ply", dir);
+	mkdir(sub, 0755);
+	CHECK_EQ(mesh_error(sub), VD_ERR_IO);
+	CHECK(detail_has("directory"));
+	CHECK_EQ(mesh_error(write_text("empty.ply", "")), VD_ERR_EMPTY);
+	CHECK_EQ(mesh_error(write_text("empty.obj", "")), VD_ERR_EMPTY);
+	static unsigned char zeros[1000];
+	CHECK_EQ(mesh_error(write_bytes("zeros.bin", zeros, sizeof zeros)),
+		 VD_ERR_UNSUPPORTED);
+	CHECK(detail_has("not a PLY, OBJ or STL file"));
+	CHECK(detail_has("00 00"));
+	CHECK_EQ(mesh_error(write_text("hello.txt", "hello world\n")),
+		 VD_ERR_UNSUPPORTED);
+	CHECK(detail_has("hello"));
+	/* Binary bytes in a file named .obj. */
+	CHECK_EQ(mesh_error(write_bytes("zeros.obj", zeros, sizeof zeros)),
+		 VD_ERR_FORMAT);
+	CHECK_EQ(mesh_error(write_text("junk.obj", "v 0 0 0\n$$$\n")),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 2"));
+	/* A binary STL whose size disagrees with its count. */
+	struct bytes b;
+	stl_bin_reference(&b, "binary");
+	b.d[b.n++] = 0;
+	CHECK_EQ(mesh_error(write_bytes("long.stl", b.d, b.n)),
+		 VD_ERR_TRAILING);
+	/* Empty meshes are not the reader's error. */
+	CHECK_EQ(mesh_error(write_text("none.obj", "# nothing\n")), VD_OK);
+	CHECK_EQ(mesh_error(write_text("points.ply", "ply\nformat ascii 1.0\n"
+				       "element vertex 1\nproperty float x\n"
+				       "property float y\nproperty float z\n"
+				       "end_header\n1 2 3\n")), VD_OK);
+	stl_bin_reference(&b, "binary");
+	b.n = 80;
+	put(&b, 0, 4, 0);
+	CHECK_EQ(mesh_error(write_bytes("none.stl", b.d, b.n)), VD_OK);
+	CHECK_EQ(mesh_error(write_text("none-ascii.stl", "solid empty\n"
+				       "endsolid empty\n")), VD_OK);
+	/* Arguments. */
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, NULL), VD_ERR_ARG);
+}
+
+/* Every cut of a binary body is an error, never a crash or a short read
+ * passed off as the whole mesh. */
+static void test_every_truncation(void)
+{
+	struct bytes b;
+	size_t header = ply_le_reference(&b);
+	for (size_t len = 0; len < b.n; len++) {
+		int e = mesh_error(write_bytes("cut.ply", b.d, len));
+		CHECK(e != VD_OK);
+		if (len >= header)
+			CHECK_EQ(e, VD_ERR_TRUNCATED);
+		else if (len > 3)
+			CHECK(e == VD_ERR_TRUNCATED);
+		else if (len > 0) /* "p", "pl": not recognisable */
+			CHECK(e == VD_ERR_UNSUPPORTED ||
+			      e == VD_ERR_TRUNCATED);
+	}
+	static struct bytes be;
+	ply_be_reference(&be);
+	for (size_t len = 1; len < be.n; len++)
+		CHECK(mesh_error(write_bytes("cut-be.ply", be.d, len)) != VD_OK);
+	size_t full = stl_bin_reference(&b, "binary");
+	CHECK_EQ(mesh_error(write_bytes("cut.stl", b.d, 0)), VD_ERR_EMPTY);
+	for (size_t len = 1; len < full; len++)
+		CHECK_EQ(mesh_error(write_bytes("cut.stl", b.d, len)),
+			 VD_ERR_TRUNCATED);
+	stl_bin_reference(&b, "solid but binary");
+	for (size_t len = 84; len < full; len++)
+		CHECK_EQ(mesh_error(write_bytes("cut-solid.bin", b.d, len)),
+			 VD_ERR_TRUNCATED);
+}
+
+/* Every byte of every fixture replaced by a few telling values: any
+ * outcome but a crash, a hang or an error without a detail. Run under ASan
+ * this is a small deterministic fuzzer. */
+static void corrupt_each_byte(const char *name, const unsigned char *d,
+			      size_t n)
+{
+	static const unsigned char vals[] = {0x00, 0xff, '\n', '9', ' ', '-'};
+	unsigned char *c = malloc(n);
+	for (size_t i = 0; i < n; i++)
+		for (size_t v = 0; v < sizeof vals; v++) {
+			memcpy(c, d, n);
+			c[i] = vals[v];
+			int e = mesh_error(write_bytes(name, c, n));
+			CHECK(e >= VD_OK && e < VD_ERR_COUNT_);
+			if (e != VD_OK && vd_error_detail()[0] == 0) {
+				fprintf(stderr, "%s: byte %zu = %02x: no "
+					"detail\n", name, i, vals[v]);
+				CHECK(0);
+			}
+		}
+	free(c);
+}
+
+static void test_corrupt_bytes(void)
+{
+	static struct bytes b;
+	ply_le_reference(&b);
+	corrupt_each_byte("fz-le.ply", b.d, b.n);
+	ply_be_reference(&b);
+	corrupt_each_byte("fz-be.ply", b.d, b.n);
+	stl_bin_reference(&b, "solid binary");
+	corrupt_each_byte("fz.stl", b.d, b.n);
+	corrupt_each_byte("fz-ascii.ply",
+			  (const unsigned char *)ply_ascii_reference,
+			  strlen(ply_ascii_reference));
+	corrupt_each_byte("fz.obj", (const unsigned char *)obj_reference,
+			  strlen(obj_reference));
+	corrupt_each_byte("fz-ascii.stl",
+			  (const unsigned char *)stl_ascii_reference,
+			  strlen(stl_ascii_reference));
+}
+
+/* All six encodings of the reference mesh give one triangle list, and a
+ * rewind gives it again. */
+static void test_formats_agree_and_rewind(void)
+{
+	static struct bytes b;
+	const char *paths[6];
+	ply_le_reference(&b);
+	paths[0] = write_bytes("agree-le.ply", b.d, b.n);
+	ply_be_reference(&b);
+	paths[1] = write_bytes("agree-be.ply", b.d, b.n);
+	paths[2] = write_text("agree-ascii.ply", ply_ascii_reference);
+	paths[3] = write_text("agree.obj", obj_reference);
+	stl_bin_reference(&b, "x");
+	paths[4] = write_bytes("agree.stl", b.d, b.n);
+	paths[5] = write_text("agree-ascii.stl", stl_ascii_reference);
+	struct vd_triangle first[3];
+	for (int i = 0; i < 6; i++) {
+		struct vd_mesh *m;
+		int e = vd_mesh_open(&m, paths[i]);
+		CHECK_EQ(e, VD_OK);
+		if (e)
+			continue;
+		struct vd_triangle t[8];
+		for (int pass = 0; pass < 3; pass++) {
+			size_t n = 0, k;
+			/* Stop early in pass 1: rewind mid-stream too. */
+			size_t stop = pass == 1 ? 2 : 8;
+			while (n < stop && !(e = vd_mesh_read(m, t + n, 1, &k)) &&
+			       k)
+				n += k;
+			CHECK_EQ(e, VD_OK);
+			if (pass != 1) {
+				CHECK(same_as_reference(t, n));
+				CHECK_EQ(vd_mesh_stats(m)->triangles_read, 3);
+			}
+			if (i == 0 && pass == 0)
+				memcpy(first, t, sizeof first);
+			else if (pass != 1)
+				CHECK(!memcmp(first, t, sizeof first));
+			CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+			CHECK_EQ(vd_mesh_stats(m)->triangles_read, 0);
+		}
+		CHECK(vd_mesh_memory_bytes(m) > 0);
+		vd_mesh_close(m);
+	}
+}
+
+/* A failure repeats on the next read instead of resuming past it. */
+static void test_error_is_sticky(void)
+{
+	const char *p = write_text("sticky.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+				   "f 1 2 3\nf 1 2 9\nf 1 2 3\n");
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, p), VD_OK);
+	struct vd_triangle t[4];
+	size_t n;
+	CHECK_EQ(vd_mesh_read(m, t, 4, &n), VD_ERR_RANGE);
+	CHECK_EQ(vd_mesh_read(m, t, 4, &n), VD_ERR_RANGE);
+	CHECK_EQ(n, 0);
+	CHECK(detail_has("line 5"));
+	CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	CHECK_EQ(vd_mesh_read(m, t, 1, &n), VD_OK);
+	CHECK_EQ(n, 1);
+	CHECK_EQ(vd_mesh_read(m, t, 0, &n), VD_ERR_ARG);
+	vd_mesh_close(m);
+}
+
+/* Counts and an order-sensitive hash of the triangles of a whole pass. */
+static int pass_hash(struct vd_mesh *m, uint64_t *count, uint64_t *hash)
+{
+	static struct vd_triangle buf[5000];
+	size_t n;
+	int e;
+	*count = 0;
+	*hash = 1469598103934665603ULL;
+	while (!(e = vd_mesh_read(m, buf, 5000, &n)) && n) {
+		*count += n;
+		const unsigned char *p = (const unsigned char *)buf;
+		for (size_t i = 0; i < n * sizeof *buf; i++)
+			*hash = (*hash ^ p[i]) * 1099511628211ULL;
+	}
+	return e;
+}
+
+static void check_real(const char *path, uint64_t triangles,
+		       uint64_t vertices)
+{
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, path), VD_OK);
+	if (!m)
+		return;
+	uint64_t n1, h1, n2, h2;
+	CHECK_EQ(pass_hash(m, &n1, &h1), VD_OK);
+	CHECK_EQ(n1, triangles);
+	CHECK_EQ(vd_mesh_stats(m)->vertices, vertices);
+	CHECK_EQ(vd_mesh_stats(m)->faces_dropped_short, 0);
+	CHECK(vd_mesh_memory_bytes(m) >= vertices * 12);
+	CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	CHECK_EQ(pass_hash(m, &n2, &h2), VD_OK);
+	CHECK_EQ(n2, triangles);
+	CHECK(h1 == h2);
+	vd_mesh_close(m);
+}
+
+static void test_bunny(void)
+{
+	check_real("tests/data/bunny.ply", 69451, 34834);
+}
+
+static char dragon_path[600];
+
+static void test_shared_dragon(void)
+{
+	check_real(dragon_path, 11102, 5203);
+}
+
+int main(void)
+{
+	dir = test_tmpdir("mesh");
+	RUN(test_ply_binary_le);
+	RUN(test_ply_binary_be);
+	RUN(test_ply_ascii);
+	RUN(test_obj);
+	RUN(test_stl_binary);
+	RUN(test_stl_ascii);
+	RUN(test_ply_integer_coordinates);
+	RUN(test_short_and_long_faces);
+	RUN(test_obj_forward_reference);
+	RUN(test_obj_bad_indices);
+	RUN(test_malformed_numbers);
+	RUN(test_non_finite);
+	RUN(test_ply_header_errors);
+	RUN(test_list_counts);
+	RUN(test_not_meshes);
+	RUN(test_every_truncation);
+	RUN(test_corrupt_bytes);
+	RUN(test_formats_agree_and_rewind);
+	RUN(test_error_is_sticky);
+	RUN(test_bunny);
+	snprintf(dragon_path, sizeof dragon_path, "%s/stanford_dragon_res4.ply",
+		 test_shared_data());
+	struct stat st;
+	if (stat(dragon_path, &st) == 0)
+		RUN(test_shared_dragon);
+	else
+		printf("SKIP test_shared_dragon (%s absent)\n", dragon_path);
+	return CHECK_DONE();
+}

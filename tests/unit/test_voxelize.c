@@ -1,0 +1,472 @@
+/* test_voxelize.c - the voxelizer against a brute-force reference.
+ *
+ * The reference overlap test below is written apart from tribox.c on
+ * purpose: it projects all 8 box corners and all 3 vertices onto each of
+ * the 13 separating axes with plain __int128 arithmetic, no precomputed
+ * offsets, no columns, no fast paths. Only the snapping of float vertices
+ * (the definition of the grid) is shared.
+ */
+#include "check.h"
+#include "voxdag.h"
+#include "voxelize_internal.h"
+
+#include <dirent.h>
+
+typedef __int128 i128;
+
+static const char *dir;
+
+/* ------------------------------------------------------------ reference */
+
+static void cross(const i128 a[3], const i128 b[3], i128 out[3])
+{
+	out[0] = a[1] * b[2] - a[2] * b[1];
+	out[1] = a[2] * b[0] - a[0] * b[2];
+	out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* 1 if the closed box [lo, lo+side]^3 (snapped units) and the closed
+ * triangle t (snapped units) overlap. */
+static int ref_overlap(const int64_t t[3][3], const int64_t lo[3], int64_t side)
+{
+	i128 v[3][3], e[3][3], axes[13][3];
+	for (int k = 0; k < 3; k++)
+		for (int a = 0; a < 3; a++)
+			v[k][a] = t[k][a];
+	for (int k = 0; k < 3; k++)
+		for (int a = 0; a < 3; a++)
+			e[k][a] = v[(k + 1) % 3][a] - v[k][a];
+	int n = 0;
+	for (int a = 0; a < 3; a++) {
+		for (int b = 0; b < 3; b++)
+			axes[n][b] = a == b;
+		n++;
+	}
+	cross(e[0], e[1], axes[n++]);
+	for (int k = 0; k < 3; k++)
+		for (int a = 0; a < 3; a++) {
+			i128 unit[3] = {a == 0, a == 1, a == 2};
+			cross(e[k], unit, axes[n++]);
+		}
+	for (int j = 0; j < 13; j++) {
+		i128 tmin = 0, tmax = 0, bmin = 0, bmax = 0;
+		for (int k = 0; k < 3; k++) {
+			i128 d = axes[j][0] * v[k][0] + axes[j][1] * v[k][1] +
+				 axes[j][2] * v[k][2];
+			if (k == 0 || d < tmin)
+				tmin = d;
+			if (k == 0 || d > tmax)
+				tmax = d;
+		}
+		for (int c = 0; c < 8; c++) {
+			i128 p[3];
+			for (int a = 0; a < 3; a++)
+				p[a] = (i128)lo[a] + ((c >> a) & 1 ? side : 0);
+			i128 d = axes[j][0] * p[0] + axes[j][1] * p[1] +
+				 axes[j][2] * p[2];
+			if (c == 0 || d < bmin)
+				bmin = d;
+			if (c == 0 || d > bmax)
+				bmax = d;
+		}
+		if (tmax < bmin || bmax < tmin)
+			return 0;
+	}
+	return 1;
+}
+
+/* ------------------------------------------------------------ voxel sets */
+
+struct vset {
+	uint64_t *v;
+	size_t n, cap;
+};
+
+static void vset_add(struct vset *s, uint64_t key)
+{
+	if (s->n == s->cap) {
+		s->cap = s->cap ? 2 * s->cap : 1024;
+		s->v = realloc(s->v, s->cap * sizeof *s->v);
+	}
+	s->v[s->n++] = key;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return (x > y) - (x < y);
+}
+
+static void vset_finish(struct vset *s)
+{
+	if (!s->n)
+		return;
+	qsort(s->v, s->n, sizeof *s->v, cmp_u64);
+	size_t m = 0;
+	for (size_t i = 0; i < s->n; i++)
+		if (m == 0 || s->v[m - 1] != s->v[i])
+			s->v[m++] = s->v[i];
+	s->n = m;
+}
+
+/* Compares two finished sets; prints the first difference. */
+static int vset_equal(const struct vset *a, const struct vset *b,
+		      const char *what)
+{
+	size_t i = 0, j = 0, diff = 0;
+	uint64_t first = 0;
+	while (i < a->n || j < b->n) {
+		if (i < a->n && j < b->n && a->v[i] == b->v[j]) {
+			i++, j++;
+			continue;
+		}
+		uint64_t k = j >= b->n || (i < a->n && a->v[i] < b->v[j]) ? a->v[i++]
+									  : b->v[j++];
+		if (!diff++)
+			first = k;
+	}
+	if (diff) {
+		uint32_t x, y, z;
+		vd_morton3_decode(first, &x, &y, &z);
+		fprintf(stderr, "%s: %zu vs %zu voxels, %zu differ, first at "
+			"(%u,%u,%u)\n", what, a->n, b->n, diff, x, y, z);
+	}
+	return diff == 0;
+}
+
+static void collect(void *ctx, int64_t x, int64_t y, int64_t z)
+{
+	vset_add(ctx, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z));
+}
+
+/* Every voxel of the grid near the triangle, tested by the reference. */
+static void ref_voxels(const struct vd_snapped_tri *t, int L, struct vset *out)
+{
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
+	int64_t lo[3], hi[3];
+	for (int a = 0; a < 3; a++) {
+		int64_t mn = t->v[0][a], mx = t->v[0][a];
+		for (int k = 1; k < 3; k++) {
+			mn = t->v[k][a] < mn ? t->v[k][a] : mn;
+			mx = t->v[k][a] > mx ? t->v[k][a] : mx;
+		}
+		/* a generous margin: the reference decides, not the range */
+		lo[a] = mn / s - 2;
+		hi[a] = mx / s + 2;
+		lo[a] = lo[a] < 0 ? 0 : lo[a];
+		hi[a] = hi[a] > top ? top : hi[a];
+	}
+	for (int64_t x = lo[0]; x <= hi[0]; x++)
+		for (int64_t y = lo[1]; y <= hi[1]; y++)
+			for (int64_t z = lo[2]; z <= hi[2]; z++) {
+				int64_t b[3] = {x * s, y * s, z * s};
+				if (ref_overlap(t->v, b, s))
+					collect(out, x, y, z);
+			}
+}
+
+/* ----------------------------------------------------- random triangles */
+
+static uint64_t rng = 88172645463325252ull;
+static uint64_t next(void)
+{
+	rng ^= rng << 13;
+	rng ^= rng >> 7;
+	rng ^= rng << 17;
+	return rng;
+}
+static int64_t uniform(int64_t n) { return (int64_t)(next() % (uint64_t)n); }
+
+/* Triangles of many kinds inside a 2^L grid: general, tiny, huge, on voxel
+ * faces, axis-aligned, degenerate to a segment or a point. */
+static void random_triangle(struct vd_snapped_tri *t, int L, int kind)
+{
+	const int64_t s = vd_snap_voxel(L), side = s << L;
+	int64_t c[3];
+	for (int a = 0; a < 3; a++)
+		c[a] = uniform(side + 1);
+	for (int k = 0; k < 3; k++)
+		for (int a = 0; a < 3; a++) {
+			int64_t v;
+			switch (kind) {
+			case 0: /* anywhere */
+				v = uniform(side + 1);
+				break;
+			case 1: /* tiny, within a voxel or two */
+				v = c[a] + uniform(2 * s) - s;
+				break;
+			case 2: /* on the voxel lattice: touching faces and edges */
+				v = uniform((side / s) + 1) * s;
+				break;
+			case 3: /* axis-aligned plane on a voxel face */
+				v = a == 0 ? (c[0] / s) * s : uniform(side + 1);
+				break;
+			case 4: /* half-voxel lattice */
+				v = uniform(2 * (side / s) + 1) * (s / 2);
+				break;
+			default: /* small, a few voxels */
+				v = c[a] + uniform(8 * s) - 4 * s;
+				break;
+			}
+			t->v[k][a] = v < 0 ? 0 : v > side ? side : v;
+		}
+	int degenerate = (int)uniform(6);
+	if (degenerate == 0) /* a point */
+		for (int a = 0; a < 3; a++)
+			t->v[1][a] = t->v[2][a] = t->v[0][a];
+	else if (degenerate == 1) /* a repeated vertex: a segment */
+		for (int a = 0; a < 3; a++)
+			t->v[2][a] = t->v[1][a];
+	else if (degenerate == 2) /* collinear: the midpoint */
+		for (int a = 0; a < 3; a++)
+			t->v[2][a] = (t->v[0][a] + t->v[1][a]) / 2;
+}
+
+/* At depth 4 every triangle takes the __int128 path; at depth 14 the
+ * small ones take the int64 path. */
+static void random_triangles_at(int L, int count)
+{
+	const int64_t top = ((int64_t)1 << L) - 1;
+	const int64_t lo[3] = {0, 0, 0}, hi[3] = {top, top, top};
+	int bad = 0;
+	for (int i = 0; i < count && bad < 3; i++) {
+		struct vd_snapped_tri t;
+		random_triangle(&t, L, L > 8 ? (i % 2 ? 1 : 5) : i % 6);
+		struct vset got = {0}, want = {0};
+		vd_raster_triangle(&t, L, lo, hi, collect, &got);
+		size_t raw = got.n;
+		vset_finish(&got);
+		ref_voxels(&t, L, &want);
+		vset_finish(&want);
+		if (raw != got.n) {
+			fprintf(stderr, "triangle %d: a voxel was reported twice\n", i);
+			bad++;
+		}
+		if (!vset_equal(&got, &want, "random triangle")) {
+			fprintf(stderr, "  triangle %d kind %d: (%lld %lld %lld) "
+				"(%lld %lld %lld) (%lld %lld %lld)\n", i, i % 6,
+				(long long)t.v[0][0], (long long)t.v[0][1],
+				(long long)t.v[0][2], (long long)t.v[1][0],
+				(long long)t.v[1][1], (long long)t.v[1][2],
+				(long long)t.v[2][0], (long long)t.v[2][1],
+				(long long)t.v[2][2]);
+			bad++;
+		}
+		free(got.v);
+		free(want.v);
+	}
+	CHECK_EQ(bad, 0);
+}
+
+static void test_random_triangles(void)
+{
+	random_triangles_at(4, 6000);
+	random_triangles_at(14, 6000);
+}
+
+/* Large triangles take the __int128 path; a clip box restricts output. */
+static void test_large_and_clipped(void)
+{
+	const int L = 10;
+	const int64_t s = vd_snap_voxel(L);
+	int bad = 0;
+	for (int i = 0; i < 40 && !bad; i++) {
+		struct vd_snapped_tri t;
+		random_triangle(&t, L, i % 2 ? 0 : 2);
+		/* clip to a random 24^3 window so the reference stays cheap */
+		int64_t lo[3], hi[3];
+		for (int a = 0; a < 3; a++) {
+			int64_t mn = t.v[0][a], mx = t.v[0][a];
+			for (int k = 1; k < 3; k++) {
+				mn = t.v[k][a] < mn ? t.v[k][a] : mn;
+				mx = t.v[k][a] > mx ? t.v[k][a] : mx;
+			}
+			int64_t span = mx / s - mn / s + 1;
+			lo[a] = mn / s + uniform(span > 24 ? span - 23 : 1);
+			hi[a] = lo[a] + 23;
+		}
+		struct vset got = {0}, want = {0};
+		vd_raster_triangle(&t, L, lo, hi, collect, &got);
+		vset_finish(&got);
+		for (int64_t x = lo[0]; x <= hi[0]; x++)
+			for (int64_t y = lo[1]; y <= hi[1]; y++)
+				for (int64_t z = lo[2]; z <= hi[2]; z++) {
+					if (x >= 1 << L || y >= 1 << L || z >= 1 << L)
+						continue;
+					int64_t b[3] = {x * s, y * s, z * s};
+					if (ref_overlap(t.v, b, s))
+						collect(&want, x, y, z);
+				}
+		vset_finish(&want);
+		bad += !vset_equal(&got, &want, "large triangle");
+		free(got.v);
+		free(want.v);
+	}
+	CHECK_EQ(bad, 0);
+}
+
+static void test_box_overlap(void)
+{
+	const int L = 6;
+	const int64_t s = vd_snap_voxel(L);
+	int bad = 0;
+	for (int i = 0; i < 20000; i++) {
+		struct vd_snapped_tri t;
+		random_triangle(&t, L, i % 6);
+		int64_t size = (int64_t)1 << uniform(5), lo[3], blo[3];
+		for (int a = 0; a < 3; a++) {
+			lo[a] = uniform(64);
+			blo[a] = lo[a] * s;
+		}
+		bad += vd_tri_box_overlap(&t, L, lo, size) != ref_overlap(t.v, blo, size * s);
+	}
+	CHECK_EQ(bad, 0);
+}
+
+/* --------------------------------------------------------- real meshes */
+
+/* The voxels of every chunk file in `d`. */
+static int load_chunks(const char *d, struct vset *out, int *nchunks)
+{
+	DIR *dd = opendir(d);
+	struct dirent *e;
+	char path[1024];
+	*nchunks = 0;
+	while (dd && (e = readdir(dd))) {
+		size_t n = strlen(e->d_name);
+		if (n < 5 || strcmp(e->d_name + n - 4, ".svo"))
+			continue;
+		snprintf(path, sizeof path, "%s/%s", d, e->d_name);
+		struct vd_svo svo;
+		int err = vd_svo_load(&svo, NULL, path);
+		if (err) {
+			fprintf(stderr, "%s: %s: %s\n", path, vd_strerror(err),
+				vd_error_detail());
+			closedir(dd);
+			return err;
+		}
+		(*nchunks)++;
+		for (size_t i = 0; i < svo.count; i++) {
+			uint32_t bx, by, bz;
+			vd_morton3_decode(svo.keys[i], &bx, &by, &bz);
+			for (int b = 0; b < 64; b++)
+				if (svo.masks[i] >> b & 1) {
+					uint32_t x, y, z;
+					vd_morton3_decode((uint64_t)b, &x, &y, &z);
+					vset_add(out, vd_morton3(4 * bx + x, 4 * by + y,
+								 4 * bz + z));
+				}
+		}
+		vd_svo_release(&svo);
+	}
+	if (dd)
+		closedir(dd);
+	vset_finish(out);
+	return VD_OK;
+}
+
+static int voxelize(const char *mesh, int L, int L0, const char *out)
+{
+	struct vd_voxelize_opts o = {.levels = L, .chunk_level = L0,
+				     .mem_budget_bytes = 1ull << 30,
+				     .threads = 2, .quiet = 1};
+	struct vd_voxelize_result r;
+	int err = vd_voxelize_mesh(mesh, out, &o, &r);
+	if (err)
+		fprintf(stderr, "voxelize %s: %s: %s\n", mesh, vd_strerror(err),
+			vd_error_detail());
+	return err;
+}
+
+/* The brute-force voxel set of a whole mesh: every triangle, every voxel
+ * of its bounding box, the reference test. */
+static void ref_mesh(const char *mesh, int L, struct vset *out)
+{
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, mesh), VD_OK);
+	static struct vd_triangle buf[4096];
+	size_t n;
+	float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+	while (vd_mesh_read(m, buf, 4096, &n) == VD_OK && n)
+		for (size_t i = 0; i < n; i++)
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++) {
+					float v = buf[i].v[k][a];
+					lo[a] = v < lo[a] ? v : lo[a];
+					hi[a] = v > hi[a] ? v : hi[a];
+				}
+	struct vd_transform tr;
+	CHECK_EQ(vd_transform_init(&tr, lo, hi, L), VD_OK);
+	CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	while (vd_mesh_read(m, buf, 4096, &n) == VD_OK && n)
+		for (size_t i = 0; i < n; i++) {
+			struct vd_snapped_tri t;
+			CHECK_EQ(vd_snap_triangle(&t, &buf[i], &tr), VD_OK);
+			ref_voxels(&t, L, out);
+		}
+	vd_mesh_close(m);
+	vset_finish(out);
+}
+
+static void test_real_mesh_brute_force(void)
+{
+	for (int L = 6; L <= 8; L++) {
+		struct vset got = {0}, want = {0};
+		int n;
+		CHECK_EQ(voxelize("tests/data/bunny.ply", L, -1, dir), VD_OK);
+		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
+		ref_mesh("tests/data/bunny.ply", L, &want);
+		CHECK(want.n > 1000);
+		CHECK(vset_equal(&got, &want, "bunny"));
+		free(got.v);
+		free(want.v);
+	}
+}
+
+static void test_chunked_equals_monolithic(void)
+{
+	struct vset base = {0};
+	int n;
+	CHECK_EQ(voxelize("tests/data/bunny.ply", 8, 0, dir), VD_OK);
+	CHECK_EQ(load_chunks(dir, &base, &n), VD_OK);
+	CHECK_EQ(n, 1);
+	for (int L0 = 1; L0 <= 3; L0++) {
+		struct vset got = {0};
+		CHECK_EQ(voxelize("tests/data/bunny.ply", 8, L0, dir), VD_OK);
+		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
+		CHECK(n > 1 && n <= 1 << 3 * L0);
+		CHECK(vset_equal(&got, &base, "chunked"));
+		free(got.v);
+	}
+	free(base.v);
+}
+
+/* A coarse voxel is set iff one of its 8 children is. */
+static void test_resolutions_agree(void)
+{
+	struct vset fine = {0}, coarse = {0}, up = {0};
+	int n;
+	CHECK_EQ(voxelize("tests/data/bunny.ply", 9, 1, dir), VD_OK);
+	CHECK_EQ(load_chunks(dir, &fine, &n), VD_OK);
+	CHECK_EQ(voxelize("tests/data/bunny.ply", 8, 2, dir), VD_OK);
+	CHECK_EQ(load_chunks(dir, &coarse, &n), VD_OK);
+	for (size_t i = 0; i < fine.n; i++)
+		vset_add(&up, fine.v[i] >> 3); /* Morton: parent = drop 3 bits */
+	vset_finish(&up);
+	CHECK(vset_equal(&up, &coarse, "2^9 folded vs 2^8"));
+	free(fine.v);
+	free(coarse.v);
+	free(up.v);
+}
+
+int main(void)
+{
+	dir = test_tmpdir("voxelize");
+	RUN(test_random_triangles);
+	RUN(test_large_and_clipped);
+	RUN(test_box_overlap);
+	RUN(test_real_mesh_brute_force);
+	RUN(test_chunked_equals_monolithic);
+	RUN(test_resolutions_agree);
+	return CHECK_DONE();
+}
