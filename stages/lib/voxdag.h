@@ -476,6 +476,244 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 			uint64_t cell_morton, const char *ext);
 
 /* ------------------------------------------------- DAG and SSVDAG (dag.c) */
+/* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
+ * (VD_KIND_SSVDAG) of one cell at `chunk_level`. Specified on disk in
+ * schemas/chunk-format.md, "DAG and SSVDAG chunks".
+ *
+ * Levels are indexed by their absolute level l in the grid and run from
+ * chunk_level (the cell's root, one node; none when the cell is empty) to
+ * levels-1. A node on level l < levels-1 has an 8-bit child mask (bit c set
+ * when child c = 4x+2y+z is non-empty) and one reference per set bit, in
+ * increasing slot order: node i's references are first[i] .. first[i+1]-1.
+ * A reference is the index of a node on level l+1, and in an SSVDAG also a
+ * 3-bit reflection. Level levels-1 holds 2x2x2 voxel masks (bit c = voxel c)
+ * and no references. Level levels-2 (when levels >= 2) is additionally
+ * available as 4x4x4 bricks in `bricks`, in the header's brick layout.
+ *
+ * Reflections: a 3-bit value m uses child-index bits, bit 2 (4) = mirror
+ * along X, bit 1 (2) = along Y, bit 0 (1) = along Z, so reflecting a node by
+ * m moves child slot p to slot p ^ m and reflects that child by m too.
+ * (The SymVox files put X, Y, Z in pointer bits 13, 14, 15 / 29, 30, 31: the
+ * encoder maps bit 2 -> X, 1 -> Y, 0 -> Z.) A reference (i, m) means "node i
+ * reflected by m". Reflections compose by XOR down a path: in a node reached
+ * with accumulated reflection a, logical child slot p is stored slot p ^ a,
+ * and the child is reached with a ^ m. A 2x2x2 mask reflected by m moves bit
+ * c to bit c ^ m; a brick reflected by m moves byte c to byte c ^ m and
+ * reflects each byte by m (vd_brick_reflect()).
+ *
+ * Minimality: no two nodes on a level represent the same subtree (DAG), or
+ * subtrees equal up to any of the 8 reflections (SSVDAG). Every node is
+ * reachable from the root. SSVDAG nodes below the root are the canonical
+ * representatives of their class; the root is stored as the cell really is
+ * (unreflected), so a chunk never needs a reflection on its root. Nodes on a
+ * level are in the order they were first met; the order carries no meaning.
+ */
+struct vd_dag_level {
+	uint64_t nodes;   /* nodes on this level */
+	uint64_t refs;    /* references held by this level's nodes (0 on L-1) */
+	uint8_t *mask;    /* nodes child masks; on level L-1 the voxel masks */
+	uint64_t *first;  /* nodes+1 offsets into child/refl; NULL on L-1 */
+	uint32_t *child;  /* refs indices into level l+1; NULL on L-1 */
+	uint8_t *refl;    /* refs reflections (SSVDAG only, else NULL) */
+};
+
+struct vd_dag {
+	uint32_t kind;         /* VD_KIND_DAG or VD_KIND_SSVDAG */
+	int levels;            /* grid depth L */
+	int chunk_level;       /* level of the cell (its root) */
+	uint64_t cell_morton;  /* Morton code of the cell at chunk_level */
+	uint64_t voxels;       /* voxels in the cell */
+	struct vd_dag_level lv[VD_MAX_LEVELS]; /* [chunk_level, levels-1] used */
+	uint64_t *bricks;      /* lv[L-2].nodes bricks of level L-2 (the stored,
+				  unreflected nodes); NULL when L < 2 or the
+				  root is below level L-2 */
+};
+
+/* Options of the DAG builders. */
+struct vd_dag_opts {
+	int threads;               /* 0: all cores */
+	uint64_t mem_budget_bytes; /* 0: no limit */
+	const char *const *part_names; /* merge: names of the parts for error
+					  details (file names), or NULL */
+};
+
+/* What a build or merge measured. */
+struct vd_dag_stats {
+	uint64_t input_voxels;
+	uint64_t input_nodes;                 /* bricks or part nodes read */
+	double seconds_level[VD_MAX_LEVELS];  /* reduction time per level */
+	double seconds_build;                 /* whole build */
+	uint64_t memory_estimate_bytes;       /* what the budget check used */
+};
+
+/* Section tags of DAG chunks. */
+#define VD_TAG_DAGM VD_TAG('D', 'A', 'G', 'M') /* node masks, all levels */
+#define VD_TAG_DAGC VD_TAG('D', 'A', 'G', 'C') /* child indices, uint32 */
+#define VD_TAG_DAGR VD_TAG('D', 'A', 'G', 'R') /* child reflections, uint8 */
+
+/* Reflects a 2x2x2 mask by m (bit c -> bit c ^ m). */
+static inline uint8_t vd_mask_reflect(uint8_t v, unsigned m)
+{
+	if (m & 1) v = (uint8_t)((v & 0x55) << 1 | (v >> 1 & 0x55));
+	if (m & 2) v = (uint8_t)((v & 0x33) << 2 | (v >> 2 & 0x33));
+	if (m & 4) v = (uint8_t)(v << 4 | v >> 4);
+	return v;
+}
+
+/* Reflects a brick by m: local Morton bit b -> b ^ (m << 3 | m). */
+static inline uint64_t vd_brick_reflect(uint64_t v, unsigned m)
+{
+	const uint64_t k1 = 0x5555555555555555ULL, k2 = 0x3333333333333333ULL,
+		       k4 = 0x0f0f0f0f0f0f0f0fULL, k8 = 0x00ff00ff00ff00ffULL,
+		       k16 = 0x0000ffff0000ffffULL;
+	if (m & 1) {
+		v = (v & k1) << 1 | (v >> 1 & k1);
+		v = (v & k8) << 8 | (v >> 8 & k8);
+	}
+	if (m & 2) {
+		v = (v & k2) << 2 | (v >> 2 & k2);
+		v = (v & k16) << 16 | (v >> 16 & k16);
+	}
+	if (m & 4) {
+		v = (v & k4) << 4 | (v >> 4 & k4);
+		v = v << 32 | v >> 32;
+	}
+	return v;
+}
+
+/* The symmetry class of a 2x2x2 mask: `canon` is the largest value among
+ * its 8 reflections, `refl` the smallest m with vd_mask_reflect(mask, m) ==
+ * canon (so mask == vd_mask_reflect(canon, refl)), and `inv` the set of
+ * reflections leaving the mask unchanged (bit m set for each such m; bit 0
+ * always). 46 classes, the empty mask included (Burnside: (256 + 7*16)/8). */
+struct vd_leaf_class {
+	uint8_t canon, refl, inv;
+};
+
+/* The 256-entry leaf table, indexed by mask. */
+const struct vd_leaf_class *vd_leaf_classes(void);
+
+/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG) or
+ * VD_KIND_SSVDAG (symmetry-merged directly). `svo` must hold strictly
+ * increasing, non-zero bricks inside its cell (VD_ERR_CORRUPT otherwise); an
+ * empty SVO gives an empty DAG. VD_ERR_BUDGET if opts->mem_budget_bytes is
+ * too small for the estimate. `stats` may be NULL. Release *dag with
+ * vd_dag_release() (also after a failure). */
+int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		    uint32_t kind, const struct vd_dag_opts *opts,
+		    struct vd_dag_stats *stats);
+
+/* Merge mode: builds the chunk of the cell at `chunk_level` that contains
+ * the `n` chunks parts[0..n-1] (any order), reducing again from the leaf
+ * level so that subtrees shared across parts become one; cells absent from
+ * `parts` are empty. `kind` VD_KIND_DAG needs DAG parts; VD_KIND_SSVDAG
+ * accepts DAG and SSVDAG parts (so one DAG part at its own chunk level is
+ * the symmetry merge). chunk_level -1 means one level above the shallowest
+ * part. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
+ * overlapping cells, cells not inside one cell at chunk_level),
+ * VD_ERR_WRONG_KIND, VD_ERR_BUDGET. Release *out with vd_dag_release(). */
+int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
+		 size_t n, uint32_t kind, int chunk_level,
+		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats);
+
+/* Calls fn(ctx, key, brick) for every non-empty brick of `dag` in Morton
+ * order, applying reflections (key and brick as in struct vd_svo; for
+ * L < 2 one brick, key 0). Stops at and returns the first non-zero return
+ * of fn. */
+int vd_dag_expand(const struct vd_dag *dag,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx);
+
+/* The outcome of vd_dag_compare_svo(). */
+struct vd_dag_diff {
+	uint64_t differing_voxels;   /* 0: equal */
+	uint64_t first_voxel_morton; /* the first difference in Morton order,
+					a voxel Morton code (3*L bits) */
+	int first_in_dag;            /* 1: that voxel is set in the DAG only,
+					0: in the SVO chunks only */
+};
+
+/* Compares the voxels of `dag` with the union of the SVO chunks
+ * svos[0..n-1] (any order), streaming the DAG's expansion. The SVO cells
+ * must lie inside the DAG's cell, have its depth and not overlap
+ * (VD_ERR_MISMATCH otherwise); voxels of the DAG outside every SVO cell
+ * count as differences. Fills *diff and returns VD_OK whether or not they
+ * differ. */
+int vd_dag_compare_svo(const struct vd_dag *dag,
+		       const struct vd_svo *const *svos, size_t n,
+		       struct vd_dag_diff *diff);
+
+/* Expands `dag` into a new SVO (release with vd_svo_release()). */
+int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo);
+
+/* Checks the structure: counts, masks, indices and reflections in range,
+ * every node referenced, root count. VD_ERR_CORRUPT with the detail naming
+ * the first problem. */
+int vd_dag_validate(const struct vd_dag *dag);
+
+/* Fills h->kind, levels, chunk_level, cell_morton and level counts from
+ * `dag` (the transform is left alone). */
+void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
+
+/* Writes `dag` as a chunk file at `path` (atomic). */
+int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
+		const char *path, const char *provenance);
+
+/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG or
+ * VD_KIND_ANY (either of the two; VD_ERR_WRONG_KIND for other kinds).
+ * Validates as vd_dag_validate() and checks the voxel count. `h` may be
+ * NULL. Release with vd_dag_release(). */
+int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
+		const char *path, uint32_t kind);
+
+/* The same from an opened chunk. */
+int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
+		      uint32_t kind);
+
+/* Bytes held by `dag`. */
+uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
+
+/* Estimated peak bytes of vd_dag_from_svo() on `bricks` bricks, and of
+ * vd_dag_merge() on parts holding `nodes` nodes and `refs` references in
+ * total, input included. The stages compare these with --mem-budget before
+ * they load anything. */
+uint64_t vd_dag_estimate_from_svo(uint64_t bricks);
+uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
+
+/* Writes the statistics of a build (`tool` names the stage; `seconds_load`
+ * and `seconds_save` are the caller's phases) as JSON to `path` (atomic):
+ * per-level node and reference counts, seconds per phase, peak RSS. */
+int vd_dag_write_stats(const struct vd_dag *dag,
+		       const struct vd_dag_stats *st, const char *tool,
+		       double seconds_load, double seconds_save,
+		       const char *path);
+
+/* One run of the svo-to-dag or symmetry-merge stage, as its main() sets
+ * it up from the command line. */
+struct vd_dag_job {
+	const char *tool;          /* "svo-to-dag": messages and statistics */
+	uint32_t kind;             /* output: VD_KIND_DAG or VD_KIND_SSVDAG */
+	int merge;                 /* inputs are DAG chunks to merge */
+	int to_level;              /* merge: output chunk level, -1 default */
+	const char *const *inputs; /* input chunk files */
+	size_t n_inputs;
+	const char *output;        /* output chunk file; statistics go to
+				      output + ".stats.json" */
+	const char *provenance;    /* stored in the output, or NULL */
+	struct vd_dag_opts opts;
+	int quiet;                 /* no summary line on stderr */
+};
+
+/* Loads the inputs (an SVO chunk for VD_KIND_DAG, a DAG chunk for
+ * VD_KIND_SSVDAG; with `merge`, DAG chunks, and for VD_KIND_SSVDAG also
+ * SSVDAG chunks), checks the memory budget before each load, builds,
+ * saves the output atomically and writes the statistics. On failure the
+ * detail is the whole message after the tool name ("cannot read 'x.svo':
+ * truncated file: ...") and nothing is left at the output path. */
+int vd_dag_run(const struct vd_dag_job *job);
+
+/* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
+void vd_dag_release(struct vd_dag *dag);
 
 /* ------------------------------------------------------ end of DAG block */
 
