@@ -444,10 +444,26 @@ static void plan_dag_stage(struct plan *p, int d)
 	}
 	if (!is_dag && src_root < 0)
 		return; /* the source's cells are not planned yet */
-	char **names;
-	int n = list_files(src_dir, src_ext, &names);
-	if (n < 0)
-		return;
+	/* voxelize replaces its directory, so its listing is exact; a DAG
+	 * stage's cells are the jobs planned for it (a listing could hold
+	 * cells of an earlier configuration) */
+	char **names = NULL;
+	int n = 0;
+	if (is_dag) {
+		n = list_files(src_dir, src_ext, &names);
+		if (n < 0)
+			return;
+	} else {
+		names = calloc((size_t)p->n + 1, sizeof *names);
+		for (int i = 0; i < p->n; i++) {
+			const char *id = p->jobs[i].id, *slash = strrchr(id, '/');
+			if (p->jobs[i].decl == src && strstr(id, "/cells/")) {
+				char nm[256];
+				snprintf(nm, sizeof nm, "%s%s", slash + 1, src_ext);
+				names[n++] = xstrdup(nm);
+			}
+		}
+	}
 	path_join(cells_dir, sizeof cells_dir, dir, "cells");
 	struct part *parts = calloc((size_t)(n ? n : 1), sizeof *parts);
 	int src_job = -1;
@@ -567,10 +583,16 @@ int plan_expand(struct plan *p)
 			}
 		}
 		/* newly planned jobs that a previous run finished count as
-		 * finished now, which may reveal further jobs */
-		for (int i = before; i < p->n; i++)
-			if (job_is_fresh(&p->jobs[i]))
-				p->jobs[i].state = JOB_SKIPPED;
+		 * finished now, which may reveal further jobs; only once
+		 * their own inputs are final (dependencies come first) */
+		for (int i = before; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			int ready = j->state == JOB_PENDING;
+			for (int k = 0; k < j->ndeps && ready; k++)
+				ready = job_finished(&p->jobs[j->deps[k]]);
+			if (ready && job_is_fresh(j))
+				j->state = JOB_SKIPPED;
+		}
 	} while (p->n != before);
 	/* the graph is whole when every declared job has its final job */
 	p->expanded = 1;

@@ -239,6 +239,11 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		/* start what is ready */
 		for (int i = 0; i < p->n; i++) {
 			struct job *j = &p->jobs[i];
+			if (j->state == JOB_SKIPPED && !j->logged) {
+				/* found fresh when planned */
+				log_line("skipped %s (output is fresh)", j->id);
+				j->logged = 1;
+			}
 			if (j->state != JOB_PENDING)
 				continue;
 			int ds = deps_state(p, j);
@@ -251,6 +256,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				continue;
 			if (job_is_fresh(j)) {
 				j->state = JOB_SKIPPED;
+				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
 				continue;
 			}
