@@ -1370,12 +1370,13 @@ static int load_root(struct vd_dag *d, struct vd_transform *t,
 	if (err) return reword(err, "cannot read", path);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
 	if (h->chunk_level != 0) {
+		uint32_t level = h->chunk_level;
+		uint64_t cell = h->cell_morton;
 		vd_chunk_free(c);
 		return vd_fail(VD_ERR_ARG, "cannot encode '%s': not a root chunk "
 			       "(chunk level %u, cell %" PRIu64 "): merge the "
 			       "chunks up to level 0 first (svo-to-dag --merge, "
-			       "symmetry-merge --merge)", path, h->chunk_level,
-			       h->cell_morton);
+			       "symmetry-merge --merge)", path, level, cell);
 	}
 	uint64_t nodes = 0;
 	for (uint32_t i = 0; i + 1 < h->level_count; i++) nodes += h->level_nodes[i];
@@ -1465,9 +1466,12 @@ int vd_enc_run(const struct vd_enc_job *job)
 			err = reword(err, "cannot read", job->stats_paths[i]);
 			goto out;
 		}
-	if (mkdir(job->outdir, 0777) != 0 && errno != EEXIST) {
+	struct stat st;
+	if (mkdir(job->outdir, 0777) != 0 &&
+	    (errno != EEXIST || stat(job->outdir, &st) != 0 || !S_ISDIR(st.st_mode))) {
 		err = vd_fail(VD_ERR_IO, "cannot create directory '%s': %s",
-			      job->outdir, strerror(errno));
+			      job->outdir, errno == EEXIST ? "a file of that "
+			      "name exists" : strerror(errno));
 		goto out;
 	}
 	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
