@@ -232,6 +232,11 @@ struct vd_chunk;
  * what was found. On success the caller frees *out with vd_chunk_free(). */
 int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind);
 
+/* Reads only the header of `path` (for planning: sizes and counts without
+ * reading the whole file), checking magic, version and header checksum.
+ * The rest of the file is not verified. */
+int vd_chunk_read_header(const char *path, struct vd_chunk_header *h);
+
 /* The same on an in-memory image of `size` bytes (copied). */
 int vd_chunk_open_mem(struct vd_chunk **out, const void *data, size_t size,
 		      uint32_t kind);
