@@ -673,11 +673,15 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 /* Bytes held by `dag`. */
 uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
 
-/* Estimated peak bytes of vd_dag_from_svo() on `bricks` bricks, and of
+/* Upper bounds of the peak bytes of vd_dag_from_svo() on an SVO with
+ * `bricks` bricks, `leaves` non-empty level L-1 nodes and `parents`
+ * non-empty level L-3 nodes (the SVO header's per-level counts), and of
  * vd_dag_merge() on parts holding `nodes` nodes and `refs` references in
- * total, input included. The stages compare these with --mem-budget before
- * they load anything. */
-uint64_t vd_dag_estimate_from_svo(uint64_t bricks);
+ * total; inputs included. Bounds, not guesses: they assume no two nodes
+ * are equal, so a real scan needs about half. The stages compare them with
+ * --mem-budget before loading anything. */
+uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
+				  uint64_t parents);
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
 
 /* Writes the statistics of a build (`tool` names the stage; `seconds_load`
