@@ -578,6 +578,8 @@ static int level_brick(struct engine *e)
 			goto out;
 	}
 	front_sort(&nf);
+	free(b.slot); /* the table is done with: lower the peak */
+	b.slot = NULL;
 
 	/* Levels L-2 and L-1 of the output from the distinct bricks. */
 	{
@@ -695,6 +697,8 @@ static int level_inner(struct engine *e, int l)
 			goto out;
 	}
 	front_sort(&nf);
+	free(b.slot);
+	b.slot = NULL;
 
 	struct vd_dag_level *lv = &e->out->lv[l];
 	lv->nodes = b.n;
@@ -780,22 +784,31 @@ uint64_t vd_dag_memory_bytes(const struct vd_dag *dag)
 	return b;
 }
 
-/* Peak per brick: the frontier (16), the brick set (values, invariance,
- * table: up to 25 per distinct brick), the next frontier and node set of
- * level L-3 (about 16 + 40 per parent, a parent per 1..8 bricks) and the
- * output (about 14 per distinct brick); the SVO itself (16) is counted too.
- * Deliberately pessimistic: every brick distinct, one brick per parent. */
-uint64_t vd_dag_estimate_from_svo(uint64_t bricks)
+/* The peak is at the brick level or at level L-3. Per brick B: the SVO
+ * (16), the frontier (16), the brick set (8 + 1, and a table of up to 4
+ * slots of 8 per distinct brick, 6 while it doubles: 48). After the brick
+ * level the table is freed and the output holds bricks, masks and offsets
+ * (17 per brick) and 4 per reference, at most one per leaf L1. Level L-3
+ * with N3 parents adds the new frontier (16), the node set (10 per node, 4
+ * per reference: at most one per brick) and its table (48 per node).
+ * Growing arrays may be half empty: the node terms count 1.5 times. */
+uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
+				  uint64_t parents)
 {
-	return bricks * 96 + (16u << 20);
+	uint64_t brick_phase = bricks * (16 + 16 + 9 + 48);
+	uint64_t inner_phase = bricks * (16 + 16 + 17 + 4) + leaves * 4 +
+			       parents * (16 + 10 + 48) * 3 / 2;
+	return (brick_phase > inner_phase ? brick_phase : inner_phase) +
+	       (16u << 20);
 }
 
-/* Per input node: the parts themselves (9 + 5 per reference + 8 per
- * brick), remaps (5 twice), the output and node sets (up to the input size
- * again with tables). */
+/* Per input node and reference: the parts (9 + 8 per node for offsets and
+ * bricks, 5 per reference), the output (at most the same again), two
+ * levels of renaming maps (10 per node), the largest level's table (48 per
+ * node). */
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs)
 {
-	return nodes * 64 + refs * 12 + (16u << 20);
+	return nodes * (17 + 17 + 10 + 48) + refs * 10 + (16u << 20);
 }
 
 static int check_kind_out(uint32_t kind)
@@ -842,9 +855,11 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		return vd_fail(VD_ERR_RANGE, "cell %" PRIu64 " outside level %d",
 			       svo->cell_morton, L0);
 	/* The bricks must be strictly increasing, non-empty and in the cell. */
-	uint64_t voxels = 0;
+	uint64_t voxels = 0, leaves = 0, parents = 0;
 	for (size_t i = 0; i < svo->count; i++) {
 		uint64_t k = svo->keys[i], v = svo->masks[i];
+		for (unsigned c = 0; c < 8; c++) leaves += (v >> 8 * c & 0xff) != 0;
+		parents += i == 0 || k >> 3 != svo->keys[i - 1] >> 3;
 		int in;
 		if (L0 <= L - 2)
 			in = k >> (3 * (L - 2 - L0)) == svo->cell_morton;
@@ -862,8 +877,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		stats->input_voxels = voxels;
 		stats->input_nodes = svo->count;
 	}
-	if ((err = check_budget(opts, vd_dag_estimate_from_svo(svo->count),
-				stats)))
+	if ((err = check_budget(opts, vd_dag_estimate_from_svo(svo->count,
+				leaves, parents), stats)))
 		return err;
 	dag->kind = kind;
 	dag->levels = L;
@@ -1544,9 +1559,13 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot read", in);
 		const struct vd_chunk_header *h = vd_chunk_header(c);
 		tr = h->transform;
-		uint64_t bricks = h->level_count >= 3 ?
-			h->level_nodes[h->level_count - 3] : 1;
-		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks), &st))) {
+		/* counts of levels L-1, L-2, L-3 (from the header's L0..L) */
+		uint32_t nc = h->level_count;
+		uint64_t leaves = nc >= 2 ? h->level_nodes[nc - 2] : 1;
+		uint64_t bricks = nc >= 3 ? h->level_nodes[nc - 3] : 1;
+		uint64_t parents = nc >= 4 ? h->level_nodes[nc - 4] : 1;
+		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks, leaves,
+						parents), &st))) {
 			vd_chunk_free(c);
 			return reword(err, "cannot build the DAG of", in);
 		}
