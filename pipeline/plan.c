@@ -5,7 +5,8 @@
  *   <dag job>/cells/           one .dag per cell (svo-to-dag per cell)
  *   <dag job>/L<a>-<cell>.dag  merges up the reduction tree
  *   <dag job>/root.dag         the whole scene
- *   (the same for symmetry-merge jobs, with .ssvdag)
+ *   (the same for symmetry-merge jobs, with .sdag; .ssvdag is the
+ *   SymVox encoding that encode writes)
  *   <encode job>/              the encodings and tables
  *   logs/                      one log per job, runner.log
  * Every output has a key beside it (<output>.key, or <dir>/.key): the
@@ -181,7 +182,7 @@ static int fingerprint(const char *path, uint64_t *out)
 static int volatile_arg(const char *a)
 {
 	return !strcmp(a, "--threads") || !strcmp(a, "--mem-budget") ||
-	       !strcmp(a, "-q");
+	       !strcmp(a, "-q") || !strcmp(a, "--stats");
 }
 
 int job_key(const struct job *j, char key[17])
@@ -423,7 +424,8 @@ static void plan_dag_stage(struct plan *p, int d)
 	int src = dd->needs[0];
 	const char *src_name = decl_of(p, src)->name;
 	int is_dag = dd->stage->type == STAGE_SVO_TO_DAG;
-	const char *ext = is_dag ? "dag" : "ssvdag";
+	/* .sdag, not .ssvdag: that is the SymVox encoding's extension */
+	const char *ext = is_dag ? "dag" : "sdag";
 	const char *src_ext = is_dag ? ".svo" : ".dag";
 	char src_dir[1100], cells_dir[1200], dir[1100];
 	path_join(dir, sizeof dir, p->dir, dd->name);
@@ -539,19 +541,46 @@ static void plan_encode(struct plan *p, int d)
 	}
 	if (dag < 0 || ssv < 0)
 		return;
-	char out[1100], key[1200], budget[32], res[256] = "";
+	char out[1100], key[1200], budget[32], minl[16], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
 	path_join(key, sizeof key, out, ".key");
 	struct job *j = add_job(p, d, dd->name, out, key);
 	if (!j)
 		return;
+	int min = c->levels;
 	for (int i = 0; i < c->nres; i++)
-		snprintf(res + strlen(res), sizeof res - strlen(res), "%s%d",
-			 i ? "," : "", c->resolutions[i]);
+		min = c->resolutions[i] < min ? c->resolutions[i] : min;
+	snprintf(minl, sizeof minl, "%d", min);
 	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
 	const struct job *jd = &p->jobs[dag], *js = &p->jobs[ssv];
-	set_argv(j, "encode", "--dag", jd->output, "--ssvdag", js->output, "-o",
-		 out, "--resolutions", res, "--mem-budget", budget, "-q", NULL);
+	const char *head[] = {jd->output, js->output, "-o", out, "--name",
+			      c->name, "--min-level", minl, "--mem-budget",
+			      budget, "--threads", threads, "-q"};
+	size_t nh = sizeof head / sizeof *head;
+	/* Table 1's seconds: the statistics of every DAG job (not part of
+	 * the key: timings are not content) */
+	int nstats = 0;
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		nstats += t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE;
+	}
+	j->argv = calloc(nh + 2 * (size_t)nstats + 2, sizeof *j->argv);
+	char path[1100];
+	snprintf(path, sizeof path, "%s/encode", bin_dir());
+	int z = 0;
+	j->argv[z++] = xstrdup(path);
+	for (size_t q = 0; q < nh; q++)
+		j->argv[z++] = xstrdup(head[q]);
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		if (t != STAGE_SVO_TO_DAG && t != STAGE_SYMMETRY_MERGE)
+			continue;
+		char sp[1200];
+		snprintf(sp, sizeof sp, "%s.stats.json", p->jobs[i].output);
+		j->argv[z++] = xstrdup("--stats");
+		j->argv[z++] = xstrdup(sp);
+	}
 	add_input(j, jd->output);
 	add_input(j, js->output);
 	add_dep(j, dag);

@@ -26,6 +26,7 @@ jobs:
   vox:    {stage: voxelize}
   dag:    {stage: svo-to-dag, needs: [vox]}
   ssvdag: {stage: symmetry-merge, needs: [dag]}
+  enc:    {stage: encode, needs: [dag, ssvdag]}
 EOF
 }
 
@@ -63,12 +64,19 @@ write_cfg 8 2
 expect run_ok 0 '' $R -q run "$CFG"
 D=out/$NAME
 expect run_root_dag_lossless 0 '' $BIN/dag-verify $D/dag/root.dag $D/vox/*.svo
-expect run_root_ssvdag_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.ssvdag $D/vox/*.svo
+expect run_root_ssvdag_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+for f in svdag ussvdag esvdag ssvdag; do
+	expect "run_${f}_decodes_to_the_voxels" 0 '' $BIN/dag-verify $D/enc/$NAME.$f $D/vox/*.svo
+done
+# the check can fail: without one chunk the encoding has voxels too many
+expect run_verify_detects_missing_voxels 1 'differs from the SVO chunks' \
+	$BIN/dag-verify $D/enc/$NAME.ssvdag $(ls $D/vox/*.svo | tail -n +2)
 [ -s $D/report.md ] && [ -s $D/report.json ] && [ -s $D/report.csv ] &&
-	pass run_report || fail run_report "$(ls $D)"
+	grep -q 'Table 2' $D/report.md && grep -q '| 256^3 |' $D/report.md &&
+	pass run_report || fail run_report "$(ls $D)" "$(cat $D/report.md)"
 ncells=$(ls $D/vox/*.svo | wc -l)
 [ "$ncells" -gt 8 ] && pass run_many_cells || fail run_many_cells "$ncells cells"
-sums() { find $D -name '*.svo' -o -name '*.dag' -o -name '*.ssvdag' | sort | xargs sha256sum; }
+sums() { find $D -name '*.svo' -o -name '*.dag' -o -name '*.sdag' -o -name '*.ssvdag' -o -name '*.svdag' -o -name '*.esvdag' -o -name '*.ussvdag' | sort | xargs sha256sum; }
 sums > "$T/ref.sums"
 total=$(grep -c '^.* done ' $D/logs/runner.log)
 
@@ -131,7 +139,7 @@ else
 	fail job_killed_reported "rc=$rc child=$child" "$(cat "$T/kill.err")"
 fi
 expect job_killed_then_rerun 0 '' $R -q run "$CFG"
-expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.ssvdag $D/vox/*.svo
+expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
 
 # --- a second runner on the same directory refuses
 rm -rf $D
@@ -158,7 +166,7 @@ write_cfg 7 2
 expect changed_levels 0 '' $R -q run "$CFG"
 n=$(last_run | grep -c ' started ')
 [ "$n" -gt 10 ] && pass changed_levels_reruns || fail changed_levels_reruns "$n started"
-expect changed_levels_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.ssvdag $D/vox/*.svo
+expect changed_levels_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
 
 # --- status and clean
 expect status_done 0 'done +[1-9]' $R status "$CFG"
