@@ -42,7 +42,7 @@ bad() { # bad NAME PATTERN FILE
 bad missing_file 'No such file' "$T/nonexistent.ply"
 bad directory 'directory' tests
 echo "hello world" > "$T/hello.txt"
-bad unsupported_format 'not a PLY, OBJ or STL' "$T/hello.txt"
+bad unsupported_format 'not a PLY, OBJ, STL or AC3D' "$T/hello.txt"
 cp "$T/good/voxelize.stats.json" "$T/stats.ply"
 bad json_named_ply 'malformed|unsupported' "$T/stats.ply"
 head -c 300 $BUNNY > "$T/header_cut.ply"

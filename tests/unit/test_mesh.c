@@ -734,7 +734,7 @@ static void test_not_meshes(void)
 	static unsigned char zeros[1000];
 	CHECK_EQ(mesh_error(write_bytes("zeros.bin", zeros, sizeof zeros)),
 		 VD_ERR_UNSUPPORTED);
-	CHECK(detail_has("not a PLY, OBJ or STL file"));
+	CHECK(detail_has("not a PLY, OBJ, STL or AC3D file"));
 	CHECK(detail_has("00 00"));
 	CHECK_EQ(mesh_error(write_text("hello.txt", "hello world\n")),
 		 VD_ERR_UNSUPPORTED);
