@@ -134,8 +134,9 @@ static int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
 /* Returns the next line in *s (NUL-terminated, without "\n" or "\r\n",
  * valid until the next vd_rd_* call) and its length. With `join`, a line
  * ending in a backslash continues on the next one (OBJ). Returns 1 for a
- * line, 0 at the end of the file, VD_ERR_IO, or VD_ERR_FORMAT for a line
- * longer than the buffer. */
+ * line, 0 at the end of the file, or a negated error code (detail set):
+ * -VD_ERR_IO, or -VD_ERR_FORMAT for a line longer than the buffer. The
+ * codes are negated because VD_ERR_IO is 1, the value meaning "a line". */
 static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 {
 	size_t scan = r->pos;
@@ -163,13 +164,13 @@ static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 		int f = vd_rd_fill(r);
 		scan = rel;
 		if (f < 0)
-			return VD_ERR_IO;
+			return -VD_ERR_IO;
 		if (f > 0)
 			continue;
 		if (r->len == r->cap)
-			return vd_fail(VD_ERR_FORMAT,
-				       "line %" PRIu64 ": longer than %u bytes",
-				       r->lines + 1, MESH_BUF_BYTES);
+			return -vd_fail(VD_ERR_FORMAT,
+					"line %" PRIu64 ": longer than %u bytes",
+					r->lines + 1, MESH_BUF_BYTES);
 		if (r->pos == r->len)
 			return 0;
 		/* A last line without its newline. */
@@ -670,7 +671,7 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 	do {
 		e = vd_rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_fail(VD_ERR_TRUNCATED,
 				       "file ends after %" PRIu64 " of %" PRIu64
@@ -834,7 +835,7 @@ static int vd_ply_header(struct vd_mesh *m)
 	for (;;) {
 		e = vd_rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_fail(VD_ERR_TRUNCATED,
 				       "PLY header ends at byte %" PRIu64
@@ -1099,7 +1100,7 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 	for (;;) {
 		e = vd_rd_line(&m->r, &s, &len, 1);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0) {
 			*got = 0;
 			return VD_OK;
@@ -1204,7 +1205,8 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 
 /* ------------------------------------------------------------------- STL */
 
-/* Returns 1 with the next whitespace-separated token in *t, 0 at the end.
+/* Returns 1 with the next whitespace-separated token in *t, 0 at the end,
+ * or a negated error code as vd_rd_line.
  * ASCII STL is read by tokens, not lines, because writers disagree on line
  * breaks. stl_rest stays valid between calls: the buffer only moves inside
  * vd_rd_line, after the current line is used up. */
@@ -1227,8 +1229,9 @@ static int vd_stl_token(struct vd_mesh *m, char **t)
 		if (e <= 0)
 			return e;
 		if (strlen(s) != len)
-			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
-				       "byte in an ASCII STL file", m->r.lines);
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+					"byte in an ASCII STL file",
+					m->r.lines);
 		m->stl_rest = s;
 	}
 }
@@ -1241,7 +1244,7 @@ static int vd_stl_inner(struct vd_mesh *m, char **t)
 		return vd_fail(VD_ERR_TRUNCATED, "file ends inside facet %"
 			       PRIu64 " (line %" PRIu64 ")", m->poly_face,
 			       m->r.lines);
-	return e < 0 ? e : VD_OK;
+	return e < 0 ? -e : VD_OK;
 }
 
 static int vd_stl_expect(struct vd_mesh *m, const char *want)
@@ -1283,7 +1286,7 @@ static int vd_stl_ascii_next(struct vd_mesh *m, int *got)
 	for (;;) {
 		e = vd_stl_token(m, &t);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0) {
 			/* A missing endsolid loses nothing; tolerate it. */
 			*got = 0;
@@ -1470,7 +1473,7 @@ static int vd_is_word_start(char c)
 }
 
 /* The next non-blank line, leading space skipped. 1, 0 at the end of the
- * file, or an error. */
+ * file, or a negated error code as vd_rd_line. */
 static int vd_ac_line(struct vd_mesh *m, char **s)
 {
 	for (;;) {
@@ -1480,8 +1483,8 @@ static int vd_ac_line(struct vd_mesh *m, char **s)
 		if (e <= 0)
 			return e;
 		if (strlen(p) != len)
-			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
-				       "byte in an AC3D file", m->r.lines);
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+					"byte in an AC3D file", m->r.lines);
 		p = (char *)vd_skip_space(p);
 		if (*p) {
 			*s = p;
@@ -1573,7 +1576,7 @@ static int vd_ac_skip_data(struct vd_mesh *m, uint64_t n, uint64_t line)
 	char *s;
 	size_t len;
 	int e = vd_rd_line(r, &s, &len, 0);
-	return e < 0 ? e : VD_OK;
+	return e < 0 ? -e : VD_OK;
 }
 
 static void vd_ac_begin_object(struct vd_mesh *m, const char *type)
@@ -1645,7 +1648,7 @@ static int vd_ac_vertices(struct vd_mesh *m, uint64_t count)
 		float v[3];
 		int e = vd_ac_line(m, &s);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_fail(VD_ERR_TRUNCATED, "file ends after %"
 				       PRIu64 " of the %" PRIu64 " vertices of "
@@ -1672,7 +1675,7 @@ static int vd_ac_surface(struct vd_mesh *m)
 	const char *p;
 	int e = vd_ac_line(m, &s);
 	if (e < 0)
-		return e;
+		return -e;
 	if (e == 0)
 		goto cut;
 	m->poly_face++;
@@ -1700,7 +1703,7 @@ static int vd_ac_surface(struct vd_mesh *m)
 	uint64_t refs;
 	for (;;) {
 		if ((e = vd_ac_line(m, &s)) < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			goto cut;
 		if (vd_kw(s, "mat"))
@@ -1722,7 +1725,7 @@ static int vd_ac_surface(struct vd_mesh *m)
 	for (uint64_t j = 0; j < refs; j++) {
 		int64_t idx;
 		if ((e = vd_ac_line(m, &s)) < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			goto cut;
 		/* The UV pair after the index is not ours. */
@@ -1782,7 +1785,7 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 			return vd_ac_surface(m);
 		}
 		if ((e = vd_ac_line(m, &s)) < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_ac_eof(m, got);
 		uint64_t ln = m->r.lines;
@@ -1865,7 +1868,7 @@ static int vd_ac_open(struct vd_mesh *m)
 	m->kind = MESH_AC3D;
 	int e = vd_rd_line(&m->r, &s, &len, 0);
 	if (e < 0)
-		return e;
+		return -e;
 	m->body_off = m->r.off + m->r.pos;
 	m->body_lines = m->r.lines;
 	return VD_OK;

@@ -720,6 +720,28 @@ static void test_list_counts(void)
 	CHECK(detail_has("index 3"));
 }
 
+/* A line longer than the read buffer is an error naming its line in every
+ * text format; the error used to come back as "a line" of garbage. */
+static void test_long_lines(void)
+{
+	static const char *const heads[] = {"v 0 0 0\n# ", "solid x\n",
+					    "ply\ncomment "};
+	static const char *const names[] = {"long.obj", "long.stl",
+					    "long.ply"};
+	size_t n = (1u << 20) + 100;
+	char *s = malloc(n + 64);
+	for (int i = 0; i < 3; i++) {
+		size_t h = strlen(heads[i]);
+		memcpy(s, heads[i], h);
+		memset(s + h, 'x', n);
+		s[h + n] = '\n';
+		int e = mesh_error(write_bytes(names[i], s, h + n + 1));
+		CHECK_EQ(e, VD_ERR_FORMAT);
+		CHECK(detail_has("line 2: longer than"));
+	}
+	free(s);
+}
+
 static void test_not_meshes(void)
 {
 	CHECK_EQ(mesh_error(fixture_path("does-not-exist.ply")), VD_ERR_IO);
@@ -975,6 +997,7 @@ int main(void)
 	RUN(test_non_finite);
 	RUN(test_ply_header_errors);
 	RUN(test_list_counts);
+	RUN(test_long_lines);
 	RUN(test_not_meshes);
 	RUN(test_every_truncation);
 	RUN(test_corrupt_bytes);
