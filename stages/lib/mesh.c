@@ -168,8 +168,8 @@ static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 		if (f > 0)
 			continue;
 		if (r->len == r->cap)
-			return -vd_fail(VD_ERR_FORMAT,
-					"line %" PRIu64 ": longer than %u bytes",
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					": longer than %u bytes",
 					r->lines + 1, MESH_BUF_BYTES);
 		if (r->pos == r->len)
 			return 0;
@@ -1448,8 +1448,8 @@ static int vd_ac_fail(const struct vd_mesh *m, const char *fmt, ...)
 	vsnprintf(msg, sizeof msg, fmt, ap);
 	va_end(ap);
 	if (m->r.cut)
-		return vd_fail(VD_ERR_TRUNCATED, "%s (the file ends inside this "
-			       "line)", msg);
+		return vd_fail(VD_ERR_TRUNCATED, "%s (the file ends inside "
+			       "this line)", msg);
 	return vd_fail(VD_ERR_FORMAT, "%s", msg);
 }
 
@@ -1540,7 +1540,8 @@ static void vd_ac_world(const struct vd_mesh *m, double w[12])
 	const double *r = m->ac_rot, *l = m->ac_loc;
 	for (int i = 0; i < 3; i++) {
 		for (int j = 0; j < 3; j++)
-			w[3 * i + j] = p[3 * i] * r[j] + p[3 * i + 1] * r[3 + j] +
+			w[3 * i + j] = p[3 * i] * r[j] +
+				       p[3 * i + 1] * r[3 + j] +
 				       p[3 * i + 2] * r[6 + j];
 		w[9 + i] = p[3 * i] * l[0] + p[3 * i + 1] * l[1] +
 			   p[3 * i + 2] * l[2] + p[9 + i];
@@ -1601,9 +1602,9 @@ static int vd_ac_kids(struct vd_mesh *m, uint64_t kids)
 	m->ac_in_object = 0;
 	if (kids > 0) {
 		if (m->ac_depth == AC_MAX_DEPTH)
-			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": objects "
-				       "nested deeper than %d", m->r.lines,
-				       AC_MAX_DEPTH);
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": "
+				       "objects nested deeper than %d",
+				       m->r.lines, AC_MAX_DEPTH);
 		if (m->ac_depth == m->ac_cap) {
 			size_t cap = m->ac_cap ? m->ac_cap * 2 : 16;
 			struct vd_ac_frame *p =
@@ -1734,10 +1735,10 @@ static int vd_ac_surface(struct vd_mesh *m)
 					  "vertex index '%.*s'", m->r.lines,
 					  vd_tok40(s), s);
 		if (idx < 0 || (uint64_t)idx >= m->nverts)
-			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": surface "
-				       "%" PRIu64 ": vertex index %" PRId64
-				       " out of range (object '%s' has %"
-				       PRIu64 " vertices)", m->r.lines,
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": "
+				       "surface %" PRIu64 ": vertex index %"
+				       PRId64 " out of range (object '%s' "
+				       "has %" PRIu64 " vertices)", m->r.lines,
 				       m->poly_face, idx, m->ac_name,
 				       m->nverts);
 		m->poly[m->poly_n++] = (uint32_t)idx;
@@ -1797,8 +1798,9 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 			if (m->ac_depth > 0) {
 				const struct vd_ac_frame *f =
 					&m->ac_stack[m->ac_depth - 1];
-				return vd_ac_fail(m, "line %" PRIu64 ": expected "
-					"OBJECT (kid %" PRIu64 " of %" PRIu64
+				return vd_ac_fail(m, "line %" PRIu64 ": "
+					"expected OBJECT (kid %" PRIu64 " of %"
+					PRIu64
 					" of object '%s'), found '%.*s'", ln,
 					f->kids - f->kids_left + 1, f->kids,
 					f->name, vd_tok40(s), s);
@@ -1852,9 +1854,9 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 					  ln, vd_tok40(s), s, m->ac_name);
 		} else if (!vd_is_word_start(*s)) {
 			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
-					  "'%.*s' in object '%s' (wrong numvert "
-					  "or refs count?)", ln, vd_tok40(s), s,
-					  m->ac_name);
+					  "'%.*s' in object '%s' (wrong "
+					  "numvert or refs count?)", ln,
+					  vd_tok40(s), s, m->ac_name);
 		}
 		/* Any other word: an attribute we do not need. */
 	}
