@@ -295,15 +295,20 @@ void vd_svo_release(struct vd_svo *svo);
 
 /* ---------------------------------------------------------------- meshes
  * Streaming triangle readers for PLY (binary little/big endian and ASCII),
- * OBJ and STL (binary and ASCII). Indexed formats keep their vertex
- * positions in memory (12 bytes per vertex); triangles are streamed. */
+ * OBJ, STL (binary and ASCII) and AC3D (.ac, FlightGear's model format).
+ * Indexed formats keep their vertex positions in memory (12 bytes per
+ * vertex; AC3D only those of the object being read, already moved to world
+ * coordinates by the object's and its ancestors' rot and loc); triangles
+ * are streamed. */
 
 struct vd_triangle {
 	float v[3][3]; /* three vertices, x y z each, world units */
 };
 
 /* What the reader saw. A face with fewer than 3 corners is dropped and
- * counted; a face with more is fan-triangulated. A vertex with a NaN or
+ * counted, and so is an AC3D line or closed-line surface (it bounds no
+ * area); a face with more is fan-triangulated (an AC3D triangle strip is
+ * cut into its triangles and counted as split). A vertex with a NaN or
  * infinite coordinate is an error (VD_ERR_RANGE) as soon as a face uses it;
  * unused vertices are never checked. */
 struct vd_mesh_stats {
@@ -315,10 +320,11 @@ struct vd_mesh_stats {
 
 struct vd_mesh;
 
-/* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
- * first statement is an OBJ one). Parses the header (PLY: also loads the
- * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+/* Opens `path`, detecting the format from its first bytes (PLY magic,
+ * "AC3D" magic, STL binary size rule / "solid", OBJ otherwise if the
+ * extension is .obj or the first statement is an OBJ one). Parses the
+ * header (PLY: also loads the vertices); the body is read by
+ * vd_mesh_read(). Errors: VD_ERR_IO (also a
  * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
  * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
@@ -328,7 +334,8 @@ int vd_mesh_open(struct vd_mesh **out, const char *path);
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
  * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
- * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise); an
+ * AC3D surface only its own object's vertices. After
  * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
@@ -337,7 +344,8 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
  * restart too. */
 int vd_mesh_rewind(struct vd_mesh *m);
 
-/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
+/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", "ac3d",
+ * ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
 /* Bytes of memory the reader holds (vertex arrays, read buffer), for
  * budgets. OBJ vertices are collected while reading, so for OBJ this is
