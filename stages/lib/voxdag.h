@@ -417,6 +417,12 @@ double vd_seconds(void);
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
 
+/* Renames the finished temporary file `tmp` to `path`, the last step of
+ * every atomic write. Refuses (VD_ERR_IO, the detail says why) when `path`
+ * exists and is not a regular file: run as root, a rename over an output
+ * path such as /dev/null would replace the device. */
+int vd_replace_file(const char *tmp, const char *path);
+
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
 

@@ -99,3 +99,7 @@ cp "$f" "$T/major.svo"; printf '\x09' | dd of="$T/major.svo" bs=1 seek=8 conv=no
 expect check_newer_version 1 'version too new' $BIN/chunk-check "$T/major.svo"
 expect check_verbose 0 'svo chunk, format 1.0, levels 7' $BIN/chunk-check -v "$f"
 expect check_no_args 2 'no FILE' $BIN/chunk-check
+
+# --- an atomic writer never renames over something that is not a file
+expect writer_refuses_device 1 'not a regular file' $BIN/svo-to-dag "$f" -o /dev/null
+[ -c /dev/null ] && pass writer_device_intact || fail writer_device_intact "$(ls -la /dev/null)"
