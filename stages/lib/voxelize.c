@@ -566,6 +566,8 @@ struct run {
 	struct progress *prog;
 	atomic_size_t done;
 	atomic_ullong voxels, bricks;
+	atomic_ullong pairs_done;  /* triangle-cell pairs rasterized */
+	uint64_t pairs_total;
 	uint64_t *level_nodes;  /* levels L0..L, summed under lock */
 	pthread_mutex_t lock;
 	atomic_int failed;
@@ -712,6 +714,15 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			if (!err)
 				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
 		}
+		/* progress inside a cell: large cells take minutes */
+		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
+		double el = vd_seconds() - r->prog->start;
+		progress_say(r->prog, 0, "voxelizing: %llu of %llu triangles "
+			     "(in cells), %zu/%zu cells done, ETA %.0fs",
+			     (unsigned long long)pd,
+			     (unsigned long long)r->pairs_total,
+			     atomic_load(&r->done), r->njobs,
+			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
 		if (w->map.over)
 			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
 				      "%zu blocks of %d KiB (the budget's share "
@@ -1017,6 +1028,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	r.opts = opts;
 	r.prog = &prog;
 	r.block_limit = plan.block_limit;
+	r.pairs_total = b.pairs;
 	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");
