@@ -189,7 +189,8 @@ static uint64_t job_voxels(const struct job *j)
 	return 0;
 }
 
-/* The last line of a log (what a long job last said), trimmed. */
+/* The last line of a log (what a long job last said), trimmed; nothing
+ * while the log holds only the command line the runner wrote first. */
 static void last_log_line(const char *path, char *buf, size_t cap)
 {
 	buf[0] = 0;
@@ -197,8 +198,16 @@ static void last_log_line(const char *path, char *buf, size_t cap)
 	if (!f)
 		return;
 	char tail[512];
+	int c;
+	long first_line = 0;
+	while ((c = fgetc(f)) != EOF && c != '\n')
+		first_line++;
 	fseek(f, 0, SEEK_END);
 	long n = ftell(f);
+	if (n <= first_line + 1) {
+		fclose(f);
+		return;
+	}
 	fseek(f, n > (long)sizeof tail - 1 ? n - (long)sizeof tail + 1 : 0, SEEK_SET);
 	size_t got = fread(tail, 1, sizeof tail - 1, f);
 	fclose(f);
