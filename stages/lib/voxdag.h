@@ -505,8 +505,11 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
  * subtrees equal up to any of the 8 reflections (SSVDAG). Every node is
  * reachable from the root. SSVDAG nodes below the root are the canonical
  * representatives of their class; the root is stored as the cell really is
- * (unreflected), so a chunk never needs a reflection on its root. Nodes on a
- * level are in the order they were first met; the order carries no meaning.
+ * (unreflected), so a chunk never needs a reflection on its root. An SSVDAG
+ * reference's reflection is normalized (the smallest of m ^ g over the
+ * reflections g its child is invariant under), so equal subtrees are
+ * referenced by equal bytes. Nodes on a level are in the order they were
+ * first met: deterministic, independent of --threads, meaningless.
  */
 struct vd_dag_level {
 	uint64_t nodes;   /* nodes on this level */
@@ -525,8 +528,9 @@ struct vd_dag {
 	uint64_t voxels;       /* voxels in the cell */
 	struct vd_dag_level lv[VD_MAX_LEVELS]; /* [chunk_level, levels-1] used */
 	uint64_t *bricks;      /* lv[L-2].nodes bricks of level L-2 (the stored,
-				  unreflected nodes); NULL when L < 2 or the
-				  root is below level L-2 */
+				  unreflected nodes); NULL when L < 2, when
+				  the root is below level L-2, or the cell is
+				  empty */
 };
 
 /* Options of the DAG builders. */
