@@ -338,6 +338,42 @@ static void test_edge_cases(void)
 	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
 	CHECK(strstr(vd_error_detail(), "outside") != NULL);
 	vd_dag_release(&d);
+	/* the deepest grid: bricks at both far corners, whole and as two
+	 * cells at level L-2 merged to the root (64-bit Morton ranges) */
+	{
+		uint64_t kmax = (1ULL << 57) - 1, keys[2] = {0, kmax},
+			 masks[2] = {1, 1ULL << 63};
+		struct vd_svo big = {21, 0, 0, 2, keys, masks}, c0, c1;
+		CHECK_EQ(vd_dag_from_svo(&d, &big, VD_KIND_SSVDAG, &opts, NULL), 0);
+		CHECK_EQ(vd_dag_validate(&d), VD_OK);
+		CHECK_EQ(d.voxels, 2);
+		CHECK_EQ(vd_dag_to_svo(&d, &e), 0);
+		CHECK(e.count == 2 && e.keys[1] == kmax && e.masks[1] == 1ULL << 63);
+		svo_free(&e);
+		c0 = (struct vd_svo){21, 19, 0, 1, keys, masks};
+		c1 = (struct vd_svo){21, 19, kmax, 1, keys + 1, masks + 1};
+		struct vd_dag p0, p1, m;
+		CHECK_EQ(vd_dag_from_svo(&p0, &c0, VD_KIND_SSVDAG, &opts, NULL), 0);
+		CHECK_EQ(vd_dag_from_svo(&p1, &c1, VD_KIND_SSVDAG, &opts, NULL), 0);
+		const struct vd_dag *pq[2] = {&p1, &p0};
+		CHECK_EQ(vd_dag_merge(&m, pq, 2, VD_KIND_SSVDAG, 0, &opts, NULL), 0);
+		CHECK(counts_equal(&m, &d));
+		/* one corner voxel is the other reflected by X+Y+Z: one class
+		 * per level below the root */
+		for (int l = 1; l < 21; l++) CHECK_EQ(m.lv[l].nodes, 1);
+		const struct vd_svo *sv[2] = {&c1, &c0};
+		struct vd_dag_diff diff;
+		CHECK_EQ(vd_dag_compare_svo(&m, sv, 2, &diff), 0);
+		CHECK_EQ(diff.differing_voxels, 0);
+		CHECK_EQ(vd_dag_compare_svo(&m, sv, 1, &diff), 0);
+		CHECK_EQ(diff.differing_voxels, 1);
+		CHECK_EQ(diff.first_voxel_morton, 0);
+		CHECK_EQ(diff.first_in_dag, 1);
+		vd_dag_release(&p0);
+		vd_dag_release(&p1);
+		vd_dag_release(&m);
+		vd_dag_release(&d);
+	}
 	/* full cube: one node per level */
 	struct grid g;
 	make_scene(&g, 6, SC_FULL);
