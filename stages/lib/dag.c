@@ -802,7 +802,7 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 	uint64_t inner_phase = bricks * (16 + 16 + 17 + 4) + leaves * 4 +
 			       parents * (16 + 10 + 48) * 3 / 2;
 	return (brick_phase > inner_phase ? brick_phase : inner_phase) +
-	       (16u << 20);
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
 /* Per input node and reference: the parts (9 + 8 per node for offsets and
@@ -811,7 +811,27 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
  * node). */
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs)
 {
-	return nodes * (17 + 17 + 10 + 48) + refs * 10 + (16u << 20);
+	return nodes * (17 + 17 + 10 + 48) + refs * 10 +
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
+}
+
+/* Nodes a chunk header announces over levels chunk_level..L-1. */
+static uint64_t header_nodes(const struct vd_chunk_header *h)
+{
+	uint64_t n = 0;
+	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
+	return n;
+}
+
+uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
+{
+	uint32_t n = h->level_count;
+	if (h->kind == VD_KIND_SVO) /* levels L-1, L-2, L-3 of L0..L */
+		return vd_dag_estimate_from_svo(n >= 3 ? h->level_nodes[n - 3] : 1,
+						n >= 2 ? h->level_nodes[n - 2] : 1,
+						n >= 4 ? h->level_nodes[n - 4] : 1);
+	uint64_t nodes = header_nodes(h);
+	return vd_dag_estimate_merge(nodes, 8 * nodes);
 }
 
 static int check_kind_out(uint32_t kind)
@@ -1533,14 +1553,6 @@ static int same_transform(const struct vd_transform *a,
 	return a->root_side == b->root_side && a->voxel_size == b->voxel_size;
 }
 
-/* Nodes a chunk header announces over levels chunk_level..L-1. */
-static uint64_t header_nodes(const struct vd_chunk_header *h)
-{
-	uint64_t n = 0;
-	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
-	return n;
-}
-
 int vd_dag_run(const struct vd_dag_job *job)
 {
 	const char *tool = job->tool;
@@ -1562,13 +1574,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot read", in);
 		const struct vd_chunk_header *h = vd_chunk_header(c);
 		tr = h->transform;
-		/* counts of levels L-1, L-2, L-3 (from the header's L0..L) */
-		uint32_t nc = h->level_count;
-		uint64_t leaves = nc >= 2 ? h->level_nodes[nc - 2] : 1;
-		uint64_t bricks = nc >= 3 ? h->level_nodes[nc - 3] : 1;
-		uint64_t parents = nc >= 4 ? h->level_nodes[nc - 4] : 1;
-		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks, leaves,
-						parents), &st))) {
+		if ((err = check_budget(o, vd_dag_estimate_header(h), &st))) {
 			vd_chunk_free(c);
 			return reword(err, "cannot build the DAG of", in);
 		}
@@ -1608,11 +1614,11 @@ int vd_dag_run(const struct vd_dag_job *job)
 					      "its world transform differs from "
 					      "'%s' (chunks of another scene or "
 					      "resolution?)", in, job->inputs[0]);
-			/* the references of a part not yet loaded: at most 8
-			 * per node */
-			uint64_t hn = header_nodes(h);
-			if (!err && (err = check_budget(o, vd_dag_estimate_merge(
-					nodes + hn, refs + 8 * hn), &st)))
+			/* the inputs so far exactly, this one by its header */
+			uint64_t est = vd_dag_estimate_merge(nodes, refs) +
+				       vd_dag_estimate_header(h) -
+				       VD_DAG_ESTIMATE_FIXED_BYTES;
+			if (!err && (err = check_budget(o, est, &st)))
 				err = reword(err, "cannot load", in);
 			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
 				err = reword(err, "cannot read", in);

@@ -688,6 +688,16 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 				  uint64_t parents);
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
 
+/* The same bound from a chunk header alone, as the stages check it before
+ * loading (and as a planner should): for an SVO header, what svo-to-dag
+ * needs; for a DAG or SSVDAG header, that input's share of a merge or
+ * symmetry merge (references bounded by 8 per node, as headers do not
+ * count them). Sum the shares of a merge's inputs; each share includes
+ * the fixed 16 MiB, so subtract VD_DAG_ESTIMATE_FIXED_BYTES per input
+ * beyond the first. */
+#define VD_DAG_ESTIMATE_FIXED_BYTES (16ull << 20)
+uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h);
+
 /* Writes the statistics of a build (`tool` names the stage; `seconds_load`
  * and `seconds_save` are the caller's phases) as JSON to `path` (atomic):
  * per-level node and reference counts, seconds per phase, peak RSS. */
