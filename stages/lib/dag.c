@@ -706,7 +706,15 @@ static int level_inner(struct engine *e, int l)
 	struct vd_dag_level *lv = &e->out->lv[l];
 	lv->nodes = b.n;
 	lv->refs = b.nref;
-	/* Hand the arrays over, trimmed. */
+	/* Hand the arrays over, trimmed: they live as long as the DAG. */
+	if (b.n) {
+		void *q;
+		if ((q = realloc(b.mask, (size_t)b.n))) b.mask = q;
+		if ((q = realloc(b.inv, (size_t)b.n))) b.inv = q;
+		if ((q = realloc(b.first, (size_t)(b.n + 1) * 8))) b.first = q;
+		if ((q = realloc(b.child, (size_t)b.nref * 4))) b.child = q;
+		if (b.refl && (q = realloc(b.refl, (size_t)b.nref))) b.refl = q;
+	}
 	lv->mask = b.mask ? b.mask : malloc(1);
 	lv->first = b.first ? b.first : calloc(1, 8);
 	lv->child = b.child ? b.child : malloc(1);
