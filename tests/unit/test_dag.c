@@ -638,6 +638,104 @@ static void test_real_meshes(void)
 		printf("SKIP test_real_meshes_dragon (no %s)\n", dragon);
 }
 
+/* Writes a DAG chunk by hand: sections as given (NULL: omitted). */
+static int write_raw(const char *path, uint32_t kind, int L, int L0,
+		     const uint64_t *counts, const void *m, size_t mn,
+		     const void *c, size_t cn, const void *r, size_t rn)
+{
+	struct vd_chunk_header h = {0};
+	h.kind = kind;
+	h.levels = (uint32_t)L;
+	h.chunk_level = (uint32_t)L0;
+	h.level_count = (uint32_t)(L - L0 + 1);
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+	vd_transform_init(&h.transform, lo, hi, L);
+	memcpy(h.level_nodes, counts, h.level_count * 8);
+	struct vd_chunk_writer *w;
+	int err = vd_chunk_writer_open(&w, path, &h, NULL);
+	if (err) return err;
+	if (m) vd_chunk_writer_section(w, VD_TAG_DAGM, m, mn);
+	if (c) vd_chunk_writer_section(w, VD_TAG_DAGC, c, cn);
+	if (r) vd_chunk_writer_section(w, VD_TAG_DAGR, r, rn);
+	return vd_chunk_writer_commit(w);
+}
+
+/* Files whose checksums are right but whose content is not: each is
+ * refused as corrupt, with a detail naming what is wrong. The good file
+ * is L = 3: a root with children 0 and 7, both brick node 0, whose child 0
+ * is leaf 0 (mask 0x81) and child 3 leaf 1 (mask 0x01): 6 voxels. */
+static void test_crafted_files(void)
+{
+	const char *dir = test_tmpdir("test_dag_crafted");
+	char path[600];
+	snprintf(path, sizeof path, "%s/x.dag", dir);
+	struct vd_dag d;
+	struct {
+		const char *name, *detail;
+		uint32_t kind;
+		uint64_t counts[4];
+		uint8_t masks[4];
+		uint32_t child[4];
+		uint8_t refl[4];
+		size_t msize, nref;
+	} cases[] = {
+		{"good", NULL, VD_KIND_DAG, {1, 1, 2, 6}, {0x81, 0x09, 0x81, 0x01},
+		 {0, 0, 0, 1}, {0}, 4, 4},
+		{"good ssvdag", NULL, VD_KIND_SSVDAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0, 0, 0, 0}, 4, 4},
+		{"zero mask", "empty mask", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x00, 0x01}, {0, 0, 0, 1}, {0}, 4, 4},
+		{"index out of range", "child 5", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 5, 0, 1}, {0}, 4, 4},
+		{"unreferenced leaf", "never referenced", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 0}, {0}, 4, 4},
+		{"reflection 9", "reflection 9", VD_KIND_SSVDAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0, 9, 0, 0}, 4, 4},
+		{"mask section size", "mask section", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 3, 4},
+		{"reference section size", "reference sections", VD_KIND_DAG,
+		 {1, 1, 2, 6}, {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 4, 3},
+		{"two roots", "2 roots", VD_KIND_DAG, {2, 1, 1, 6},
+		 {0x01, 0x01, 0x01, 0x01}, {0, 0, 0, 0}, {0}, 4, 3},
+		{"voxel count", "voxels", VD_KIND_DAG, {1, 1, 2, 7},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 4, 4},
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+		uint8_t cbytes[16];
+		for (int k = 0; k < 4; k++)
+			for (int b = 0; b < 4; b++)
+				cbytes[4 * k + b] = (uint8_t)(cases[i].child[k] >> 8 * b);
+		int sym = cases[i].kind == VD_KIND_SSVDAG;
+		CHECK_EQ(write_raw(path, cases[i].kind, 3, 0, cases[i].counts,
+				   cases[i].masks, cases[i].msize, cbytes,
+				   4 * cases[i].nref, sym ? cases[i].refl : NULL,
+				   cases[i].nref), VD_OK);
+		int err = vd_dag_load(&d, NULL, path, VD_KIND_ANY);
+		if (!cases[i].detail) {
+			CHECK_EQ(err, VD_OK);
+			if (!err) {
+				CHECK_EQ(d.voxels, 6);
+				CHECK(d.bricks[0] == (0x81ULL | 0x01ULL << 24));
+			}
+		} else {
+			CHECK_EQ(err, VD_ERR_CORRUPT);
+			if (!strstr(vd_error_detail(), cases[i].detail))
+				fprintf(stderr, "  %s: detail '%s'\n", cases[i].name,
+					vd_error_detail());
+			CHECK(strstr(vd_error_detail(), cases[i].detail) != NULL);
+		}
+		vd_dag_release(&d);
+	}
+	/* an SSVDAG without its reflections */
+	CHECK_EQ(write_raw(path, VD_KIND_SSVDAG, 3, 0, cases[0].counts,
+			   cases[0].masks, 4, (uint8_t[16]){0, [12] = 1}, 16,
+			   NULL, 0), VD_OK);
+	CHECK_EQ(vd_dag_load(&d, NULL, path, VD_KIND_ANY), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "DAGR") != NULL ||
+	      strstr(vd_error_detail(), "missing") != NULL);
+	vd_dag_release(&d);
+}
+
 int main(void)
 {
 	RUN(test_lossless_monolithic);
@@ -647,6 +745,7 @@ int main(void)
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
 	RUN(test_chunk_files);
+	RUN(test_crafted_files);
 	RUN(test_real_meshes);
 	return CHECK_DONE();
 }
