@@ -527,45 +527,63 @@ static void test_chunk_files(void)
  * counts equal the monolithic build's. */
 static void real_mesh(const char *mesh, int L)
 {
-	const char *base = test_tmpdir("test_dag_mesh");
+	/* Voxelized once, at L0 = 3; the SVO chunks of coarser cells are the
+	 * concatenations of their subcells' bricks (Morton order), so every
+	 * L0 is tested on the voxelizer's own output without re-running it
+	 * (which under ASan dominated the test's time). */
+	const char *dir = test_tmpdir("test_dag_mesh");
+	struct vd_voxelize_opts vo = {.levels = L, .chunk_level = 3,
+				      .mem_budget_bytes = 1ull << 30,
+				      .threads = 2, .quiet = 1,
+				      .tool = "test_dag"};
+	struct vd_voxelize_result res;
+	int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
+	CHECK_EQ(err, VD_OK);
+	if (err) {
+		fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
+		return;
+	}
+	struct vd_svo *fine = calloc(512, sizeof *fine);
+	uint64_t nfine = 0;
+	for (uint64_t c = 0; c < 512; c++) {
+		char name[64], path[800];
+		vd_chunk_file_name(name, sizeof name, 3, c, "svo");
+		snprintf(path, sizeof path, "%s/%s", dir, name);
+		FILE *f = fopen(path, "rb");
+		if (!f) continue;
+		fclose(f);
+		CHECK_EQ(vd_svo_load(&fine[nfine++], NULL, path), VD_OK);
+	}
+	CHECK_EQ(nfine, res.chunks);
 	struct vd_dag mono[2];
 	memset(mono, 0, sizeof mono);
 	for (int L0 = 0; L0 <= 3; L0++) {
-		char dir[700];
-		snprintf(dir, sizeof dir, "%s/L0-%d", base, L0);
-		struct vd_voxelize_opts vo = {.levels = L, .chunk_level = L0,
-					      .mem_budget_bytes = 1ull << 30,
-					      .threads = 2, .quiet = 1,
-					      .tool = "test_dag"};
-		struct vd_voxelize_result res;
-		int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
-		CHECK_EQ(err, VD_OK);
-		if (err) {
-			fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
-			return;
-		}
 		uint64_t cells = 1ULL << (3 * L0), n = 0;
 		struct vd_svo *svo = calloc(cells, sizeof *svo);
 		const struct vd_svo **sp = calloc(cells, sizeof *sp);
 		struct vd_dag *parts[2];
 		parts[0] = calloc(cells, sizeof(struct vd_dag));
 		parts[1] = calloc(cells, sizeof(struct vd_dag));
-		for (uint64_t c = 0; c < cells; c++) {
-			char name[64], path[800];
-			vd_chunk_file_name(name, sizeof name, L0, c, "svo");
-			snprintf(path, sizeof path, "%s/%s", dir, name);
-			FILE *f = fopen(path, "rb");
-			if (!f) continue;
-			fclose(f);
-			CHECK_EQ(vd_svo_load(&svo[n], NULL, path), VD_OK);
-			sp[n] = &svo[n];
+		for (uint64_t i = 0; i < nfine;) {
+			uint64_t cell = fine[i].cell_morton >> 3 * (3 - L0), j = i;
+			size_t bricks = 0;
+			for (; j < nfine && fine[j].cell_morton >> 3 * (3 - L0) == cell; j++)
+				bricks += fine[j].count;
+			struct vd_svo *v = &svo[n];
+			*v = (struct vd_svo){L, L0, cell, 0, malloc(bricks * 8),
+					     malloc(bricks * 8)};
+			for (; i < j; i++) {
+				memcpy(v->keys + v->count, fine[i].keys, fine[i].count * 8);
+				memcpy(v->masks + v->count, fine[i].masks, fine[i].count * 8);
+				v->count += fine[i].count;
+			}
+			sp[n] = v;
 			for (int k = 0; k < 2; k++)
-				CHECK_EQ(vd_dag_from_svo(&parts[k][n], &svo[n],
+				CHECK_EQ(vd_dag_from_svo(&parts[k][n], v,
 							 k ? VD_KIND_SSVDAG : VD_KIND_DAG,
 							 &opts, NULL), VD_OK);
 			n++;
 		}
-		CHECK_EQ(n, res.chunks);
 		for (int k = 0; k < 2; k++) {
 			struct vd_dag root;
 			if (L0 == 0) {
@@ -617,6 +635,8 @@ static void real_mesh(const char *mesh, int L)
 		free(parts[0]);
 		free(parts[1]);
 	}
+	for (uint64_t i = 0; i < nfine; i++) vd_svo_release(&fine[i]);
+	free(fine);
 	for (int l = 0; l < L; l++) CHECK(mono[1].lv[l].nodes <= mono[0].lv[l].nodes);
 	vd_dag_release(&mono[0]);
 	vd_dag_release(&mono[1]);
