@@ -98,6 +98,7 @@ struct job {
 	double start, seconds;
 	uint64_t peak_rss;         /* from wait4 */
 	uint64_t voxels;           /* from the stage's stats, for throughput */
+	int logged;                /* its skip is in runner.log */
 };
 
 struct plan {

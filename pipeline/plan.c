@@ -5,7 +5,8 @@
  *   <dag job>/cells/           one .dag per cell (svo-to-dag per cell)
  *   <dag job>/L<a>-<cell>.dag  merges up the reduction tree
  *   <dag job>/root.dag         the whole scene
- *   (the same for symmetry-merge jobs, with .ssvdag)
+ *   (the same for symmetry-merge jobs, with .sdag; .ssvdag is the
+ *   SymVox encoding that encode writes)
  *   <encode job>/              the encodings and tables
  *   logs/                      one log per job, runner.log
  * Every output has a key beside it (<output>.key, or <dir>/.key): the
@@ -181,7 +182,7 @@ static int fingerprint(const char *path, uint64_t *out)
 static int volatile_arg(const char *a)
 {
 	return !strcmp(a, "--threads") || !strcmp(a, "--mem-budget") ||
-	       !strcmp(a, "-q");
+	       !strcmp(a, "-q") || !strcmp(a, "--stats");
 }
 
 int job_key(const struct job *j, char key[17])
@@ -248,14 +249,16 @@ static void plan_voxelize(struct plan *p, int d)
 	snprintf(lv, sizeof lv, "%d", c->levels);
 	snprintf(cl, sizeof cl, "%d", c->chunk_level);
 	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
-	snprintf(threads, sizeof threads, "%d", c->threads);
+	/* everything else waits for it: it gets every job's threads; its
+	 * progress lines go to its log, which the runner's status shows */
+	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
 	if (c->chunk_level >= 0)
 		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
 			 "--chunk-level", cl, "--mem-budget", budget, "--threads",
-			 threads, "-q", NULL);
+			 threads, NULL);
 	else
 		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
-			 "--mem-budget", budget, "--threads", threads, "-q", NULL);
+			 "--mem-budget", budget, "--threads", threads, NULL);
 	add_input(j, c->mesh);
 	j->mem_estimate = c->job_mem_budget;
 }
@@ -423,7 +426,8 @@ static void plan_dag_stage(struct plan *p, int d)
 	int src = dd->needs[0];
 	const char *src_name = decl_of(p, src)->name;
 	int is_dag = dd->stage->type == STAGE_SVO_TO_DAG;
-	const char *ext = is_dag ? "dag" : "ssvdag";
+	/* .sdag, not .ssvdag: that is the SymVox encoding's extension */
+	const char *ext = is_dag ? "dag" : "sdag";
 	const char *src_ext = is_dag ? ".svo" : ".dag";
 	char src_dir[1100], cells_dir[1200], dir[1100];
 	path_join(dir, sizeof dir, p->dir, dd->name);
@@ -444,10 +448,26 @@ static void plan_dag_stage(struct plan *p, int d)
 	}
 	if (!is_dag && src_root < 0)
 		return; /* the source's cells are not planned yet */
-	char **names;
-	int n = list_files(src_dir, src_ext, &names);
-	if (n < 0)
-		return;
+	/* voxelize replaces its directory, so its listing is exact; a DAG
+	 * stage's cells are the jobs planned for it (a listing could hold
+	 * cells of an earlier configuration) */
+	char **names = NULL;
+	int n = 0;
+	if (is_dag) {
+		n = list_files(src_dir, src_ext, &names);
+		if (n < 0)
+			return;
+	} else {
+		names = calloc((size_t)p->n + 1, sizeof *names);
+		for (int i = 0; i < p->n; i++) {
+			const char *id = p->jobs[i].id, *slash = strrchr(id, '/');
+			if (p->jobs[i].decl == src && strstr(id, "/cells/")) {
+				char nm[256];
+				snprintf(nm, sizeof nm, "%s%s", slash + 1, src_ext);
+				names[n++] = xstrdup(nm);
+			}
+		}
+	}
 	path_join(cells_dir, sizeof cells_dir, dir, "cells");
 	struct part *parts = calloc((size_t)(n ? n : 1), sizeof *parts);
 	int src_job = -1;
@@ -523,19 +543,46 @@ static void plan_encode(struct plan *p, int d)
 	}
 	if (dag < 0 || ssv < 0)
 		return;
-	char out[1100], key[1200], budget[32], res[256] = "";
+	char out[1100], key[1200], budget[32], minl[16], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
 	path_join(key, sizeof key, out, ".key");
 	struct job *j = add_job(p, d, dd->name, out, key);
 	if (!j)
 		return;
+	int min = c->levels;
 	for (int i = 0; i < c->nres; i++)
-		snprintf(res + strlen(res), sizeof res - strlen(res), "%s%d",
-			 i ? "," : "", c->resolutions[i]);
+		min = c->resolutions[i] < min ? c->resolutions[i] : min;
+	snprintf(minl, sizeof minl, "%d", min);
 	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
 	const struct job *jd = &p->jobs[dag], *js = &p->jobs[ssv];
-	set_argv(j, "encode", "--dag", jd->output, "--ssvdag", js->output, "-o",
-		 out, "--resolutions", res, "--mem-budget", budget, "-q", NULL);
+	const char *head[] = {jd->output, js->output, "-o", out, "--name",
+			      c->name, "--min-level", minl, "--mem-budget",
+			      budget, "--threads", threads, "-q"};
+	size_t nh = sizeof head / sizeof *head;
+	/* Table 1's seconds: the statistics of every DAG job (not part of
+	 * the key: timings are not content) */
+	int nstats = 0;
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		nstats += t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE;
+	}
+	j->argv = calloc(nh + 2 * (size_t)nstats + 2, sizeof *j->argv);
+	char path[1100];
+	snprintf(path, sizeof path, "%s/encode", bin_dir());
+	int z = 0;
+	j->argv[z++] = xstrdup(path);
+	for (size_t q = 0; q < nh; q++)
+		j->argv[z++] = xstrdup(head[q]);
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		if (t != STAGE_SVO_TO_DAG && t != STAGE_SYMMETRY_MERGE)
+			continue;
+		char sp[1200];
+		snprintf(sp, sizeof sp, "%s.stats.json", p->jobs[i].output);
+		j->argv[z++] = xstrdup("--stats");
+		j->argv[z++] = xstrdup(sp);
+	}
 	add_input(j, jd->output);
 	add_input(j, js->output);
 	add_dep(j, dag);
@@ -567,10 +614,16 @@ int plan_expand(struct plan *p)
 			}
 		}
 		/* newly planned jobs that a previous run finished count as
-		 * finished now, which may reveal further jobs */
-		for (int i = before; i < p->n; i++)
-			if (job_is_fresh(&p->jobs[i]))
-				p->jobs[i].state = JOB_SKIPPED;
+		 * finished now, which may reveal further jobs; only once
+		 * their own inputs are final (dependencies come first) */
+		for (int i = before; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			int ready = j->state == JOB_PENDING;
+			for (int k = 0; k < j->ndeps && ready; k++)
+				ready = job_finished(&p->jobs[j->deps[k]]);
+			if (ready && job_is_fresh(j))
+				j->state = JOB_SKIPPED;
+		}
 	} while (p->n != before);
 	/* the graph is whole when every declared job has its final job */
 	p->expanded = 1;

@@ -54,7 +54,8 @@ static void stats_path(const struct plan *p, const struct job *j, char *buf,
 	if (d->stage->type == STAGE_VOXELIZE)
 		snprintf(buf, cap, "%s/voxelize.stats.json", j->output);
 	else if (d->stage->type == STAGE_ENCODE)
-		snprintf(buf, cap, "%s/encode.stats.json", j->output);
+		snprintf(buf, cap, "%s/%s.encode.stats.json", j->output,
+			 p->cfg->name);
 	else
 		snprintf(buf, cap, "%s.stats.json", j->output);
 }
@@ -78,8 +79,10 @@ int report_write(const struct plan *p)
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
 		double secs = json_number(text, "seconds", "total");
-		if (secs == 0)
-			secs = json_number(text, NULL, "seconds_total");
+		if (secs == 0) /* the DAG stages report their phases */
+			secs = json_number(text, NULL, "seconds_load") +
+			       json_number(text, NULL, "seconds_build") +
+			       json_number(text, NULL, "seconds_save");
 		r->seconds += secs;
 		r->wall_this_run += j->seconds;
 		uint64_t rss = (uint64_t)json_number(text, NULL, "peak_rss_bytes");
@@ -106,7 +109,7 @@ int report_write(const struct plan *p)
 	}
 	char *tables = NULL;
 	if (enc) {
-		snprintf(path, sizeof path, "%s/tables.md", enc->output);
+		snprintf(path, sizeof path, "%s/%s.tables.md", enc->output, c->name);
 		tables = slurp(path);
 	}
 
@@ -126,8 +129,9 @@ int report_write(const struct plan *p)
 		c->levels, 1 << c->levels, (int)json_number(vstats, NULL, "chunk_level"),
 		json_number(vstats, NULL, "triangles_read"),
 		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
-	if (tables)
-		fprintf(f, "%s\n", tables);
+	if (tables) /* encode's own title line is ours already */
+		fprintf(f, "%s\n", strncmp(tables, "# ", 2) == 0 && strchr(tables, '\n')
+				       ? strchr(tables, '\n') + 1 : tables);
 	else
 		fprintf(f, "(no encode job in this pipeline: no size tables)\n\n");
 	fprintf(f, "## The run\n\n");
@@ -182,7 +186,8 @@ int report_write(const struct plan *p)
 		}
 		vd_json_end_array(j);
 		if (enc) {
-			snprintf(path, sizeof path, "%s/tables.json", enc->output);
+			snprintf(path, sizeof path, "%s/%s.tables.json", enc->output,
+				 c->name);
 			vd_json_str(j, "tables", path);
 		}
 		err |= vd_json_close(j) != VD_OK;

@@ -295,15 +295,20 @@ void vd_svo_release(struct vd_svo *svo);
 
 /* ---------------------------------------------------------------- meshes
  * Streaming triangle readers for PLY (binary little/big endian and ASCII),
- * OBJ and STL (binary and ASCII). Indexed formats keep their vertex
- * positions in memory (12 bytes per vertex); triangles are streamed. */
+ * OBJ, STL (binary and ASCII) and AC3D (.ac, FlightGear's model format).
+ * Indexed formats keep their vertex positions in memory (12 bytes per
+ * vertex; AC3D only those of the object being read, already moved to world
+ * coordinates by the object's and its ancestors' rot and loc); triangles
+ * are streamed. */
 
 struct vd_triangle {
 	float v[3][3]; /* three vertices, x y z each, world units */
 };
 
 /* What the reader saw. A face with fewer than 3 corners is dropped and
- * counted; a face with more is fan-triangulated. A vertex with a NaN or
+ * counted, and so is an AC3D line or closed-line surface (it bounds no
+ * area); a face with more is fan-triangulated (an AC3D triangle strip is
+ * cut into its triangles and counted as split). A vertex with a NaN or
  * infinite coordinate is an error (VD_ERR_RANGE) as soon as a face uses it;
  * unused vertices are never checked. */
 struct vd_mesh_stats {
@@ -315,10 +320,11 @@ struct vd_mesh_stats {
 
 struct vd_mesh;
 
-/* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
- * first statement is an OBJ one). Parses the header (PLY: also loads the
- * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+/* Opens `path`, detecting the format from its first bytes (PLY magic,
+ * "AC3D" magic, STL binary size rule / "solid", OBJ otherwise if the
+ * extension is .obj or the first statement is an OBJ one). Parses the
+ * header (PLY: also loads the vertices); the body is read by
+ * vd_mesh_read(). Errors: VD_ERR_IO (also a
  * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
  * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
@@ -328,7 +334,8 @@ int vd_mesh_open(struct vd_mesh **out, const char *path);
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
  * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
- * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise); an
+ * AC3D surface only its own object's vertices. After
  * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
@@ -337,7 +344,8 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
  * restart too. */
 int vd_mesh_rewind(struct vd_mesh *m);
 
-/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
+/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", "ac3d",
+ * ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
 /* Bytes of memory the reader holds (vertex arrays, read buffer), for
  * budgets. OBJ vertices are collected while reading, so for OBJ this is
@@ -408,6 +416,12 @@ double vd_seconds(void);
  * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
+
+/* Renames the finished temporary file `tmp` to `path`, the last step of
+ * every atomic write. Refuses (VD_ERR_IO, the detail says why) when `path`
+ * exists and is not a regular file: run as root, a rename over an output
+ * path such as /dev/null would replace the device. */
+int vd_replace_file(const char *tmp, const char *path);
 
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
@@ -734,6 +748,220 @@ int vd_dag_run(const struct vd_dag_job *job);
 void vd_dag_release(struct vd_dag *dag);
 
 /* ------------------------------------------------------ end of DAG block */
+
+/* ---- encodings (encode.c) */
+/* The compact encodings of the SSVDAG paper (section 4.3), byte-compatible
+ * with the files of the SymVox reference code; the byte layout is specified
+ * in schemas/encodings.md. Four formats:
+ *   .svdag    plain DAG in 32-bit words (from a VD_KIND_DAG root)
+ *   .ussvdag  the same layout over the SSVDAG, with mirror bytes
+ *   .esvdag   4^3 leaf bricks, 16-bit headers with 2-bit child tags, 16/32-bit
+ *             tagged pointers, levels sorted by reference count (DAG root)
+ *   .ssvdag   the same over the SSVDAG, with mirror bits in the pointers
+ * A `struct vd_enc` is a file in memory: built from a root DAG by
+ * vd_enc_build(), or read and validated by vd_enc_load(). Every reading
+ * function below may assume a validated struct (built or loaded) and never
+ * reads out of its arrays. */
+
+enum vd_enc_format {
+	VD_ENC_SVDAG = 0,
+	VD_ENC_USSVDAG = 1,
+	VD_ENC_ESVDAG = 2,
+	VD_ENC_SSVDAG = 3,
+	VD_ENC_COUNT_
+};
+
+/* Bytes of a file that its counted size leaves out: the fixed fields before
+ * and between the arrays (bounding box, side, levels, counts). A file's size
+ * is vd_enc_size_bytes() plus this. */
+#define VD_ENC_HEADER_BYTES_WORDS 44   /* .svdag, .ussvdag */
+#define VD_ENC_HEADER_BYTES_COMPACT 48 /* .esvdag, .ssvdag */
+
+/* "svdag", "ussvdag", "esvdag", "ssvdag" (also the file extensions), or
+ * "unknown". */
+const char *vd_enc_format_name(int format);
+
+/* The format named by the extension of `path`, or -1. */
+int vd_enc_format_from_path(const char *path);
+
+/* 1 for the formats that need a symmetric DAG (USSVDAG, SSVDAG). */
+static inline int vd_enc_format_symmetric(int format)
+{
+	return format == VD_ENC_USSVDAG || format == VD_ENC_SSVDAG;
+}
+
+/* 1 for the compact formats (ESVDAG, SSVDAG). */
+static inline int vd_enc_format_compact(int format)
+{
+	return format == VD_ENC_ESVDAG || format == VD_ENC_SSVDAG;
+}
+
+/* One file. Unused arrays are NULL and their counts 0. */
+struct vd_enc {
+	int format;               /* enum vd_enc_format */
+	float bbox_min[3], bbox_max[3]; /* tight bounding box, world units */
+	float root_side;          /* side of the cube, world units */
+	uint32_t levels;          /* L: 2^L voxels per side */
+	uint32_t node_count;      /* distinct DAG nodes on levels 0..L-1 */
+	/* .svdag, .ussvdag: nodes level by level from the root */
+	uint32_t first_leaf_word; /* word index of the first level L-1 node */
+	uint32_t word_count;
+	uint32_t *words;
+	/* .esvdag, .ssvdag */
+	uint32_t inner_count;     /* uint16 units of inner[] (levels 0..L-3) */
+	uint16_t *inner;
+	uint32_t leaf_bytes;      /* 8 per brick (level L-2 nodes) */
+	uint8_t *leaves;
+	uint32_t level_count;     /* L-2 */
+	uint32_t *level_offsets;  /* start of inner level l in inner[] */
+};
+
+/* Encodes the root chunk `dag` (chunk_level 0) into `e` in `format`, with
+ * the bounding box and side of `t`. The symmetric formats need a
+ * VD_KIND_SSVDAG `dag`, the others a VD_KIND_DAG one (VD_ERR_WRONG_KIND).
+ * The compact formats need L >= 3, one inner level above the bricks
+ * (VD_ERR_UNSUPPORTED). VD_ERR_RANGE when a level holds more than the
+ * format can address (compact: addresses from 2^30 on, more than 2^29 - 1
+ * bricks; words: 2^32 words or more). An empty `dag` gives the empty scene
+ * of schemas/encodings.md. Release `e` with vd_enc_release(), also after a
+ * failure. */
+int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		 const struct vd_transform *t);
+
+/* The counted size in bytes (schemas/encodings.md): 4*word_count, or
+ * 2*inner_count + leaf_bytes + 4*level_count. */
+uint64_t vd_enc_size_bytes(const struct vd_enc *e);
+
+/* Writes `e` to `path` atomically (temporary name, fsync, rename). */
+int vd_enc_save(const struct vd_enc *e, const char *path);
+
+/* Reads and validates the file `path`; `format` -1 takes it from the
+ * extension. Errors: VD_ERR_IO, VD_ERR_ARG (unknown extension),
+ * VD_ERR_TRUNCATED, VD_ERR_TRAILING, VD_ERR_CORRUPT (a pointer out of its
+ * level, a node overlapping the next level, an empty brick, ...),
+ * VD_ERR_UNSUPPORTED (levels out of 1..21, compact with L < 3). */
+int vd_enc_load(struct vd_enc *e, const char *path, int format);
+
+/* The same on `size` bytes in memory (copied). */
+int vd_enc_parse(struct vd_enc *e, const void *data, size_t size,
+		 int format);
+
+/* Frees the arrays of `e` and zeroes it; accepts a zeroed struct. */
+void vd_enc_release(struct vd_enc *e);
+
+/* A node reached from the root, for traversal (render): its level, where
+ * it is stored and the reflection accumulated on the way (child-index bits,
+ * as in the DAG block). The view below applies the reflection, so callers
+ * work with logical child slots and voxels only. */
+struct vd_enc_node {
+	int level;      /* 0 (root) .. L-1 */
+	uint64_t at;    /* words: index of the node's first word; compact:
+			   index in inner[] (levels < L-2) or byte offset in
+			   leaves[] (level L-2) */
+	unsigned refl;  /* accumulated reflection, 0..7 */
+};
+
+/* The root (level 0, unreflected). */
+void vd_enc_root(const struct vd_enc *e, struct vd_enc_node *n);
+
+/* The level whose nodes are bricks: L-2 for the compact formats; for the
+ * word formats L-2 too (a brick is assembled from the 8 masks below), or
+ * -1 when L == 1 (the root is a 2x2x2 mask). */
+int vd_enc_brick_level(const struct vd_enc *e);
+
+/* The logical child mask of `n` (bit p set when child p = 4x+2y+z is not
+ * empty); for a level L-1 node of a word format, its voxel mask. */
+unsigned vd_enc_node_mask(const struct vd_enc *e, const struct vd_enc_node *n);
+
+/* Fills *child with logical child p (0..7) of `n`, a node above the brick
+ * level. Returns 1, or 0 when that child is empty. */
+int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
+		 unsigned p, struct vd_enc_node *child);
+
+/* The 4x4x4 voxels of `n`, a node on the brick level, in the header's
+ * brick layout (Morton bits) and logical orientation. */
+uint64_t vd_enc_brick(const struct vd_enc *e, const struct vd_enc_node *n);
+
+/* Calls fn(ctx, key, brick) for every non-empty brick in Morton order, as
+ * vd_dag_expand() does (for L < 2 one brick, key 0). Stops at and returns
+ * the first non-zero return of fn. */
+int vd_enc_expand(const struct vd_enc *e,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx);
+
+/* The DAG of `dag` (a root chunk, DAG or SSVDAG) cut at depth `levels`
+ * (1 <= levels <= dag->levels): a voxel of the 2^levels grid is set iff a
+ * voxel below it is set. Reduced again, so it equals the minimal DAG (or
+ * SSVDAG) built directly at that depth. Release *out with
+ * vd_dag_release(). */
+int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out);
+
+/* Per-level node counts of the (pointerless) SVO a root DAG stands for:
+ * svo_nodes[l] for l = 0..L, the last being the voxel count. */
+int vd_enc_svo_counts(const struct vd_dag *dag,
+		      uint64_t svo_nodes[VD_MAX_LEVELS + 1]);
+
+/* One row of the SSVDAG paper's Table 2 (and the voxels of Table 1). Node
+ * counts as schemas/encodings.md says: distinct nodes over levels
+ * 0..levels-1. */
+struct vd_enc_row {
+	int levels;                     /* resolution 2^levels */
+	uint64_t voxels;
+	uint64_t svo_nodes;             /* SVO nodes, levels 0..levels-1 */
+	uint64_t dag_nodes;             /* SVDAG = ESVDAG */
+	uint64_t ssvdag_nodes;          /* SSVDAG = USSVDAG */
+	uint64_t svo_bytes;             /* one byte per SVO node */
+	uint64_t bytes[VD_ENC_COUNT_];  /* vd_enc_size_bytes() per format */
+	int has[VD_ENC_COUNT_];         /* 0: not encodable (compact, L < 3) */
+};
+
+/* Computes the row of resolution 2^levels from the root DAG and SSVDAG of
+ * one scene (same depth and voxels, else VD_ERR_MISMATCH), cutting both at
+ * `levels` and encoding the cuts in memory. */
+int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+		     int levels, struct vd_enc_row *row);
+
+/* Build times for Table 1, summed over the statistics files of the DAG
+ * stages (load + build + save of each); negative when not given. */
+struct vd_enc_timing {
+	double seconds_svo_to_dag;
+	double seconds_symmetry_merge;
+};
+
+/* Adds the seconds of one statistics file written by svo-to-dag or
+ * symmetry-merge (by its "tool" field) to `t`. VD_ERR_FORMAT when the file
+ * is not such a statistics file. */
+int vd_enc_timing_add(struct vd_enc_timing *t, const char *stats_path);
+
+/* Writes the tables as DIR/NAME.tables.json, DIR/NAME.table1.csv,
+ * DIR/NAME.table2.csv and DIR/NAME.tables.md (each atomically). rows[0] is
+ * the highest resolution. */
+int vd_enc_write_tables(const char *dir, const char *name,
+			const struct vd_enc_row *rows, size_t n,
+			const struct vd_enc_timing *t, double seconds_encode);
+
+/* One run of the encode stage, as its main() sets it up. */
+struct vd_enc_job {
+	const char *tool;          /* "encode", for messages */
+	const char *dag_path;      /* root DAG chunk */
+	const char *ssvdag_path;   /* root SSVDAG chunk */
+	const char *outdir;        /* created if missing */
+	const char *name;          /* output base name ("scene") */
+	const char *const *stats_paths; /* DAG stage statistics, or NULL */
+	size_t n_stats;
+	int min_level;             /* lowest resolution row, 2^min_level */
+	uint64_t mem_budget_bytes; /* 0: no limit */
+	int threads;               /* rows computed in parallel; 0: all */
+	int quiet;                 /* no summary on stderr */
+};
+
+/* Loads both root chunks, writes DIR/NAME.{svdag,ussvdag,esvdag,ssvdag},
+ * the tables and DIR/NAME.encode.stats.json. On failure the detail is the
+ * whole message after the tool name ("cannot read 'x.dag': truncated file:
+ * ..."). */
+int vd_enc_run(const struct vd_enc_job *job);
+
+/* ---- end of encodings block */
 
 #ifdef __cplusplus
 }
