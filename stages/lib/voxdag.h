@@ -519,8 +519,11 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
  * subtrees equal up to any of the 8 reflections (SSVDAG). Every node is
  * reachable from the root. SSVDAG nodes below the root are the canonical
  * representatives of their class; the root is stored as the cell really is
- * (unreflected), so a chunk never needs a reflection on its root. Nodes on a
- * level are in the order they were first met; the order carries no meaning.
+ * (unreflected), so a chunk never needs a reflection on its root. An SSVDAG
+ * reference's reflection is normalized (the smallest of m ^ g over the
+ * reflections g its child is invariant under), so equal subtrees are
+ * referenced by equal bytes. Nodes on a level are in the order they were
+ * first met: deterministic, independent of --threads, meaningless.
  */
 struct vd_dag_level {
 	uint64_t nodes;   /* nodes on this level */
@@ -539,8 +542,9 @@ struct vd_dag {
 	uint64_t voxels;       /* voxels in the cell */
 	struct vd_dag_level lv[VD_MAX_LEVELS]; /* [chunk_level, levels-1] used */
 	uint64_t *bricks;      /* lv[L-2].nodes bricks of level L-2 (the stored,
-				  unreflected nodes); NULL when L < 2 or the
-				  root is below level L-2 */
+				  unreflected nodes); NULL when L < 2, when
+				  the root is below level L-2, or the cell is
+				  empty */
 };
 
 /* Options of the DAG builders. */
@@ -697,6 +701,16 @@ uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
 uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 				  uint64_t parents);
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
+
+/* The same bound from a chunk header alone, as the stages check it before
+ * loading (and as a planner should): for an SVO header, what svo-to-dag
+ * needs; for a DAG or SSVDAG header, that input's share of a merge or
+ * symmetry merge (references bounded by 8 per node, as headers do not
+ * count them). Sum the shares of a merge's inputs; each share includes
+ * the fixed 16 MiB, so subtract VD_DAG_ESTIMATE_FIXED_BYTES per input
+ * beyond the first. */
+#define VD_DAG_ESTIMATE_FIXED_BYTES (16ull << 20)
+uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h);
 
 /* Writes the statistics of a build (`tool` names the stage; `seconds_load`
  * and `seconds_save` are the caller's phases) as JSON to `path` (atomic):
