@@ -295,25 +295,24 @@ static int list_files(const char *dir, const char *ext, char ***out)
 	return n;
 }
 
-/* Memory a DAG stage needs for chunks holding `nodes` nodes: generous per
- * node (masks, references, hash tables) plus a fixed base. Capped by the
- * job budget, which the stage itself enforces. */
-static uint64_t dag_estimate(const struct config *c, uint64_t nodes)
+/* Memory estimates are the stages' own bounds (vd_dag_estimate_header),
+ * so the runner never plans a job its stage would refuse. */
+
+/* A part's share of a merge that builds `kind` from it: the bound of a
+ * header of that kind with the given per-level counts. The counts of the
+ * input chunk bound those of its DAG (merging only removes nodes). */
+static uint64_t merge_share(const struct vd_chunk_header *h, uint32_t kind)
 {
-	uint64_t e = (64ull << 20) + 96 * nodes;
-	return e < c->job_mem_budget ? e : c->job_mem_budget;
+	struct vd_chunk_header d = *h;
+	d.kind = kind;
+	return vd_dag_estimate_header(&d);
 }
 
-static uint64_t chunk_nodes(const char *path)
+/* A merge of parts whose shares sum to `sum`: each share holds the fixed
+ * part once. */
+static uint64_t merge_estimate(uint64_t sum, int nparts)
 {
-	struct vd_chunk_header h;
-	if (vd_chunk_read_header(path, &h))
-		return 0;
-	uint64_t n = 0;
-	/* the voxel count (last) is not a node */
-	for (uint32_t i = 0; i + 1 < h.level_count; i++)
-		n += h.level_nodes[i];
-	return n;
+	return sum - (uint64_t)(nparts - 1) * VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
 struct part {
@@ -321,7 +320,7 @@ struct part {
 	int job;           /* producing job */
 	int level;         /* chunk level of the part */
 	uint64_t cell;
-	uint64_t nodes;    /* upper bound */
+	uint64_t share;    /* its share of a merge's memory, an upper bound */
 };
 
 /* Plans the merges of `parts` (all finished or planned) up to the root,
@@ -345,8 +344,8 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 				uint64_t anc = parts[i].cell >> 3 * (L0 - a), sum = 0;
 				int k = i;
 				while (k < n && parts[k].cell >> 3 * (L0 - a) == anc)
-					sum += parts[k++].nodes;
-				fits = dag_estimate(c, sum) < c->job_mem_budget;
+					sum += parts[k++].share;
+				fits = merge_estimate(sum, k - i) <= c->job_mem_budget;
 				i = k;
 			}
 			if (fits)
@@ -362,7 +361,7 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			int k = i;
 			uint64_t sum = 0;
 			while (k < n && (L0 > a ? parts[k].cell >> 3 * (L0 - a) : parts[k].cell) == anc)
-				sum += parts[k++].nodes;
+				sum += parts[k++].share;
 			char out[1200], key[1300], id[200], to[16], budget[32],
 				threads[16], name[64];
 			if (a == 0) {
@@ -401,11 +400,12 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 					if (parts[q].job >= 0)
 						add_dep(j, parts[q].job);
 				}
-				j->mem_estimate = dag_estimate(c, sum);
+				j->mem_estimate = merge_estimate(sum, k - i);
 				idx = p->n - 1;
 			}
+			/* the merged chunk is no larger than its parts */
 			struct part np = {.job = idx, .level = a, .cell = anc,
-					  .nodes = sum};
+					  .share = merge_estimate(sum, k - i)};
 			snprintf(np.path, sizeof np.path, "%s", out);
 			parts[m++] = np;
 			i = k;
@@ -429,24 +429,26 @@ static void plan_dag_stage(struct plan *p, int d)
 	/* .sdag, not .ssvdag: that is the SymVox encoding's extension */
 	const char *ext = is_dag ? "dag" : "sdag";
 	const char *src_ext = is_dag ? ".svo" : ".dag";
+	uint32_t kind = is_dag ? VD_KIND_DAG : VD_KIND_SSVDAG;
 	char src_dir[1100], cells_dir[1200], dir[1100];
 	path_join(dir, sizeof dir, p->dir, dd->name);
 	snprintf(src_dir, sizeof src_dir, "%s/%s%s", p->dir, src_name,
 		 is_dag ? "" : "/cells");
-	/* the source's cells are known when all its cell jobs are finished */
-	int src_root = -1;
+	/* the source's cells are known when all its cell jobs are finished
+	 * (they are planned together, so one planned means all are) */
+	int src_cells = 0;
 	for (int i = 0; i < p->n; i++) {
 		if (p->jobs[i].decl != src)
 			continue;
 		if (is_dag && !job_finished(&p->jobs[i]))
 			return; /* voxelize not finished */
-		if (!is_dag && strstr(p->jobs[i].id, "/cells/") &&
-		    !job_finished(&p->jobs[i]))
-			return;
-		if (!is_dag && strstr(p->jobs[i].id, "/root"))
-			src_root = i;
+		if (!is_dag && strstr(p->jobs[i].id, "/cells/")) {
+			if (!job_finished(&p->jobs[i]))
+				return;
+			src_cells++;
+		}
 	}
-	if (!is_dag && src_root < 0)
+	if (!is_dag && src_cells == 0)
 		return; /* the source's cells are not planned yet */
 	/* voxelize replaces its directory, so its listing is exact; a DAG
 	 * stage's cells are the jobs planned for it (a listing could hold
@@ -486,7 +488,6 @@ static void plan_dag_stage(struct plan *p, int d)
 		snprintf(threads, sizeof threads, "%d", c->threads);
 		struct vd_chunk_header h;
 		int ok = vd_chunk_read_header(in, &h) == VD_OK;
-		uint64_t nodes = chunk_nodes(in);
 		struct job *j = add_job(p, d, id, out, key);
 		int idx = find_job(p, id);
 		if (j) {
@@ -505,20 +506,34 @@ static void plan_dag_stage(struct plan *p, int d)
 				if (si >= 0)
 					add_dep(j, si);
 			}
-			j->mem_estimate = dag_estimate(c, nodes);
+			/* the stage's own bound for this input */
+			j->mem_estimate = ok ? vd_dag_estimate_header(&h)
+					     : c->job_mem_budget;
 		}
-		parts[i] = (struct part){.job = idx, .level = ok ? (int)h.chunk_level : 0,
-					 .cell = ok ? h.cell_morton : 0, .nodes = nodes};
+		parts[i] = (struct part){.job = idx};
 		snprintf(parts[i].path, sizeof parts[i].path, "%s", out);
 		free(names[i]);
 	}
 	free(names);
-	if (n > 0) {
-		/* a single cell at level 0 is already the root: merge anyway so
-		 * the root always has the same name (a one-part merge is cheap
-		 * and checks the part) */
-		plan_merges(p, d, parts, n, ext);
+	/* The reduction tree is planned once the cells are built, from their
+	 * real headers: an estimate from the inputs would be far too high
+	 * (a DAG is much smaller than its SVO) and group the merges badly. */
+	int all_built = n > 0;
+	for (int i = 0; i < n && all_built; i++) {
+		struct vd_chunk_header h;
+		all_built = parts[i].job >= 0 && job_finished(&p->jobs[parts[i].job]) &&
+			    vd_chunk_read_header(parts[i].path, &h) == VD_OK;
+		if (all_built) {
+			parts[i].level = (int)h.chunk_level;
+			parts[i].cell = h.cell_morton;
+			parts[i].share = merge_share(&h, kind);
+		}
 	}
+	/* a single cell at level 0 is already the root: merge anyway so the
+	 * root always has the same name (a one-part merge is cheap and checks
+	 * the part) */
+	if (all_built)
+		plan_merges(p, d, parts, n, ext);
 	free(parts);
 }
 
