@@ -361,9 +361,8 @@ int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 		if (rc != 0)
 			err = writer_io_error(w, "cannot close");
 	}
-	if (!err && rename(w->tmp, w->path) != 0)
-		err = vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
-			      w->tmp, w->path, strerror(errno));
+	if (!err)
+		err = vd_replace_file(w->tmp, w->path);
 	if (!err) {
 		sync_dir(w->path);
 		free(w->tmp);
@@ -442,10 +441,11 @@ static int has_footer_at(const struct vd_chunk *c, size_t p)
 	       get64(c->image + p + 8) == p + FOOTER;
 }
 
-static int parse(struct vd_chunk *c, uint32_t want_kind)
+/* Checks and decodes the header in the first `len` bytes of `b`. */
+static int parse_header(const uint8_t *b, size_t len,
+			struct vd_chunk_header *h, uint32_t *hsize_out,
+			uint32_t want_kind)
 {
-	const uint8_t *b = c->image;
-	size_t len = c->size;
 	if (len < 8) {
 		if (len > 0 && memcmp(b, chunk_magic, len) == 0)
 			return vd_fail(VD_ERR_TRUNCATED, "only %zu bytes", len);
@@ -480,7 +480,6 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 	if (XXH3_64bits(b, hsize - 8) != get64(b + hsize - 8))
 		return vd_fail(VD_ERR_CHECKSUM, "header checksum");
 
-	struct vd_chunk_header *h = &c->h;
 	h->major = major;
 	h->minor = minor;
 	h->kind = get32(b + 16);
@@ -505,6 +504,30 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 	    h->chunk_level > h->levels)
 		return vd_fail(VD_ERR_CORRUPT, "levels %u, chunk level %u",
 			       h->levels, h->chunk_level);
+	*hsize_out = hsize;
+	return VD_OK;
+}
+
+int vd_chunk_read_header(const char *path, struct vd_chunk_header *h)
+{
+	uint8_t buf[HEADER_MAX];
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+	size_t n = fread(buf, 1, sizeof buf, f);
+	fclose(f);
+	uint32_t hsize;
+	return parse_header(buf, n, h, &hsize, VD_KIND_ANY);
+}
+
+static int parse(struct vd_chunk *c, uint32_t want_kind)
+{
+	const uint8_t *b = c->image;
+	size_t len = c->size;
+	uint32_t hsize;
+	int herr = parse_header(b, len, &c->h, &hsize, want_kind);
+	if (herr)
+		return herr;
 
 	uint32_t count = get32(b + 100);
 	/* The count is under the header checksum, so more sections than the

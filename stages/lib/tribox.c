@@ -38,80 +38,29 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 	return VD_OK;
 }
 
-/* Interval [lo, hi] of a box's projection onto axis a: the box has its low
- * corner at p and side s (snapped units). */
-#define BOX_RANGE(T, a, lo_off, hi_off, s)                                     \
-	do {                                                                   \
-		lo_off = 0;                                                    \
-		hi_off = 0;                                                    \
-		for (int i_ = 0; i_ < 3; i_++) {                               \
-			if ((a)[i_] < 0)                                       \
-				lo_off += (T)(a)[i_] * (s);                    \
-			else                                                   \
-				hi_off += (T)(a)[i_] * (s);                    \
-		}                                                              \
-	} while (0)
+/* floor and ceil without libm calls (values here are far inside int64) */
+static inline double vd_floor(double x)
+{
+	double i = (double)(int64_t)x;
+	return i - (x < i);
+}
 
-/* Precomputed separating axes of one triangle in one integer type: the
- * normal and the 9 edge axes, each with the triangle's projection interval
- * and the offsets of a box's interval from the projection of its low
- * corner. */
-#define DEFINE_AXES(T, NAME)                                                   \
-	struct NAME {                                                          \
-		T a[10][3];                                                    \
-		T tmin[10], tmax[10];                                          \
-		T blo[10], bhi[10];                                            \
-	};                                                                     \
-	static void NAME##_init(struct NAME *x, const int64_t t[3][3],         \
-				int64_t s)                                     \
-	{                                                                      \
-		T e[3][3];                                                     \
-		for (int k = 0; k < 3; k++)                                    \
-			for (int i = 0; i < 3; i++)                            \
-				e[k][i] = (T)t[(k + 1) % 3][i] - (T)t[k][i];   \
-		x->a[0][0] = e[0][1] * e[1][2] - e[0][2] * e[1][1];            \
-		x->a[0][1] = e[0][2] * e[1][0] - e[0][0] * e[1][2];            \
-		x->a[0][2] = e[0][0] * e[1][1] - e[0][1] * e[1][0];            \
-		for (int k = 0; k < 3; k++) {                                  \
-			/* e x X = (0, ez, -ey), e x Y = (-ez, 0, ex),         \
-			 * e x Z = (ey, -ex, 0) */                             \
-			T *ax = x->a[1 + 3 * k];                               \
-			ax[0] = 0, ax[1] = e[k][2], ax[2] = -e[k][1];          \
-			ax[3] = -e[k][2], ax[4] = 0, ax[5] = e[k][0];          \
-			ax[6] = e[k][1], ax[7] = -e[k][0], ax[8] = 0;          \
-		}                                                              \
-		for (int j = 0; j < 10; j++) {                                 \
-			T lo = 0, hi = 0;                                      \
-			for (int k = 0; k < 3; k++) {                          \
-				T d = x->a[j][0] * t[k][0] +                   \
-				      x->a[j][1] * t[k][1] +                   \
-				      x->a[j][2] * t[k][2];                    \
-				if (k == 0 || d < lo)                          \
-					lo = d;                                \
-				if (k == 0 || d > hi)                          \
-					hi = d;                                \
-			}                                                      \
-			x->tmin[j] = lo;                                       \
-			x->tmax[j] = hi;                                       \
-			BOX_RANGE(T, x->a[j], x->blo[j], x->bhi[j], s);        \
-		}                                                              \
-	}                                                                      \
-	/* 1 if no axis separates the box with low corner p. */                \
-	static inline int NAME##_overlap(const struct NAME *x,                 \
-					 const int64_t p[3])                   \
-	{                                                                      \
-		for (int j = 0; j < 10; j++) {                                 \
-			T d = x->a[j][0] * p[0] + x->a[j][1] * p[1] +          \
-			      x->a[j][2] * p[2];                               \
-			if (d + x->bhi[j] < x->tmin[j] ||                      \
-			    d + x->blo[j] > x->tmax[j])                        \
-				return 0;                                      \
-		}                                                              \
-		return 1;                                                      \
-	}
+static inline double vd_ceil(double x)
+{
+	double i = (double)(int64_t)x;
+	return i + (x > i);
+}
 
-DEFINE_AXES(int64_t, axes64)
-DEFINE_AXES(i128, axes128)
+#define RT int64_t
+#define RN(name) name##64
+#include "tribox_impl.h"
+#undef RT
+#undef RN
+#define RT i128
+#define RN(name) name##128
+#include "tribox_impl.h"
+#undef RT
+#undef RN
 
 static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
 {
@@ -143,123 +92,9 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
 		for (int a = 0; a < 3; a++)
 			r[k][a] = t->v[k][a] - p[a];
 	struct axes128 x;
-	axes128_init(&x, r, s);
-	return axes128_overlap(&x, zero);
+	axes_init128(&x, r, s);
+	return axes_overlap128(&x, zero);
 }
-
-/* Visits every voxel of [clip_lo, clip_hi] (inclusive, voxels) that the
- * triangle overlaps. Columns run along the axis w where the normal is
- * largest, so the plane crosses few voxels of a column; the edge axes
- * perpendicular to w do not change along a column and are tested once per
- * column; the others are stepped incrementally. Only the voxels near the
- * plane (found in double, widened by one voxel each way) are tested, and
- * every test is exact. */
-#define DEFINE_RASTER(T, NAME, AXES)                                           \
-	static void NAME(const struct vd_snapped_tri *tri,                     \
-			 const int64_t vlo[3], const int64_t vhi[3],           \
-			 const int64_t origin[3], int64_t s, vd_voxel_fn fn,   \
-			 void *ctx)                                            \
-	{                                                                      \
-		int64_t t[3][3];                                               \
-		for (int k = 0; k < 3; k++)                                    \
-			for (int a = 0; a < 3; a++)                            \
-				t[k][a] = tri->v[k][a] - origin[a];            \
-		struct AXES x;                                                 \
-		AXES##_init(&x, t, s);                                         \
-		int w = 0;                                                     \
-		double best = -1;                                              \
-		for (int a = 0; a < 3; a++) {                                  \
-			double m = fabs((double)x.a[0][a]);                    \
-			if (m > best)                                          \
-				best = m, w = a;                               \
-		}                                                              \
-		int u = (w + 1) % 3, v = (w + 2) % 3;                          \
-		/* axes 1 + 3k + w are e_k x (unit w): zero w component */     \
-		int col[3], nvox = 0, vox_ax[7];                               \
-		for (int k = 0; k < 3; k++)                                    \
-			col[k] = 1 + 3 * k + w;                                \
-		vox_ax[nvox++] = 0;                                            \
-		for (int j = 1; j < 10; j++)                                   \
-			if ((j - 1) % 3 != w)                                  \
-				vox_ax[nvox++] = j;                            \
-		T step[7];                                                     \
-		for (int i = 0; i < 7; i++)                                    \
-			step[i] = x.a[vox_ax[i]][w] * s;                       \
-		double nw = (double)x.a[0][w];                                 \
-		double inv_s = 1.0 / (double)s;                                \
-		for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {                \
-			int64_t pu = cu * s - origin[u];                       \
-			for (int64_t cv = vlo[v]; cv <= vhi[v]; cv++) {        \
-				int64_t pv = cv * s - origin[v];               \
-				int skip = 0;                                  \
-				for (int k = 0; k < 3 && !skip; k++) {         \
-					const T *ax = x.a[col[k]];             \
-					T d = ax[u] * pu + ax[v] * pv;         \
-					skip = d + x.bhi[col[k]] <             \
-						       x.tmin[col[k]] ||       \
-					       d + x.blo[col[k]] >             \
-						       x.tmax[col[k]];         \
-				}                                              \
-				if (skip)                                      \
-					continue;                              \
-				int64_t w0 = vlo[w], w1 = vhi[w];              \
-				if (nw != 0) {                                 \
-					double r = (double)(x.tmin[0] -        \
-						x.a[0][u] * pu -               \
-						x.a[0][v] * pv);               \
-					double ga = (r - (double)x.bhi[0]) /   \
-						    nw,                        \
-					       gb = (r - (double)x.blo[0]) /   \
-						    nw;                        \
-					double g0 = ga < gb ? ga : gb,         \
-					       g1 = ga < gb ? gb : ga;         \
-					/* [g0, g1]: low corners passing the  \
-					 * plane test; the double error is    \
-					 * far below the 1e-6 voxel margin.  \
-					 */                                   \
-					double o = (double)origin[w];          \
-					double f0 = ceil((g0 + o) * inv_s -    \
-							 1e-6),                \
-					       f1 = floor((g1 + o) * inv_s +   \
-							  1e-6);               \
-					if (f0 > (double)w0)                   \
-						w0 = (int64_t)f0;              \
-					if (f1 < (double)w1)                   \
-						w1 = (int64_t)f1;              \
-				}                                              \
-				if (w0 > w1)                                   \
-					continue;                              \
-				T d[7];                                        \
-				int64_t pw = w0 * s - origin[w];               \
-				for (int i = 0; i < 7; i++) {                  \
-					const T *ax = x.a[vox_ax[i]];          \
-					d[i] = ax[u] * pu + ax[v] * pv +       \
-					       ax[w] * pw;                     \
-				}                                              \
-				int64_t vox[3];                                \
-				vox[u] = cu, vox[v] = cv;                      \
-				for (int64_t cw = w0; cw <= w1; cw++) {        \
-					int ok = 1;                            \
-					for (int i = 0; i < 7; i++) {          \
-						int j = vox_ax[i];             \
-						ok &= d[i] + x.bhi[j] >=       \
-							      x.tmin[j] &&     \
-						      d[i] + x.blo[j] <=       \
-							      x.tmax[j];       \
-						d[i] += step[i];               \
-					}                                      \
-					if (ok) {                              \
-						vox[w] = cw;                   \
-						fn(ctx, vox[0], vox[1],        \
-						   vox[2]);                    \
-					}                                      \
-				}                                              \
-			}                                              \
-		}                                                      \
-	}
-
-DEFINE_RASTER(int64_t, raster64, axes64)
-DEFINE_RASTER(i128, raster128, axes128)
 
 void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
 			const int64_t clip_lo[3], const int64_t clip_hi[3],

@@ -232,6 +232,11 @@ struct vd_chunk;
  * what was found. On success the caller frees *out with vd_chunk_free(). */
 int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind);
 
+/* Reads only the header of `path` (for planning: sizes and counts without
+ * reading the whole file), checking magic, version and header checksum.
+ * The rest of the file is not verified. */
+int vd_chunk_read_header(const char *path, struct vd_chunk_header *h);
+
 /* The same on an in-memory image of `size` bytes (copied). */
 int vd_chunk_open_mem(struct vd_chunk **out, const void *data, size_t size,
 		      uint32_t kind);
@@ -290,15 +295,20 @@ void vd_svo_release(struct vd_svo *svo);
 
 /* ---------------------------------------------------------------- meshes
  * Streaming triangle readers for PLY (binary little/big endian and ASCII),
- * OBJ and STL (binary and ASCII). Indexed formats keep their vertex
- * positions in memory (12 bytes per vertex); triangles are streamed. */
+ * OBJ, STL (binary and ASCII) and AC3D (.ac, FlightGear's model format).
+ * Indexed formats keep their vertex positions in memory (12 bytes per
+ * vertex; AC3D only those of the object being read, already moved to world
+ * coordinates by the object's and its ancestors' rot and loc); triangles
+ * are streamed. */
 
 struct vd_triangle {
 	float v[3][3]; /* three vertices, x y z each, world units */
 };
 
 /* What the reader saw. A face with fewer than 3 corners is dropped and
- * counted; a face with more is fan-triangulated. A vertex with a NaN or
+ * counted, and so is an AC3D line or closed-line surface (it bounds no
+ * area); a face with more is fan-triangulated (an AC3D triangle strip is
+ * cut into its triangles and counted as split). A vertex with a NaN or
  * infinite coordinate is an error (VD_ERR_RANGE) as soon as a face uses it;
  * unused vertices are never checked. */
 struct vd_mesh_stats {
@@ -310,10 +320,11 @@ struct vd_mesh_stats {
 
 struct vd_mesh;
 
-/* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
- * first statement is an OBJ one). Parses the header (PLY: also loads the
- * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+/* Opens `path`, detecting the format from its first bytes (PLY magic,
+ * "AC3D" magic, STL binary size rule / "solid", OBJ otherwise if the
+ * extension is .obj or the first statement is an OBJ one). Parses the
+ * header (PLY: also loads the vertices); the body is read by
+ * vd_mesh_read(). Errors: VD_ERR_IO (also a
  * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
  * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
@@ -323,7 +334,8 @@ int vd_mesh_open(struct vd_mesh **out, const char *path);
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
  * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
- * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise); an
+ * AC3D surface only its own object's vertices. After
  * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
@@ -332,7 +344,8 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
  * restart too. */
 int vd_mesh_rewind(struct vd_mesh *m);
 
-/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
+/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", "ac3d",
+ * ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
 /* Bytes of memory the reader holds (vertex arrays, read buffer), for
  * budgets. OBJ vertices are collected while reading, so for OBJ this is
@@ -403,6 +416,12 @@ double vd_seconds(void);
  * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
+
+/* Renames the finished temporary file `tmp` to `path`, the last step of
+ * every atomic write. Refuses (VD_ERR_IO, the detail says why) when `path`
+ * exists and is not a regular file: run as root, a rename over an output
+ * path such as /dev/null would replace the device. */
+int vd_replace_file(const char *tmp, const char *path);
 
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
@@ -679,8 +698,464 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 			uint64_t cell_morton, const char *ext);
 
 /* ------------------------------------------------- DAG and SSVDAG (dag.c) */
+/* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
+ * (VD_KIND_SSVDAG) of one cell at `chunk_level`. Specified on disk in
+ * schemas/chunk-format.md, "DAG and SSVDAG chunks".
+ *
+ * Levels are indexed by their absolute level l in the grid and run from
+ * chunk_level (the cell's root, one node; none when the cell is empty) to
+ * levels-1. A node on level l < levels-1 has an 8-bit child mask (bit c set
+ * when child c = 4x+2y+z is non-empty) and one reference per set bit, in
+ * increasing slot order: node i's references are first[i] .. first[i+1]-1.
+ * A reference is the index of a node on level l+1, and in an SSVDAG also a
+ * 3-bit reflection. Level levels-1 holds 2x2x2 voxel masks (bit c = voxel c)
+ * and no references. Level levels-2 (when levels >= 2) is additionally
+ * available as 4x4x4 bricks in `bricks`, in the header's brick layout.
+ *
+ * Reflections: a 3-bit value m uses child-index bits, bit 2 (4) = mirror
+ * along X, bit 1 (2) = along Y, bit 0 (1) = along Z, so reflecting a node by
+ * m moves child slot p to slot p ^ m and reflects that child by m too.
+ * (The SymVox files put X, Y, Z in pointer bits 13, 14, 15 / 29, 30, 31: the
+ * encoder maps bit 2 -> X, 1 -> Y, 0 -> Z.) A reference (i, m) means "node i
+ * reflected by m". Reflections compose by XOR down a path: in a node reached
+ * with accumulated reflection a, logical child slot p is stored slot p ^ a,
+ * and the child is reached with a ^ m. A 2x2x2 mask reflected by m moves bit
+ * c to bit c ^ m; a brick reflected by m moves byte c to byte c ^ m and
+ * reflects each byte by m (vd_brick_reflect()).
+ *
+ * Minimality: no two nodes on a level represent the same subtree (DAG), or
+ * subtrees equal up to any of the 8 reflections (SSVDAG). Every node is
+ * reachable from the root. SSVDAG nodes below the root are the canonical
+ * representatives of their class; the root is stored as the cell really is
+ * (unreflected), so a chunk never needs a reflection on its root. Nodes on a
+ * level are in the order they were first met; the order carries no meaning.
+ */
+struct vd_dag_level {
+	uint64_t nodes;   /* nodes on this level */
+	uint64_t refs;    /* references held by this level's nodes (0 on L-1) */
+	uint8_t *mask;    /* nodes child masks; on level L-1 the voxel masks */
+	uint64_t *first;  /* nodes+1 offsets into child/refl; NULL on L-1 */
+	uint32_t *child;  /* refs indices into level l+1; NULL on L-1 */
+	uint8_t *refl;    /* refs reflections (SSVDAG only, else NULL) */
+};
+
+struct vd_dag {
+	uint32_t kind;         /* VD_KIND_DAG or VD_KIND_SSVDAG */
+	int levels;            /* grid depth L */
+	int chunk_level;       /* level of the cell (its root) */
+	uint64_t cell_morton;  /* Morton code of the cell at chunk_level */
+	uint64_t voxels;       /* voxels in the cell */
+	struct vd_dag_level lv[VD_MAX_LEVELS]; /* [chunk_level, levels-1] used */
+	uint64_t *bricks;      /* lv[L-2].nodes bricks of level L-2 (the stored,
+				  unreflected nodes); NULL when L < 2 or the
+				  root is below level L-2 */
+};
+
+/* Options of the DAG builders. */
+struct vd_dag_opts {
+	int threads;               /* 0: all cores */
+	uint64_t mem_budget_bytes; /* 0: no limit */
+	const char *const *part_names; /* merge: names of the parts for error
+					  details (file names), or NULL */
+};
+
+/* What a build or merge measured. */
+struct vd_dag_stats {
+	uint64_t input_voxels;
+	uint64_t input_nodes;                 /* bricks or part nodes read */
+	double seconds_level[VD_MAX_LEVELS];  /* reduction time per level */
+	double seconds_build;                 /* whole build */
+	uint64_t memory_estimate_bytes;       /* what the budget check used */
+};
+
+/* Section tags of DAG chunks. */
+#define VD_TAG_DAGM VD_TAG('D', 'A', 'G', 'M') /* node masks, all levels */
+#define VD_TAG_DAGC VD_TAG('D', 'A', 'G', 'C') /* child indices, uint32 */
+#define VD_TAG_DAGR VD_TAG('D', 'A', 'G', 'R') /* child reflections, uint8 */
+
+/* Reflects a 2x2x2 mask by m (bit c -> bit c ^ m). */
+static inline uint8_t vd_mask_reflect(uint8_t v, unsigned m)
+{
+	if (m & 1) v = (uint8_t)((v & 0x55) << 1 | (v >> 1 & 0x55));
+	if (m & 2) v = (uint8_t)((v & 0x33) << 2 | (v >> 2 & 0x33));
+	if (m & 4) v = (uint8_t)(v << 4 | v >> 4);
+	return v;
+}
+
+/* Reflects a brick by m: local Morton bit b -> b ^ (m << 3 | m). */
+static inline uint64_t vd_brick_reflect(uint64_t v, unsigned m)
+{
+	const uint64_t k1 = 0x5555555555555555ULL, k2 = 0x3333333333333333ULL,
+		       k4 = 0x0f0f0f0f0f0f0f0fULL, k8 = 0x00ff00ff00ff00ffULL,
+		       k16 = 0x0000ffff0000ffffULL;
+	if (m & 1) {
+		v = (v & k1) << 1 | (v >> 1 & k1);
+		v = (v & k8) << 8 | (v >> 8 & k8);
+	}
+	if (m & 2) {
+		v = (v & k2) << 2 | (v >> 2 & k2);
+		v = (v & k16) << 16 | (v >> 16 & k16);
+	}
+	if (m & 4) {
+		v = (v & k4) << 4 | (v >> 4 & k4);
+		v = v << 32 | v >> 32;
+	}
+	return v;
+}
+
+/* The symmetry class of a 2x2x2 mask: `canon` is the largest value among
+ * its 8 reflections, `refl` the smallest m with vd_mask_reflect(mask, m) ==
+ * canon (so mask == vd_mask_reflect(canon, refl)), and `inv` the set of
+ * reflections leaving the mask unchanged (bit m set for each such m; bit 0
+ * always). 46 classes, the empty mask included (Burnside: (256 + 7*16)/8). */
+struct vd_leaf_class {
+	uint8_t canon, refl, inv;
+};
+
+/* The 256-entry leaf table, indexed by mask. */
+const struct vd_leaf_class *vd_leaf_classes(void);
+
+/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG) or
+ * VD_KIND_SSVDAG (symmetry-merged directly). `svo` must hold strictly
+ * increasing, non-zero bricks inside its cell (VD_ERR_CORRUPT otherwise); an
+ * empty SVO gives an empty DAG. VD_ERR_BUDGET if opts->mem_budget_bytes is
+ * too small for the estimate. `stats` may be NULL. Release *dag with
+ * vd_dag_release() (also after a failure). */
+int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		    uint32_t kind, const struct vd_dag_opts *opts,
+		    struct vd_dag_stats *stats);
+
+/* Merge mode: builds the chunk of the cell at `chunk_level` that contains
+ * the `n` chunks parts[0..n-1] (any order), reducing again from the leaf
+ * level so that subtrees shared across parts become one; cells absent from
+ * `parts` are empty. `kind` VD_KIND_DAG needs DAG parts; VD_KIND_SSVDAG
+ * accepts DAG and SSVDAG parts (so one DAG part at its own chunk level is
+ * the symmetry merge). chunk_level -1 means one level above the shallowest
+ * part. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
+ * overlapping cells, cells not inside one cell at chunk_level),
+ * VD_ERR_WRONG_KIND, VD_ERR_BUDGET. Release *out with vd_dag_release(). */
+int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
+		 size_t n, uint32_t kind, int chunk_level,
+		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats);
+
+/* Calls fn(ctx, key, brick) for every non-empty brick of `dag` in Morton
+ * order, applying reflections (key and brick as in struct vd_svo; for
+ * L < 2 one brick, key 0). Stops at and returns the first non-zero return
+ * of fn. */
+int vd_dag_expand(const struct vd_dag *dag,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx);
+
+/* The outcome of vd_dag_compare_svo(). */
+struct vd_dag_diff {
+	uint64_t differing_voxels;   /* 0: equal */
+	uint64_t first_voxel_morton; /* the first difference in Morton order,
+					a voxel Morton code (3*L bits) */
+	int first_in_dag;            /* 1: that voxel is set in the DAG only,
+					0: in the SVO chunks only */
+};
+
+/* Compares the voxels of `dag` with the union of the SVO chunks
+ * svos[0..n-1] (any order), streaming the DAG's expansion. The SVO cells
+ * must lie inside the DAG's cell, have its depth and not overlap
+ * (VD_ERR_MISMATCH otherwise); voxels of the DAG outside every SVO cell
+ * count as differences. Fills *diff and returns VD_OK whether or not they
+ * differ. */
+int vd_dag_compare_svo(const struct vd_dag *dag,
+		       const struct vd_svo *const *svos, size_t n,
+		       struct vd_dag_diff *diff);
+
+/* Expands `dag` into a new SVO (release with vd_svo_release()). */
+int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo);
+
+/* Checks the structure: counts, masks, indices and reflections in range,
+ * every node referenced, root count. VD_ERR_CORRUPT with the detail naming
+ * the first problem. */
+int vd_dag_validate(const struct vd_dag *dag);
+
+/* Fills h->kind, levels, chunk_level, cell_morton and level counts from
+ * `dag` (the transform is left alone). */
+void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
+
+/* Writes `dag` as a chunk file at `path` (atomic). */
+int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
+		const char *path, const char *provenance);
+
+/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG or
+ * VD_KIND_ANY (either of the two; VD_ERR_WRONG_KIND for other kinds).
+ * Validates as vd_dag_validate() and checks the voxel count. `h` may be
+ * NULL. Release with vd_dag_release(). */
+int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
+		const char *path, uint32_t kind);
+
+/* The same from an opened chunk. */
+int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
+		      uint32_t kind);
+
+/* Bytes held by `dag`. */
+uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
+
+/* Upper bounds of the peak bytes of vd_dag_from_svo() on an SVO with
+ * `bricks` bricks, `leaves` non-empty level L-1 nodes and `parents`
+ * non-empty level L-3 nodes (the SVO header's per-level counts), and of
+ * vd_dag_merge() on parts holding `nodes` nodes and `refs` references in
+ * total; inputs included. Bounds, not guesses: they assume no two nodes
+ * are equal, so a real scan needs about half. The stages compare them with
+ * --mem-budget before loading anything. */
+uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
+				  uint64_t parents);
+uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
+
+/* Writes the statistics of a build (`tool` names the stage; `seconds_load`
+ * and `seconds_save` are the caller's phases) as JSON to `path` (atomic):
+ * per-level node and reference counts, seconds per phase, peak RSS. */
+int vd_dag_write_stats(const struct vd_dag *dag,
+		       const struct vd_dag_stats *st, const char *tool,
+		       double seconds_load, double seconds_save,
+		       const char *path);
+
+/* One run of the svo-to-dag or symmetry-merge stage, as its main() sets
+ * it up from the command line. */
+struct vd_dag_job {
+	const char *tool;          /* "svo-to-dag": messages and statistics */
+	uint32_t kind;             /* output: VD_KIND_DAG or VD_KIND_SSVDAG */
+	int merge;                 /* inputs are DAG chunks to merge */
+	int to_level;              /* merge: output chunk level, -1 default */
+	const char *const *inputs; /* input chunk files */
+	size_t n_inputs;
+	const char *output;        /* output chunk file; statistics go to
+				      output + ".stats.json" */
+	const char *provenance;    /* stored in the output, or NULL */
+	struct vd_dag_opts opts;
+	int quiet;                 /* no summary line on stderr */
+};
+
+/* Loads the inputs (an SVO chunk for VD_KIND_DAG, a DAG chunk for
+ * VD_KIND_SSVDAG; with `merge`, DAG chunks, and for VD_KIND_SSVDAG also
+ * SSVDAG chunks), checks the memory budget before each load, builds,
+ * saves the output atomically and writes the statistics. On failure the
+ * detail is the whole message after the tool name ("cannot read 'x.svo':
+ * truncated file: ...") and nothing is left at the output path. */
+int vd_dag_run(const struct vd_dag_job *job);
+
+/* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
+void vd_dag_release(struct vd_dag *dag);
 
 /* ------------------------------------------------------ end of DAG block */
+
+/* ---- encodings (encode.c) */
+/* The compact encodings of the SSVDAG paper (section 4.3), byte-compatible
+ * with the files of the SymVox reference code; the byte layout is specified
+ * in schemas/encodings.md. Four formats:
+ *   .svdag    plain DAG in 32-bit words (from a VD_KIND_DAG root)
+ *   .ussvdag  the same layout over the SSVDAG, with mirror bytes
+ *   .esvdag   4^3 leaf bricks, 16-bit headers with 2-bit child tags, 16/32-bit
+ *             tagged pointers, levels sorted by reference count (DAG root)
+ *   .ssvdag   the same over the SSVDAG, with mirror bits in the pointers
+ * A `struct vd_enc` is a file in memory: built from a root DAG by
+ * vd_enc_build(), or read and validated by vd_enc_load(). Every reading
+ * function below may assume a validated struct (built or loaded) and never
+ * reads out of its arrays. */
+
+enum vd_enc_format {
+	VD_ENC_SVDAG = 0,
+	VD_ENC_USSVDAG = 1,
+	VD_ENC_ESVDAG = 2,
+	VD_ENC_SSVDAG = 3,
+	VD_ENC_COUNT_
+};
+
+/* Bytes of a file that its counted size leaves out: the fixed fields before
+ * and between the arrays (bounding box, side, levels, counts). A file's size
+ * is vd_enc_size_bytes() plus this. */
+#define VD_ENC_HEADER_BYTES_WORDS 44   /* .svdag, .ussvdag */
+#define VD_ENC_HEADER_BYTES_COMPACT 48 /* .esvdag, .ssvdag */
+
+/* "svdag", "ussvdag", "esvdag", "ssvdag" (also the file extensions), or
+ * "unknown". */
+const char *vd_enc_format_name(int format);
+
+/* The format named by the extension of `path`, or -1. */
+int vd_enc_format_from_path(const char *path);
+
+/* 1 for the formats that need a symmetric DAG (USSVDAG, SSVDAG). */
+static inline int vd_enc_format_symmetric(int format)
+{
+	return format == VD_ENC_USSVDAG || format == VD_ENC_SSVDAG;
+}
+
+/* 1 for the compact formats (ESVDAG, SSVDAG). */
+static inline int vd_enc_format_compact(int format)
+{
+	return format == VD_ENC_ESVDAG || format == VD_ENC_SSVDAG;
+}
+
+/* One file. Unused arrays are NULL and their counts 0. */
+struct vd_enc {
+	int format;               /* enum vd_enc_format */
+	float bbox_min[3], bbox_max[3]; /* tight bounding box, world units */
+	float root_side;          /* side of the cube, world units */
+	uint32_t levels;          /* L: 2^L voxels per side */
+	uint32_t node_count;      /* distinct DAG nodes on levels 0..L-1 */
+	/* .svdag, .ussvdag: nodes level by level from the root */
+	uint32_t first_leaf_word; /* word index of the first level L-1 node */
+	uint32_t word_count;
+	uint32_t *words;
+	/* .esvdag, .ssvdag */
+	uint32_t inner_count;     /* uint16 units of inner[] (levels 0..L-3) */
+	uint16_t *inner;
+	uint32_t leaf_bytes;      /* 8 per brick (level L-2 nodes) */
+	uint8_t *leaves;
+	uint32_t level_count;     /* L-2 */
+	uint32_t *level_offsets;  /* start of inner level l in inner[] */
+};
+
+/* Encodes the root chunk `dag` (chunk_level 0) into `e` in `format`, with
+ * the bounding box and side of `t`. The symmetric formats need a
+ * VD_KIND_SSVDAG `dag`, the others a VD_KIND_DAG one (VD_ERR_WRONG_KIND).
+ * The compact formats need L >= 3, one inner level above the bricks
+ * (VD_ERR_UNSUPPORTED). VD_ERR_RANGE when a level holds more than the
+ * format can address (compact: addresses from 2^30 on, more than 2^29 - 1
+ * bricks; words: 2^32 words or more). An empty `dag` gives the empty scene
+ * of schemas/encodings.md. Release `e` with vd_enc_release(), also after a
+ * failure. */
+int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		 const struct vd_transform *t);
+
+/* The counted size in bytes (schemas/encodings.md): 4*word_count, or
+ * 2*inner_count + leaf_bytes + 4*level_count. */
+uint64_t vd_enc_size_bytes(const struct vd_enc *e);
+
+/* Writes `e` to `path` atomically (temporary name, fsync, rename). */
+int vd_enc_save(const struct vd_enc *e, const char *path);
+
+/* Reads and validates the file `path`; `format` -1 takes it from the
+ * extension. Errors: VD_ERR_IO, VD_ERR_ARG (unknown extension),
+ * VD_ERR_TRUNCATED, VD_ERR_TRAILING, VD_ERR_CORRUPT (a pointer out of its
+ * level, a node overlapping the next level, an empty brick, ...),
+ * VD_ERR_UNSUPPORTED (levels out of 1..21, compact with L < 3). */
+int vd_enc_load(struct vd_enc *e, const char *path, int format);
+
+/* The same on `size` bytes in memory (copied). */
+int vd_enc_parse(struct vd_enc *e, const void *data, size_t size,
+		 int format);
+
+/* Frees the arrays of `e` and zeroes it; accepts a zeroed struct. */
+void vd_enc_release(struct vd_enc *e);
+
+/* A node reached from the root, for traversal (render): its level, where
+ * it is stored and the reflection accumulated on the way (child-index bits,
+ * as in the DAG block). The view below applies the reflection, so callers
+ * work with logical child slots and voxels only. */
+struct vd_enc_node {
+	int level;      /* 0 (root) .. L-1 */
+	uint64_t at;    /* words: index of the node's first word; compact:
+			   index in inner[] (levels < L-2) or byte offset in
+			   leaves[] (level L-2) */
+	unsigned refl;  /* accumulated reflection, 0..7 */
+};
+
+/* The root (level 0, unreflected). */
+void vd_enc_root(const struct vd_enc *e, struct vd_enc_node *n);
+
+/* The level whose nodes are bricks: L-2 for the compact formats; for the
+ * word formats L-2 too (a brick is assembled from the 8 masks below), or
+ * -1 when L == 1 (the root is a 2x2x2 mask). */
+int vd_enc_brick_level(const struct vd_enc *e);
+
+/* The logical child mask of `n` (bit p set when child p = 4x+2y+z is not
+ * empty); for a level L-1 node of a word format, its voxel mask. */
+unsigned vd_enc_node_mask(const struct vd_enc *e, const struct vd_enc_node *n);
+
+/* Fills *child with logical child p (0..7) of `n`, a node above the brick
+ * level. Returns 1, or 0 when that child is empty. */
+int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
+		 unsigned p, struct vd_enc_node *child);
+
+/* The 4x4x4 voxels of `n`, a node on the brick level, in the header's
+ * brick layout (Morton bits) and logical orientation. */
+uint64_t vd_enc_brick(const struct vd_enc *e, const struct vd_enc_node *n);
+
+/* Calls fn(ctx, key, brick) for every non-empty brick in Morton order, as
+ * vd_dag_expand() does (for L < 2 one brick, key 0). Stops at and returns
+ * the first non-zero return of fn. */
+int vd_enc_expand(const struct vd_enc *e,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx);
+
+/* The DAG of `dag` (a root chunk, DAG or SSVDAG) cut at depth `levels`
+ * (1 <= levels <= dag->levels): a voxel of the 2^levels grid is set iff a
+ * voxel below it is set. Reduced again, so it equals the minimal DAG (or
+ * SSVDAG) built directly at that depth. Release *out with
+ * vd_dag_release(). */
+int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out);
+
+/* Per-level node counts of the (pointerless) SVO a root DAG stands for:
+ * svo_nodes[l] for l = 0..L, the last being the voxel count. */
+int vd_enc_svo_counts(const struct vd_dag *dag,
+		      uint64_t svo_nodes[VD_MAX_LEVELS + 1]);
+
+/* One row of the SSVDAG paper's Table 2 (and the voxels of Table 1). Node
+ * counts as schemas/encodings.md says: distinct nodes over levels
+ * 0..levels-1. */
+struct vd_enc_row {
+	int levels;                     /* resolution 2^levels */
+	uint64_t voxels;
+	uint64_t svo_nodes;             /* SVO nodes, levels 0..levels-1 */
+	uint64_t dag_nodes;             /* SVDAG = ESVDAG */
+	uint64_t ssvdag_nodes;          /* SSVDAG = USSVDAG */
+	uint64_t svo_bytes;             /* one byte per SVO node */
+	uint64_t bytes[VD_ENC_COUNT_];  /* vd_enc_size_bytes() per format */
+	int has[VD_ENC_COUNT_];         /* 0: not encodable (compact, L < 3) */
+};
+
+/* Computes the row of resolution 2^levels from the root DAG and SSVDAG of
+ * one scene (same depth and voxels, else VD_ERR_MISMATCH), cutting both at
+ * `levels` and encoding the cuts in memory. */
+int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+		     int levels, struct vd_enc_row *row);
+
+/* Build times for Table 1, summed over the statistics files of the DAG
+ * stages (load + build + save of each); negative when not given. */
+struct vd_enc_timing {
+	double seconds_svo_to_dag;
+	double seconds_symmetry_merge;
+};
+
+/* Adds the seconds of one statistics file written by svo-to-dag or
+ * symmetry-merge (by its "tool" field) to `t`. VD_ERR_FORMAT when the file
+ * is not such a statistics file. */
+int vd_enc_timing_add(struct vd_enc_timing *t, const char *stats_path);
+
+/* Writes the tables as DIR/NAME.tables.json, DIR/NAME.table1.csv,
+ * DIR/NAME.table2.csv and DIR/NAME.tables.md (each atomically). rows[0] is
+ * the highest resolution. */
+int vd_enc_write_tables(const char *dir, const char *name,
+			const struct vd_enc_row *rows, size_t n,
+			const struct vd_enc_timing *t, double seconds_encode);
+
+/* One run of the encode stage, as its main() sets it up. */
+struct vd_enc_job {
+	const char *tool;          /* "encode", for messages */
+	const char *dag_path;      /* root DAG chunk */
+	const char *ssvdag_path;   /* root SSVDAG chunk */
+	const char *outdir;        /* created if missing */
+	const char *name;          /* output base name ("scene") */
+	const char *const *stats_paths; /* DAG stage statistics, or NULL */
+	size_t n_stats;
+	int min_level;             /* lowest resolution row, 2^min_level */
+	uint64_t mem_budget_bytes; /* 0: no limit */
+	int threads;               /* rows computed in parallel; 0: all */
+	int quiet;                 /* no summary on stderr */
+};
+
+/* Loads both root chunks, writes DIR/NAME.{svdag,ussvdag,esvdag,ssvdag},
+ * the tables and DIR/NAME.encode.stats.json. On failure the detail is the
+ * whole message after the tool name ("cannot read 'x.dag': truncated file:
+ * ..."). */
+int vd_enc_run(const struct vd_enc_job *job);
+
+/* ---- end of encodings block */
 
 #ifdef __cplusplus
 }

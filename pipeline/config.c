@@ -1,0 +1,504 @@
+/* config.c - reading and validating a pipeline YAML (schemas/pipeline.md).
+ * libyaml's document API keeps every node's position, so each complaint
+ * names FILE:LINE:COLUMN. Nothing runs before the whole file is accepted. */
+#include "pipeline.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <yaml.h>
+
+static const struct stage_info stages[] = {
+	{"voxelize", STAGE_VOXELIZE, 0, 0},
+	{"svo-to-dag", STAGE_SVO_TO_DAG, 1, 1},
+	{"symmetry-merge", STAGE_SYMMETRY_MERGE, 1, 1},
+	{"encode", STAGE_ENCODE, 2, 2},
+};
+
+const struct stage_info *stage_lookup(const char *name)
+{
+	for (size_t i = 0; i < sizeof stages / sizeof *stages; i++)
+		if (strcmp(stages[i].name, name) == 0)
+			return &stages[i];
+	return NULL;
+}
+
+struct ctx {
+	yaml_document_t doc;
+	const char *path;
+	struct config *c;
+};
+
+static int fail_at(struct ctx *x, const yaml_node_t *n, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+
+static int fail_at(struct ctx *x, const yaml_node_t *n, const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	fprintf(stderr, "voxdag: %s:%lu:%lu: ", x->path,
+		n ? (unsigned long)n->start_mark.line + 1 : 1ul,
+		n ? (unsigned long)n->start_mark.column + 1 : 1ul);
+	vfprintf(stderr, fmt, ap);
+	fputc('\n', stderr);
+	va_end(ap);
+	return 1;
+}
+
+static const char *scalar(const yaml_node_t *n)
+{
+	return n && n->type == YAML_SCALAR_NODE ? (const char *)n->data.scalar.value
+						: NULL;
+}
+
+static const char *type_name(const yaml_node_t *n)
+{
+	return n->type == YAML_MAPPING_NODE ? "a mapping"
+	       : n->type == YAML_SEQUENCE_NODE ? "a list" : "a scalar";
+}
+
+static int want_string(struct ctx *x, const yaml_node_t *n, const char *key,
+		       char *out, size_t cap)
+{
+	const char *s = scalar(n);
+	if (!s)
+		return fail_at(x, n, "'%s' must be a string, not %s", key,
+			       type_name(n));
+	if (strlen(s) >= cap)
+		return fail_at(x, n, "'%s' is longer than %zu characters", key,
+			       cap - 1);
+	strcpy(out, s);
+	return 0;
+}
+
+static int want_int(struct ctx *x, const yaml_node_t *n, const char *key,
+		    long lo, long hi, int *out)
+{
+	const char *s = scalar(n);
+	char *end;
+	long v = s ? strtol(s, &end, 10) : 0;
+	if (!s || !*s || *end)
+		return fail_at(x, n, "'%s' must be a whole number", key);
+	if (v < lo || v > hi)
+		return fail_at(x, n, "'%s' is %ld, outside %ld..%ld", key, v, lo,
+			       hi);
+	*out = (int)v;
+	return 0;
+}
+
+static int want_size(struct ctx *x, const yaml_node_t *n, const char *key,
+		     uint64_t *out)
+{
+	const char *s = scalar(n);
+	if (!s || vd_parse_size(s, out) || *out == 0)
+		return fail_at(x, n, "'%s' must be a size such as 512M or 4GiB",
+			       key);
+	return 0;
+}
+
+static int want_mapping(struct ctx *x, const yaml_node_t *n, const char *key)
+{
+	if (n->type != YAML_MAPPING_NODE)
+		return fail_at(x, n, "'%s' must be a mapping, not %s", key,
+			       type_name(n));
+	return 0;
+}
+
+/* Iterates over a mapping's pairs with the pair pointer `it`. */
+#define FOR_PAIRS(x, map, k, v, it)                                          \
+	for (yaml_node_pair_t *it = (map)->data.mapping.pairs.start;         \
+	     it < (map)->data.mapping.pairs.top &&                           \
+	     ((k) = yaml_document_get_node(&(x)->doc, it->key),              \
+	      (v) = yaml_document_get_node(&(x)->doc, it->value), 1);        \
+	     it++)
+
+static int valid_name(const char *s)
+{
+	if (!*s)
+		return 0;
+	for (; *s; s++)
+		if (!isalnum((unsigned char)*s) && *s != '-' && *s != '_')
+			return 0;
+	return 1;
+}
+
+static int parse_input(struct ctx *x, yaml_node_t *map)
+{
+	struct config *c = x->c;
+	if (want_mapping(x, map, "input"))
+		return 1;
+	yaml_node_t *k, *v;
+	FOR_PAIRS(x, map, k, v, it) {
+		const char *key = scalar(k);
+		if (!key)
+			return fail_at(x, k, "keys must be strings");
+		if (!strcmp(key, "mesh")) {
+			if (want_string(x, v, key, c->mesh, sizeof c->mesh))
+				return 1;
+		} else if (!strcmp(key, "vdb")) {
+			if (want_string(x, v, key, c->vdb, sizeof c->vdb))
+				return 1;
+		} else if (!strcmp(key, "grid")) {
+			if (want_string(x, v, key, c->vdb_grid, sizeof c->vdb_grid))
+				return 1;
+		} else if (!strcmp(key, "mode")) {
+			if (want_string(x, v, key, c->vdb_mode, sizeof c->vdb_mode))
+				return 1;
+		} else if (!strcmp(key, "fetch")) {
+			if (want_string(x, v, key, c->fetch, sizeof c->fetch))
+				return 1;
+		} else {
+			return fail_at(x, k, "unknown key 'input.%s' (known: mesh, "
+				       "vdb, grid, mode, fetch)", key);
+		}
+	}
+	if (!*c->mesh == !*c->vdb)
+		return fail_at(x, map, "'input' needs exactly one of 'mesh' or "
+			       "'vdb'");
+	if (*c->vdb)
+		return fail_at(x, map, "'input.vdb' is not supported by this "
+			       "runner yet; use 'input.mesh'");
+	if ((*c->vdb_grid || *c->vdb_mode) && !*c->vdb)
+		return fail_at(x, map, "'grid' and 'mode' go with 'vdb'");
+	return 0;
+}
+
+static int parse_resources(struct ctx *x, yaml_node_t *map)
+{
+	struct config *c = x->c;
+	if (want_mapping(x, map, "resources"))
+		return 1;
+	yaml_node_t *k, *v;
+	FOR_PAIRS(x, map, k, v, it) {
+		const char *key = scalar(k);
+		if (!key)
+			return fail_at(x, k, "keys must be strings");
+		int err;
+		if (!strcmp(key, "jobs"))
+			err = want_int(x, v, key, 1, 256, &c->jobs);
+		else if (!strcmp(key, "threads"))
+			err = want_int(x, v, key, 1, 1024, &c->threads);
+		else if (!strcmp(key, "mem_budget"))
+			err = want_size(x, v, key, &c->mem_budget);
+		else if (!strcmp(key, "job_mem_budget"))
+			err = want_size(x, v, key, &c->job_mem_budget);
+		else
+			return fail_at(x, k, "unknown key 'resources.%s' (known: "
+				       "jobs, threads, mem_budget, "
+				       "job_mem_budget)", key);
+		if (err)
+			return 1;
+	}
+	return 0;
+}
+
+static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
+{
+	struct config *c = x->c;
+	const char *n = scalar(name);
+	if (!n || !valid_name(n) || strlen(n) >= MAX_NAME)
+		return fail_at(x, name, "job names are letters, digits, '-' "
+			       "and '_' (at most %d)", MAX_NAME - 1);
+	if (c->njobs == MAX_JOBS_DECL)
+		return fail_at(x, name, "more than %d jobs", MAX_JOBS_DECL);
+	for (int i = 0; i < c->njobs; i++)
+		if (!strcmp(c->jobs_decl[i].name, n))
+			return fail_at(x, name, "job '%s' is declared twice", n);
+	struct job_decl *d = &c->jobs_decl[c->njobs];
+	memset(d, 0, sizeof *d);
+	strcpy(d->name, n);
+	d->line = (int)name->start_mark.line + 1;
+	d->column = (int)name->start_mark.column + 1;
+	if (want_mapping(x, map, n))
+		return 1;
+	yaml_node_t *k, *v;
+	FOR_PAIRS(x, map, k, v, it) {
+		const char *key = scalar(k);
+		if (!key)
+			return fail_at(x, k, "keys must be strings");
+		if (!strcmp(key, "stage")) {
+			const char *s = scalar(v);
+			if (!s || !(d->stage = stage_lookup(s)))
+				return fail_at(x, v, "unknown stage '%s' (known: "
+					       "voxelize, svo-to-dag, "
+					       "symmetry-merge, encode)",
+					       s ? s : "?");
+		} else if (!strcmp(key, "needs")) {
+			if (v->type != YAML_SEQUENCE_NODE)
+				return fail_at(x, v, "'needs' must be a list of "
+					       "job names");
+			for (yaml_node_item_t *ni = v->data.sequence.items.start;
+			     ni < v->data.sequence.items.top; ni++) {
+				yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
+				const char *s = scalar(e);
+				if (!s || strlen(s) >= MAX_NAME)
+					return fail_at(x, e, "'needs' entries are "
+						       "job names");
+				if (d->nneeds == MAX_NEEDS)
+					return fail_at(x, e, "more than %d needs",
+						       MAX_NEEDS);
+				strcpy(d->needs_name[d->nneeds++], s);
+			}
+		} else {
+			return fail_at(x, k, "unknown key '%s' in job '%s' "
+				       "(known: stage, needs)", key, n);
+		}
+	}
+	if (!d->stage)
+		return fail_at(x, map, "job '%s' has no 'stage'", n);
+	c->njobs++;
+	return 0;
+}
+
+/* Resolves needs, checks the graph has no cycle and each stage gets the
+ * inputs it takes. */
+static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
+{
+	struct config *c = x->c;
+	for (int i = 0; i < c->njobs; i++) {
+		struct job_decl *d = &c->jobs_decl[i];
+		for (int k = 0; k < d->nneeds; k++) {
+			int found = -1;
+			for (int j = 0; j < c->njobs; j++)
+				if (!strcmp(c->jobs_decl[j].name, d->needs_name[k]))
+					found = j;
+			if (found < 0) {
+				fprintf(stderr, "voxdag: %s:%d:%d: job '%s' needs "
+					"'%s', which is not a job\n", x->path,
+					d->line, d->column, d->name,
+					d->needs_name[k]);
+				return 1;
+			}
+			d->needs[k] = found;
+		}
+	}
+	/* cycles: repeatedly take jobs whose needs are all taken */
+	int taken[MAX_JOBS_DECL] = {0}, ntaken = 0, progress = 1;
+	while (progress) {
+		progress = 0;
+		for (int i = 0; i < c->njobs; i++) {
+			if (taken[i])
+				continue;
+			int ok = 1;
+			for (int k = 0; k < c->jobs_decl[i].nneeds; k++)
+				ok &= taken[c->jobs_decl[i].needs[k]];
+			if (ok)
+				taken[i] = 1, ntaken++, progress = 1;
+		}
+	}
+	if (ntaken < c->njobs) {
+		for (int i = 0; i < c->njobs; i++)
+			if (!taken[i]) {
+				fprintf(stderr, "voxdag: %s:%d:%d: job '%s' is "
+					"part of a cycle of needs\n", x->path,
+					c->jobs_decl[i].line,
+					c->jobs_decl[i].column,
+					c->jobs_decl[i].name);
+				return 1;
+			}
+	}
+	/* what each stage takes */
+	static const enum stage_type wants[STAGE_COUNT_][2] = {
+		[STAGE_SVO_TO_DAG] = {STAGE_VOXELIZE, STAGE_VOXELIZE},
+		[STAGE_SYMMETRY_MERGE] = {STAGE_SVO_TO_DAG, STAGE_SVO_TO_DAG},
+		[STAGE_ENCODE] = {STAGE_SVO_TO_DAG, STAGE_SYMMETRY_MERGE},
+	};
+	for (int i = 0; i < c->njobs; i++) {
+		struct job_decl *d = &c->jobs_decl[i];
+		const struct stage_info *s = d->stage;
+		int bad = d->nneeds < s->min_needs || d->nneeds > s->max_needs;
+		for (int k = 0; k < d->nneeds && !bad; k++) {
+			enum stage_type t = c->jobs_decl[d->needs[k]].stage->type;
+			bad = t != wants[s->type][0] && t != wants[s->type][1];
+		}
+		if (s->type == STAGE_ENCODE && !bad)
+			bad = c->jobs_decl[d->needs[0]].stage->type ==
+			      c->jobs_decl[d->needs[1]].stage->type;
+		if (bad) {
+			static const char *const shape[] = {
+				"no needs", "needs: [a voxelize job]",
+				"needs: [an svo-to-dag job]",
+				"needs: [an svo-to-dag job, a symmetry-merge job]"};
+			fprintf(stderr, "voxdag: %s:%d:%d: job '%s' (stage %s) "
+				"takes %s\n", x->path, d->line, d->column,
+				d->name, s->name, shape[s->type]);
+			return 1;
+		}
+	}
+	int vox = 0;
+	for (int i = 0; i < c->njobs; i++)
+		vox += c->jobs_decl[i].stage->type == STAGE_VOXELIZE;
+	if (vox != 1)
+		return fail_at(x, jobs_node, "a pipeline has exactly one voxelize "
+			       "job (found %d)", vox);
+	return 0;
+}
+
+static int parse_root(struct ctx *x, yaml_node_t *root)
+{
+	struct config *c = x->c;
+	if (!root || root->type != YAML_MAPPING_NODE)
+		return fail_at(x, root, "a pipeline is a mapping of version, "
+			       "name, input, levels, resources, jobs");
+	yaml_node_t *k, *v, *jobs_node = NULL, *input = NULL, *levels = NULL,
+			      *res_node = NULL;
+	int have_version = 0;
+	FOR_PAIRS(x, root, k, v, it) {
+		const char *key = scalar(k);
+		int err = 0;
+		if (!key)
+			return fail_at(x, k, "keys must be strings");
+		if (!strcmp(key, "version")) {
+			err = want_int(x, v, key, 1, 1000, &c->version);
+			if (!err && c->version > PIPELINE_VERSION)
+				return fail_at(x, v, "pipeline version %d is newer "
+					       "than this runner's %d; upgrade "
+					       "voxdag", c->version,
+					       PIPELINE_VERSION);
+			have_version = 1;
+		} else if (!strcmp(key, "name")) {
+			err = want_string(x, v, key, c->name, sizeof c->name);
+			if (!err && !valid_name(c->name))
+				return fail_at(x, v, "'name' is letters, digits, "
+					       "'-' and '_' (it names out/<name>/)");
+		} else if (!strcmp(key, "input")) {
+			input = v;
+			err = parse_input(x, v);
+		} else if (!strcmp(key, "levels")) {
+			levels = v;
+			err = want_int(x, v, key, 1, VD_MAX_LEVELS, &c->levels);
+		} else if (!strcmp(key, "chunk_level")) {
+			const char *s = scalar(v);
+			if (s && !strcmp(s, "auto"))
+				c->chunk_level = -1;
+			else
+				err = want_int(x, v, key, 0, 7, &c->chunk_level);
+		} else if (!strcmp(key, "resolutions")) {
+			res_node = v;
+			if (v->type != YAML_SEQUENCE_NODE)
+				return fail_at(x, v, "'resolutions' must be a list "
+					       "of grid depths");
+			for (yaml_node_item_t *ni = v->data.sequence.items.start;
+			     ni < v->data.sequence.items.top && !err; ni++) {
+				if (c->nres == MAX_RES)
+					return fail_at(x, v, "too many resolutions");
+				err = want_int(x, yaml_document_get_node(&x->doc, *ni),
+					       "resolutions", 1, VD_MAX_LEVELS,
+					       &c->resolutions[c->nres++]);
+			}
+		} else if (!strcmp(key, "resources")) {
+			err = parse_resources(x, v);
+		} else if (!strcmp(key, "jobs")) {
+			jobs_node = v;
+			if (want_mapping(x, v, "jobs"))
+				return 1;
+			yaml_node_t *jk, *jv;
+			FOR_PAIRS(x, v, jk, jv, jt) {
+				if (parse_job(x, jk, jv))
+					return 1;
+			}
+		} else if (!strcmp(key, "report")) {
+			if (want_mapping(x, v, "report"))
+				return 1;
+			yaml_node_t *rk, *rv;
+			FOR_PAIRS(x, v, rk, rv, rt) {
+				const char *r = scalar(rk);
+				if (r && !strcmp(r, "title")) {
+					if (want_string(x, rv, "title", c->title,
+							sizeof c->title))
+						return 1;
+				} else {
+					return fail_at(x, rk, "unknown key "
+						       "'report.%s' (known: "
+						       "title)", r ? r : "?");
+				}
+			}
+		} else {
+			return fail_at(x, k, "unknown key '%s' (known: version, "
+				       "name, input, levels, chunk_level, "
+				       "resolutions, resources, jobs, report)",
+				       key);
+		}
+		if (err)
+			return 1;
+	}
+	if (!have_version)
+		return fail_at(x, root, "missing 'version' (this runner reads "
+			       "version %d)", PIPELINE_VERSION);
+	if (!*c->name)
+		return fail_at(x, root, "missing 'name'");
+	if (!input)
+		return fail_at(x, root, "missing 'input'");
+	if (!levels)
+		return fail_at(x, root, "missing 'levels'");
+	if (!jobs_node || c->njobs == 0)
+		return fail_at(x, root, "missing 'jobs'");
+	for (int i = 0; i < c->nres; i++)
+		if (c->resolutions[i] > c->levels)
+			return fail_at(x, res_node, "resolution %d is deeper "
+				       "than 'levels' %d", c->resolutions[i],
+				       c->levels);
+	if (c->chunk_level > 0 && c->chunk_level > c->levels - 2)
+		return fail_at(x, root, "'chunk_level' %d is deeper than "
+			       "levels - 2", c->chunk_level);
+	if (c->job_mem_budget > c->mem_budget)
+		return fail_at(x, root, "'job_mem_budget' is larger than "
+			       "'mem_budget'");
+	if (check_graph(x, jobs_node))
+		return 1;
+	struct stat st;
+	if (stat(c->mesh, &st) != 0) {
+		if (*c->fetch)
+			return fail_at(x, input, "input '%s' is missing; fetch "
+				       "it with: %s", c->mesh, c->fetch);
+		return fail_at(x, input, "input '%s': %s", c->mesh,
+			       strerror(errno));
+	}
+	return 0;
+}
+
+int config_load(struct config *c, const char *path)
+{
+	memset(c, 0, sizeof *c);
+	snprintf(c->path, sizeof c->path, "%s", path);
+	c->chunk_level = -1;
+	c->jobs = 2;
+	c->mem_budget = 4ull << 30;
+	c->job_mem_budget = 2ull << 30;
+	FILE *f = fopen(path, "rb");
+	if (!f) {
+		fprintf(stderr, "voxdag: cannot read '%s': %s\n", path,
+			strerror(errno));
+		return 1;
+	}
+	struct ctx x = {.path = path, .c = c};
+	yaml_parser_t parser;
+	yaml_parser_initialize(&parser);
+	yaml_parser_set_input_file(&parser, f);
+	int ok = yaml_parser_load(&parser, &x.doc);
+	fclose(f);
+	if (!ok) {
+		fprintf(stderr, "voxdag: %s:%lu:%lu: %s%s%s\n", path,
+			(unsigned long)parser.problem_mark.line + 1,
+			(unsigned long)parser.problem_mark.column + 1,
+			parser.problem ? parser.problem : "YAML syntax error",
+			parser.context ? " " : "",
+			parser.context ? parser.context : "");
+		yaml_parser_delete(&parser);
+		return 1;
+	}
+	yaml_parser_delete(&parser);
+	int err = parse_root(&x, yaml_document_get_root_node(&x.doc));
+	yaml_document_delete(&x.doc);
+	if (!err && c->threads == 0) {
+		int t = vd_hardware_threads() / c->jobs;
+		c->threads = t > 0 ? t : 1;
+	}
+	if (!err && c->nres == 0)
+		for (int l = c->levels; l >= 1 && l > c->levels - 4; l--)
+			c->resolutions[c->nres++] = l;
+	return err;
+}

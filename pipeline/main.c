@@ -1,0 +1,152 @@
+/* voxdag - the pipeline runner: reads a YAML job graph, runs the stages in
+ * parallel within a memory budget, resumes after a crash, writes the
+ * report. */
+#include "pipeline.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+static const char usage[] =
+	"usage: voxdag COMMAND CONFIG [options]\n"
+	"\n"
+	"Commands:\n"
+	"  run CONFIG      run the pipeline; finished jobs are skipped, so after a\n"
+	"                  crash or kill the same command carries on\n"
+	"  plan CONFIG     print the expanded job graph without running anything\n"
+	"  status CONFIG   what is done, pending, or started and not finished\n"
+	"  report CONFIG   write out/<name>/report.md (.json, .csv) again\n"
+	"  clean CONFIG    remove out/<name>/\n"
+	"\n"
+	"Options:\n"
+	"  -q, --quiet     no progress lines\n"
+	"  -h, --help      this text\n"
+	"\n"
+	"The YAML format is described in schemas/pipeline.md.\n"
+	"Exit status: 0 success, 1 failure (a job failed, bad config), 2 usage.\n";
+
+static int cmd_plan(struct plan *p)
+{
+	plan_expand(p);
+	const struct config *c = p->cfg;
+	printf("pipeline %s: input %s, grid 2^%d, chunk level %s, %d jobs at once, "
+	       "%llu MiB in all, %llu MiB per job, %d threads per job\n", c->name,
+	       c->mesh, c->levels, c->chunk_level < 0 ? "auto" : "fixed",
+	       c->jobs, (unsigned long long)(c->mem_budget >> 20),
+	       (unsigned long long)(c->job_mem_budget >> 20), c->threads);
+	for (int d = 0; d < c->njobs; d++) {
+		int n = 0, fresh = 0;
+		uint64_t est = 0;
+		for (int i = 0; i < p->n; i++)
+			if (p->jobs[i].decl == d) {
+				n++;
+				fresh += p->jobs[i].state == JOB_SKIPPED;
+				if (p->jobs[i].mem_estimate > est)
+					est = p->jobs[i].mem_estimate;
+			}
+		printf("  %-12s %-15s %4d processes (%d done), largest estimate "
+		       "%llu MiB\n", c->jobs_decl[d].name,
+		       c->jobs_decl[d].stage->name, n, fresh,
+		       (unsigned long long)(est >> 20));
+	}
+	if (!p->expanded)
+		printf("  (the per-cell jobs and merges are known once voxelize "
+		       "has run: at most 8^L0 cells)\n");
+	for (int i = 0; i < p->n; i++) {
+		const struct job *j = &p->jobs[i];
+		printf("%s %s:", j->state == JOB_SKIPPED ? "done" : "todo", j->id);
+		for (int k = 0; j->argv[k]; k++)
+			printf(" %s", j->argv[k]);
+		printf("\n");
+	}
+	return 0;
+}
+
+static int cmd_clean(struct plan *p)
+{
+	snprintf(p->dir, sizeof p->dir, "out/%s", p->cfg->name);
+	char lock[1200];
+	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
+	int fd = open(lock, O_RDWR);
+	if (fd >= 0 && flock(fd, LOCK_EX | LOCK_NB) != 0) {
+		fprintf(stderr, "voxdag: a runner is working on '%s'; not "
+			"removing it\n", p->dir);
+		return 1;
+	}
+	char cmd[1300];
+	snprintf(cmd, sizeof cmd, "rm -rf -- '%s'", p->dir);
+	return system(cmd) != 0;
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{"quiet", no_argument, NULL, 'q'},
+		{"help", no_argument, NULL, 'h'},
+		{NULL, 0, NULL, 0},
+	};
+	struct run_opts o = {0};
+	int c;
+	while ((c = getopt_long(argc, argv, "qh", longopts, NULL)) != -1) {
+		if (c == 'q') {
+			o.quiet = 1;
+		} else if (c == 'h') {
+			fputs(usage, stdout);
+			return 0;
+		} else {
+			fprintf(stderr, "Try 'voxdag --help'.\n");
+			return 2;
+		}
+	}
+	if (argc - optind != 2) {
+		fprintf(stderr, "voxdag: expected a COMMAND and a CONFIG\nTry "
+			"'voxdag --help'.\n");
+		return 2;
+	}
+	const char *cmd = argv[optind], *path = argv[optind + 1];
+	static const char *const cmds[] = {"run", "plan", "status", "report", "clean"};
+	int which = -1;
+	for (int i = 0; i < 5; i++)
+		if (!strcmp(cmd, cmds[i]))
+			which = i;
+	if (which < 0) {
+		fprintf(stderr, "voxdag: unknown command '%s' (run, plan, status, "
+			"report, clean)\nTry 'voxdag --help'.\n", cmd);
+		return 2;
+	}
+	struct config cfg;
+	if (config_load(&cfg, path))
+		return 1;
+	struct plan p = {.cfg = &cfg};
+	snprintf(p.dir, sizeof p.dir, "out/%s", cfg.name);
+	int rc;
+	switch (which) {
+	case 0:
+		rc = run_pipeline(&p, &o);
+		if (rc == 0 && !o.quiet)
+			fprintf(stderr, "voxdag: done; the report is %s/report.md\n",
+				p.dir);
+		break;
+	case 1:
+		rc = cmd_plan(&p);
+		break;
+	case 2:
+		rc = status_print(&p);
+		break;
+	case 3:
+		plan_expand(&p);
+		rc = report_write(&p);
+		if (!rc)
+			printf("%s/report.md\n", p.dir);
+		break;
+	default:
+		rc = cmd_clean(&p);
+		break;
+	}
+	plan_free(&p);
+	return rc;
+}

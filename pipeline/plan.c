@@ -1,0 +1,654 @@
+/* plan.c - expanding the job graph into processes, and resume keys.
+ *
+ * Layout of out/<name>/ (what each job writes):
+ *   <voxelize job>/            chunk-L<L0>-<cell>.svo, voxelize.stats.json
+ *   <dag job>/cells/           one .dag per cell (svo-to-dag per cell)
+ *   <dag job>/L<a>-<cell>.dag  merges up the reduction tree
+ *   <dag job>/root.dag         the whole scene
+ *   (the same for symmetry-merge jobs, with .sdag; .ssvdag is the
+ *   SymVox encoding that encode writes)
+ *   <encode job>/              the encodings and tables
+ *   logs/                      one log per job, runner.log
+ * Every output has a key beside it (<output>.key, or <dir>/.key): the
+ * stage version, the arguments and the checksums of the inputs. A job whose
+ * output exists with the same key is skipped.
+ */
+#include "pipeline.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
+void path_join(char *buf, size_t cap, const char *a, const char *b)
+{
+	if ((size_t)snprintf(buf, cap, "%s/%s", a, b) >= cap) {
+		fprintf(stderr, "voxdag: path too long: %s/%s\n", a, b);
+		exit(1);
+	}
+}
+
+int mkdir_p(const char *path)
+{
+	char tmp[1100];
+	snprintf(tmp, sizeof tmp, "%s", path);
+	for (char *p = tmp + 1; *p; p++)
+		if (*p == '/') {
+			*p = 0;
+			if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+				return -1;
+			*p = '/';
+		}
+	return mkdir(tmp, 0777) != 0 && errno != EEXIST ? -1 : 0;
+}
+
+/* The directory holding the stage executables: the runner's own. */
+static const char *bin_dir(void)
+{
+	static char dir[1024];
+	if (!*dir) {
+		ssize_t n = readlink("/proc/self/exe", dir, sizeof dir - 1);
+		if (n <= 0) {
+			strcpy(dir, "out/bin");
+		} else {
+			dir[n] = 0;
+			char *slash = strrchr(dir, '/');
+			if (slash)
+				*slash = 0;
+		}
+	}
+	return dir;
+}
+
+static char *xstrdup(const char *s)
+{
+	char *d = strdup(s);
+	if (!d) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	return d;
+}
+
+/* Appends a job; argv is a NULL-terminated list of strings (copied). */
+static struct job *add_job(struct plan *p, int decl, const char *id,
+			   const char *output, const char *key_path)
+{
+	for (int i = 0; i < p->n; i++)
+		if (!strcmp(p->jobs[i].id, id))
+			return NULL; /* already planned */
+	if (p->n == p->cap) {
+		p->cap = p->cap ? 2 * p->cap : 64;
+		p->jobs = realloc(p->jobs, (size_t)p->cap * sizeof *p->jobs);
+		if (!p->jobs) {
+			fprintf(stderr, "voxdag: out of memory\n");
+			exit(1);
+		}
+	}
+	struct job *j = &p->jobs[p->n++];
+	memset(j, 0, sizeof *j);
+	j->decl = decl;
+	snprintf(j->id, sizeof j->id, "%s", id);
+	snprintf(j->output, sizeof j->output, "%s", output);
+	snprintf(j->key_path, sizeof j->key_path, "%s", key_path);
+	return j;
+}
+
+static void set_argv(struct job *j, const char *prog, ...)
+{
+	const char *args[64];
+	int n = 0;
+	static char path[1100];
+	snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
+	args[n++] = path;
+	va_list ap;
+	va_start(ap, prog);
+	const char *a;
+	while ((a = va_arg(ap, const char *)) && n < 63)
+		args[n++] = a;
+	va_end(ap);
+	j->argv = calloc((size_t)n + 1, sizeof *j->argv);
+	for (int i = 0; i < n; i++)
+		j->argv[i] = xstrdup(args[i]);
+}
+
+/* Adds inputs (files whose content the key covers). */
+static void add_input(struct job *j, const char *path)
+{
+	j->inputs = realloc(j->inputs, (size_t)(j->ninputs + 1) * sizeof *j->inputs);
+	j->inputs[j->ninputs++] = xstrdup(path);
+}
+
+static void add_dep(struct job *j, int dep)
+{
+	j->deps = realloc(j->deps, (size_t)(j->ndeps + 1) * sizeof *j->deps);
+	j->deps[j->ndeps++] = dep;
+}
+
+static int find_job(const struct plan *p, const char *id)
+{
+	for (int i = 0; i < p->n; i++)
+		if (!strcmp(p->jobs[i].id, id))
+			return i;
+	return -1;
+}
+
+static int job_finished(const struct job *j)
+{
+	return j->state == JOB_DONE || j->state == JOB_SKIPPED;
+}
+
+/* ------------------------------------------------------------------ keys */
+
+/* A file's fingerprint: for chunk files the footer (size and whole-file
+ * checksum, already computed by the writer), otherwise a hash of all of it.
+ * Returns 0 if the file is missing. */
+static int fingerprint(const char *path, uint64_t *out)
+{
+	int fd = open(path, O_RDONLY);
+	if (fd < 0)
+		return 0;
+	struct stat st;
+	fstat(fd, &st);
+	uint8_t foot[24];
+	static const uint8_t footer_magic[8] = {0x89, 'V', 'X', 'D', 'E', 'N', 'D', '\n'};
+	if (st.st_size >= 24 && pread(fd, foot, 24, st.st_size - 24) == 24 &&
+	    memcmp(foot, footer_magic, 8) == 0) {
+		*out = XXH3_64bits(foot, 24);
+		close(fd);
+		return 1;
+	}
+	XXH3_state_t *s = XXH3_createState();
+	XXH3_64bits_reset(s);
+	static uint8_t buf[1 << 16];
+	ssize_t n;
+	while ((n = read(fd, buf, sizeof buf)) > 0)
+		XXH3_64bits_update(s, buf, (size_t)n);
+	*out = XXH3_64bits_digest(s);
+	XXH3_freeState(s);
+	close(fd);
+	return 1;
+}
+
+/* Arguments that do not change what a job writes are left out of its key,
+ * so changing resources does not rerun finished work. */
+static int volatile_arg(const char *a)
+{
+	return !strcmp(a, "--threads") || !strcmp(a, "--mem-budget") ||
+	       !strcmp(a, "-q") || !strcmp(a, "--stats");
+}
+
+int job_key(const struct job *j, char key[17])
+{
+	XXH3_state_t *s = XXH3_createState();
+	XXH3_64bits_reset(s);
+	XXH3_64bits_update(s, "voxdag-key-1 " VD_VERSION_STRING, 19);
+	/* argv[0] is an absolute path that may move: hash its name only */
+	const char *prog = strrchr(j->argv[0], '/');
+	prog = prog ? prog + 1 : j->argv[0];
+	XXH3_64bits_update(s, prog, strlen(prog) + 1);
+	for (int i = 1; j->argv[i]; i++) {
+		if (volatile_arg(j->argv[i])) {
+			if (strcmp(j->argv[i], "-q") != 0 && j->argv[i + 1])
+				i++;
+			continue;
+		}
+		XXH3_64bits_update(s, j->argv[i], strlen(j->argv[i]) + 1);
+	}
+	for (int i = 0; i < j->ninputs; i++) {
+		uint64_t fp;
+		if (!fingerprint(j->inputs[i], &fp)) {
+			XXH3_freeState(s);
+			return 1;
+		}
+		XXH3_64bits_update(s, &fp, sizeof fp);
+	}
+	snprintf(key, 17, "%016llx", (unsigned long long)XXH3_64bits_digest(s));
+	XXH3_freeState(s);
+	return 0;
+}
+
+int job_is_fresh(const struct job *j)
+{
+	char want[17], have[32] = {0};
+	struct stat st;
+	if (stat(j->output, &st) != 0 || job_key(j, want))
+		return 0;
+	FILE *f = fopen(j->key_path, "r");
+	if (!f)
+		return 0;
+	size_t n = fread(have, 1, sizeof have - 1, f);
+	fclose(f);
+	return n >= 16 && memcmp(have, want, 16) == 0;
+}
+
+/* -------------------------------------------------------------- expansion */
+
+static const struct job_decl *decl_of(const struct plan *p, int d)
+{
+	return &p->cfg->jobs_decl[d];
+}
+
+/* The voxelize job: one process over the whole mesh. */
+static void plan_voxelize(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	char out[1100], key[1200], lv[16], cl[16], budget[32], threads[16];
+	path_join(out, sizeof out, p->dir, decl_of(p, d)->name);
+	path_join(key, sizeof key, out, ".key");
+	struct job *j = add_job(p, d, decl_of(p, d)->name, out, key);
+	if (!j)
+		return;
+	snprintf(lv, sizeof lv, "%d", c->levels);
+	snprintf(cl, sizeof cl, "%d", c->chunk_level);
+	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	if (c->chunk_level >= 0)
+		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
+			 "--chunk-level", cl, "--mem-budget", budget, "--threads",
+			 threads, "-q", NULL);
+	else
+		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
+			 "--mem-budget", budget, "--threads", threads, "-q", NULL);
+	add_input(j, c->mesh);
+	j->mem_estimate = c->job_mem_budget;
+}
+
+static int cmp_str(const void *a, const void *b)
+{
+	return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* Sorted file names in `dir` ending in `ext`. */
+static int list_files(const char *dir, const char *ext, char ***out)
+{
+	DIR *d = opendir(dir);
+	if (!d)
+		return -1;
+	int n = 0, cap = 0;
+	char **names = NULL;
+	struct dirent *e;
+	size_t el = strlen(ext);
+	while ((e = readdir(d))) {
+		size_t len = strlen(e->d_name);
+		if (len <= el || strcmp(e->d_name + len - el, ext) ||
+		    strncmp(e->d_name, "chunk-", 6))
+			continue;
+		if (n == cap) {
+			cap = cap ? 2 * cap : 64;
+			names = realloc(names, (size_t)cap * sizeof *names);
+		}
+		names[n++] = xstrdup(e->d_name);
+	}
+	closedir(d);
+	qsort(names, (size_t)n, sizeof *names, cmp_str);
+	*out = names;
+	return n;
+}
+
+/* Memory a DAG stage needs for chunks holding `nodes` nodes: generous per
+ * node (masks, references, hash tables) plus a fixed base. Capped by the
+ * job budget, which the stage itself enforces. */
+static uint64_t dag_estimate(const struct config *c, uint64_t nodes)
+{
+	uint64_t e = (64ull << 20) + 96 * nodes;
+	return e < c->job_mem_budget ? e : c->job_mem_budget;
+}
+
+static uint64_t chunk_nodes(const char *path)
+{
+	struct vd_chunk_header h;
+	if (vd_chunk_read_header(path, &h))
+		return 0;
+	uint64_t n = 0;
+	/* the voxel count (last) is not a node */
+	for (uint32_t i = 0; i + 1 < h.level_count; i++)
+		n += h.level_nodes[i];
+	return n;
+}
+
+struct part {
+	char path[1100];
+	int job;           /* producing job */
+	int level;         /* chunk level of the part */
+	uint64_t cell;
+	uint64_t nodes;    /* upper bound */
+};
+
+/* Plans the merges of `parts` (all finished or planned) up to the root,
+ * grouping by the coarsest ancestor level at which every group fits the
+ * job budget. Returns the root's job index. */
+static int plan_merges(struct plan *p, int d, struct part *parts, int n,
+		       const char *ext)
+{
+	const struct config *c = p->cfg;
+	const char *prog = decl_of(p, d)->stage->type == STAGE_SVO_TO_DAG
+				   ? "svo-to-dag" : "symmetry-merge";
+	char dir[1100];
+	path_join(dir, sizeof dir, p->dir, decl_of(p, d)->name);
+	for (;;) {
+		int L0 = parts[0].level;
+		/* target level: the coarsest a whose groups all fit */
+		int a = 0;
+		for (; a < L0; a++) {
+			int fits = 1;
+			for (int i = 0; i < n && fits;) {
+				uint64_t anc = parts[i].cell >> 3 * (L0 - a), sum = 0;
+				int k = i;
+				while (k < n && parts[k].cell >> 3 * (L0 - a) == anc)
+					sum += parts[k++].nodes;
+				fits = dag_estimate(c, sum) < c->job_mem_budget;
+				i = k;
+			}
+			if (fits)
+				break;
+		}
+		if (a == L0)
+			a = L0 - 1; /* at least one level up: a tree of 8s */
+		if (a < 0)
+			a = 0;
+		int m = 0;
+		for (int i = 0; i < n;) {
+			uint64_t anc = L0 > a ? parts[i].cell >> 3 * (L0 - a) : parts[i].cell;
+			int k = i;
+			uint64_t sum = 0;
+			while (k < n && (L0 > a ? parts[k].cell >> 3 * (L0 - a) : parts[k].cell) == anc)
+				sum += parts[k++].nodes;
+			char out[1200], key[1300], id[200], to[16], budget[32],
+				threads[16], name[64];
+			if (a == 0) {
+				snprintf(out, sizeof out, "%s/root.%s", dir, ext);
+				snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
+			} else {
+				vd_chunk_file_name(name, sizeof name, a, anc, ext);
+				snprintf(out, sizeof out, "%s/%s", dir, name);
+				snprintf(id, sizeof id, "%s/L%d-%llx", decl_of(p, d)->name,
+					 a, (unsigned long long)anc);
+			}
+			snprintf(key, sizeof key, "%s.key", out);
+			snprintf(to, sizeof to, "%d", a);
+			snprintf(budget, sizeof budget, "%llu",
+				 (unsigned long long)c->job_mem_budget);
+			snprintf(threads, sizeof threads, "%d", c->threads);
+			int idx = find_job(p, id);
+			struct job *j = idx < 0 ? add_job(p, d, id, out, key) : NULL;
+			if (j) {
+				char path[1100];
+				snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
+				const char *tail[] = {"-o", out, "--to-level", to,
+						      "--mem-budget", budget,
+						      "--threads", threads, "-q"};
+				size_t nt = sizeof tail / sizeof *tail;
+				j->argv = calloc((size_t)(k - i) + nt + 3, sizeof *j->argv);
+				int z = 0;
+				j->argv[z++] = xstrdup(path);
+				j->argv[z++] = xstrdup("--merge");
+				for (int q = i; q < k; q++)
+					j->argv[z++] = xstrdup(parts[q].path);
+				for (size_t q = 0; q < nt; q++)
+					j->argv[z++] = xstrdup(tail[q]);
+				for (int q = i; q < k; q++) {
+					add_input(j, parts[q].path);
+					if (parts[q].job >= 0)
+						add_dep(j, parts[q].job);
+				}
+				j->mem_estimate = dag_estimate(c, sum);
+				idx = p->n - 1;
+			}
+			struct part np = {.job = idx, .level = a, .cell = anc,
+					  .nodes = sum};
+			snprintf(np.path, sizeof np.path, "%s", out);
+			parts[m++] = np;
+			i = k;
+		}
+		n = m;
+		if (a == 0)
+			break;
+	}
+	return parts[0].job;
+}
+
+/* The per-cell jobs of a DAG stage and its reduction tree, once the cells
+ * of its input are known. */
+static void plan_dag_stage(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int src = dd->needs[0];
+	const char *src_name = decl_of(p, src)->name;
+	int is_dag = dd->stage->type == STAGE_SVO_TO_DAG;
+	/* .sdag, not .ssvdag: that is the SymVox encoding's extension */
+	const char *ext = is_dag ? "dag" : "sdag";
+	const char *src_ext = is_dag ? ".svo" : ".dag";
+	char src_dir[1100], cells_dir[1200], dir[1100];
+	path_join(dir, sizeof dir, p->dir, dd->name);
+	snprintf(src_dir, sizeof src_dir, "%s/%s%s", p->dir, src_name,
+		 is_dag ? "" : "/cells");
+	/* the source's cells are known when all its cell jobs are finished */
+	int src_root = -1;
+	for (int i = 0; i < p->n; i++) {
+		if (p->jobs[i].decl != src)
+			continue;
+		if (is_dag && !job_finished(&p->jobs[i]))
+			return; /* voxelize not finished */
+		if (!is_dag && strstr(p->jobs[i].id, "/cells/") &&
+		    !job_finished(&p->jobs[i]))
+			return;
+		if (!is_dag && strstr(p->jobs[i].id, "/root"))
+			src_root = i;
+	}
+	if (!is_dag && src_root < 0)
+		return; /* the source's cells are not planned yet */
+	/* voxelize replaces its directory, so its listing is exact; a DAG
+	 * stage's cells are the jobs planned for it (a listing could hold
+	 * cells of an earlier configuration) */
+	char **names = NULL;
+	int n = 0;
+	if (is_dag) {
+		n = list_files(src_dir, src_ext, &names);
+		if (n < 0)
+			return;
+	} else {
+		names = calloc((size_t)p->n + 1, sizeof *names);
+		for (int i = 0; i < p->n; i++) {
+			const char *id = p->jobs[i].id, *slash = strrchr(id, '/');
+			if (p->jobs[i].decl == src && strstr(id, "/cells/")) {
+				char nm[256];
+				snprintf(nm, sizeof nm, "%s%s", slash + 1, src_ext);
+				names[n++] = xstrdup(nm);
+			}
+		}
+	}
+	path_join(cells_dir, sizeof cells_dir, dir, "cells");
+	struct part *parts = calloc((size_t)(n ? n : 1), sizeof *parts);
+	int src_job = -1;
+	for (int i = 0; i < p->n; i++)
+		if (p->jobs[i].decl == src && (is_dag || strstr(p->jobs[i].id, "/cells/")))
+			src_job = i;
+	for (int i = 0; i < n; i++) {
+		char in[1400], out[1400], key[1500], id[300], budget[32], threads[16];
+		snprintf(in, sizeof in, "%s/%s", src_dir, names[i]);
+		snprintf(out, sizeof out, "%s/%.*s.%s", cells_dir,
+			 (int)(strlen(names[i]) - strlen(src_ext)), names[i], ext);
+		snprintf(key, sizeof key, "%s.key", out);
+		snprintf(id, sizeof id, "%s/cells/%.*s", dd->name,
+			 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
+		snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+		snprintf(threads, sizeof threads, "%d", c->threads);
+		struct vd_chunk_header h;
+		int ok = vd_chunk_read_header(in, &h) == VD_OK;
+		uint64_t nodes = chunk_nodes(in);
+		struct job *j = add_job(p, d, id, out, key);
+		int idx = find_job(p, id);
+		if (j) {
+			mkdir_p(cells_dir);
+			set_argv(j, is_dag ? "svo-to-dag" : "symmetry-merge", in, "-o",
+				 out, "--mem-budget", budget, "--threads", threads,
+				 "-q", NULL);
+			add_input(j, in);
+			if (is_dag) {
+				add_dep(j, src_job);
+			} else {
+				char sid[400];
+				snprintf(sid, sizeof sid, "%s/cells/%.*s", decl_of(p, src)->name,
+					 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
+				int si = find_job(p, sid);
+				if (si >= 0)
+					add_dep(j, si);
+			}
+			j->mem_estimate = dag_estimate(c, nodes);
+		}
+		parts[i] = (struct part){.job = idx, .level = ok ? (int)h.chunk_level : 0,
+					 .cell = ok ? h.cell_morton : 0, .nodes = nodes};
+		snprintf(parts[i].path, sizeof parts[i].path, "%s", out);
+		free(names[i]);
+	}
+	free(names);
+	if (n > 0) {
+		/* a single cell at level 0 is already the root: merge anyway so
+		 * the root always has the same name (a one-part merge is cheap
+		 * and checks the part) */
+		plan_merges(p, d, parts, n, ext);
+	}
+	free(parts);
+}
+
+static int stage_root_job(const struct plan *p, int d)
+{
+	char id[200];
+	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
+	return find_job(p, id);
+}
+
+static void plan_encode(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int dag = -1, ssv = -1;
+	for (int k = 0; k < dd->nneeds; k++) {
+		int n = dd->needs[k];
+		if (decl_of(p, n)->stage->type == STAGE_SVO_TO_DAG)
+			dag = stage_root_job(p, n);
+		else
+			ssv = stage_root_job(p, n);
+	}
+	if (dag < 0 || ssv < 0)
+		return;
+	char out[1100], key[1200], budget[32], minl[16], threads[16];
+	path_join(out, sizeof out, p->dir, dd->name);
+	path_join(key, sizeof key, out, ".key");
+	struct job *j = add_job(p, d, dd->name, out, key);
+	if (!j)
+		return;
+	int min = c->levels;
+	for (int i = 0; i < c->nres; i++)
+		min = c->resolutions[i] < min ? c->resolutions[i] : min;
+	snprintf(minl, sizeof minl, "%d", min);
+	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	const struct job *jd = &p->jobs[dag], *js = &p->jobs[ssv];
+	const char *head[] = {jd->output, js->output, "-o", out, "--name",
+			      c->name, "--min-level", minl, "--mem-budget",
+			      budget, "--threads", threads, "-q"};
+	size_t nh = sizeof head / sizeof *head;
+	/* Table 1's seconds: the statistics of every DAG job (not part of
+	 * the key: timings are not content) */
+	int nstats = 0;
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		nstats += t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE;
+	}
+	j->argv = calloc(nh + 2 * (size_t)nstats + 2, sizeof *j->argv);
+	char path[1100];
+	snprintf(path, sizeof path, "%s/encode", bin_dir());
+	int z = 0;
+	j->argv[z++] = xstrdup(path);
+	for (size_t q = 0; q < nh; q++)
+		j->argv[z++] = xstrdup(head[q]);
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		if (t != STAGE_SVO_TO_DAG && t != STAGE_SYMMETRY_MERGE)
+			continue;
+		char sp[1200];
+		snprintf(sp, sizeof sp, "%s.stats.json", p->jobs[i].output);
+		j->argv[z++] = xstrdup("--stats");
+		j->argv[z++] = xstrdup(sp);
+	}
+	add_input(j, jd->output);
+	add_input(j, js->output);
+	add_dep(j, dag);
+	add_dep(j, ssv);
+	j->mem_estimate = c->job_mem_budget;
+}
+
+int plan_expand(struct plan *p)
+{
+	const struct config *c = p->cfg;
+	snprintf(p->dir, sizeof p->dir, "out/%s", c->name);
+	int before;
+	do {
+		before = p->n;
+		for (int d = 0; d < c->njobs; d++) {
+			switch (c->jobs_decl[d].stage->type) {
+			case STAGE_VOXELIZE:
+				plan_voxelize(p, d);
+				break;
+			case STAGE_SVO_TO_DAG:
+			case STAGE_SYMMETRY_MERGE:
+				plan_dag_stage(p, d);
+				break;
+			case STAGE_ENCODE:
+				plan_encode(p, d);
+				break;
+			default:
+				break;
+			}
+		}
+		/* newly planned jobs that a previous run finished count as
+		 * finished now, which may reveal further jobs; only once
+		 * their own inputs are final (dependencies come first) */
+		for (int i = before; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			int ready = j->state == JOB_PENDING;
+			for (int k = 0; k < j->ndeps && ready; k++)
+				ready = job_finished(&p->jobs[j->deps[k]]);
+			if (ready && job_is_fresh(j))
+				j->state = JOB_SKIPPED;
+		}
+	} while (p->n != before);
+	/* the graph is whole when every declared job has its final job */
+	p->expanded = 1;
+	for (int d = 0; d < c->njobs; d++) {
+		char id[200];
+		snprintf(id, sizeof id, "%s%s", c->jobs_decl[d].name,
+			 c->jobs_decl[d].stage->type == STAGE_SVO_TO_DAG ||
+			 c->jobs_decl[d].stage->type == STAGE_SYMMETRY_MERGE
+				 ? "/root" : "");
+		if (find_job(p, id) < 0)
+			p->expanded = 0;
+	}
+	return 0;
+}
+
+void plan_free(struct plan *p)
+{
+	for (int i = 0; i < p->n; i++) {
+		struct job *j = &p->jobs[i];
+		for (int k = 0; j->argv && j->argv[k]; k++)
+			free(j->argv[k]);
+		free(j->argv);
+		for (int k = 0; k < j->ninputs; k++)
+			free(j->inputs[k]);
+		free(j->inputs);
+		free(j->deps);
+	}
+	free(p->jobs);
+	memset(p, 0, sizeof *p);
+}

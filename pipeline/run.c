@@ -1,0 +1,373 @@
+/* run.c - running the planned jobs: parallel within the job and memory
+ * limits, skipping what is fresh, one log per job, progress, and the
+ * failure report. */
+#include "pipeline.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+static FILE *runner_log;
+
+static void log_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static void log_line(const char *fmt, ...)
+{
+	if (!runner_log)
+		return;
+	time_t now = time(NULL);
+	char ts[32];
+	strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", localtime(&now));
+	fprintf(runner_log, "%s ", ts);
+	va_list ap;
+	va_start(ap, fmt);
+	vfprintf(runner_log, fmt, ap);
+	va_end(ap);
+	fputc('\n', runner_log);
+	fflush(runner_log);
+}
+
+static void log_path(const struct plan *p, const struct job *j, char *buf,
+		     size_t cap)
+{
+	char id[200];
+	snprintf(id, sizeof id, "%s", j->id);
+	for (char *c = id; *c; c++)
+		if (*c == '/')
+			*c = '.';
+	snprintf(buf, cap, "%s/logs/%s.log", p->dir, id);
+}
+
+/* Takes out/<name>/.lock; a second runner on the same directory refuses. */
+static int take_lock(const struct plan *p)
+{
+	char path[1200];
+	snprintf(path, sizeof path, "%s/.lock", p->dir);
+	int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+	if (fd < 0) {
+		fprintf(stderr, "voxdag: cannot create '%s': %s\n", path,
+			strerror(errno));
+		return -1;
+	}
+	if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+		char pid[32] = "?";
+		ssize_t n = read(fd, pid, sizeof pid - 1);
+		pid[n > 0 ? n : 1] = 0;
+		pid[strcspn(pid, "\n")] = 0;
+		fprintf(stderr, "voxdag: another runner (pid %s) is working on "
+			"'%s'; wait for it or stop it first\n", pid, p->dir);
+		close(fd);
+		return -1;
+	}
+	if (ftruncate(fd, 0) == 0)
+		dprintf(fd, "%ld\n", (long)getpid());
+	return fd; /* held until the process exits */
+}
+
+static int write_key(const struct job *j)
+{
+	char key[17], tmp[1300];
+	if (job_key(j, key))
+		return -1;
+	snprintf(tmp, sizeof tmp, "%s.tmp", j->key_path);
+	FILE *f = fopen(tmp, "w");
+	if (!f)
+		return -1;
+	fprintf(f, "%s\n", key);
+	if (fflush(f) != 0 || fsync(fileno(f)) != 0) {
+		fclose(f);
+		return -1;
+	}
+	if (fclose(f) != 0)
+		return -1;
+	return rename(tmp, j->key_path);
+}
+
+static void print_tail(const char *path, int lines)
+{
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return;
+	static char buf[64][512];
+	int n = 0;
+	while (fgets(buf[n % 64], sizeof buf[0], f))
+		n++;
+	fclose(f);
+	int from = n > lines ? n - lines : 0;
+	for (int i = from; i < n; i++)
+		fprintf(stderr, "  | %s", buf[i % 64]);
+}
+
+static void print_command(FILE *f, const struct job *j)
+{
+	for (int i = 0; j->argv[i]; i++)
+		fprintf(f, "%s%s", i ? " " : "", j->argv[i]);
+	fputc('\n', f);
+}
+
+static pid_t start_job(const struct plan *p, struct job *j)
+{
+	char lp[1300];
+	log_path(p, j, lp, sizeof lp);
+	/* the output's directory */
+	char dir[1100];
+	snprintf(dir, sizeof dir, "%s", j->output);
+	char *slash = strrchr(dir, '/');
+	if (slash && strcmp(j->key_path + strlen(j->key_path) - 5, "/.key") != 0) {
+		*slash = 0;
+		mkdir_p(dir);
+	}
+	unlink(j->key_path); /* the output is being replaced */
+	pid_t pid = fork();
+	if (pid < 0)
+		return -1;
+	if (pid == 0) {
+		/* die with the runner: a killed runner leaves no orphans */
+		prctl(PR_SET_PDEATHSIG, SIGKILL);
+		int fd = open(lp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
+		if (fd >= 0) {
+			dprintf(fd, "$ ");
+			for (int i = 0; j->argv[i]; i++)
+				dprintf(fd, "%s%s", i ? " " : "", j->argv[i]);
+			dprintf(fd, "\n");
+			dup2(fd, 1);
+			dup2(fd, 2);
+			close(fd);
+		}
+		int null = open("/dev/null", O_RDONLY);
+		if (null >= 0)
+			dup2(null, 0);
+		execv(j->argv[0], j->argv);
+		fprintf(stderr, "voxdag: cannot run '%s': %s\n", j->argv[0],
+			strerror(errno));
+		_exit(127);
+	}
+	return pid;
+}
+
+static int deps_state(const struct plan *p, const struct job *j)
+{
+	/* 0 ready, 1 waiting, 2 blocked */
+	int waiting = 0;
+	for (int k = 0; k < j->ndeps; k++) {
+		enum job_state s = p->jobs[j->deps[k]].state;
+		if (s == JOB_FAILED || s == JOB_BLOCKED)
+			return 2;
+		if (s != JOB_DONE && s != JOB_SKIPPED)
+			waiting = 1;
+	}
+	return waiting;
+}
+
+static void fmt_time(char *buf, size_t cap, double s)
+{
+	if (s < 0 || s > 1e7)
+		snprintf(buf, cap, "?");
+	else
+		snprintf(buf, cap, "%d:%02d:%02d", (int)s / 3600, (int)s / 60 % 60,
+			 (int)s % 60);
+}
+
+static uint64_t job_voxels(const struct job *j)
+{
+	/* voxels handled: the level-L count of the first chunk input */
+	for (int i = 0; i < j->ninputs; i++) {
+		struct vd_chunk_header h;
+		if (vd_chunk_read_header(j->inputs[i], &h) == VD_OK &&
+		    h.level_count > 0)
+			return h.level_nodes[h.level_count - 1];
+	}
+	return 0;
+}
+
+static void progress(const struct plan *p, double t0, int tty, int final)
+{
+	int done = 0, running = 0, failed = 0;
+	uint64_t vox = 0;
+	for (int i = 0; i < p->n; i++) {
+		const struct job *j = &p->jobs[i];
+		done += j->state == JOB_DONE || j->state == JOB_SKIPPED;
+		running += j->state == JOB_RUNNING;
+		failed += j->state == JOB_FAILED || j->state == JOB_BLOCKED;
+		if (j->state == JOB_DONE)
+			vox += j->voxels;
+	}
+	double el = vd_seconds() - t0;
+	char e[32], eta[32], fails[48] = "";
+	fmt_time(e, sizeof e, el);
+	int left = p->n - done - failed;
+	fmt_time(eta, sizeof eta, done && p->expanded ? el / done * left : -1);
+	if (failed)
+		snprintf(fails, sizeof fails, ", %d failed or blocked", failed);
+	fprintf(stderr, "%svoxdag: %d/%d jobs done, %d running%s, %.1f Mvoxels/s, "
+		"elapsed %s, ETA %s%s", tty ? "\r\033[K" : "", done, p->n,
+		running, fails, el > 0 ? (double)vox / el / 1e6 : 0.0, e, eta,
+		tty && !final ? "" : "\n");
+}
+
+int run_pipeline(struct plan *p, const struct run_opts *o)
+{
+	const struct config *c = p->cfg;
+	char logs[1200];
+	snprintf(logs, sizeof logs, "%s/logs", p->dir);
+	if (mkdir_p(logs) != 0) {
+		fprintf(stderr, "voxdag: cannot create '%s': %s\n", logs,
+			strerror(errno));
+		return 1;
+	}
+	if (take_lock(p) < 0)
+		return 1;
+	char rl[1300];
+	snprintf(rl, sizeof rl, "%s/runner.log", logs);
+	runner_log = fopen(rl, "a");
+	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	plan_expand(p);
+	int tty = isatty(2) && !o->quiet;
+	double t0 = vd_seconds(), last = 0;
+	uint64_t mem_used = 0;
+	int running = 0, failures = 0;
+	for (;;) {
+		/* start what is ready */
+		for (int i = 0; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			if (j->state == JOB_SKIPPED && !j->logged) {
+				/* found fresh when planned */
+				log_line("skipped %s (output is fresh)", j->id);
+				j->logged = 1;
+			}
+			if (j->state != JOB_PENDING)
+				continue;
+			int ds = deps_state(p, j);
+			if (ds == 2) {
+				j->state = JOB_BLOCKED;
+				log_line("blocked %s", j->id);
+				continue;
+			}
+			if (ds == 1)
+				continue;
+			if (job_is_fresh(j)) {
+				j->state = JOB_SKIPPED;
+				j->logged = 1;
+				log_line("skipped %s (output is fresh)", j->id);
+				continue;
+			}
+			if (running >= c->jobs ||
+			    (running > 0 && mem_used + j->mem_estimate > c->mem_budget))
+				continue;
+			j->pid = start_job(p, j);
+			if (j->pid < 0) {
+				fprintf(stderr, "voxdag: cannot start '%s': %s\n",
+					j->id, strerror(errno));
+				j->state = JOB_FAILED;
+				failures++;
+				continue;
+			}
+			j->state = JOB_RUNNING;
+			j->start = vd_seconds();
+			mem_used += j->mem_estimate;
+			running++;
+			log_line("started %s (estimate %llu MiB)", j->id,
+				 (unsigned long long)(j->mem_estimate >> 20));
+		}
+		if (running == 0) {
+			int before = p->n;
+			plan_expand(p);
+			if (p->n != before)
+				continue;
+			int pending = 0;
+			for (int i = 0; i < p->n; i++)
+				pending += p->jobs[i].state == JOB_PENDING;
+			if (!pending)
+				break;
+			/* pending jobs whose dependencies can never finish */
+			for (int i = 0; i < p->n; i++)
+				if (p->jobs[i].state == JOB_PENDING)
+					p->jobs[i].state = JOB_BLOCKED;
+			break;
+		}
+		/* wait for a job, showing progress meanwhile */
+		int status;
+		struct rusage ru;
+		pid_t pid = wait4(-1, &status, WNOHANG, &ru);
+		if (pid == 0) {
+			struct timespec ts = {0, 50 * 1000 * 1000};
+			nanosleep(&ts, NULL);
+			double now = vd_seconds();
+			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
+				progress(p, t0, tty, 0);
+				last = now;
+			}
+			continue;
+		}
+		if (pid < 0) {
+			if (errno == EINTR)
+				continue;
+			break;
+		}
+		for (int i = 0; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			if (j->state != JOB_RUNNING || j->pid != pid)
+				continue;
+			running--;
+			mem_used -= j->mem_estimate;
+			j->seconds = vd_seconds() - j->start;
+			j->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
+			int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+			if (ok && write_key(j) != 0)
+				ok = 0;
+			if (ok) {
+				j->state = JOB_DONE;
+				j->voxels = job_voxels(j);
+				log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
+					 j->id, j->seconds,
+					 (unsigned long long)(j->peak_rss >> 20),
+					 (unsigned long long)(j->mem_estimate >> 20));
+				plan_expand(p);
+			} else {
+				j->state = JOB_FAILED;
+				failures++;
+				char lp[1300];
+				log_path(p, j, lp, sizeof lp);
+				log_line("failed %s", j->id);
+				if (tty)
+					fputs("\r\033[K", stderr);
+				if (WIFSIGNALED(status))
+					fprintf(stderr, "voxdag: job %s killed by signal %d\n",
+						j->id, WTERMSIG(status));
+				else
+					fprintf(stderr, "voxdag: job %s failed (exit %d)\n",
+						j->id, WEXITSTATUS(status));
+				fprintf(stderr, "  command: ");
+				print_command(stderr, j);
+				fprintf(stderr, "  log: %s\n", lp);
+				print_tail(lp, 8);
+			}
+		}
+	}
+	if (!o->quiet)
+		progress(p, t0, tty, 1);
+	int blocked = 0;
+	for (int i = 0; i < p->n; i++)
+		blocked += p->jobs[i].state == JOB_BLOCKED;
+	log_line("finished: %d failed, %d blocked, %.1fs", failures, blocked,
+		 vd_seconds() - t0);
+	if (failures || blocked) {
+		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
+			"them; rerun 'voxdag run %s' after fixing the cause "
+			"(finished jobs are kept)\n", failures,
+			failures == 1 ? "" : "s", blocked, c->path);
+		return 1;
+	}
+	if (report_write(p) != 0)
+		return 1;
+	return 0;
+}

@@ -1,0 +1,241 @@
+/* dag-verify - checks that a DAG or SSVDAG chunk holds exactly the voxels
+ * of SVO chunks: silent on success, like a quick checker should be. */
+#include "voxdag.h"
+
+#include <getopt.h>
+#include <inttypes.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char usage[] =
+	"usage: dag-verify DAG SVO... [options]\n"
+	"\n"
+	"Expands a DAG or SSVDAG chunk, applying the reflections, and compares\n"
+	"its voxels with the union of the SVO chunks, which must lie inside the\n"
+	"DAG's cell and not overlap (cells without a chunk are empty). DAG may\n"
+	"also be an encoded scene (.svdag, .ussvdag, .esvdag, .ssvdag), decoded\n"
+	"and compared with the SVO chunks of the whole grid. Prints nothing\n"
+	"when they are equal; otherwise the number of differing voxels and the\n"
+	"first one in Morton order.\n"
+	"\n"
+	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB)\n"
+	"  -q, --quiet             no message on a difference (exit status only)\n"
+	"  -h, --help              this text\n"
+	"\n"
+	"Exit status: 0 equal, 1 different or failure (bad input, I/O, budget),\n"
+	"2 usage.\n";
+
+static int usage_error(const char *fmt, const char *arg)
+{
+	fprintf(stderr, "dag-verify: ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, "\nTry 'dag-verify --help'.\n");
+	return 2;
+}
+
+static int fail(int err, const char *what, const char *path)
+{
+	const char *d = vd_error_detail();
+	fprintf(stderr, "dag-verify: %s '%s': %s%s%s\n", what, path,
+		vd_strerror(err), *d ? ": " : "", d);
+	return 1;
+}
+
+/* Walks the decoded bricks of an encoding against the sorted bricks of the
+ * SVO chunks, counting differing voxels. */
+struct enc_cmp {
+	const uint64_t *keys, *masks;
+	size_t n, at;
+	uint64_t diff, first;
+	int first_in_enc, have_first;
+};
+
+static void note(struct enc_cmp *c, uint64_t key, uint64_t a, uint64_t b)
+{
+	uint64_t x = a ^ b;
+	if (!x)
+		return;
+	c->diff += (uint64_t)__builtin_popcountll(x);
+	if (!c->have_first) {
+		int bit = __builtin_ctzll(x);
+		c->first = key << 6 | (uint64_t)bit;
+		c->first_in_enc = (int)(a >> bit & 1);
+		c->have_first = 1;
+	}
+}
+
+static int enc_brick(void *ctx, uint64_t key, uint64_t brick)
+{
+	struct enc_cmp *c = ctx;
+	while (c->at < c->n && c->keys[c->at] < key) {
+		note(c, c->keys[c->at], 0, c->masks[c->at]);
+		c->at++;
+	}
+	if (c->at < c->n && c->keys[c->at] == key)
+		note(c, key, brick, c->masks[c->at++]);
+	else
+		note(c, key, brick, 0);
+	return 0;
+}
+
+static int cmp_cell(const void *a, const void *b)
+{
+	const struct vd_svo *x = a, *y = b;
+	return (x->cell_morton > y->cell_morton) - (x->cell_morton < y->cell_morton);
+}
+
+/* Compares an encoded scene with the SVO chunks (all of one chunk level). */
+static int verify_encoding(const char *path, int format, struct vd_svo *svos,
+			   size_t n, int quiet)
+{
+	struct vd_enc e;
+	memset(&e, 0, sizeof e);
+	int err = vd_enc_load(&e, path, format);
+	if (err)
+		return fail(err, "cannot read", path);
+	qsort(svos, n, sizeof *svos, cmp_cell);
+	size_t total = 0;
+	for (size_t i = 0; i < n; i++)
+		total += svos[i].count;
+	uint64_t *keys = malloc((total ? total : 1) * 8),
+		 *masks = malloc((total ? total : 1) * 8);
+	if (!keys || !masks) {
+		free(keys);
+		free(masks);
+		vd_enc_release(&e);
+		fprintf(stderr, "dag-verify: out of memory\n");
+		return 1;
+	}
+	size_t k = 0;
+	for (size_t i = 0; i < n; i++) {
+		memcpy(keys + k, svos[i].keys, 8 * svos[i].count);
+		memcpy(masks + k, svos[i].masks, 8 * svos[i].count);
+		k += svos[i].count;
+	}
+	struct enc_cmp c = {.keys = keys, .masks = masks, .n = total};
+	vd_enc_expand(&e, enc_brick, &c);
+	while (c.at < c.n) {
+		note(&c, keys[c.at], 0, masks[c.at]);
+		c.at++;
+	}
+	free(keys);
+	free(masks);
+	vd_enc_release(&e);
+	if (!c.diff)
+		return 0;
+	/* brick key << 6 | bit: the voxel is brick*4 + local coordinates */
+	uint32_t bx, by, bz, lx, ly, lz;
+	vd_morton3_decode(c.first >> 6, &bx, &by, &bz);
+	vd_morton3_decode(c.first & 63, &lx, &ly, &lz);
+	if (!quiet)
+		fprintf(stderr, "dag-verify: '%s' differs from the SVO chunks in "
+			"%" PRIu64 " voxels; first at voxel (%u, %u, %u), set in "
+			"the encoding only: %s\n", path, c.diff, 4 * bx + lx,
+			4 * by + ly, 4 * bz + lz, c.first_in_enc ? "yes" : "no");
+	return 1;
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{"mem-budget", required_argument, NULL, 'm'},
+		{"quiet", no_argument, NULL, 'q'},
+		{"help", no_argument, NULL, 'h'},
+		{NULL, 0, NULL, 0},
+	};
+	uint64_t budget = 2ull << 30;
+	int c, quiet = 0;
+	while ((c = getopt_long(argc, argv, "m:qh", longopts, NULL)) != -1) {
+		switch (c) {
+		case 'm':
+			if (vd_parse_size(optarg, &budget) || budget == 0)
+				return usage_error("--mem-budget '%s' is not a "
+						   "size (e.g. 512M, 2GiB)", optarg);
+			break;
+		case 'q':
+			quiet = 1;
+			break;
+		case 'h':
+			fputs(usage, stdout);
+			return 0;
+		default:
+			fprintf(stderr, "Try 'dag-verify --help'.\n");
+			return 2;
+		}
+	}
+	if (argc - optind < 2)
+		return usage_error("%s", "needs a DAG chunk and at least one "
+				   "SVO chunk");
+	const char *dag_path = argv[optind];
+	size_t n = (size_t)(argc - optind - 1);
+	/* a chunk file is known by its magic, whatever its name; only other
+	 * files are taken as encodings by their extension */
+	struct vd_chunk_header ch_head;
+	int format = vd_chunk_read_header(dag_path, &ch_head) == VD_ERR_NOT_CHUNK
+			     ? vd_enc_format_from_path(dag_path) : -1;
+	struct vd_dag dag;
+	memset(&dag, 0, sizeof dag);
+	int err = format >= 0 ? VD_OK
+			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY);
+	if (err) return fail(err, "cannot read", dag_path);
+	uint64_t used = format >= 0 ? 0 : vd_dag_memory_bytes(&dag);
+	struct vd_svo *svos = calloc(n, sizeof *svos);
+	const struct vd_svo **sp = calloc(n, sizeof *sp);
+	int rc = 0;
+	if (!svos || !sp) {
+		fprintf(stderr, "dag-verify: out of memory\n");
+		rc = 1;
+	}
+	for (size_t i = 0; i < n && !rc; i++) {
+		const char *path = argv[optind + 1 + i];
+		struct vd_chunk *ch;
+		if ((err = vd_chunk_open(&ch, path, VD_KIND_SVO))) {
+			rc = fail(err, "cannot read", path);
+			break;
+		}
+		const struct vd_chunk_header *h = vd_chunk_header(ch);
+		uint64_t bricks = h->level_count >= 3 ?
+			h->level_nodes[h->level_count - 3] : 1;
+		used += 16 * bricks;
+		if (used > budget) {
+			vd_chunk_free(ch);
+			fprintf(stderr, "dag-verify: cannot load '%s': memory budget"
+				" too small: the chunks need about %" PRIu64 " MiB, "
+				"budget --mem-budget %" PRIu64 " MiB\n", path,
+				used >> 20, budget >> 20);
+			rc = 1;
+			break;
+		}
+		err = vd_svo_from_chunk(&svos[i], ch);
+		vd_chunk_free(ch);
+		if (err) {
+			rc = fail(err, "cannot read", path);
+			break;
+		}
+		sp[i] = &svos[i];
+	}
+	if (!rc && format >= 0) {
+		rc = verify_encoding(dag_path, format, svos, n, quiet);
+	} else if (!rc) {
+		struct vd_dag_diff diff;
+		err = vd_dag_compare_svo(&dag, sp, n, &diff);
+		if (err) {
+			rc = fail(err, "cannot compare", dag_path);
+		} else if (diff.differing_voxels) {
+			uint32_t x, y, z;
+			vd_morton3_decode(diff.first_voxel_morton, &x, &y, &z);
+			if (!quiet)
+				fprintf(stderr, "dag-verify: '%s' differs from the "
+					"SVO chunks in %" PRIu64 " voxels; first at "
+					"voxel (%u, %u, %u), set in the %s only\n",
+					dag_path, diff.differing_voxels, x, y, z,
+					diff.first_in_dag ? "DAG" : "SVO chunks");
+			rc = 1;
+		}
+	}
+	for (size_t i = 0; i < n; i++) vd_svo_release(&svos[i]);
+	free(svos);
+	free(sp);
+	vd_dag_release(&dag);
+	return rc;
+}

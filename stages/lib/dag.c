@@ -1,0 +1,1776 @@
+/* dag.c - minimal SVDAG / SSVDAG construction by bottom-up reduction
+ * (Kämpe et al. 2013; SSVDAG paper §3, §4.1, §4.2), the merge of sibling
+ * chunks, expansion back to bricks, validation.
+ *
+ * One engine does every build. It walks the levels bottom-up; on each level
+ * it gathers the nodes of that level from three sources, canonicalizes each
+ * (its key under the best reflection for an SSVDAG), and deduplicates keys
+ * in a hash table, numbering distinct nodes in the order first met:
+ *  - the nodes of the input parts (merge mode), their children renamed
+ *    through the part's map of the level below;
+ *  - the frontier: the occupied cells of the level below in Morton order
+ *    (SVO bricks, or roots of parts and parents built so far), grouped by
+ *    parent into new nodes;
+ *  - roots of parts whose cell is on this level join the frontier.
+ * Level L-2 works on brick values (uint64), which are deduplicated directly;
+ * level L-1 (2x2x2 masks) is read off the distinct bricks. Everything is
+ * serial and deterministic: the same input gives the same node order.
+ */
+#include "dag_internal.h"
+
+#include <inttypes.h>
+#include <stdlib.h>
+#include <stdio.h>
+#include <string.h>
+
+#define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
+
+static int grow(void **p, uint64_t need, size_t elem)
+{
+	void *q = realloc(*p, need ? (size_t)need * elem : 1);
+	if (!q) return NOMEM();
+	*p = q;
+	return VD_OK;
+}
+
+/* Next capacity for `need` elements starting from `cap`. */
+static uint64_t next_cap(uint64_t cap, uint64_t need)
+{
+	if (cap < 64) cap = 64;
+	while (cap < need) cap += cap / 2;
+	return cap;
+}
+
+static inline uint64_t mix64(uint64_t x)
+{
+	x ^= x >> 33;
+	x *= 0xff51afd7ed558ccdULL;
+	x ^= x >> 33;
+	x *= 0xc4ceb9fe1a85ec53ULL;
+	x ^= x >> 33;
+	return x;
+}
+
+static inline uint64_t key_hash(const uint64_t *key, int k)
+{
+	uint64_t h = mix64(key[0] + 0x9e3779b97f4a7c15ULL);
+	for (int i = 1; i <= k; i++)
+		h = mix64(h ^ (key[i] + (uint64_t)i * 0x9e3779b97f4a7c15ULL));
+	return h;
+}
+
+/* Hash slots: 0 empty, else (hash & ~0xffffffff) | (id + 1). The slot
+ * index is taken from the same high 32 bits, so a table doubles without
+ * recomputing any hash; hence at most 2^32 slots and, at half load, 2^31
+ * distinct nodes per level. */
+#define SLOT_TAG(h) ((h) & 0xffffffff00000000ULL)
+#define SLOT_INDEX(h, mask) (((h) >> 32) & (mask))
+#define MAX_LEVEL_NODES 0x7fffffffULL
+
+/* ----------------------------------------------------------- brick sets */
+
+struct bset {
+	uint64_t n, cap;
+	uint64_t *v;    /* distinct brick values (canonical for an SSVDAG) */
+	uint8_t *inv;   /* their invariance sets */
+	uint64_t *slot; /* hash table */
+	uint64_t scap;  /* slots, a power of two */
+};
+
+/* A table for about `inputs` insertions. Few of them are distinct in a DAG
+ * (a tenth to a hundredth on scanned surfaces), and a table that stays in
+ * cache is what makes deduplication fast, so it starts small and doubles
+ * at half load. */
+static int table_init(uint64_t **slot, uint64_t *scap, uint64_t inputs)
+{
+	uint64_t c = 1024;
+	while (c < inputs / 8) c *= 2;
+	*slot = calloc((size_t)c, sizeof(uint64_t));
+	if (!*slot) return NOMEM();
+	*scap = c;
+	return VD_OK;
+}
+
+static int table_rehash(uint64_t **slot, uint64_t *scap)
+{
+	uint64_t nc = *scap * 2, *old = *slot;
+	uint64_t *ns = calloc((size_t)nc, sizeof(uint64_t));
+	if (!ns) return NOMEM();
+	for (uint64_t i = 0; i < *scap; i++) {
+		if (!old[i]) continue;
+		uint64_t s = SLOT_INDEX(old[i], nc - 1);
+		while (ns[s]) s = (s + 1) & (nc - 1);
+		ns[s] = old[i];
+	}
+	free(old);
+	*slot = ns;
+	*scap = nc;
+	return VD_OK;
+}
+
+/* Finds or adds brick v (with invariance set inv); *id its index. */
+static inline int bset_insert(struct bset *b, uint64_t v, uint8_t inv,
+			      uint32_t *id)
+{
+	uint64_t h = mix64(v), mask = b->scap - 1, s = SLOT_INDEX(h, mask);
+	for (;; s = (s + 1) & mask) {
+		uint64_t e = b->slot[s];
+		if (!e) break;
+		if (SLOT_TAG(e) == SLOT_TAG(h)) {
+			uint32_t i = (uint32_t)(e & 0xffffffff) - 1;
+			if (b->v[i] == v) {
+				*id = i;
+				return VD_OK;
+			}
+		}
+	}
+	if (b->n >= MAX_LEVEL_NODES)
+		return vd_fail(VD_ERR_RANGE, "more than %llu distinct bricks",
+			       (unsigned long long)MAX_LEVEL_NODES);
+	if (b->n == b->cap) {
+		uint64_t c = next_cap(b->cap, b->n + 1);
+		int err = grow((void **)&b->v, c, 8);
+		if (!err) err = grow((void **)&b->inv, c, 1);
+		if (err) return err;
+		b->cap = c;
+	}
+	b->slot[s] = SLOT_TAG(h) | (b->n + 1);
+	b->v[b->n] = v;
+	b->inv[b->n] = inv;
+	*id = (uint32_t)b->n++;
+	if (2 * b->n > b->scap) return table_rehash(&b->slot, &b->scap);
+	return VD_OK;
+}
+
+static void bset_free(struct bset *b)
+{
+	free(b->v);
+	free(b->inv);
+	free(b->slot);
+	memset(b, 0, sizeof *b);
+}
+
+/* ------------------------------------------------------------ node sets */
+
+struct nset {
+	int sym;
+	uint64_t n, cap, nref, rcap;
+	uint8_t *mask, *inv;
+	uint64_t *first; /* n + 1 entries once finished */
+	uint32_t *child;
+	uint8_t *refl;   /* only when sym */
+	uint64_t *slot, scap;
+};
+
+static inline int nset_equal(const struct nset *b, uint32_t i,
+			     const uint64_t *key, int k)
+{
+	if (b->mask[i] != key[0]) return 0;
+	const uint32_t *c = b->child + b->first[i];
+	if (b->sym) {
+		const uint8_t *r = b->refl + b->first[i];
+		for (int j = 0; j < k; j++)
+			if (VD_REF(c[j], r[j]) != key[j + 1]) return 0;
+	} else {
+		for (int j = 0; j < k; j++)
+			if ((uint64_t)c[j] << 3 != key[j + 1]) return 0;
+	}
+	return 1;
+}
+
+/* Finds or adds the node with canonical key key[0..k]; *id its index. */
+static int nset_insert(struct nset *b, const uint64_t *key, int k,
+		       uint8_t inv, uint32_t *id)
+{
+	uint64_t h = key_hash(key, k), mask = b->scap - 1, s = SLOT_INDEX(h, mask);
+	for (;; s = (s + 1) & mask) {
+		uint64_t e = b->slot[s];
+		if (!e) break;
+		if (SLOT_TAG(e) == SLOT_TAG(h)) {
+			uint32_t i = (uint32_t)(e & 0xffffffff) - 1;
+			if (nset_equal(b, i, key, k)) {
+				*id = i;
+				return VD_OK;
+			}
+		}
+	}
+	if (b->n >= MAX_LEVEL_NODES)
+		return vd_fail(VD_ERR_RANGE, "more than %llu distinct nodes "
+			       "on a level", (unsigned long long)MAX_LEVEL_NODES);
+	int err;
+	if (b->n + 1 >= b->cap) {
+		uint64_t c = next_cap(b->cap, b->n + 2);
+		if ((err = grow((void **)&b->mask, c, 1)) ||
+		    (err = grow((void **)&b->inv, c, 1)) ||
+		    (err = grow((void **)&b->first, c, 8)))
+			return err;
+		b->cap = c;
+	}
+	if (b->nref + (uint64_t)k > b->rcap) {
+		uint64_t c = next_cap(b->rcap, b->nref + (uint64_t)k);
+		if ((err = grow((void **)&b->child, c, 4))) return err;
+		if (b->sym && (err = grow((void **)&b->refl, c, 1))) return err;
+		b->rcap = c;
+	}
+	uint64_t i = b->n;
+	b->slot[s] = SLOT_TAG(h) | (i + 1);
+	b->mask[i] = (uint8_t)key[0];
+	b->inv[i] = inv;
+	b->first[i] = b->nref;
+	for (int j = 0; j < k; j++) {
+		b->child[b->nref + (uint64_t)j] = (uint32_t)(key[j + 1] >> 3);
+		if (b->sym) b->refl[b->nref + (uint64_t)j] = key[j + 1] & 7;
+	}
+	b->nref += (uint64_t)k;
+	b->first[i + 1] = b->nref;
+	b->n++;
+	*id = (uint32_t)i;
+	if (2 * b->n > b->scap) return table_rehash(&b->slot, &b->scap);
+	return VD_OK;
+}
+
+static void nset_free(struct nset *b)
+{
+	free(b->mask);
+	free(b->inv);
+	free(b->first);
+	free(b->child);
+	free(b->refl);
+	free(b->slot);
+	memset(b, 0, sizeof *b);
+}
+
+/* ------------------------------------------------------------- frontier */
+
+struct felem {
+	uint64_t morton; /* cell at the frontier's level, whole grid */
+	uint32_t id;     /* node on that level (raw mask on level L-1) */
+	uint8_t r;       /* reflection */
+};
+
+struct front {
+	uint64_t n, cap;
+	struct felem *e;
+};
+
+static inline int front_push(struct front *f, uint64_t morton, uint32_t id,
+			     uint8_t r)
+{
+	if (f->n == f->cap) {
+		uint64_t c = next_cap(f->cap, f->n + 1);
+		int err = grow((void **)&f->e, c, sizeof *f->e);
+		if (err) return err;
+		f->cap = c;
+	}
+	f->e[f->n++] = (struct felem){morton, id, r};
+	return VD_OK;
+}
+
+static int felem_cmp(const void *a, const void *b)
+{
+	uint64_t x = ((const struct felem *)a)->morton,
+		 y = ((const struct felem *)b)->morton;
+	return x < y ? -1 : x > y;
+}
+
+static void front_sort(struct front *f)
+{
+	for (uint64_t i = 1; i < f->n; i++)
+		if (f->e[i - 1].morton > f->e[i].morton) {
+			qsort(f->e, (size_t)f->n, sizeof *f->e, felem_cmp);
+			return;
+		}
+}
+
+static void front_free(struct front *f)
+{
+	free(f->e);
+	memset(f, 0, sizeof *f);
+}
+
+/* --------------------------------------------------------------- engine */
+
+/* What a part's nodes on the level below became: node i of the part is
+ * node id[i] of the output reflected by r[i]. */
+struct remap {
+	uint32_t *id;
+	uint8_t *r;
+};
+
+struct engine {
+	int sym, L, A;
+	uint64_t cellA;
+	const struct vd_dag *const *parts; /* non-empty, sorted by cell */
+	size_t np;
+	const struct vd_svo *svo;          /* or NULL */
+	struct vd_dag *out;
+	struct vd_dag_stats *st;
+	struct front fr;                   /* frontier on level l+1 */
+	struct remap *rm;                  /* per part, level l+1 */
+	uint8_t *inv_below;                /* invariance sets on level l+1 */
+	int threads;                       /* as struct vd_dag_opts */
+};
+
+static void remaps_free(struct remap *rm, size_t np)
+{
+	if (!rm) return;
+	for (size_t i = 0; i < np; i++) {
+		free(rm[i].id);
+		free(rm[i].r);
+	}
+	free(rm);
+}
+
+static struct remap *remaps_new(struct engine *e, int l)
+{
+	struct remap *rm = calloc(e->np ? e->np : 1, sizeof *rm);
+	if (!rm) return NULL;
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level > l) continue;
+		size_t n = (size_t)d->lv[l].nodes;
+		rm[p].id = malloc(n ? n * 4 : 1);
+		rm[p].r = malloc(n ? n : 1);
+		if (!rm[p].id || !rm[p].r) {
+			remaps_free(rm, e->np);
+			return NULL;
+		}
+	}
+	return rm;
+}
+
+/* The brick value of node i on level L-2 of part d (unreflected). */
+static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
+{
+	if (d->bricks) return d->bricks[i];
+	int L = d->levels;
+	const struct vd_dag_level *lv = &d->lv[L - 2];
+	uint64_t v = 0, j = lv->first[i];
+	for (unsigned s = 0; s < 8; s++) {
+		if (!(lv->mask[i] >> s & 1)) continue;
+		uint8_t m = d->lv[L - 1].mask[lv->child[j]];
+		if (lv->refl) m = vd_mask_reflect(m, lv->refl[j]);
+		v |= (uint64_t)m << (8 * s);
+		j++;
+	}
+	return v;
+}
+
+static inline int brick_add(struct engine *e, struct bset *b, uint64_t v,
+			    int asis, uint32_t *id, uint8_t *r)
+{
+	uint64_t c = v;
+	uint8_t m = 0, inv = 1;
+	if (e->sym && !asis) vd__brick_canon(v, &c, &m, &inv);
+	*r = m;
+	return bset_insert(b, c, inv, id);
+}
+
+/* ------------------------------------------------------ parallel passes
+ * The SVO brick pass, the largest, runs in ranges: each range deduplicates
+ * into a private set, then the private sets are merged into the level's
+ * set serially, range after range, and finally every element's private id
+ * is renamed. Merging in range order numbers the distinct nodes exactly as
+ * the serial pass would (first met, in element order), so the output does
+ * not depend on the thread count. This pays because bricks repeat a lot
+ * (the dragon at 2^12: 87 thousand distinct of 2.7 million), so the serial
+ * merge is small. The same scheme on the inner levels, where half the
+ * nodes are distinct, cost 1.6 times the CPU of the serial pass for no
+ * gain in wall time (measured on 2 cores), so they stay serial: their cost
+ * is memory-bound hash insertion. */
+
+#define PAR_MIN 65536 /* elements below which a pass stays serial */
+
+struct prange {
+	uint64_t lo, hi;      /* elements */
+	struct bset b;        /* private brick set */
+	uint32_t *map;        /* private id -> level id */
+	int err;
+};
+
+struct ppass {
+	struct engine *e;
+	struct prange *r;
+	int asis;
+	struct front *nf;
+};
+
+static size_t range_count(const struct engine *e, uint64_t n)
+{
+	int t = e->threads > 0 ? e->threads : vd_hardware_threads();
+	if (t <= 1 || n < PAR_MIN) return 1;
+	uint64_t k = (uint64_t)t * 4;
+	if (k > n / (PAR_MIN / 4)) k = n / (PAR_MIN / 4);
+	return k < 2 ? 2 : (size_t)k;
+}
+
+static void prange_free(struct prange *r, size_t nr)
+{
+	for (size_t i = 0; i < nr; i++) {
+		bset_free(&r[i].b);
+		free(r[i].map);
+	}
+	free(r);
+}
+
+static void svo_range_dedup(void *ctx, size_t k, int worker)
+{
+	struct ppass *pp = ctx;
+	struct prange *r = &pp->r[k];
+	const struct vd_svo *s = pp->e->svo;
+	r->err = table_init(&r->b.slot, &r->b.scap, r->hi - r->lo);
+	for (uint64_t i = r->lo; i < r->hi && !r->err; i++)
+		r->err = brick_add(pp->e, &r->b, s->masks[i], pp->asis,
+				   &pp->nf->e[i].id, &pp->nf->e[i].r);
+}
+
+static void svo_range_rename(void *ctx, size_t k, int worker)
+{
+	struct ppass *pp = ctx;
+	struct prange *r = &pp->r[k];
+	for (uint64_t i = r->lo; i < r->hi; i++) {
+		pp->nf->e[i].morton = pp->e->svo->keys[i];
+		pp->nf->e[i].id = r->map[pp->nf->e[i].id];
+	}
+}
+
+/* All SVO bricks into brick set b; their cells (in order) into nf. */
+static int svo_bricks(struct engine *e, struct bset *b, int asis,
+		      struct front *nf)
+{
+	const struct vd_svo *s = e->svo;
+	uint64_t n = s->count;
+	size_t nr = range_count(e, n);
+	int err;
+	if (nr == 1) {
+		for (uint64_t i = 0; i < n; i++) {
+			uint32_t id;
+			uint8_t r;
+			if ((err = brick_add(e, b, s->masks[i], asis, &id, &r)) ||
+			    (err = front_push(nf, s->keys[i], id, r)))
+				return err;
+		}
+		return VD_OK;
+	}
+	if ((err = grow((void **)&nf->e, nf->n + n, sizeof *nf->e))) return err;
+	nf->cap = nf->n + n;
+	struct front sub = {n, n, nf->e + nf->n};
+	struct prange *r = calloc(nr, sizeof *r);
+	if (!r) return NOMEM();
+	for (size_t k = 0; k < nr; k++) {
+		r[k].lo = n * k / nr;
+		r[k].hi = n * (k + 1) / nr;
+	}
+	struct ppass pp = {e, r, asis, &sub};
+	/* the ranges index sub.e from 0 while reading s from 0 too */
+	err = vd_parallel_for(nr, e->threads, svo_range_dedup, &pp);
+	for (size_t k = 0; k < nr && !err; k++) {
+		err = r[k].err;
+		if (!err && !(r[k].map = malloc((r[k].b.n ? r[k].b.n : 1) * 4)))
+			err = NOMEM();
+		for (uint64_t j = 0; j < r[k].b.n && !err; j++)
+			err = bset_insert(b, r[k].b.v[j], r[k].b.inv[j], &r[k].map[j]);
+	}
+	if (!err) err = vd_parallel_for(nr, e->threads, svo_range_rename, &pp);
+	if (!err) nf->n += n;
+	prange_free(r, nr);
+	return err;
+}
+
+/* The frontier's groups (new parents) into node set b, their cells into
+ * nf, in order. */
+static int frontier_groups(struct engine *e, struct nset *b, int asis,
+			   struct front *nf)
+{
+	const struct felem *fe = e->fr.e;
+	const uint8_t *gb = e->inv_below;
+	uint64_t n = e->fr.n;
+	uint32_t id[8];
+	uint8_t r[8], g[8], m, inv;
+	uint64_t key[9];
+	int err;
+	for (uint64_t i = 0; i < n;) {
+		uint64_t parent = fe[i].morton >> 3;
+		unsigned mk = 0;
+		for (; i < n && fe[i].morton >> 3 == parent; i++) {
+			unsigned s = fe[i].morton & 7;
+			mk |= 1u << s;
+			id[s] = fe[i].id;
+			r[s] = fe[i].r;
+			g[s] = gb[id[s]];
+		}
+		int k = vd__node_canon(e->sym, asis, mk, id, r, g, key, &m, &inv);
+		uint32_t nid;
+		if ((err = nset_insert(b, key, k, inv, &nid)) ||
+		    (err = front_push(nf, parent, nid, m)))
+			return err;
+	}
+	return VD_OK;
+}
+
+/* Level L-1: the frontier of raw 2x2x2 masks (roots of cells on L-1). */
+static int level_leaf(struct engine *e)
+{
+	int L = e->L, err;
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level == L - 1 &&
+		    (err = front_push(&e->fr, d->cell_morton, d->lv[L - 1].mask[0], 0)))
+			return err;
+	}
+	if (e->svo && e->svo->chunk_level == L - 1 && e->svo->count) {
+		uint64_t cell = e->svo->cell_morton;
+		uint8_t m = (uint8_t)(e->svo->masks[0] >> 8 * (cell & 7));
+		if ((err = front_push(&e->fr, cell, m, 0))) return err;
+	}
+	front_sort(&e->fr);
+	if (e->A == L - 1) {
+		struct vd_dag_level *lv = &e->out->lv[L - 1];
+		lv->mask = malloc(1);
+		if (!lv->mask) return NOMEM();
+		lv->mask[0] = (uint8_t)e->fr.e[0].id;
+		lv->nodes = 1;
+	}
+	return VD_OK;
+}
+
+/* Level L-2: bricks, and from them level L-1. */
+static int level_brick(struct engine *e)
+{
+	int L = e->L, l = L - 2, asis = e->A == l, err = VD_OK;
+	struct bset b = {0};
+	struct front nf = {0};
+	struct remap *rm = remaps_new(e, l);
+	uint64_t expect = 0;
+	for (size_t p = 0; p < e->np; p++)
+		if (e->parts[p]->chunk_level <= l)
+			expect += e->parts[p]->lv[l].nodes;
+	if (e->svo && e->svo->chunk_level <= l) expect += e->svo->count;
+	if (!rm) return NOMEM();
+	if ((err = table_init(&b.slot, &b.scap, expect))) goto out;
+
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level > l) continue;
+		for (uint64_t i = 0; i < d->lv[l].nodes; i++)
+			if ((err = brick_add(e, &b, part_brick(d, i), asis,
+					     &rm[p].id[i], &rm[p].r[i])))
+				goto out;
+	}
+	if (e->svo && e->svo->chunk_level <= l &&
+	    (err = svo_bricks(e, &b, asis, &nf)))
+		goto out;
+	for (uint64_t i = 0; i < e->fr.n;) {
+		uint64_t parent = e->fr.e[i].morton >> 3, v = 0;
+		for (; i < e->fr.n && e->fr.e[i].morton >> 3 == parent; i++)
+			v |= (uint64_t)(uint8_t)e->fr.e[i].id
+			     << 8 * (e->fr.e[i].morton & 7);
+		uint32_t id;
+		uint8_t r;
+		if ((err = brick_add(e, &b, v, asis, &id, &r)) ||
+		    (err = front_push(&nf, parent, id, r)))
+			goto out;
+	}
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level == l &&
+		    (err = front_push(&nf, d->cell_morton, rm[p].id[0], rm[p].r[0])))
+			goto out;
+	}
+	front_sort(&nf);
+	free(b.slot); /* the table is done with: lower the peak */
+	b.slot = NULL;
+
+	/* Levels L-2 and L-1 of the output from the distinct bricks. */
+	{
+		struct vd_dag_level *lb = &e->out->lv[l], *ll = &e->out->lv[L - 1];
+		const struct vd_leaf_class *lt = vd_leaf_classes();
+		uint32_t leaf_id[256];
+		uint8_t leaf_mask[256];
+		uint32_t nleaf = 0;
+		memset(leaf_id, 0xff, sizeof leaf_id);
+		uint64_t nref = 0;
+		for (uint64_t i = 0; i < b.n; i++)
+			for (unsigned s = 0; s < 8; s++)
+				nref += (b.v[i] >> 8 * s & 0xff) != 0;
+		lb->nodes = b.n;
+		lb->refs = nref;
+		lb->mask = malloc(b.n ? b.n : 1);
+		lb->first = malloc((b.n + 1) * 8);
+		lb->child = malloc(nref ? nref * 4 : 1);
+		if (e->sym) lb->refl = malloc(nref ? nref : 1);
+		if (!lb->mask || !lb->first || !lb->child || (e->sym && !lb->refl)) {
+			err = NOMEM();
+			goto out;
+		}
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < b.n; i++) {
+			uint8_t mk = 0;
+			lb->first[i] = j;
+			for (unsigned s = 0; s < 8; s++) {
+				uint8_t v = (uint8_t)(b.v[i] >> 8 * s);
+				if (!v) continue;
+				mk |= (uint8_t)(1u << s);
+				uint8_t c = e->sym ? lt[v].canon : v;
+				if (leaf_id[c] == UINT32_MAX) {
+					leaf_id[c] = nleaf;
+					leaf_mask[nleaf++] = c;
+				}
+				lb->child[j] = leaf_id[c];
+				if (e->sym) lb->refl[j] = lt[v].refl;
+				j++;
+			}
+			lb->mask[i] = mk;
+		}
+		lb->first[b.n] = j;
+		ll->nodes = nleaf;
+		ll->mask = malloc(nleaf ? nleaf : 1);
+		if (!ll->mask) {
+			err = NOMEM();
+			goto out;
+		}
+		memcpy(ll->mask, leaf_mask, nleaf);
+		e->out->bricks = b.v;
+		b.v = NULL;
+		free(e->inv_below);
+		e->inv_below = b.inv;
+		b.inv = NULL;
+	}
+	front_free(&e->fr);
+	e->fr = nf;
+	nf = (struct front){0};
+	remaps_free(e->rm, e->np);
+	e->rm = rm;
+	rm = NULL;
+out:
+	bset_free(&b);
+	front_free(&nf);
+	remaps_free(rm, e->np);
+	return err;
+}
+
+/* An inner level l < L-2. */
+static int level_inner(struct engine *e, int l)
+{
+	int asis = e->A == l, err = VD_OK;
+	struct nset b = {.sym = e->sym};
+	struct front nf = {0};
+	struct remap *rm = remaps_new(e, l);
+	uint64_t expect = e->fr.n / 4;
+	for (size_t p = 0; p < e->np; p++)
+		if (e->parts[p]->chunk_level <= l)
+			expect += e->parts[p]->lv[l].nodes;
+	if (!rm) return NOMEM();
+	if ((err = table_init(&b.slot, &b.scap, expect))) goto out;
+	const uint8_t *gb = e->inv_below;
+	uint32_t id[8];
+	uint8_t r[8], g[8], m, inv;
+	uint64_t key[9];
+
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level > l) continue;
+		const struct vd_dag_level *lv = &d->lv[l];
+		const struct remap *below = &e->rm[p];
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint64_t j = lv->first[i];
+			unsigned mk = lv->mask[i];
+			for (unsigned s = 0; s < 8; s++) {
+				if (!(mk >> s & 1)) continue;
+				uint32_t c = lv->child[j];
+				id[s] = below->id[c];
+				r[s] = (uint8_t)(below->r[c] ^ (lv->refl ? lv->refl[j] : 0));
+				g[s] = gb[id[s]];
+				j++;
+			}
+			int k = vd__node_canon(e->sym, asis, mk, id, r, g, key, &m, &inv);
+			if ((err = nset_insert(&b, key, k, inv, &rm[p].id[i])))
+				goto out;
+			rm[p].r[i] = m;
+		}
+	}
+	if ((err = frontier_groups(e, &b, asis, &nf))) goto out;
+	for (size_t p = 0; p < e->np; p++) {
+		const struct vd_dag *d = e->parts[p];
+		if (d->chunk_level == l &&
+		    (err = front_push(&nf, d->cell_morton, rm[p].id[0], rm[p].r[0])))
+			goto out;
+	}
+	front_sort(&nf);
+	free(b.slot);
+	b.slot = NULL;
+
+	struct vd_dag_level *lv = &e->out->lv[l];
+	lv->nodes = b.n;
+	lv->refs = b.nref;
+	/* Hand the arrays over, trimmed. */
+	lv->mask = b.mask ? b.mask : malloc(1);
+	lv->first = b.first ? b.first : calloc(1, 8);
+	lv->child = b.child ? b.child : malloc(1);
+	if (e->sym) lv->refl = b.refl ? b.refl : malloc(1);
+	b.mask = NULL;
+	b.first = NULL;
+	b.child = NULL;
+	b.refl = NULL;
+	if (!lv->mask || !lv->first || !lv->child || (e->sym && !lv->refl)) {
+		err = NOMEM();
+		goto out;
+	}
+	free(e->inv_below);
+	e->inv_below = b.inv;
+	b.inv = NULL;
+	front_free(&e->fr);
+	e->fr = nf;
+	nf = (struct front){0};
+	remaps_free(e->rm, e->np);
+	e->rm = rm;
+	rm = NULL;
+out:
+	nset_free(&b);
+	front_free(&nf);
+	remaps_free(rm, e->np);
+	return err;
+}
+
+static int run_engine(struct engine *e)
+{
+	int err = VD_OK;
+	vd__sym_init();
+	for (int l = e->L - 1; l >= e->A && !err; l--) {
+		double t0 = vd_seconds();
+		if (l == e->L - 1)
+			err = level_leaf(e);
+		else if (l == e->L - 2)
+			err = level_brick(e);
+		else
+			err = level_inner(e, l);
+		if (e->st) e->st->seconds_level[l] = vd_seconds() - t0;
+	}
+	if (!err && e->fr.n != 1)
+		err = vd_fail(VD_ERR_INTERNAL, "dag.c: %llu roots at level %d",
+			      (unsigned long long)e->fr.n, e->A);
+	front_free(&e->fr);
+	remaps_free(e->rm, e->np);
+	e->rm = NULL;
+	free(e->inv_below);
+	e->inv_below = NULL;
+	return err;
+}
+
+/* ------------------------------------------------------------ public API */
+
+void vd_dag_release(struct vd_dag *dag)
+{
+	if (!dag) return;
+	for (int l = 0; l < VD_MAX_LEVELS; l++) {
+		free(dag->lv[l].mask);
+		free(dag->lv[l].first);
+		free(dag->lv[l].child);
+		free(dag->lv[l].refl);
+	}
+	free(dag->bricks);
+	memset(dag, 0, sizeof *dag);
+}
+
+uint64_t vd_dag_memory_bytes(const struct vd_dag *dag)
+{
+	uint64_t b = 0;
+	for (int l = dag->chunk_level; l < dag->levels; l++) {
+		const struct vd_dag_level *lv = &dag->lv[l];
+		b += lv->nodes * (1 + (lv->first ? 8 : 0)) + lv->refs * 4 +
+		     (lv->refl ? lv->refs : 0);
+	}
+	if (dag->bricks) b += dag->lv[dag->levels - 2].nodes * 8;
+	return b;
+}
+
+/* The peak is at the brick level or at level L-3. Per brick B: the SVO
+ * (16), the frontier (16), the brick set (8 + 1, and a table of up to 4
+ * slots of 8 per distinct brick, 6 while it doubles: 48). After the brick
+ * level the table is freed and the output holds bricks, masks and offsets
+ * (17 per brick) and 4 per reference, at most one per leaf L1. Level L-3
+ * with N3 parents adds the new frontier (16), the node set (10 per node, 4
+ * per reference: at most one per brick) and its table (48 per node).
+ * Growing arrays may be half empty: the node terms count 1.5 times. */
+uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
+				  uint64_t parents)
+{
+	uint64_t brick_phase = bricks * (16 + 16 + 9 + 48);
+	uint64_t inner_phase = bricks * (16 + 16 + 17 + 4) + leaves * 4 +
+			       parents * (16 + 10 + 48) * 3 / 2;
+	return (brick_phase > inner_phase ? brick_phase : inner_phase) +
+	       (16u << 20);
+}
+
+/* Per input node and reference: the parts (9 + 8 per node for offsets and
+ * bricks, 5 per reference), the output (at most the same again), two
+ * levels of renaming maps (10 per node), the largest level's table (48 per
+ * node). */
+uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs)
+{
+	return nodes * (17 + 17 + 10 + 48) + refs * 10 + (16u << 20);
+}
+
+static int check_kind_out(uint32_t kind)
+{
+	if (kind != VD_KIND_DAG && kind != VD_KIND_SSVDAG)
+		return vd_fail(VD_ERR_ARG, "output kind %u is not dag or ssvdag",
+			       kind);
+	return VD_OK;
+}
+
+static int check_budget(const struct vd_dag_opts *o, uint64_t need,
+			struct vd_dag_stats *st)
+{
+	if (st) st->memory_estimate_bytes = need;
+	if (o && o->mem_budget_bytes && need > o->mem_budget_bytes)
+		return vd_fail(VD_ERR_BUDGET, "needs about %llu MiB, budget "
+			       "--mem-budget %llu MiB",
+			       (unsigned long long)(need >> 20),
+			       (unsigned long long)(o->mem_budget_bytes >> 20));
+	return VD_OK;
+}
+
+/* SWAR popcount: without -mpopcnt the builtin is a libgcc call. */
+static inline uint64_t popcount64(uint64_t v)
+{
+	v -= v >> 1 & 0x5555555555555555ULL;
+	v = (v & 0x3333333333333333ULL) + (v >> 2 & 0x3333333333333333ULL);
+	v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+	return v * 0x0101010101010101ULL >> 56;
+}
+
+int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		    uint32_t kind, const struct vd_dag_opts *opts,
+		    struct vd_dag_stats *stats)
+{
+	memset(dag, 0, sizeof *dag);
+	int err = check_kind_out(kind);
+	if (err) return err;
+	int L = svo->levels, L0 = svo->chunk_level;
+	if (L < 1 || L > VD_MAX_LEVELS || L0 < 0 || L0 > L - 1)
+		return vd_fail(VD_ERR_RANGE, "levels %d, chunk level %d", L, L0);
+	if (L0 < VD_MAX_LEVELS && (L0 == 0 ? svo->cell_morton != 0
+				   : svo->cell_morton >> (3 * L0) != 0))
+		return vd_fail(VD_ERR_RANGE, "cell %" PRIu64 " outside level %d",
+			       svo->cell_morton, L0);
+	/* The bricks must be strictly increasing, non-empty and in the cell. */
+	uint64_t voxels = 0, leaves = 0, parents = 0;
+	for (size_t i = 0; i < svo->count; i++) {
+		uint64_t k = svo->keys[i], v = svo->masks[i];
+		for (unsigned c = 0; c < 8; c++) leaves += (v >> 8 * c & 0xff) != 0;
+		parents += i == 0 || k >> 3 != svo->keys[i - 1] >> 3;
+		int in;
+		if (L0 <= L - 2)
+			in = k >> (3 * (L - 2 - L0)) == svo->cell_morton;
+		else /* the cell is one 2x2x2 byte of the brick */
+			in = k == svo->cell_morton >> 3 &&
+			     (v & ~(0xffULL << 8 * (svo->cell_morton & 7))) == 0;
+		if (!in || !v || (i && k <= svo->keys[i - 1]))
+			return vd_fail(VD_ERR_CORRUPT, "brick %zu (key %" PRIu64
+				       ") is %s", i, k, !v ? "empty" : !in
+				       ? "outside the cell" : "out of order");
+		voxels += popcount64(v);
+	}
+	if (stats) {
+		memset(stats, 0, sizeof *stats);
+		stats->input_voxels = voxels;
+		stats->input_nodes = svo->count;
+	}
+	if ((err = check_budget(opts, vd_dag_estimate_from_svo(svo->count,
+				leaves, parents), stats)))
+		return err;
+	dag->kind = kind;
+	dag->levels = L;
+	dag->chunk_level = L0;
+	dag->cell_morton = svo->cell_morton;
+	dag->voxels = voxels;
+	if (!svo->count) return VD_OK;
+	double t0 = vd_seconds();
+	struct engine e = {.sym = kind == VD_KIND_SSVDAG, .L = L, .A = L0,
+			   .cellA = svo->cell_morton, .svo = svo, .out = dag,
+			   .st = stats, .threads = opts ? opts->threads : 0};
+	err = run_engine(&e);
+	if (stats) stats->seconds_build = vd_seconds() - t0;
+	return err;
+}
+
+struct part_ref {
+	const struct vd_dag *d;
+	size_t idx;
+	uint64_t start, end; /* voxel Morton range of the cell */
+};
+
+static int part_cmp(const void *a, const void *b)
+{
+	uint64_t x = ((const struct part_ref *)a)->start,
+		 y = ((const struct part_ref *)b)->start;
+	return x < y ? -1 : x > y;
+}
+
+/* 8^k as a voxel-range size; k <= 21 so it fits (8^21 = 2^63). */
+static uint64_t cell_span(int L, int level)
+{
+	return (uint64_t)1 << (3 * (L - level));
+}
+
+/* How a detail names part i: its file name when the caller gave names. */
+#define PART(i, b) part_name(opts, i, namebuf[b])
+static const char *part_name(const struct vd_dag_opts *o, size_t i,
+			     char *buf)
+{
+	if (o && o->part_names) return o->part_names[i];
+	snprintf(buf, 32, "part %zu", i);
+	return buf;
+}
+
+int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
+		 size_t n, uint32_t kind, int chunk_level,
+		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats)
+{
+	memset(out, 0, sizeof *out);
+	char namebuf[2][32];
+	int err = check_kind_out(kind);
+	if (err) return err;
+	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no chunks to merge");
+	int L = parts[0]->levels, top = parts[0]->chunk_level;
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_dag *d = parts[i];
+		if (d->kind != VD_KIND_DAG && d->kind != VD_KIND_SSVDAG)
+			return vd_fail(VD_ERR_WRONG_KIND, "%s is a %s chunk",
+				       PART(i, 0), vd_chunk_kind_name(d->kind));
+		if (kind == VD_KIND_DAG && d->kind != VD_KIND_DAG)
+			return vd_fail(VD_ERR_WRONG_KIND, "%s is an ssvdag "
+				       "chunk; a dag merge needs dag chunks",
+				       PART(i, 0));
+		if (d->levels != L)
+			return vd_fail(VD_ERR_MISMATCH, "%s has %d levels, %s "
+				       "has %d", PART(i, 0), d->levels, PART(0, 1), L);
+		if (d->chunk_level < top) top = d->chunk_level;
+	}
+	int A = chunk_level;
+	if (A < 0) {
+		if (top == 0)
+			return vd_fail(VD_ERR_ARG, "the parts are already root "
+				       "chunks (chunk level 0)");
+		A = top - 1;
+	}
+	if (A > top)
+		return vd_fail(VD_ERR_MISMATCH, "target level %d is below part "
+			       "chunk level %d", A, top);
+	struct part_ref *pr = malloc(n * sizeof *pr);
+	const struct vd_dag **nonempty = malloc(n * sizeof *nonempty);
+	if (!pr || !nonempty) {
+		free(pr);
+		free(nonempty);
+		return NOMEM();
+	}
+	uint64_t cellA = parts[0]->cell_morton >>
+			 (3 * (parts[0]->chunk_level - A));
+	uint64_t nodes = 0, refs = 0, voxels = 0;
+	size_t np = 0;
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_dag *d = parts[i];
+		uint64_t c = d->cell_morton >> (3 * (d->chunk_level - A));
+		if (c != cellA) {
+			err = vd_fail(VD_ERR_MISMATCH, "%s (cell %" PRIu64
+				      " at level %d) is not inside cell %" PRIu64
+				      " at level %d, like %s", PART(i, 0),
+				      d->cell_morton, d->chunk_level, cellA, A,
+				      PART(0, 1));
+			goto out;
+		}
+		pr[i].d = d;
+		pr[i].idx = i;
+		pr[i].start = d->chunk_level == 0 ? 0 :
+			d->cell_morton * cell_span(L, d->chunk_level);
+		pr[i].end = pr[i].start + cell_span(L, d->chunk_level);
+		for (int l = d->chunk_level; l < L; l++) {
+			nodes += d->lv[l].nodes;
+			refs += d->lv[l].refs;
+		}
+		voxels += d->voxels;
+	}
+	qsort(pr, n, sizeof *pr, part_cmp);
+	for (size_t i = 0; i + 1 < n; i++)
+		if (pr[i].end > pr[i + 1].start) {
+			err = vd_fail(VD_ERR_MISMATCH, "overlapping cells: %s "
+				      "(cell %" PRIu64 " at level %d) and %s "
+				      "(cell %" PRIu64 " at level %d)",
+				      PART(pr[i].idx, 0), pr[i].d->cell_morton,
+				      pr[i].d->chunk_level, PART(pr[i + 1].idx, 1),
+				      pr[i + 1].d->cell_morton,
+				      pr[i + 1].d->chunk_level);
+			goto out;
+		}
+	for (size_t i = 0; i < n; i++)
+		if (pr[i].d->lv[pr[i].d->chunk_level].nodes)
+			nonempty[np++] = pr[i].d;
+	if (stats) {
+		memset(stats, 0, sizeof *stats);
+		stats->input_voxels = voxels;
+		stats->input_nodes = nodes;
+	}
+	if ((err = check_budget(opts, vd_dag_estimate_merge(nodes, refs),
+				stats)))
+		goto out;
+	out->kind = kind;
+	out->levels = L;
+	out->chunk_level = A;
+	out->cell_morton = cellA;
+	out->voxels = voxels;
+	if (np) {
+		double t0 = vd_seconds();
+		struct engine e = {.sym = kind == VD_KIND_SSVDAG, .L = L,
+				   .A = A, .cellA = cellA, .parts = nonempty,
+				   .np = np, .out = out, .st = stats,
+				   .threads = opts ? opts->threads : 0};
+		err = run_engine(&e);
+		if (stats) stats->seconds_build = vd_seconds() - t0;
+	}
+out:
+	free(pr);
+	free(nonempty);
+	return err;
+}
+
+/* ------------------------------------------------------------ expansion */
+
+struct expander {
+	const struct vd_dag *d;
+	int (*fn)(void *ctx, uint64_t key, uint64_t brick);
+	void *ctx;
+};
+
+static int expand_node(const struct expander *x, int l, uint64_t node,
+		       unsigned a, uint64_t morton)
+{
+	const struct vd_dag *d = x->d;
+	const struct vd_dag_level *lv = &d->lv[l];
+	int L = d->levels;
+	unsigned mk = lv->mask[node];
+	uint64_t first = lv->first[node];
+	for (unsigned p = 0; p < 8; p++) {
+		unsigned s = p ^ a;
+		if (!(mk >> s & 1)) continue;
+		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint32_t c = lv->child[j];
+		unsigned ca = a ^ (lv->refl ? lv->refl[j] : 0u);
+		int err;
+		if (l + 1 == L - 2)
+			err = x->fn(x->ctx, morton << 3 | p,
+				    vd_brick_reflect(d->bricks[c], ca));
+		else
+			err = expand_node(x, l + 1, c, ca, morton << 3 | p);
+		if (err) return err;
+	}
+	return 0;
+}
+
+int vd_dag_expand(const struct vd_dag *dag,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx)
+{
+	int L = dag->levels, A = dag->chunk_level;
+	if (!dag->lv[A].nodes) return 0;
+	if (A == L - 1) {
+		uint64_t c = dag->cell_morton;
+		return fn(ctx, c >> 3, (uint64_t)dag->lv[A].mask[0] << 8 * (c & 7));
+	}
+	if (A == L - 2) return fn(ctx, dag->cell_morton, dag->bricks[0]);
+	struct expander x = {dag, fn, ctx};
+	return expand_node(&x, A, 0, 0, dag->cell_morton);
+}
+
+struct svo_sink {
+	struct vd_svo *svo;
+	size_t cap;
+};
+
+static int svo_sink_add(void *ctx, uint64_t key, uint64_t brick)
+{
+	struct svo_sink *k = ctx;
+	struct vd_svo *s = k->svo;
+	if (s->count == k->cap) {
+		size_t c = k->cap ? k->cap * 2 : 1024;
+		uint64_t *nk = realloc(s->keys, c * 8);
+		if (!nk) return NOMEM();
+		s->keys = nk;
+		uint64_t *nm = realloc(s->masks, c * 8);
+		if (!nm) return NOMEM();
+		s->masks = nm;
+		k->cap = c;
+	}
+	s->keys[s->count] = key;
+	s->masks[s->count++] = brick;
+	return 0;
+}
+
+int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo)
+{
+	memset(svo, 0, sizeof *svo);
+	svo->levels = dag->levels;
+	svo->chunk_level = dag->chunk_level;
+	svo->cell_morton = dag->cell_morton;
+	struct svo_sink k = {svo, 0};
+	/* arrays are never NULL, even for an empty DAG */
+	int err = svo_sink_add(&k, 0, 0);
+	svo->count = 0;
+	if (!err) err = vd_dag_expand(dag, svo_sink_add, &k);
+	if (err) {
+		free(svo->keys);
+		free(svo->masks);
+		memset(svo, 0, sizeof *svo);
+	}
+	return err;
+}
+
+/* ----------------------------------------------------------- validation */
+
+int vd_dag_validate(const struct vd_dag *d)
+{
+	int L = d->levels, A = d->chunk_level;
+	if (d->kind != VD_KIND_DAG && d->kind != VD_KIND_SSVDAG)
+		return vd_fail(VD_ERR_CORRUPT, "kind %u is not dag or ssvdag",
+			       d->kind);
+	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1)
+		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d", L, A);
+	if (A > 0 && d->cell_morton >> (3 * A))
+		return vd_fail(VD_ERR_CORRUPT, "cell %" PRIu64 " outside level %d",
+			       d->cell_morton, A);
+	if (A == 0 && d->cell_morton)
+		return vd_fail(VD_ERR_CORRUPT, "root cell %" PRIu64 " is not 0",
+			       d->cell_morton);
+	if (d->lv[A].nodes == 0) {
+		for (int l = A; l < L; l++)
+			if (d->lv[l].nodes || d->lv[l].refs)
+				return vd_fail(VD_ERR_CORRUPT, "empty root but %"
+					       PRIu64 " nodes on level %d",
+					       d->lv[l].nodes, l);
+		if (d->voxels)
+			return vd_fail(VD_ERR_CORRUPT, "empty root but %" PRIu64
+				       " voxels", d->voxels);
+		return VD_OK;
+	}
+	if (d->lv[A].nodes != 1)
+		return vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " roots on level %d",
+			       d->lv[A].nodes, A);
+	for (int l = A; l < L; l++) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		if (lv->nodes > MAX_LEVEL_NODES + 1)
+			return vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " nodes on level"
+				       " %d", lv->nodes, l);
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			if (!lv->mask[i])
+				return vd_fail(VD_ERR_CORRUPT, "node %" PRIu64
+					       " on level %d has an empty mask",
+					       i, l);
+		if (l == L - 1) break;
+		const struct vd_dag_level *nx = &d->lv[l + 1];
+		if ((d->kind == VD_KIND_SSVDAG) != (lv->refl != NULL))
+			return vd_fail(VD_ERR_CORRUPT, "level %d: reflections %s"
+				       " in a %s", l, lv->refl ? "present" :
+				       "missing", vd_chunk_kind_name(d->kind));
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			if (lv->first[i] != j)
+				return vd_fail(VD_ERR_CORRUPT, "level %d node %"
+					       PRIu64 ": references start at %"
+					       PRIu64 ", expected %" PRIu64, l, i,
+					       lv->first[i], j);
+			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+		}
+		if (lv->first[lv->nodes] != j || lv->refs != j)
+			return vd_fail(VD_ERR_CORRUPT, "level %d: %" PRIu64
+				       " references, masks say %" PRIu64, l,
+				       lv->refs, j);
+		uint8_t *seen = calloc(nx->nodes ? nx->nodes : 1, 1);
+		if (!seen) return NOMEM();
+		for (uint64_t r = 0; r < lv->refs; r++) {
+			if (lv->child[r] >= nx->nodes || (lv->refl && lv->refl[r] > 7)) {
+				free(seen);
+				return vd_fail(VD_ERR_CORRUPT, "level %d reference %"
+					       PRIu64 ": child %u of %" PRIu64
+					       ", reflection %u", l, r,
+					       lv->child[r], nx->nodes,
+					       lv->refl ? lv->refl[r] : 0);
+			}
+			seen[lv->child[r]] = 1;
+		}
+		for (uint64_t i = 0; i < nx->nodes; i++)
+			if (!seen[i]) {
+				free(seen);
+				return vd_fail(VD_ERR_CORRUPT, "node %" PRIu64 " on "
+					       "level %d is never referenced", i,
+					       l + 1);
+			}
+		free(seen);
+	}
+	if (A <= L - 2) {
+		if (!d->bricks)
+			return vd_fail(VD_ERR_INTERNAL, "dag.c: bricks missing");
+		for (uint64_t i = 0; i < d->lv[L - 2].nodes; i++) {
+			struct vd_dag tmp = *d;
+			tmp.bricks = NULL;
+			if (part_brick(&tmp, i) != d->bricks[i])
+				return vd_fail(VD_ERR_CORRUPT, "brick %" PRIu64
+					       " disagrees with its masks", i);
+		}
+	}
+	return VD_OK;
+}
+
+void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
+{
+	h->kind = dag->kind;
+	h->levels = (uint32_t)dag->levels;
+	h->chunk_level = (uint32_t)dag->chunk_level;
+	h->cell_morton = dag->cell_morton;
+	h->level_count = (uint32_t)(dag->levels - dag->chunk_level + 1);
+	for (int l = dag->chunk_level; l < dag->levels; l++)
+		h->level_nodes[l - dag->chunk_level] = dag->lv[l].nodes;
+	h->level_nodes[dag->levels - dag->chunk_level] = dag->voxels;
+}
+
+/* ----------------------------------------------------------- chunk files */
+
+static void put32(uint8_t *p, uint32_t v)
+{
+	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+	       (uint32_t)p[3] << 24;
+}
+
+int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
+		const char *path, const char *provenance)
+{
+	int err = vd_dag_validate(dag);
+	if (err) return err;
+	struct vd_chunk_header h = {0};
+	vd_dag_header(dag, &h);
+	h.transform = *t;
+	struct vd_chunk_writer *w;
+	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
+	int A = dag->chunk_level, L = dag->levels;
+	int sym = dag->kind == VD_KIND_SSVDAG;
+	/* DAGM: the masks of levels A..L-1, level after level. */
+	err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
+	for (int l = A; l < L && !err; l++)
+		err = vd_chunk_writer_write(w, dag->lv[l].mask,
+					    (size_t)dag->lv[l].nodes);
+	if (!err) err = vd_chunk_writer_end(w);
+	/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
+	if (!err) err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
+	enum { BATCH = 4096 };
+	uint8_t buf[4 * BATCH];
+	for (int l = A; l < L - 1 && !err; l++) {
+		const struct vd_dag_level *lv = &dag->lv[l];
+		for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
+			size_t n = lv->refs - i < BATCH ? (size_t)(lv->refs - i) : BATCH;
+			for (size_t j = 0; j < n; j++)
+				put32(buf + 4 * j, lv->child[i + j]);
+			err = vd_chunk_writer_write(w, buf, 4 * n);
+		}
+	}
+	if (!err) err = vd_chunk_writer_end(w);
+	/* DAGR: reflections of the same references, one byte each. */
+	if (sym && !err) {
+		err = vd_chunk_writer_begin(w, VD_TAG_DAGR, 0);
+		for (int l = A; l < L - 1 && !err; l++)
+			err = vd_chunk_writer_write(w, dag->lv[l].refl,
+						    (size_t)dag->lv[l].refs);
+		if (!err) err = vd_chunk_writer_end(w);
+	}
+	if (err) {
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	return vd_chunk_writer_commit(w);
+}
+
+/* Voxels under the root, counted bottom-up (reflections keep counts). */
+static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
+{
+	int L = d->levels, A = d->chunk_level;
+	*voxels = 0;
+	if (!d->lv[A].nodes) return VD_OK;
+	uint64_t *below = malloc((size_t)(d->lv[L - 1].nodes ? d->lv[L - 1].nodes : 1) * 8);
+	if (!below) return NOMEM();
+	for (uint64_t i = 0; i < d->lv[L - 1].nodes; i++)
+		below[i] = (uint64_t)__builtin_popcount(d->lv[L - 1].mask[i]);
+	for (int l = L - 2; l >= A; l--) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		uint64_t *cur = malloc((size_t)(lv->nodes ? lv->nodes : 1) * 8);
+		if (!cur) {
+			free(below);
+			return NOMEM();
+		}
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint64_t s = 0;
+			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
+				s += below[lv->child[j]];
+			cur[i] = s;
+		}
+		free(below);
+		below = cur;
+	}
+	*voxels = below[0];
+	free(below);
+	return VD_OK;
+}
+
+int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
+		      uint32_t kind)
+{
+	memset(dag, 0, sizeof *dag);
+	const struct vd_chunk_header *h = vd_chunk_header(c);
+	int ok_kind = h->kind == VD_KIND_DAG || h->kind == VD_KIND_SSVDAG;
+	if (!ok_kind || (kind != VD_KIND_ANY && h->kind != kind))
+		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
+			       vd_chunk_kind_name(h->kind),
+			       kind == VD_KIND_ANY ? "dag or ssvdag"
+						   : vd_chunk_kind_name(kind));
+	int L = (int)h->levels, A = (int)h->chunk_level;
+	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1 ||
+	    h->level_count != (uint32_t)(L - A + 1))
+		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d, %u "
+			       "level counts", L, A, h->level_count);
+	dag->kind = h->kind;
+	dag->levels = L;
+	dag->chunk_level = A;
+	dag->cell_morton = h->cell_morton;
+	int sym = h->kind == VD_KIND_SSVDAG;
+	void *m = NULL, *cdata = NULL, *r = NULL;
+	size_t msize, csize, rsize = 0;
+	int err = vd_chunk_read_section(c, VD_TAG_DAGM, &m, &msize);
+	if (!err) err = vd_chunk_read_section(c, VD_TAG_DAGC, &cdata, &csize);
+	if (!err && sym) err = vd_chunk_read_section(c, VD_TAG_DAGR, &r, &rsize);
+	if (err) goto out;
+	/* masks, and from them the reference counts */
+	uint64_t need = 0, nref = 0;
+	for (int l = A; l < L; l++) need += h->level_nodes[l - A];
+	if (need != msize) {
+		err = vd_fail(VD_ERR_CORRUPT, "mask section of %zu bytes, the "
+			      "level counts say %" PRIu64, msize, need);
+		goto out;
+	}
+	const uint8_t *mp = m;
+	for (int l = A; l < L; l++) {
+		struct vd_dag_level *lv = &dag->lv[l];
+		lv->nodes = h->level_nodes[l - A];
+		lv->mask = malloc(lv->nodes ? (size_t)lv->nodes : 1);
+		if (!lv->mask) {
+			err = NOMEM();
+			goto out;
+		}
+		memcpy(lv->mask, mp, (size_t)lv->nodes);
+		mp += lv->nodes;
+		if (l == L - 1) break;
+		lv->first = malloc((size_t)(lv->nodes + 1) * 8);
+		if (!lv->first) {
+			err = NOMEM();
+			goto out;
+		}
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			lv->first[i] = j;
+			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+		}
+		lv->first[lv->nodes] = j;
+		lv->refs = j;
+		nref += j;
+	}
+	if (csize != 4 * nref || (sym && rsize != nref)) {
+		err = vd_fail(VD_ERR_CORRUPT, "reference sections of %zu and %zu"
+			      " bytes for %" PRIu64 " references", csize, rsize,
+			      nref);
+		goto out;
+	}
+	const uint8_t *cp = cdata, *rp = r;
+	for (int l = A; l < L - 1; l++) {
+		struct vd_dag_level *lv = &dag->lv[l];
+		lv->child = malloc(lv->refs ? (size_t)lv->refs * 4 : 4);
+		if (sym) lv->refl = malloc(lv->refs ? (size_t)lv->refs : 1);
+		if (!lv->child || (sym && !lv->refl)) {
+			err = NOMEM();
+			goto out;
+		}
+		for (uint64_t j = 0; j < lv->refs; j++) lv->child[j] = get32(cp + 4 * j);
+		cp += 4 * lv->refs;
+		if (sym) {
+			memcpy(lv->refl, rp, (size_t)lv->refs);
+			rp += lv->refs;
+		}
+	}
+	/* bricks of level L-2 (checked indices first) */
+	dag->bricks = NULL;
+	if (A <= L - 2 && dag->lv[A].nodes) {
+		const struct vd_dag_level *lb = &dag->lv[L - 2];
+		for (uint64_t j = 0; j < lb->refs; j++)
+			if (lb->child[j] >= dag->lv[L - 1].nodes) {
+				err = vd_fail(VD_ERR_CORRUPT, "level %d reference %"
+					      PRIu64 " to leaf %u of %" PRIu64,
+					      L - 2, j, lb->child[j],
+					      dag->lv[L - 1].nodes);
+				goto out;
+			}
+		dag->bricks = malloc((size_t)(lb->nodes ? lb->nodes : 1) * 8);
+		if (!dag->bricks) {
+			err = NOMEM();
+			goto out;
+		}
+		for (uint64_t i = 0; i < lb->nodes; i++) {
+			uint64_t v = 0, j = lb->first[i];
+			for (unsigned s = 0; s < 8; s++) {
+				if (!(lb->mask[i] >> s & 1)) continue;
+				uint8_t x = dag->lv[L - 1].mask[lb->child[j]];
+				if (lb->refl) x = vd_mask_reflect(x, lb->refl[j] & 7);
+				v |= (uint64_t)x << 8 * s;
+				j++;
+			}
+			dag->bricks[i] = v;
+		}
+	}
+	dag->voxels = h->level_nodes[L - A];
+	if ((err = vd_dag_validate(dag))) goto out;
+	uint64_t v;
+	if ((err = dag_count_voxels(dag, &v))) goto out;
+	if (v != dag->voxels)
+		err = vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " voxels, the header "
+			      "says %" PRIu64, v, dag->voxels);
+out:
+	free(m);
+	free(cdata);
+	free(r);
+	if (err) vd_dag_release(dag);
+	return err;
+}
+
+int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
+		const char *path, uint32_t kind)
+{
+	memset(dag, 0, sizeof *dag);
+	struct vd_chunk *c;
+	int err = vd_chunk_open(&c, path, VD_KIND_ANY);
+	if (err) return err;
+	if (h) *h = *vd_chunk_header(c);
+	err = vd_dag_from_chunk(dag, c, kind);
+	vd_chunk_free(c);
+	return err;
+}
+
+/* ------------------------------------------------------------ statistics */
+
+int vd_dag_write_stats(const struct vd_dag *dag,
+		       const struct vd_dag_stats *st, const char *tool,
+		       double seconds_load, double seconds_save,
+		       const char *path)
+{
+	struct vd_json *j;
+	int err = vd_json_open(&j, path);
+	if (err) return err;
+	int A = dag->chunk_level, L = dag->levels;
+	uint64_t nodes[VD_MAX_LEVELS], refs[VD_MAX_LEVELS], tn = 0, tr = 0;
+	for (int l = A; l < L; l++) {
+		nodes[l - A] = dag->lv[l].nodes;
+		refs[l - A] = dag->lv[l].refs;
+		tn += nodes[l - A];
+		tr += refs[l - A];
+	}
+	vd_json_str(j, "tool", tool);
+	vd_json_str(j, "version", VD_VERSION_STRING);
+	vd_json_str(j, "kind", vd_chunk_kind_name(dag->kind));
+	vd_json_u64(j, "levels", (uint64_t)L);
+	vd_json_u64(j, "chunk_level", (uint64_t)A);
+	vd_json_u64(j, "cell_morton", dag->cell_morton);
+	vd_json_u64(j, "input_voxels", st->input_voxels);
+	vd_json_u64(j, "input_nodes", st->input_nodes);
+	vd_json_u64(j, "voxels", dag->voxels);
+	/* level_nodes[i] and level_refs[i] are of level chunk_level + i */
+	vd_json_u64_array(j, "level_nodes", nodes, (size_t)(L - A));
+	vd_json_u64_array(j, "level_refs", refs, (size_t)(L - A));
+	vd_json_u64(j, "nodes", tn);
+	vd_json_u64(j, "refs", tr);
+	vd_json_array(j, "seconds_level");
+	for (int l = A; l < L; l++) vd_json_f64(j, NULL, st->seconds_level[l]);
+	vd_json_end_array(j);
+	vd_json_f64(j, "seconds_load", seconds_load);
+	vd_json_f64(j, "seconds_build", st->seconds_build);
+	vd_json_f64(j, "seconds_save", seconds_save);
+	vd_json_f64(j, "voxels_per_second", st->seconds_build > 0 ?
+		    (double)st->input_voxels / st->seconds_build : 0);
+	vd_json_u64(j, "memory_estimate_bytes", st->memory_estimate_bytes);
+	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	return vd_json_close(j);
+}
+
+/* ------------------------------------------------------------ stage runs */
+
+/* Rewrites the current error as "<what> '<subject>': <cause>: <detail>". */
+static int reword(int err, const char *what, const char *subject)
+{
+	char d[512];
+	snprintf(d, sizeof d, "%s", vd_error_detail());
+	return vd_fail(err, "%s '%s': %s%s%s", what, subject, vd_strerror(err),
+		       *d ? ": " : "", d);
+}
+
+static int same_transform(const struct vd_transform *a,
+			  const struct vd_transform *b)
+{
+	for (int i = 0; i < 3; i++)
+		if (a->bbox_min[i] != b->bbox_min[i] ||
+		    a->bbox_max[i] != b->bbox_max[i] ||
+		    a->origin[i] != b->origin[i])
+			return 0;
+	return a->root_side == b->root_side && a->voxel_size == b->voxel_size;
+}
+
+/* Nodes a chunk header announces over levels chunk_level..L-1. */
+static uint64_t header_nodes(const struct vd_chunk_header *h)
+{
+	uint64_t n = 0;
+	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
+	return n;
+}
+
+int vd_dag_run(const struct vd_dag_job *job)
+{
+	const char *tool = job->tool;
+	const struct vd_dag_opts *o = &job->opts;
+	struct vd_dag out = {0}, *parts = NULL;
+	struct vd_dag_stats st = {0};
+	struct vd_transform tr = {0};
+	struct vd_chunk *c = NULL;
+	int err = VD_OK, sym = job->kind == VD_KIND_SSVDAG;
+	double t0 = vd_seconds(), t_load = 0, t_save = 0;
+	size_t n = job->n_inputs;
+	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no input chunks");
+	if (!job->merge && n != 1)
+		return vd_fail(VD_ERR_ARG, "%zu inputs without --merge", n);
+	if (!job->merge && job->kind == VD_KIND_DAG) {
+		/* svo-to-dag: one SVO chunk */
+		const char *in = job->inputs[0];
+		if ((err = vd_chunk_open(&c, in, VD_KIND_SVO)))
+			return reword(err, "cannot read", in);
+		const struct vd_chunk_header *h = vd_chunk_header(c);
+		tr = h->transform;
+		/* counts of levels L-1, L-2, L-3 (from the header's L0..L) */
+		uint32_t nc = h->level_count;
+		uint64_t leaves = nc >= 2 ? h->level_nodes[nc - 2] : 1;
+		uint64_t bricks = nc >= 3 ? h->level_nodes[nc - 3] : 1;
+		uint64_t parents = nc >= 4 ? h->level_nodes[nc - 4] : 1;
+		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks, leaves,
+						parents), &st))) {
+			vd_chunk_free(c);
+			return reword(err, "cannot build the DAG of", in);
+		}
+		struct vd_svo svo;
+		err = vd_svo_from_chunk(&svo, c);
+		vd_chunk_free(c);
+		if (err) return reword(err, "cannot read", in);
+		t_load = vd_seconds() - t0;
+		err = vd_dag_from_svo(&out, &svo, VD_KIND_DAG, o, &st);
+		vd_svo_release(&svo);
+		if (err) {
+			vd_dag_release(&out);
+			return reword(err, "cannot build the DAG of", in);
+		}
+	} else {
+		/* DAG chunks: one to symmetry-merge, or several to merge */
+		parts = calloc(n, sizeof *parts);
+		const struct vd_dag **pp = malloc(n * sizeof *pp);
+		if (!parts || !pp) {
+			free(parts);
+			free(pp);
+			return NOMEM();
+		}
+		uint64_t nodes = 0, refs = 0;
+		for (size_t i = 0; i < n && !err; i++) {
+			const char *in = job->inputs[i];
+			uint32_t want = sym && job->merge ? VD_KIND_ANY : VD_KIND_DAG;
+			if ((err = vd_chunk_open(&c, in, want))) {
+				err = reword(err, "cannot read", in);
+				break;
+			}
+			const struct vd_chunk_header *h = vd_chunk_header(c);
+			if (i == 0) tr = h->transform;
+			if (i > 0 && (int)h->levels == parts[0].levels &&
+			    !same_transform(&tr, &h->transform))
+				err = vd_fail(VD_ERR_MISMATCH, "cannot merge '%s': "
+					      "its world transform differs from "
+					      "'%s' (chunks of another scene or "
+					      "resolution?)", in, job->inputs[0]);
+			/* the references of a part not yet loaded: at most 8
+			 * per node */
+			uint64_t hn = header_nodes(h);
+			if (!err && (err = check_budget(o, vd_dag_estimate_merge(
+					nodes + hn, refs + 8 * hn), &st)))
+				err = reword(err, "cannot load", in);
+			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
+				err = reword(err, "cannot read", in);
+			vd_chunk_free(c);
+			c = NULL;
+			for (int l = parts[i].chunk_level; !err && l < parts[i].levels; l++) {
+				nodes += parts[i].lv[l].nodes;
+				refs += parts[i].lv[l].refs;
+			}
+			pp[i] = &parts[i];
+		}
+		t_load = vd_seconds() - t0;
+		if (!err) {
+			struct vd_dag_opts mo = *o;
+			mo.part_names = job->inputs;
+			int level = job->merge ? job->to_level : parts[0].chunk_level;
+			err = vd_dag_merge(&out, pp, n, job->kind, level, &mo, &st);
+			if (err)
+				err = reword(err, job->merge ? "cannot merge"
+					     : "cannot symmetry-merge",
+					     n == 1 ? job->inputs[0] : "the inputs");
+		}
+		for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
+		free(parts);
+		free(pp);
+		if (err) {
+			vd_dag_release(&out);
+			return err;
+		}
+	}
+	double t1 = vd_seconds();
+	err = vd_dag_save(&out, &tr, job->output, job->provenance);
+	t_save = vd_seconds() - t1;
+	if (err) {
+		vd_dag_release(&out);
+		return reword(err, "cannot write", job->output);
+	}
+	size_t plen = strlen(job->output) + 16;
+	char *sp = malloc(plen);
+	if (!sp) {
+		vd_dag_release(&out);
+		return NOMEM();
+	}
+	snprintf(sp, plen, "%s.stats.json", job->output);
+	err = vd_dag_write_stats(&out, &st, tool, t_load, t_save, sp);
+	if (err) err = reword(err, "cannot write", sp);
+	free(sp);
+	if (!err && !job->quiet) {
+		uint64_t tn = 0;
+		for (int l = out.chunk_level; l < out.levels; l++) tn += out.lv[l].nodes;
+		fprintf(stderr, "%s: wrote '%s': %s of %" PRIu64 " voxels, %"
+			PRIu64 " nodes on levels %d..%d, %.3f s build (%.1f M "
+			"voxels/s), %.3f s total\n", tool, job->output,
+			vd_chunk_kind_name(out.kind), out.voxels, tn,
+			out.chunk_level, out.levels - 1, st.seconds_build,
+			st.seconds_build > 0 ? st.input_voxels / st.seconds_build / 1e6 : 0,
+			vd_seconds() - t0);
+	}
+	vd_dag_release(&out);
+	return err;
+}
+
+/* ------------------------------------------------------------ comparison */
+
+struct svo_ref {
+	const struct vd_svo *s;
+	uint64_t start, end; /* voxel Morton range of the cell */
+};
+
+static int svo_ref_cmp(const void *a, const void *b)
+{
+	uint64_t x = ((const struct svo_ref *)a)->start,
+		 y = ((const struct svo_ref *)b)->start;
+	return x < y ? -1 : x > y;
+}
+
+struct cmp_state {
+	const struct svo_ref *r;
+	size_t n, i, j;      /* cursor: SVO i, brick j */
+	int L;
+	struct vd_dag_diff *diff;
+};
+
+static void cmp_note(struct cmp_state *c, uint64_t key, uint64_t x,
+		     uint64_t in_dag)
+{
+	if (!x) return;
+	if (!c->diff->differing_voxels) {
+		int b = __builtin_ctzll(x);
+		c->diff->first_voxel_morton =
+			c->L >= 2 ? key << 6 | (uint64_t)b : (uint64_t)b;
+		c->diff->first_in_dag = (int)(in_dag >> b & 1);
+	}
+	c->diff->differing_voxels += popcount64(x);
+}
+
+/* Steps the SVO cursor past every brick before `key`, noting each. */
+static void cmp_advance(struct cmp_state *c, uint64_t key, int all)
+{
+	while (c->i < c->n) {
+		const struct vd_svo *s = c->r[c->i].s;
+		if (c->j >= s->count) {
+			c->i++;
+			c->j = 0;
+			continue;
+		}
+		if (!all && s->keys[c->j] >= key) return;
+		cmp_note(c, s->keys[c->j], s->masks[c->j], 0);
+		c->j++;
+	}
+}
+
+static int cmp_brick(void *ctx, uint64_t key, uint64_t brick)
+{
+	struct cmp_state *c = ctx;
+	cmp_advance(c, key, 0);
+	uint64_t svo = 0;
+	if (c->i < c->n && c->r[c->i].s->keys[c->j] == key)
+		svo = c->r[c->i].s->masks[c->j++];
+	cmp_note(c, key, brick ^ svo, brick);
+	return 0;
+}
+
+int vd_dag_compare_svo(const struct vd_dag *dag,
+		       const struct vd_svo *const *svos, size_t n,
+		       struct vd_dag_diff *diff)
+{
+	memset(diff, 0, sizeof *diff);
+	int L = dag->levels, A = dag->chunk_level;
+	struct svo_ref *r = malloc((n ? n : 1) * sizeof *r);
+	if (!r) return NOMEM();
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_svo *s = svos[i];
+		if (s->levels != L || s->chunk_level < A ||
+		    s->cell_morton >> (3 * (s->chunk_level - A)) != dag->cell_morton) {
+			free(r);
+			return vd_fail(VD_ERR_MISMATCH, "SVO chunk %zu (%d levels, "
+				       "cell %" PRIu64 " at level %d) is not "
+				       "inside the DAG's cell %" PRIu64 " at "
+				       "level %d of %d levels", i, s->levels,
+				       s->cell_morton, s->chunk_level,
+				       dag->cell_morton, A, L);
+		}
+		r[i].s = s;
+		r[i].start = s->chunk_level ? s->cell_morton *
+			cell_span(L, s->chunk_level) : 0;
+		r[i].end = r[i].start + cell_span(L, s->chunk_level);
+	}
+	qsort(r, n, sizeof *r, svo_ref_cmp);
+	for (size_t i = 0; i + 1 < n; i++)
+		if (r[i].end > r[i + 1].start) {
+			int err = vd_fail(VD_ERR_MISMATCH, "two SVO chunks cover "
+					  "cell %" PRIu64 " at level %d",
+					  r[i + 1].s->cell_morton,
+					  r[i + 1].s->chunk_level);
+			free(r);
+			return err;
+		}
+	struct cmp_state c = {r, n, 0, 0, L, diff};
+	int err = vd_dag_expand(dag, cmp_brick, &c);
+	if (!err) cmp_advance(&c, 0, 1);
+	free(r);
+	return err;
+}

@@ -1,0 +1,1578 @@
+/* encode.c - the SVDAG, USSVDAG, ESVDAG and SSVDAG files of the SSVDAG
+ * paper (section 4.3) from root DAG chunks, their readers and decoders, and
+ * the paper's statistics tables. The byte layout is schemas/encodings.md.
+ *
+ * Encoding is a pass per level over the in-memory root DAG. The word
+ * formats keep the DAG's node order (any order is valid: pointers are
+ * absolute word indices). The compact formats are built bottom-up, as
+ * pointers into a level need that level's final order: level L-2 becomes
+ * bricks, then each level above is sorted by decreasing number of
+ * references from its parent level (ties: the DAG's order, so the output
+ * is deterministic) and encoded with 16-bit pointers to addresses below
+ * 2^13 and 32-bit ones above.
+ */
+#include "voxdag.h"
+#include "encode_internal.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
+
+uint64_t vd__enc_max_address = 1ull << 30;
+uint64_t vd__enc_max_bricks = (1ull << 29) - 1;
+uint64_t vd__enc_max_words = 0xffffffffull;
+
+static const char *const format_names[VD_ENC_COUNT_] = {
+	"svdag", "ussvdag", "esvdag", "ssvdag"};
+
+const char *vd_enc_format_name(int format)
+{
+	return format >= 0 && format < VD_ENC_COUNT_ ? format_names[format]
+						      : "unknown";
+}
+
+int vd_enc_format_from_path(const char *path)
+{
+	const char *dot = strrchr(path, '.');
+	if (!dot || strchr(dot, '/')) return -1;
+	for (int f = 0; f < VD_ENC_COUNT_; f++)
+		if (!strcmp(dot + 1, format_names[f])) return f;
+	return -1;
+}
+
+/* ------------------------------------------------------- brick layouts */
+
+/* SymVox bit of the voxel with local Morton code b: 16x + 4y + z. */
+static inline unsigned symvox_bit(unsigned b)
+{
+	unsigned x = (b >> 4 & 2) | (b >> 2 & 1);
+	unsigned y = (b >> 3 & 2) | (b >> 1 & 1);
+	unsigned z = (b >> 2 & 2) | (b & 1);
+	return 16 * x + 4 * y + z;
+}
+
+uint64_t vd__enc_brick_to_symvox(uint64_t v)
+{
+	uint64_t out = 0;
+	while (v) {
+		unsigned b = (unsigned)__builtin_ctzll(v);
+		v &= v - 1;
+		out |= 1ull << symvox_bit(b);
+	}
+	return out;
+}
+
+uint64_t vd__enc_brick_from_symvox(uint64_t v)
+{
+	uint64_t out = 0;
+	while (v) {
+		unsigned i = (unsigned)__builtin_ctzll(v);
+		v &= v - 1;
+		unsigned x = i >> 4, y = i >> 2 & 3, z = i & 3;
+		out |= 1ull << vd_morton3(x, y, z);
+	}
+	return out;
+}
+
+/* ---------------------------------------------------- little-endian I/O */
+
+static void put16(uint8_t *p, uint16_t v)
+{
+	p[0] = (uint8_t)v;
+	p[1] = (uint8_t)(v >> 8);
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+}
+
+static uint16_t get16(const uint8_t *p)
+{
+	return (uint16_t)(p[0] | p[1] << 8);
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+	       (uint32_t)p[3] << 24;
+}
+
+static void putf(uint8_t *p, float f)
+{
+	uint32_t v;
+	memcpy(&v, &f, 4);
+	put32(p, v);
+}
+
+static float getf(const uint8_t *p)
+{
+	uint32_t v = get32(p);
+	float f;
+	memcpy(&f, &v, 4);
+	return f;
+}
+
+/* ------------------------------------------------------------- building */
+
+void vd_enc_release(struct vd_enc *e)
+{
+	if (!e) return;
+	free(e->words);
+	free(e->inner);
+	free(e->leaves);
+	free(e->level_offsets);
+	memset(e, 0, sizeof *e);
+}
+
+static uint64_t dag_total_nodes(const struct vd_dag *d)
+{
+	uint64_t n = 0;
+	for (int l = d->chunk_level; l < d->levels; l++) n += d->lv[l].nodes;
+	return n;
+}
+
+static int build_words(struct vd_enc *e, const struct vd_dag *d)
+{
+	int L = d->levels, sym = e->format == VD_ENC_USSVDAG;
+	if (!d->lv[0].nodes) {
+		/* empty scene: one empty root word, no nodes counted */
+		e->words = calloc(1, 4);
+		if (!e->words) return NOMEM();
+		e->word_count = 1;
+		e->first_leaf_word = L == 1 ? 0 : 1;
+		return VD_OK;
+	}
+	uint64_t w = 0, first_leaf = 0;
+	for (int l = 0; l < L; l++) {
+		if (l == L - 1) first_leaf = w;
+		w += d->lv[l].nodes + (l < L - 1 ? d->lv[l].refs : 0);
+	}
+	if (w > vd__enc_max_words)
+		return vd_fail(VD_ERR_RANGE, "the %s needs %" PRIu64 " 32-bit "
+			       "words; its word indices address %" PRIu64,
+			       vd_enc_format_name(e->format), w,
+			       vd__enc_max_words);
+	e->words = malloc(w * 4);
+	uint64_t *pos = malloc(((size_t)d->lv[0].nodes + 1) * 8);
+	if (!e->words || !pos) {
+		free(pos);
+		return NOMEM();
+	}
+	/* pos[]: word index of each node of the level below */
+	uint64_t start = 0;
+	for (int l = 0; l < L; l++) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		uint64_t next = start;
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			next += 1 + (l < L - 1 ? (uint64_t)__builtin_popcount(lv->mask[i]) : 0);
+		uint64_t *npos = NULL;
+		if (l < L - 1) {
+			const struct vd_dag_level *below = &d->lv[l + 1];
+			npos = malloc(((size_t)below->nodes + 1) * 8);
+			if (!npos) {
+				free(pos);
+				return NOMEM();
+			}
+			uint64_t p = next;
+			for (uint64_t i = 0; i < below->nodes; i++) {
+				npos[i] = p;
+				p += 1 + (l + 1 < L - 1 ? (uint64_t)__builtin_popcount(below->mask[i]) : 0);
+			}
+		}
+		uint64_t at = start;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint32_t head = lv->mask[i];
+			uint32_t *hp = &e->words[at++];
+			if (l < L - 1) {
+				uint64_t j = lv->first[i + 1];
+				for (int s = 7; s >= 0; s--) {
+					if (!(lv->mask[i] >> s & 1)) continue;
+					j--;
+					e->words[at++] = (uint32_t)npos[lv->child[j]];
+					unsigned m = lv->refl ? lv->refl[j] : 0;
+					if (sym && (m & 4)) head |= 1u << (8 + s);
+					if (sym && (m & 2)) head |= 1u << (16 + s);
+					if (sym && (m & 1)) head |= 1u << (24 + s);
+				}
+			}
+			*hp = head;
+		}
+		free(pos);
+		pos = npos;
+		start = next;
+	}
+	free(pos);
+	e->word_count = (uint32_t)w;
+	e->first_leaf_word = (uint32_t)first_leaf;
+	e->node_count = (uint32_t)dag_total_nodes(d);
+	return VD_OK;
+}
+
+/* The nodes of level l in output order: decreasing number of references
+ * from level l-1, ties in increasing index (a stable counting sort). */
+static int sort_by_refs(const struct vd_dag *d, int l, uint32_t **out)
+{
+	uint64_t n = d->lv[l].nodes;
+	uint32_t *order = malloc(n ? n * 4 : 4);
+	uint32_t *cnt = calloc(n ? n : 1, 4);
+	if (!order || !cnt) {
+		free(order);
+		free(cnt);
+		return NOMEM();
+	}
+	uint32_t maxc = 0;
+	if (l > 0) {
+		const struct vd_dag_level *up = &d->lv[l - 1];
+		for (uint64_t j = 0; j < up->refs; j++) cnt[up->child[j]]++;
+		for (uint64_t i = 0; i < n; i++)
+			if (cnt[i] > maxc) maxc = cnt[i];
+	}
+	uint64_t *hist = calloc((size_t)maxc + 2, 8);
+	if (!hist) {
+		free(order);
+		free(cnt);
+		return NOMEM();
+	}
+	/* bucket b = maxc - count: the most referenced first */
+	for (uint64_t i = 0; i < n; i++) hist[maxc - cnt[i] + 1]++;
+	for (uint32_t b = 1; b <= maxc + 1; b++) hist[b] += hist[b - 1];
+	for (uint64_t i = 0; i < n; i++) order[hist[maxc - cnt[i]]++] = (uint32_t)i;
+	free(hist);
+	free(cnt);
+	*out = order;
+	return VD_OK;
+}
+
+static int build_compact(struct vd_enc *e, const struct vd_dag *d)
+{
+	int L = d->levels, err = VD_OK;
+	e->level_count = (uint32_t)(L - 2);
+	e->level_offsets = calloc((size_t)L - 2, 4);
+	if (!e->level_offsets) return NOMEM();
+	if (!d->lv[0].nodes) {
+		/* empty scene: one empty root header, no bricks */
+		e->inner = calloc(1, 2);
+		e->leaves = malloc(1);
+		if (!e->inner || !e->leaves) return NOMEM();
+		e->inner_count = 1;
+		for (int l = 1; l < L - 2; l++) e->level_offsets[l] = 1;
+		return VD_OK;
+	}
+	uint16_t *buf[VD_MAX_LEVELS] = {0};
+	uint64_t len[VD_MAX_LEVELS] = {0}, cap[VD_MAX_LEVELS] = {0};
+	uint32_t *addr_below = NULL, *order = NULL, *addr = NULL;
+	for (int l = L - 2; l >= 0; l--) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		uint64_t n = lv->nodes;
+		if ((err = sort_by_refs(d, l, &order))) goto out;
+		addr = malloc(n * 4);
+		if (!addr) {
+			err = NOMEM();
+			goto out;
+		}
+		if (l == L - 2) {
+			if (n > vd__enc_max_bricks || (l > 0 && n > vd__enc_max_address)) {
+				err = vd_fail(VD_ERR_RANGE, "level %d has %" PRIu64
+					      " bricks; the %s addresses at most "
+					      "%" PRIu64, l, n,
+					      vd_enc_format_name(e->format),
+					      vd__enc_max_bricks < vd__enc_max_address ?
+					      vd__enc_max_bricks : vd__enc_max_address);
+				goto out;
+			}
+			e->leaves = malloc(n * 8);
+			if (!e->leaves) {
+				err = NOMEM();
+				goto out;
+			}
+			e->leaf_bytes = (uint32_t)(n * 8);
+			for (uint64_t k = 0; k < n; k++) {
+				uint32_t i = order[k];
+				addr[i] = (uint32_t)k;
+				uint64_t v = vd__enc_brick_to_symvox(d->bricks[i]);
+				for (int b = 0; b < 8; b++)
+					e->leaves[8 * k + b] = (uint8_t)(v >> 8 * b);
+			}
+		} else {
+			/* at most 17 uint16 per node */
+			cap[l] = n * 17 + 1;
+			buf[l] = malloc(cap[l] * 2);
+			if (!buf[l]) {
+				err = NOMEM();
+				goto out;
+			}
+			uint16_t *b = buf[l];
+			uint64_t at = 0;
+			for (uint64_t k = 0; k < n; k++) {
+				uint32_t i = order[k];
+				if (l > 0 && at >= vd__enc_max_address) {
+					err = vd_fail(VD_ERR_RANGE, "level %d needs "
+						      "addresses up to %" PRIu64
+						      " (uint16 units); the %s "
+						      "addresses below %" PRIu64,
+						      l, at, vd_enc_format_name(e->format),
+						      vd__enc_max_address);
+					goto out;
+				}
+				addr[i] = (uint32_t)at;
+				uint64_t h = at++;
+				unsigned head = 0;
+				uint64_t j = lv->first[i + 1];
+				for (int s = 7; s >= 0; s--) {
+					if (!(lv->mask[i] >> s & 1)) continue;
+					j--;
+					uint16_t w[2];
+					unsigned m = lv->refl ? lv->refl[j] : 0;
+					unsigned tag = vd__enc_pack_ptr(addr_below[lv->child[j]], m, w);
+					head |= tag << 2 * s;
+					b[at++] = w[0];
+					if (tag > 1) b[at++] = w[1];
+				}
+				b[h] = (uint16_t)head;
+			}
+			len[l] = at;
+		}
+		free(order);
+		order = NULL;
+		free(addr_below);
+		addr_below = addr;
+		addr = NULL;
+	}
+	uint64_t total = 0;
+	for (int l = 0; l < L - 2; l++) {
+		if (total > 0xffffffffull) break;
+		e->level_offsets[l] = (uint32_t)total;
+		total += len[l];
+	}
+	if (total > 0xffffffffull) {
+		err = vd_fail(VD_ERR_RANGE, "the inner levels need %" PRIu64
+			      " uint16 words; the %s counts them in 32 bits",
+			      total, vd_enc_format_name(e->format));
+		goto out;
+	}
+	e->inner = malloc(total * 2);
+	if (!e->inner) {
+		err = NOMEM();
+		goto out;
+	}
+	for (int l = 0; l < L - 2; l++)
+		memcpy(e->inner + e->level_offsets[l], buf[l], len[l] * 2);
+	e->inner_count = (uint32_t)total;
+	e->node_count = (uint32_t)dag_total_nodes(d);
+out:
+	for (int l = 0; l < L; l++) free(buf[l]);
+	free(addr_below);
+	free(addr);
+	free(order);
+	return err;
+}
+
+int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		 const struct vd_transform *t)
+{
+	memset(e, 0, sizeof *e);
+	if (format < 0 || format >= VD_ENC_COUNT_)
+		return vd_fail(VD_ERR_ARG, "unknown encoding %d", format);
+	int sym = vd_enc_format_symmetric(format);
+	uint32_t want = sym ? VD_KIND_SSVDAG : VD_KIND_DAG;
+	if (dag->kind != want)
+		return vd_fail(VD_ERR_WRONG_KIND, "the %s encoding needs a %s "
+			       "chunk, got %s", format_names[format],
+			       vd_chunk_kind_name(want),
+			       vd_chunk_kind_name(dag->kind));
+	if (dag->chunk_level != 0)
+		return vd_fail(VD_ERR_ARG, "chunk level %d is not a root chunk "
+			       "(chunk level 0): merge the chunks up to the root "
+			       "first", dag->chunk_level);
+	int L = dag->levels;
+	if (L < 1 || L > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_RANGE, "levels %d out of 1..%d", L,
+			       VD_MAX_LEVELS);
+	if (vd_enc_format_compact(format) && L < 3)
+		return vd_fail(VD_ERR_UNSUPPORTED, "the %s encoding needs at "
+			       "least 3 levels (an inner level above the 4^3 "
+			       "bricks), the grid has %d", format_names[format], L);
+	uint64_t nodes = dag_total_nodes(dag);
+	if (nodes > 0xffffffffull)
+		return vd_fail(VD_ERR_RANGE, "%" PRIu64 " nodes do not fit the "
+			       "32-bit node count", nodes);
+	e->format = format;
+	e->levels = (uint32_t)L;
+	if (t) {
+		memcpy(e->bbox_min, t->bbox_min, sizeof e->bbox_min);
+		memcpy(e->bbox_max, t->bbox_max, sizeof e->bbox_max);
+		e->root_side = t->root_side;
+	}
+	int err = vd_enc_format_compact(format) ? build_compact(e, dag)
+						: build_words(e, dag);
+	return err;
+}
+
+uint64_t vd_enc_size_bytes(const struct vd_enc *e)
+{
+	if (vd_enc_format_compact(e->format))
+		return 2ull * e->inner_count + e->leaf_bytes + 4ull * e->level_count;
+	return 4ull * e->word_count;
+}
+
+/* ---------------------------------------------------------------- files */
+
+static uint64_t file_bytes(const struct vd_enc *e)
+{
+	return vd_enc_size_bytes(e) + (vd_enc_format_compact(e->format) ?
+				       VD_ENC_HEADER_BYTES_COMPACT :
+				       VD_ENC_HEADER_BYTES_WORDS);
+}
+
+static int serialize(const struct vd_enc *e, uint8_t **out, size_t *size)
+{
+	size_t n = (size_t)file_bytes(e);
+	uint8_t *b = malloc(n), *p = b;
+	if (!b) return NOMEM();
+	for (int i = 0; i < 3; i++) putf(p + 4 * i, e->bbox_min[i]);
+	for (int i = 0; i < 3; i++) putf(p + 12 + 4 * i, e->bbox_max[i]);
+	putf(p + 24, e->root_side);
+	put32(p + 28, e->levels);
+	put32(p + 32, e->node_count);
+	p += 36;
+	if (vd_enc_format_compact(e->format)) {
+		put32(p, e->inner_count);
+		p += 4;
+		for (uint32_t i = 0; i < e->inner_count; i++, p += 2)
+			put16(p, e->inner[i]);
+		put32(p, e->leaf_bytes);
+		p += 4;
+		memcpy(p, e->leaves, e->leaf_bytes);
+		p += e->leaf_bytes;
+		put32(p, e->level_count);
+		p += 4;
+		for (uint32_t i = 0; i < e->level_count; i++, p += 4)
+			put32(p, e->level_offsets[i]);
+	} else {
+		put32(p, e->first_leaf_word);
+		put32(p + 4, e->word_count);
+		p += 8;
+		for (uint32_t i = 0; i < e->word_count; i++, p += 4)
+			put32(p, e->words[i]);
+	}
+	if ((size_t)(p - b) != n) {
+		free(b);
+		return vd_fail(VD_ERR_INTERNAL, "encode.c: serialized %zu of "
+			       "%zu bytes", (size_t)(p - b), n);
+	}
+	*out = b;
+	*size = n;
+	return VD_OK;
+}
+
+int vd_enc_save(const struct vd_enc *e, const char *path)
+{
+	uint8_t *b = NULL;
+	size_t n = 0;
+	int err = serialize(e, &b, &n);
+	if (err) return err;
+	size_t tl = strlen(path) + 32;
+	char *tmp = malloc(tl);
+	if (!tmp) {
+		free(b);
+		return NOMEM();
+	}
+	snprintf(tmp, tl, "%s.tmp.%ld", path, (long)getpid());
+	FILE *f = fopen(tmp, "wb");
+	if (!f) {
+		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
+			      strerror(errno));
+	} else {
+		int bad = fwrite(b, 1, n, f) != n || fflush(f) != 0 ||
+			  fsync(fileno(f)) != 0;
+		int e1 = errno;
+		if (fclose(f) != 0 && !bad) {
+			bad = 1;
+			e1 = errno;
+		}
+		if (bad)
+			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
+				      strerror(e1));
+		else
+			err = vd_replace_file(tmp, path);
+		if (err) unlink(tmp);
+	}
+	free(tmp);
+	free(b);
+	return err;
+}
+
+/* ------------------------------------------------------------- reading */
+
+struct cursor {
+	const uint8_t *p;
+	size_t left;
+	const char *what;
+};
+
+static int take(struct cursor *c, size_t n, const uint8_t **out,
+		const char *field)
+{
+	if (c->left < n)
+		return vd_fail(VD_ERR_TRUNCATED, "the file ends inside %s "
+			       "(%zu bytes left, %zu needed)", field, c->left, n);
+	*out = c->p;
+	c->p += n;
+	c->left -= n;
+	return VD_OK;
+}
+
+/* Validation walks every node reachable from the root once; `seen` marks
+ * visited node starts (words: with their level + 1). */
+struct checker {
+	const struct vd_enc *e;
+	uint8_t *seen;
+	uint8_t *brick_seen;
+};
+
+static int check_words_node(struct checker *k, uint64_t at, int l)
+{
+	const struct vd_enc *e = k->e;
+	int L = (int)e->levels;
+	if (k->seen[at]) {
+		if (k->seen[at] != l + 1)
+			return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 " is "
+				       "reached as a node of levels %d and %d",
+				       at, k->seen[at] - 1, l);
+		return VD_OK;
+	}
+	k->seen[at] = (uint8_t)(l + 1);
+	uint32_t h = e->words[at];
+	unsigned mask = h & 0xff;
+	if (!mask && !(at == 0 && l == 0))
+		return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": empty node "
+			       "on level %d", at, l);
+	if (l == L - 1) {
+		if (h >> 8)
+			return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": leaf "
+				       "0x%08x has bits above its voxel mask",
+				       at, h);
+		return VD_OK;
+	}
+	if (e->format == VD_ENC_SVDAG && h >> 8)
+		return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": node 0x%08x "
+			       "has bits above its child mask", at, h);
+	for (int a = 1; a <= 3; a++)
+		if ((h >> 8 * a & 0xff) & ~mask)
+			return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": mirror "
+				       "bits 0x%08x of absent children", at, h);
+	unsigned np = (unsigned)__builtin_popcount(mask);
+	if (at + np >= e->word_count)
+		return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": %u pointers "
+			       "run past the %u words", at, np, e->word_count);
+	for (unsigned i = 1; i <= np; i++) {
+		uint32_t c = e->words[at + i];
+		/* children follow their parents: this also rules out cycles */
+		if (c <= at + np || c >= e->word_count)
+			return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": pointer "
+				       "%u to word %u outside %" PRIu64 "..%u",
+				       at, i, c, at + np + 1, e->word_count - 1);
+		int err = check_words_node(k, c, l + 1);
+		if (err) return err;
+	}
+	return VD_OK;
+}
+
+static uint64_t level_end(const struct vd_enc *e, int l)
+{
+	return l + 1 < (int)e->level_count ? e->level_offsets[l + 1]
+					   : e->inner_count;
+}
+
+static int check_compact_node(struct checker *k, uint64_t at, int l)
+{
+	const struct vd_enc *e = k->e;
+	int L = (int)e->levels;
+	if (k->seen[at]) return VD_OK;
+	k->seen[at] = 1;
+	uint64_t end = level_end(e, l);
+	unsigned h = e->inner[at];
+	if (!h && !(at == 0 && l == 0))
+		return vd_fail(VD_ERR_CORRUPT, "inner word %" PRIu64 ": empty "
+			       "node on level %d", at, l);
+	uint64_t p = at + 1;
+	for (int s = 7; s >= 0; s--) {
+		unsigned tag = h >> 2 * s & 3;
+		if (!tag) continue;
+		unsigned nw = tag == 1 ? 1 : 2;
+		if (p + nw > end)
+			return vd_fail(VD_ERR_CORRUPT, "inner word %" PRIu64 ": "
+				       "node of level %d runs past its level's "
+				       "end %" PRIu64, at, l, end);
+		unsigned m;
+		uint32_t a = vd__enc_unpack_ptr(tag, e->inner + p, &m);
+		p += nw;
+		int err;
+		if (l + 1 < L - 2) {
+			uint64_t c = (uint64_t)e->level_offsets[l + 1] + a;
+			if (c >= level_end(e, l + 1))
+				return vd_fail(VD_ERR_CORRUPT, "inner word %" PRIu64
+					       ": child %d address %u outside "
+					       "level %d", at, s, a, l + 1);
+			err = check_compact_node(k, c, l + 1);
+		} else {
+			if ((uint64_t)a * 8 + 8 > e->leaf_bytes)
+				return vd_fail(VD_ERR_CORRUPT, "inner word %" PRIu64
+					       ": child %d brick %u beyond the %u "
+					       "bricks", at, s, a, e->leaf_bytes / 8);
+			err = VD_OK;
+			if (!k->brick_seen[a]) {
+				k->brick_seen[a] = 1;
+				uint64_t v = 0;
+				for (int b = 0; b < 8; b++) v |= e->leaves[8ull * a + b];
+				if (!v)
+					err = vd_fail(VD_ERR_CORRUPT, "brick %u is "
+						      "empty", a);
+			}
+		}
+		if (err) return err;
+	}
+	return VD_OK;
+}
+
+static int validate(struct vd_enc *e)
+{
+	struct checker k = {e, NULL, NULL};
+	int err;
+	if (vd_enc_format_compact(e->format)) {
+		if (e->level_count != e->levels - 2)
+			return vd_fail(VD_ERR_CORRUPT, "%u level offsets for %u "
+				       "levels (expected %u)", e->level_count,
+				       e->levels, e->levels - 2);
+		if (e->leaf_bytes % 8)
+			return vd_fail(VD_ERR_CORRUPT, "%u leaf bytes are not "
+				       "whole 8-byte bricks", e->leaf_bytes);
+		if (e->inner_count == 0)
+			return vd_fail(VD_ERR_CORRUPT, "no root node");
+		for (uint32_t l = 0; l < e->level_count; l++)
+			if ((l == 0 && e->level_offsets[0] != 0) ||
+			    (l > 0 && e->level_offsets[l] <= e->level_offsets[l - 1] &&
+			     e->inner[0] != 0) ||
+			    e->level_offsets[l] > e->inner_count)
+				return vd_fail(VD_ERR_CORRUPT, "level offset %u of "
+					       "level %u out of order", 
+					       e->level_offsets[l], l);
+		k.seen = calloc(e->inner_count, 1);
+		k.brick_seen = calloc(e->leaf_bytes / 8 + 1, 1);
+		if (!k.seen || !k.brick_seen) {
+			free(k.seen);
+			free(k.brick_seen);
+			return NOMEM();
+		}
+		err = check_compact_node(&k, 0, 0);
+	} else {
+		if (e->word_count == 0)
+			return vd_fail(VD_ERR_CORRUPT, "no root node");
+		if (e->first_leaf_word > e->word_count)
+			return vd_fail(VD_ERR_CORRUPT, "first leaf word %u beyond "
+				       "the %u words", e->first_leaf_word,
+				       e->word_count);
+		k.seen = calloc(e->word_count, 1);
+		if (!k.seen) return NOMEM();
+		err = check_words_node(&k, 0, 0);
+	}
+	free(k.seen);
+	free(k.brick_seen);
+	return err;
+}
+
+int vd_enc_parse(struct vd_enc *e, const void *data, size_t size, int format)
+{
+	memset(e, 0, sizeof *e);
+	if (format < 0 || format >= VD_ENC_COUNT_)
+		return vd_fail(VD_ERR_ARG, "unknown encoding %d", format);
+	struct cursor c = {data, size, NULL};
+	const uint8_t *p = NULL;
+	int err;
+	e->format = format;
+	if ((err = take(&c, 36, &p, "the header"))) return err;
+	for (int i = 0; i < 3; i++) e->bbox_min[i] = getf(p + 4 * i);
+	for (int i = 0; i < 3; i++) e->bbox_max[i] = getf(p + 12 + 4 * i);
+	e->root_side = getf(p + 24);
+	e->levels = get32(p + 28);
+	e->node_count = get32(p + 32);
+	if (e->levels < 1 || e->levels > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_UNSUPPORTED, "levels %u out of 1..%d",
+			       e->levels, VD_MAX_LEVELS);
+	if (vd_enc_format_compact(format)) {
+		if (e->levels < 3)
+			return vd_fail(VD_ERR_UNSUPPORTED, "a %s file needs at "
+				       "least 3 levels, this one has %u",
+				       format_names[format], e->levels);
+		if ((err = take(&c, 4, &p, "the inner node count"))) goto fail;
+		e->inner_count = get32(p);
+		if ((err = take(&c, 2ull * e->inner_count, &p, "the inner nodes")))
+			goto fail;
+		if (!(e->inner = malloc(2ull * e->inner_count + 2))) goto nomem;
+		for (uint32_t i = 0; i < e->inner_count; i++)
+			e->inner[i] = get16(p + 2 * i);
+		if ((err = take(&c, 4, &p, "the leaf byte count"))) goto fail;
+		e->leaf_bytes = get32(p);
+		if ((err = take(&c, e->leaf_bytes, &p, "the leaves"))) goto fail;
+		if (!(e->leaves = malloc((size_t)e->leaf_bytes + 1))) goto nomem;
+		memcpy(e->leaves, p, e->leaf_bytes);
+		if ((err = take(&c, 4, &p, "the level offset count"))) goto fail;
+		e->level_count = get32(p);
+		if (e->level_count != e->levels - 2) {
+			err = vd_fail(VD_ERR_CORRUPT, "%u level offsets for %u "
+				      "levels (expected %u)", e->level_count,
+				      e->levels, e->levels - 2);
+			goto fail;
+		}
+		if ((err = take(&c, 4ull * e->level_count, &p, "the level offsets")))
+			goto fail;
+		if (!(e->level_offsets = malloc(4ull * e->level_count + 4)))
+			goto nomem;
+		for (uint32_t i = 0; i < e->level_count; i++)
+			e->level_offsets[i] = get32(p + 4 * i);
+	} else {
+		if ((err = take(&c, 8, &p, "the header"))) goto fail;
+		e->first_leaf_word = get32(p);
+		e->word_count = get32(p + 4);
+		if ((err = take(&c, 4ull * e->word_count, &p, "the words")))
+			goto fail;
+		if (!(e->words = malloc(4ull * e->word_count + 4))) goto nomem;
+		for (uint32_t i = 0; i < e->word_count; i++)
+			e->words[i] = get32(p + 4 * i);
+	}
+	if (c.left) {
+		err = vd_fail(VD_ERR_TRAILING, "%zu bytes after the end of the "
+			      "%s structure", c.left, format_names[format]);
+		goto fail;
+	}
+	if ((err = validate(e))) goto fail;
+	return VD_OK;
+nomem:
+	err = NOMEM();
+fail:
+	vd_enc_release(e);
+	return err;
+}
+
+int vd_enc_load(struct vd_enc *e, const char *path, int format)
+{
+	memset(e, 0, sizeof *e);
+	if (format < 0) format = vd_enc_format_from_path(path);
+	if (format < 0)
+		return vd_fail(VD_ERR_ARG, "'%s' has none of the extensions "
+			       ".svdag, .ussvdag, .esvdag, .ssvdag", path);
+	FILE *f = fopen(path, "rb");
+	if (!f) return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+	uint8_t *buf = NULL;
+	size_t n = 0, cap = 0;
+	int err = VD_OK;
+	for (;;) {
+		if (n == cap) {
+			cap = cap ? cap * 2 : 1 << 16;
+			uint8_t *nb = realloc(buf, cap);
+			if (!nb) {
+				err = NOMEM();
+				break;
+			}
+			buf = nb;
+		}
+		size_t r = fread(buf + n, 1, cap - n, f);
+		n += r;
+		if (r == 0) {
+			if (ferror(f))
+				err = vd_fail(VD_ERR_IO, "%s", strerror(errno));
+			break;
+		}
+	}
+	fclose(f);
+	if (!err) err = vd_enc_parse(e, buf, n, format);
+	free(buf);
+	return err;
+}
+
+/* ----------------------------------------------------------- traversal */
+
+void vd_enc_root(const struct vd_enc *e, struct vd_enc_node *n)
+{
+	(void)e;
+	n->level = 0;
+	n->at = 0;
+	n->refl = 0;
+}
+
+int vd_enc_brick_level(const struct vd_enc *e)
+{
+	return (int)e->levels - 2;
+}
+
+/* Stored child mask of an inner node (or leaf mask of a word format). */
+static unsigned stored_mask(const struct vd_enc *e, const struct vd_enc_node *n)
+{
+	if (vd_enc_format_compact(e->format)) {
+		unsigned h = e->inner[n->at], m = 0;
+		for (unsigned s = 0; s < 8; s++)
+			if (h >> 2 * s & 3) m |= 1u << s;
+		return m;
+	}
+	return e->words[n->at] & 0xff;
+}
+
+unsigned vd_enc_node_mask(const struct vd_enc *e, const struct vd_enc_node *n)
+{
+	if (vd_enc_format_compact(e->format) && n->level == (int)e->levels - 2) {
+		uint64_t b = vd_enc_brick(e, n);
+		unsigned m = 0;
+		for (unsigned p = 0; p < 8; p++)
+			if (b >> 8 * p & 0xff) m |= 1u << p;
+		return m;
+	}
+	return vd_mask_reflect((uint8_t)stored_mask(e, n), n->refl);
+}
+
+int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
+		 unsigned p, struct vd_enc_node *child)
+{
+	unsigned s = (p ^ n->refl) & 7;
+	int L = (int)e->levels;
+	if (vd_enc_format_compact(e->format)) {
+		unsigned h = e->inner[n->at], tag = h >> 2 * s & 3;
+		if (!tag) return 0;
+		uint64_t off = n->at + 1;
+		for (unsigned i = 7; i > s; i--) {
+			unsigned t = h >> 2 * i & 3;
+			off += t == 0 ? 0 : t == 1 ? 1 : 2;
+		}
+		unsigned m;
+		uint32_t a = vd__enc_unpack_ptr(tag, e->inner + off, &m);
+		child->level = n->level + 1;
+		child->refl = n->refl ^ m;
+		child->at = child->level < L - 2 ?
+			    (uint64_t)e->level_offsets[child->level] + a :
+			    (uint64_t)a * 8;
+		return 1;
+	}
+	uint32_t h = e->words[n->at];
+	if (!(h >> s & 1)) return 0;
+	unsigned idx = (unsigned)__builtin_popcount((h & 0xff) >> s);
+	unsigned m = (h >> (8 + s) & 1) << 2 | (h >> (16 + s) & 1) << 1 |
+		     (h >> (24 + s) & 1);
+	child->level = n->level + 1;
+	child->refl = n->refl ^ m;
+	child->at = e->words[n->at + idx];
+	return 1;
+}
+
+uint64_t vd_enc_brick(const struct vd_enc *e, const struct vd_enc_node *n)
+{
+	if (vd_enc_format_compact(e->format)) {
+		uint64_t v = 0;
+		for (int b = 0; b < 8; b++)
+			v |= (uint64_t)e->leaves[n->at + b] << 8 * b;
+		return vd_brick_reflect(vd__enc_brick_from_symvox(v), n->refl);
+	}
+	uint64_t v = 0;
+	struct vd_enc_node c;
+	for (unsigned p = 0; p < 8; p++)
+		if (vd_enc_child(e, n, p, &c))
+			v |= (uint64_t)vd_mask_reflect((uint8_t)(e->words[c.at] & 0xff),
+						       c.refl) << 8 * p;
+	return v;
+}
+
+struct expander {
+	const struct vd_enc *e;
+	int (*fn)(void *ctx, uint64_t key, uint64_t brick);
+	void *ctx;
+};
+
+static int expand_node(const struct expander *x, const struct vd_enc_node *n,
+		       uint64_t morton)
+{
+	const struct vd_enc *e = x->e;
+	if (n->level == (int)e->levels - 2)
+		return x->fn(x->ctx, morton, vd_enc_brick(e, n));
+	struct vd_enc_node c;
+	for (unsigned p = 0; p < 8; p++) {
+		if (!vd_enc_child(e, n, p, &c)) continue;
+		int err = expand_node(x, &c, morton << 3 | p);
+		if (err) return err;
+	}
+	return 0;
+}
+
+int vd_enc_expand(const struct vd_enc *e,
+		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
+		  void *ctx)
+{
+	struct vd_enc_node r;
+	vd_enc_root(e, &r);
+	if (e->levels == 1) {
+		unsigned m = stored_mask(e, &r);
+		return m ? fn(ctx, 0, m) : 0;
+	}
+	uint64_t first = 0;
+	if (vd_enc_format_compact(e->format)) first = e->inner[0];
+	else first = e->words[0] & 0xff;
+	if (!first) return 0;
+	struct expander x = {e, fn, ctx};
+	return expand_node(&x, &r, 0);
+}
+
+/* ---------------------------------------------------------- statistics */
+
+int vd_enc_svo_counts(const struct vd_dag *d,
+		      uint64_t svo_nodes[VD_MAX_LEVELS + 1])
+{
+	int L = d->levels;
+	memset(svo_nodes, 0, (VD_MAX_LEVELS + 1) * sizeof *svo_nodes);
+	if (d->chunk_level != 0)
+		return vd_fail(VD_ERR_ARG, "chunk level %d is not a root chunk",
+			       d->chunk_level);
+	if (!d->lv[0].nodes) return VD_OK;
+	/* occ[i]: how many times node i of level l occurs in the SVO */
+	uint64_t *occ = calloc(1, 8);
+	if (!occ) return NOMEM();
+	occ[0] = 1;
+	for (int l = 0; l < L; l++) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		uint64_t below = 0;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			svo_nodes[l] += occ[i];
+			below += occ[i] * (uint64_t)__builtin_popcount(lv->mask[i]);
+		}
+		if (l == L - 1) {
+			svo_nodes[L] = below; /* the voxels */
+			break;
+		}
+		uint64_t *nocc = calloc(d->lv[l + 1].nodes ? d->lv[l + 1].nodes : 1, 8);
+		if (!nocc) {
+			free(occ);
+			return NOMEM();
+		}
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
+				nocc[lv->child[j]] += occ[i];
+		free(occ);
+		occ = nocc;
+	}
+	free(occ);
+	return VD_OK;
+}
+
+int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
+{
+	memset(out, 0, sizeof *out);
+	int L = dag->levels;
+	if (dag->chunk_level != 0)
+		return vd_fail(VD_ERR_ARG, "chunk level %d is not a root chunk",
+			       dag->chunk_level);
+	if (levels < 1 || levels > L)
+		return vd_fail(VD_ERR_RANGE, "cut depth %d out of 1..%d",
+			       levels, L);
+	uint64_t counts[VD_MAX_LEVELS + 1];
+	int err = vd_enc_svo_counts(dag, counts);
+	if (err) return err;
+	if (!dag->lv[0].nodes) {
+		out->kind = dag->kind;
+		out->levels = levels;
+		return VD_OK;
+	}
+	/* A view of levels 0..levels-1 whose last level keeps only the masks:
+	 * a level `levels`-1 node's child mask is its 2x2x2 mask of coarse
+	 * voxels. The merge engine reduces it again from the leaves. */
+	struct vd_dag v;
+	memset(&v, 0, sizeof v);
+	v.kind = dag->kind;
+	v.levels = levels;
+	v.chunk_level = 0;
+	v.voxels = counts[levels];
+	for (int l = 0; l < levels; l++) v.lv[l] = dag->lv[l];
+	struct vd_dag_level *last = &v.lv[levels - 1];
+	last->refs = 0;
+	last->first = NULL;
+	last->child = NULL;
+	last->refl = NULL;
+	v.bricks = levels == L ? dag->bricks : NULL;
+	const struct vd_dag *parts[1] = {&v};
+	err = vd_dag_merge(out, parts, 1, dag->kind, 0, NULL, NULL);
+	if (err) vd_dag_release(out);
+	return err;
+}
+
+int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+		     int levels, struct vd_enc_row *row)
+{
+	memset(row, 0, sizeof *row);
+	row->levels = levels;
+	if (dag->kind != VD_KIND_DAG || ssvdag->kind != VD_KIND_SSVDAG)
+		return vd_fail(VD_ERR_WRONG_KIND, "tables need a dag and an "
+			       "ssvdag chunk, got %s and %s",
+			       vd_chunk_kind_name(dag->kind),
+			       vd_chunk_kind_name(ssvdag->kind));
+	if (dag->levels != ssvdag->levels || dag->voxels != ssvdag->voxels)
+		return vd_fail(VD_ERR_MISMATCH, "the dag (%d levels, %" PRIu64
+			       " voxels) and the ssvdag (%d levels, %" PRIu64
+			       " voxels) are not of one scene", dag->levels,
+			       dag->voxels, ssvdag->levels, ssvdag->voxels);
+	uint64_t counts[VD_MAX_LEVELS + 1];
+	int err = vd_enc_svo_counts(dag, counts);
+	if (err) return err;
+	row->voxels = counts[levels];
+	for (int l = 0; l < levels; l++) row->svo_nodes += counts[l];
+	row->svo_bytes = row->svo_nodes;
+	struct vd_dag cut[2];
+	memset(cut, 0, sizeof cut);
+	const struct vd_dag *src[2] = {dag, ssvdag}, *use[2];
+	for (int k = 0; k < 2 && !err; k++) {
+		if (levels == dag->levels) {
+			use[k] = src[k];
+		} else {
+			err = vd_enc_cut(src[k], levels, &cut[k]);
+			use[k] = &cut[k];
+		}
+	}
+	if (!err) {
+		row->dag_nodes = dag_total_nodes(use[0]);
+		row->ssvdag_nodes = dag_total_nodes(use[1]);
+	}
+	for (int f = 0; f < VD_ENC_COUNT_ && !err; f++) {
+		if (vd_enc_format_compact(f) && levels < 3) continue;
+		struct vd_enc e;
+		err = vd_enc_build(&e, f, use[vd_enc_format_symmetric(f)], NULL);
+		if (!err) {
+			row->bytes[f] = vd_enc_size_bytes(&e);
+			row->has[f] = 1;
+		}
+		vd_enc_release(&e);
+	}
+	vd_dag_release(&cut[0]);
+	vd_dag_release(&cut[1]);
+	return err;
+}
+
+/* ------------------------------------------------------------- timings */
+
+/* The number after "key": in a flat JSON text, or -1. */
+static double json_number(const char *text, const char *key)
+{
+	char pat[64];
+	snprintf(pat, sizeof pat, "\"%s\"", key);
+	const char *p = strstr(text, pat);
+	if (!p) return -1;
+	p += strlen(pat);
+	while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r' || *p == ':') p++;
+	char *end;
+	double v = strtod(p, &end);
+	return end == p ? -1 : v;
+}
+
+int vd_enc_timing_add(struct vd_enc_timing *t, const char *path)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f) return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+	char buf[1 << 16];
+	size_t n = fread(buf, 1, sizeof buf - 1, f);
+	fclose(f);
+	buf[n] = 0;
+	double *dst = NULL;
+	if (strstr(buf, "\"tool\": \"svo-to-dag\"") || strstr(buf, "\"tool\":\"svo-to-dag\""))
+		dst = &t->seconds_svo_to_dag;
+	else if (strstr(buf, "\"tool\": \"symmetry-merge\"") ||
+		 strstr(buf, "\"tool\":\"symmetry-merge\""))
+		dst = &t->seconds_symmetry_merge;
+	else
+		return vd_fail(VD_ERR_FORMAT, "not a statistics file of "
+			       "svo-to-dag or symmetry-merge (no \"tool\" of "
+			       "either)");
+	double s = 0;
+	static const char *const keys[] = {"seconds_load", "seconds_build",
+					   "seconds_save"};
+	for (int i = 0; i < 3; i++) {
+		double v = json_number(buf, keys[i]);
+		if (v < 0)
+			return vd_fail(VD_ERR_FORMAT, "no \"%s\" number", keys[i]);
+		s += v;
+	}
+	*dst = (*dst < 0 ? 0 : *dst) + s;
+	return VD_OK;
+}
+
+/* --------------------------------------------------------------- tables */
+
+#define MB(b) ((double)(b) / 1048576.0)
+
+/* Writes `text` to dir/name.suffix atomically. */
+static int write_text(const char *dir, const char *name, const char *suffix,
+		      const char *text, size_t n)
+{
+	char path[4096], tmp[4200];
+	snprintf(path, sizeof path, "%s/%s.%s", dir, name, suffix);
+	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+	FILE *f = fopen(tmp, "w");
+	if (!f)
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
+			       strerror(errno));
+	int bad = fwrite(text, 1, n, f) != n;
+	if (fclose(f) != 0) bad = 1;
+	int err = bad ? vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				strerror(errno))
+		      : vd_replace_file(tmp, path);
+	if (err)
+		unlink(tmp);
+	return err;
+}
+
+/* A growing text buffer for the CSV and Markdown files. */
+struct text {
+	char *s;
+	size_t n, cap;
+	int nomem;
+};
+
+__attribute__((format(printf, 2, 3)))
+static void tprintf(struct text *t, const char *fmt, ...)
+{
+	va_list ap;
+	for (;;) {
+		size_t room = t->cap - t->n;
+		va_start(ap, fmt);
+		int k = t->cap ? vsnprintf(t->s + t->n, room, fmt, ap) : -2;
+		va_end(ap);
+		if (k >= 0 && (size_t)k < room) {
+			t->n += (size_t)k;
+			return;
+		}
+		size_t nc = t->cap ? t->cap * 2 : 4096;
+		char *ns = realloc(t->s, nc);
+		if (!ns) {
+			t->nomem = 1;
+			return;
+		}
+		t->s = ns;
+		t->cap = nc;
+	}
+}
+
+static double bpv(uint64_t bytes, uint64_t voxels)
+{
+	return voxels ? 8.0 * (double)bytes / (double)voxels : 0;
+}
+
+/* The order of the paper's columns. */
+static const int table_order[VD_ENC_COUNT_] = {VD_ENC_SSVDAG, VD_ENC_USSVDAG,
+					       VD_ENC_ESVDAG, VD_ENC_SVDAG};
+
+int vd_enc_write_tables(const char *dir, const char *name,
+			const struct vd_enc_row *rows, size_t n,
+			const struct vd_enc_timing *t, double seconds_encode)
+{
+	char path[4096];
+	int err;
+	/* JSON */
+	snprintf(path, sizeof path, "%s/%s.tables.json", dir, name);
+	struct vd_json *j;
+	if ((err = vd_json_open(&j, path))) return err;
+	vd_json_str(j, "scene", name);
+	vd_json_u64(j, "levels", n ? (uint64_t)rows[0].levels : 0);
+	vd_json_str(j, "node_count", "distinct nodes over levels 0..L-1; "
+		    "svo: SVO nodes over the same levels, one byte each");
+	vd_json_str(j, "bytes", "counted size: file size minus header "
+		    "(schemas/encodings.md); MB = 2^20 bytes");
+	vd_json_f64(j, "seconds_encode", seconds_encode);
+	vd_json_array(j, "table1");
+	for (size_t i = 0; i < n; i++) {
+		vd_json_object(j, NULL);
+		vd_json_u64(j, "levels", (uint64_t)rows[i].levels);
+		vd_json_u64(j, "resolution", 1ull << rows[i].levels);
+		vd_json_u64(j, "voxels", rows[i].voxels);
+		vd_json_f64(j, "mvoxels", (double)rows[i].voxels / 1e6);
+		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
+			vd_json_f64(j, "seconds_svo_to_dag", t->seconds_svo_to_dag);
+		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
+			vd_json_f64(j, "seconds_symmetry_merge",
+				    t->seconds_symmetry_merge);
+		vd_json_end_object(j);
+	}
+	vd_json_end_array(j);
+	vd_json_array(j, "table2");
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_enc_row *r = &rows[i];
+		vd_json_object(j, NULL);
+		vd_json_u64(j, "levels", (uint64_t)r->levels);
+		vd_json_u64(j, "resolution", 1ull << r->levels);
+		vd_json_u64(j, "voxels", r->voxels);
+		vd_json_u64(j, "nodes_svo", r->svo_nodes);
+		vd_json_u64(j, "nodes_svdag", r->dag_nodes);
+		vd_json_u64(j, "nodes_ssvdag", r->ssvdag_nodes);
+		vd_json_u64(j, "bytes_svo", r->svo_bytes);
+		vd_json_f64(j, "bits_per_voxel_svo", bpv(r->svo_bytes, r->voxels));
+		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+			int f = table_order[k];
+			if (!r->has[f]) continue;
+			char key[64];
+			snprintf(key, sizeof key, "bytes_%s", format_names[f]);
+			vd_json_u64(j, key, r->bytes[f]);
+			snprintf(key, sizeof key, "bits_per_voxel_%s", format_names[f]);
+			vd_json_f64(j, key, bpv(r->bytes[f], r->voxels));
+		}
+		vd_json_end_object(j);
+	}
+	vd_json_end_array(j);
+	if ((err = vd_json_close(j))) return err;
+
+	/* CSV */
+	struct text c = {0};
+	tprintf(&c, "levels,resolution,mvoxels,seconds_svo_to_dag,"
+		"seconds_symmetry_merge\n");
+	for (size_t i = 0; i < n; i++) {
+		tprintf(&c, "%d,%llu,%.6f,", rows[i].levels,
+			1ull << rows[i].levels, (double)rows[i].voxels / 1e6);
+		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
+			tprintf(&c, "%.3f", t->seconds_svo_to_dag);
+		tprintf(&c, ",");
+		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
+			tprintf(&c, "%.3f", t->seconds_symmetry_merge);
+		tprintf(&c, "\n");
+	}
+	if (c.nomem) {
+		free(c.s);
+		return NOMEM();
+	}
+	err = write_text(dir, name, "table1.csv", c.s, c.n);
+	c.n = 0;
+	if (err) {
+		free(c.s);
+		return err;
+	}
+	tprintf(&c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
+		"nodes_svo,bytes_ssvdag,bytes_ussvdag,bytes_esvdag,bytes_svdag,"
+		"bytes_svo,bpv_ssvdag,bpv_ussvdag,bpv_esvdag,bpv_svdag,bpv_svo\n");
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_enc_row *r = &rows[i];
+		tprintf(&c, "%d,%llu,%llu,%llu,%llu,%llu", r->levels,
+			1ull << r->levels, (unsigned long long)r->voxels,
+			(unsigned long long)r->ssvdag_nodes,
+			(unsigned long long)r->dag_nodes,
+			(unsigned long long)r->svo_nodes);
+		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+			int f = table_order[k];
+			if (r->has[f]) tprintf(&c, ",%llu", (unsigned long long)r->bytes[f]);
+			else tprintf(&c, ",");
+		}
+		tprintf(&c, ",%llu", (unsigned long long)r->svo_bytes);
+		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+			int f = table_order[k];
+			if (r->has[f]) tprintf(&c, ",%.4f", bpv(r->bytes[f], r->voxels));
+			else tprintf(&c, ",");
+		}
+		tprintf(&c, ",%.4f\n", bpv(r->svo_bytes, r->voxels));
+	}
+	if (c.nomem) {
+		free(c.s);
+		return NOMEM();
+	}
+	err = write_text(dir, name, "table2.csv", c.s, c.n);
+	c.n = 0;
+	if (err) {
+		free(c.s);
+		return err;
+	}
+
+	/* Markdown, laid out like the paper's tables */
+	tprintf(&c, "# %s\n\n## Table 1: scene and build times\n\n", name);
+	tprintf(&c, "| resolution | MVoxels | svo-to-dag (s) | symmetry-merge (s) |\n"
+		"|---:|---:|---:|---:|\n");
+	for (size_t i = 0; i < n; i++) {
+		tprintf(&c, "| %llu^3 | %.3f | ", 1ull << rows[i].levels,
+			(double)rows[i].voxels / 1e6);
+		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
+			tprintf(&c, "%.2f", t->seconds_svo_to_dag);
+		else tprintf(&c, "-");
+		tprintf(&c, " | ");
+		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
+			tprintf(&c, "%.2f", t->seconds_symmetry_merge);
+		else tprintf(&c, "-");
+		tprintf(&c, " |\n");
+	}
+	tprintf(&c, "\nBuild times are for the full resolution (the lower "
+		"resolutions are cuts of the same DAG); encode took %.2f s.\n",
+		seconds_encode);
+	tprintf(&c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
+		"| resolution | nodes SSVDAG | nodes SVDAG | nodes SVO | "
+		"MB SSVDAG | MB USSVDAG | MB ESVDAG | MB SVDAG | MB SVO |\n"
+		"|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_enc_row *r = &rows[i];
+		tprintf(&c, "| %llu^3 | %.3f | %.3f | %.3f", 1ull << r->levels,
+			(double)r->ssvdag_nodes / 1e6, (double)r->dag_nodes / 1e6,
+			(double)r->svo_nodes / 1e6);
+		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+			int f = table_order[k];
+			if (r->has[f]) tprintf(&c, " | %.3f", MB(r->bytes[f]));
+			else tprintf(&c, " | -");
+		}
+		tprintf(&c, " | %.3f |\n", MB(r->svo_bytes));
+	}
+	if (n) {
+		const struct vd_enc_row *r = &rows[0];
+		tprintf(&c, "\nBits per voxel at %llu^3 (%llu voxels):",
+			1ull << r->levels, (unsigned long long)r->voxels);
+		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+			int f = table_order[k];
+			if (r->has[f])
+				tprintf(&c, " %s %.3f,", format_names[f],
+					bpv(r->bytes[f], r->voxels));
+		}
+		tprintf(&c, " svo %.3f.\n", bpv(r->svo_bytes, r->voxels));
+		if (r->has[VD_ENC_SSVDAG] && r->bytes[VD_ENC_SVDAG])
+			tprintf(&c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
+				100.0 * (double)r->bytes[VD_ENC_SSVDAG] / (double)r->bytes[VD_ENC_SVDAG],
+				100.0 * (double)r->bytes[VD_ENC_ESVDAG] / (double)r->bytes[VD_ENC_SVDAG]);
+	}
+	if (c.nomem) {
+		free(c.s);
+		return NOMEM();
+	}
+	err = write_text(dir, name, "tables.md", c.s, c.n);
+	free(c.s);
+	return err;
+}
+
+/* ---------------------------------------------------------- stage run */
+
+/* Rewrites the current error as "<what> '<subject>': <cause>: <detail>". */
+static int reword(int err, const char *what, const char *subject)
+{
+	char d[512];
+	snprintf(d, sizeof d, "%s", vd_error_detail());
+	return vd_fail(err, "%s '%s': %s%s%s", what, subject, vd_strerror(err),
+		       *d ? ": " : "", d);
+}
+
+/* Opens a root chunk of `kind`, checks the budget against its header and
+ * loads it. */
+static int load_root(struct vd_dag *d, struct vd_transform *t,
+		     const char *path, uint32_t kind, uint64_t *budget_used,
+		     uint64_t budget)
+{
+	struct vd_chunk *c;
+	int err = vd_chunk_open(&c, path, kind);
+	if (err) return reword(err, "cannot read", path);
+	const struct vd_chunk_header *h = vd_chunk_header(c);
+	if (h->chunk_level != 0) {
+		uint32_t level = h->chunk_level;
+		uint64_t cell = h->cell_morton;
+		vd_chunk_free(c);
+		return vd_fail(VD_ERR_ARG, "cannot encode '%s': not a root chunk "
+			       "(chunk level %u, cell %" PRIu64 "): merge the "
+			       "chunks up to level 0 first (svo-to-dag --merge, "
+			       "symmetry-merge --merge)", path, level, cell);
+	}
+	uint64_t nodes = 0;
+	for (uint32_t i = 0; i + 1 < h->level_count; i++) nodes += h->level_nodes[i];
+	/* the chunk in memory (masks, offsets, 8 references at most) */
+	*budget_used += nodes * 61;
+	if (budget && *budget_used > budget) {
+		vd_chunk_free(c);
+		return vd_fail(VD_ERR_BUDGET, "cannot load '%s': needs about "
+			       "%" PRIu64 " MiB, budget --mem-budget %" PRIu64
+			       " MiB", path, *budget_used >> 20, budget >> 20);
+	}
+	*t = h->transform;
+	err = vd_dag_from_chunk(d, c, kind);
+	vd_chunk_free(c);
+	if (err) {
+		vd_dag_release(d);
+		return reword(err, "cannot read", path);
+	}
+	return VD_OK;
+}
+
+struct row_job {
+	const struct vd_dag *dag, *ssvdag;
+	struct vd_enc_row *rows;
+	int *errs;
+	char (*details)[512];
+};
+
+static void row_worker(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct row_job *r = ctx;
+	int err = vd_enc_table_row(r->dag, r->ssvdag, r->dag->levels - (int)i,
+				   &r->rows[i]);
+	r->errs[i] = err;
+	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
+			  vd_error_detail());
+}
+
+static int same_transform(const struct vd_transform *a,
+			  const struct vd_transform *b)
+{
+	for (int i = 0; i < 3; i++)
+		if (a->bbox_min[i] != b->bbox_min[i] ||
+		    a->bbox_max[i] != b->bbox_max[i])
+			return 0;
+	return a->root_side == b->root_side;
+}
+
+int vd_enc_run(const struct vd_enc_job *job)
+{
+	struct vd_dag dag = {0}, ss = {0};
+	struct vd_transform t1, t2;
+	struct vd_enc_row *rows = NULL;
+	int *errs = NULL;
+	char (*details)[512] = NULL;
+	int err;
+	uint64_t used = 0;
+	double t0 = vd_seconds();
+	const char *name = job->name ? job->name : "scene";
+	if (!job->dag_path || !job->ssvdag_path || !job->outdir)
+		return vd_fail(VD_ERR_ARG, "the dag and ssvdag chunks and the "
+			       "output directory are needed");
+	if ((err = load_root(&dag, &t1, job->dag_path, VD_KIND_DAG, &used,
+			     job->mem_budget_bytes)))
+		return err;
+	if ((err = load_root(&ss, &t2, job->ssvdag_path, VD_KIND_SSVDAG, &used,
+			     job->mem_budget_bytes)))
+		goto out;
+	if (dag.levels != ss.levels || dag.voxels != ss.voxels ||
+	    !same_transform(&t1, &t2)) {
+		err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with '%s': "
+			      "not the same scene (%d and %d levels, %" PRIu64
+			      " and %" PRIu64 " voxels, or another bounding box)",
+			      job->dag_path, job->ssvdag_path, dag.levels,
+			      ss.levels, dag.voxels, ss.voxels);
+		goto out;
+	}
+	if (dag.voxels == 0) {
+		err = vd_fail(VD_ERR_EMPTY, "cannot encode '%s': the scene has "
+			      "no voxels", job->dag_path);
+		goto out;
+	}
+	struct vd_enc_timing tm = {-1, -1};
+	for (size_t i = 0; i < job->n_stats; i++)
+		if ((err = vd_enc_timing_add(&tm, job->stats_paths[i]))) {
+			err = reword(err, "cannot read", job->stats_paths[i]);
+			goto out;
+		}
+	struct stat st;
+	if (mkdir(job->outdir, 0777) != 0 &&
+	    (errno != EEXIST || stat(job->outdir, &st) != 0 || !S_ISDIR(st.st_mode))) {
+		err = vd_fail(VD_ERR_IO, "cannot create directory '%s': %s",
+			      job->outdir, errno == EEXIST ? "a file of that "
+			      "name exists" : strerror(errno));
+		goto out;
+	}
+	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
+	uint64_t bytes[VD_ENC_COUNT_] = {0};
+	int written[VD_ENC_COUNT_] = {0};
+	char path[4096];
+	for (int f = 0; f < VD_ENC_COUNT_ && !err; f++) {
+		if (vd_enc_format_compact(f) && dag.levels < 3) continue;
+		struct vd_enc e;
+		snprintf(path, sizeof path, "%s/%s.%s", job->outdir, name,
+			 format_names[f]);
+		err = vd_enc_build(&e, f, vd_enc_format_symmetric(f) ? &ss : &dag,
+				   &t1);
+		if (err) err = reword(err, "cannot encode", path);
+		else if ((err = vd_enc_save(&e, path)))
+			err = reword(err, "cannot write", path);
+		bytes[f] = vd_enc_size_bytes(&e);
+		written[f] = !err;
+		vd_enc_release(&e);
+	}
+	if (err) goto out;
+	double t_enc = vd_seconds() - t_enc0, t_tab0 = vd_seconds();
+
+	int lo = job->min_level < 1 ? 1 : job->min_level;
+	size_t nrows = dag.levels >= lo ? (size_t)(dag.levels - lo + 1) : 1;
+	rows = calloc(nrows, sizeof *rows);
+	errs = calloc(nrows, sizeof *errs);
+	details = calloc(nrows, sizeof *details);
+	if (!rows || !errs || !details) {
+		err = NOMEM();
+		goto out;
+	}
+	struct row_job rj = {&dag, &ss, rows, errs, details};
+	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
+		goto out;
+	for (size_t i = 0; i < nrows; i++)
+		if (errs[i]) {
+			err = vd_fail(errs[i], "cannot compute the %llu^3 row: "
+				      "%s: %s", 1ull << rows[i].levels,
+				      vd_strerror(errs[i]), details[i]);
+			goto out;
+		}
+	if ((err = vd_enc_write_tables(job->outdir, name, rows, nrows, &tm,
+				       t_enc))) {
+		err = reword(err, "cannot write the tables in", job->outdir);
+		goto out;
+	}
+	double t_tab = vd_seconds() - t_tab0;
+
+	snprintf(path, sizeof path, "%s/%s.encode.stats.json", job->outdir, name);
+	struct vd_json *j;
+	if ((err = vd_json_open(&j, path))) {
+		err = reword(err, "cannot write", path);
+		goto out;
+	}
+	vd_json_str(j, "tool", job->tool ? job->tool : "encode");
+	vd_json_str(j, "version", VD_VERSION_STRING);
+	vd_json_u64(j, "levels", (uint64_t)dag.levels);
+	vd_json_u64(j, "voxels", dag.voxels);
+	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&dag));
+	vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&ss));
+	for (int f = 0; f < VD_ENC_COUNT_; f++) {
+		char key[64];
+		if (!written[f]) {
+			snprintf(key, sizeof key, "skipped_%s", format_names[f]);
+			vd_json_str(j, key, "fewer than 3 levels");
+			continue;
+		}
+		snprintf(key, sizeof key, "bytes_%s", format_names[f]);
+		vd_json_u64(j, key, bytes[f]);
+		snprintf(key, sizeof key, "file_bytes_%s", format_names[f]);
+		vd_json_u64(j, key, bytes[f] + (vd_enc_format_compact(f) ?
+			    VD_ENC_HEADER_BYTES_COMPACT : VD_ENC_HEADER_BYTES_WORDS));
+	}
+	vd_json_f64(j, "seconds_load", t_load);
+	vd_json_f64(j, "seconds_encode", t_enc);
+	vd_json_f64(j, "seconds_tables", t_tab);
+	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
+	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	if ((err = vd_json_close(j))) {
+		err = reword(err, "cannot write", path);
+		goto out;
+	}
+	if (!job->quiet) {
+		fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
+			" B, ussvdag %" PRIu64 " B", job->tool ? job->tool : "encode",
+			1ull << dag.levels, dag.voxels, bytes[VD_ENC_SVDAG],
+			bytes[VD_ENC_USSVDAG]);
+		if (written[VD_ENC_SSVDAG])
+			fprintf(stderr, ", esvdag %" PRIu64 " B, ssvdag %" PRIu64
+				" B (%.1f%% of svdag)", bytes[VD_ENC_ESVDAG],
+				bytes[VD_ENC_SSVDAG], 100.0 * (double)bytes[VD_ENC_SSVDAG] /
+				(double)bytes[VD_ENC_SVDAG]);
+		else
+			fprintf(stderr, ", no esvdag/ssvdag (fewer than 3 levels)");
+		fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
+			t_enc, t_tab, job->outdir);
+	}
+out:
+	free(rows);
+	free(errs);
+	free(details);
+	vd_dag_release(&dag);
+	vd_dag_release(&ss);
+	return err;
+}

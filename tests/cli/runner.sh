@@ -1,0 +1,174 @@
+#!/usr/bin/env bash
+# The runner from the outside: config errors with file:line:column, a full
+# run verified against the voxels, resume after SIGKILL of the runner or of
+# a job with byte-identical outputs and no finished job rerun, the lock,
+# and minimal reruns.
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+R=$BIN/voxdag
+NAME=clitest-$$
+CFG=$T/p.yaml
+trap 'rm -rf "$T" out/$NAME' EXIT
+
+# The runner.log lines of the last run.
+last_run() { awk '/ run /{buf=""} {buf=buf $0 "\n"} END{printf "%s", buf}' $D/logs/runner.log; }
+
+write_cfg() { # write_cfg LEVELS CHUNK_LEVEL [extra jobs yaml]
+	cat > "$CFG" <<EOF
+version: 1
+name: $NAME
+input:
+  mesh: tests/data/bunny.ply
+levels: $1
+chunk_level: $2
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:    {stage: voxelize}
+  dag:    {stage: svo-to-dag, needs: [vox]}
+  ssvdag: {stage: symmetry-merge, needs: [dag]}
+  enc:    {stage: encode, needs: [dag, ssvdag]}
+EOF
+}
+
+# --- config errors: one line naming file:line:column, exit 1, nothing run
+bad_cfg() { # bad_cfg NAME PATTERN (config on stdin)
+	cat > "$T/bad.yaml"
+	expect "$1" 1 "$2" $R plan "$T/bad.yaml"
+}
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\nfrobs: 3\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_unknown_key 'bad.yaml:5:1: unknown key .frobs.'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: six\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_wrong_type 'bad.yaml:4:9: .levels. must be a whole number'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 40\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_out_of_range 'bad.yaml:4:9: .levels. is 40, outside 1..21'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  a: {stage: svo-to-dag, needs: [b]}\n  b: {stage: svo-to-dag, needs: [a]}\n' |
+	bad_cfg config_cycle 'bad.yaml:7:3: job .a. is part of a cycle'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelise}\n' |
+	bad_cfg config_unknown_stage 'bad.yaml:6:14: unknown stage .voxelise.'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [w]}\n' |
+	bad_cfg config_unknown_need 'bad.yaml:7:3: job .d. needs .w., which is not a job'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  s: {stage: symmetry-merge, needs: [v]}\n' |
+	bad_cfg config_wrong_input_stage 'takes needs: \[an svo-to-dag job\]'
+printf 'version: 1\nname: x\ninput: {mesh: out/none.ply, fetch: config/fetch-x.sh}\nlevels: 6\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_missing_input 'missing; fetch it with: config/fetch-x.sh'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply\nlevels: 6\n' |
+	bad_cfg config_yaml_syntax 'bad.yaml:[0-9]+:[0-9]+: '
+printf 'version: 7\nname: x\n' | bad_cfg config_newer_version 'version 7 is newer'
+printf '' | bad_cfg config_empty 'bad.yaml:1:1: a pipeline is a mapping'
+expect runner_usage 2 'COMMAND' $R run
+expect runner_unknown_command 2 'unknown command' $R frob config/default.yaml
+help_lists_options runner_help_matches_code voxdag pipeline/main.c
+
+# --- a full run, checked against the voxels
+write_cfg 8 2
+expect run_ok 0 '' $R -q run "$CFG"
+D=out/$NAME
+expect run_root_dag_lossless 0 '' $BIN/dag-verify $D/dag/root.dag $D/vox/*.svo
+expect run_root_ssvdag_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+for f in svdag ussvdag esvdag ssvdag; do
+	expect "run_${f}_decodes_to_the_voxels" 0 '' $BIN/dag-verify $D/enc/$NAME.$f $D/vox/*.svo
+done
+# the check can fail: without one chunk the encoding has voxels too many
+expect run_verify_detects_missing_voxels 1 'differs from the SVO chunks' \
+	$BIN/dag-verify $D/enc/$NAME.ssvdag $(ls $D/vox/*.svo | tail -n +2)
+[ -s $D/report.md ] && [ -s $D/report.json ] && [ -s $D/report.csv ] &&
+	grep -q 'Table 2' $D/report.md && grep -q '| 256^3 |' $D/report.md &&
+	pass run_report || fail run_report "$(ls $D)" "$(cat $D/report.md)"
+ncells=$(ls $D/vox/*.svo | wc -l)
+[ "$ncells" -gt 8 ] && pass run_many_cells || fail run_many_cells "$ncells cells"
+sums() { find $D -name '*.svo' -o -name '*.dag' -o -name '*.sdag' -o -name '*.ssvdag' -o -name '*.svdag' -o -name '*.esvdag' -o -name '*.ussvdag' | sort | xargs sha256sum; }
+sums > "$T/ref.sums"
+total=$(grep -c '^.* done ' $D/logs/runner.log)
+
+# a second run does nothing
+expect rerun_ok 0 '' $R -q run "$CFG"
+started=$(last_run | grep -c ' started ')
+[ "$started" -eq 0 ] && pass rerun_starts_nothing || fail rerun_starts_nothing "$started jobs started"
+# other resources change no output: nothing reruns
+sed -i 's/jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M/jobs: 1, mem_budget: 1GiB, job_mem_budget: 256M/' "$CFG"
+expect resources_changed_ok 0 '' $R -q run "$CFG"
+started=$(last_run | grep -c ' started ')
+[ "$started" -eq 0 ] && pass resources_changed_reruns_nothing || fail resources_changed_reruns_nothing "$started jobs started"
+write_cfg 8 2
+
+# --- SIGKILL of the runner after N finished jobs, then resume
+for n in 1 4 $((total / 2)) $((total - 2)); do
+	rm -rf $D
+	$R -q run "$CFG" &
+	pid=$!
+	while kill -0 $pid 2>/dev/null &&
+	      [ "$(cat $D/logs/runner.log 2>/dev/null | grep -c ' done ')" -lt "$n" ]; do
+		sleep 0.01
+	done
+	kill -9 $pid 2>/dev/null
+	wait $pid 2>/dev/null
+	before=$(grep -s ' done ' $D/logs/runner.log | sed 's/.* done \([^ ]*\) .*/\1/' | sort)
+	expect "resume_after_kill_at_$n" 0 '' $R -q run "$CFG"
+	sums > "$T/got.sums"
+	if cmp -s "$T/ref.sums" "$T/got.sums"; then
+		pass "resume_after_kill_at_${n}_identical"
+	else
+		fail "resume_after_kill_at_${n}_identical" "$(diff "$T/ref.sums" "$T/got.sums" | head -5)"
+	fi
+	# jobs finished before the kill were not started again
+	second=$(last_run | grep ' started ' |
+		sed 's/.* started \([^ ]*\) .*/\1/' | sort)
+	again=$(comm -12 <(echo "$before") <(echo "$second") | grep -c .)
+	[ "$again" -eq 0 ] && pass "resume_after_kill_at_${n}_no_rerun" ||
+		fail "resume_after_kill_at_${n}_no_rerun" "rerun: $(comm -12 <(echo "$before") <(echo "$second"))"
+done
+
+# --- SIGKILL of a job in the middle: the runner reports it, a rerun completes
+rm -rf $D
+write_cfg 11 2
+$R -q run "$CFG" 2>"$T/kill.err" &
+pid=$!
+child=
+for i in $(seq 1 500); do
+	child=$(pgrep -P $pid -f 'svo-to-dag|voxelize' | head -n 1)
+	[ -n "$child" ] && break
+	sleep 0.01
+done
+[ -n "$child" ] && kill -9 "$child"
+wait $pid
+rc=$?
+if [ -n "$child" ] && [ $rc -eq 1 ] && grep -q 'killed by signal 9' "$T/kill.err" &&
+   grep -q 'command: ' "$T/kill.err"; then
+	pass job_killed_reported
+else
+	fail job_killed_reported "rc=$rc child=$child" "$(cat "$T/kill.err")"
+fi
+expect job_killed_then_rerun 0 '' $R -q run "$CFG"
+expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+
+# --- a second runner on the same directory refuses
+rm -rf $D
+$R -q run "$CFG" &
+pid=$!
+while [ ! -s $D/.lock ] && kill -0 $pid 2>/dev/null; do sleep 0.01; done
+expect second_runner_refuses 1 'another runner .pid [0-9]+. is working' $R -q run "$CFG"
+wait $pid
+
+# --- a lost output reruns only itself; its dependents see the same bytes
+# (keys cover input content) and are not rerun
+rm -rf $D
+write_cfg 8 2
+expect minimal_rerun_setup 0 '' $R -q run "$CFG"
+cell=$(ls $D/dag/cells/*.dag | head -n 1)
+rm "$cell"
+expect minimal_rerun 0 '' $R -q run "$CFG"
+started=$(last_run | grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | tr '\n' ' ')
+want="dag/cells/$(basename "$cell" .dag) "
+[ "$started" = "$want" ] && pass minimal_rerun_only_the_lost_job ||
+	fail minimal_rerun_only_the_lost_job "started: $started" "wanted: $want"
+# a changed parameter (the grid depth) reruns everything that depends on it
+write_cfg 7 2
+expect changed_levels 0 '' $R -q run "$CFG"
+n=$(last_run | grep -c ' started ')
+[ "$n" -gt 10 ] && pass changed_levels_reruns || fail changed_levels_reruns "$n started"
+expect changed_levels_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+
+# --- status and clean
+expect status_done 0 'done +[1-9]' $R status "$CFG"
+expect clean 0 '' $R clean "$CFG"
+[ ! -d $D ] && pass clean_removes || fail clean_removes "$D still there"

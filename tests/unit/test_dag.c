@@ -1,0 +1,616 @@
+/* test_dag.c - svo-to-dag: lossless, minimal (against brute force over
+ * voxel content), chunked builds merged to the root equal the monolithic
+ * build, merge errors, edge cases, chunk files. */
+#include "dag_test_util.h"
+
+static struct vd_dag_opts opts = {1, 0, NULL};
+
+static int counts_equal(const struct vd_dag *a, const struct vd_dag *b)
+{
+	if (a->levels != b->levels || a->chunk_level != b->chunk_level ||
+	    a->voxels != b->voxels)
+		return 0;
+	for (int l = a->chunk_level; l < a->levels; l++)
+		if (a->lv[l].nodes != b->lv[l].nodes ||
+		    a->lv[l].refs != b->lv[l].refs)
+			return 0;
+	return 1;
+}
+
+/* Byte-identical: same counts, masks, references, reflections, bricks. */
+static int dags_identical(const struct vd_dag *a, const struct vd_dag *b)
+{
+	if (!counts_equal(a, b) || a->kind != b->kind) return 0;
+	for (int l = a->chunk_level; l < a->levels; l++) {
+		const struct vd_dag_level *x = &a->lv[l], *y = &b->lv[l];
+		if (x->nodes && memcmp(x->mask, y->mask, x->nodes)) return 0;
+		if (x->refs && memcmp(x->child, y->child, x->refs * 4)) return 0;
+		if (x->refs && x->refl && memcmp(x->refl, y->refl, x->refs))
+			return 0;
+	}
+	if (a->bricks && memcmp(a->bricks, b->bricks,
+				a->lv[a->levels - 2].nodes * 8))
+		return 0;
+	return 1;
+}
+
+/* Builds the DAG of the whole grid; checks lossless and valid. */
+static int build_whole(const struct grid *g, uint32_t kind, struct vd_dag *d)
+{
+	struct vd_svo s;
+	grid_to_svo(g, 0, 0, &s);
+	int err = vd_dag_from_svo(d, &s, kind, &opts, NULL);
+	svo_free(&s);
+	CHECK_EQ(err, VD_OK);
+	if (err) {
+		fprintf(stderr, "  %s: %s\n", vd_strerror(err), vd_error_detail());
+		return err;
+	}
+	CHECK_EQ(vd_dag_validate(d), VD_OK);
+	CHECK_EQ(d->voxels, grid_count(g));
+	CHECK(dag_matches_grid(d, g));
+	return err;
+}
+
+static void test_lossless_monolithic(void)
+{
+	for (int L = 1; L <= 6; L++)
+		for (int sc = 0; sc < SC_COUNT; sc++) {
+			struct grid g;
+			make_scene(&g, L, sc);
+			struct vd_dag d;
+			build_whole(&g, VD_KIND_DAG, &d);
+			if (L >= 1 && grid_count(&g)) CHECK_EQ(d.lv[0].nodes, 1);
+			vd_dag_release(&d);
+			grid_free(&g);
+		}
+}
+
+/* Minimality: per-level node counts equal the number of distinct non-empty
+ * subtrees, found by comparing full voxel content. */
+static void test_minimal_brute_force(void)
+{
+	for (int L = 1; L <= 6; L++)
+		for (int sc = 0; sc < SC_COUNT; sc++) {
+			struct grid g;
+			make_scene(&g, L, sc);
+			struct vd_dag d;
+			if (!build_whole(&g, VD_KIND_DAG, &d))
+				for (int l = 0; l < L; l++) {
+					uint64_t bf = brute_distinct(&g, 0, 0, l, 0);
+					if (d.lv[l].nodes != bf)
+						fprintf(stderr, "  L=%d %s level %d\n", L,
+							scene_name[sc], l);
+					CHECK_EQ(d.lv[l].nodes, bf);
+				}
+			vd_dag_release(&d);
+			grid_free(&g);
+		}
+}
+
+/* Builds one DAG per non-empty cell at L0 (plus one empty cell, which a
+ * merge must accept), checks each against brute force, then merges them
+ * either all at once or 8 siblings at a time up to the root. */
+static void chunked(const struct grid *g, int L0, uint32_t kind,
+		    int tree, struct vd_dag *root)
+{
+	uint64_t cells = 1ULL << (3 * L0), n = 0;
+	struct vd_dag *parts = calloc(cells, sizeof *parts);
+	int empty_kept = 0;
+	for (uint64_t c = 0; c < cells; c++) {
+		struct vd_svo s;
+		grid_to_svo(g, L0, c, &s);
+		if (!s.count && empty_kept++) {
+			svo_free(&s);
+			continue;
+		}
+		CHECK_EQ(vd_dag_from_svo(&parts[n], &s, kind, &opts, NULL), VD_OK);
+		CHECK_EQ(vd_dag_validate(&parts[n]), VD_OK);
+		if (s.count)
+			for (int l = L0; l < g->L; l++)
+				CHECK_EQ(parts[n].lv[l].nodes,
+					 brute_distinct(g, L0, c, l,
+							kind == VD_KIND_SSVDAG));
+		n++;
+		svo_free(&s);
+	}
+	if (!tree) {
+		const struct vd_dag **pp = malloc(n * sizeof *pp);
+		for (uint64_t i = 0; i < n; i++) pp[i] = &parts[i];
+		CHECK_EQ(vd_dag_merge(root, pp, n, kind, 0, &opts, NULL), VD_OK);
+		free(pp);
+	} else {
+		/* Reduction tree: merge groups of siblings level by level. */
+		for (int lev = L0; lev > 0; lev--) {
+			uint64_t m = 0;
+			for (uint64_t i = 0; i < n;) {
+				uint64_t parent = parts[i].cell_morton >> 3, j = i;
+				const struct vd_dag *pp[8];
+				while (j < n && parts[j].cell_morton >> 3 == parent) {
+					pp[j - i] = &parts[j];
+					j++;
+				}
+				struct vd_dag out;
+				CHECK_EQ(vd_dag_merge(&out, pp, j - i, kind, -1,
+						      &opts, NULL), VD_OK);
+				CHECK_EQ(out.chunk_level, lev - 1);
+				CHECK_EQ(vd_dag_validate(&out), VD_OK);
+				for (uint64_t k = i; k < j; k++)
+					vd_dag_release(&parts[k]);
+				parts[m++] = out;
+				i = j;
+			}
+			n = m;
+		}
+		CHECK_EQ(n, 1);
+		*root = parts[0];
+		parts[0] = (struct vd_dag){0};
+	}
+	for (uint64_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
+	free(parts);
+}
+
+static void test_chunked_equals_monolithic(void)
+{
+	int Ls[] = {4, 5, 6};
+	for (int kind = VD_KIND_DAG; kind <= VD_KIND_SSVDAG; kind++)
+		for (int li = 0; li < 3; li++)
+			for (int sc = 0; sc < SC_COUNT; sc++) {
+				int L = Ls[li];
+				struct grid g;
+				make_scene(&g, L, sc);
+				struct vd_dag mono;
+				build_whole(&g, (uint32_t)kind, &mono);
+				for (int L0 = 1; L0 <= 3 && L0 <= L - 2; L0++)
+					for (int tree = 0; tree < 2; tree++) {
+						struct vd_dag root;
+						chunked(&g, L0, (uint32_t)kind, tree, &root);
+						CHECK_EQ(vd_dag_validate(&root), VD_OK);
+						CHECK(counts_equal(&root, &mono));
+						CHECK(dag_matches_grid(&root, &g));
+						vd_dag_release(&root);
+					}
+				vd_dag_release(&mono);
+				grid_free(&g);
+			}
+}
+
+/* A merge to a level between the parts and the root, and mixed chunk
+ * levels (a level-1 cell next to level-2 cells of another level-1 cell). */
+static void test_merge_partial_and_mixed(void)
+{
+	struct grid g;
+	make_scene(&g, 5, SC_SHELL);
+	/* level-2 cells under level-1 cell 3, merged to level 1 */
+	struct vd_dag parts[9];
+	const struct vd_dag *pp[9];
+	for (int i = 0; i < 8; i++) {
+		struct vd_svo s;
+		grid_to_svo(&g, 2, 3 * 8 + (uint64_t)i, &s);
+		CHECK_EQ(vd_dag_from_svo(&parts[i], &s, VD_KIND_DAG, &opts, NULL), 0);
+		pp[i] = &parts[i];
+		svo_free(&s);
+	}
+	struct vd_dag mid, whole1;
+	CHECK_EQ(vd_dag_merge(&mid, pp, 8, VD_KIND_DAG, 1, &opts, NULL), 0);
+	struct vd_svo s1;
+	grid_to_svo(&g, 1, 3, &s1);
+	CHECK_EQ(vd_dag_from_svo(&whole1, &s1, VD_KIND_DAG, &opts, NULL), 0);
+	CHECK(counts_equal(&mid, &whole1));
+	CHECK_EQ(mid.cell_morton, 3);
+	svo_free(&s1);
+	/* mixed: level-1 cell 5 whole plus the 8 level-2 cells of cell 3 */
+	grid_to_svo(&g, 1, 5, &s1);
+	CHECK_EQ(vd_dag_from_svo(&parts[8], &s1, VD_KIND_DAG, &opts, NULL), 0);
+	svo_free(&s1);
+	pp[8] = &parts[8];
+	struct vd_dag mixed;
+	CHECK_EQ(vd_dag_merge(&mixed, pp, 9, VD_KIND_DAG, 0, &opts, NULL), 0);
+	CHECK_EQ(vd_dag_validate(&mixed), VD_OK);
+	struct grid h;
+	grid_init(&h, 5);
+	for (uint32_t x = 0; x < 32; x++)
+		for (uint32_t y = 0; y < 32; y++)
+			for (uint32_t z = 0; z < 32; z++) {
+				uint64_t c1 = ref_morton(x >> 4, y >> 4, z >> 4, 1);
+				if (c1 == 3 || c1 == 5) *gv(&h, x, y, z) = *gv(&g, x, y, z);
+			}
+	CHECK(dag_matches_grid(&mixed, &h));
+	for (int l = 0; l < 5; l++)
+		CHECK_EQ(mixed.lv[l].nodes, brute_distinct(&h, 0, 0, l, 0));
+	vd_dag_release(&mixed);
+	vd_dag_release(&mid);
+	vd_dag_release(&whole1);
+	for (int i = 0; i < 9; i++) vd_dag_release(&parts[i]);
+	grid_free(&h);
+	grid_free(&g);
+}
+
+static void test_merge_errors(void)
+{
+	struct grid g5, g6;
+	make_scene(&g5, 5, SC_RANDOM);
+	make_scene(&g6, 6, SC_RANDOM);
+	struct vd_svo s;
+	struct vd_dag a, b, c, d, out;
+	grid_to_svo(&g5, 2, 9, &s);
+	vd_dag_from_svo(&a, &s, VD_KIND_DAG, &opts, NULL);
+	svo_free(&s);
+	grid_to_svo(&g6, 2, 10, &s);
+	vd_dag_from_svo(&b, &s, VD_KIND_DAG, &opts, NULL);
+	svo_free(&s);
+	grid_to_svo(&g5, 2, 17, &s); /* another level-1 parent than 9 */
+	vd_dag_from_svo(&c, &s, VD_KIND_DAG, &opts, NULL);
+	svo_free(&s);
+	grid_to_svo(&g5, 2, 9, &s);
+	vd_dag_from_svo(&d, &s, VD_KIND_SSVDAG, &opts, NULL);
+	svo_free(&s);
+
+	const struct vd_dag *pp[3] = {&a, &b};
+	CHECK_EQ(vd_dag_merge(&out, pp, 2, VD_KIND_DAG, -1, &opts, NULL),
+		 VD_ERR_MISMATCH);   /* depths 5 and 6 */
+	CHECK(strstr(vd_error_detail(), "levels") != NULL);
+	vd_dag_release(&out);
+	pp[1] = &a;
+	CHECK_EQ(vd_dag_merge(&out, pp, 2, VD_KIND_DAG, -1, &opts, NULL),
+		 VD_ERR_MISMATCH);   /* the same cell twice */
+	CHECK(strstr(vd_error_detail(), "overlap") != NULL);
+	vd_dag_release(&out);
+	pp[1] = &c;
+	CHECK_EQ(vd_dag_merge(&out, pp, 2, VD_KIND_DAG, -1, &opts, NULL),
+		 VD_ERR_MISMATCH);   /* not siblings */
+	CHECK(strstr(vd_error_detail(), "not inside") != NULL);
+	vd_dag_release(&out);
+	CHECK_EQ(vd_dag_merge(&out, pp, 2, VD_KIND_DAG, 0, &opts, NULL), VD_OK);
+	vd_dag_release(&out);
+	pp[1] = &d;
+	CHECK_EQ(vd_dag_merge(&out, pp, 1, VD_KIND_DAG, 3, &opts, NULL),
+		 VD_ERR_MISMATCH);   /* target below the parts */
+	vd_dag_release(&out);
+	pp[0] = &d;
+	CHECK_EQ(vd_dag_merge(&out, pp, 1, VD_KIND_DAG, -1, &opts, NULL),
+		 VD_ERR_WRONG_KIND); /* an ssvdag into a dag */
+	vd_dag_release(&out);
+	CHECK_EQ(vd_dag_merge(&out, pp, 0, VD_KIND_DAG, -1, &opts, NULL),
+		 VD_ERR_EMPTY);
+	vd_dag_release(&out);
+	/* a budget too small for the estimate */
+	struct vd_dag_opts tight = {1, 1000, NULL};
+	pp[0] = &a;
+	CHECK_EQ(vd_dag_merge(&out, pp, 1, VD_KIND_DAG, -1, &tight, NULL),
+		 VD_ERR_BUDGET);
+	CHECK(strstr(vd_error_detail(), "budget") != NULL);
+	vd_dag_release(&out);
+	vd_dag_release(&a);
+	vd_dag_release(&b);
+	vd_dag_release(&c);
+	vd_dag_release(&d);
+	grid_free(&g5);
+	grid_free(&g6);
+}
+
+static void test_edge_cases(void)
+{
+	/* empty SVO: an empty DAG, which expands to nothing */
+	struct vd_svo s = {.levels = 4};
+	struct vd_dag d;
+	CHECK_EQ(vd_dag_from_svo(&d, &s, VD_KIND_DAG, &opts, NULL), VD_OK);
+	CHECK_EQ(d.lv[0].nodes, 0);
+	CHECK_EQ(d.voxels, 0);
+	CHECK_EQ(vd_dag_validate(&d), VD_OK);
+	struct vd_svo e;
+	CHECK_EQ(vd_dag_to_svo(&d, &e), VD_OK);
+	CHECK_EQ(e.count, 0);
+	svo_free(&e);
+	vd_dag_release(&d);
+	/* L = 1: a single 2x2x2 mask, every value */
+	for (unsigned v = 1; v < 256; v++) {
+		uint64_t key = 0, mask = v;
+		struct vd_svo t = {1, 0, 0, 1, &key, &mask};
+		for (int kind = VD_KIND_DAG; kind <= VD_KIND_SSVDAG; kind++) {
+			CHECK_EQ(vd_dag_from_svo(&d, &t, (uint32_t)kind, &opts, NULL), 0);
+			CHECK_EQ(d.lv[0].nodes, 1);
+			CHECK_EQ(d.lv[0].mask[0], v); /* the root is never reflected */
+			CHECK_EQ(d.voxels, (uint64_t)__builtin_popcount(v));
+			CHECK_EQ(vd_dag_to_svo(&d, &e), 0);
+			CHECK(e.count == 1 && e.keys[0] == 0 && e.masks[0] == v);
+			svo_free(&e);
+			vd_dag_release(&d);
+		}
+	}
+	/* L = 1 voxel outside the 2^1 grid; unsorted and empty bricks */
+	uint64_t k2[2] = {0, 0}, m2[2] = {0x100, 1};
+	struct vd_svo t = {1, 0, 0, 1, k2, m2};
+	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
+	vd_dag_release(&d);
+	t = (struct vd_svo){3, 0, 0, 2, k2, m2};
+	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
+	vd_dag_release(&d);
+	k2[1] = 1;
+	m2[1] = 0;
+	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
+	vd_dag_release(&d);
+	/* a brick outside its cell */
+	k2[0] = 9;
+	m2[1] = 1;
+	k2[1] = 17;
+	t = (struct vd_svo){4, 1, 1, 2, k2, m2};
+	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "outside") != NULL);
+	vd_dag_release(&d);
+	/* full cube: one node per level */
+	struct grid g;
+	make_scene(&g, 6, SC_FULL);
+	CHECK_EQ(build_whole(&g, VD_KIND_SSVDAG, &d), 0);
+	for (int l = 0; l < 6; l++) CHECK_EQ(d.lv[l].nodes, 1);
+	CHECK_EQ(d.voxels, 1ULL << 18);
+	vd_dag_release(&d);
+	grid_free(&g);
+	/* single voxel at L = 7: one node per level */
+	make_scene(&g, 7, SC_ONE);
+	CHECK_EQ(build_whole(&g, VD_KIND_DAG, &d), 0);
+	for (int l = 0; l < 7; l++) CHECK_EQ(d.lv[l].nodes, 1);
+	CHECK_EQ(d.voxels, 1);
+	vd_dag_release(&d);
+	grid_free(&g);
+	/* L = 2, chunk level 0 and merged from 1... (L0 <= L-2 in svo files,
+	 * but the library accepts a 2x2x2 cell too) */
+	make_scene(&g, 2, SC_RANDOM);
+	struct vd_dag mono, parts[8];
+	const struct vd_dag *pp[8];
+	build_whole(&g, VD_KIND_DAG, &mono);
+	size_t n = 0;
+	for (uint64_t c = 0; c < 8; c++) {
+		struct vd_svo u;
+		grid_to_svo(&g, 1, c, &u);
+		CHECK_EQ(vd_dag_from_svo(&parts[n], &u, VD_KIND_DAG, &opts, NULL), 0);
+		pp[n] = &parts[n];
+		n++;
+		svo_free(&u);
+	}
+	CHECK_EQ(vd_dag_merge(&d, pp, n, VD_KIND_DAG, -1, &opts, NULL), 0);
+	CHECK(counts_equal(&d, &mono));
+	CHECK(dag_matches_grid(&d, &g));
+	vd_dag_release(&d);
+	vd_dag_release(&mono);
+	for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
+	grid_free(&g);
+}
+
+static int file_copy_prefix(const char *src, const char *dst, long n)
+{
+	FILE *a = fopen(src, "rb"), *b = fopen(dst, "wb");
+	if (!a || !b) return -1;
+	for (long i = 0; i < n; i++) {
+		int c = fgetc(a);
+		if (c == EOF) break;
+		fputc(c, b);
+	}
+	fclose(a);
+	return fclose(b);
+}
+
+/* Save and load give back the same DAG; wrong kinds, truncation and a
+ * corrupted reference are each refused. */
+static void test_chunk_files(void)
+{
+	const char *dir = test_tmpdir("test_dag");
+	char path[600], cut[600];
+	struct vd_transform t;
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 2, 3};
+	for (int kind = VD_KIND_DAG; kind <= VD_KIND_SSVDAG; kind++)
+		for (int L = 1; L <= 5; L++) {
+			struct grid g;
+			make_scene(&g, L, SC_TILES);
+			CHECK_EQ(vd_transform_init(&t, lo, hi, L), VD_OK);
+			struct vd_svo s;
+			int L0 = L >= 3 ? 1 : 0;
+			grid_to_svo(&g, L0, 1 % (1u << (3 * L0)), &s);
+			struct vd_dag d, e;
+			CHECK_EQ(vd_dag_from_svo(&d, &s, (uint32_t)kind, &opts, NULL), 0);
+			snprintf(path, sizeof path, "%s/k%d-L%d.dag", dir, kind, L);
+			CHECK_EQ(vd_dag_save(&d, &t, path, "tool=test"), VD_OK);
+			struct vd_chunk_header h;
+			CHECK_EQ(vd_dag_load(&e, &h, path, VD_KIND_ANY), VD_OK);
+			CHECK_EQ(h.kind, kind);
+			CHECK_EQ(h.level_count, L - L0 + 1);
+			CHECK_EQ(h.level_nodes[L - L0], d.voxels);
+			CHECK(counts_equal(&d, &e));
+			CHECK_EQ(e.kind, kind);
+			CHECK_EQ(e.cell_morton, d.cell_morton);
+			for (int l = L0; l < L && d.lv[L0].nodes; l++) {
+				CHECK(!memcmp(d.lv[l].mask, e.lv[l].mask, d.lv[l].nodes));
+				if (l < L - 1)
+					CHECK(!memcmp(d.lv[l].child, e.lv[l].child,
+						      d.lv[l].refs * 4));
+				if (l < L - 1 && kind == VD_KIND_SSVDAG)
+					CHECK(!memcmp(d.lv[l].refl, e.lv[l].refl,
+						      d.lv[l].refs));
+			}
+			struct vd_svo a, b;
+			CHECK_EQ(vd_dag_to_svo(&d, &a), 0);
+			CHECK_EQ(vd_dag_to_svo(&e, &b), 0);
+			CHECK(a.count == s.count && b.count == s.count);
+			CHECK(!memcmp(b.keys, s.keys, s.count * 8));
+			CHECK(!memcmp(b.masks, s.masks, s.count * 8));
+			svo_free(&a);
+			svo_free(&b);
+			vd_dag_release(&e);
+			/* the other DAG kind, and an SVO file, are refused */
+			CHECK_EQ(vd_dag_load(&e, NULL, path, kind == VD_KIND_DAG ?
+					     VD_KIND_SSVDAG : VD_KIND_DAG),
+				 VD_ERR_WRONG_KIND);
+			vd_dag_release(&e);
+			snprintf(cut, sizeof cut, "%s/k%d-L%d.svo", dir, kind, L);
+			CHECK_EQ(vd_svo_save(&s, &t, cut, NULL), VD_OK);
+			CHECK_EQ(vd_dag_load(&e, NULL, cut, VD_KIND_ANY),
+				 VD_ERR_WRONG_KIND);
+			CHECK(strstr(vd_error_detail(), "svo") != NULL);
+			vd_dag_release(&e);
+			/* every cut of the file is an error, never a DAG */
+			FILE *f = fopen(path, "rb");
+			fseek(f, 0, SEEK_END);
+			long size = ftell(f);
+			fclose(f);
+			snprintf(cut, sizeof cut, "%s/cut.dag", dir);
+			for (long n = 0; n < size; n += (n < 200 ? 1 : 7)) {
+				file_copy_prefix(path, cut, n);
+				int err = vd_dag_load(&e, NULL, cut, VD_KIND_ANY);
+				CHECK(err != VD_OK);
+				vd_dag_release(&e);
+			}
+			svo_free(&s);
+			vd_dag_release(&d);
+			grid_free(&g);
+		}
+	/* content that passes the checksums but not validation */
+	struct grid g;
+	make_scene(&g, 4, SC_RANDOM);
+	struct vd_svo s;
+	grid_to_svo(&g, 0, 0, &s);
+	struct vd_dag d, e;
+	vd_dag_from_svo(&d, &s, VD_KIND_DAG, &opts, NULL);
+	d.lv[0].child[0] = 999;
+	CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
+	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_ERR_CORRUPT);
+	d.lv[0].child[0] = 0;
+	d.voxels++;
+	snprintf(path, sizeof path, "%s/badcount.dag", dir);
+	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_OK);
+	CHECK_EQ(vd_dag_load(&e, NULL, path, VD_KIND_DAG), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "voxels") != NULL);
+	vd_dag_release(&e);
+	vd_dag_release(&d);
+	svo_free(&s);
+	grid_free(&g);
+}
+
+/* Real meshes: voxelize monolithically and with L0 = 1, 2, 3; build DAG
+ * and SSVDAG chunks, merge them to the root (all at once and 8 siblings at
+ * a time), and check: the voxels equal the SVO chunks', and the per-level
+ * counts equal the monolithic build's. */
+static void real_mesh(const char *mesh, int L)
+{
+	const char *base = test_tmpdir("test_dag_mesh");
+	struct vd_dag mono[2];
+	memset(mono, 0, sizeof mono);
+	for (int L0 = 0; L0 <= 3; L0++) {
+		char dir[700];
+		snprintf(dir, sizeof dir, "%s/L0-%d", base, L0);
+		struct vd_voxelize_opts vo = {.levels = L, .chunk_level = L0,
+					      .mem_budget_bytes = 1ull << 30,
+					      .threads = 2, .quiet = 1,
+					      .tool = "test_dag"};
+		struct vd_voxelize_result res;
+		int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
+		CHECK_EQ(err, VD_OK);
+		if (err) {
+			fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
+			return;
+		}
+		uint64_t cells = 1ULL << (3 * L0), n = 0;
+		struct vd_svo *svo = calloc(cells, sizeof *svo);
+		const struct vd_svo **sp = calloc(cells, sizeof *sp);
+		struct vd_dag *parts[2];
+		parts[0] = calloc(cells, sizeof(struct vd_dag));
+		parts[1] = calloc(cells, sizeof(struct vd_dag));
+		for (uint64_t c = 0; c < cells; c++) {
+			char name[64], path[800];
+			vd_chunk_file_name(name, sizeof name, L0, c, "svo");
+			snprintf(path, sizeof path, "%s/%s", dir, name);
+			FILE *f = fopen(path, "rb");
+			if (!f) continue;
+			fclose(f);
+			CHECK_EQ(vd_svo_load(&svo[n], NULL, path), VD_OK);
+			sp[n] = &svo[n];
+			for (int k = 0; k < 2; k++)
+				CHECK_EQ(vd_dag_from_svo(&parts[k][n], &svo[n],
+							 k ? VD_KIND_SSVDAG : VD_KIND_DAG,
+							 &opts, NULL), VD_OK);
+			n++;
+		}
+		CHECK_EQ(n, res.chunks);
+		for (int k = 0; k < 2; k++) {
+			struct vd_dag root;
+			if (L0 == 0) {
+				root = parts[k][0];
+				parts[k][0] = (struct vd_dag){0};
+			} else {
+				const struct vd_dag **pp = malloc(n * sizeof *pp);
+				for (uint64_t i = 0; i < n; i++) pp[i] = &parts[k][i];
+				CHECK_EQ(vd_dag_merge(&root, pp, n, k ? VD_KIND_SSVDAG :
+						      VD_KIND_DAG, 0, &opts, NULL), 0);
+				free(pp);
+			}
+			CHECK_EQ(vd_dag_validate(&root), VD_OK);
+			CHECK_EQ(root.voxels, res.voxels);
+			/* the parallel passes number nodes as the serial ones */
+			if (L0 == 0 || L0 == 2) {
+				struct vd_dag par;
+				struct vd_dag_opts po = {3, 0, NULL};
+				if (L0 == 0)
+					CHECK_EQ(vd_dag_from_svo(&par, &svo[0], root.kind,
+								 &po, NULL), 0);
+				else {
+					const struct vd_dag **pp = malloc(n * sizeof *pp);
+					for (uint64_t i = 0; i < n; i++) pp[i] = &parts[k][i];
+					CHECK_EQ(vd_dag_merge(&par, pp, n, root.kind, 0,
+							      &po, NULL), 0);
+					free(pp);
+				}
+				CHECK(dags_identical(&par, &root));
+				vd_dag_release(&par);
+			}
+			struct vd_dag_diff diff;
+			CHECK_EQ(vd_dag_compare_svo(&root, sp, n, &diff), VD_OK);
+			CHECK_EQ(diff.differing_voxels, 0);
+			if (L0 == 0)
+				mono[k] = root;
+			else {
+				CHECK(counts_equal(&root, &mono[k]));
+				vd_dag_release(&root);
+			}
+		}
+		for (uint64_t i = 0; i < n; i++) {
+			vd_svo_release(&svo[i]);
+			vd_dag_release(&parts[0][i]);
+			vd_dag_release(&parts[1][i]);
+		}
+		free(svo);
+		free(sp);
+		free(parts[0]);
+		free(parts[1]);
+	}
+	for (int l = 0; l < L; l++) CHECK(mono[1].lv[l].nodes <= mono[0].lv[l].nodes);
+	vd_dag_release(&mono[0]);
+	vd_dag_release(&mono[1]);
+}
+
+static void test_real_meshes(void)
+{
+	char dragon[600];
+	snprintf(dragon, sizeof dragon, "%s/stanford_dragon_res2.ply",
+		 test_shared_data());
+	FILE *f = fopen(dragon, "rb");
+	for (int L = 8; L <= 10; L += 2) {
+		real_mesh("tests/data/bunny.ply", L);
+		if (f) real_mesh(dragon, L);
+	}
+	if (f)
+		fclose(f);
+	else
+		printf("SKIP test_real_meshes_dragon (no %s)\n", dragon);
+}
+
+int main(void)
+{
+	RUN(test_lossless_monolithic);
+	RUN(test_minimal_brute_force);
+	RUN(test_chunked_equals_monolithic);
+	RUN(test_merge_partial_and_mixed);
+	RUN(test_merge_errors);
+	RUN(test_edge_cases);
+	RUN(test_chunk_files);
+	RUN(test_real_meshes);
+	return CHECK_DONE();
+}
