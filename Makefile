@@ -24,7 +24,7 @@ WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wno-unused-param
 CPPFLAGS += -D_GNU_SOURCE -Istages/lib
 CFLAGS   += -std=c11 $(WARN) -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
-LDLIBS   += -ltbb -lzstd -lxxhash -lm -lpthread
+LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lm -lpthread
 
 ifeq ($(config),release)
 OUT := $(O)
@@ -41,8 +41,10 @@ $(error unknown config '$(config)': use release or sanitize)
 endif
 
 # The Debian packages the build and the tests need (checked by `make deps`).
+# libboost-dev: OpenVDB 10's headers include Boost, which Debian's
+# libopenvdb-dev does not pull in; libopenvdb-tools: vdb_print for the tests.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev \
-                libpng-dev time
+                libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools
 
 LIB_C    := $(wildcard stages/lib/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc)

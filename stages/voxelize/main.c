@@ -1,20 +1,32 @@
-/* voxelize - triangle mesh to SVO chunk files, out of core. */
+/* voxelize - triangle mesh or OpenVDB grid to SVO chunk files, out of
+ * core. */
 #include "voxdag.h"
 
 #include <getopt.h>
+#include <math.h>
 #include <stdlib.h>
+#include <strings.h>
 #include <string.h>
 
 static const char usage[] =
 	"usage: voxelize MESH -o OUTDIR --levels L [options]\n"
+	"       voxelize GRID.vdb -o OUTDIR [--levels L] [--grid NAME]\n"
+	"                [--vdb-mode MODE] [--fog-threshold X] [options]\n"
 	"\n"
 	"Voxelizes the surface of a triangle mesh (PLY, OBJ, STL or AC3D) into\n"
 	"a grid of 2^L voxels per side and writes one SVO chunk file per\n"
 	"non-empty cell of the chunk level L0, plus OUTDIR/voxelize.stats.json.\n"
 	"Earlier chunk files in OUTDIR are replaced.\n"
 	"\n"
+	"An input named *.vdb is an OpenVDB file: the chosen grid's voxels are\n"
+	"imported instead. Without --levels one grid voxel is one voxel and L is\n"
+	"the smallest depth that covers the selected voxels; with --levels L a\n"
+	"grid too large for 2^L is resampled by the smallest power of two that\n"
+	"fits (a voxel is set when any grid voxel inside it is).\n"
+	"\n"
 	"  -o, --output DIR        directory for the chunks (created if missing)\n"
-	"  -l, --levels L          grid depth, 1..21 (2^L voxels per side)\n"
+	"  -l, --levels L          grid depth, 1..21 (2^L voxels per side);\n"
+	"                          optional for .vdb input\n"
 	"  -c, --chunk-level L0    level of the cells, 0..min(L-2, 7)\n"
 	"                          (default: the coarsest that fits the budget)\n"
 	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB);\n"
@@ -22,6 +34,17 @@ static const char usage[] =
 	"  -j, --threads N         worker threads (default: all cores)\n"
 	"  -q, --quiet             no progress lines on stderr\n"
 	"  -h, --help              this text\n"
+	"\n"
+	"OpenVDB input only:\n"
+	"      --grid NAME         the grid to read (default: the first)\n"
+	"      --vdb-mode MODE     which voxels are set (default: active):\n"
+	"                            active            active voxels and tiles\n"
+	"                            levelset-surface  value <= 0 with a face\n"
+	"                                              neighbour > 0 (one voxel\n"
+	"                                              thick zero crossing)\n"
+	"                            levelset-solid    value <= 0, inside tiles too\n"
+	"                            fog               active, value > threshold\n"
+	"      --fog-threshold X   for fog mode (default 0)\n"
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O, budget), 2 usage.\n";
 
@@ -43,6 +66,15 @@ static int parse_int(const char *s, int lo, int hi, int *out)
 	return 0;
 }
 
+/* A .vdb name (any case) selects the OpenVDB import. */
+static int is_vdb(const char *path)
+{
+	size_t n = strlen(path);
+	return n >= 4 && strcasecmp(path + n - 4, ".vdb") == 0;
+}
+
+enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD };
+
 int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
@@ -53,13 +85,18 @@ int main(int argc, char **argv)
 		{"threads", required_argument, NULL, 'j'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"help", no_argument, NULL, 'h'},
+		{"grid", required_argument, NULL, OPT_GRID},
+		{"vdb-mode", required_argument, NULL, OPT_VDB_MODE},
+		{"fog-threshold", required_argument, NULL, OPT_FOG_THRESHOLD},
 		{NULL, 0, NULL, 0},
 	};
 	struct vd_voxelize_opts o = {.levels = 0, .chunk_level = -1,
 				     .mem_budget_bytes = 2ull << 30,
 				     .tool = "voxelize"};
 	const char *outdir = NULL;
-	int c, have_levels = 0;
+	int c, have_levels = 0, vdb_opts = 0;
+	struct vd_vdb_select sel = {.mode = VD_VDB_ACTIVE};
+	char *end;
 	/* before getopt_long permutes argv */
 	char *provenance = vd_provenance_new("voxelize", argc, argv);
 	while ((c = getopt_long(argc, argv, "o:l:c:m:j:qh", longopts, NULL)) != -1) {
@@ -89,6 +126,24 @@ int main(int argc, char **argv)
 				return usage_error("--threads '%s' is not a "
 						   "number from 1 to 1024", optarg);
 			break;
+		case OPT_GRID:
+			sel.grid_name = optarg;
+			vdb_opts = 1;
+			break;
+		case OPT_VDB_MODE:
+			if (vd_vdb_mode_parse(optarg, &sel.mode))
+				return usage_error("--vdb-mode '%s' is not one of "
+						   "active, levelset-surface, "
+						   "levelset-solid, fog", optarg);
+			vdb_opts = 1;
+			break;
+		case OPT_FOG_THRESHOLD:
+			sel.fog_threshold = strtod(optarg, &end);
+			if (!*optarg || *end || !isfinite(sel.fog_threshold))
+				return usage_error("--fog-threshold '%s' is not a "
+						   "number", optarg);
+			vdb_opts = 1;
+			break;
 		case 'q':
 			o.quiet = 1;
 			break;
@@ -105,17 +160,28 @@ int main(int argc, char **argv)
 							: "more than one MESH given");
 	if (!outdir)
 		return usage_error("%s", "no output directory (-o OUTDIR) given");
-	if (!have_levels)
-		return usage_error("%s", "no grid depth (--levels L) given");
 	const char *mesh = argv[optind];
+	int vdb = is_vdb(mesh);
+	if (!have_levels && !vdb)
+		return usage_error("%s", "no grid depth (--levels L) given");
+	if (vdb_opts && !vdb)
+		return usage_error("%s", "--grid, --vdb-mode and --fog-threshold "
+				   "are for OpenVDB (.vdb) input only");
 	o.provenance = provenance;
 
-	struct vd_voxelize_result res;
-	int err = vd_voxelize_mesh(mesh, outdir, &o, &res);
-	if (!err) {
-		char path[4096];
-		snprintf(path, sizeof path, "%s/voxelize.stats.json", outdir);
-		err = vd_voxelize_write_stats(&res, path);
+	char path[4096];
+	snprintf(path, sizeof path, "%s/voxelize.stats.json", outdir);
+	int err;
+	if (vdb) {
+		struct vd_vdb_import_result res;
+		err = vd_vdb_import(mesh, outdir, &sel, &o, &res);
+		if (!err)
+			err = vd_vdb_import_write_stats(&res, path);
+	} else {
+		struct vd_voxelize_result res;
+		err = vd_voxelize_mesh(mesh, outdir, &o, &res);
+		if (!err)
+			err = vd_voxelize_write_stats(&res, path);
 	}
 	free(provenance);
 	if (err) {

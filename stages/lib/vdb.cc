@@ -1,0 +1,906 @@
+// vdb.cc - the library's only use of OpenVDB, behind the C interface of
+// voxdag.h's OpenVDB block. Every entry point catches every exception and
+// returns an error code with a detail line: nothing thrown crosses into C.
+//
+// Import reads one grid into memory (OpenVDB's sparse tree, loaded eagerly
+// so a damaged file fails at open, not in a worker thread later) and hands
+// out selected voxels per 8^3 block: a leaf's mask, or a whole tile. The
+// C side (vdb_import.c) does the placement, chunking and writing.
+#include "voxdag.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/MeshToVolume.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+namespace {
+
+void init_once()
+{
+	static std::once_flag once;
+	std::call_once(once, [] { openvdb::initialize(); });
+}
+
+// The grid types import reads. Level set and fog modes need a
+// floating-point value; the others are read in `active` mode only.
+enum value_kind { K_FLOAT, K_DOUBLE, K_BOOL, K_MASK, K_INT32, K_VEC3S, K_OTHER };
+
+value_kind kind_of(const openvdb::GridBase &g)
+{
+	if (g.isType<openvdb::FloatGrid>()) return K_FLOAT;
+	if (g.isType<openvdb::DoubleGrid>()) return K_DOUBLE;
+	if (g.isType<openvdb::BoolGrid>()) return K_BOOL;
+	if (g.isType<openvdb::MaskGrid>()) return K_MASK;
+	if (g.isType<openvdb::Int32Grid>()) return K_INT32;
+	if (g.isType<openvdb::Vec3SGrid>()) return K_VEC3S;
+	return K_OTHER;
+}
+
+// Calls op(grid) with the grid cast to its concrete type.
+template <typename Op> void dispatch(const openvdb::GridBase &g, Op &&op)
+{
+	switch (kind_of(g)) {
+	case K_FLOAT: op(static_cast<const openvdb::FloatGrid &>(g)); break;
+	case K_DOUBLE: op(static_cast<const openvdb::DoubleGrid &>(g)); break;
+	case K_BOOL: op(static_cast<const openvdb::BoolGrid &>(g)); break;
+	case K_MASK: op(static_cast<const openvdb::MaskGrid &>(g)); break;
+	case K_INT32: op(static_cast<const openvdb::Int32Grid &>(g)); break;
+	case K_VEC3S: op(static_cast<const openvdb::Vec3SGrid &>(g)); break;
+	case K_OTHER: break;
+	}
+}
+
+// The mode's tests on one value; only floating-point values have a sign.
+template <typename T> bool inside(const T &v)
+{
+	if constexpr (std::is_floating_point_v<T>)
+		return v <= T(0);
+	else
+		return false;
+}
+template <typename T> bool above(const T &v, double threshold)
+{
+	if constexpr (std::is_floating_point_v<T>)
+		return double(v) > threshold;
+	else
+		return false;
+}
+
+// Does a voxel or tile of value v and activity `on` count, for the modes
+// that decide per value (all but the surface, which also needs the
+// neighbours)?
+template <typename T> bool selected(int mode, double thr, const T &v, bool on)
+{
+	switch (mode) {
+	case VD_VDB_ACTIVE: return on;
+	case VD_VDB_FOG: return on && above(v, thr);
+	case VD_VDB_LEVELSET_SOLID:
+	case VD_VDB_LEVELSET_SURFACE: return inside(v);
+	}
+	return false;
+}
+
+// Bits of the 512-bit block masks (word x, bit 8y + z) at a face.
+constexpr uint64_t Z0 = 0x0101010101010101ULL;  // z == 0
+constexpr uint64_t Z7 = Z0 << 7;                // z == 7
+constexpr uint64_t Y0 = 0xffULL;                // y == 0
+constexpr uint64_t Y7 = Y0 << 56;               // y == 7
+
+// The selected voxels of the 8^3 block at `o` (a multiple of 8): a leaf if
+// the tree has one there, else the constant value of the tile or
+// background covering it.
+template <typename GridT, typename AccT>
+void block_mask(AccT &acc, int mode, double thr, const Coord &o,
+		uint64_t mask[8])
+{
+	using ValueT = typename GridT::ValueType;
+	const auto *leaf = acc.probeConstLeaf(o);
+	uint64_t solid[8];
+	if (leaf) {
+		if (mode == VD_VDB_ACTIVE) {
+			for (int x = 0; x < 8; x++)
+				mask[x] = leaf->getValueMask().template getWord<uint64_t>(x);
+			return;
+		}
+		if (mode == VD_VDB_FOG) {
+			for (int x = 0; x < 8; x++)
+				mask[x] = 0;
+			for (auto it = leaf->cbeginValueOn(); it; ++it)
+				if (above(*it, thr)) {
+					openvdb::Index i = it.pos();
+					mask[i >> 6] |= 1ULL << (i & 63);
+				}
+			return;
+		}
+		for (int x = 0; x < 8; x++) {
+			uint64_t w = 0;
+			for (int b = 0; b < 64; b++)
+				if (inside(leaf->getValue(openvdb::Index(x * 64 + b))))
+					w |= 1ULL << b;
+			solid[x] = w;
+		}
+	} else {
+		ValueT v = acc.getValue(o);
+		bool on = acc.isValueOn(o);
+		uint64_t all = selected(mode, thr, v, on) ? ~0ULL : 0;
+		for (int x = 0; x < 8; x++)
+			solid[x] = mask[x] = all;
+		if (mode != VD_VDB_LEVELSET_SURFACE)
+			return;
+	}
+	if (mode == VD_VDB_LEVELSET_SOLID) {
+		std::memcpy(mask, solid, sizeof solid);
+		return;
+	}
+	// Surface: solid voxels with an outside face neighbour. Inside the
+	// block by shifts of the outside mask; across its faces from the
+	// neighbours' values (the accessor's cache keeps those reads cheap).
+	uint64_t out[8];
+	for (int x = 0; x < 8; x++)
+		out[x] = ~solid[x];
+	auto pos = [&](int x, int y, int z) {
+		return !inside(acc.getValue(o.offsetBy(x, y, z)));
+	};
+	uint64_t fxm = 0, fxp = 0; // -x, +x faces: bit 8y + z
+	for (int y = 0; y < 8; y++)
+		for (int z = 0; z < 8; z++) {
+			if (pos(-1, y, z)) fxm |= 1ULL << (8 * y + z);
+			if (pos(8, y, z)) fxp |= 1ULL << (8 * y + z);
+		}
+	for (int x = 0; x < 8; x++) {
+		uint64_t fym = 0, fyp = 0, fzm = 0, fzp = 0;
+		for (int i = 0; i < 8; i++) {
+			if (pos(x, -1, i)) fym |= 1ULL << i;       // y == 0 row
+			if (pos(x, 8, i)) fyp |= 1ULL << (56 + i);
+			if (pos(x, i, -1)) fzm |= 1ULL << (8 * i);  // z == 0 column
+			if (pos(x, i, 8)) fzp |= 1ULL << (8 * i + 7);
+		}
+		uint64_t n = 0;
+		n |= (out[x] << 1 & ~Z0) | fzm;  // neighbour z - 1
+		n |= (out[x] >> 1 & ~Z7) | fzp;  // z + 1
+		n |= (out[x] << 8 & ~Y0) | fym;  // y - 1
+		n |= (out[x] >> 8 & ~Y7) | fyp;  // y + 1
+		n |= x > 0 ? out[x - 1] : fxm;
+		n |= x < 7 ? out[x + 1] : fxp;
+		mask[x] = solid[x] & n;
+	}
+}
+
+template <typename GridT>
+using ConstAcc = openvdb::tree::ValueAccessor<const typename GridT::TreeType, false>;
+
+// Reports every leaf with a selected voxel and every selected tile. In
+// surface mode a tile is never wholly selected: only its shell of 8^3
+// blocks can be, and only where a face meets an outside neighbour, so
+// those blocks are reported as leaf-like masks.
+template <typename GridT>
+int scan_grid(const GridT &grid, int mode, double thr,
+	      int (*fn)(void *, const vd_vdb_node *), void *ctx)
+{
+	const auto &tree = grid.tree();
+	ConstAcc<GridT> acc(tree);
+	vd_vdb_node n;
+	for (auto it = tree.cbeginLeaf(); it; ++it) {
+		const Coord o = it->origin();
+		block_mask<GridT>(acc, mode, thr, o, n.mask);
+		uint64_t any = 0;
+		for (int x = 0; x < 8; x++)
+			any |= n.mask[x];
+		if (!any)
+			continue;
+		n.origin[0] = o.x(), n.origin[1] = o.y(), n.origin[2] = o.z();
+		n.dim = 8;
+		n.is_leaf = 1;
+		if (int err = fn(ctx, &n))
+			return err;
+	}
+	auto tiles = tree.cbeginValueAll();
+	tiles.setMaxDepth(tiles.getLeafDepth() - 1); // tiles only, no voxels
+	for (; tiles; ++tiles) {
+		CoordBBox bb;
+		tiles.getBoundingBox(bb);
+		if (mode != VD_VDB_LEVELSET_SURFACE) {
+			if (!selected(mode, thr, *tiles, tiles.isValueOn()))
+				continue;
+			n.origin[0] = bb.min().x(), n.origin[1] = bb.min().y(),
+			n.origin[2] = bb.min().z();
+			n.dim = uint32_t(bb.dim().x());
+			n.is_leaf = 0;
+			if (int err = fn(ctx, &n))
+				return err;
+			continue;
+		}
+		if (!inside(*tiles))
+			continue;
+		const int nb = bb.dim().x() / 8;
+		for (int bx = 0; bx < nb; bx++)
+			for (int by = 0; by < nb; by++)
+				for (int bz = 0; bz < nb; bz++) {
+					int b[3] = {bx, by, bz};
+					bool shell = false, check = false;
+					for (int a = 0; a < 3; a++)
+						for (int s = 0; s < 2; s++) {
+							if (b[a] != (s ? nb - 1 : 0))
+								continue;
+							shell = true;
+							// the 8^3 block across this face
+							Coord q = bb.min().offsetBy(8 * bx, 8 * by, 8 * bz);
+							q[a] += s ? 8 : -8;
+							if (acc.probeConstLeaf(q) || !inside(acc.getValue(q)))
+								check = true;
+						}
+					if (!shell) // interior: skip to the far face
+						bz = nb - 2 > bz ? nb - 2 : bz;
+					if (!check)
+						continue;
+					Coord o = bb.min().offsetBy(8 * bx, 8 * by, 8 * bz);
+					block_mask<GridT>(acc, mode, thr, o, n.mask);
+					uint64_t any = 0;
+					for (int x = 0; x < 8; x++)
+						any |= n.mask[x];
+					if (!any)
+						continue;
+					n.origin[0] = o.x(), n.origin[1] = o.y(), n.origin[2] = o.z();
+					n.dim = 8;
+					n.is_leaf = 1;
+					if (int err = fn(ctx, &n))
+						return err;
+				}
+	}
+	return VD_OK;
+}
+
+int fail_exception(const char *what, const std::exception &e)
+{
+	return vd_fail(VD_ERR_INTERNAL, "%s: OpenVDB: %s", what, e.what());
+}
+
+} // namespace
+
+struct vd_vdb {
+	openvdb::GridBase::ConstPtr grid;
+	int mode;
+	double thr;
+};
+
+extern "C" const char *vd_vdb_mode_name(int mode)
+{
+	static const char *const names[] = {"active", "levelset-surface",
+					    "levelset-solid", "fog"};
+	return mode >= 0 && mode < VD_VDB_MODE_COUNT_ ? names[mode] : nullptr;
+}
+
+extern "C" int vd_vdb_mode_parse(const char *name, int *mode)
+{
+	for (int m = 0; m < VD_VDB_MODE_COUNT_; m++)
+		if (std::strcmp(name, vd_vdb_mode_name(m)) == 0) {
+			*mode = m;
+			return VD_OK;
+		}
+	return vd_fail(VD_ERR_ARG, "unknown mode '%s' (active, levelset-surface, "
+		       "levelset-solid, fog)", name);
+}
+
+namespace {
+
+// Walks the file's structure before OpenVDB reads it: header, file
+// metadata, then each grid's descriptor and its end offset. OpenVDB trusts
+// the lengths it reads (a cut file can make it wait on a huge read or
+// report zero grids), so a cut is found here, by the first length that
+// points past the end of the file. Layout (little-endian): int64 magic,
+// uint32 file version, uint32 library major and minor, uint8 "has grid
+// offsets", 36-byte UUID, file metadata (int32 count, then name, type and
+// value, each as uint32 length + bytes), int32 grid count, then per grid a
+// descriptor (name, type and parent name strings, int64 grid, block and
+// end offsets) followed by the grid up to its end offset.
+int check_structure(const unsigned char *head, size_t nhead, uint64_t size,
+		    FILE *f, uint64_t *grids)
+{
+	uint64_t pos = 0;
+	auto need = [&](uint64_t n, const char *what) -> int {
+		if (pos + n > size || n > size)
+			return vd_fail(VD_ERR_TRUNCATED, "the file (%llu bytes) "
+				       "ends inside %s", (unsigned long long)size,
+				       what);
+		return VD_OK;
+	};
+	unsigned char b[8];
+	auto rd = [&](int n, const char *what, uint64_t *v) -> int {
+		int err = need(uint64_t(n), what);
+		if (err)
+			return err;
+		if (pos + uint64_t(n) <= nhead) {
+			std::memcpy(b, head + pos, size_t(n));
+		} else if (std::fseek(f, long(pos), SEEK_SET) != 0 ||
+			   std::fread(b, 1, size_t(n), f) != size_t(n)) {
+			return vd_fail(VD_ERR_IO, "cannot read at byte %llu",
+				       (unsigned long long)pos);
+		}
+		pos += uint64_t(n);
+		*v = 0;
+		for (int i = n - 1; i >= 0; i--)
+			*v = *v << 8 | b[i];
+		return VD_OK;
+	};
+	auto skip_string = [&](const char *what) -> int {
+		uint64_t len;
+		int err = rd(4, what, &len);
+		if (!err && !(err = need(len, what)))
+			pos += len;
+		return err;
+	};
+	uint64_t version, v, offsets, count;
+	int err;
+	if ((err = rd(8, "the magic number", &v)) ||
+	    (err = rd(4, "the header", &version)) ||
+	    (err = rd(8, "the header", &v)) ||
+	    (err = rd(1, "the header", &offsets)) ||
+	    (err = need(36, "the header")))
+		return err;
+	pos += 36; // UUID
+	if ((err = rd(4, "the file metadata", &count)))
+		return err;
+	for (uint64_t i = 0; i < count; i++)
+		if ((err = skip_string("the file metadata")) ||
+		    (err = skip_string("the file metadata")) ||
+		    (err = skip_string("the file metadata")))
+			return err;
+	if ((err = rd(4, "the grid count", grids)))
+		return err;
+	if (!offsets)
+		return VD_OK; // old files without offsets: OpenVDB checks alone
+	for (uint64_t i = 0; i < *grids; i++) {
+		uint64_t gpos, bpos, epos;
+		if ((err = skip_string("a grid descriptor")) ||
+		    (err = skip_string("a grid descriptor")) ||
+		    (err = skip_string("a grid descriptor")) ||
+		    (err = rd(8, "a grid descriptor", &gpos)) ||
+		    (err = rd(8, "a grid descriptor", &bpos)) ||
+		    (err = rd(8, "a grid descriptor", &epos)))
+			return err;
+		if (gpos != pos || bpos < gpos || epos < bpos)
+			return vd_fail(VD_ERR_CORRUPT, "grid %llu has offsets "
+				       "%llu, %llu, %llu at byte %llu",
+				       (unsigned long long)i, (unsigned long long)gpos,
+				       (unsigned long long)bpos,
+				       (unsigned long long)epos, (unsigned long long)pos);
+		if ((err = need(epos - pos, "grid data")))
+			return err;
+		pos = epos;
+	}
+	(void)version;
+	return VD_OK;
+}
+
+// Reads the chosen grid; the caller catches.
+int read_grid(const char *path, const char *name, openvdb::GridBase::Ptr *out)
+{
+	init_once();
+	FILE *f = std::fopen(path, "rb");
+	if (!f)
+		return vd_fail(VD_ERR_IO, "%s", std::strerror(errno));
+	unsigned char head[4096];
+	size_t got = std::fread(head, 1, sizeof head, f);
+	int err = VD_OK;
+	uint64_t size = 0, grids = 0;
+	// OpenVDB files open with the int64 0x56444220 (" BDV"), little-endian
+	static const unsigned char want[8] = {0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0};
+	if (std::ferror(f))
+		err = vd_fail(VD_ERR_IO, "%s", std::strerror(errno));
+	else if (got == 0)
+		err = vd_fail(VD_ERR_EMPTY, "the file is empty");
+	else if (got < 8 && std::memcmp(head, want, got) == 0)
+		err = vd_fail(VD_ERR_TRUNCATED, "the file ends inside the "
+			      "OpenVDB magic number");
+	else if (got < 8 || std::memcmp(head, want, 8) != 0)
+		err = vd_fail(VD_ERR_FORMAT, "not an OpenVDB file (no VDB magic "
+			      "number)");
+	else if (std::fseek(f, 0, SEEK_END) != 0 || std::ftell(f) < 0)
+		err = vd_fail(VD_ERR_IO, "cannot seek: %s", std::strerror(errno));
+	else {
+		size = uint64_t(std::ftell(f));
+		err = check_structure(head, got, size, f, &grids);
+	}
+	std::fclose(f);
+	if (err)
+		return err;
+	if (grids == 0)
+		return vd_fail(VD_ERR_EMPTY, "the file holds no grid");
+	openvdb::io::File file(path);
+	try {
+		file.open(false); // no delayed loading: damage shows here
+		std::vector<std::string> names;
+		for (auto it = file.beginName(); it != file.endName(); ++it)
+			names.push_back(it.gridName());
+		if (names.empty()) {
+			file.close();
+			return vd_fail(VD_ERR_EMPTY, "the file holds no grid");
+		}
+		std::string want_name = name ? name : names[0];
+		bool found = false;
+		for (auto &n : names)
+			found |= n == want_name;
+		if (!found) {
+			std::string list;
+			for (auto &n : names)
+				list += (list.empty() ? "'" : ", '") + n + "'";
+			file.close();
+			return vd_fail(VD_ERR_ARG, "no grid named '%s' (grids: %s)",
+				       want_name.c_str(), list.c_str());
+		}
+		*out = file.readGrid(want_name);
+		file.close();
+	} catch (const std::exception &e) {
+		return vd_fail(VD_ERR_TRUNCATED, "cut short or damaged: %s", e.what());
+	}
+	return VD_OK;
+}
+
+// voxdag grids are axis-aligned cubes: refuse what is not a uniform scale
+// plus translation rather than resample silently.
+int check_transform(const openvdb::GridBase &g, double *voxel_size,
+		    double translation[3])
+{
+	const openvdb::math::Transform &xf = g.transform();
+	if (!xf.isLinear())
+		return vd_fail(VD_ERR_UNSUPPORTED, "grid '%s' has a non-linear "
+			       "(frustum) transform; voxdag needs axis-aligned "
+			       "cubic voxels: resample it first (OpenVDB "
+			       "tools::resampleToMatch)", g.getName().c_str());
+	openvdb::Mat4d m = xf.baseMap()->getAffineMap()->getMat4();
+	double s = m(0, 0);
+	for (int i = 0; i < 3; i++)
+		for (int j = 0; j < 3; j++)
+			if (i != j && std::fabs(m(i, j)) > 1e-9 * std::fabs(s))
+				return vd_fail(VD_ERR_UNSUPPORTED, "grid '%s' has a "
+					       "rotated transform; voxdag needs "
+					       "axis-aligned cubic voxels: "
+					       "resample it first (OpenVDB "
+					       "tools::resampleToMatch)",
+					       g.getName().c_str());
+	if (!(s > 0) || std::fabs(m(1, 1) - s) > 1e-9 * s ||
+	    std::fabs(m(2, 2) - s) > 1e-9 * s)
+		return vd_fail(VD_ERR_UNSUPPORTED, "grid '%s' has voxels of %g x "
+			       "%g x %g; voxdag needs cubic voxels of positive "
+			       "size: resample it first (OpenVDB "
+			       "tools::resampleToMatch)", g.getName().c_str(),
+			       m(0, 0), m(1, 1), m(2, 2));
+	openvdb::Vec3d t = m.getTranslation();
+	*voxel_size = s;
+	for (int a = 0; a < 3; a++)
+		translation[a] = t[a];
+	return VD_OK;
+}
+
+int check_mode(const openvdb::GridBase &g, int mode)
+{
+	value_kind k = kind_of(g);
+	if (mode < 0 || mode >= VD_VDB_MODE_COUNT_)
+		return vd_fail(VD_ERR_ARG, "mode %d", mode);
+	if (k == K_OTHER)
+		return vd_fail(VD_ERR_UNSUPPORTED, "grid '%s' holds %s values; "
+			       "voxdag reads float, double, bool, mask, int32 "
+			       "and vec3s grids", g.getName().c_str(),
+			       g.valueType().c_str());
+	if (mode != VD_VDB_ACTIVE && k != K_FLOAT && k != K_DOUBLE)
+		return vd_fail(VD_ERR_UNSUPPORTED, "mode %s needs a float or "
+			       "double grid; '%s' holds %s values (use --vdb-mode "
+			       "active)", vd_vdb_mode_name(mode),
+			       g.getName().c_str(), g.valueType().c_str());
+	if (mode == VD_VDB_LEVELSET_SOLID || mode == VD_VDB_LEVELSET_SURFACE) {
+		double bg = 0;
+		dispatch(g, [&](const auto &grid) {
+			using T = typename std::decay_t<decltype(grid)>::ValueType;
+			if constexpr (std::is_floating_point_v<T>)
+				bg = double(grid.background());
+		});
+		if (!(bg > 0))
+			return vd_fail(VD_ERR_UNSUPPORTED, "grid '%s' has "
+				       "background %g, so everything far away "
+				       "would be inside: not a level set (try "
+				       "--vdb-mode fog or active)",
+				       g.getName().c_str(), bg);
+	}
+	return VD_OK;
+}
+
+} // namespace
+
+extern "C" int vd_vdb_open(struct vd_vdb **out, const char *path,
+			   const struct vd_vdb_select *sel,
+			   struct vd_vdb_info *info)
+{
+	*out = nullptr;
+	try {
+		openvdb::GridBase::Ptr grid;
+		int err = read_grid(path, sel->grid_name, &grid);
+		if (err)
+			return err;
+		double vs = 0, tr[3] = {0, 0, 0};
+		if ((err = check_transform(*grid, &vs, tr)) ||
+		    (err = check_mode(*grid, sel->mode)))
+			return err;
+		if (info) {
+			std::memset(info, 0, sizeof *info);
+			std::snprintf(info->grid_name, sizeof info->grid_name, "%s",
+				      grid->getName().c_str());
+			std::snprintf(info->value_type, sizeof info->value_type,
+				      "%s", grid->valueType().c_str());
+			std::snprintf(info->grid_class, sizeof info->grid_class,
+				      "%s", openvdb::GridBase::gridClassToString(
+						    grid->getGridClass()).c_str());
+			info->voxel_size = vs;
+			for (int a = 0; a < 3; a++)
+				info->translation[a] = tr[a];
+			info->active_voxels = grid->activeVoxelCount();
+			info->leaves = grid->baseTree().leafCount();
+			CoordBBox bb = grid->evalActiveVoxelBoundingBox();
+			info->has_active = !bb.empty();
+			for (int a = 0; a < 3 && info->has_active; a++) {
+				info->active_min[a] = bb.min()[a];
+				info->active_max[a] = bb.max()[a];
+			}
+		}
+		auto *v = new vd_vdb;
+		v->grid = grid;
+		v->mode = sel->mode;
+		v->thr = sel->fog_threshold;
+		*out = v;
+		return VD_OK;
+	} catch (const std::bad_alloc &) {
+		return vd_fail(VD_ERR_NOMEM, "reading the grid");
+	} catch (const std::exception &e) {
+		return fail_exception("open", e);
+	}
+}
+
+extern "C" void vd_vdb_close(struct vd_vdb *v)
+{
+	delete v;
+}
+
+extern "C" int vd_vdb_scan(struct vd_vdb *v,
+			   int (*fn)(void *ctx, const struct vd_vdb_node *n),
+			   void *ctx)
+{
+	try {
+		int err = VD_OK;
+		dispatch(*v->grid, [&](const auto &grid) {
+			using G = std::decay_t<decltype(grid)>;
+			err = scan_grid<G>(grid, v->mode, v->thr, fn, ctx);
+		});
+		return err;
+	} catch (const std::bad_alloc &) {
+		return vd_fail(VD_ERR_NOMEM, "scanning the grid");
+	} catch (const std::exception &e) {
+		return fail_exception("scan", e);
+	}
+}
+
+extern "C" int vd_vdb_leaf_mask(struct vd_vdb *v, const int32_t origin[3],
+				uint64_t mask[8])
+{
+	try {
+		dispatch(*v->grid, [&](const auto &grid) {
+			using G = std::decay_t<decltype(grid)>;
+			ConstAcc<G> acc(grid.tree());
+			block_mask<G>(acc, v->mode, v->thr,
+				      Coord(origin[0], origin[1], origin[2]), mask);
+		});
+		return VD_OK;
+	} catch (const std::exception &e) {
+		return fail_exception("leaf", e);
+	}
+}
+
+// ------------------------------------------------------------------ export
+
+namespace {
+
+// Local voxel (x, y, z) of each of a brick's 64 bits.
+struct brick_table {
+	uint8_t x[64], y[64], z[64];
+	brick_table()
+	{
+		for (int b = 0; b < 64; b++) {
+			uint32_t X, Y, Z;
+			vd_morton3_decode(uint64_t(b), &X, &Y, &Z);
+			x[b] = uint8_t(X), y[b] = uint8_t(Y), z[b] = uint8_t(Z);
+		}
+	}
+};
+
+std::string temp_name(const char *path)
+{
+	return std::string(path) + ".tmp." + std::to_string(getpid());
+}
+
+} // namespace
+
+extern "C" int vd_vdb_export(const char *path, const char *grid_name,
+			     int levels, const struct vd_transform *t,
+			     int (*next)(void *ctx, const uint64_t **keys,
+					 const uint64_t **masks, size_t *n),
+			     void *ctx, uint64_t *voxels)
+{
+	static const brick_table tab;
+	if (levels < 1 || levels > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_RANGE, "levels %d outside 1..%d", levels,
+			       VD_MAX_LEVELS);
+	if (!(t->voxel_size > 0) || !std::isfinite(t->voxel_size))
+		return vd_fail(VD_ERR_RANGE, "voxel size %g", t->voxel_size);
+	const int brick_bits = levels >= 2 ? 3 * (levels - 2) : 0;
+	std::string tmp = temp_name(path);
+	try {
+		init_once();
+		auto grid = openvdb::BoolGrid::create(false);
+		grid->setName(grid_name);
+		const double vs = t->voxel_size;
+		auto xf = openvdb::math::Transform::createLinearTransform(vs);
+		// our voxel v spans [origin + v vs, origin + (v+1) vs); OpenVDB
+		// centres index v at translation + v vs
+		xf->postTranslate(openvdb::Vec3d(t->origin[0] + vs / 2,
+						 t->origin[1] + vs / 2,
+						 t->origin[2] + vs / 2));
+		grid->setTransform(xf);
+		grid->insertMeta("voxdag_levels", openvdb::Int32Metadata(levels));
+		auto acc = grid->getAccessor();
+		for (;;) {
+			const uint64_t *keys, *masks;
+			size_t n = 0;
+			int err = next(ctx, &keys, &masks, &n);
+			if (err)
+				return err;
+			if (n == 0)
+				break;
+			for (size_t i = 0; i < n; i++) {
+				if (keys[i] >> brick_bits)
+					return vd_fail(VD_ERR_CORRUPT, "brick key "
+						       "%llx outside a grid of "
+						       "depth %d",
+						       (unsigned long long)keys[i],
+						       levels);
+				uint64_t m = masks[i];
+				if (!m)
+					continue;
+				uint32_t bx, by, bz;
+				vd_morton3_decode(keys[i], &bx, &by, &bz);
+				Coord base(int(bx) * 4, int(by) * 4, int(bz) * 4);
+				auto *leaf = acc.touchLeaf(base);
+				while (m) {
+					int b = __builtin_ctzll(m);
+					m &= m - 1;
+					leaf->setValueOn(base.offsetBy(tab.x[b], tab.y[b],
+								       tab.z[b]),
+							 true);
+				}
+			}
+		}
+		grid->tree().prune();
+		if (voxels)
+			*voxels = grid->activeVoxelCount();
+		openvdb::io::File file(tmp);
+		openvdb::GridPtrVec grids{grid};
+		file.write(grids);
+		file.close();
+		if (std::rename(tmp.c_str(), path) != 0) {
+			int e = errno;
+			std::remove(tmp.c_str());
+			return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
+				       tmp.c_str(), path, std::strerror(e));
+		}
+		return VD_OK;
+	} catch (const std::bad_alloc &) {
+		std::remove(tmp.c_str());
+		return vd_fail(VD_ERR_NOMEM, "building the grid");
+	} catch (const std::exception &e) {
+		std::remove(tmp.c_str());
+		return vd_fail(VD_ERR_IO, "cannot write '%s': OpenVDB: %s", path,
+			       e.what());
+	}
+}
+
+// ------------------------------------------------------------ test support
+
+struct vd_vdb_test_file {
+	openvdb::GridPtrVec grids;
+};
+
+#define TEST_TRY(what, body)                                                 \
+	try {                                                                \
+		init_once();                                                 \
+		body                                                         \
+		return VD_OK;                                                \
+	} catch (const std::exception &e) {                                  \
+		return fail_exception(what, e);                              \
+	}
+
+extern "C" int vd_vdb_test_new(struct vd_vdb_test_file **f)
+{
+	TEST_TRY("test file", *f = new vd_vdb_test_file;)
+}
+
+extern "C" void vd_vdb_test_free(struct vd_vdb_test_file *f)
+{
+	delete f;
+}
+
+extern "C" int vd_vdb_test_add_sphere(struct vd_vdb_test_file *f,
+				      const char *name, double radius,
+				      const double c[3], double voxel_size,
+				      double half_width)
+{
+	TEST_TRY("sphere", {
+		auto g = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+			float(radius), openvdb::Vec3f(float(c[0]), float(c[1]), float(c[2])),
+			float(voxel_size), float(half_width));
+		g->setName(name);
+		f->grids.push_back(g);
+	})
+}
+
+extern "C" int vd_vdb_test_add_fog_box(struct vd_vdb_test_file *f,
+				       const char *name, const int32_t lo[3],
+				       const int32_t hi[3], float value,
+				       const int32_t ilo[3], const int32_t ihi[3],
+				       float inner_value)
+{
+	TEST_TRY("fog box", {
+		auto g = openvdb::FloatGrid::create(0.f);
+		g->setName(name);
+		g->setGridClass(openvdb::GRID_FOG_VOLUME);
+		g->tree().fill(CoordBBox(Coord(lo[0], lo[1], lo[2]),
+					 Coord(hi[0], hi[1], hi[2])),
+			       value, true);
+		if (ilo[0] <= ihi[0])
+			g->tree().fill(CoordBBox(Coord(ilo[0], ilo[1], ilo[2]),
+						 Coord(ihi[0], ihi[1], ihi[2])),
+				       inner_value, true);
+		f->grids.push_back(g);
+	})
+}
+
+extern "C" int vd_vdb_test_add_mesh(struct vd_vdb_test_file *f,
+				    const char *name, const char *mesh_path,
+				    int resolution, double half_width)
+{
+	struct vd_mesh *m;
+	int err = vd_mesh_open(&m, mesh_path);
+	if (err)
+		return err;
+	try {
+		init_once();
+		std::vector<openvdb::Vec3s> pts;
+		std::vector<openvdb::Vec3I> tris;
+		std::vector<vd_triangle> buf(4096);
+		size_t n;
+		float lo[3] = {INFINITY, INFINITY, INFINITY};
+		float hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+		while (!(err = vd_mesh_read(m, buf.data(), buf.size(), &n)) && n) {
+			for (size_t i = 0; i < n; i++) {
+				auto b = openvdb::Index32(pts.size());
+				for (int k = 0; k < 3; k++) {
+					const float *v = buf[i].v[k];
+					pts.emplace_back(v[0], v[1], v[2]);
+					for (int a = 0; a < 3; a++) {
+						lo[a] = std::min(lo[a], v[a]);
+						hi[a] = std::max(hi[a], v[a]);
+					}
+				}
+				tris.emplace_back(b, b + 1, b + 2);
+			}
+		}
+		vd_mesh_close(m);
+		if (err)
+			return err;
+		if (tris.empty())
+			return vd_fail(VD_ERR_EMPTY, "'%s' has no triangles", mesh_path);
+		float ext = std::max(hi[0] - lo[0], std::max(hi[1] - lo[1], hi[2] - lo[2]));
+		auto xf = openvdb::math::Transform::createLinearTransform(
+			double(ext) / resolution);
+		auto g = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(
+			*xf, pts, tris, float(half_width));
+		g->setName(name);
+		f->grids.push_back(g);
+		return VD_OK;
+	} catch (const std::exception &e) {
+		return fail_exception("mesh to level set", e);
+	}
+}
+
+extern "C" int vd_vdb_test_add_empty(struct vd_vdb_test_file *f,
+				     const char *name)
+{
+	TEST_TRY("empty grid", {
+		auto g = openvdb::FloatGrid::create(0.f);
+		g->setName(name);
+		f->grids.push_back(g);
+	})
+}
+
+extern "C" int vd_vdb_test_add_transformed(struct vd_vdb_test_file *f,
+					   const char *name, int n,
+					   double rotate_deg, double sx,
+					   double sy, double sz)
+{
+	TEST_TRY("transformed grid", {
+		auto g = openvdb::FloatGrid::create(0.f);
+		g->setName(name);
+		g->tree().fill(CoordBBox(Coord(0), Coord(n - 1)), 1.f, true);
+		auto xf = openvdb::math::Transform::createLinearTransform(1.0);
+		xf->preScale(openvdb::Vec3d(sx, sy, sz));
+		if (rotate_deg != 0)
+			xf->postRotate(rotate_deg * M_PI / 180, openvdb::math::Z_AXIS);
+		g->setTransform(xf);
+		f->grids.push_back(g);
+	})
+}
+
+extern "C" int vd_vdb_test_write(struct vd_vdb_test_file *f, const char *path)
+{
+	TEST_TRY("write", {
+		openvdb::io::File file(path);
+		file.write(f->grids);
+		file.close();
+	})
+}
+
+extern "C" int vd_vdb_test_reference(const char *path,
+				     const struct vd_vdb_select *sel,
+				     int margin,
+				     void (*fn)(void *ctx, int32_t x, int32_t y,
+						int32_t z),
+				     void *ctx, uint64_t *count)
+{
+	*count = 0;
+	try {
+		openvdb::GridBase::Ptr grid;
+		int err = read_grid(path, sel->grid_name, &grid);
+		if (err || (err = check_mode(*grid, sel->mode)))
+			return err;
+		CoordBBox bb = grid->evalActiveVoxelBoundingBox();
+		if (bb.empty())
+			return VD_OK;
+		bb.expand(margin);
+		dispatch(*grid, [&](const auto &g) {
+			auto acc = g.getConstAccessor();
+			auto in = [&](const Coord &c) {
+				return selected(sel->mode, sel->fog_threshold,
+						acc.getValue(c), acc.isValueOn(c));
+			};
+			for (auto it = bb.begin(); it; ++it) {
+				Coord c = *it;
+				bool s = in(c);
+				if (s && sel->mode == VD_VDB_LEVELSET_SURFACE) {
+					s = false;
+					for (int a = 0; a < 3 && !s; a++)
+						for (int d = -1; d <= 1 && !s; d += 2) {
+							Coord q = c;
+							q[a] += d;
+							s = !inside(acc.getValue(q));
+						}
+				}
+				if (s) {
+					++*count;
+					if (fn)
+						fn(ctx, c.x(), c.y(), c.z());
+				}
+			}
+		});
+		return VD_OK;
+	} catch (const std::exception &e) {
+		return fail_exception("reference", e);
+	}
+}

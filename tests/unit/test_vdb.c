@@ -1,0 +1,432 @@
+/* test_vdb.c - OpenVDB import and export against OpenVDB's own counts and
+ * a brute-force reference (vd_vdb_test_reference: every voxel of the
+ * bounding box through an accessor, the modes' definitions written out
+ * again, no node iteration), on grids built here through the OpenVDB API.
+ */
+#include "check.h"
+#include "voxdag.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <unistd.h>
+
+static const char *dir;
+static char path_sphere[600], path_fog[600], path_bunny[600], path_two[600],
+	path_empty[600], path_rot[600], path_out[600];
+
+/* ------------------------------------------------------------ voxel sets
+ * Voxels as OpenVDB index coordinates, packed 21 bits an axis after adding
+ * a bias so negative indices sort too. */
+
+enum { BIAS = 1 << 20 };
+
+struct vset {
+	uint64_t *v;
+	size_t n, cap;
+};
+
+static uint64_t pack(int64_t x, int64_t y, int64_t z)
+{
+	return (uint64_t)(x + BIAS) << 42 | (uint64_t)(y + BIAS) << 21 |
+	       (uint64_t)(z + BIAS);
+}
+
+static void vset_add(struct vset *s, uint64_t key)
+{
+	if (s->n == s->cap) {
+		s->cap = s->cap ? 2 * s->cap : 1024;
+		s->v = realloc(s->v, s->cap * sizeof *s->v);
+	}
+	s->v[s->n++] = key;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return (x > y) - (x < y);
+}
+
+static void vset_finish(struct vset *s)
+{
+	if (!s->n)
+		return;
+	qsort(s->v, s->n, sizeof *s->v, cmp_u64);
+	size_t m = 0;
+	for (size_t i = 0; i < s->n; i++)
+		if (m == 0 || s->v[m - 1] != s->v[i])
+			s->v[m++] = s->v[i];
+	s->n = m;
+}
+
+static int vset_equal(const struct vset *a, const struct vset *b,
+		      const char *what)
+{
+	size_t i = 0, j = 0, diff = 0;
+	uint64_t first = 0;
+	while (i < a->n || j < b->n) {
+		if (i < a->n && j < b->n && a->v[i] == b->v[j]) {
+			i++, j++;
+			continue;
+		}
+		uint64_t k = j >= b->n || (i < a->n && a->v[i] < b->v[j]) ? a->v[i++]
+									  : b->v[j++];
+		if (!diff++)
+			first = k;
+	}
+	if (diff)
+		fprintf(stderr, "%s: %zu vs %zu voxels, %zu differ, first at "
+			"(%lld,%lld,%lld)\n", what, a->n, b->n, diff,
+			(long long)(first >> 42) - BIAS,
+			(long long)(first >> 21 & 0x1fffff) - BIAS,
+			(long long)(first & 0x1fffff) - BIAS);
+	return diff == 0;
+}
+
+/* The voxels of every chunk in `d`, as our grid coordinates shifted by
+ * `off` (so the OpenVDB index when no resampling happened). */
+static int load_chunks(const char *d, const int32_t off[3], struct vset *out,
+		       int *nchunks)
+{
+	DIR *dd = opendir(d);
+	struct dirent *e;
+	char path[1024];
+	*nchunks = 0;
+	while (dd && (e = readdir(dd))) {
+		size_t n = strlen(e->d_name);
+		if (n < 5 || strcmp(e->d_name + n - 4, ".svo"))
+			continue;
+		snprintf(path, sizeof path, "%s/%s", d, e->d_name);
+		struct vd_svo svo;
+		int err = vd_svo_load(&svo, NULL, path);
+		if (err) {
+			fprintf(stderr, "%s: %s: %s\n", path, vd_strerror(err),
+				vd_error_detail());
+			closedir(dd);
+			return err;
+		}
+		(*nchunks)++;
+		for (size_t i = 0; i < svo.count; i++) {
+			uint32_t bx, by, bz;
+			vd_morton3_decode(svo.keys[i], &bx, &by, &bz);
+			for (int b = 0; b < 64; b++)
+				if (svo.masks[i] >> b & 1) {
+					uint32_t x, y, z;
+					vd_morton3_decode((uint64_t)b, &x, &y, &z);
+					vset_add(out, pack(off[0] + 4 * (int64_t)bx + x,
+							   off[1] + 4 * (int64_t)by + y,
+							   off[2] + 4 * (int64_t)bz + z));
+				}
+		}
+		vd_svo_release(&svo);
+	}
+	if (dd)
+		closedir(dd);
+	vset_finish(out);
+	return VD_OK;
+}
+
+struct ref_ctx {
+	struct vset *s;
+	int k;              /* resampling shift */
+	int32_t off[3];
+};
+
+/* The reference voxel, downsampled as the import does when k > 0; kept
+ * in OpenVDB index units of the coarse voxel's first child. */
+static void ref_collect(void *vctx, int32_t x, int32_t y, int32_t z)
+{
+	struct ref_ctx *c = vctx;
+	int64_t p[3] = {x, y, z};
+	for (int a = 0; a < 3; a++)
+		p[a] = c->off[a] + ((p[a] - c->off[a]) >> c->k);
+	vset_add(c->s, pack(p[0], p[1], p[2]));
+}
+
+static int import(const char *path, const char *grid, int mode, double thr,
+		  int levels, int chunk_level, struct vd_vdb_import_result *r)
+{
+	struct vd_vdb_select sel = {grid, mode, thr};
+	struct vd_voxelize_opts o = {.levels = levels, .chunk_level = chunk_level,
+				     .mem_budget_bytes = 1ull << 30,
+				     .threads = 2, .quiet = 1};
+	int err = vd_vdb_import(path, dir, &sel, &o, r);
+	if (err)
+		fprintf(stderr, "import %s: %s: %s\n", path, vd_strerror(err),
+			vd_error_detail());
+	return err;
+}
+
+/* Imports and compares with the reference; returns the voxel count. */
+static uint64_t check_mode(const char *path, const char *grid, int mode,
+			   double thr, int levels, int chunk_level)
+{
+	struct vd_vdb_import_result r;
+	struct vset got = {0}, want = {0};
+	int n;
+	char what[256];
+	snprintf(what, sizeof what, "%s %s levels %d L0 %d", path,
+		 vd_vdb_mode_name(mode), levels, chunk_level);
+	CHECK_EQ(import(path, grid, mode, thr, levels, chunk_level, &r), VD_OK);
+	CHECK_EQ(load_chunks(dir, r.index_offset, &got, &n), VD_OK);
+	CHECK_EQ(n, (long long)r.chunks);
+	CHECK_EQ(got.n, (long long)r.voxels);
+	struct vd_vdb_select sel = {grid, mode, thr};
+	struct ref_ctx rc = {&want, r.resample_shift,
+			     {r.index_offset[0], r.index_offset[1], r.index_offset[2]}};
+	uint64_t count;
+	CHECK_EQ(vd_vdb_test_reference(path, &sel, 2, ref_collect, &rc, &count),
+		 VD_OK);
+	vset_finish(&want);
+	CHECK(want.n > 0);
+	CHECK(vset_equal(&got, &want, what));
+	if (mode == VD_VDB_ACTIVE && !r.resample_shift)
+		CHECK_EQ(r.voxels, (long long)r.info.active_voxels);
+	if (!r.resample_shift)
+		CHECK_EQ(r.voxels, (long long)count);
+	else if (mode == VD_VDB_ACTIVE)
+		CHECK(r.voxels < r.info.active_voxels);
+	free(got.v);
+	free(want.v);
+	return r.voxels;
+}
+
+/* ------------------------------------------------------------- fixtures */
+
+static void make_fixtures(void)
+{
+	snprintf(path_sphere, sizeof path_sphere, "%s/sphere.vdb", dir);
+	snprintf(path_fog, sizeof path_fog, "%s/fog.vdb", dir);
+	snprintf(path_bunny, sizeof path_bunny, "%s/bunny.vdb", dir);
+	snprintf(path_two, sizeof path_two, "%s/two.vdb", dir);
+	snprintf(path_empty, sizeof path_empty, "%s/empty.vdb", dir);
+	snprintf(path_rot, sizeof path_rot, "%s/rotated.vdb", dir);
+	snprintf(path_out, sizeof path_out, "%s/export.vdb", dir);
+	struct vd_vdb_test_file *f;
+	const double c[3] = {0.3, -5.7, 2.2};
+	const int32_t lo[3] = {-13, -2, 0}, hi[3] = {140, 133, 129};
+	const int32_t ilo[3] = {-13, 0, 30}, ihi[3] = {-1, 10, 60};
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_sphere(f, "ls", 11, c, 1, 3), VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_sphere), VD_OK);
+	vd_vdb_test_free(f);
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_fog_box(f, "density", lo, hi, 1.0f, ilo, ihi,
+					 0.25f), VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_fog), VD_OK);
+	vd_vdb_test_free(f);
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_mesh(f, "bunny", "tests/data/bunny.ply", 48, 3),
+		 VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_bunny), VD_OK);
+	vd_vdb_test_free(f);
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_empty(f, "first"), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_sphere(f, "second", 5, c, 0.5, 2), VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_two), VD_OK);
+	vd_vdb_test_free(f);
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_empty(f, "nothing"), VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_empty), VD_OK);
+	vd_vdb_test_free(f);
+
+	CHECK_EQ(vd_vdb_test_new(&f), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_transformed(f, "rot", 8, 30, 1, 1, 1), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_transformed(f, "stretched", 8, 0, 1, 2, 1), VD_OK);
+	CHECK_EQ(vd_vdb_test_add_transformed(f, "scaled", 8, 0, 0.25, 0.25, 0.25),
+		 VD_OK);
+	CHECK_EQ(vd_vdb_test_write(f, path_rot), VD_OK);
+	vd_vdb_test_free(f);
+}
+
+/* ---------------------------------------------------------------- tests */
+
+static void test_sphere_level_set(void)
+{
+	uint64_t active = check_mode(path_sphere, NULL, VD_VDB_ACTIVE, 0, 0, -1);
+	uint64_t surf = check_mode(path_sphere, NULL, VD_VDB_LEVELSET_SURFACE, 0, 0, -1);
+	uint64_t solid = check_mode(path_sphere, "ls", VD_VDB_LEVELSET_SOLID, 0, 0, -1);
+	/* a radius-11 ball: about 4/3 pi 11^3 inside, a shell of its area */
+	CHECK(solid > 5000 && solid < 6500);
+	CHECK(surf > 1000 && surf < 2500);
+	CHECK(active > surf);
+	/* chunked the same */
+	CHECK_EQ(check_mode(path_sphere, NULL, VD_VDB_LEVELSET_SOLID, 0, 0, 3), solid);
+}
+
+static void test_fog_box_with_tiles(void)
+{
+	struct vd_vdb_import_result r;
+	CHECK_EQ(import(path_fog, NULL, VD_VDB_ACTIVE, 0, 0, -1, &r), VD_OK);
+	CHECK(r.tiles_selected > 0); /* the box is mostly tiles */
+	uint64_t all = check_mode(path_fog, NULL, VD_VDB_ACTIVE, 0, 0, -1);
+	CHECK_EQ(all, 154ll * 136 * 130);
+	uint64_t dense = check_mode(path_fog, NULL, VD_VDB_FOG, 0.5, 0, -1);
+	CHECK_EQ(dense, all - 13ll * 11 * 31);
+	CHECK_EQ(check_mode(path_fog, NULL, VD_VDB_FOG, 0, 0, -1), all);
+	/* many cells: tiles split over cells */
+	CHECK_EQ(check_mode(path_fog, NULL, VD_VDB_FOG, 0.5, 0, 4), dense);
+}
+
+static void test_bunny_level_set(void)
+{
+	check_mode(path_bunny, NULL, VD_VDB_ACTIVE, 0, 0, -1);
+	check_mode(path_bunny, NULL, VD_VDB_LEVELSET_SURFACE, 0, 0, -1);
+	check_mode(path_bunny, NULL, VD_VDB_LEVELSET_SOLID, 0, 0, 2);
+}
+
+/* --levels smaller than the grid: a coarse voxel is set iff a grid voxel
+ * inside it is (the reference is folded the same way). */
+static void test_resample(void)
+{
+	struct vd_vdb_import_result r;
+	CHECK_EQ(import(path_bunny, NULL, VD_VDB_LEVELSET_SOLID, 0, 4, -1, &r),
+		 VD_OK);
+	CHECK_EQ(r.levels, 4);
+	CHECK(r.resample_shift >= 2);
+	check_mode(path_bunny, NULL, VD_VDB_LEVELSET_SOLID, 0, 4, -1);
+	check_mode(path_fog, NULL, VD_VDB_ACTIVE, 0, 5, 1);
+	/* larger than needed only pads */
+	CHECK_EQ(import(path_sphere, NULL, VD_VDB_ACTIVE, 0, 9, -1, &r), VD_OK);
+	CHECK_EQ(r.resample_shift, 0);
+	CHECK_EQ(r.levels, 9);
+	CHECK_EQ(r.voxels, (long long)r.info.active_voxels);
+}
+
+static void test_transform(void)
+{
+	struct vd_vdb_import_result r;
+	CHECK_EQ(import(path_rot, "scaled", VD_VDB_ACTIVE, 0, 0, -1, &r), VD_OK);
+	CHECK_EQ(r.voxels, 512);
+	CHECK(r.transform.voxel_size == 0.25);
+	/* index 0 is centred at 0: its voxel starts half a voxel below */
+	CHECK(r.transform.origin[0] == -0.125);
+	CHECK(r.transform.bbox_max[0] == 1.875f);
+	CHECK_EQ(import(path_rot, "rot", VD_VDB_ACTIVE, 0, 0, -1, &r),
+		 VD_ERR_UNSUPPORTED);
+	CHECK(strstr(vd_error_detail(), "rotated"));
+	CHECK_EQ(import(path_rot, "stretched", VD_VDB_ACTIVE, 0, 0, -1, &r),
+		 VD_ERR_UNSUPPORTED);
+	CHECK(strstr(vd_error_detail(), "cubic"));
+}
+
+/* Export then import: the same voxels at the same world places. */
+static void test_round_trip(void)
+{
+	struct vd_vdb_import_result a, b;
+	struct vset va = {0}, vb = {0};
+	int n;
+	CHECK_EQ(import(path_bunny, NULL, VD_VDB_LEVELSET_SURFACE, 0, 0, 1, &a),
+		 VD_OK);
+	const int32_t zero[3] = {0, 0, 0};
+	CHECK_EQ(load_chunks(dir, zero, &va, &n), VD_OK);
+	CHECK(n > 1);
+	/* the chunks in name order */
+	char *paths[64];
+	size_t np = 0;
+	DIR *d = opendir(dir);
+	struct dirent *e;
+	while (d && (e = readdir(d)) && np < 64)
+		if (strstr(e->d_name, ".svo")) {
+			paths[np] = malloc(strlen(dir) + strlen(e->d_name) + 2);
+			sprintf(paths[np++], "%s/%s", dir, e->d_name);
+		}
+	closedir(d);
+	uint64_t voxels = 0;
+	CHECK_EQ(vd_vdb_export_svo(path_out, "rt", paths, np, &voxels), VD_OK);
+	CHECK_EQ(voxels, (long long)a.voxels);
+	/* chunks of another grid do not mix */
+	char other_dir[700], other[800];
+	snprintf(other_dir, sizeof other_dir, "%s/other", dir);
+	struct vd_vdb_select sel = {NULL, VD_VDB_ACTIVE, 0};
+	struct vd_voxelize_opts o = {.mem_budget_bytes = 1ull << 30,
+				     .chunk_level = 0, .quiet = 1};
+	CHECK_EQ(vd_vdb_import(path_sphere, other_dir, &sel, &o, &b), VD_OK);
+	snprintf(other, sizeof other, "%s/chunk-L0-0.svo", other_dir);
+	char *two[2] = {paths[0], other};
+	CHECK_EQ(vd_vdb_export_svo(path_out, "rt", two, 2, &voxels),
+		 VD_ERR_MISMATCH);
+	CHECK_EQ(import(path_out, "rt", VD_VDB_ACTIVE, 0, 0, -1, &b), VD_OK);
+	CHECK_EQ(load_chunks(dir, b.index_offset, &vb, &n), VD_OK);
+	CHECK(vset_equal(&va, &vb, "round trip"));
+	CHECK(fabs(b.transform.voxel_size - a.transform.voxel_size) < 1e-12);
+	for (int k = 0; k < 3; k++)
+		CHECK(fabs(b.transform.origin[k] - a.transform.origin[k] -
+			   b.index_offset[k] * a.transform.voxel_size) < 1e-9);
+	for (size_t i = 0; i < np; i++)
+		free(paths[i]);
+	free(va.v);
+	free(vb.v);
+}
+
+static void test_errors(void)
+{
+	struct vd_vdb_import_result r;
+	struct vd_vdb_select sel = {NULL, VD_VDB_ACTIVE, 0};
+	struct vd_vdb *v;
+	CHECK_EQ(import(path_empty, NULL, VD_VDB_ACTIVE, 0, 0, -1, &r), VD_ERR_EMPTY);
+	CHECK_EQ(import(path_two, NULL, VD_VDB_ACTIVE, 0, 0, -1, &r), VD_ERR_EMPTY);
+	CHECK_EQ(import(path_two, "second", VD_VDB_ACTIVE, 0, 0, -1, &r), VD_OK);
+	CHECK_EQ(import(path_two, "third", VD_VDB_ACTIVE, 0, 0, -1, &r), VD_ERR_ARG);
+	CHECK(strstr(vd_error_detail(), "'first', 'second'"));
+	CHECK_EQ(import("tests/data/bunny.ply", NULL, VD_VDB_ACTIVE, 0, 0, -1, &r),
+		 VD_ERR_FORMAT);
+	CHECK_EQ(import("out/tmp/no/such.vdb", NULL, VD_VDB_ACTIVE, 0, 0, -1, &r),
+		 VD_ERR_IO);
+	CHECK_EQ(import(path_fog, NULL, VD_VDB_LEVELSET_SOLID, 0, 0, -1, &r),
+		 VD_ERR_UNSUPPORTED);
+	CHECK(strstr(vd_error_detail(), "background"));
+	CHECK_EQ(import(path_sphere, NULL, VD_VDB_FOG, 1e9, 0, -1, &r), VD_ERR_EMPTY);
+	/* the budget */
+	struct vd_voxelize_opts o = {.mem_budget_bytes = 1 << 20, .chunk_level = -1,
+				     .quiet = 1};
+	CHECK_EQ(vd_vdb_import(path_sphere, dir, &sel, &o, &r), VD_ERR_BUDGET);
+	/* cut at many lengths: an error each time, never a crash */
+	FILE *f = fopen(path_sphere, "rb");
+	CHECK(f != NULL);
+	static unsigned char buf[1 << 20];
+	size_t size = f ? fread(buf, 1, sizeof buf, f) : 0;
+	if (f)
+		fclose(f);
+	CHECK(size > 1000 && size < sizeof buf);
+	char cut[700];
+	snprintf(cut, sizeof cut, "%s/cut.vdb", dir);
+	int bad = 0;
+	for (size_t len = 0; len < size; len += len < 600 ? 1 : 997) {
+		FILE *g = fopen(cut, "wb");
+		fwrite(buf, 1, len, g);
+		fclose(g);
+		int err = vd_vdb_open(&v, cut, &sel, NULL);
+		if (!err) {
+			vd_vdb_close(v);
+			fprintf(stderr, "cut at %zu of %zu: opened\n", len, size);
+			bad++;
+		} else if (err != VD_ERR_TRUNCATED && !(len == 0 && err == VD_ERR_EMPTY)) {
+			fprintf(stderr, "cut at %zu: %s: %s\n", len, vd_strerror(err),
+				vd_error_detail());
+			bad++;
+		}
+	}
+	CHECK_EQ(bad, 0);
+	CHECK_EQ(vd_vdb_mode_parse("fog", &sel.mode), VD_OK);
+	CHECK_EQ(sel.mode, VD_VDB_FOG);
+	CHECK_EQ(vd_vdb_mode_parse("solid", &sel.mode), VD_ERR_ARG);
+}
+
+int main(void)
+{
+	dir = test_tmpdir("vdb");
+	RUN(make_fixtures);
+	RUN(test_sphere_level_set);
+	RUN(test_fog_box_with_tiles);
+	RUN(test_bunny_level_set);
+	RUN(test_resample);
+	RUN(test_transform);
+	RUN(test_round_trip);
+	RUN(test_errors);
+	return CHECK_DONE();
+}
