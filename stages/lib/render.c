@@ -637,14 +637,24 @@ static void shade_row(void *ctx, size_t row, int worker)
 		for (int a = 0; a < 3; a++) l[a] = c->o->light[a] - p[a];
 		double ldist = norm3(l);
 		double lambert = dot3(n, l);
-		double vis = lambert > 0 && h->axis >= 0 && dot3(face, l) > 0;
+		/* the hit face's own orientation is not asked: under a smooth
+		 * normal it is a random step of the voxel staircase (speckles);
+		 * the lifted shadow ray decides */
+		double vis = lambert > 0 && h->axis >= 0;
 		if (vis > 0 && c->o->shadows) {
-			/* from just before the hit along the view ray: that point
-			 * lies in the empty cell the ray came from */
+			/* from just before the hit along the view ray (a point in
+			 * the empty cell the ray came from), lifted off the surface
+			 * along the smooth normal by two cells or pixels: the
+			 * voxel staircase under a smooth normal would otherwise
+			 * shadow itself in speckles */
 			double t0 = h->t - 1e-3 * s->voxel_size;
+			double cell = s->voxel_size * (double)(1u << (s->levels - h->level));
+			double pix = h->t * 2.0 * c->f.tan_half / c->f.height;
+			double lift = 2.0 * (cell > pix ? cell : pix);
 			struct vd_ray r;
 			for (int a = 0; a < 3; a++) {
-				r.o[a] = (c->f.eye[a] + t0 * d[a] - s->origin[a]) * inv_vs;
+				r.o[a] = (c->f.eye[a] + t0 * d[a] + lift * n[a] -
+					  s->origin[a]) * inv_vs;
 				r.d[a] = l[a] * inv_vs;
 			}
 			r.tmin = 0;
@@ -1016,7 +1026,7 @@ int vd_render_run(const struct vd_render_job *job)
 		for (int a = 0; a < 3; a++) {
 			double e = o.cam.eye[a] - o.cam.target[a];
 			dist += e * e;
-			dir[a] = -0.55 * f.right[a] + 1.0 * f.up[a] - 0.75 * f.fwd[a];
+			dir[a] = -0.8 * f.right[a] + 1.0 * f.up[a] - 0.45 * f.fwd[a];
 		}
 		norm3(dir);
 		for (int a = 0; a < 3; a++)
