@@ -450,19 +450,31 @@ int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 	if (!(fov_deg > 0 && fov_deg < 180))
 		return vd_fail(VD_ERR_ARG, "field of view %g is not in (0, 180) "
 			       "degrees", fov_deg);
-	double centre[3], r2 = 0;
+	/* the nearest distance at which all 8 corners of the bounding box
+	 * project inside the frame, plus a margin */
+	double centre[3], fwd[3], right[3], up[3];
 	for (int a = 0; a < 3; a++) {
 		centre[a] = 0.5 * ((double)s->bbox_min[a] + (double)s->bbox_max[a]);
-		double e = 0.5 * ((double)s->bbox_max[a] - (double)s->bbox_min[a]);
-		r2 += e * e;
+		fwd[a] = -presets[k].dir[a];
 	}
-	double radius = sqrt(r2);
-	if (!(radius > 0)) radius = s->voxel_size * (double)(1u << s->levels);
-	/* the bounding sphere fits the narrower of the two angles */
-	double half_v = fov_deg * M_PI / 360.0;
-	double half_h = atan(tan(half_v) * (double)width / (double)height);
-	double half = half_v < half_h ? half_v : half_h;
-	double dist = 1.02 * radius / sin(half);
+	cross3(fwd, presets[k].up, right);
+	norm3(right);
+	cross3(right, fwd, up);
+	double tan_v = tan(fov_deg * M_PI / 360.0);
+	double tan_h = tan_v * (double)width / (double)height;
+	double dist = 0;
+	for (int corner = 0; corner < 8; corner++) {
+		double v[3];
+		for (int a = 0; a < 3; a++)
+			v[a] = (corner >> a & 1 ? (double)s->bbox_max[a] :
+				(double)s->bbox_min[a]) - centre[a];
+		double x = fabs(dot3(v, right)), y = fabs(dot3(v, up));
+		double z = dot3(v, presets[k].dir);
+		double need = z + (x / tan_h > y / tan_v ? x / tan_h : y / tan_v);
+		if (need > dist) dist = need;
+	}
+	dist *= 1.08;
+	if (!(dist > 0)) dist = s->voxel_size * (double)(1u << s->levels);
 	for (int a = 0; a < 3; a++) {
 		c->target[a] = centre[a];
 		c->eye[a] = centre[a] + dist * presets[k].dir[a];

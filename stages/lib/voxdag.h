@@ -1025,9 +1025,10 @@ struct vd_camera {
 int vd_camera_check(const struct vd_camera *c);
 
 /* Fills `c` with the preset `name` ("front": looking along -Z, "side":
- * along -X, "top": down along -Y, "iso": from +X+Y+Z) framing the scene's
- * bounding sphere in a width x height image with vertical field of view
- * fov_deg. VD_ERR_ARG for an unknown name. */
+ * along -X, "top": down along -Y, "iso": from +X+Y+Z) at the nearest
+ * distance (plus 8%) where the 8 corners of the scene's bounding box fit a
+ * width x height image with vertical field of view fov_deg.
+ * VD_ERR_ARG for an unknown name. */
 int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 		     const char *name, double fov_deg, int width, int height);
 
