@@ -249,14 +249,16 @@ static void plan_voxelize(struct plan *p, int d)
 	snprintf(lv, sizeof lv, "%d", c->levels);
 	snprintf(cl, sizeof cl, "%d", c->chunk_level);
 	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
-	snprintf(threads, sizeof threads, "%d", c->threads);
+	/* everything else waits for it: it gets every job's threads; its
+	 * progress lines go to its log, which the runner's status shows */
+	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
 	if (c->chunk_level >= 0)
 		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
 			 "--chunk-level", cl, "--mem-budget", budget, "--threads",
-			 threads, "-q", NULL);
+			 threads, NULL);
 	else
 		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
-			 "--mem-budget", budget, "--threads", threads, "-q", NULL);
+			 "--mem-budget", budget, "--threads", threads, NULL);
 	add_input(j, c->mesh);
 	j->mem_estimate = c->job_mem_budget;
 }

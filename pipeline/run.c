@@ -189,6 +189,40 @@ static uint64_t job_voxels(const struct job *j)
 	return 0;
 }
 
+/* The last line of a log (what a long job last said), trimmed; nothing
+ * while the log holds only the command line the runner wrote first. */
+static void last_log_line(const char *path, char *buf, size_t cap)
+{
+	buf[0] = 0;
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return;
+	char tail[512];
+	int c;
+	long first_line = 0;
+	while ((c = fgetc(f)) != EOF && c != '\n')
+		first_line++;
+	fseek(f, 0, SEEK_END);
+	long n = ftell(f);
+	if (n <= first_line + 1) {
+		fclose(f);
+		return;
+	}
+	fseek(f, n > (long)sizeof tail - 1 ? n - (long)sizeof tail + 1 : 0, SEEK_SET);
+	size_t got = fread(tail, 1, sizeof tail - 1, f);
+	fclose(f);
+	tail[got] = 0;
+	while (got > 0 && (tail[got - 1] == '\n' || tail[got - 1] == '\r'))
+		tail[--got] = 0;
+	char *line = strrchr(tail, '\n');
+	line = line ? line + 1 : tail;
+	if (line[0] == '$')
+		return; /* only the command line so far */
+	/* "voxelize: [  12.0s] voxelizing cells 3/8, ..." -> after "] " */
+	char *msg = strstr(line, "] ");
+	snprintf(buf, cap, "%s", msg ? msg + 2 : line);
+}
+
 static void progress(const struct plan *p, double t0, int tty, int final)
 {
 	int done = 0, running = 0, failed = 0;
@@ -208,10 +242,22 @@ static void progress(const struct plan *p, double t0, int tty, int final)
 	fmt_time(eta, sizeof eta, done && p->expanded ? el / done * left : -1);
 	if (failed)
 		snprintf(fails, sizeof fails, ", %d failed or blocked", failed);
+	/* with one job running long, what it says is the news */
+	char said[200] = "";
+	if (running == 1 && !final)
+		for (int i = 0; i < p->n; i++)
+			if (p->jobs[i].state == JOB_RUNNING) {
+				char lp[1300], line[160];
+				log_path(p, &p->jobs[i], lp, sizeof lp);
+				last_log_line(lp, line, sizeof line);
+				if (*line)
+					snprintf(said, sizeof said, " [%s: %s]",
+						 p->jobs[i].id, line);
+			}
 	fprintf(stderr, "%svoxdag: %d/%d jobs done, %d running%s, %.1f Mvoxels/s, "
-		"elapsed %s, ETA %s%s", tty ? "\r\033[K" : "", done, p->n,
+		"elapsed %s, ETA %s%s%s", tty ? "\r\033[K" : "", done, p->n,
 		running, fails, el > 0 ? (double)vox / el / 1e6 : 0.0, e, eta,
-		tty && !final ? "" : "\n");
+		said, tty && !final ? "" : "\n");
 }
 
 int run_pipeline(struct plan *p, const struct run_opts *o)

@@ -38,3 +38,42 @@ run stanford_dragon.ply 12 2GiB
 run stanford_dragon.ply 14 2GiB
 run fg_terrain_reykjavik.ply 14 2GiB
 echo "bench: $cores cores; budget 2 GiB per process"
+
+# The whole pipeline through the runner: per stage, voxels per second per
+# core (voxels over the sum of the stage's process seconds, one thread per
+# process) and the largest process's peak memory.
+pipeline() { # pipeline NAME SCENE LEVELS
+	local name=bench-$1 cfg=$OUT/$1.yaml
+	cat > "$cfg" <<YAML
+version: 1
+name: $name
+input: {mesh: $DATA/$2}
+levels: $3
+chunk_level: auto
+resources: {jobs: 2, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}
+jobs:
+  voxelize: {stage: voxelize}
+  svdag:    {stage: svo-to-dag, needs: [voxelize]}
+  ssvdag:   {stage: symmetry-merge, needs: [svdag]}
+  encode:   {stage: encode, needs: [svdag, ssvdag]}
+YAML
+	rm -rf "out/$name"
+	local t0=$(date +%s.%N)
+	if ! out/bin/voxdag -q run "$cfg"; then
+		echo "bench: pipeline $1 failed"
+		return
+	fi
+	local wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+	local vox=$(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "out/$name/report.json")
+	awk -F, -v name="$1" -v vox="$vox" -v wall="$wall" 'NR > 1 {
+		printf "%-22s %-15s %9d procs %9.2f s %14.0f voxels/s/core %8.0f MiB peak\n",
+			name, $2, $3, $4, ($4 > 0 ? vox / $4 : 0), $5 / 1048576 }
+		END { printf "%-22s %-15s wall %.1f s for %d voxels\n", name, "(all)", wall, vox }' \
+		"out/$name/report.csv"
+	sed -n '/Table 2/,/^SSVDAG\/SVDAG/p' "out/$name/report.md"
+	rm -rf "out/$name"
+}
+echo
+pipeline dragon-12 stanford_dragon.ply 12
+pipeline dragon-14 stanford_dragon.ply 14
+pipeline terrain-14 fg_terrain_reykjavik.ply 14

@@ -361,9 +361,8 @@ int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 		if (rc != 0)
 			err = writer_io_error(w, "cannot close");
 	}
-	if (!err && rename(w->tmp, w->path) != 0)
-		err = vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
-			      w->tmp, w->path, strerror(errno));
+	if (!err)
+		err = vd_replace_file(w->tmp, w->path);
 	if (!err) {
 		sync_dir(w->path);
 		free(w->tmp);

@@ -462,8 +462,11 @@ static int svo_bricks(struct engine *e, struct bset *b, int asis,
 		r[k].hi = n * (k + 1) / nr;
 	}
 	struct ppass pp = {e, r, asis, &sub};
-	/* the ranges index sub.e from 0 while reading s from 0 too */
-	err = vd_parallel_for(nr, e->threads, svo_range_dedup, &pp);
+	/* More threads than cores only make TBB complain; the ranges (and so
+	 * the code path) still follow the request, which the tests use. */
+	int hw = vd_hardware_threads();
+	int t = e->threads > 0 && e->threads < hw ? e->threads : hw;
+	err = vd_parallel_for(nr, t, svo_range_dedup, &pp);
 	for (size_t k = 0; k < nr && !err; k++) {
 		err = r[k].err;
 		if (!err && !(r[k].map = malloc((r[k].b.n ? r[k].b.n : 1) * 4)))
@@ -471,7 +474,7 @@ static int svo_bricks(struct engine *e, struct bset *b, int asis,
 		for (uint64_t j = 0; j < r[k].b.n && !err; j++)
 			err = bset_insert(b, r[k].b.v[j], r[k].b.inv[j], &r[k].map[j]);
 	}
-	if (!err) err = vd_parallel_for(nr, e->threads, svo_range_rename, &pp);
+	if (!err) err = vd_parallel_for(nr, t, svo_range_rename, &pp);
 	if (!err) nf->n += n;
 	prange_free(r, nr);
 	return err;
@@ -703,7 +706,15 @@ static int level_inner(struct engine *e, int l)
 	struct vd_dag_level *lv = &e->out->lv[l];
 	lv->nodes = b.n;
 	lv->refs = b.nref;
-	/* Hand the arrays over, trimmed. */
+	/* Hand the arrays over, trimmed: they live as long as the DAG. */
+	if (b.n) {
+		void *q;
+		if ((q = realloc(b.mask, (size_t)b.n))) b.mask = q;
+		if ((q = realloc(b.inv, (size_t)b.n))) b.inv = q;
+		if ((q = realloc(b.first, (size_t)(b.n + 1) * 8))) b.first = q;
+		if ((q = realloc(b.child, (size_t)b.nref * 4))) b.child = q;
+		if (b.refl && (q = realloc(b.refl, (size_t)b.nref))) b.refl = q;
+	}
 	lv->mask = b.mask ? b.mask : malloc(1);
 	lv->first = b.first ? b.first : calloc(1, 8);
 	lv->child = b.child ? b.child : malloc(1);
@@ -799,7 +810,7 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 	uint64_t inner_phase = bricks * (16 + 16 + 17 + 4) + leaves * 4 +
 			       parents * (16 + 10 + 48) * 3 / 2;
 	return (brick_phase > inner_phase ? brick_phase : inner_phase) +
-	       (16u << 20);
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
 /* Per input node and reference: the parts (9 + 8 per node for offsets and
@@ -808,7 +819,27 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
  * node). */
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs)
 {
-	return nodes * (17 + 17 + 10 + 48) + refs * 10 + (16u << 20);
+	return nodes * (17 + 17 + 10 + 48) + refs * 10 +
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
+}
+
+/* Nodes a chunk header announces over levels chunk_level..L-1. */
+static uint64_t header_nodes(const struct vd_chunk_header *h)
+{
+	uint64_t n = 0;
+	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
+	return n;
+}
+
+uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
+{
+	uint32_t n = h->level_count;
+	if (h->kind == VD_KIND_SVO) /* levels L-1, L-2, L-3 of L0..L */
+		return vd_dag_estimate_from_svo(n >= 3 ? h->level_nodes[n - 3] : 1,
+						n >= 2 ? h->level_nodes[n - 2] : 1,
+						n >= 4 ? h->level_nodes[n - 4] : 1);
+	uint64_t nodes = header_nodes(h);
+	return vd_dag_estimate_merge(nodes, 8 * nodes);
 }
 
 static int check_kind_out(uint32_t kind)
@@ -1530,14 +1561,6 @@ static int same_transform(const struct vd_transform *a,
 	return a->root_side == b->root_side && a->voxel_size == b->voxel_size;
 }
 
-/* Nodes a chunk header announces over levels chunk_level..L-1. */
-static uint64_t header_nodes(const struct vd_chunk_header *h)
-{
-	uint64_t n = 0;
-	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
-	return n;
-}
-
 int vd_dag_run(const struct vd_dag_job *job)
 {
 	const char *tool = job->tool;
@@ -1559,13 +1582,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot read", in);
 		const struct vd_chunk_header *h = vd_chunk_header(c);
 		tr = h->transform;
-		/* counts of levels L-1, L-2, L-3 (from the header's L0..L) */
-		uint32_t nc = h->level_count;
-		uint64_t leaves = nc >= 2 ? h->level_nodes[nc - 2] : 1;
-		uint64_t bricks = nc >= 3 ? h->level_nodes[nc - 3] : 1;
-		uint64_t parents = nc >= 4 ? h->level_nodes[nc - 4] : 1;
-		if ((err = check_budget(o, vd_dag_estimate_from_svo(bricks, leaves,
-						parents), &st))) {
+		if ((err = check_budget(o, vd_dag_estimate_header(h), &st))) {
 			vd_chunk_free(c);
 			return reword(err, "cannot build the DAG of", in);
 		}
@@ -1605,11 +1622,11 @@ int vd_dag_run(const struct vd_dag_job *job)
 					      "its world transform differs from "
 					      "'%s' (chunks of another scene or "
 					      "resolution?)", in, job->inputs[0]);
-			/* the references of a part not yet loaded: at most 8
-			 * per node */
-			uint64_t hn = header_nodes(h);
-			if (!err && (err = check_budget(o, vd_dag_estimate_merge(
-					nodes + hn, refs + 8 * hn), &st)))
+			/* the inputs so far exactly, this one by its header */
+			uint64_t est = vd_dag_estimate_merge(nodes, refs) +
+				       vd_dag_estimate_header(h) -
+				       VD_DAG_ESTIMATE_FIXED_BYTES;
+			if (!err && (err = check_budget(o, est, &st)))
 				err = reword(err, "cannot load", in);
 			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
 				err = reword(err, "cannot read", in);

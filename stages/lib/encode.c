@@ -501,9 +501,8 @@ int vd_enc_save(const struct vd_enc *e, const char *path)
 		if (bad)
 			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
 				      strerror(e1));
-		else if (rename(tmp, path) != 0)
-			err = vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
-				      tmp, path, strerror(errno));
+		else
+			err = vd_replace_file(tmp, path);
 		if (err) unlink(tmp);
 	}
 	free(tmp);
@@ -1123,13 +1122,12 @@ static int write_text(const char *dir, const char *name, const char *suffix,
 			       strerror(errno));
 	int bad = fwrite(text, 1, n, f) != n;
 	if (fclose(f) != 0) bad = 1;
-	if (bad || rename(tmp, path) != 0) {
-		int err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
-				  strerror(errno));
+	int err = bad ? vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				strerror(errno))
+		      : vd_replace_file(tmp, path);
+	if (err)
 		unlink(tmp);
-		return err;
-	}
-	return VD_OK;
+	return err;
 }
 
 /* A growing text buffer for the CSV and Markdown files. */

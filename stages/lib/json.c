@@ -125,9 +125,8 @@ int vd_json_close(struct vd_json *j)
 	if (fclose(j->f) != 0 && !err)
 		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
 			      strerror(errno));
-	if (!err && rename(j->tmp, j->path) != 0)
-		err = vd_fail(VD_ERR_IO, "cannot rename '%s': %s", j->tmp,
-			      strerror(errno));
+	if (!err)
+		err = vd_replace_file(j->tmp, j->path);
 	if (err)
 		unlink(j->tmp);
 	free(j->tmp);

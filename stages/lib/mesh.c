@@ -1,4 +1,4 @@
-/* mesh.c - streaming triangle readers for PLY, OBJ and STL.
+/* mesh.c - streaming triangle readers for PLY, OBJ, STL and AC3D.
  *
  * Memory is bounded by the vertex positions (12 bytes per vertex) plus one
  * read buffer: the face body is decoded from a fixed buffer as the caller
@@ -25,6 +25,8 @@
 #include <float.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -132,8 +134,9 @@ static int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
 /* Returns the next line in *s (NUL-terminated, without "\n" or "\r\n",
  * valid until the next vd_rd_* call) and its length. With `join`, a line
  * ending in a backslash continues on the next one (OBJ). Returns 1 for a
- * line, 0 at the end of the file, VD_ERR_IO, or VD_ERR_FORMAT for a line
- * longer than the buffer. */
+ * line, 0 at the end of the file, or a negated error code (detail set):
+ * -VD_ERR_IO, or -VD_ERR_FORMAT for a line longer than the buffer. The
+ * codes are negated because VD_ERR_IO is 1, the value meaning "a line". */
 static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 {
 	size_t scan = r->pos;
@@ -161,13 +164,13 @@ static int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 		int f = vd_rd_fill(r);
 		scan = rel;
 		if (f < 0)
-			return VD_ERR_IO;
+			return -VD_ERR_IO;
 		if (f > 0)
 			continue;
 		if (r->len == r->cap)
-			return vd_fail(VD_ERR_FORMAT,
-				       "line %" PRIu64 ": longer than %u bytes",
-				       r->lines + 1, MESH_BUF_BYTES);
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					": longer than %u bytes",
+					r->lines + 1, MESH_BUF_BYTES);
 		if (r->pos == r->len)
 			return 0;
 		/* A last line without its newline. */
@@ -405,12 +408,21 @@ static int64_t vd_ply_decode_int(const unsigned char *p, int type, int be)
 
 enum vd_mesh_kind {
 	MESH_PLY_LE, MESH_PLY_BE, MESH_PLY_ASCII, MESH_OBJ, MESH_STL_BIN,
-	MESH_STL_ASCII
+	MESH_STL_ASCII, MESH_AC3D
 };
 
 static const char *const vd_mesh_kind_names[] = {
 	"ply-binary-le", "ply-binary-be", "ply-ascii", "obj", "stl-binary",
-	"stl-ascii"};
+	"stl-ascii", "ac3d"};
+
+/* An AC3D object whose kids are being read: its world transform (row-major
+ * 3x3 matrix in w[0..8], translation in w[9..11], p' = A p + t) and how
+ * many of its kids are still to come. */
+struct vd_ac_frame {
+	double w[12];
+	uint64_t kids_left, kids;
+	char name[48];
+};
 
 struct vd_mesh {
 	int kind;
@@ -439,6 +451,19 @@ struct vd_mesh {
 	uint64_t stl_count;    /* binary: triangles in the file */
 	int stl_in_solid;      /* text: between 'solid' and 'endsolid' */
 	char *stl_rest;        /* text: unread part of the current line */
+
+	/* AC3D: m->verts holds the current object's vertices only, already
+	 * in world coordinates, since a surface may only use its own
+	 * object's vertices. */
+	struct vd_ac_frame *ac_stack; /* open ancestors, root first */
+	size_t ac_depth, ac_cap;
+	int ac_in_object;      /* between OBJECT and its kids line */
+	int ac_seen_object;    /* some OBJECT was seen (else truncated) */
+	double ac_rot[9], ac_loc[3]; /* the object's own rot and loc */
+	uint64_t ac_surf_left; /* surfaces of the object still to read */
+	uint64_t ac_object_line;
+	char ac_name[48];      /* the object's name, for messages */
+	int poly_strip;        /* m->poly is a triangle strip, not a fan */
 
 	struct vd_mesh_stats stats;
 	int done;
@@ -492,7 +517,7 @@ static const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
 				 size_t cap)
 {
 	if (m->kind == MESH_PLY_ASCII || m->kind == MESH_OBJ ||
-	    m->kind == MESH_STL_ASCII)
+	    m->kind == MESH_STL_ASCII || m->kind == MESH_AC3D)
 		snprintf(buf, cap, "line %" PRIu64 ": ", m->poly_line);
 	else
 		buf[0] = 0;
@@ -646,7 +671,7 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 	do {
 		e = vd_rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_fail(VD_ERR_TRUNCATED,
 				       "file ends after %" PRIu64 " of %" PRIu64
@@ -810,7 +835,7 @@ static int vd_ply_header(struct vd_mesh *m)
 	for (;;) {
 		e = vd_rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0)
 			return vd_fail(VD_ERR_TRUNCATED,
 				       "PLY header ends at byte %" PRIu64
@@ -1075,7 +1100,7 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 	for (;;) {
 		e = vd_rd_line(&m->r, &s, &len, 1);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0) {
 			*got = 0;
 			return VD_OK;
@@ -1180,7 +1205,8 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 
 /* ------------------------------------------------------------------- STL */
 
-/* Returns 1 with the next whitespace-separated token in *t, 0 at the end.
+/* Returns 1 with the next whitespace-separated token in *t, 0 at the end,
+ * or a negated error code as vd_rd_line.
  * ASCII STL is read by tokens, not lines, because writers disagree on line
  * breaks. stl_rest stays valid between calls: the buffer only moves inside
  * vd_rd_line, after the current line is used up. */
@@ -1203,8 +1229,9 @@ static int vd_stl_token(struct vd_mesh *m, char **t)
 		if (e <= 0)
 			return e;
 		if (strlen(s) != len)
-			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
-				       "byte in an ASCII STL file", m->r.lines);
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+					"byte in an ASCII STL file",
+					m->r.lines);
 		m->stl_rest = s;
 	}
 }
@@ -1217,7 +1244,7 @@ static int vd_stl_inner(struct vd_mesh *m, char **t)
 		return vd_fail(VD_ERR_TRUNCATED, "file ends inside facet %"
 			       PRIu64 " (line %" PRIu64 ")", m->poly_face,
 			       m->r.lines);
-	return e < 0 ? e : VD_OK;
+	return e < 0 ? -e : VD_OK;
 }
 
 static int vd_stl_expect(struct vd_mesh *m, const char *want)
@@ -1259,7 +1286,7 @@ static int vd_stl_ascii_next(struct vd_mesh *m, int *got)
 	for (;;) {
 		e = vd_stl_token(m, &t);
 		if (e < 0)
-			return e;
+			return -e;
 		if (e == 0) {
 			/* A missing endsolid loses nothing; tolerate it. */
 			*got = 0;
@@ -1368,6 +1395,487 @@ static int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
 	return VD_OK;
 }
 
+/* ------------------------------------------------------------------ AC3D
+ * FlightGear's model format (and AC3D's own): text, a header line "AC3Db"
+ * (the letter is the version), MATERIAL lines, then objects. An object is
+ * "OBJECT <type>", optional attribute lines (name, data, texture, rot, loc,
+ * ...), "numvert N" and N vertex lines, "numsurf N" and N surfaces, and
+ * last "kids N" followed by its N child objects.
+ *
+ * Decisions worth knowing:
+ * - A surface indexes its own object's vertices only, so one object's
+ *   vertices are in memory at a time: memory is bounded by the largest
+ *   object, not the model. They are transformed to world coordinates as
+ *   they are read.
+ * - Transforms follow OpenSceneGraph's loader, which is what FlightGear
+ *   renders with: an object's `rot` r0..r8 is a row-major matrix applied
+ *   to column vectors (x' = r0 x + r1 y + r2 z), then its `loc` is added,
+ *   and the result goes through the parent's transform, up to the root.
+ *   (Some tools read rot transposed; every FlightGear model we know has
+ *   identity rotations, so the choice only matters for hand-made files.)
+ * - Surface types (flags & 0xF): 0 polygon (fan-triangulated like every
+ *   other format), 1 closed line and 2 line (no area: dropped and counted
+ *   with the short faces), 4 triangle strip (written by AC3D's .acc
+ *   variant). Anything else is refused.
+ * - Attribute lines we do not need (texture, texrep, texoff, crease, url,
+ *   subdiv, shader, hidden, locked, folded, and future ones) are skipped
+ *   if they start with a word, so newer AC3D versions still load; a line
+ *   that does not start with a word where a keyword is due is an error,
+ *   which is how a wrong numvert or refs count is caught. Extra numbers
+ *   on vertex lines (normals, AC3D 8) and ref lines (more UV sets) are
+ *   ignored.
+ * - "data N" is followed by N raw bytes, skipped by count (they may hold
+ *   newlines or keywords), then the rest of that line.
+ * - A parse error on the last line of a file that lacks its newline is
+ *   reported as truncation: a cut file is the likely cause. */
+
+/* Deeper nesting is taken as corruption; each level costs ~150 bytes. */
+#define AC_MAX_DEPTH 10000
+
+static const double vd_ac_identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1,
+					  0, 0, 0};
+
+/* Fails with VD_ERR_FORMAT, or VD_ERR_TRUNCATED when the current line is
+ * the file's cut last line. */
+static int vd_ac_fail(const struct vd_mesh *m, const char *fmt, ...)
+	__attribute__((format(printf, 2, 3)));
+
+static int vd_ac_fail(const struct vd_mesh *m, const char *fmt, ...)
+{
+	char msg[400];
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(msg, sizeof msg, fmt, ap);
+	va_end(ap);
+	if (m->r.cut)
+		return vd_fail(VD_ERR_TRUNCATED, "%s (the file ends inside "
+			       "this line)", msg);
+	return vd_fail(VD_ERR_FORMAT, "%s", msg);
+}
+
+/* Length of the token at t, at most 40, for messages. */
+static int vd_tok40(const char *t)
+{
+	ptrdiff_t n = vd_token_end(t) - t;
+	return n > 40 ? 40 : (int)n;
+}
+
+/* Returns the text after keyword kw if line p starts with it, else NULL. */
+static const char *vd_kw(const char *p, const char *kw)
+{
+	size_t n = strlen(kw);
+	return !strncmp(p, kw, n) && vd_is_end(p[n]) ? p + n : NULL;
+}
+
+static int vd_is_word_start(char c)
+{
+	return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_';
+}
+
+/* The next non-blank line, leading space skipped. 1, 0 at the end of the
+ * file, or a negated error code as vd_rd_line. */
+static int vd_ac_line(struct vd_mesh *m, char **s)
+{
+	for (;;) {
+		char *p;
+		size_t len;
+		int e = vd_rd_line(&m->r, &p, &len, 0);
+		if (e <= 0)
+			return e;
+		if (strlen(p) != len)
+			return -vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": NUL "
+					"byte in an AC3D file", m->r.lines);
+		p = (char *)vd_skip_space(p);
+		if (*p) {
+			*s = p;
+			return 1;
+		}
+	}
+}
+
+/* Parses "<count>" (the rest of a `what` line): a non-negative integer
+ * and nothing after it. */
+static int vd_ac_count(const struct vd_mesh *m, const char *p,
+		       const char *what, uint64_t *out)
+{
+	const char *t = vd_skip_space(p), *q;
+	int64_t v;
+	if (!(q = vd_parse_int(t, &v)) || !vd_is_end(*q) ||
+	    *vd_skip_space(q) || v < 0)
+		return vd_ac_fail(m, "line %" PRIu64 ": expected '%s <count>', "
+				  "found '%s %.40s'", m->r.lines, what, what,
+				  t);
+	*out = (uint64_t)v;
+	return VD_OK;
+}
+
+/* Parses n numbers from p; with `more`, other tokens may follow them. */
+static int vd_ac_numbers(const struct vd_mesh *m, const char *p, double *out,
+			 int n, int more, const char *what)
+{
+	for (int i = 0; i < n; i++) {
+		const char *t = vd_skip_space(p);
+		if (*t == 0)
+			return vd_ac_fail(m, "line %" PRIu64 ": %s has %d "
+					  "numbers, needs %d", m->r.lines,
+					  what, i, n);
+		if (!(p = vd_parse_double(t, &out[i])))
+			return vd_ac_fail(m, "line %" PRIu64 ": malformed "
+					  "number '%.*s' in %s", m->r.lines,
+					  vd_tok40(t), t, what);
+	}
+	p = vd_skip_space(p);
+	if (!more && *p)
+		return vd_ac_fail(m, "line %" PRIu64 ": unexpected '%.*s' "
+				  "after the %d numbers of %s", m->r.lines,
+				  vd_tok40(p), p, n, what);
+	return VD_OK;
+}
+
+/* The current object's world transform: its parent's after its own. */
+static void vd_ac_world(const struct vd_mesh *m, double w[12])
+{
+	const double *p = m->ac_depth ? m->ac_stack[m->ac_depth - 1].w
+		: vd_ac_identity;
+	const double *r = m->ac_rot, *l = m->ac_loc;
+	for (int i = 0; i < 3; i++) {
+		for (int j = 0; j < 3; j++)
+			w[3 * i + j] = p[3 * i] * r[j] +
+				       p[3 * i + 1] * r[3 + j] +
+				       p[3 * i + 2] * r[6 + j];
+		w[9 + i] = p[3 * i] * l[0] + p[3 * i + 1] * l[1] +
+			   p[3 * i + 2] * l[2] + p[9 + i];
+	}
+}
+
+/* Skips the n raw bytes of a data block, counting their newlines, then
+ * the rest of the line they end on. */
+static int vd_ac_skip_data(struct vd_mesh *m, uint64_t n, uint64_t line)
+{
+	struct vd_rd *r = &m->r;
+	while (n > 0) {
+		if (r->pos == r->len) {
+			int f = vd_rd_fill(r);
+			if (f < 0)
+				return VD_ERR_IO;
+			if (f == 0)
+				return vd_fail(VD_ERR_TRUNCATED, "file ends "
+					       "inside the data block of "
+					       "object '%s' (line %" PRIu64
+					       ")", m->ac_name, line);
+		}
+		size_t take = r->len - r->pos;
+		if (take > n)
+			take = (size_t)n;
+		for (const unsigned char *p = r->buf + r->pos,
+		     *end = p + take;
+		     (p = memchr(p, '\n', (size_t)(end - p))); p++)
+			r->lines++;
+		r->pos += take;
+		n -= take;
+	}
+	char *s;
+	size_t len;
+	int e = vd_rd_line(r, &s, &len, 0);
+	return e < 0 ? -e : VD_OK;
+}
+
+static void vd_ac_begin_object(struct vd_mesh *m, const char *type)
+{
+	m->ac_in_object = 1;
+	m->ac_seen_object = 1;
+	m->ac_surf_left = 0;
+	m->ac_object_line = m->r.lines;
+	memcpy(m->ac_rot, vd_ac_identity, sizeof m->ac_rot);
+	memset(m->ac_loc, 0, sizeof m->ac_loc);
+	m->nverts = 0;
+	m->nonfinite = 0;
+	type = vd_skip_space(type);
+	snprintf(m->ac_name, sizeof m->ac_name, "%.*s at line %" PRIu64,
+		 vd_tok40(type), type, m->r.lines);
+}
+
+/* "kids N" closes the object's own part. With kids it becomes the parent
+ * of what follows; without, it completes, and so may its ancestors. */
+static int vd_ac_kids(struct vd_mesh *m, uint64_t kids)
+{
+	m->ac_in_object = 0;
+	if (kids > 0) {
+		if (m->ac_depth == AC_MAX_DEPTH)
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": "
+				       "objects nested deeper than %d",
+				       m->r.lines, AC_MAX_DEPTH);
+		if (m->ac_depth == m->ac_cap) {
+			size_t cap = m->ac_cap ? m->ac_cap * 2 : 16;
+			struct vd_ac_frame *p =
+				realloc(m->ac_stack, cap * sizeof *p);
+			if (!p)
+				return vd_fail(VD_ERR_NOMEM, "%zu nested "
+					       "objects", cap);
+			m->ac_stack = p;
+			m->ac_cap = cap;
+		}
+		struct vd_ac_frame *f = &m->ac_stack[m->ac_depth];
+		vd_ac_world(m, f->w);
+		f->kids = f->kids_left = kids;
+		memcpy(f->name, m->ac_name, sizeof f->name);
+		m->ac_depth++;
+		return VD_OK;
+	}
+	while (m->ac_depth > 0 && --m->ac_stack[m->ac_depth - 1].kids_left == 0)
+		m->ac_depth--;
+	return VD_OK;
+}
+
+/* Reads "numvert N"'s N vertex lines into m->verts, in world coordinates. */
+static int vd_ac_vertices(struct vd_mesh *m, uint64_t count)
+{
+	if (count > UINT32_MAX)
+		return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": object '%s' "
+			       "declares %" PRIu64 " vertices (at most %" PRIu32
+			       " supported)", m->r.lines, m->ac_name, count,
+			       UINT32_MAX);
+	double w[12];
+	vd_ac_world(m, w);
+	int identity = 1;
+	for (int i = 0; i < 12; i++)
+		identity &= w[i] == vd_ac_identity[i];
+	m->nverts = 0;
+	m->nonfinite = 0;
+	m->stats.vertices += count;
+	for (uint64_t i = 0; i < count; i++) {
+		char *s;
+		double d[3];
+		float v[3];
+		int e = vd_ac_line(m, &s);
+		if (e < 0)
+			return -e;
+		if (e == 0)
+			return vd_fail(VD_ERR_TRUNCATED, "file ends after %"
+				       PRIu64 " of the %" PRIu64 " vertices of "
+				       "object '%s' (line %" PRIu64 ")", i,
+				       count, m->ac_name, m->r.lines);
+		if ((e = vd_ac_numbers(m, s, d, 3, 1, "a vertex")))
+			return e;
+		/* The identity is common and kept exact, -0 included. */
+		for (int k = 0; k < 3; k++)
+			v[k] = vd_to_f32(identity ? d[k] :
+				w[3 * k] * d[0] + w[3 * k + 1] * d[1] +
+				w[3 * k + 2] * d[2] + w[9 + k]);
+		if ((e = vd_mesh_push_vertex(m, v)))
+			return e;
+	}
+	return VD_OK;
+}
+
+/* Reads one surface into m->poly (a line leaves it empty, so that it is
+ * dropped and counted). */
+static int vd_ac_surface(struct vd_mesh *m)
+{
+	char *s;
+	const char *p;
+	int e = vd_ac_line(m, &s);
+	if (e < 0)
+		return -e;
+	if (e == 0)
+		goto cut;
+	m->poly_face++;
+	m->poly_line = m->r.lines;
+	m->poly_n = 0;
+	if (!(p = vd_kw(s, "SURF")))
+		return vd_ac_fail(m, "line %" PRIu64 ": expected 'SURF' (the "
+				  "numsurf count of object '%s' says more "
+				  "surfaces follow), found '%.*s'", m->r.lines,
+				  m->ac_name, vd_tok40(s), s);
+	const char *t = vd_skip_space(p);
+	char *end;
+	errno = 0;
+	unsigned long flags = strtoul(t, &end, 0);
+	if (end == t || !vd_is_end(*end) || *vd_skip_space(end) ||
+	    errno || *t == '-')
+		return vd_ac_fail(m, "line %" PRIu64 ": malformed surface "
+				  "flags '%.*s'", m->r.lines, vd_tok40(t), t);
+	unsigned type = (unsigned)(flags & 0xf);
+	if (type != 0 && type != 1 && type != 2 && type != 4)
+		return vd_ac_fail(m, "line %" PRIu64 ": surface type %u (flags "
+				  "0x%lx) is none of polygon (0), closed line "
+				  "(1), line (2), triangle strip (4)",
+				  m->r.lines, type, flags);
+	uint64_t refs;
+	for (;;) {
+		if ((e = vd_ac_line(m, &s)) < 0)
+			return -e;
+		if (e == 0)
+			goto cut;
+		if (vd_kw(s, "mat"))
+			continue;
+		if ((p = vd_kw(s, "refs")))
+			break;
+		return vd_ac_fail(m, "line %" PRIu64 ": expected 'mat' or "
+				  "'refs', found '%.*s'", m->r.lines,
+				  vd_tok40(s), s);
+	}
+	if ((e = vd_ac_count(m, p, "refs", &refs)))
+		return e;
+	if (refs > MESH_MAX_CORNERS)
+		return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": surface with %"
+			       PRIu64 " refs (at most %d accepted)",
+			       m->r.lines, refs, MESH_MAX_CORNERS);
+	if ((e = vd_mesh_grow_poly(m, (size_t)refs)))
+		return e;
+	for (uint64_t j = 0; j < refs; j++) {
+		int64_t idx;
+		if ((e = vd_ac_line(m, &s)) < 0)
+			return -e;
+		if (e == 0)
+			goto cut;
+		/* The UV pair after the index is not ours. */
+		if (!(p = vd_parse_int(s, &idx)) || !vd_is_end(*p))
+			return vd_ac_fail(m, "line %" PRIu64 ": malformed "
+					  "vertex index '%.*s'", m->r.lines,
+					  vd_tok40(s), s);
+		if (idx < 0 || (uint64_t)idx >= m->nverts)
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": "
+				       "surface %" PRIu64 ": vertex index %"
+				       PRId64 " out of range (object '%s' "
+				       "has %" PRIu64 " vertices)", m->r.lines,
+				       m->poly_face, idx, m->ac_name,
+				       m->nverts);
+		m->poly[m->poly_n++] = (uint32_t)idx;
+	}
+	m->poly_strip = type == 4;
+	if (type == 1 || type == 2)
+		m->poly_n = 0;
+	return VD_OK;
+cut:
+	return vd_fail(VD_ERR_TRUNCATED, "file ends inside a surface of "
+		       "object '%s' (line %" PRIu64 ")", m->ac_name,
+		       m->r.lines);
+}
+
+static int vd_ac_eof(struct vd_mesh *m, int *got)
+{
+	if (m->ac_in_object)
+		return vd_fail(VD_ERR_TRUNCATED, "file ends inside object '%s' "
+			       "(before its kids line)", m->ac_name);
+	if (m->ac_depth > 0) {
+		const struct vd_ac_frame *f = &m->ac_stack[m->ac_depth - 1];
+		return vd_fail(VD_ERR_TRUNCATED, "file ends after %" PRIu64
+			       " of the %" PRIu64 " kids of object '%s'",
+			       f->kids - f->kids_left, f->kids, f->name);
+	}
+	if (!m->ac_seen_object)
+		return vd_fail(VD_ERR_TRUNCATED, "AC3D file without any OBJECT "
+			       "(a complete one has at least the world "
+			       "object)");
+	*got = 0;
+	return VD_OK;
+}
+
+/* Reads up to the next surface; *got = 0 at the end. */
+static int vd_ac_next(struct vd_mesh *m, int *got)
+{
+	char *s;
+	const char *p;
+	uint64_t n;
+	int e;
+	for (;;) {
+		if (m->ac_surf_left > 0) {
+			m->ac_surf_left--;
+			*got = 1;
+			return vd_ac_surface(m);
+		}
+		if ((e = vd_ac_line(m, &s)) < 0)
+			return -e;
+		if (e == 0)
+			return vd_ac_eof(m, got);
+		uint64_t ln = m->r.lines;
+		if (!m->ac_in_object) {
+			if ((p = vd_kw(s, "OBJECT"))) {
+				vd_ac_begin_object(m, p);
+				continue;
+			}
+			if (m->ac_depth > 0) {
+				const struct vd_ac_frame *f =
+					&m->ac_stack[m->ac_depth - 1];
+				return vd_ac_fail(m, "line %" PRIu64 ": "
+					"expected OBJECT (kid %" PRIu64 " of %"
+					PRIu64
+					" of object '%s'), found '%.*s'", ln,
+					f->kids - f->kids_left + 1, f->kids,
+					f->name, vd_tok40(s), s);
+			}
+			/* MATERIAL lines and their AC3Dc kin. */
+			if (vd_is_word_start(*s))
+				continue;
+			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
+					  "'%.*s' outside any object", ln,
+					  vd_tok40(s), s);
+		}
+		if ((p = vd_kw(s, "name"))) {
+			p = vd_skip_space(p);
+			size_t k = strlen(p);
+			if (k >= 2 && p[0] == '"' && p[k - 1] == '"') {
+				p++;
+				k -= 2;
+			}
+			snprintf(m->ac_name, sizeof m->ac_name, "%.*s",
+				 (int)(k > 47 ? 47 : k), p);
+		} else if ((p = vd_kw(s, "data"))) {
+			if ((e = vd_ac_count(m, p, "data", &n)) ||
+			    (e = vd_ac_skip_data(m, n, ln)))
+				return e;
+		} else if ((p = vd_kw(s, "rot"))) {
+			if ((e = vd_ac_numbers(m, p, m->ac_rot, 9, 0, "rot")))
+				return e;
+		} else if ((p = vd_kw(s, "loc"))) {
+			if ((e = vd_ac_numbers(m, p, m->ac_loc, 3, 0, "loc")))
+				return e;
+		} else if ((p = vd_kw(s, "numvert"))) {
+			if ((e = vd_ac_count(m, p, "numvert", &n)) ||
+			    (e = vd_ac_vertices(m, n)))
+				return e;
+		} else if ((p = vd_kw(s, "numsurf"))) {
+			if ((e = vd_ac_count(m, p, "numsurf", &n)))
+				return e;
+			m->ac_surf_left = n;
+		} else if ((p = vd_kw(s, "kids"))) {
+			if ((e = vd_ac_count(m, p, "kids", &n)) ||
+			    (e = vd_ac_kids(m, n)))
+				return e;
+		} else if (vd_kw(s, "OBJECT")) {
+			return vd_ac_fail(m, "line %" PRIu64 ": OBJECT before "
+					  "the kids line of object '%s'", ln,
+					  m->ac_name);
+		} else if (vd_kw(s, "SURF") || vd_kw(s, "refs") ||
+			   vd_kw(s, "mat")) {
+			return vd_ac_fail(m, "line %" PRIu64 ": '%.*s' beyond "
+					  "the numsurf count of object '%s'",
+					  ln, vd_tok40(s), s, m->ac_name);
+		} else if (!vd_is_word_start(*s)) {
+			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
+					  "'%.*s' in object '%s' (wrong "
+					  "numvert or refs count?)", ln,
+					  vd_tok40(s), s, m->ac_name);
+		}
+		/* Any other word: an attribute we do not need. */
+	}
+}
+
+/* The detection saw "AC3D"; the rest of the first line is the version. */
+static int vd_ac_open(struct vd_mesh *m)
+{
+	char *s;
+	size_t len;
+	m->kind = MESH_AC3D;
+	int e = vd_rd_line(&m->r, &s, &len, 0);
+	if (e < 0)
+		return -e;
+	m->body_off = m->r.off + m->r.pos;
+	m->body_lines = m->r.lines;
+	return VD_OK;
+}
+
 /* ------------------------------------------------------------- detection */
 
 static int vd_has_ext(const char *path, const char *ext)
@@ -1462,6 +1970,8 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 	if (hn >= 3 && !memcmp(head, "ply", 3) &&
 	    (hn == 3 || head[3] == '\n' || head[3] == '\r'))
 		return vd_ply_open(m);
+	if (hn >= 4 && !memcmp(head, "AC3D", 4))
+		return vd_ac_open(m);
 
 	if (m->file_bytes >= 84 &&
 	    84 + 50 * vd_ld(head + 80, 4, 0) == m->file_bytes) {
@@ -1489,8 +1999,8 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 	}
 	char what[80];
 	vd_describe_start(head, hn, what, sizeof what);
-	return vd_fail(VD_ERR_UNSUPPORTED, "not a PLY, OBJ or STL file (%s)",
-		       what);
+	return vd_fail(VD_ERR_UNSUPPORTED, "not a PLY, OBJ, STL or AC3D file "
+		       "(%s)", what);
 }
 
 /* ------------------------------------------------------------ public API */
@@ -1544,6 +2054,7 @@ static int vd_mesh_next(struct vd_mesh *m, int *got)
 	switch (m->kind) {
 	case MESH_OBJ: return vd_obj_next(m, got);
 	case MESH_STL_ASCII: return vd_stl_ascii_next(m, got);
+	case MESH_AC3D: return vd_ac_next(m, got);
 	default: return vd_ply_next(m, got);
 	}
 }
@@ -1566,9 +2077,16 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		while (k < cap) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
 				struct vd_triangle *t = &buf[k++];
-				const uint32_t c[3] = {
-					m->poly[0], m->poly[m->poly_next],
-					m->poly[m->poly_next + 1]};
+				const uint32_t *q = m->poly;
+				size_t i = m->poly_next;
+				uint32_t c[3] = {q[0], q[i], q[i + 1]};
+				/* A strip's triangle i-1 is (i-1, i, i+1),
+				 * every other one flipped to keep the
+				 * winding. */
+				if (m->poly_strip) {
+					c[0] = q[i - (i & 1 ? 1 : 0)];
+					c[1] = q[i - (i & 1 ? 0 : 1)];
+				}
 				for (int j = 0; j < 3; j++)
 					memcpy(t->v[j], m->verts +
 					       3 * (size_t)c[j], 12);
@@ -1623,6 +2141,15 @@ int vd_mesh_rewind(struct vd_mesh *m)
 		return vd_rd_seek(&m->r, 0, 0);
 	case MESH_STL_BIN:
 		return vd_rd_seek(&m->r, m->body_off, 0);
+	case MESH_AC3D:
+		m->nverts = 0;
+		m->nonfinite = 0;
+		m->stats.vertices = 0;
+		m->ac_depth = 0;
+		m->ac_in_object = m->ac_seen_object = 0;
+		m->ac_surf_left = 0;
+		m->poly_strip = 0;
+		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
 	default:
 		if (m->face_elem == m->nelems) {
 			m->done = 1;
@@ -1642,7 +2169,8 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 	if (!m)
 		return 0;
 	size_t b = sizeof *m + (m->r.buf ? m->r.cap + 1 : 0) +
-		   (size_t)m->verts_cap * 12 + m->poly_cap * sizeof *m->poly;
+		   (size_t)m->verts_cap * 12 + m->poly_cap * sizeof *m->poly +
+		   m->ac_cap * sizeof *m->ac_stack;
 	for (size_t i = 0; i < m->nelems; i++)
 		b += sizeof m->elems[i] +
 		     m->elems[i].cap * sizeof *m->elems[i].props;
@@ -1663,6 +2191,7 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->r.buf);
 	free(m->verts);
 	free(m->poly);
+	free(m->ac_stack);
 	for (size_t i = 0; i < m->nelems; i++)
 		free(m->elems[i].props);
 	free(m->elems);

@@ -123,6 +123,7 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			vox[nvox++] = j;
 	/* per-voxel axes packed as lo <= a.p <= hi */
 	RT wstep[7], vstep[7], colvstep[3], lo[7], hi[7], clo[3], chi[3];
+	RT cin_lo[3], cin_hi[3];
 	for (int i = 0; i < 7; i++) {
 		wstep[i] = x.a[vox[i]][w] * s;
 		vstep[i] = x.a[vox[i]][v] * s;
@@ -133,6 +134,9 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		colvstep[k] = x.a[col[k]][v] * s;
 		clo[k] = x.tmin[col[k]] - x.bhi[col[k]];
 		chi[k] = x.tmax[col[k]] - x.blo[col[k]];
+		/* the column's square lies inside the triangle's projection */
+		cin_lo[k] = x.tmin[col[k]] - x.blo[col[k]];
+		cin_hi[k] = x.tmax[col[k]] - x.bhi[col[k]];
 	}
 	const double inv_s = 1.0 / (double)s;
 	const double nw = (double)x.a[0][w];
@@ -157,9 +161,10 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		for (int i = 0; i < 7; i++)
 			base[i] = x.a[vox[i]][u] * p[u] + x.a[vox[i]][v] * p[v];
 		for (int64_t cv = v0; cv <= v1; cv++) {
-			int skip = 0;
+			int skip = 0, inner = 1;
 			for (int k = 0; k < 3; k++) {
 				skip |= cd[k] < clo[k] || cd[k] > chi[k];
+				inner &= cd[k] >= cin_lo[k] && cd[k] <= cin_hi[k];
 				cd[k] += colvstep[k];
 			}
 			RT b[7];
@@ -191,17 +196,21 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				continue;
 			/* Each axis admits an interval of w, so the voxels of
 			 * the column form one interval: find its ends exactly
-			 * and take everything between without testing. */
+			 * and take everything between without testing. Where
+			 * the column's square lies inside the triangle's
+			 * projection, a box meets the triangle iff it meets its
+			 * plane, and the plane alone is tested. */
+			int naxes = inner && nw != 0 ? 1 : 7;
 			RT d[7];
 			int64_t pw = w0 * s - origin[w];
-			for (int i = 0; i < 7; i++)
+			for (int i = 0; i < naxes; i++)
 				d[i] = b[i] + x.a[vox[i]][w] * pw;
 			int64_t first = w0;
 			for (;; first++) {
 				if (first > w1)
 					break;
 				int ok = 1;
-				for (int i = 0; i < 7; i++) {
+				for (int i = 0; i < naxes; i++) {
 					ok &= d[i] >= lo[i] && d[i] <= hi[i];
 					d[i] += wstep[i];
 				}
@@ -212,11 +221,11 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				continue;
 			int64_t last = w1;
 			pw = w1 * s - origin[w];
-			for (int i = 0; i < 7; i++)
+			for (int i = 0; i < naxes; i++)
 				d[i] = b[i] + x.a[vox[i]][w] * pw;
 			for (; last > first; last--) {
 				int ok = 1;
-				for (int i = 0; i < 7; i++) {
+				for (int i = 0; i < naxes; i++) {
 					ok &= d[i] >= lo[i] && d[i] <= hi[i];
 					d[i] -= wstep[i];
 				}

@@ -6,7 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <errno.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <time.h>
 
 #define XXH_INLINE_ALL
@@ -131,4 +133,16 @@ char *vd_provenance_new(const char *tool, int argc, char **argv)
 	}
 	*p = 0;
 	return s;
+}
+
+int vd_replace_file(const char *tmp, const char *path)
+{
+	struct stat st;
+	if (lstat(path, &st) == 0 && !S_ISREG(st.st_mode))
+		return vd_fail(VD_ERR_IO, "'%s' exists and is not a regular "
+			       "file; refusing to replace it", path);
+	if (rename(tmp, path) != 0)
+		return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s", tmp,
+			       path, strerror(errno));
+	return VD_OK;
 }

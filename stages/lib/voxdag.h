@@ -295,15 +295,20 @@ void vd_svo_release(struct vd_svo *svo);
 
 /* ---------------------------------------------------------------- meshes
  * Streaming triangle readers for PLY (binary little/big endian and ASCII),
- * OBJ and STL (binary and ASCII). Indexed formats keep their vertex
- * positions in memory (12 bytes per vertex); triangles are streamed. */
+ * OBJ, STL (binary and ASCII) and AC3D (.ac, FlightGear's model format).
+ * Indexed formats keep their vertex positions in memory (12 bytes per
+ * vertex; AC3D only those of the object being read, already moved to world
+ * coordinates by the object's and its ancestors' rot and loc); triangles
+ * are streamed. */
 
 struct vd_triangle {
 	float v[3][3]; /* three vertices, x y z each, world units */
 };
 
 /* What the reader saw. A face with fewer than 3 corners is dropped and
- * counted; a face with more is fan-triangulated. A vertex with a NaN or
+ * counted, and so is an AC3D line or closed-line surface (it bounds no
+ * area); a face with more is fan-triangulated (an AC3D triangle strip is
+ * cut into its triangles and counted as split). A vertex with a NaN or
  * infinite coordinate is an error (VD_ERR_RANGE) as soon as a face uses it;
  * unused vertices are never checked. */
 struct vd_mesh_stats {
@@ -315,10 +320,11 @@ struct vd_mesh_stats {
 
 struct vd_mesh;
 
-/* Opens `path`, detecting the format from its first bytes (PLY magic, STL
- * binary size rule / "solid", OBJ otherwise if the extension is .obj or the
- * first statement is an OBJ one). Parses the header (PLY: also loads the
- * vertices); the body is read by vd_mesh_read(). Errors: VD_ERR_IO (also a
+/* Opens `path`, detecting the format from its first bytes (PLY magic,
+ * "AC3D" magic, STL binary size rule / "solid", OBJ otherwise if the
+ * extension is .obj or the first statement is an OBJ one). Parses the
+ * header (PLY: also loads the vertices); the body is read by
+ * vd_mesh_read(). Errors: VD_ERR_IO (also a
  * directory), VD_ERR_EMPTY (0-byte file), VD_ERR_UNSUPPORTED (unknown
  * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
@@ -328,7 +334,8 @@ int vd_mesh_open(struct vd_mesh **out, const char *path);
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
  * offset in the detail), VD_ERR_RANGE (index out of range, non-finite
  * coordinate), VD_ERR_TRUNCATED (file ends inside the body). An OBJ face
- * may only use vertices defined before it (VD_ERR_RANGE otherwise). After
+ * may only use vertices defined before it (VD_ERR_RANGE otherwise); an
+ * AC3D surface only its own object's vertices. After
  * an error every read repeats it until vd_mesh_rewind(). */
 int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 		 size_t *n);
@@ -337,7 +344,8 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
  * restart too. */
 int vd_mesh_rewind(struct vd_mesh *m);
 
-/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", ... */
+/* "ply-binary-le", "ply-ascii", "obj", "stl-binary", "stl-ascii", "ac3d",
+ * ... */
 const char *vd_mesh_format(const struct vd_mesh *m);
 /* Bytes of memory the reader holds (vertex arrays, read buffer), for
  * budgets. OBJ vertices are collected while reading, so for OBJ this is
@@ -408,6 +416,12 @@ double vd_seconds(void);
  * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
+
+/* Renames the finished temporary file `tmp` to `path`, the last step of
+ * every atomic write. Refuses (VD_ERR_IO, the detail says why) when `path`
+ * exists and is not a regular file: run as root, a rename over an output
+ * path such as /dev/null would replace the device. */
+int vd_replace_file(const char *tmp, const char *path);
 
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
@@ -505,8 +519,11 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
  * subtrees equal up to any of the 8 reflections (SSVDAG). Every node is
  * reachable from the root. SSVDAG nodes below the root are the canonical
  * representatives of their class; the root is stored as the cell really is
- * (unreflected), so a chunk never needs a reflection on its root. Nodes on a
- * level are in the order they were first met; the order carries no meaning.
+ * (unreflected), so a chunk never needs a reflection on its root. An SSVDAG
+ * reference's reflection is normalized (the smallest of m ^ g over the
+ * reflections g its child is invariant under), so equal subtrees are
+ * referenced by equal bytes. Nodes on a level are in the order they were
+ * first met: deterministic, independent of --threads, meaningless.
  */
 struct vd_dag_level {
 	uint64_t nodes;   /* nodes on this level */
@@ -525,8 +542,9 @@ struct vd_dag {
 	uint64_t voxels;       /* voxels in the cell */
 	struct vd_dag_level lv[VD_MAX_LEVELS]; /* [chunk_level, levels-1] used */
 	uint64_t *bricks;      /* lv[L-2].nodes bricks of level L-2 (the stored,
-				  unreflected nodes); NULL when L < 2 or the
-				  root is below level L-2 */
+				  unreflected nodes); NULL when L < 2, when
+				  the root is below level L-2, or the cell is
+				  empty */
 };
 
 /* Options of the DAG builders. */
@@ -683,6 +701,16 @@ uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
 uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 				  uint64_t parents);
 uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
+
+/* The same bound from a chunk header alone, as the stages check it before
+ * loading (and as a planner should): for an SVO header, what svo-to-dag
+ * needs; for a DAG or SSVDAG header, that input's share of a merge or
+ * symmetry merge (references bounded by 8 per node, as headers do not
+ * count them). Sum the shares of a merge's inputs; each share includes
+ * the fixed 16 MiB, so subtract VD_DAG_ESTIMATE_FIXED_BYTES per input
+ * beyond the first. */
+#define VD_DAG_ESTIMATE_FIXED_BYTES (16ull << 20)
+uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h);
 
 /* Writes the statistics of a build (`tool` names the stage; `seconds_load`
  * and `seconds_save` are the caller's phases) as JSON to `path` (atomic):

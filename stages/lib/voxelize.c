@@ -190,7 +190,17 @@ static int keyset_add(struct keyset *s, uint64_t key)
 struct estimate {
 	struct grid g;
 	struct keyset blocks;  /* Morton keys of candidate blocks */
+	int err;
 };
+
+static void add_block(void *ctx, int64_t x, int64_t y, int64_t z)
+{
+	struct estimate *e = ctx;
+	int err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y,
+						    (uint32_t)z));
+	if (err)
+		e->err = err;
+}
 
 static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 {
@@ -210,18 +220,20 @@ static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			b0[a] = lo[a] >> BLOCK_SHIFT, b1[a] = hi[a] >> BLOCK_SHIFT;
 			nb *= b1[a] - b0[a] + 1;
 		}
-		/* a large triangle: keep only the blocks it really meets */
-		int exact = nb > 8;
-		for (int64_t x = b0[0]; x <= b1[0]; x++)
-			for (int64_t y = b0[1]; y <= b1[1]; y++)
-				for (int64_t z = b0[2]; z <= b1[2]; z++) {
-					int64_t blo[3] = {x << BLOCK_SHIFT, y << BLOCK_SHIFT, z << BLOCK_SHIFT};
-					if (exact && !vd_tri_box_overlap(&st, e->g.L, blo, 1 << BLOCK_SHIFT))
-						continue;
-					err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z));
-					if (err)
-						return err;
-				}
+		if (nb <= 8) {
+			for (int64_t x = b0[0]; x <= b1[0]; x++)
+				for (int64_t y = b0[1]; y <= b1[1]; y++)
+					for (int64_t z = b0[2]; z <= b1[2]; z++)
+						if ((err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z))))
+							return err;
+			continue;
+		}
+		/* A large triangle: its blocks are the voxels it overlaps in
+		 * the grid 32 times coarser (same lattice, same exact rule). */
+		e->err = VD_OK;
+		vd_raster_triangle(&st, e->g.L - BLOCK_SHIFT, b0, b1, add_block, e);
+		if (e->err)
+			return e->err;
 	}
 	return VD_OK;
 }
@@ -282,6 +294,8 @@ struct bin {
 };
 
 struct binner {
+	const struct vd_triangle *tri; /* being binned by bin_cell */
+	int err;
 	struct grid g;
 	const char *dir;
 	struct bin *bins;      /* 8^L0 */
@@ -340,6 +354,14 @@ static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
 	return VD_OK;
 }
 
+static void bin_cell(void *ctx, int64_t x, int64_t y, int64_t z)
+{
+	struct binner *b = ctx;
+	if (!b->err)
+		b->err = bin_add(b, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z),
+				 b->tri);
+}
+
 static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
 {
 	struct binner *b = ctx;
@@ -355,15 +377,16 @@ static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
 		int64_t c0[3], c1[3];
 		for (int a = 0; a < 3; a++)
 			c0[a] = lo[a] >> shift, c1[a] = hi[a] >> shift;
-		int single = c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2];
-		for (int64_t cx = c0[0]; cx <= c1[0] && !err; cx++)
-			for (int64_t cy = c0[1]; cy <= c1[1] && !err; cy++)
-				for (int64_t cz = c0[2]; cz <= c1[2] && !err; cz++) {
-					int64_t cell_lo[3] = {cx << shift, cy << shift, cz << shift};
-					if (!single && !vd_tri_box_overlap(&st, b->g.L, cell_lo, (int64_t)1 << shift))
-						continue;
-					err = bin_add(b, vd_morton3((uint32_t)cx, (uint32_t)cy, (uint32_t)cz), &t[i]);
-				}
+		if (c0[0] == c1[0] && c0[1] == c1[1] && c0[2] == c1[2]) {
+			err = bin_add(b, vd_morton3((uint32_t)c0[0], (uint32_t)c0[1], (uint32_t)c0[2]), &t[i]);
+		} else {
+			/* the cells it overlaps are the voxels it overlaps in the
+			 * grid of depth L0 */
+			b->tri = &t[i];
+			b->err = VD_OK;
+			vd_raster_triangle(&st, b->g.L0, c0, c1, bin_cell, b);
+			err = b->err;
+		}
 		if (err)
 			return err;
 	}
@@ -543,6 +566,8 @@ struct run {
 	struct progress *prog;
 	atomic_size_t done;
 	atomic_ullong voxels, bricks;
+	atomic_ullong pairs_done;  /* triangle-cell pairs rasterized */
+	uint64_t pairs_total;
 	uint64_t *level_nodes;  /* levels L0..L, summed under lock */
 	pthread_mutex_t lock;
 	atomic_int failed;
@@ -689,6 +714,15 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			if (!err)
 				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
 		}
+		/* progress inside a cell: large cells take minutes */
+		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
+		double el = vd_seconds() - r->prog->start;
+		progress_say(r->prog, 0, "voxelizing: %llu of %llu triangles "
+			     "(in cells), %zu/%zu cells done, ETA %.0fs",
+			     (unsigned long long)pd,
+			     (unsigned long long)r->pairs_total,
+			     atomic_load(&r->done), r->njobs,
+			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
 		if (w->map.over)
 			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
 				      "%zu blocks of %d KiB (the budget's share "
@@ -994,6 +1028,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	r.opts = opts;
 	r.prog = &prog;
 	r.block_limit = plan.block_limit;
+	r.pairs_total = b.pairs;
 	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");

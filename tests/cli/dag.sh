@@ -88,6 +88,14 @@ if grep -q '"peak_rss_bytes": [1-9]' "$T/m/chunk-L0-0.dag.stats.json" &&
 else
 	fail stats-json
 fi
+# a one-part merge at the part's own level (the runner's root step when
+# the whole scene is one chunk) checks and rebuilds it unchanged
+expect one-part-merge 0 '' $BIN/svo-to-dag -q --merge --to-level 0 "$T/m/chunk-L0-0.dag" -o "$T/m/one.dag"
+expect one-part-symmetry-merge 0 '' $BIN/symmetry-merge -q --merge --to-level 0 "$T/m/chunk-L0-0.ssvdag" -o "$T/m/one.ssvdag"
+[ "$(counts "$T/m/one.dag.stats.json")" = "$(counts "$T/m/chunk-L0-0.dag.stats.json")" ] &&
+[ "$(counts "$T/m/one.ssvdag.stats.json")" = "$(counts "$T/m/chunk-L0-0.ssvdag.stats.json")" ] &&
+	pass one-part-merge-counts || fail one-part-merge-counts
+expect root-has-no-parent 1 "already root chunks" $BIN/svo-to-dag --merge "$T/m/chunk-L0-0.dag" -o "$T/m/x.dag"
 dag_counts=$(counts "$T/m/chunk-L0-0.dag.stats.json")
 ssv_counts=$(counts "$T/m/chunk-L0-0.ssvdag.stats.json")
 

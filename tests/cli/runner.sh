@@ -54,6 +54,20 @@ printf 'version: 1\nname: x\ninput: {mesh: out/none.ply, fetch: config/fetch-x.s
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply\nlevels: 6\n' |
 	bad_cfg config_yaml_syntax 'bad.yaml:[0-9]+:[0-9]+: '
 printf 'version: 7\nname: x\n' | bad_cfg config_newer_version 'version 7 is newer'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  v: {stage: voxelize}\n' |
+	bad_cfg config_duplicate_job 'bad.yaml:7:3: job .v. is declared twice'
+printf 'version: 1\nname: a/b\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_bad_name 'bad.yaml:2:7: .name. is letters'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\nresources: {mem_budget: 1G, job_mem_budget: 2G}\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_job_budget_over_total 'job_mem_budget. is larger'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\nresolutions: [6, 9]\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_resolution_too_deep 'bad.yaml:5:14: resolution 9 is deeper'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: v}\n' |
+	bad_cfg config_needs_not_list 'bad.yaml:7:33: .needs. must be a list'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\nresources: {mem_budget: lots}\njobs: {v: {stage: voxelize}}\n' |
+	bad_cfg config_bad_size 'bad.yaml:5:25: .mem_budget. must be a size'
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\n' |
+	bad_cfg config_no_jobs "missing 'jobs'"
 printf '' | bad_cfg config_empty 'bad.yaml:1:1: a pipeline is a mapping'
 expect runner_usage 2 'COMMAND' $R run
 expect runner_unknown_command 2 'unknown command' $R frob config/default.yaml
@@ -167,6 +181,28 @@ expect changed_levels 0 '' $R -q run "$CFG"
 n=$(last_run | grep -c ' started ')
 [ "$n" -gt 10 ] && pass changed_levels_reruns || fail changed_levels_reruns "$n started"
 expect changed_levels_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+
+# --- a parameter of one stage (the report's resolutions: encode's rows)
+# reruns that job only
+write_cfg 8 2
+echo 'resolutions: [8, 7]' >> "$CFG"
+expect one_param_setup 0 '' $R -q run "$CFG"
+sed -i 's/^resolutions: \[8, 7\]/resolutions: [8, 7, 6, 5]/' "$CFG"
+expect one_param_changed 0 '' $R -q run "$CFG"
+started=$(last_run | grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | tr '\n' ' ')
+[ "$started" = "enc " ] && grep -q '| 32^3 |' $D/report.md &&
+	pass one_param_reruns_only_its_job || fail one_param_reruns_only_its_job "started: $started"
+
+# --- the memory budget: estimates of two cell jobs fit, three do not; the
+# log never shows three running, and no job exceeds its --mem-budget
+rm -rf $D
+write_cfg 9 2
+sed -i 's/resources: .*/resources: {jobs: 4, threads: 1, mem_budget: 150M, job_mem_budget: 100M}/' "$CFG"
+expect budget_run 0 '' $R -q run "$CFG"
+most=$(awk '/ started /{n++; if (n > m) m = n} / (done|failed) /{n--} END{print m + 0}' $D/logs/runner.log)
+[ "$most" -eq 2 ] && pass budget_two_at_most || fail budget_two_at_most "at most $most running"
+over=$(sed -n 's/.* peak \([0-9]*\) MiB.*/\1/p' $D/logs/runner.log | awk '$1 > 100' | wc -l)
+[ "$over" -eq 0 ] && pass budget_no_job_over || fail budget_no_job_over "$over jobs over 100 MiB"
 
 # --- status and clean
 expect status_done 0 'done +[1-9]' $R status "$CFG"

@@ -20,6 +20,14 @@ help_lists_options help_matches_code_chunk_check chunk-check stages/chunk-check/
 
 # --- a good run
 expect good_run 0 '' $V $BUNNY -o "$T/good" --levels 7 -q
+printf 'AC3Db\nOBJECT world\nkids 1\nOBJECT poly\nloc 5 0 0\nnumvert 4\n0 0 0\n1 0 0\n1 1 0\n0 1 1\nnumsurf 1\nSURF 0x10\nmat 0\nrefs 4\n0 0 0\n1 0 0\n2 0 0\n3 0 0\nkids 0\n' > "$T/quad.ac"
+expect good_run_ac3d 0 '' $V "$T/quad.ac" -o "$T/good-ac" --levels 5 -q
+if grep -q '"input_format": "ac3d"' "$T/good-ac/voxelize.stats.json" &&
+   grep -q '"triangles_read": 2' "$T/good-ac/voxelize.stats.json"; then
+	pass good_stats_ac3d
+else
+	fail good_stats_ac3d "$(cat "$T/good-ac/voxelize.stats.json")"
+fi
 expect good_chunks_check 0 '' $BIN/chunk-check "$T"/good/*.svo
 if grep -q '"voxels": [1-9]' "$T/good/voxelize.stats.json" &&
    grep -q '"triangles_read": 69451' "$T/good/voxelize.stats.json" &&
@@ -42,7 +50,7 @@ bad() { # bad NAME PATTERN FILE
 bad missing_file 'No such file' "$T/nonexistent.ply"
 bad directory 'directory' tests
 echo "hello world" > "$T/hello.txt"
-bad unsupported_format 'not a PLY, OBJ or STL' "$T/hello.txt"
+bad unsupported_format 'not a PLY, OBJ, STL or AC3D' "$T/hello.txt"
 cp "$T/good/voxelize.stats.json" "$T/stats.ply"
 bad json_named_ply 'malformed|unsupported' "$T/stats.ply"
 head -c 300 $BUNNY > "$T/header_cut.ply"
@@ -55,6 +63,10 @@ printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 bad inf_vertex 'non-finite|inf' "$T/inf.ply"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n' > "$T/range.obj"
 bad index_out_of_range 'out of range|range' "$T/range.obj"
+printf 'AC3Db\nOBJECT world\nkids 1\nOBJECT poly\nnumvert 3\n0 0 0\n1 0 0\n0 1 0\nnumsurf 1\nSURF 0x10\nmat 0\nrefs 3\n0 0 0\n1 0 0\n3 0 0\nkids 0\n' > "$T/range.ac"
+bad ac3d_index_out_of_range 'line 15: .*out of range' "$T/range.ac"
+head -c 60 "$T/range.ac" > "$T/cut.ac"
+bad ac3d_truncated 'truncated' "$T/cut.ac"
 printf 'ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n' > "$T/empty.ply"
 bad empty_mesh 'empty|no triangles' "$T/empty.ply"
 : > "$T/zero.stl"
@@ -87,3 +99,7 @@ cp "$f" "$T/major.svo"; printf '\x09' | dd of="$T/major.svo" bs=1 seek=8 conv=no
 expect check_newer_version 1 'version too new' $BIN/chunk-check "$T/major.svo"
 expect check_verbose 0 'svo chunk, format 1.0, levels 7' $BIN/chunk-check -v "$f"
 expect check_no_args 2 'no FILE' $BIN/chunk-check
+
+# --- an atomic writer never renames over something that is not a file
+expect writer_refuses_device 1 'not a regular file' $BIN/svo-to-dag "$f" -o /dev/null
+[ -c /dev/null ] && pass writer_device_intact || fail writer_device_intact "$(ls -la /dev/null)"

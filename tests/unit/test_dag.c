@@ -338,6 +338,42 @@ static void test_edge_cases(void)
 	CHECK_EQ(vd_dag_from_svo(&d, &t, VD_KIND_DAG, &opts, NULL), VD_ERR_CORRUPT);
 	CHECK(strstr(vd_error_detail(), "outside") != NULL);
 	vd_dag_release(&d);
+	/* the deepest grid: bricks at both far corners, whole and as two
+	 * cells at level L-2 merged to the root (64-bit Morton ranges) */
+	{
+		uint64_t kmax = (1ULL << 57) - 1, keys[2] = {0, kmax},
+			 masks[2] = {1, 1ULL << 63};
+		struct vd_svo big = {21, 0, 0, 2, keys, masks}, c0, c1;
+		CHECK_EQ(vd_dag_from_svo(&d, &big, VD_KIND_SSVDAG, &opts, NULL), 0);
+		CHECK_EQ(vd_dag_validate(&d), VD_OK);
+		CHECK_EQ(d.voxels, 2);
+		CHECK_EQ(vd_dag_to_svo(&d, &e), 0);
+		CHECK(e.count == 2 && e.keys[1] == kmax && e.masks[1] == 1ULL << 63);
+		svo_free(&e);
+		c0 = (struct vd_svo){21, 19, 0, 1, keys, masks};
+		c1 = (struct vd_svo){21, 19, kmax, 1, keys + 1, masks + 1};
+		struct vd_dag p0, p1, m;
+		CHECK_EQ(vd_dag_from_svo(&p0, &c0, VD_KIND_SSVDAG, &opts, NULL), 0);
+		CHECK_EQ(vd_dag_from_svo(&p1, &c1, VD_KIND_SSVDAG, &opts, NULL), 0);
+		const struct vd_dag *pq[2] = {&p1, &p0};
+		CHECK_EQ(vd_dag_merge(&m, pq, 2, VD_KIND_SSVDAG, 0, &opts, NULL), 0);
+		CHECK(counts_equal(&m, &d));
+		/* one corner voxel is the other reflected by X+Y+Z: one class
+		 * per level below the root */
+		for (int l = 1; l < 21; l++) CHECK_EQ(m.lv[l].nodes, 1);
+		const struct vd_svo *sv[2] = {&c1, &c0};
+		struct vd_dag_diff diff;
+		CHECK_EQ(vd_dag_compare_svo(&m, sv, 2, &diff), 0);
+		CHECK_EQ(diff.differing_voxels, 0);
+		CHECK_EQ(vd_dag_compare_svo(&m, sv, 1, &diff), 0);
+		CHECK_EQ(diff.differing_voxels, 1);
+		CHECK_EQ(diff.first_voxel_morton, 0);
+		CHECK_EQ(diff.first_in_dag, 1);
+		vd_dag_release(&p0);
+		vd_dag_release(&p1);
+		vd_dag_release(&m);
+		vd_dag_release(&d);
+	}
 	/* full cube: one node per level */
 	struct grid g;
 	make_scene(&g, 6, SC_FULL);
@@ -491,45 +527,63 @@ static void test_chunk_files(void)
  * counts equal the monolithic build's. */
 static void real_mesh(const char *mesh, int L)
 {
-	const char *base = test_tmpdir("test_dag_mesh");
+	/* Voxelized once, at L0 = 3; the SVO chunks of coarser cells are the
+	 * concatenations of their subcells' bricks (Morton order), so every
+	 * L0 is tested on the voxelizer's own output without re-running it
+	 * (which under ASan dominated the test's time). */
+	const char *dir = test_tmpdir("test_dag_mesh");
+	struct vd_voxelize_opts vo = {.levels = L, .chunk_level = 3,
+				      .mem_budget_bytes = 1ull << 30,
+				      .threads = 2, .quiet = 1,
+				      .tool = "test_dag"};
+	struct vd_voxelize_result res;
+	int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
+	CHECK_EQ(err, VD_OK);
+	if (err) {
+		fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
+		return;
+	}
+	struct vd_svo *fine = calloc(512, sizeof *fine);
+	uint64_t nfine = 0;
+	for (uint64_t c = 0; c < 512; c++) {
+		char name[64], path[800];
+		vd_chunk_file_name(name, sizeof name, 3, c, "svo");
+		snprintf(path, sizeof path, "%s/%s", dir, name);
+		FILE *f = fopen(path, "rb");
+		if (!f) continue;
+		fclose(f);
+		CHECK_EQ(vd_svo_load(&fine[nfine++], NULL, path), VD_OK);
+	}
+	CHECK_EQ(nfine, res.chunks);
 	struct vd_dag mono[2];
 	memset(mono, 0, sizeof mono);
 	for (int L0 = 0; L0 <= 3; L0++) {
-		char dir[700];
-		snprintf(dir, sizeof dir, "%s/L0-%d", base, L0);
-		struct vd_voxelize_opts vo = {.levels = L, .chunk_level = L0,
-					      .mem_budget_bytes = 1ull << 30,
-					      .threads = 2, .quiet = 1,
-					      .tool = "test_dag"};
-		struct vd_voxelize_result res;
-		int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
-		CHECK_EQ(err, VD_OK);
-		if (err) {
-			fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
-			return;
-		}
 		uint64_t cells = 1ULL << (3 * L0), n = 0;
 		struct vd_svo *svo = calloc(cells, sizeof *svo);
 		const struct vd_svo **sp = calloc(cells, sizeof *sp);
 		struct vd_dag *parts[2];
 		parts[0] = calloc(cells, sizeof(struct vd_dag));
 		parts[1] = calloc(cells, sizeof(struct vd_dag));
-		for (uint64_t c = 0; c < cells; c++) {
-			char name[64], path[800];
-			vd_chunk_file_name(name, sizeof name, L0, c, "svo");
-			snprintf(path, sizeof path, "%s/%s", dir, name);
-			FILE *f = fopen(path, "rb");
-			if (!f) continue;
-			fclose(f);
-			CHECK_EQ(vd_svo_load(&svo[n], NULL, path), VD_OK);
-			sp[n] = &svo[n];
+		for (uint64_t i = 0; i < nfine;) {
+			uint64_t cell = fine[i].cell_morton >> 3 * (3 - L0), j = i;
+			size_t bricks = 0;
+			for (; j < nfine && fine[j].cell_morton >> 3 * (3 - L0) == cell; j++)
+				bricks += fine[j].count;
+			struct vd_svo *v = &svo[n];
+			*v = (struct vd_svo){L, L0, cell, 0, malloc(bricks * 8),
+					     malloc(bricks * 8)};
+			for (; i < j; i++) {
+				memcpy(v->keys + v->count, fine[i].keys, fine[i].count * 8);
+				memcpy(v->masks + v->count, fine[i].masks, fine[i].count * 8);
+				v->count += fine[i].count;
+			}
+			sp[n] = v;
 			for (int k = 0; k < 2; k++)
-				CHECK_EQ(vd_dag_from_svo(&parts[k][n], &svo[n],
+				CHECK_EQ(vd_dag_from_svo(&parts[k][n], v,
 							 k ? VD_KIND_SSVDAG : VD_KIND_DAG,
 							 &opts, NULL), VD_OK);
 			n++;
 		}
-		CHECK_EQ(n, res.chunks);
 		for (int k = 0; k < 2; k++) {
 			struct vd_dag root;
 			if (L0 == 0) {
@@ -581,6 +635,8 @@ static void real_mesh(const char *mesh, int L)
 		free(parts[0]);
 		free(parts[1]);
 	}
+	for (uint64_t i = 0; i < nfine; i++) vd_svo_release(&fine[i]);
+	free(fine);
 	for (int l = 0; l < L; l++) CHECK(mono[1].lv[l].nodes <= mono[0].lv[l].nodes);
 	vd_dag_release(&mono[0]);
 	vd_dag_release(&mono[1]);
@@ -602,6 +658,104 @@ static void test_real_meshes(void)
 		printf("SKIP test_real_meshes_dragon (no %s)\n", dragon);
 }
 
+/* Writes a DAG chunk by hand: sections as given (NULL: omitted). */
+static int write_raw(const char *path, uint32_t kind, int L, int L0,
+		     const uint64_t *counts, const void *m, size_t mn,
+		     const void *c, size_t cn, const void *r, size_t rn)
+{
+	struct vd_chunk_header h = {0};
+	h.kind = kind;
+	h.levels = (uint32_t)L;
+	h.chunk_level = (uint32_t)L0;
+	h.level_count = (uint32_t)(L - L0 + 1);
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+	vd_transform_init(&h.transform, lo, hi, L);
+	memcpy(h.level_nodes, counts, h.level_count * 8);
+	struct vd_chunk_writer *w;
+	int err = vd_chunk_writer_open(&w, path, &h, NULL);
+	if (err) return err;
+	if (m) vd_chunk_writer_section(w, VD_TAG_DAGM, m, mn);
+	if (c) vd_chunk_writer_section(w, VD_TAG_DAGC, c, cn);
+	if (r) vd_chunk_writer_section(w, VD_TAG_DAGR, r, rn);
+	return vd_chunk_writer_commit(w);
+}
+
+/* Files whose checksums are right but whose content is not: each is
+ * refused as corrupt, with a detail naming what is wrong. The good file
+ * is L = 3: a root with children 0 and 7, both brick node 0, whose child 0
+ * is leaf 0 (mask 0x81) and child 3 leaf 1 (mask 0x01): 6 voxels. */
+static void test_crafted_files(void)
+{
+	const char *dir = test_tmpdir("test_dag_crafted");
+	char path[600];
+	snprintf(path, sizeof path, "%s/x.dag", dir);
+	struct vd_dag d;
+	struct {
+		const char *name, *detail;
+		uint32_t kind;
+		uint64_t counts[4];
+		uint8_t masks[4];
+		uint32_t child[4];
+		uint8_t refl[4];
+		size_t msize, nref;
+	} cases[] = {
+		{"good", NULL, VD_KIND_DAG, {1, 1, 2, 6}, {0x81, 0x09, 0x81, 0x01},
+		 {0, 0, 0, 1}, {0}, 4, 4},
+		{"good ssvdag", NULL, VD_KIND_SSVDAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0, 0, 0, 0}, 4, 4},
+		{"zero mask", "empty mask", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x00, 0x01}, {0, 0, 0, 1}, {0}, 4, 4},
+		{"index out of range", "child 5", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 5, 0, 1}, {0}, 4, 4},
+		{"unreferenced leaf", "never referenced", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 0}, {0}, 4, 4},
+		{"reflection 9", "reflection 9", VD_KIND_SSVDAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0, 9, 0, 0}, 4, 4},
+		{"mask section size", "mask section", VD_KIND_DAG, {1, 1, 2, 6},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 3, 4},
+		{"reference section size", "reference sections", VD_KIND_DAG,
+		 {1, 1, 2, 6}, {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 4, 3},
+		{"two roots", "2 roots", VD_KIND_DAG, {2, 1, 1, 6},
+		 {0x01, 0x01, 0x01, 0x01}, {0, 0, 0, 0}, {0}, 4, 3},
+		{"voxel count", "voxels", VD_KIND_DAG, {1, 1, 2, 7},
+		 {0x81, 0x09, 0x81, 0x01}, {0, 0, 0, 1}, {0}, 4, 4},
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+		uint8_t cbytes[16];
+		for (int k = 0; k < 4; k++)
+			for (int b = 0; b < 4; b++)
+				cbytes[4 * k + b] = (uint8_t)(cases[i].child[k] >> 8 * b);
+		int sym = cases[i].kind == VD_KIND_SSVDAG;
+		CHECK_EQ(write_raw(path, cases[i].kind, 3, 0, cases[i].counts,
+				   cases[i].masks, cases[i].msize, cbytes,
+				   4 * cases[i].nref, sym ? cases[i].refl : NULL,
+				   cases[i].nref), VD_OK);
+		int err = vd_dag_load(&d, NULL, path, VD_KIND_ANY);
+		if (!cases[i].detail) {
+			CHECK_EQ(err, VD_OK);
+			if (!err) {
+				CHECK_EQ(d.voxels, 6);
+				CHECK(d.bricks[0] == (0x81ULL | 0x01ULL << 24));
+			}
+		} else {
+			CHECK_EQ(err, VD_ERR_CORRUPT);
+			if (!strstr(vd_error_detail(), cases[i].detail))
+				fprintf(stderr, "  %s: detail '%s'\n", cases[i].name,
+					vd_error_detail());
+			CHECK(strstr(vd_error_detail(), cases[i].detail) != NULL);
+		}
+		vd_dag_release(&d);
+	}
+	/* an SSVDAG without its reflections */
+	CHECK_EQ(write_raw(path, VD_KIND_SSVDAG, 3, 0, cases[0].counts,
+			   cases[0].masks, 4, (uint8_t[16]){0, [12] = 1}, 16,
+			   NULL, 0), VD_OK);
+	CHECK_EQ(vd_dag_load(&d, NULL, path, VD_KIND_ANY), VD_ERR_CORRUPT);
+	CHECK(strstr(vd_error_detail(), "DAGR") != NULL ||
+	      strstr(vd_error_detail(), "missing") != NULL);
+	vd_dag_release(&d);
+}
+
 int main(void)
 {
 	RUN(test_lossless_monolithic);
@@ -611,6 +765,7 @@ int main(void)
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
 	RUN(test_chunk_files);
+	RUN(test_crafted_files);
 	RUN(test_real_meshes);
 	return CHECK_DONE();
 }

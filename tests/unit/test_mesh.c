@@ -720,6 +720,340 @@ static void test_list_counts(void)
 	CHECK(detail_has("index 3"));
 }
 
+/* ------------------------------------------------------------------ AC3D */
+
+/* The reference mesh as one AC3D object inside the world object. */
+static const char *const ac_reference =
+	"AC3Db\n"
+	"MATERIAL \"ac3dmat1\" rgb 1 1 1  amb 0.2 0.2 0.2  emis 0 0 0  "
+	"spec 0.5 0.5 0.5  shi 10  trans 0\n"
+	"OBJECT world\n"
+	"kids 1\n"
+	"OBJECT poly\n"
+	"name \"reference\"\n"
+	"numvert 5\n"
+	"0 0 0\n1.5 0 0\n1.5 2.25 0.1\n0 2.25 0.1\n-0.75 1 -3.125\n"
+	"numsurf 2\n"
+	"SURF 0x10\nmat 0\nrefs 4\n0 0 0\n1 1 0\n2 1 1\n3 0 1\n"
+	"SURF 0x20\nmat 0\nrefs 3\n1 0 0\n4 0 0\n2 0 0\n"
+	"kids 0\n";
+
+/* Nested objects with rot and loc, a quad, a line, a triangle strip, a
+ * data block whose bytes look like keywords, attribute lines to skip and
+ * vertex lines with normals after the position.
+ *
+ * World transforms, worked out by hand (rot rows r0 r1 r2 / r3 r4 r5 /
+ * r6 r7 r8 applied to column vectors, then loc, then the parent's):
+ *   "quad" (kid of world):     p + (10 0 0)
+ *   "turned" (kid of quad):    R p + (0 5 0) + (10 0 0), R (x y z) = (-y x z)
+ *   "tri" (kid of turned):     R (p + (1 0 0)) + (10 5 0)
+ *                              = (-y + 10, x + 6, z)
+ *   "strip" (kid of world):    p + (0 0 -2)
+ * so the quad's corners are (10 0 0) (11 0 0) (11 1 0) (10 1 0), the
+ * triangle's (0 0 0) (2 0 0) (0 3 0) become (10 6 0) (10 8 0) (7 6 0), and
+ * the strip 0 1 2 3 gives (0 1 2) and, flipped, (2 1 3). */
+static const char *const ac_nested =
+	"AC3Db\n"
+	"MATERIAL \"white\" rgb 1 1 1  amb 0.2 0.2 0.2  emis 0 0 0  "
+	"spec 0.5 0.5 0.5  shi 10  trans 0\n"
+	"OBJECT world\n"
+	"name \"root\"\n"
+	"kids 2\n"
+	"OBJECT poly\n"
+	"name \"quad with a line\"\n"
+	"data 11\n"
+	"kids 9\nSURF\n"
+	"texture \"skin.png\"\n"
+	"texrep 1 1\n"
+	"texoff 0 0\n"
+	"loc 10 0 0\n"
+	"crease 30.000000\n"
+	"url http://example.org/quad\n"
+	"numvert 4\n"
+	"0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
+	"numsurf 2\n"
+	"SURF 0x10\nmat 0\nrefs 4\n0 0 0\n1 1 0\n2 1 1\n3 0 1\n"
+	"SURF 0x2\nmat 0\nrefs 2\n0 0 0\n2 1 1\n"
+	"kids 1\n"
+	"OBJECT group\n"
+	"name \"turned\"\n"
+	"rot 0 -1 0  1 0 0  0 0 1\n"
+	"loc 0 5 0\n"
+	"kids 1\n"
+	"OBJECT poly\n"
+	"name \"tri\"\n"
+	"loc 1 0 0\n"
+	"numvert 3\n"
+	"0 0 0 0 0 1\n2 0 0 0 0 1\n0 3 0 0 0 1\n"
+	"numsurf 1\n"
+	"SURF 0x30\nmat 0\nrefs 3\n0 0 0\n1 1 0\n2 0 1\n"
+	"kids 0\n"
+	"OBJECT poly\n"
+	"name \"strip\"\n"
+	"loc 0 0 -2\n"
+	"numvert 4\n"
+	"0 0 0\n1 0 0\n0 1 0\n1 1 0\n"
+	"numsurf 1\n"
+	"SURF 0x14\nmat 0\nrefs 4\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n"
+	"kids 0\n";
+
+static const float AC_NESTED[5][3][3] = {
+	{{10, 0, 0}, {11, 0, 0}, {11, 1, 0}},
+	{{10, 0, 0}, {11, 1, 0}, {10, 1, 0}},
+	{{10, 6, 0}, {10, 8, 0}, {7, 6, 0}},
+	{{0, 0, -2}, {1, 0, -2}, {0, 1, -2}},
+	{{0, 1, -2}, {1, 0, -2}, {1, 1, -2}}};
+
+static int same_as_nested(const struct vd_triangle *t, size_t n)
+{
+	if (n != 5) {
+		fprintf(stderr, "got %zu triangles, want 5\n", n);
+		return 0;
+	}
+	for (int i = 0; i < 5; i++)
+		for (int c = 0; c < 3; c++)
+			if (memcmp(t[i].v[c], AC_NESTED[i][c], 12)) {
+				fprintf(stderr, "triangle %d corner %d: %g %g "
+					"%g\n", i, c, t[i].v[c][0],
+					t[i].v[c][1], t[i].v[c][2]);
+				return 0;
+			}
+	return 1;
+}
+
+/* The text with every "\n" made "\r\n"; the caller frees. */
+static char *crlf(const char *s)
+{
+	char *o = malloc(2 * strlen(s) + 1), *p = o;
+	for (; *s; s++) {
+		if (*s == '\n')
+			*p++ = '\r';
+		*p++ = *s;
+	}
+	*p = 0;
+	return o;
+}
+
+static void test_ac3d(void)
+{
+	check_reference(write_text("ref.ac", ac_reference), "ac3d", 1);
+	const char *p = write_text("nested.ac", ac_nested);
+	static const size_t chunks[] = {1, 2, 3, 1000};
+	for (size_t k = 0; k < sizeof chunks / sizeof *chunks; k++) {
+		struct vd_triangle *t;
+		struct vd_mesh_stats st;
+		size_t n;
+		CHECK_EQ(read_mesh(p, chunks[k], &t, &n, &st), VD_OK);
+		CHECK(same_as_nested(t, n));
+		CHECK_EQ(st.triangles_read, 5);
+		CHECK_EQ(st.faces_dropped_short, 1); /* the line */
+		CHECK_EQ(st.polygons_split, 2);      /* the quad, the strip */
+		CHECK_EQ(st.vertices, 11);
+		free(t);
+	}
+	/* The same file with CRLF line ends: the data block grows a byte. */
+	char *w = crlf(ac_nested), *d = strstr(w, "data 11");
+	d[6] = '2';
+	struct vd_triangle *t;
+	size_t n;
+	CHECK_EQ(read_mesh(write_text("nested-crlf.ac", w), 2, &t, &n, NULL),
+		 VD_OK);
+	CHECK(same_as_nested(t, n));
+	free(t);
+	free(w);
+	/* Rewind, also from the middle of a strip and of a nested object. */
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, p), VD_OK);
+	if (!m)
+		return;
+	CHECK(!strcmp(vd_mesh_format(m), "ac3d"));
+	struct vd_triangle buf[8];
+	for (size_t stop = 1; stop <= 6; stop++) {
+		size_t got = 0, k;
+		int e = VD_OK;
+		while (got < stop && !(e = vd_mesh_read(m, buf + got, 1, &k)) &&
+		       k)
+			got += k;
+		CHECK_EQ(e, VD_OK);
+		CHECK_EQ(got, stop < 5 ? stop : 5);
+		CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	}
+	CHECK_EQ(vd_mesh_read(m, buf, 8, &n), VD_OK);
+	CHECK(same_as_nested(buf, n));
+	CHECK_EQ(vd_mesh_stats(m)->vertices, 11);
+	CHECK_EQ(vd_mesh_read(m, buf, 8, &n), VD_OK);
+	CHECK_EQ(n, 0);
+	CHECK(vd_mesh_memory_bytes(m) > 0);
+	vd_mesh_close(m);
+}
+
+/* A one-object AC3D file around `body` (its numvert, numsurf and kids). */
+static int ac_error(const char *name, const char *body)
+{
+	char text[2048];
+	snprintf(text, sizeof text, "AC3Db\nOBJECT world\nkids 1\n"
+		 "OBJECT poly\nname \"o\"\n%s", body);
+	return mesh_error(write_text(name, text));
+}
+
+/* Lines 1-5 are the header, the world and "OBJECT poly", "name"; so
+ * "numvert" is line 6, the vertices 7-9, "numsurf" 10, "SURF" 11, "mat"
+ * 12, "refs" 13, the refs 14-16. */
+#define AC_VERTS "numvert 3\n0 0 0\n1 0 0\n0 1 0\n"
+
+static void test_ac3d_errors(void)
+{
+	/* Refs beyond the object's vertices. */
+	CHECK_EQ(ac_error("range.ac", AC_VERTS "numsurf 1\nSURF 0x10\nmat 0\n"
+			  "refs 3\n0 0 0\n1 0 0\n3 0 0\nkids 0\n"),
+		 VD_ERR_RANGE);
+	CHECK(detail_has("line 16"));
+	CHECK(detail_has("index 3"));
+	CHECK(detail_has("'o' has 3 vertices"));
+	CHECK_EQ(ac_error("negative.ac", AC_VERTS "numsurf 1\nSURF 0x10\n"
+			  "refs 3\n0 0 0\n-1 0 0\n2 0 0\nkids 0\n"),
+		 VD_ERR_RANGE);
+	/* An index valid only in the previous object. */
+	CHECK_EQ(mesh_error(write_text("other.ac", "AC3Db\nOBJECT world\n"
+		"kids 2\nOBJECT poly\nnumvert 4\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n"
+		"kids 0\nOBJECT poly\n" AC_VERTS "numsurf 1\nSURF 0\nrefs 3\n"
+		"1 0 0\n2 0 0\n3 0 0\nkids 0\n")), VD_ERR_RANGE);
+	CHECK(detail_has("line 21"));
+	/* Bad numbers. */
+	CHECK_EQ(ac_error("vertex.ac", "numvert 3\n0 0 0\n1 x 0\n0 1 0\n"
+			  "kids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 8"));
+	CHECK(detail_has("'x'"));
+	CHECK_EQ(ac_error("short-vertex.ac", "numvert 3\n0 0 0\n1 0\n0 1 0\n"
+			  "kids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 8"));
+	CHECK_EQ(ac_error("numvert.ac", "numvert -3\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 6"));
+	CHECK_EQ(ac_error("numvert2.ac", "numvert 2.5\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK_EQ(ac_error("numsurf.ac", AC_VERTS "numsurf many\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 10"));
+	CHECK_EQ(ac_error("refs.ac", AC_VERTS "numsurf 1\nSURF 0x10\nmat 0\n"
+			  "refs two\n0 0 0\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 13"));
+	CHECK_EQ(ac_error("refidx.ac", AC_VERTS "numsurf 1\nSURF 0x10\n"
+			  "refs 3\n0 0 0\n1.5 0 0\n2 0 0\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 14"));
+	CHECK_EQ(ac_error("flags.ac", AC_VERTS "numsurf 1\nSURF 0xZZ\n"
+			  "refs 3\n0 0 0\n1 0 0\n2 0 0\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 11"));
+	CHECK_EQ(ac_error("type.ac", AC_VERTS "numsurf 1\nSURF 0x13\n"
+			  "refs 3\n0 0 0\n1 0 0\n2 0 0\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("surface type 3"));
+	CHECK_EQ(ac_error("rot.ac", "rot 1 0 0 0 1 0 0 0\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 6"));
+	CHECK_EQ(ac_error("loc.ac", "loc 1 2 3 4\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK_EQ(ac_error("loc2.ac", "loc 1 2 three\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK_EQ(ac_error("kids.ac", "kids x\n"), VD_ERR_FORMAT);
+	CHECK_EQ(ac_error("data.ac", "data -1\nkids 0\n"), VD_ERR_FORMAT);
+	/* Counts that disagree with the lines that follow. */
+	CHECK_EQ(ac_error("fewverts.ac", "numvert 4\n0 0 0\n1 0 0\n0 1 0\n"
+			  "numsurf 0\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 10"));
+	CHECK_EQ(ac_error("moreverts.ac", "numvert 2\n0 0 0\n1 0 0\n0 1 0\n"
+			  "kids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("line 9"));
+	CHECK_EQ(ac_error("fewrefs.ac", AC_VERTS "numsurf 1\nSURF 0\nrefs 4\n"
+			  "0 0 0\n1 0 0\n2 0 0\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK_EQ(ac_error("moresurf.ac", AC_VERTS "numsurf 1\nSURF 0\nrefs 3\n"
+			  "0 0 0\n1 0 0\n2 0 0\nSURF 0\nrefs 3\n0 0 0\n1 0 0\n"
+			  "2 0 0\nkids 0\n"), VD_ERR_FORMAT);
+	CHECK(detail_has("numsurf"));
+	CHECK_EQ(ac_error("nokids.ac", AC_VERTS "OBJECT poly\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("line 10"));
+	CHECK_EQ(ac_error("notobject.ac", "kids 1\nnumvert 0\nkids 0\n"),
+		 VD_ERR_FORMAT);
+	CHECK(detail_has("expected OBJECT"));
+	CHECK_EQ(mesh_error(write_text("nul.ac", "AC3Db\nOBJECT world\n"
+				       "kids 0\nname \"a\0b\"\n")), VD_OK);
+	CHECK_EQ(mesh_error(write_bytes("nul2.ac", "AC3Db\nOBJECT wo\0ld\n"
+					"kids 0\n", 27)), VD_ERR_FORMAT);
+	CHECK(detail_has("NUL"));
+	/* A vertex that is not finite, once a surface uses it. */
+	CHECK_EQ(ac_error("inf.ac", "numvert 3\n0 0 0\n1e999 0 0\n0 1 0\n"
+			  "kids 0\n"), VD_OK);
+	CHECK_EQ(ac_error("inf2.ac", "numvert 3\n0 0 0\n1e999 0 0\n0 1 0\n"
+			  "numsurf 1\nSURF 0\nrefs 3\n0 0 0\n1 0 0\n2 0 0\n"
+			  "kids 0\n"), VD_ERR_RANGE);
+	CHECK(detail_has("line 11"));
+	/* Truncation: kids missing, a data block cut, no object at all. */
+	CHECK_EQ(mesh_error(write_text("halfkids.ac", "AC3Db\nOBJECT world\n"
+				       "kids 2\nOBJECT poly\nkids 0\n")),
+		 VD_ERR_TRUNCATED);
+	CHECK(detail_has("1 of the 2 kids"));
+	CHECK_EQ(ac_error("cutdata.ac", "data 100\nshort\n"),
+		 VD_ERR_TRUNCATED);
+	CHECK_EQ(mesh_error(write_text("header.ac", "AC3Db\n")),
+		 VD_ERR_TRUNCATED);
+	CHECK_EQ(mesh_error(write_text("material.ac", "AC3Db\nMATERIAL \"m\" "
+				       "rgb 1 1 1\n")), VD_ERR_TRUNCATED);
+	/* Empty objects are not the reader's error. */
+	CHECK_EQ(mesh_error(write_text("world.ac", "AC3Db\nOBJECT world\n"
+				       "kids 0")), VD_OK);
+}
+
+/* Every cut of the nested file is truncation: the structure (kids counts,
+ * surface counts) always says more is due, and a cut last line that does
+ * not parse is blamed on the cut. */
+static void test_ac3d_every_truncation(void)
+{
+	size_t n = strlen(ac_nested);
+	CHECK_EQ(mesh_error(write_bytes("cut.ac", ac_nested, 0)),
+		 VD_ERR_EMPTY);
+	for (size_t len = 1; len < 4; len++)
+		CHECK_EQ(mesh_error(write_bytes("cut.ac", ac_nested, len)),
+			 VD_ERR_UNSUPPORTED);
+	for (size_t len = 4; len < n - 1; len++) {
+		int e = mesh_error(write_bytes("cut.ac", ac_nested, len));
+		if (e != VD_ERR_TRUNCATED)
+			fprintf(stderr, "cut at %zu: %s\n", len,
+				vd_error_detail());
+		CHECK_EQ(e, VD_ERR_TRUNCATED);
+	}
+	/* Only the last newline may go. */
+	struct vd_triangle *t;
+	size_t k;
+	CHECK_EQ(read_mesh(write_bytes("cut.ac", ac_nested, n - 1), 3, &t, &k,
+			   NULL), VD_OK);
+	CHECK(same_as_nested(t, k));
+	free(t);
+}
+
+/* A line longer than the read buffer is an error naming its line in every
+ * text format; the error used to come back as "a line" of garbage. */
+static void test_long_lines(void)
+{
+	static const char *const heads[] = {"v 0 0 0\n# ", "solid x\n",
+					    "ply\ncomment ",
+					    "AC3Db\nMATERIAL "};
+	static const char *const names[] = {"long.obj", "long.stl", "long.ply",
+					    "long.ac"};
+	size_t n = (1u << 20) + 100;
+	char *s = malloc(n + 64);
+	for (int i = 0; i < 4; i++) {
+		size_t h = strlen(heads[i]);
+		memcpy(s, heads[i], h);
+		memset(s + h, 'x', n);
+		s[h + n] = '\n';
+		int e = mesh_error(write_bytes(names[i], s, h + n + 1));
+		CHECK_EQ(e, VD_ERR_FORMAT);
+		CHECK(detail_has("line 2: longer than"));
+	}
+	free(s);
+}
+
 static void test_not_meshes(void)
 {
 	CHECK_EQ(mesh_error(fixture_path("does-not-exist.ply")), VD_ERR_IO);
@@ -734,7 +1068,7 @@ static void test_not_meshes(void)
 	static unsigned char zeros[1000];
 	CHECK_EQ(mesh_error(write_bytes("zeros.bin", zeros, sizeof zeros)),
 		 VD_ERR_UNSUPPORTED);
-	CHECK(detail_has("not a PLY, OBJ or STL file"));
+	CHECK(detail_has("not a PLY, OBJ, STL or AC3D file"));
 	CHECK(detail_has("00 00"));
 	CHECK_EQ(mesh_error(write_text("hello.txt", "hello world\n")),
 		 VD_ERR_UNSUPPORTED);
@@ -840,14 +1174,16 @@ static void test_corrupt_bytes(void)
 	corrupt_each_byte("fz-ascii.stl",
 			  (const unsigned char *)stl_ascii_reference,
 			  strlen(stl_ascii_reference));
+	corrupt_each_byte("fz.ac", (const unsigned char *)ac_nested,
+			  strlen(ac_nested));
 }
 
-/* All six encodings of the reference mesh give one triangle list, and a
+/* All seven encodings of the reference mesh give one triangle list, and a
  * rewind gives it again. */
 static void test_formats_agree_and_rewind(void)
 {
 	static struct bytes b;
-	const char *paths[6];
+	const char *paths[7];
 	ply_le_reference(&b);
 	paths[0] = write_bytes("agree-le.ply", b.d, b.n);
 	ply_be_reference(&b);
@@ -857,8 +1193,9 @@ static void test_formats_agree_and_rewind(void)
 	stl_bin_reference(&b, "x");
 	paths[4] = write_bytes("agree.stl", b.d, b.n);
 	paths[5] = write_text("agree-ascii.stl", stl_ascii_reference);
+	paths[6] = write_text("agree.ac", ac_reference);
 	struct vd_triangle first[3];
-	for (int i = 0; i < 6; i++) {
+	for (int i = 0; i < 7; i++) {
 		struct vd_mesh *m;
 		int e = vd_mesh_open(&m, paths[i]);
 		CHECK_EQ(e, VD_OK);
@@ -958,6 +1295,14 @@ static void test_shared_dragon(void)
 	check_real(dragon_path, 11102, 5203);
 }
 
+/* FlightGear's Boeing 777-200LR, fetched by config/fetch-boeing.sh. */
+static const char *const boeing_path = "out/data/boeing777/77L.ac";
+
+static void test_boeing(void)
+{
+	check_real(boeing_path, 6830, 3954);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("mesh");
@@ -975,6 +1320,10 @@ int main(void)
 	RUN(test_non_finite);
 	RUN(test_ply_header_errors);
 	RUN(test_list_counts);
+	RUN(test_ac3d);
+	RUN(test_ac3d_errors);
+	RUN(test_ac3d_every_truncation);
+	RUN(test_long_lines);
 	RUN(test_not_meshes);
 	RUN(test_every_truncation);
 	RUN(test_corrupt_bytes);
@@ -988,5 +1337,10 @@ int main(void)
 		RUN(test_shared_dragon);
 	else
 		printf("SKIP test_shared_dragon (%s absent)\n", dragon_path);
+	if (stat(boeing_path, &st) == 0)
+		RUN(test_boeing);
+	else
+		printf("SKIP test_boeing (%s absent; config/fetch-boeing.sh "
+		       "fetches it)\n", boeing_path);
 	return CHECK_DONE();
 }
