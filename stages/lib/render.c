@@ -293,9 +293,14 @@ int vd_render_trace(const struct vd_render_scene *s, const struct vd_ray *r,
 	int64_t fo[3] = {0, 0, 0};
 	double t = r->tmin;
 	int moving = 0;
+	if (!isfinite(r->o[0]) || !isfinite(r->o[1]) || !isfinite(r->o[2]) ||
+	    isnan(r->tmin) || isnan(r->tmax))
+		return 0; /* no ray */
 	for (int a = 0; a < 3; a++) {
 		o[a] = r->o[a];
-		if (r->d[a] > 0 || r->d[a] < 0) {
+		/* a component whose reciprocal overflows counts as 0: plane
+		 * times must be finite for the traversal to make progress */
+		if (isfinite(1.0 / r->d[a])) {
 			dir[a] = r->d[a] > 0 ? 1 : -1;
 			inv[a] = 1.0 / r->d[a];
 			moving = 1;

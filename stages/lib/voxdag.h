@@ -981,7 +981,8 @@ int vd_enc_run(const struct vd_enc_job *job);
  *   other rounding), and every decision is a comparison of such times: the
  *   voxel coordinate along a at time t is the largest k with tp(a, k) <= t
  *   when d[a] > 0, and the smallest k with tp(a, k) <= t, minus one, when
- *   d[a] < 0; when d[a] == 0 it is floor(o[a]). So a boundary belongs to
+ *   d[a] < 0; when d[a] == 0 it is floor(o[a]) (as for a
+ *   subnormal d[a] whose reciprocal overflows). So a boundary belongs to
  *   the voxel the ray enters (cells are half-open in the ray's direction),
  *   a ray crossing an edge or corner at one time steps diagonally without
  *   visiting the voxels beside it, and a ray lying in a grid plane
@@ -1036,7 +1037,8 @@ struct vd_hit {
 };
 
 /* Traces `r` through `s`. Returns 1 and fills *h on a hit, 0 on a miss
- * (then *h is untouched). Thread-safe; no allocation. */
+ * (then *h is untouched); a ray with a non-finite origin, a NaN bound or
+ * a zero direction misses. Thread-safe; no allocation. */
 int vd_render_trace(const struct vd_render_scene *s, const struct vd_ray *r,
 		    struct vd_hit *h);
 

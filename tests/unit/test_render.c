@@ -379,6 +379,19 @@ static void ray_battery(const struct scene6 *s, int random_rays)
 	for (int k = 0; k < s->n_rs; k++) {
 		struct vd_hit h;
 		CHECK_EQ(vd_render_trace(&s->rs[k], &r, &h), 0);
+		/* no ray: NaN origin or bound; a subnormal direction component
+		 * counts as zero (and must terminate) */
+		struct vd_ray q;
+		ray_set(&q, NAN, 1, 1, 1, 0, 0);
+		CHECK_EQ(vd_render_trace(&s->rs[k], &q, &h), 0);
+		ray_set(&q, -1, 1, 1, 1, 0, 0);
+		q.tmax = NAN;
+		CHECK_EQ(vd_render_trace(&s->rs[k], &q, &h), 0);
+		ray_set(&q, -1, 0.5, 2, 1, 1e-320, -1e-320);
+		struct vd_hit h2;
+		int a1 = vd_render_trace(&s->rs[k], &q, &h);
+		ray_set(&q, -1, 0.5, 2, 1, 0, 0);
+		CHECK_EQ(a1, vd_render_trace(&s->rs[k], &q, &h2));
 	}
 
 	CHECK_EQ(ty.mismatches, 0);
