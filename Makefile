@@ -24,7 +24,7 @@ WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wno-unused-param
 CPPFLAGS += -D_GNU_SOURCE -Istages/lib
 CFLAGS   += -std=c11 $(WARN) -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
-LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lm -lpthread
+LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -lm -lpthread
 
 ifeq ($(config),release)
 OUT := $(O)

@@ -1,0 +1,227 @@
+/* render - ray cast an encoding or a root DAG chunk straight to a PNG. */
+#include "voxdag.h"
+
+#include <getopt.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char usage[] =
+	"usage: render SCENE -o OUT.png [options]\n"
+	"\n"
+	"Casts rays straight through the compressed structure of SCENE (a\n"
+	".svdag, .ussvdag, .esvdag or .ssvdag encoding, or a root DAG or SSVDAG\n"
+	"chunk, told apart by its magic number) without decompressing it, and\n"
+	"writes a shaded image: normals from the depth buffer, one point light,\n"
+	"hard shadows.\n"
+	"\n"
+	"  -o, --output OUT.png    the image (8-bit RGB PNG)\n"
+	"  -s, --size WxH          image size in pixels (default 1280x720)\n"
+	"  -c, --camera PRESET     front, side, top or iso, framing the scene's\n"
+	"                          bounding box (default front)\n"
+	"  -e, --eye X,Y,Z         camera position in world units (with --target,\n"
+	"                          instead of --camera)\n"
+	"  -t, --target X,Y,Z      point the camera looks at\n"
+	"  -f, --fov DEG           vertical field of view in degrees, in (0, 180)\n"
+	"                          (default 40)\n"
+	"  -l, --light X,Y,Z       point light position in world units (default\n"
+	"                          above, left of and in front of the scene)\n"
+	"  -S, --no-shadows        no shadow rays\n"
+	"  -d, --depth FILE        also write the hit distances: FILE.pfm as\n"
+	"                          float32, FILE.png as 16-bit grey (0 = miss)\n"
+	"  -i, --voxel-id FILE     also write the hit cell of every pixel\n"
+	"                          (schemas/render-outputs.md)\n"
+	"  -j, --threads N         threads (default: all cores)\n"
+	"  -L, --lod PIXELS        level of detail: stop at nodes whose projection\n"
+	"                          is at most PIXELS pixels (default 0: exact)\n"
+	"  -q, --quiet             no summary line on stderr\n"
+	"  -h, --help              this text\n"
+	"\n"
+	"Exit status: 0 success, 1 failure (bad input, I/O), 2 usage (including\n"
+	"an impossible camera or image size).\n";
+
+static int usage_error(const char *fmt, const char *arg)
+{
+	fprintf(stderr, "render: ");
+	fprintf(stderr, fmt, arg);
+	fprintf(stderr, "\nTry 'render --help'.\n");
+	return 2;
+}
+
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+	char *end;
+	long v = strtol(s, &end, 10);
+	if (!*s || *end || v < lo || v > hi) return -1;
+	*out = (int)v;
+	return 0;
+}
+
+static int parse_double(const char *s, double *out)
+{
+	char *end;
+	double v = strtod(s, &end);
+	if (!*s || *end || !isfinite(v)) return -1;
+	*out = v;
+	return 0;
+}
+
+static int parse_vec3(const char *s, double v[3])
+{
+	char buf[256];
+	if (strlen(s) >= sizeof buf) return -1;
+	strcpy(buf, s);
+	char *save, *tok = strtok_r(buf, ",", &save);
+	for (int a = 0; a < 3; a++) {
+		if (!tok || parse_double(tok, &v[a])) return -1;
+		tok = strtok_r(NULL, ",", &save);
+	}
+	return tok ? -1 : 0;
+}
+
+static int parse_size(const char *s, int *w, int *h)
+{
+	const char *x = strchr(s, 'x');
+	if (!x) return -1;
+	char buf[32];
+	size_t n = (size_t)(x - s);
+	if (n == 0 || n >= sizeof buf) return -1;
+	memcpy(buf, s, n);
+	buf[n] = 0;
+	return parse_int(buf, 1, VD_RENDER_MAX_SIDE, w) ||
+	       parse_int(x + 1, 1, VD_RENDER_MAX_SIDE, h) ? -1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option longopts[] = {
+		{"output", required_argument, NULL, 'o'},
+		{"size", required_argument, NULL, 's'},
+		{"camera", required_argument, NULL, 'c'},
+		{"eye", required_argument, NULL, 'e'},
+		{"target", required_argument, NULL, 't'},
+		{"fov", required_argument, NULL, 'f'},
+		{"light", required_argument, NULL, 'l'},
+		{"no-shadows", no_argument, NULL, 'S'},
+		{"depth", required_argument, NULL, 'd'},
+		{"voxel-id", required_argument, NULL, 'i'},
+		{"threads", required_argument, NULL, 'j'},
+		{"lod", required_argument, NULL, 'L'},
+		{"quiet", no_argument, NULL, 'q'},
+		{"help", no_argument, NULL, 'h'},
+		{NULL, 0, NULL, 0},
+	};
+	struct vd_render_job job = {.tool = "render"};
+	job.opts.width = 1280;
+	job.opts.height = 720;
+	job.opts.cam.fov_deg = 40;
+	job.opts.shadows = 1;
+	int has_target = 0;
+	int c;
+	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:qh", longopts,
+				NULL)) != -1) {
+		switch (c) {
+		case 'o':
+			job.output = optarg;
+			break;
+		case 's':
+			if (parse_size(optarg, &job.opts.width, &job.opts.height) ||
+			    (uint64_t)job.opts.width * (uint64_t)job.opts.height >
+				    VD_RENDER_MAX_PIXELS)
+				return usage_error("--size '%s' is not WxH with each "
+						   "side in 1..16384 and at most "
+						   "2^26 pixels", optarg);
+			break;
+		case 'c':
+			if (strcmp(optarg, "front") && strcmp(optarg, "side") &&
+			    strcmp(optarg, "top") && strcmp(optarg, "iso"))
+				return usage_error("--camera '%s' is not front, side, "
+						   "top or iso", optarg);
+			job.preset = optarg;
+			break;
+		case 'e':
+			if (parse_vec3(optarg, job.opts.cam.eye))
+				return usage_error("--eye '%s' is not X,Y,Z", optarg);
+			job.has_eye = 1;
+			break;
+		case 't':
+			if (parse_vec3(optarg, job.opts.cam.target))
+				return usage_error("--target '%s' is not X,Y,Z", optarg);
+			has_target = 1;
+			break;
+		case 'f':
+			if (parse_double(optarg, &job.opts.cam.fov_deg) ||
+			    !(job.opts.cam.fov_deg > 0 && job.opts.cam.fov_deg < 180))
+				return usage_error("--fov '%s' is not an angle in (0, "
+						   "180) degrees", optarg);
+			break;
+		case 'l':
+			if (parse_vec3(optarg, job.opts.light))
+				return usage_error("--light '%s' is not X,Y,Z", optarg);
+			job.has_light = 1;
+			break;
+		case 'S':
+			job.opts.shadows = 0;
+			break;
+		case 'd':
+			job.depth_path = optarg;
+			break;
+		case 'i':
+			job.ids_path = optarg;
+			break;
+		case 'j':
+			if (parse_int(optarg, 1, 1024, &job.opts.threads))
+				return usage_error("--threads '%s' is not a number "
+						   "from 1 to 1024", optarg);
+			break;
+		case 'L':
+			if (parse_double(optarg, &job.opts.lod_pixels) ||
+			    job.opts.lod_pixels < 0)
+				return usage_error("--lod '%s' is not a number of "
+						   "pixels >= 0", optarg);
+			break;
+		case 'q':
+			job.quiet = 1;
+			break;
+		case 'h':
+			fputs(usage, stdout);
+			return 0;
+		default:
+			fprintf(stderr, "Try 'render --help'.\n");
+			return 2;
+		}
+	}
+	if (argc - optind != 1)
+		return usage_error("%s", argc - optind < 1 ?
+				   "needs one input: SCENE" :
+				   "more than one input");
+	if (!job.output)
+		return usage_error("%s", "no output image (-o OUT.png) given");
+	if (job.has_eye != has_target)
+		return usage_error("%s", "--eye and --target go together");
+	if (job.has_eye && job.preset)
+		return usage_error("%s", "--camera and --eye/--target exclude "
+				   "each other");
+	if (job.has_eye) {
+		/* up is left zero: the library picks +Y, or -Z looking along Y */
+		double d = 0;
+		for (int a = 0; a < 3; a++)
+			d += fabs(job.opts.cam.eye[a] - job.opts.cam.target[a]);
+		if (d == 0)
+			return usage_error("%s", "--eye and --target are the same "
+					   "point");
+	}
+	if (job.depth_path) {
+		size_t n = strlen(job.depth_path);
+		if (!(n > 4 && (!strcmp(job.depth_path + n - 4, ".pfm") ||
+				!strcmp(job.depth_path + n - 4, ".png"))))
+			return usage_error("--depth '%s' needs the extension .pfm "
+					   "or .png", job.depth_path);
+	}
+	job.input = argv[optind];
+	if (vd_render_run(&job)) {
+		fprintf(stderr, "render: %s\n", vd_error_detail());
+		return 1;
+	}
+	return 0;
+}

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# render from the outside: usage errors and impossible cameras (exit 2),
+# good runs on every encoding and on the root chunks (same pixels from
+# all), and bad inputs (exit 1, one line each, no image left behind).
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+R=$BIN/render
+BUNNY=tests/data/bunny.ply
+
+# --- usage errors: exit 2
+expect usage_no_args 2 'needs one input' $R
+expect usage_two_inputs 2 'more than one input' $R a.ssvdag b.ssvdag -o "$T/o.png"
+expect usage_no_output 2 'no output image' $R a.ssvdag
+expect usage_size_zero 2 "size '0x10'" $R a.ssvdag -o "$T/o.png" --size 0x10
+expect usage_size_absurd 2 "size '100000x100000'" $R a.ssvdag -o "$T/o.png" --size 100000x100000
+expect usage_size_too_many 2 "size '16384x16384'" $R a.ssvdag -o "$T/o.png" --size 16384x16384
+expect usage_size_garbage 2 "size '12'" $R a.ssvdag -o "$T/o.png" --size 12
+expect usage_fov_zero 2 "fov '0'" $R a.ssvdag -o "$T/o.png" --fov 0
+expect usage_fov_180 2 "fov '180'" $R a.ssvdag -o "$T/o.png" --fov 180
+expect usage_fov_nan 2 "fov 'nan'" $R a.ssvdag -o "$T/o.png" --fov nan
+expect usage_eye_is_target 2 'same point' $R a.ssvdag -o "$T/o.png" --eye 1,2,3 --target 1,2,3
+expect usage_eye_alone 2 'go together' $R a.ssvdag -o "$T/o.png" --eye 1,2,3
+expect usage_eye_and_preset 2 'exclude' $R a.ssvdag -o "$T/o.png" --eye 1,2,3 --target 0,0,0 --camera iso
+expect usage_eye_garbage 2 "eye '1,2'" $R a.ssvdag -o "$T/o.png" --eye 1,2 --target 0,0,0
+expect usage_preset 2 "camera 'back'" $R a.ssvdag -o "$T/o.png" --camera back
+expect usage_light 2 "light 'x'" $R a.ssvdag -o "$T/o.png" --light x
+expect usage_lod 2 "lod '-1'" $R a.ssvdag -o "$T/o.png" --lod -1
+expect usage_threads 2 "threads '0'" $R a.ssvdag -o "$T/o.png" -j 0
+expect usage_depth_ext 2 "depth 'd.tiff'" $R a.ssvdag -o "$T/o.png" --depth d.tiff
+expect usage_unknown_option 2 'Try' $R a.ssvdag -o "$T/o.png" --frobnicate
+expect help 0 'usage: render' $R --help
+help_lists_options help_matches_code render stages/render/main.c
+
+# --- inputs: the bunny at 2^6, its chunks and its four encodings
+M="$T/m"
+$BIN/voxelize $BUNNY -o "$M" --levels 6 --chunk-level 0 -q &&
+$BIN/svo-to-dag -q "$M/chunk-L0-0.svo" -o "$M/root.dag" &&
+$BIN/symmetry-merge -q "$M/root.dag" -o "$M/root.ssvdag" &&
+$BIN/encode -q "$M/root.dag" "$M/root.ssvdag" -o "$M/enc" --name bunny || fail inputs
+
+# --- good runs: every encoding and both chunks give the same image
+for f in "$M"/enc/bunny.svdag "$M"/enc/bunny.ussvdag "$M"/enc/bunny.esvdag \
+	"$M"/enc/bunny.ssvdag "$M"/root.dag "$M"/root.ssvdag; do
+	n=$(basename "$f" | tr . _)
+	expect "good_$n" 0 "render: 160x90 of the .* \(2\^6\)" \
+		$R "$f" -o "$T/$n.png" --size 160x90 --camera iso -j 2 \
+		--depth "$T/$n.pfm" --voxel-id "$T/$n.bin"
+done
+same=1
+for n in bunny_ussvdag bunny_esvdag bunny_ssvdag root_dag root_ssvdag; do
+	cmp -s "$T/bunny_svdag.png" "$T/$n.png" || same=0
+	cmp -s "$T/bunny_svdag.bin" "$T/$n.bin" || same=0
+	cmp -s "$T/bunny_svdag.pfm" "$T/$n.pfm" || same=0
+done
+[ $same = 1 ] && pass same_image_every_source || fail same_image_every_source
+size=$(stat -c %s "$T/bunny_svdag.bin" 2>/dev/null || echo 0)
+[ "$size" = $((16 + 16 * 160 * 90)) ] && pass voxel_id_size || fail voxel_id_size "size $size"
+expect good_eye 0 '' $R "$M/enc/bunny.ssvdag" -o "$T/eye.png" --size 33x17 \
+	--eye 0.3,0.2,0.4 --target 0,0.1,0 --fov 60 --light 1,1,1 --no-shadows --lod 1 -q
+expect good_depth_png 0 '' $R "$M/enc/bunny.esvdag" -o "$T/d.png" --size 40x30 \
+	--camera top --depth "$T/depth.png" -q
+file "$T/depth.png" 2>/dev/null | grep -q '16-bit grayscale' && pass depth_png_16bit ||
+	{ command -v file >/dev/null && fail depth_png_16bit "$(file "$T/depth.png")" || pass depth_png_16bit; }
+
+# --- bad inputs: exit 1, one line, nothing written
+expect missing_file 1 "cannot open '$T/none.ssvdag': No such file" \
+	$R "$T/none.ssvdag" -o "$T/bad.png"
+echo "hello" > "$T/scene.txt"
+expect unknown_format 1 "cannot read '$T/scene.txt': unknown format" \
+	$R "$T/scene.txt" -o "$T/bad.png"
+for f in ssvdag esvdag svdag; do
+	head -c 100 "$M/enc/bunny.$f" > "$T/cut.$f"
+	expect "truncated_$f" 1 "cannot read '$T/cut.$f': truncated file" \
+		$R "$T/cut.$f" -o "$T/bad.png"
+	cp "$M/enc/bunny.$f" "$T/long.$f" && echo x >> "$T/long.$f"
+	expect "trailing_$f" 1 "cannot read '$T/long.$f': trailing bytes" \
+		$R "$T/long.$f" -o "$T/bad.png"
+done
+head -c 300 "$M/root.ssvdag" > "$T/cut_chunk.ssvdag"
+expect truncated_chunk 1 "cannot read '$T/cut_chunk.ssvdag': truncated file" \
+	$R "$T/cut_chunk.ssvdag" -o "$T/bad.png"
+expect svo_chunk 1 "cannot read '$M/chunk-L0-0.svo': wrong chunk kind" \
+	$R "$M/chunk-L0-0.svo" -o "$T/bad.png"
+: > "$T/empty.esvdag"
+expect empty_file 1 "cannot read '$T/empty.esvdag': truncated file" \
+	$R "$T/empty.esvdag" -o "$T/bad.png"
+expect unwritable_output 1 "cannot write '$T/nodir/x.png'" \
+	$R "$M/enc/bunny.ssvdag" -o "$T/nodir/x.png" --size 8x8
+[ ! -e "$T/bad.png" ] && ! ls "$T" | grep -q '\.tmp\.' && pass nothing_left ||
+	fail nothing_left "$(ls "$T")"
