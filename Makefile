@@ -24,6 +24,7 @@ WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wno-unused-param
 CPPFLAGS += -D_GNU_SOURCE -Istages/lib
 CFLAGS   += -std=c11 $(WARN) -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
+LDFLAGS  += -Wl,--as-needed
 LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -lm -lpthread
 
 ifeq ($(config),release)
@@ -61,7 +62,7 @@ HEADERS  := $(wildcard stages/lib/*.h) $(wildcard tests/unit/*.h)
 .PHONY: all run pipeline test bench deps clean tests
 .DEFAULT_GOAL := all
 
-all: $(BINS) $(OUT)/bin/voxdag
+all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxelize-vdb
 tests: $(TESTS)
 
 $(OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
@@ -79,6 +80,17 @@ $(LIB): $(LIB_OBJ)
 $(OUT)/obj/%/main.o: stages/%/main.c $(HEADERS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@ $<
+
+# voxelize hands .vdb input to voxelize-vdb, the same main.c built with
+# OpenVDB, so mesh runs do not carry OpenVDB's ~30 MB (--as-needed keeps
+# every other program free of it too).
+$(OUT)/obj/voxelize/main-vdb.o: stages/voxelize/main.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -DVOXELIZE_WITH_VDB -c -o $@ $<
+
+$(OUT)/bin/voxelize-vdb: $(OUT)/obj/voxelize/main-vdb.o $(LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
 
 # Linked with the C++ driver because TBB's runtime is C++.
 $(OUT)/bin/%: $(OUT)/obj/%/main.o $(LIB)

@@ -16,6 +16,7 @@ static const struct stage_info stages[] = {
 	{"svo-to-dag", STAGE_SVO_TO_DAG, 1, 1},
 	{"symmetry-merge", STAGE_SYMMETRY_MERGE, 1, 1},
 	{"encode", STAGE_ENCODE, 2, 2},
+	{"render", STAGE_RENDER, 1, 1},
 };
 
 const struct stage_info *stage_lookup(const char *name)
@@ -158,9 +159,11 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 	if (!*c->mesh == !*c->vdb)
 		return fail_at(x, map, "'input' needs exactly one of 'mesh' or "
 			       "'vdb'");
-	if (*c->vdb)
-		return fail_at(x, map, "'input.vdb' is not supported by this "
-			       "runner yet; use 'input.mesh'");
+	int mode;
+	if (*c->vdb_mode && vd_vdb_mode_parse(c->vdb_mode, &mode) != VD_OK)
+		return fail_at(x, map, "'input.mode' is '%s' (known: active, "
+			       "levelset-surface, levelset-solid, fog)",
+			       c->vdb_mode);
 	if ((*c->vdb_grid || *c->vdb_mode) && !*c->vdb)
 		return fail_at(x, map, "'grid' and 'mode' go with 'vdb'");
 	return 0;
@@ -224,7 +227,7 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			if (!s || !(d->stage = stage_lookup(s)))
 				return fail_at(x, v, "unknown stage '%s' (known: "
 					       "voxelize, svo-to-dag, "
-					       "symmetry-merge, encode)",
+					       "symmetry-merge, encode, render)",
 					       s ? s : "?");
 		} else if (!strcmp(key, "needs")) {
 			if (v->type != YAML_SEQUENCE_NODE)
@@ -305,6 +308,7 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 		[STAGE_SVO_TO_DAG] = {STAGE_VOXELIZE, STAGE_VOXELIZE},
 		[STAGE_SYMMETRY_MERGE] = {STAGE_SVO_TO_DAG, STAGE_SVO_TO_DAG},
 		[STAGE_ENCODE] = {STAGE_SVO_TO_DAG, STAGE_SYMMETRY_MERGE},
+		[STAGE_RENDER] = {STAGE_ENCODE, STAGE_ENCODE},
 	};
 	for (int i = 0; i < c->njobs; i++) {
 		struct job_decl *d = &c->jobs_decl[i];
@@ -321,7 +325,8 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 			static const char *const shape[] = {
 				"no needs", "needs: [a voxelize job]",
 				"needs: [an svo-to-dag job]",
-				"needs: [an svo-to-dag job, a symmetry-merge job]"};
+				"needs: [an svo-to-dag job, a symmetry-merge job]",
+				"needs: [an encode job]"};
 			fprintf(stderr, "voxdag: %s:%d:%d: job '%s' (stage %s) "
 				"takes %s\n", x->path, d->line, d->column,
 				d->name, s->name, shape[s->type]);
@@ -450,12 +455,12 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 	if (check_graph(x, jobs_node))
 		return 1;
 	struct stat st;
-	if (stat(c->mesh, &st) != 0) {
+	const char *in = *c->mesh ? c->mesh : c->vdb;
+	if (stat(in, &st) != 0) {
 		if (*c->fetch)
 			return fail_at(x, input, "input '%s' is missing; fetch "
-				       "it with: %s", c->mesh, c->fetch);
-		return fail_at(x, input, "input '%s': %s", c->mesh,
-			       strerror(errno));
+				       "it with: %s", in, c->fetch);
+		return fail_at(x, input, "input '%s': %s", in, strerror(errno));
 	}
 	return 0;
 }

@@ -29,6 +29,7 @@ enum stage_type {
 	STAGE_SVO_TO_DAG,     /* per cell + merge tree -> root .dag */
 	STAGE_SYMMETRY_MERGE, /* per cell + merge tree -> root .ssvdag */
 	STAGE_ENCODE,         /* roots -> encodings and tables */
+	STAGE_RENDER,         /* an encoding -> a picture for the report */
 	STAGE_COUNT_
 };
 

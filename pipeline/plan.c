@@ -119,6 +119,20 @@ static void set_argv(struct job *j, const char *prog, ...)
 		j->argv[i] = xstrdup(args[i]);
 }
 
+/* The same from a NULL-terminated list. */
+static void set_argv_list(struct job *j, const char *prog, const char *const *args)
+{
+	int n = 0;
+	while (args[n])
+		n++;
+	char path[1100];
+	snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
+	j->argv = calloc((size_t)n + 2, sizeof *j->argv);
+	j->argv[0] = xstrdup(path);
+	for (int i = 0; i < n; i++)
+		j->argv[i + 1] = xstrdup(args[i]);
+}
+
 /* Adds inputs (files whose content the key covers). */
 static void add_input(struct job *j, const char *path)
 {
@@ -252,14 +266,23 @@ static void plan_voxelize(struct plan *p, int d)
 	/* everything else waits for it: it gets every job's threads; its
 	 * progress lines go to its log, which the runner's status shows */
 	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
+	const char *in = *c->mesh ? c->mesh : c->vdb;
+	const char *args[24];
+	int na = 0;
+	args[na++] = in;
+	const char *fixed[] = {"-o", out, "--levels", lv, "--mem-budget", budget,
+			       "--threads", threads};
+	for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++)
+		args[na++] = fixed[i];
 	if (c->chunk_level >= 0)
-		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
-			 "--chunk-level", cl, "--mem-budget", budget, "--threads",
-			 threads, NULL);
-	else
-		set_argv(j, "voxelize", c->mesh, "-o", out, "--levels", lv,
-			 "--mem-budget", budget, "--threads", threads, NULL);
-	add_input(j, c->mesh);
+		args[na++] = "--chunk-level", args[na++] = cl;
+	if (*c->vdb_grid)
+		args[na++] = "--grid", args[na++] = c->vdb_grid;
+	if (*c->vdb_mode)
+		args[na++] = "--vdb-mode", args[na++] = c->vdb_mode;
+	args[na] = NULL;
+	set_argv_list(j, "voxelize", args);
+	add_input(j, in);
 	j->mem_estimate = c->job_mem_budget;
 }
 
@@ -605,6 +628,30 @@ static void plan_encode(struct plan *p, int d)
 	j->mem_estimate = c->job_mem_budget;
 }
 
+/* A picture of the scene for the report, traced through the SSVDAG
+ * encoding that encode wrote. */
+static void plan_render(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int enc = find_job(p, decl_of(p, dd->needs[0])->name);
+	if (enc < 0)
+		return;
+	char out[1100], key[1200], in[1300], threads[16];
+	snprintf(out, sizeof out, "%s/%s.png", p->dir, dd->name);
+	snprintf(key, sizeof key, "%s.key", out);
+	struct job *j = add_job(p, d, dd->name, out, key);
+	if (!j)
+		return;
+	snprintf(in, sizeof in, "%s/%s.ssvdag", p->jobs[enc].output, c->name);
+	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
+	set_argv(j, "render", in, "-o", out, "--size", "960x720", "--camera",
+		 "iso", "--threads", threads, "-q", NULL);
+	add_input(j, in);
+	add_dep(j, enc);
+	j->mem_estimate = c->job_mem_budget;
+}
+
 int plan_expand(struct plan *p)
 {
 	const struct config *c = p->cfg;
@@ -623,6 +670,9 @@ int plan_expand(struct plan *p)
 				break;
 			case STAGE_ENCODE:
 				plan_encode(p, d);
+				break;
+			case STAGE_RENDER:
+				plan_render(p, d);
 				break;
 			default:
 				break;

@@ -53,6 +53,8 @@ static void stats_path(const struct plan *p, const struct job *j, char *buf,
 	const struct job_decl *d = &p->cfg->jobs_decl[j->decl];
 	if (d->stage->type == STAGE_VOXELIZE)
 		snprintf(buf, cap, "%s/voxelize.stats.json", j->output);
+	else if (d->stage->type == STAGE_RENDER)
+		snprintf(buf, cap, "%s.none", j->output); /* render has no stats */
 	else if (d->stage->type == STAGE_ENCODE)
 		snprintf(buf, cap, "%s/%s.encode.stats.json", j->output,
 			 p->cfg->name);
@@ -125,10 +127,18 @@ int report_write(const struct plan *p)
 	if (*c->title)
 		fprintf(f, "%s\n\n", c->title);
 	fprintf(f, "Pipeline `%s`, input `%s`, grid 2^%d (%d^3), chunk level %d, "
-		"%.0f triangles, %.0f voxels in %.0f chunks.\n\n", c->path, c->mesh,
+		"%.0f triangles, %.0f voxels in %.0f chunks.\n\n", c->path,
+		*c->mesh ? c->mesh : c->vdb,
 		c->levels, 1 << c->levels, (int)json_number(vstats, NULL, "chunk_level"),
 		json_number(vstats, NULL, "triangles_read"),
 		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
+	for (int i = 0; i < p->n; i++) {
+		const struct job *r = &p->jobs[i];
+		if (c->jobs_decl[r->decl].stage->type == STAGE_RENDER)
+			/* relative to the report, which sits in p->dir */
+			fprintf(f, "![%s](%s)\n\n", c->jobs_decl[r->decl].name,
+				r->output + strlen(p->dir) + 1);
+	}
 	if (tables) /* encode's own title line is ours already */
 		fprintf(f, "%s\n", strncmp(tables, "# ", 2) == 0 && strchr(tables, '\n')
 				       ? strchr(tables, '\n') + 1 : tables);
@@ -169,7 +179,7 @@ int report_write(const struct plan *p)
 	if (vd_json_open(&j, path) == VD_OK) {
 		vd_json_str(j, "pipeline", c->path);
 		vd_json_str(j, "name", c->name);
-		vd_json_str(j, "input", c->mesh);
+		vd_json_str(j, "input", *c->mesh ? c->mesh : c->vdb);
 		vd_json_u64(j, "levels", (uint64_t)c->levels);
 		vd_json_u64(j, "chunk_level", (uint64_t)json_number(vstats, NULL, "chunk_level"));
 		vd_json_u64(j, "voxels", (uint64_t)json_number(vstats, NULL, "voxels"));

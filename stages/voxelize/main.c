@@ -2,11 +2,13 @@
  * core. */
 #include "voxdag.h"
 
+#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdlib.h>
 #include <strings.h>
 #include <string.h>
+#include <unistd.h>
 
 static const char usage[] =
 	"usage: voxelize MESH -o OUTDIR --levels L [options]\n"
@@ -66,6 +68,30 @@ static int parse_int(const char *s, int lo, int hi, int *out)
 	return 0;
 }
 
+/* OpenVDB costs a process about 30 MB of memory at start (relocating
+ * libopenvdb), which mesh voxelization should not pay against its budget.
+ * So this file builds two programs: voxelize, which hands .vdb input to its
+ * sibling, and voxelize-vdb (VOXELIZE_WITH_VDB), which links OpenVDB. */
+#ifndef VOXELIZE_WITH_VDB
+static int exec_vdb_sibling(char **argv)
+{
+	char path[4096];
+	ssize_t n = readlink("/proc/self/exe", path, sizeof path - 32);
+	if (n <= 0) {
+		fprintf(stderr, "voxelize: cannot find my own directory: %s\n",
+			strerror(errno));
+		return 1;
+	}
+	path[n] = 0;
+	char *slash = strrchr(path, '/');
+	strcpy(slash ? slash + 1 : path, "voxelize-vdb");
+	execv(path, argv);
+	fprintf(stderr, "voxelize: cannot run '%s' for OpenVDB input: %s\n",
+		path, strerror(errno));
+	return 1;
+}
+#endif
+
 /* A .vdb name (any case) selects the OpenVDB import. */
 static int is_vdb(const char *path)
 {
@@ -99,6 +125,12 @@ int main(int argc, char **argv)
 	char *end;
 	/* before getopt_long permutes argv */
 	char *provenance = vd_provenance_new("voxelize", argc, argv);
+	char **argv_given = calloc((size_t)argc + 1, sizeof *argv_given);
+	if (!argv_given || !provenance) {
+		fprintf(stderr, "voxelize: out of memory\n");
+		return 1;
+	}
+	memcpy(argv_given, argv, (size_t)argc * sizeof *argv);
 	while ((c = getopt_long(argc, argv, "o:l:c:m:j:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -131,10 +163,12 @@ int main(int argc, char **argv)
 			vdb_opts = 1;
 			break;
 		case OPT_VDB_MODE:
+#ifdef VOXELIZE_WITH_VDB
 			if (vd_vdb_mode_parse(optarg, &sel.mode))
 				return usage_error("--vdb-mode '%s' is not one of "
 						   "active, levelset-surface, "
 						   "levelset-solid, fog", optarg);
+#endif
 			vdb_opts = 1;
 			break;
 		case OPT_FOG_THRESHOLD:
@@ -173,10 +207,15 @@ int main(int argc, char **argv)
 	snprintf(path, sizeof path, "%s/voxelize.stats.json", outdir);
 	int err;
 	if (vdb) {
+#ifdef VOXELIZE_WITH_VDB
 		struct vd_vdb_import_result res;
 		err = vd_vdb_import(mesh, outdir, &sel, &o, &res);
 		if (!err)
 			err = vd_vdb_import_write_stats(&res, path);
+#else
+		(void)sel;
+		return exec_vdb_sibling(argv_given);
+#endif
 	} else {
 		struct vd_voxelize_result res;
 		err = vd_voxelize_mesh(mesh, outdir, &o, &res);
@@ -184,6 +223,7 @@ int main(int argc, char **argv)
 			err = vd_voxelize_write_stats(&res, path);
 	}
 	free(provenance);
+	free(argv_given);
 	if (err) {
 		const char *d = vd_error_detail();
 		fprintf(stderr, "voxelize: cannot voxelize '%s': %s%s%s\n", mesh,
