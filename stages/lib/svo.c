@@ -73,17 +73,26 @@ void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts)
 				   svo->masks[i]);
 }
 
-int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
-		const char *path, const char *provenance)
+int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
+		 const struct vd_transform *t, const char *provenance, size_t n,
+		 const uint64_t *keys, const uint64_t *masks, size_t stride,
+		 uint64_t *counts)
 {
 	struct vd_chunk_header h = {0};
 	h.kind = VD_KIND_SVO;
-	h.levels = (uint32_t)svo->levels;
-	h.chunk_level = (uint32_t)svo->chunk_level;
-	h.cell_morton = svo->cell_morton;
+	h.levels = (uint32_t)levels;
+	h.chunk_level = (uint32_t)chunk_level;
+	h.cell_morton = cell;
 	h.transform = *t;
-	h.level_count = (uint32_t)(svo->levels - svo->chunk_level + 1);
-	vd_svo_count_levels(svo, h.level_nodes);
+	h.level_count = (uint32_t)(levels - chunk_level + 1);
+	for (uint32_t l = 0; l < h.level_count; l++)
+		h.level_nodes[l] = 0;
+	for (size_t i = 0; i < n; i++)
+		vd_svo_count_brick(h.level_nodes, levels, chunk_level, i == 0,
+				   i ? keys[(i - 1) * stride] : 0, keys[i * stride],
+				   masks[i * stride]);
+	if (counts)
+		memcpy(counts, h.level_nodes, h.level_count * sizeof *counts);
 
 	struct vd_chunk_writer *w;
 	int err = vd_chunk_writer_open(&w, path, &h, provenance);
@@ -91,21 +100,21 @@ int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 		return err;
 	enum { BATCH = 4096 };
 	uint8_t buf[8 * BATCH];
-	put64(buf, svo->count);
+	put64(buf, n);
 	err = vd_chunk_writer_begin(w, VD_TAG_BRKS, 0);
 	if (!err)
 		err = vd_chunk_writer_write(w, buf, 8);
 	for (int pass = 0; pass < 2 && !err; pass++) {
-		for (size_t i = 0; i < svo->count && !err; i += BATCH) {
-			size_t n = svo->count - i < BATCH ? svo->count - i : BATCH;
-			for (size_t j = 0; j < n; j++) {
-				size_t k = i + j;
-				uint64_t v = pass ? svo->masks[k]
-					   : k ? svo->keys[k] - svo->keys[k - 1]
-					       : svo->keys[0];
+		for (size_t i = 0; i < n && !err; i += BATCH) {
+			size_t m = n - i < BATCH ? n - i : BATCH;
+			for (size_t j = 0; j < m; j++) {
+				size_t k = (i + j) * stride;
+				uint64_t v = pass ? masks[k]
+					   : i + j ? keys[k] - keys[k - stride]
+						   : keys[0];
 				put64(buf + 8 * j, v);
 			}
-			err = vd_chunk_writer_write(w, buf, 8 * n);
+			err = vd_chunk_writer_write(w, buf, 8 * m);
 		}
 	}
 	if (!err)
@@ -115,6 +124,14 @@ int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 		return err;
 	}
 	return vd_chunk_writer_commit(w);
+}
+
+int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
+		const char *path, const char *provenance)
+{
+	return vd_svo_write(path, svo->levels, svo->chunk_level, svo->cell_morton,
+			    t, provenance, svo->count, svo->keys, svo->masks, 1,
+			    NULL);
 }
 
 int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)

@@ -387,61 +387,17 @@ static int entry_pairs(struct run *r, const struct entry *e, struct pair *out,
 	return VD_OK;
 }
 
-static void put64(uint8_t *p, uint64_t v)
-{
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
-}
-
 /* Writes sorted, merged pairs as the cell's SVO chunk. */
 static int write_chunk(struct run *r, uint64_t cell, const struct pair *pr,
 		       size_t n, uint64_t *counts)
 {
-	int L = r->pl.L, L0 = r->L0, k = L - L0;
-	struct vd_chunk_header h = {0};
-	h.kind = VD_KIND_SVO;
-	h.levels = (uint32_t)L;
-	h.chunk_level = (uint32_t)L0;
-	h.cell_morton = cell;
-	h.transform = r->tr;
-	h.level_count = (uint32_t)k + 1;
-	for (int l = 0; l <= k; l++)
-		counts[l] = 0;
-	for (size_t i = 0; i < n; i++)
-		vd_svo_count_brick(counts, L, L0, i == 0, i ? pr[i - 1].key : 0,
-				   pr[i].key, pr[i].mask);
-	memcpy(h.level_nodes, counts, (size_t)(k + 1) * sizeof *counts);
 	char path[4096], name[64];
-	vd_chunk_file_name(name, sizeof name, L0, cell, "svo");
+	vd_chunk_file_name(name, sizeof name, r->L0, cell, "svo");
 	snprintf(path, sizeof path, "%s/%s", r->outdir, name);
-	struct vd_chunk_writer *w;
-	int err = vd_chunk_writer_open(&w, path, &h, r->opts->provenance);
-	if (err)
-		return err;
-	enum { BATCH = 1024 };
-	uint8_t buf[8 * BATCH];
-	put64(buf, n);
-	err = vd_chunk_writer_begin(w, VD_TAG_BRKS, 0);
-	if (!err)
-		err = vd_chunk_writer_write(w, buf, 8);
-	for (int pass = 0; pass < 2 && !err; pass++)
-		for (size_t i = 0; i < n && !err; i += BATCH) {
-			size_t m = n - i < BATCH ? n - i : BATCH;
-			for (size_t j = 0; j < m; j++) {
-				size_t q = i + j;
-				put64(buf + 8 * j, pass ? pr[q].mask
-						   : q ? pr[q].key - pr[q - 1].key
-						       : pr[q].key);
-			}
-			err = vd_chunk_writer_write(w, buf, 8 * m);
-		}
-	if (!err)
-		err = vd_chunk_writer_end(w);
-	if (err) {
-		vd_chunk_writer_abort(w);
-		return err;
-	}
-	return vd_chunk_writer_commit(w);
+	return vd_svo_write(path, r->pl.L, r->L0, cell, &r->tr,
+			    r->opts->provenance, n, n ? &pr[0].key : NULL,
+			    n ? &pr[0].mask : NULL, 2,
+			    counts);
 }
 
 static int do_cell(struct run *r, struct worker *w, const struct job *j,
@@ -532,28 +488,6 @@ static int cmp_u64(const void *a, const void *b)
 {
 	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
 	return (x > y) - (x < y);
-}
-
-/* Chunk files, their temporaries and the statistics of an earlier run (the
- * same names vd_voxelize_mesh() replaces). */
-static void remove_chunks(const char *dir)
-{
-	DIR *d = opendir(dir);
-	if (!d)
-		return;
-	struct dirent *e;
-	char path[4400];
-	while ((e = readdir(d))) {
-		size_t n = strlen(e->d_name);
-		if ((strncmp(e->d_name, "chunk-L", 7) == 0 &&
-		     ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
-		      strstr(e->d_name, ".svo.tmp."))) ||
-		    strcmp(e->d_name, "voxelize.stats.json") == 0) {
-			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-			unlink(path);
-		}
-	}
-	closedir(d);
 }
 
 /* ------------------------------------------------------------ the driver */
@@ -730,7 +664,7 @@ int vd_vdb_import(const char *vdb_path, const char *outdir,
 			      strerror(errno));
 		goto out;
 	}
-	remove_chunks(outdir);
+	vd_remove_chunks(outdir);
 	cleaned = 1;
 	t1 = vd_seconds();
 	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
@@ -792,7 +726,7 @@ out:
 	free(s.e);
 	vd_vdb_close(r.vdb);
 	if (err && cleaned)
-		remove_chunks(outdir); /* no partial set of chunks survives */
+		vd_remove_chunks(outdir); /* no partial set of chunks survives */
 	return err;
 }
 

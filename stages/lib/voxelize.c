@@ -795,9 +795,7 @@ static void remove_bins(const char *dir)
 	rmdir(bins);
 }
 
-/* Removes the chunk files (and their temporaries) and the statistics in
- * `dir`: what an earlier run left, or what a failed run must not leave. */
-static void remove_chunks(const char *dir)
+void vd_remove_chunks(const char *dir)
 {
 	DIR *d = opendir(dir);
 	if (!d)
@@ -823,7 +821,7 @@ static int clean_outdir(const char *dir)
 	if (mkdir(dir, 0777) != 0 && errno != EEXIST)
 		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", dir,
 			       strerror(errno));
-	remove_chunks(dir);
+	vd_remove_chunks(dir);
 	char path[4096];
 	remove_bins(dir);
 	snprintf(path, sizeof path, "%s/bins.tmp", dir);
@@ -1112,7 +1110,7 @@ out:
 	vd_mesh_close(mesh);
 	remove_bins(outdir);
 	if (err && cleaned)
-		remove_chunks(outdir); /* no partial set of chunks survives */
+		vd_remove_chunks(outdir); /* no partial set of chunks survives */
 	return err;
 }
 

@@ -20,4 +20,17 @@ void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
 void vd_svo_count_brick(uint64_t *counts, int levels, int chunk_level,
 			int first, uint64_t prev, uint64_t key, uint64_t mask);
 
+/* Writes n bricks (keys strictly increasing) as an SVO chunk at `path`
+ * (atomic), reading key i at keys[i * stride] and its mask at
+ * masks[i * stride], so arrays of {key, mask} pairs need no copy. Fills
+ * counts[0..levels-chunk_level] with the per-level counts if not NULL. */
+int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
+		 const struct vd_transform *t, const char *provenance, size_t n,
+		 const uint64_t *keys, const uint64_t *masks, size_t stride,
+		 uint64_t *counts);
+
+/* Removes the chunk files (and their temporaries) and the statistics in
+ * `dir`: what an earlier run left, or what a failed run must not leave. */
+void vd_remove_chunks(const char *dir);
+
 #endif
