@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TOOL "dag-verify"
+
 static const char usage[] =
 	"usage: dag-verify DAG SVO... [options]\n"
 	"\n"
@@ -25,21 +27,7 @@ static const char usage[] =
 	"Exit status: 0 equal, 1 different or failure (bad input, I/O, budget),\n"
 	"2 usage.\n";
 
-static int usage_error(const char *fmt, const char *arg)
-{
-	fprintf(stderr, "dag-verify: ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\nTry 'dag-verify --help'.\n");
-	return 2;
-}
 
-static int fail(int err, const char *what, const char *path)
-{
-	const char *d = vd_error_detail();
-	fprintf(stderr, "dag-verify: %s '%s': %s%s%s\n", what, path,
-		vd_strerror(err), *d ? ": " : "", d);
-	return 1;
-}
 
 /* Walks the decoded bricks of an encoding against the sorted bricks of the
  * SVO chunks, counting differing voxels. */
@@ -92,7 +80,7 @@ static int verify_encoding(const char *path, int format, struct vd_svo *svos,
 	memset(&e, 0, sizeof e);
 	int err = vd_enc_load(&e, path, format);
 	if (err)
-		return fail(err, "cannot read", path);
+		return vd_cli_fail(TOOL, err, "cannot read", path);
 	qsort(svos, n, sizeof *svos, cmp_cell);
 	size_t total = 0;
 	for (size_t i = 0; i < n; i++)
@@ -149,7 +137,7 @@ int main(int argc, char **argv)
 		switch (c) {
 		case 'm':
 			if (vd_parse_size(optarg, &budget) || budget == 0)
-				return usage_error("--mem-budget '%s' is not a "
+				return vd_cli_usage(TOOL, "--mem-budget '%s' is not a "
 						   "size (e.g. 512M, 2GiB)", optarg);
 			break;
 		case 'q':
@@ -164,7 +152,7 @@ int main(int argc, char **argv)
 		}
 	}
 	if (argc - optind < 2)
-		return usage_error("%s", "needs a DAG chunk and at least one "
+		return vd_cli_usage(TOOL, "%s", "needs a DAG chunk and at least one "
 				   "SVO chunk");
 	const char *dag_path = argv[optind];
 	size_t n = (size_t)(argc - optind - 1);
@@ -177,7 +165,7 @@ int main(int argc, char **argv)
 	memset(&dag, 0, sizeof dag);
 	int err = format >= 0 ? VD_OK
 			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY);
-	if (err) return fail(err, "cannot read", dag_path);
+	if (err) return vd_cli_fail(TOOL, err, "cannot read", dag_path);
 	uint64_t used = format >= 0 ? 0 : vd_dag_memory_bytes(&dag);
 	struct vd_svo *svos = calloc(n, sizeof *svos);
 	const struct vd_svo **sp = calloc(n, sizeof *sp);
@@ -190,7 +178,7 @@ int main(int argc, char **argv)
 		const char *path = argv[optind + 1 + i];
 		struct vd_chunk *ch;
 		if ((err = vd_chunk_open(&ch, path, VD_KIND_SVO))) {
-			rc = fail(err, "cannot read", path);
+			rc = vd_cli_fail(TOOL, err, "cannot read", path);
 			break;
 		}
 		const struct vd_chunk_header *h = vd_chunk_header(ch);
@@ -209,7 +197,7 @@ int main(int argc, char **argv)
 		err = vd_svo_from_chunk(&svos[i], ch);
 		vd_chunk_free(ch);
 		if (err) {
-			rc = fail(err, "cannot read", path);
+			rc = vd_cli_fail(TOOL, err, "cannot read", path);
 			break;
 		}
 		sp[i] = &svos[i];
@@ -220,7 +208,7 @@ int main(int argc, char **argv)
 		struct vd_dag_diff diff;
 		err = vd_dag_compare_svo(&dag, sp, n, &diff);
 		if (err) {
-			rc = fail(err, "cannot compare", dag_path);
+			rc = vd_cli_fail(TOOL, err, "cannot compare", dag_path);
 		} else if (diff.differing_voxels) {
 			uint32_t x, y, z;
 			vd_morton3_decode(diff.first_voxel_morton, &x, &y, &z);

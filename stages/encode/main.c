@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TOOL "encode"
+
 static const char usage[] =
 	"usage: encode ROOT.dag ROOT.ssvdag -o DIR [options]\n"
 	"\n"
@@ -37,23 +39,7 @@ static const char usage[] =
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O, budget), 2 usage.\n";
 
-static int usage_error(const char *fmt, const char *arg)
-{
-	fprintf(stderr, "encode: ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\nTry 'encode --help'.\n");
-	return 2;
-}
 
-static int parse_int(const char *s, int lo, int hi, int *out)
-{
-	char *end;
-	long v = strtol(s, &end, 10);
-	if (!*s || *end || v < lo || v > hi)
-		return -1;
-	*out = (int)v;
-	return 0;
-}
 
 int main(int argc, char **argv)
 {
@@ -84,7 +70,7 @@ int main(int argc, char **argv)
 			break;
 		case 'n':
 			if (!*optarg || strchr(optarg, '/')) {
-				rc = usage_error("--name '%s' must be a plain file "
+				rc = vd_cli_usage(TOOL, "--name '%s' must be a plain file "
 						 "name", optarg);
 				goto done;
 			}
@@ -94,8 +80,8 @@ int main(int argc, char **argv)
 			stats[job.n_stats++] = optarg;
 			break;
 		case 'l':
-			if (parse_int(optarg, 1, VD_MAX_LEVELS, &job.min_level)) {
-				rc = usage_error("--min-level '%s' is not a level "
+			if (vd_cli_int(optarg, 1, VD_MAX_LEVELS, &job.min_level)) {
+				rc = vd_cli_usage(TOOL, "--min-level '%s' is not a level "
 						 "from 1 to 21", optarg);
 				goto done;
 			}
@@ -103,14 +89,14 @@ int main(int argc, char **argv)
 		case 'm':
 			if (vd_parse_size(optarg, &job.mem_budget_bytes) ||
 			    job.mem_budget_bytes == 0) {
-				rc = usage_error("--mem-budget '%s' is not a size "
+				rc = vd_cli_usage(TOOL, "--mem-budget '%s' is not a size "
 						 "(e.g. 512M, 2GiB)", optarg);
 				goto done;
 			}
 			break;
 		case 'j':
-			if (parse_int(optarg, 1, 1024, &job.threads)) {
-				rc = usage_error("--threads '%s' is not a number "
+			if (vd_cli_int(optarg, 1, 1024, &job.threads)) {
+				rc = vd_cli_usage(TOOL, "--threads '%s' is not a number "
 						 "from 1 to 1024", optarg);
 				goto done;
 			}
@@ -128,13 +114,13 @@ int main(int argc, char **argv)
 		}
 	}
 	if (argc - optind != 2) {
-		rc = usage_error("%s", argc - optind < 2 ?
+		rc = vd_cli_usage(TOOL, "%s", argc - optind < 2 ?
 				 "needs two inputs: ROOT.dag ROOT.ssvdag" :
 				 "more than two inputs (ROOT.dag ROOT.ssvdag)");
 		goto done;
 	}
 	if (!job.outdir) {
-		rc = usage_error("%s", "no output directory (-o DIR) given");
+		rc = vd_cli_usage(TOOL, "%s", "no output directory (-o DIR) given");
 		goto done;
 	}
 	job.dag_path = argv[optind];

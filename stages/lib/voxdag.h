@@ -423,6 +423,17 @@ char *vd_provenance_new(const char *tool, int argc, char **argv);
  * path such as /dev/null would replace the device. */
 int vd_replace_file(const char *tmp, const char *path);
 
+/* Command-line helpers for the tools' main()s (cli.c). vd_cli_usage prints
+ * "TOOL: message" and "Try 'TOOL --help'." to stderr and returns 2, the
+ * usage exit status. vd_cli_int parses a whole number in [lo, hi] (0, or
+ * -1 if it is not one). vd_cli_fail prints the one-line failure
+ * "TOOL: WHAT 'SUBJECT': <vd_strerror(err)>: <detail>" and returns 1. */
+int vd_cli_usage(const char *tool, const char *fmt, ...)
+	__attribute__((format(printf, 2, 3)));
+int vd_cli_int(const char *s, int lo, int hi, int *out);
+int vd_cli_fail(const char *tool, int err, const char *what,
+		const char *subject);
+
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
 
@@ -954,6 +965,12 @@ int vd_dag_run(const struct vd_dag_job *job);
 
 /* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
 void vd_dag_release(struct vd_dag *dag);
+
+/* The whole command line of svo-to-dag and symmetry-merge (dag_main.c):
+ * they share their options and differ in `kind`; `usage` is the tool's
+ * --help text. Returns the exit status. */
+int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,
+		      const char *usage);
 
 /* ------------------------------------------------------ end of DAG block */
 

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TOOL "render"
+
 static const char usage[] =
 	"usage: render SCENE -o OUT.png [options]\n"
 	"\n"
@@ -40,22 +42,7 @@ static const char usage[] =
 	"Exit status: 0 success, 1 failure (bad input, I/O), 2 usage (including\n"
 	"an impossible camera or image size).\n";
 
-static int usage_error(const char *fmt, const char *arg)
-{
-	fprintf(stderr, "render: ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\nTry 'render --help'.\n");
-	return 2;
-}
 
-static int parse_int(const char *s, int lo, int hi, int *out)
-{
-	char *end;
-	long v = strtol(s, &end, 10);
-	if (!*s || *end || v < lo || v > hi) return -1;
-	*out = (int)v;
-	return 0;
-}
 
 static int parse_double(const char *s, double *out)
 {
@@ -88,8 +75,8 @@ static int parse_size(const char *s, int *w, int *h)
 	if (n == 0 || n >= sizeof buf) return -1;
 	memcpy(buf, s, n);
 	buf[n] = 0;
-	return parse_int(buf, 1, VD_RENDER_MAX_SIDE, w) ||
-	       parse_int(x + 1, 1, VD_RENDER_MAX_SIDE, h) ? -1 : 0;
+	return vd_cli_int(buf, 1, VD_RENDER_MAX_SIDE, w) ||
+	       vd_cli_int(x + 1, 1, VD_RENDER_MAX_SIDE, h) ? -1 : 0;
 }
 
 int main(int argc, char **argv)
@@ -128,36 +115,36 @@ int main(int argc, char **argv)
 			if (parse_size(optarg, &job.opts.width, &job.opts.height) ||
 			    (uint64_t)job.opts.width * (uint64_t)job.opts.height >
 				    VD_RENDER_MAX_PIXELS)
-				return usage_error("--size '%s' is not WxH with each "
+				return vd_cli_usage(TOOL, "--size '%s' is not WxH with each "
 						   "side in 1..16384 and at most "
 						   "2^26 pixels", optarg);
 			break;
 		case 'c':
 			if (strcmp(optarg, "front") && strcmp(optarg, "side") &&
 			    strcmp(optarg, "top") && strcmp(optarg, "iso"))
-				return usage_error("--camera '%s' is not front, side, "
+				return vd_cli_usage(TOOL, "--camera '%s' is not front, side, "
 						   "top or iso", optarg);
 			job.preset = optarg;
 			break;
 		case 'e':
 			if (parse_vec3(optarg, job.opts.cam.eye))
-				return usage_error("--eye '%s' is not X,Y,Z", optarg);
+				return vd_cli_usage(TOOL, "--eye '%s' is not X,Y,Z", optarg);
 			job.has_eye = 1;
 			break;
 		case 't':
 			if (parse_vec3(optarg, job.opts.cam.target))
-				return usage_error("--target '%s' is not X,Y,Z", optarg);
+				return vd_cli_usage(TOOL, "--target '%s' is not X,Y,Z", optarg);
 			has_target = 1;
 			break;
 		case 'f':
 			if (parse_double(optarg, &job.opts.cam.fov_deg) ||
 			    !(job.opts.cam.fov_deg > 0 && job.opts.cam.fov_deg < 180))
-				return usage_error("--fov '%s' is not an angle in (0, "
+				return vd_cli_usage(TOOL, "--fov '%s' is not an angle in (0, "
 						   "180) degrees", optarg);
 			break;
 		case 'l':
 			if (parse_vec3(optarg, job.opts.light))
-				return usage_error("--light '%s' is not X,Y,Z", optarg);
+				return vd_cli_usage(TOOL, "--light '%s' is not X,Y,Z", optarg);
 			job.has_light = 1;
 			break;
 		case 'S':
@@ -170,14 +157,14 @@ int main(int argc, char **argv)
 			job.ids_path = optarg;
 			break;
 		case 'j':
-			if (parse_int(optarg, 1, 1024, &job.opts.threads))
-				return usage_error("--threads '%s' is not a number "
+			if (vd_cli_int(optarg, 1, 1024, &job.opts.threads))
+				return vd_cli_usage(TOOL, "--threads '%s' is not a number "
 						   "from 1 to 1024", optarg);
 			break;
 		case 'L':
 			if (parse_double(optarg, &job.opts.lod_pixels) ||
 			    job.opts.lod_pixels < 0)
-				return usage_error("--lod '%s' is not a number of "
+				return vd_cli_usage(TOOL, "--lod '%s' is not a number of "
 						   "pixels >= 0", optarg);
 			break;
 		case 'q':
@@ -192,15 +179,15 @@ int main(int argc, char **argv)
 		}
 	}
 	if (argc - optind != 1)
-		return usage_error("%s", argc - optind < 1 ?
+		return vd_cli_usage(TOOL, "%s", argc - optind < 1 ?
 				   "needs one input: SCENE" :
 				   "more than one input");
 	if (!job.output)
-		return usage_error("%s", "no output image (-o OUT.png) given");
+		return vd_cli_usage(TOOL, "%s", "no output image (-o OUT.png) given");
 	if (job.has_eye != has_target)
-		return usage_error("%s", "--eye and --target go together");
+		return vd_cli_usage(TOOL, "%s", "--eye and --target go together");
 	if (job.has_eye && job.preset)
-		return usage_error("%s", "--camera and --eye/--target exclude "
+		return vd_cli_usage(TOOL, "%s", "--camera and --eye/--target exclude "
 				   "each other");
 	if (job.has_eye) {
 		/* up is left zero: the library picks +Y, or -Z looking along Y */
@@ -208,14 +195,14 @@ int main(int argc, char **argv)
 		for (int a = 0; a < 3; a++)
 			d += fabs(job.opts.cam.eye[a] - job.opts.cam.target[a]);
 		if (d == 0)
-			return usage_error("%s", "--eye and --target are the same "
+			return vd_cli_usage(TOOL, "%s", "--eye and --target are the same "
 					   "point");
 	}
 	if (job.depth_path) {
 		size_t n = strlen(job.depth_path);
 		if (!(n > 4 && (!strcmp(job.depth_path + n - 4, ".pfm") ||
 				!strcmp(job.depth_path + n - 4, ".png"))))
-			return usage_error("--depth '%s' needs the extension .pfm "
+			return vd_cli_usage(TOOL, "--depth '%s' needs the extension .pfm "
 					   "or .png", job.depth_path);
 	}
 	job.input = argv[optind];

@@ -8,6 +8,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#define TOOL "vdb-export"
+
 static const char usage[] =
 	"usage: vdb-export -o OUT.vdb [--grid-name NAME] CHUNK_OR_DIR...\n"
 	"\n"
@@ -24,11 +26,6 @@ static const char usage[] =
 	"\n"
 	"Exit status: 0 success, 1 failure (bad chunk, I/O), 2 usage.\n";
 
-static int usage_error(const char *msg)
-{
-	fprintf(stderr, "vdb-export: %s\nTry 'vdb-export --help'.\n", msg);
-	return 2;
-}
 
 static int cmp_str(const void *a, const void *b)
 {
@@ -108,9 +105,9 @@ int main(int argc, char **argv)
 		}
 	}
 	if (!out)
-		return usage_error("no output file (-o OUT.vdb) given");
+		return vd_cli_usage(TOOL, "%s", "no output file (-o OUT.vdb) given");
 	if (optind >= argc)
-		return usage_error("no CHUNK or DIR given");
+		return vd_cli_usage(TOOL, "%s", "no CHUNK or DIR given");
 	struct list l = {0};
 	int rc = 0;
 	for (int i = optind; i < argc && !rc; i++) {

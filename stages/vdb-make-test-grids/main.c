@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TOOL "vdb-make-test-grids"
+
 static const char usage[] =
 	"usage: vdb-make-test-grids OUTDIR\n"
 	"       vdb-make-test-grids --mesh MESH --resolution N -o OUT.vdb\n"
@@ -25,13 +27,6 @@ static const char usage[] =
 	"\n"
 	"Exit status: 0 success, 1 failure, 2 usage.\n";
 
-static int fail(int err, const char *what)
-{
-	const char *d = vd_error_detail();
-	fprintf(stderr, "vdb-make-test-grids: cannot write '%s': %s%s%s\n", what,
-		vd_strerror(err), *d ? ": " : "", d);
-	return 1;
-}
 
 /* Writes one file from a fresh vd_vdb_test_file filled by `add`. */
 static int make(const char *dir, const char *name,
@@ -46,7 +41,7 @@ static int make(const char *dir, const char *name,
 	if (!err)
 		err = vd_vdb_test_write(f, path);
 	vd_vdb_test_free(f);
-	return err ? fail(err, path) : 0;
+	return err ? vd_cli_fail(TOOL, err, "cannot write", path) : 0;
 }
 
 static const double centre[3] = {0.5, -3.25, 7};
@@ -132,7 +127,7 @@ int main(int argc, char **argv)
 		if (!err)
 			err = vd_vdb_test_write(f, out);
 		vd_vdb_test_free(f);
-		return err ? fail(err, out) : 0;
+		return err ? vd_cli_fail(TOOL, err, "cannot write", out) : 0;
 	}
 	if (optind != argc - 1) {
 		fprintf(stderr, "vdb-make-test-grids: give one OUTDIR\n"

@@ -10,6 +10,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#define TOOL "voxelize"
+
 static const char usage[] =
 	"usage: voxelize MESH -o OUTDIR --levels L [options]\n"
 	"       voxelize GRID.vdb -o OUTDIR [--levels L] [--grid NAME]\n"
@@ -50,23 +52,7 @@ static const char usage[] =
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O, budget), 2 usage.\n";
 
-static int usage_error(const char *fmt, const char *arg)
-{
-	fprintf(stderr, "voxelize: ");
-	fprintf(stderr, fmt, arg);
-	fprintf(stderr, "\nTry 'voxelize --help'.\n");
-	return 2;
-}
 
-static int parse_int(const char *s, int lo, int hi, int *out)
-{
-	char *end;
-	long v = strtol(s, &end, 10);
-	if (!*s || *end || v < lo || v > hi)
-		return -1;
-	*out = (int)v;
-	return 0;
-}
 
 /* OpenVDB costs a process about 30 MB of memory at start (relocating
  * libopenvdb), which mesh voxelization should not pay against its budget.
@@ -137,25 +123,25 @@ int main(int argc, char **argv)
 			outdir = optarg;
 			break;
 		case 'l':
-			if (parse_int(optarg, 1, VD_MAX_LEVELS, &o.levels))
-				return usage_error("--levels '%s' is not a whole "
+			if (vd_cli_int(optarg, 1, VD_MAX_LEVELS, &o.levels))
+				return vd_cli_usage(TOOL, "--levels '%s' is not a whole "
 						   "number from 1 to 21", optarg);
 			have_levels = 1;
 			break;
 		case 'c':
-			if (parse_int(optarg, 0, VD_MAX_LEVELS, &o.chunk_level))
-				return usage_error("--chunk-level '%s' is not a "
+			if (vd_cli_int(optarg, 0, VD_MAX_LEVELS, &o.chunk_level))
+				return vd_cli_usage(TOOL, "--chunk-level '%s' is not a "
 						   "level", optarg);
 			break;
 		case 'm':
 			if (vd_parse_size(optarg, &o.mem_budget_bytes) ||
 			    o.mem_budget_bytes == 0)
-				return usage_error("--mem-budget '%s' is not a "
+				return vd_cli_usage(TOOL, "--mem-budget '%s' is not a "
 						   "size (e.g. 512M, 2GiB)", optarg);
 			break;
 		case 'j':
-			if (parse_int(optarg, 1, 1024, &o.threads))
-				return usage_error("--threads '%s' is not a "
+			if (vd_cli_int(optarg, 1, 1024, &o.threads))
+				return vd_cli_usage(TOOL, "--threads '%s' is not a "
 						   "number from 1 to 1024", optarg);
 			break;
 		case OPT_GRID:
@@ -165,7 +151,7 @@ int main(int argc, char **argv)
 		case OPT_VDB_MODE:
 #ifdef VOXELIZE_WITH_VDB
 			if (vd_vdb_mode_parse(optarg, &sel.mode))
-				return usage_error("--vdb-mode '%s' is not one of "
+				return vd_cli_usage(TOOL, "--vdb-mode '%s' is not one of "
 						   "active, levelset-surface, "
 						   "levelset-solid, fog", optarg);
 #endif
@@ -174,7 +160,7 @@ int main(int argc, char **argv)
 		case OPT_FOG_THRESHOLD:
 			sel.fog_threshold = strtod(optarg, &end);
 			if (!*optarg || *end || !isfinite(sel.fog_threshold))
-				return usage_error("--fog-threshold '%s' is not a "
+				return vd_cli_usage(TOOL, "--fog-threshold '%s' is not a "
 						   "number", optarg);
 			vdb_opts = 1;
 			break;
@@ -190,16 +176,16 @@ int main(int argc, char **argv)
 		}
 	}
 	if (optind != argc - 1)
-		return usage_error("%s", optind >= argc ? "no MESH given"
+		return vd_cli_usage(TOOL, "%s", optind >= argc ? "no MESH given"
 							: "more than one MESH given");
 	if (!outdir)
-		return usage_error("%s", "no output directory (-o OUTDIR) given");
+		return vd_cli_usage(TOOL, "%s", "no output directory (-o OUTDIR) given");
 	const char *mesh = argv[optind];
 	int vdb = is_vdb(mesh);
 	if (!have_levels && !vdb)
-		return usage_error("%s", "no grid depth (--levels L) given");
+		return vd_cli_usage(TOOL, "%s", "no grid depth (--levels L) given");
 	if (vdb_opts && !vdb)
-		return usage_error("%s", "--grid, --vdb-mode and --fog-threshold "
+		return vd_cli_usage(TOOL, "%s", "--grid, --vdb-mode and --fog-threshold "
 				   "are for OpenVDB (.vdb) input only");
 	o.provenance = provenance;
 

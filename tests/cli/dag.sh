@@ -3,6 +3,7 @@
 # the outside on the release executables: one PASS/FAIL line per case.
 set -u
 cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh # help_lists_options; this file keeps its own expect
 BIN=out/bin
 T=out/tmp/cli-dag
 rm -rf "$T" && mkdir -p "$T"
@@ -185,4 +186,9 @@ expect verify-overlap 1 "two SVO chunks cover" \
 	$BIN/dag-verify "$S/root.dag" "$first" "$first"
 expect verify-depths 1 "is not inside the DAG's cell" \
 	$BIN/dag-verify "$S/root.dag" "$other"
+
+# --help lists exactly the options in the code (both stages share theirs)
+help_lists_options help_matches_code_svo_to_dag svo-to-dag stages/lib/dag_main.c
+help_lists_options help_matches_code_symmetry_merge symmetry-merge stages/lib/dag_main.c
+help_lists_options help_matches_code_dag_verify dag-verify stages/dag-verify/main.c
 exit 0
