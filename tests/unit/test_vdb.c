@@ -4,6 +4,7 @@
  * again, no node iteration), on grids built here through the OpenVDB API.
  */
 #include "check.h"
+#include "vset.h"
 #include "voxdag.h"
 
 #include <dirent.h>
@@ -20,66 +21,17 @@ static char path_sphere[600], path_fog[600], path_bunny[600], path_two[600],
 
 enum { BIAS = 1 << 20 };
 
-struct vset {
-	uint64_t *v;
-	size_t n, cap;
-};
-
 static uint64_t pack(int64_t x, int64_t y, int64_t z)
 {
 	return (uint64_t)(x + BIAS) << 42 | (uint64_t)(y + BIAS) << 21 |
 	       (uint64_t)(z + BIAS);
 }
 
-static void vset_add(struct vset *s, uint64_t key)
+static void biased_name(uint64_t key, char *buf, size_t cap)
 {
-	if (s->n == s->cap) {
-		s->cap = s->cap ? 2 * s->cap : 1024;
-		s->v = realloc(s->v, s->cap * sizeof *s->v);
-	}
-	s->v[s->n++] = key;
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-	return (x > y) - (x < y);
-}
-
-static void vset_finish(struct vset *s)
-{
-	if (!s->n)
-		return;
-	qsort(s->v, s->n, sizeof *s->v, cmp_u64);
-	size_t m = 0;
-	for (size_t i = 0; i < s->n; i++)
-		if (m == 0 || s->v[m - 1] != s->v[i])
-			s->v[m++] = s->v[i];
-	s->n = m;
-}
-
-static int vset_equal(const struct vset *a, const struct vset *b,
-		      const char *what)
-{
-	size_t i = 0, j = 0, diff = 0;
-	uint64_t first = 0;
-	while (i < a->n || j < b->n) {
-		if (i < a->n && j < b->n && a->v[i] == b->v[j]) {
-			i++, j++;
-			continue;
-		}
-		uint64_t k = j >= b->n || (i < a->n && a->v[i] < b->v[j]) ? a->v[i++]
-									  : b->v[j++];
-		if (!diff++)
-			first = k;
-	}
-	if (diff)
-		fprintf(stderr, "%s: %zu vs %zu voxels, %zu differ, first at "
-			"(%lld,%lld,%lld)\n", what, a->n, b->n, diff,
-			(long long)(first >> 42) - BIAS,
-			(long long)(first >> 21 & 0x1fffff) - BIAS,
-			(long long)(first & 0x1fffff) - BIAS);
-	return diff == 0;
+	snprintf(buf, cap, "(%lld,%lld,%lld)", (long long)(key >> 42) - BIAS,
+		 (long long)(key >> 21 & 0x1fffff) - BIAS,
+		 (long long)(key & 0x1fffff) - BIAS);
 }
 
 /* The voxels of every chunk in `d`, as our grid coordinates shifted by
@@ -178,7 +130,7 @@ static uint64_t check_mode(const char *path, const char *grid, int mode,
 		 VD_OK);
 	vset_finish(&want);
 	CHECK(want.n > 0);
-	CHECK(vset_equal(&got, &want, what));
+	CHECK(vset_equal(&got, &want, what, biased_name));
 	if (mode == VD_VDB_ACTIVE && !r.resample_shift)
 		CHECK_EQ(r.voxels, (long long)r.info.active_voxels);
 	if (!r.resample_shift)
@@ -352,7 +304,7 @@ static void test_round_trip(void)
 		 VD_ERR_MISMATCH);
 	CHECK_EQ(import(path_out, "rt", VD_VDB_ACTIVE, 0, 0, -1, &b), VD_OK);
 	CHECK_EQ(load_chunks(dir, b.index_offset, &vb, &n), VD_OK);
-	CHECK(vset_equal(&va, &vb, "round trip"));
+	CHECK(vset_equal(&va, &vb, "round trip", biased_name));
 	CHECK(fabs(b.transform.voxel_size - a.transform.voxel_size) < 1e-12);
 	for (int k = 0; k < 3; k++)
 		CHECK(fabs(b.transform.origin[k] - a.transform.origin[k] -

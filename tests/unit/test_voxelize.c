@@ -7,6 +7,7 @@
  * (the definition of the grid) is shared.
  */
 #include "check.h"
+#include "vset.h"
 #include "voxdag.h"
 #include "voxelize_internal.h"
 
@@ -77,61 +78,11 @@ static int ref_overlap(const int64_t t[3][3], const int64_t lo[3], int64_t side)
 
 /* ------------------------------------------------------------ voxel sets */
 
-struct vset {
-	uint64_t *v;
-	size_t n, cap;
-};
-
-static void vset_add(struct vset *s, uint64_t key)
+static void morton_name(uint64_t key, char *buf, size_t cap)
 {
-	if (s->n == s->cap) {
-		s->cap = s->cap ? 2 * s->cap : 1024;
-		s->v = realloc(s->v, s->cap * sizeof *s->v);
-	}
-	s->v[s->n++] = key;
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-	return (x > y) - (x < y);
-}
-
-static void vset_finish(struct vset *s)
-{
-	if (!s->n)
-		return;
-	qsort(s->v, s->n, sizeof *s->v, cmp_u64);
-	size_t m = 0;
-	for (size_t i = 0; i < s->n; i++)
-		if (m == 0 || s->v[m - 1] != s->v[i])
-			s->v[m++] = s->v[i];
-	s->n = m;
-}
-
-/* Compares two finished sets; prints the first difference. */
-static int vset_equal(const struct vset *a, const struct vset *b,
-		      const char *what)
-{
-	size_t i = 0, j = 0, diff = 0;
-	uint64_t first = 0;
-	while (i < a->n || j < b->n) {
-		if (i < a->n && j < b->n && a->v[i] == b->v[j]) {
-			i++, j++;
-			continue;
-		}
-		uint64_t k = j >= b->n || (i < a->n && a->v[i] < b->v[j]) ? a->v[i++]
-									  : b->v[j++];
-		if (!diff++)
-			first = k;
-	}
-	if (diff) {
-		uint32_t x, y, z;
-		vd_morton3_decode(first, &x, &y, &z);
-		fprintf(stderr, "%s: %zu vs %zu voxels, %zu differ, first at "
-			"(%u,%u,%u)\n", what, a->n, b->n, diff, x, y, z);
-	}
-	return diff == 0;
+	uint32_t x, y, z;
+	vd_morton3_decode(key, &x, &y, &z);
+	snprintf(buf, cap, "(%u,%u,%u)", x, y, z);
 }
 
 static void collect(void *ctx, int64_t x, int64_t y, int64_t z)
@@ -242,7 +193,7 @@ static void random_triangles_at(int L, int count)
 			fprintf(stderr, "triangle %d: a voxel was reported twice\n", i);
 			bad++;
 		}
-		if (!vset_equal(&got, &want, "random triangle")) {
+		if (!vset_equal(&got, &want, "random triangle", morton_name)) {
 			fprintf(stderr, "  triangle %d kind %d: (%lld %lld %lld) "
 				"(%lld %lld %lld) (%lld %lld %lld)\n", i, i % 6,
 				(long long)t.v[0][0], (long long)t.v[0][1],
@@ -298,7 +249,7 @@ static void test_large_and_clipped(void)
 						collect(&want, x, y, z);
 				}
 		vset_finish(&want);
-		bad += !vset_equal(&got, &want, "large triangle");
+		bad += !vset_equal(&got, &want, "large triangle", morton_name);
 		free(got.v);
 		free(want.v);
 	}
@@ -417,7 +368,7 @@ static void test_real_mesh_brute_force(void)
 		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
 		ref_mesh("tests/data/bunny.ply", L, &want);
 		CHECK(want.n > 1000);
-		CHECK(vset_equal(&got, &want, "bunny"));
+		CHECK(vset_equal(&got, &want, "bunny", morton_name));
 		free(got.v);
 		free(want.v);
 	}
@@ -435,7 +386,7 @@ static void test_chunked_equals_monolithic(void)
 		CHECK_EQ(voxelize("tests/data/bunny.ply", 8, L0, dir), VD_OK);
 		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
 		CHECK(n > 1 && n <= 1 << 3 * L0);
-		CHECK(vset_equal(&got, &base, "chunked"));
+		CHECK(vset_equal(&got, &base, "chunked", morton_name));
 		free(got.v);
 	}
 	free(base.v);
@@ -453,7 +404,7 @@ static void test_resolutions_agree(void)
 	for (size_t i = 0; i < fine.n; i++)
 		vset_add(&up, fine.v[i] >> 3); /* Morton: parent = drop 3 bits */
 	vset_finish(&up);
-	CHECK(vset_equal(&up, &coarse, "2^9 folded vs 2^8"));
+	CHECK(vset_equal(&up, &coarse, "2^9 folded vs 2^8", morton_name));
 	free(fine.v);
 	free(coarse.v);
 	free(up.v);
