@@ -65,9 +65,12 @@ YAML
 	fi
 	local wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
 	local vox=$(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "out/$name/report.json")
-	awk -F, -v name="$1" -v vox="$vox" -v wall="$wall" 'NR > 1 {
+	# every process runs one thread but voxelize, which runs several
+	local vt=$(sed -n 's/^  "threads": \([0-9]*\),*$/\1/p' "out/$name/voxelize/voxelize.stats.json")
+	awk -F, -v name="$1" -v vox="$vox" -v wall="$wall" -v vt="${vt:-1}" 'NR > 1 {
+		cores = $2 == "voxelize" ? vt : 1
 		printf "%-22s %-15s %9d procs %9.2f s %14.0f voxels/s/core %8.0f MiB peak\n",
-			name, $2, $3, $4, ($4 > 0 ? vox / $4 : 0), $5 / 1048576 }
+			name, $2, $3, $4, ($4 > 0 ? vox / $4 / cores : 0), $5 / 1048576 }
 		END { printf "%-22s %-15s wall %.1f s for %d voxels\n", name, "(all)", wall, vox }' \
 		"out/$name/report.csv"
 	sed -n '/Table 2/,/^SSVDAG\/SVDAG/p' "out/$name/report.md"
