@@ -192,20 +192,22 @@ int scan_grid(const GridT &grid, int mode, double thr,
 	const auto &tree = grid.tree();
 	ConstAcc<GridT> acc(tree);
 	vd_vdb_node n;
-	for (auto it = tree.cbeginLeaf(); it; ++it) {
-		const Coord o = it->origin();
+	// the selected voxels of the 8^3 block at o, passed on if there are any
+	auto emit_block = [&](const Coord &o) -> int {
 		block_mask<GridT>(acc, mode, thr, o, n.mask);
 		uint64_t any = 0;
 		for (int x = 0; x < 8; x++)
 			any |= n.mask[x];
 		if (!any)
-			continue;
+			return VD_OK;
 		n.origin[0] = o.x(), n.origin[1] = o.y(), n.origin[2] = o.z();
 		n.dim = 8;
 		n.is_leaf = 1;
-		if (int err = fn(ctx, &n))
+		return fn(ctx, &n);
+	};
+	for (auto it = tree.cbeginLeaf(); it; ++it)
+		if (int err = emit_block(it->origin()))
 			return err;
-	}
 	auto tiles = tree.cbeginValueAll();
 	tiles.setMaxDepth(tiles.getLeafDepth() - 1); // tiles only, no voxels
 	for (; tiles; ++tiles) {
@@ -245,17 +247,8 @@ int scan_grid(const GridT &grid, int mode, double thr,
 						bz = nb - 2 > bz ? nb - 2 : bz;
 					if (!check)
 						continue;
-					Coord o = bb.min().offsetBy(8 * bx, 8 * by, 8 * bz);
-					block_mask<GridT>(acc, mode, thr, o, n.mask);
-					uint64_t any = 0;
-					for (int x = 0; x < 8; x++)
-						any |= n.mask[x];
-					if (!any)
-						continue;
-					n.origin[0] = o.x(), n.origin[1] = o.y(), n.origin[2] = o.z();
-					n.dim = 8;
-					n.is_leaf = 1;
-					if (int err = fn(ctx, &n))
+					if (int err = emit_block(bb.min().offsetBy(
+						    8 * bx, 8 * by, 8 * bz)))
 						return err;
 				}
 	}
@@ -274,24 +267,6 @@ struct vd_vdb {
 	int mode;
 	double thr;
 };
-
-extern "C" const char *vd_vdb_mode_name(int mode)
-{
-	static const char *const names[] = {"active", "levelset-surface",
-					    "levelset-solid", "fog"};
-	return mode >= 0 && mode < VD_VDB_MODE_COUNT_ ? names[mode] : nullptr;
-}
-
-extern "C" int vd_vdb_mode_parse(const char *name, int *mode)
-{
-	for (int m = 0; m < VD_VDB_MODE_COUNT_; m++)
-		if (std::strcmp(name, vd_vdb_mode_name(m)) == 0) {
-			*mode = m;
-			return VD_OK;
-		}
-	return vd_fail(VD_ERR_ARG, "unknown mode '%s' (active, levelset-surface, "
-		       "levelset-solid, fog)", name);
-}
 
 namespace {
 

@@ -149,12 +149,10 @@ int main(int argc, char **argv)
 			vdb_opts = 1;
 			break;
 		case OPT_VDB_MODE:
-#ifdef VOXELIZE_WITH_VDB
 			if (vd_vdb_mode_parse(optarg, &sel.mode))
 				return vd_cli_usage(TOOL, "--vdb-mode '%s' is not one of "
 						   "active, levelset-surface, "
 						   "levelset-solid, fog", optarg);
-#endif
 			vdb_opts = 1;
 			break;
 		case OPT_FOG_THRESHOLD:
