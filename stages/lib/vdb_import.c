@@ -755,28 +755,16 @@ int vd_vdb_import_write_stats(const struct vd_vdb_import_result *res,
 	vd_json_end_object(j);
 	vd_json_u64(j, "levels", (uint64_t)res->levels);
 	vd_json_u64(j, "chunk_level", (uint64_t)res->chunk_level);
-	vd_json_u64(j, "voxels", res->voxels);
-	vd_json_u64(j, "bricks", res->bricks);
-	vd_json_u64(j, "chunks", res->chunks);
-	vd_json_u64_array(j, "level_nodes", res->level_nodes,
-			  (size_t)res->levels + 1);
 	vd_json_object(j, "seconds");
 	vd_json_f64(j, "read", res->seconds_read);
 	vd_json_f64(j, "scan_and_plan", res->seconds_scan);
 	vd_json_f64(j, "voxelize", res->seconds_voxelize);
 	vd_json_f64(j, "total", res->seconds_total);
 	vd_json_end_object(j);
-	double t = res->seconds_total > 0 ? res->seconds_total : 1e-9;
-	vd_json_f64(j, "voxels_per_second", (double)res->voxels / t);
-	vd_json_u64(j, "threads", (uint64_t)res->threads);
-	vd_json_u64(j, "peak_rss_bytes", res->peak_rss_bytes);
-	vd_json_u64(j, "mem_budget_bytes", res->mem_budget_bytes);
-	vd_json_object(j, "transform");
-	vd_json_f64(j, "origin_x", res->transform.origin[0]);
-	vd_json_f64(j, "origin_y", res->transform.origin[1]);
-	vd_json_f64(j, "origin_z", res->transform.origin[2]);
-	vd_json_f64(j, "voxel_size", res->transform.voxel_size);
-	vd_json_f64(j, "root_side", res->transform.root_side);
-	vd_json_end_object(j);
+	struct vd_voxelize_totals tot = {
+		res->levels, res->voxels, res->bricks, res->chunks,
+		res->level_nodes, res->seconds_total, res->threads,
+		res->peak_rss_bytes, res->mem_budget_bytes, &res->transform};
+	vd_voxelize_stats_totals(j, &tot);
 	return vd_json_close(j);
 }

@@ -1114,6 +1114,28 @@ out:
 	return err;
 }
 
+void vd_voxelize_stats_totals(struct vd_json *j,
+			      const struct vd_voxelize_totals *t)
+{
+	vd_json_u64(j, "voxels", t->voxels);
+	vd_json_u64(j, "bricks", t->bricks);
+	vd_json_u64(j, "chunks", t->chunks);
+	vd_json_u64_array(j, "level_nodes", t->level_nodes,
+			  (size_t)t->levels + 1);
+	double secs = t->seconds_total > 0 ? t->seconds_total : 1e-9;
+	vd_json_f64(j, "voxels_per_second", (double)t->voxels / secs);
+	vd_json_u64(j, "threads", (uint64_t)t->threads);
+	vd_json_u64(j, "peak_rss_bytes", t->peak_rss_bytes);
+	vd_json_u64(j, "mem_budget_bytes", t->mem_budget_bytes);
+	vd_json_object(j, "transform");
+	vd_json_f64(j, "origin_x", t->transform->origin[0]);
+	vd_json_f64(j, "origin_y", t->transform->origin[1]);
+	vd_json_f64(j, "origin_z", t->transform->origin[2]);
+	vd_json_f64(j, "voxel_size", t->transform->voxel_size);
+	vd_json_f64(j, "root_side", t->transform->root_side);
+	vd_json_end_object(j);
+}
+
 int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 			    const char *path)
 {
@@ -1132,11 +1154,6 @@ int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 	vd_json_end_object(j);
 	vd_json_u64(j, "polygons_split", res->mesh.polygons_split);
 	vd_json_u64(j, "triangle_cell_pairs", res->triangles_binned);
-	vd_json_u64(j, "voxels", res->voxels);
-	vd_json_u64(j, "bricks", res->bricks);
-	vd_json_u64(j, "chunks", res->chunks);
-	vd_json_u64_array(j, "level_nodes", res->level_nodes,
-			  (size_t)res->levels + 1);
 	vd_json_object(j, "seconds");
 	vd_json_f64(j, "bounds", res->seconds_bounds);
 	vd_json_f64(j, "plan_and_bin", res->seconds_bin);
@@ -1145,16 +1162,10 @@ int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 	vd_json_end_object(j);
 	double t = res->seconds_total > 0 ? res->seconds_total : 1e-9;
 	vd_json_f64(j, "triangles_per_second", (double)res->mesh.triangles_read / t);
-	vd_json_f64(j, "voxels_per_second", (double)res->voxels / t);
-	vd_json_u64(j, "threads", (uint64_t)res->threads);
-	vd_json_u64(j, "peak_rss_bytes", res->peak_rss_bytes);
-	vd_json_u64(j, "mem_budget_bytes", res->mem_budget_bytes);
-	vd_json_object(j, "transform");
-	vd_json_f64(j, "origin_x", res->transform.origin[0]);
-	vd_json_f64(j, "origin_y", res->transform.origin[1]);
-	vd_json_f64(j, "origin_z", res->transform.origin[2]);
-	vd_json_f64(j, "voxel_size", res->transform.voxel_size);
-	vd_json_f64(j, "root_side", res->transform.root_side);
-	vd_json_end_object(j);
+	struct vd_voxelize_totals tot = {
+		res->levels, res->voxels, res->bricks, res->chunks,
+		res->level_nodes, res->seconds_total, res->threads,
+		res->peak_rss_bytes, res->mem_budget_bytes, &res->transform};
+	vd_voxelize_stats_totals(j, &tot);
 	return vd_json_close(j);
 }

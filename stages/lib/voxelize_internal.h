@@ -33,4 +33,20 @@ int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
  * `dir`: what an earlier run left, or what a failed run must not leave. */
 void vd_remove_chunks(const char *dir);
 
+/* What every voxelize statistics file reports, whatever the input. */
+struct vd_voxelize_totals {
+	int levels;
+	uint64_t voxels, bricks, chunks;
+	const uint64_t *level_nodes;  /* levels 0..levels */
+	double seconds_total;
+	int threads;
+	uint64_t peak_rss_bytes, mem_budget_bytes;
+	const struct vd_transform *transform;
+};
+
+/* Writes those fields into an open statistics object (mesh and OpenVDB
+ * writers add their own around them). */
+void vd_voxelize_stats_totals(struct vd_json *j,
+			      const struct vd_voxelize_totals *t);
+
 #endif
