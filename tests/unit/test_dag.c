@@ -2,6 +2,7 @@
  * voxel content), chunked builds merged to the root equal the monolithic
  * build, merge errors, edge cases, chunk files. */
 #include "dag_test_util.h"
+#include "scene.h"
 
 static struct vd_dag_opts opts = {1, 0, NULL};
 
@@ -532,17 +533,11 @@ static void real_mesh(const char *mesh, int L)
 	 * L0 is tested on the voxelizer's own output without re-running it
 	 * (which under ASan dominated the test's time). */
 	const char *dir = test_tmpdir("test_dag_mesh");
-	struct vd_voxelize_opts vo = {.levels = L, .chunk_level = 3,
-				      .mem_budget_bytes = 1ull << 30,
-				      .threads = 2, .quiet = 1,
-				      .tool = "test_dag"};
 	struct vd_voxelize_result res;
-	int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
+	int err = test_voxelize(mesh, L, 3, dir, &res);
 	CHECK_EQ(err, VD_OK);
-	if (err) {
-		fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
+	if (err)
 		return;
-	}
 	struct vd_svo *fine = calloc(512, sizeof *fine);
 	uint64_t nfine = 0;
 	for (uint64_t c = 0; c < 512; c++) {

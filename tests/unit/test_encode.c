@@ -4,6 +4,7 @@
  * the lower depth, reported sizes against file sizes, edge cases, range
  * errors and damaged files. */
 #include "check.h"
+#include "scene.h"
 /* the DAG tests' grid helpers; this test uses only some of them */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"
@@ -490,30 +491,6 @@ static void test_edge_cases(void)
 
 /* ------------------------------------------------------- real meshes */
 
-/* Voxelizes `mesh` at depth L into one SVO chunk; returns 0 on failure. */
-static int voxelize(const char *mesh, int L, const char *dir,
-		    struct vd_svo *svo, struct vd_transform *t)
-{
-	struct vd_voxelize_opts vo = {.levels = L, .chunk_level = 0,
-				      .mem_budget_bytes = 1ull << 30,
-				      .threads = 2, .quiet = 1,
-				      .tool = "test_encode"};
-	struct vd_voxelize_result res;
-	int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
-	CHECK_EQ(err, VD_OK);
-	if (err) {
-		fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
-		return 0;
-	}
-	char name[64], path[800];
-	vd_chunk_file_name(name, sizeof name, 0, 0, "svo");
-	snprintf(path, sizeof path, "%s/%s", dir, name);
-	struct vd_chunk_header h;
-	CHECK_EQ(vd_svo_load(svo, &h, path), VD_OK);
-	*t = h.transform;
-	return 1;
-}
-
 static void build_both(const struct vd_svo *svo, struct vd_dag d[2])
 {
 	CHECK_EQ(vd_dag_from_svo(&d[0], svo, VD_KIND_DAG, &opts, NULL), VD_OK);
@@ -549,7 +526,7 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 	const char *dir = test_tmpdir("test_encode_mesh");
 	struct vd_svo svo;
 	struct vd_transform t;
-	if (!voxelize(mesh, L, dir, &svo, &t)) return;
+	if (!test_voxelize_one(mesh, L, dir, &svo, &t)) return;
 	struct vd_dag d[2];
 	build_both(&svo, d);
 	struct vd_enc_row row;
@@ -582,7 +559,7 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 		const char *dir2 = "out/tmp/test_encode_mesh/low";
 		struct vd_svo low;
 		struct vd_transform t2;
-		if (voxelize(mesh, L - 1, dir2, &low, &t2)) {
+		if (test_voxelize_one(mesh, L - 1, dir2, &low, &t2)) {
 			struct vd_dag dl[2];
 			build_both(&low, dl);
 			struct vd_enc_row r1;
@@ -647,7 +624,7 @@ static void test_range_errors(void)
 	const char *dir = test_tmpdir("test_encode_range");
 	struct vd_svo svo;
 	struct vd_transform t;
-	if (!voxelize("tests/data/bunny.ply", 7, dir, &svo, &t)) return;
+	if (!test_voxelize_one("tests/data/bunny.ply", 7, dir, &svo, &t)) return;
 	struct vd_dag d[2];
 	build_both(&svo, d);
 	struct vd_enc e;
@@ -683,7 +660,7 @@ static void test_level_order(void)
 	const char *dir = test_tmpdir("test_encode_order");
 	struct vd_svo svo;
 	struct vd_transform t;
-	if (!voxelize("tests/data/bunny.ply", 8, dir, &svo, &t)) return;
+	if (!test_voxelize_one("tests/data/bunny.ply", 8, dir, &svo, &t)) return;
 	struct vd_dag d;
 	CHECK_EQ(vd_dag_from_svo(&d, &svo, VD_KIND_DAG, &opts, NULL), VD_OK);
 	struct vd_enc e;

@@ -15,6 +15,7 @@
  * floor(o[a]); the hit axis is the lowest axis whose near plane time is the
  * entry time, -1 when the ray starts inside (time tmin). */
 #include "check.h"
+#include "scene.h"
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"
 #pragma GCC diagnostic ignored "-Wunused-variable"
@@ -408,35 +409,12 @@ static void ray_battery(const struct scene6 *s, int random_rays)
 
 /* -------------------------------------------------------------- scenes */
 
-static int voxelize(const char *mesh, int L, const char *dir,
-		    struct vd_svo *svo, struct vd_transform *t)
-{
-	struct vd_voxelize_opts vo = {.levels = L, .chunk_level = 0,
-				      .mem_budget_bytes = 1ull << 30,
-				      .threads = 2, .quiet = 1,
-				      .tool = "test_render"};
-	struct vd_voxelize_result res;
-	int err = vd_voxelize_mesh(mesh, dir, &vo, &res);
-	CHECK_EQ(err, VD_OK);
-	if (err) {
-		fprintf(stderr, "  %s: %s\n", mesh, vd_error_detail());
-		return 0;
-	}
-	char name[64], path[800];
-	vd_chunk_file_name(name, sizeof name, 0, 0, "svo");
-	snprintf(path, sizeof path, "%s/%s", dir, name);
-	struct vd_chunk_header h;
-	CHECK_EQ(vd_svo_load(svo, &h, path), VD_OK);
-	*t = h.transform;
-	return 1;
-}
-
 static int bunny(int L, struct scene6 *s)
 {
 	const char *dir = test_tmpdir("test_render_bunny");
 	struct vd_svo svo;
 	struct vd_transform t;
-	if (!voxelize("tests/data/bunny.ply", L, dir, &svo, &t)) return 0;
+	if (!test_voxelize_one("tests/data/bunny.ply", L, dir, &svo, &t)) return 0;
 	scene6_build(s, &svo, &t);
 	vd_svo_release(&svo);
 	return 1;

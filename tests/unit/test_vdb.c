@@ -4,7 +4,7 @@
  * again, no node iteration), on grids built here through the OpenVDB API.
  */
 #include "check.h"
-#include "vset.h"
+#include "scene.h"
 #include "voxdag.h"
 
 #include <dirent.h>
@@ -27,54 +27,25 @@ static uint64_t pack(int64_t x, int64_t y, int64_t z)
 	       (uint64_t)(z + BIAS);
 }
 
+/* The voxels of every chunk in `d`, as our grid coordinates shifted by
+ * `off` (so the OpenVDB index when no resampling happened). */
+static uint64_t offset_key(void *ctx, int64_t x, int64_t y, int64_t z)
+{
+	const int32_t *off = ctx;
+	return pack(off[0] + x, off[1] + y, off[2] + z);
+}
+
+static int load_chunks(const char *d, const int32_t off[3], struct vset *out,
+		       int *nchunks)
+{
+	return test_load_chunks(d, offset_key, (void *)off, out, nchunks);
+}
+
 static void biased_name(uint64_t key, char *buf, size_t cap)
 {
 	snprintf(buf, cap, "(%lld,%lld,%lld)", (long long)(key >> 42) - BIAS,
 		 (long long)(key >> 21 & 0x1fffff) - BIAS,
 		 (long long)(key & 0x1fffff) - BIAS);
-}
-
-/* The voxels of every chunk in `d`, as our grid coordinates shifted by
- * `off` (so the OpenVDB index when no resampling happened). */
-static int load_chunks(const char *d, const int32_t off[3], struct vset *out,
-		       int *nchunks)
-{
-	DIR *dd = opendir(d);
-	struct dirent *e;
-	char path[1024];
-	*nchunks = 0;
-	while (dd && (e = readdir(dd))) {
-		size_t n = strlen(e->d_name);
-		if (n < 5 || strcmp(e->d_name + n - 4, ".svo"))
-			continue;
-		snprintf(path, sizeof path, "%s/%s", d, e->d_name);
-		struct vd_svo svo;
-		int err = vd_svo_load(&svo, NULL, path);
-		if (err) {
-			fprintf(stderr, "%s: %s: %s\n", path, vd_strerror(err),
-				vd_error_detail());
-			closedir(dd);
-			return err;
-		}
-		(*nchunks)++;
-		for (size_t i = 0; i < svo.count; i++) {
-			uint32_t bx, by, bz;
-			vd_morton3_decode(svo.keys[i], &bx, &by, &bz);
-			for (int b = 0; b < 64; b++)
-				if (svo.masks[i] >> b & 1) {
-					uint32_t x, y, z;
-					vd_morton3_decode((uint64_t)b, &x, &y, &z);
-					vset_add(out, pack(off[0] + 4 * (int64_t)bx + x,
-							   off[1] + 4 * (int64_t)by + y,
-							   off[2] + 4 * (int64_t)bz + z));
-				}
-		}
-		vd_svo_release(&svo);
-	}
-	if (dd)
-		closedir(dd);
-	vset_finish(out);
-	return VD_OK;
 }
 
 struct ref_ctx {

@@ -7,7 +7,7 @@
  * (the definition of the grid) is shared.
  */
 #include "check.h"
-#include "vset.h"
+#include "scene.h"
 #include "voxdag.h"
 #include "voxelize_internal.h"
 
@@ -77,6 +77,12 @@ static int ref_overlap(const int64_t t[3][3], const int64_t lo[3], int64_t side)
 }
 
 /* ------------------------------------------------------------ voxel sets */
+
+static uint64_t morton_key(void *ctx, int64_t x, int64_t y, int64_t z)
+{
+	(void)ctx;
+	return vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z);
+}
 
 static void morton_name(uint64_t key, char *buf, size_t cap)
 {
@@ -276,59 +282,6 @@ static void test_box_overlap(void)
 
 /* --------------------------------------------------------- real meshes */
 
-/* The voxels of every chunk file in `d`. */
-static int load_chunks(const char *d, struct vset *out, int *nchunks)
-{
-	DIR *dd = opendir(d);
-	struct dirent *e;
-	char path[1024];
-	*nchunks = 0;
-	while (dd && (e = readdir(dd))) {
-		size_t n = strlen(e->d_name);
-		if (n < 5 || strcmp(e->d_name + n - 4, ".svo"))
-			continue;
-		snprintf(path, sizeof path, "%s/%s", d, e->d_name);
-		struct vd_svo svo;
-		int err = vd_svo_load(&svo, NULL, path);
-		if (err) {
-			fprintf(stderr, "%s: %s: %s\n", path, vd_strerror(err),
-				vd_error_detail());
-			closedir(dd);
-			return err;
-		}
-		(*nchunks)++;
-		for (size_t i = 0; i < svo.count; i++) {
-			uint32_t bx, by, bz;
-			vd_morton3_decode(svo.keys[i], &bx, &by, &bz);
-			for (int b = 0; b < 64; b++)
-				if (svo.masks[i] >> b & 1) {
-					uint32_t x, y, z;
-					vd_morton3_decode((uint64_t)b, &x, &y, &z);
-					vset_add(out, vd_morton3(4 * bx + x, 4 * by + y,
-								 4 * bz + z));
-				}
-		}
-		vd_svo_release(&svo);
-	}
-	if (dd)
-		closedir(dd);
-	vset_finish(out);
-	return VD_OK;
-}
-
-static int voxelize(const char *mesh, int L, int L0, const char *out)
-{
-	struct vd_voxelize_opts o = {.levels = L, .chunk_level = L0,
-				     .mem_budget_bytes = 1ull << 30,
-				     .threads = 2, .quiet = 1};
-	struct vd_voxelize_result r;
-	int err = vd_voxelize_mesh(mesh, out, &o, &r);
-	if (err)
-		fprintf(stderr, "voxelize %s: %s: %s\n", mesh, vd_strerror(err),
-			vd_error_detail());
-	return err;
-}
-
 /* The brute-force voxel set of a whole mesh: every triangle, every voxel
  * of its bounding box, the reference test. */
 static void ref_mesh(const char *mesh, int L, struct vset *out)
@@ -364,8 +317,8 @@ static void test_real_mesh_brute_force(void)
 	for (int L = 6; L <= 8; L++) {
 		struct vset got = {0}, want = {0};
 		int n;
-		CHECK_EQ(voxelize("tests/data/bunny.ply", L, -1, dir), VD_OK);
-		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
+		CHECK_EQ(test_voxelize("tests/data/bunny.ply", L, -1, dir, NULL), VD_OK);
+		CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &got, &n), VD_OK);
 		ref_mesh("tests/data/bunny.ply", L, &want);
 		CHECK(want.n > 1000);
 		CHECK(vset_equal(&got, &want, "bunny", morton_name));
@@ -378,13 +331,13 @@ static void test_chunked_equals_monolithic(void)
 {
 	struct vset base = {0};
 	int n;
-	CHECK_EQ(voxelize("tests/data/bunny.ply", 8, 0, dir), VD_OK);
-	CHECK_EQ(load_chunks(dir, &base, &n), VD_OK);
+	CHECK_EQ(test_voxelize("tests/data/bunny.ply", 8, 0, dir, NULL), VD_OK);
+	CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &base, &n), VD_OK);
 	CHECK_EQ(n, 1);
 	for (int L0 = 1; L0 <= 3; L0++) {
 		struct vset got = {0};
-		CHECK_EQ(voxelize("tests/data/bunny.ply", 8, L0, dir), VD_OK);
-		CHECK_EQ(load_chunks(dir, &got, &n), VD_OK);
+		CHECK_EQ(test_voxelize("tests/data/bunny.ply", 8, L0, dir, NULL), VD_OK);
+		CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &got, &n), VD_OK);
 		CHECK(n > 1 && n <= 1 << 3 * L0);
 		CHECK(vset_equal(&got, &base, "chunked", morton_name));
 		free(got.v);
@@ -397,10 +350,10 @@ static void test_resolutions_agree(void)
 {
 	struct vset fine = {0}, coarse = {0}, up = {0};
 	int n;
-	CHECK_EQ(voxelize("tests/data/bunny.ply", 9, 1, dir), VD_OK);
-	CHECK_EQ(load_chunks(dir, &fine, &n), VD_OK);
-	CHECK_EQ(voxelize("tests/data/bunny.ply", 8, 2, dir), VD_OK);
-	CHECK_EQ(load_chunks(dir, &coarse, &n), VD_OK);
+	CHECK_EQ(test_voxelize("tests/data/bunny.ply", 9, 1, dir, NULL), VD_OK);
+	CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &fine, &n), VD_OK);
+	CHECK_EQ(test_voxelize("tests/data/bunny.ply", 8, 2, dir, NULL), VD_OK);
+	CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &coarse, &n), VD_OK);
 	for (size_t i = 0; i < fine.n; i++)
 		vset_add(&up, fine.v[i] >> 3); /* Morton: parent = drop 3 bits */
 	vset_finish(&up);
