@@ -131,30 +131,31 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 	struct config *c = x->c;
 	if (want_mapping(x, map, "input"))
 		return 1;
+	/* every input key is a string */
+	const struct {
+		const char *key;
+		char *buf;
+		size_t cap;
+	} fields[] = {
+		{"mesh", c->mesh, sizeof c->mesh},
+		{"vdb", c->vdb, sizeof c->vdb},
+		{"grid", c->vdb_grid, sizeof c->vdb_grid},
+		{"mode", c->vdb_mode, sizeof c->vdb_mode},
+		{"fetch", c->fetch, sizeof c->fetch},
+	};
 	yaml_node_t *k, *v;
 	FOR_PAIRS(x, map, k, v, it) {
 		const char *key = scalar(k);
 		if (!key)
 			return fail_at(x, k, "keys must be strings");
-		if (!strcmp(key, "mesh")) {
-			if (want_string(x, v, key, c->mesh, sizeof c->mesh))
-				return 1;
-		} else if (!strcmp(key, "vdb")) {
-			if (want_string(x, v, key, c->vdb, sizeof c->vdb))
-				return 1;
-		} else if (!strcmp(key, "grid")) {
-			if (want_string(x, v, key, c->vdb_grid, sizeof c->vdb_grid))
-				return 1;
-		} else if (!strcmp(key, "mode")) {
-			if (want_string(x, v, key, c->vdb_mode, sizeof c->vdb_mode))
-				return 1;
-		} else if (!strcmp(key, "fetch")) {
-			if (want_string(x, v, key, c->fetch, sizeof c->fetch))
-				return 1;
-		} else {
+		size_t f = 0;
+		while (f < sizeof fields / sizeof *fields && strcmp(key, fields[f].key))
+			f++;
+		if (f == sizeof fields / sizeof *fields)
 			return fail_at(x, k, "unknown key 'input.%s' (known: mesh, "
 				       "vdb, grid, mode, fetch)", key);
-		}
+		if (want_string(x, v, key, fields[f].buf, fields[f].cap))
+			return 1;
 	}
 	if (!*c->mesh == !*c->vdb)
 		return fail_at(x, map, "'input' needs exactly one of 'mesh' or "

@@ -321,6 +321,24 @@ static void remaps_free(struct remap *rm, size_t np)
 	free(rm);
 }
 
+/* Makes the level just built the one the next level up works from: its
+ * invariance sets, its front of part roots and the parts' remaps move into
+ * the engine (the caller's pointers are emptied, so its cleanup frees
+ * nothing twice). */
+static void engine_advance(struct engine *e, uint8_t **inv, struct front *nf,
+			   struct remap **rm)
+{
+	free(e->inv_below);
+	e->inv_below = *inv;
+	*inv = NULL;
+	front_free(&e->fr);
+	e->fr = *nf;
+	*nf = (struct front){0};
+	remaps_free(e->rm, e->np);
+	e->rm = *rm;
+	*rm = NULL;
+}
+
 static struct remap *remaps_new(struct engine *e, int l)
 {
 	struct remap *rm = calloc(e->np ? e->np : 1, sizeof *rm);
@@ -635,16 +653,8 @@ static int level_brick(struct engine *e)
 		memcpy(ll->mask, leaf_mask, nleaf);
 		e->out->bricks = b.v;
 		b.v = NULL;
-		free(e->inv_below);
-		e->inv_below = b.inv;
-		b.inv = NULL;
 	}
-	front_free(&e->fr);
-	e->fr = nf;
-	nf = (struct front){0};
-	remaps_free(e->rm, e->np);
-	e->rm = rm;
-	rm = NULL;
+	engine_advance(e, &b.inv, &nf, &rm);
 out:
 	bset_free(&b);
 	front_free(&nf);
@@ -727,15 +737,7 @@ static int level_inner(struct engine *e, int l)
 		err = NOMEM();
 		goto out;
 	}
-	free(e->inv_below);
-	e->inv_below = b.inv;
-	b.inv = NULL;
-	front_free(&e->fr);
-	e->fr = nf;
-	nf = (struct front){0};
-	remaps_free(e->rm, e->np);
-	e->rm = rm;
-	rm = NULL;
+	engine_advance(e, &b.inv, &nf, &rm);
 out:
 	nset_free(&b);
 	front_free(&nf);

@@ -365,31 +365,6 @@ static uint64_t vd_ld(const unsigned char *p, int n, int be)
 	return v;
 }
 
-static double vd_ply_decode(const unsigned char *p, int type, int be)
-{
-	switch (type) {
-	case PLY_I8: return (int8_t)p[0];
-	case PLY_U8: return p[0];
-	case PLY_I16: return (int16_t)(uint16_t)vd_ld(p, 2, be);
-	case PLY_U16: return (uint16_t)vd_ld(p, 2, be);
-	case PLY_I32: return (int32_t)(uint32_t)vd_ld(p, 4, be);
-	case PLY_U32: return (uint32_t)vd_ld(p, 4, be);
-	case PLY_F32: {
-		uint32_t u = (uint32_t)vd_ld(p, 4, be);
-		float f;
-		memcpy(&f, &u, 4);
-		return f;
-	}
-	case PLY_F64: {
-		uint64_t u = vd_ld(p, 8, be);
-		double d;
-		memcpy(&d, &u, 8);
-		return d;
-	}
-	}
-	return 0;
-}
-
 /* Integer types only (checked in the header), so no rounding. */
 static int64_t vd_ply_decode_int(const unsigned char *p, int type, int be)
 {
@@ -403,6 +378,24 @@ static int64_t vd_ply_decode_int(const unsigned char *p, int type, int be)
 	}
 	return 0;
 }
+
+static double vd_ply_decode(const unsigned char *p, int type, int be)
+{
+	if (type == PLY_F32) {
+		uint32_t u = (uint32_t)vd_ld(p, 4, be);
+		float f;
+		memcpy(&f, &u, 4);
+		return f;
+	}
+	if (type == PLY_F64) {
+		uint64_t u = vd_ld(p, 8, be);
+		double d;
+		memcpy(&d, &u, 8);
+		return d;
+	}
+	return (double)vd_ply_decode_int(p, type, be);
+}
+
 
 /* ------------------------------------------------------------ the reader */
 
