@@ -8,8 +8,9 @@
 #   make config=sanitize      the same build with AddressSanitizer and UBSan
 #   make deps                 install the Debian packages the build needs
 #
-# Layout: stages/lib/*.c(c) is libvoxdag; every other stages/<name>/main.c is
-# one executable; tests/unit/test_*.c are unit test programs.
+# Layout: stages/lib/ and its folders by concern (io/, voxel/, dag/, encode/,
+# render/, ...) are libvoxdag; every other stages/<name>/main.c is one
+# executable; tests/unit/test_*.c are unit test programs.
 
 config ?= release
 O ?= out
@@ -47,8 +48,8 @@ endif
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools
 
-LIB_C    := $(wildcard stages/lib/*.c)
-LIB_CC   := $(wildcard stages/lib/*.cc)
+LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
+LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
 LIB_OBJ  := $(LIB_C:stages/lib/%.c=$(OUT)/obj/lib/%.o) \
             $(LIB_CC:stages/lib/%.cc=$(OUT)/obj/lib/%.o)
 LIB      := $(OUT)/lib/libvoxdag.a
@@ -57,7 +58,7 @@ BINS     := $(TOOLS:%=$(OUT)/bin/%)
 RUNNER_OBJ := $(patsubst pipeline/%.c,$(OUT)/obj/pipeline/%.o,$(wildcard pipeline/*.c))
 TEST_SRC := $(wildcard tests/unit/test_*.c)
 TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
-HEADERS  := $(wildcard stages/lib/*.h) $(wildcard tests/unit/*.h)
+HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.h)
 
 .PHONY: all run pipeline test bench deps clean tests
 .DEFAULT_GOAL := all

@@ -11,7 +11,7 @@
 #pragma GCC diagnostic ignored "-Wunused-variable"
 #include "dag_test_util.h"
 #pragma GCC diagnostic pop
-#include "encode_internal.h"
+#include "encode/encode_internal.h"
 #include "voxdag.h"
 
 #include <sys/stat.h>

@@ -9,7 +9,7 @@
 #include "check.h"
 #include "scene.h"
 #include "voxdag.h"
-#include "voxelize_internal.h"
+#include "voxel/voxelize_internal.h"
 
 #include <dirent.h>
 

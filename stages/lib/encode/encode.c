@@ -12,7 +12,7 @@
  * 2^13 and 32-bit ones above.
  */
 #include "voxdag.h"
-#include "encode_internal.h"
+#include "encode/encode_internal.h"
 
 #include <errno.h>
 #include <inttypes.h>

@@ -15,7 +15,7 @@
  * __int128 (E < 2^40).
  */
 #include "voxdag.h"
-#include "voxelize_internal.h"
+#include "voxel/voxelize_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -53,12 +53,12 @@ static inline double vd_ceil(double x)
 
 #define RT int64_t
 #define RN(name) name##64
-#include "tribox_impl.h"
+#include "voxel/tribox_impl.h"
 #undef RT
 #undef RN
 #define RT i128
 #define RN(name) name##128
-#include "tribox_impl.h"
+#include "voxel/tribox_impl.h"
 #undef RT
 #undef RN
 

@@ -3,7 +3,7 @@
  * §4.1, made exact: invariance is a full set of the 8 reflections, not three
  * per-axis bits, because a subtree can be invariant under X+Y together and
  * under neither X nor Y alone). */
-#include "dag_internal.h"
+#include "dag/dag_internal.h"
 
 #include <pthread.h>
 #include <string.h>

@@ -16,7 +16,7 @@
  * walk over the blocks in key order, which is Morton order of the bricks.
  */
 #include "voxdag.h"
-#include "voxelize_internal.h"
+#include "voxel/voxelize_internal.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -16,7 +16,7 @@
  * level L-1 (2x2x2 masks) is read off the distinct bricks. Everything is
  * serial and deterministic: the same input gives the same node order.
  */
-#include "dag_internal.h"
+#include "dag/dag_internal.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

@@ -6,7 +6,7 @@
  * zstd then squeezes to about a byte per brick.
  */
 #include "voxdag.h"
-#include "voxelize_internal.h"
+#include "voxel/voxelize_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -16,7 +16,7 @@
  * and per worker 16 bytes per brick of its cell.
  */
 #include "voxdag.h"
-#include "voxelize_internal.h"
+#include "voxel/voxelize_internal.h"
 
 #include <dirent.h>
 #include <errno.h>
