@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Runs every test and prints one closing line: "N passed, N failed".
-# Unit tests run from the sanitizer build; command-line tests run the
-# release executables from the outside (tests/cli/*.sh).
+# Unit tests run from the sanitizer build, judged by tests/run-unit.sh (a
+# crash, a sanitizer report or a program that ends early is a FAIL);
+# command-line tests run the release executables from the outside
+# (tests/cli/*.sh); a script that exits non-zero is a FAIL too.
 set -u
 cd "$(dirname "$0")/.."
 passed=0 failed=0 skipped=0
@@ -22,8 +24,7 @@ tally() { # reads PASS/FAIL/SKIP lines on stdin, echoes them, counts them
 for t in out/sanitize/tests/test_*; do
 	case "$t" in *.o) continue ;; esac
 	echo "== $t"
-	tally < <(ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-		"$t" 2>>"$log"; rc=$?; [ $rc -le 1 ] || echo "FAIL $t exited $rc")
+	tally < <(tests/run-unit.sh "$t" 2>>"$log")
 done
 for t in tests/cli/*.sh; do
 	[ "$(basename "$t")" = lib.sh ] && continue

@@ -1,5 +1,6 @@
-/* check.h - the unit tests' harness: always-on assertions that count, and
- * one PASS/FAIL line per test function for tests/run.sh to total up. */
+/* check.h - the unit tests' harness: always-on assertions that count, one
+ * PASS/FAIL line per test function and a closing "END n" line, judged by
+ * tests/run-unit.sh. */
 #ifndef VD_CHECK_H
 #define VD_CHECK_H
 
@@ -43,7 +44,13 @@ static int tests_failed_, tests_run_;
 		fflush(stdout);                                              \
 	} while (0)
 
-#define CHECK_DONE() (tests_failed_ ? 1 : 0)
+/* Ends main(): prints "END n" with the number of test functions run, so
+ * tests/run-unit.sh can tell a program that finished from one that ended
+ * early (a crash, a sanitizer report, an exit() in the middle). Returns
+ * main's exit status: 1 when a test failed. */
+#define CHECK_DONE()                                                         \
+	(printf("END %d\n", tests_run_), fflush(stdout),                    \
+	 tests_failed_ ? 1 : 0)
 
 /* Directory with the repository's test data and the shared scenes (the
  * latter may be absent: tests then skip). */
