@@ -134,19 +134,22 @@ ifneq ($(PIPELINE),)
 endif
 
 pipeline: deps
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory -j$(JOBS) all
 	$(OUT)/bin/voxdag run $(PIPELINE)
 
 run:
 	@$(MAKE) --no-print-directory pipeline PIPELINE=config/default.yaml
 
+# Sub-makes build with every core (CI's `make test` has no -j of its own).
+JOBS ?= $(shell nproc)
+
 test: deps
-	@$(MAKE) --no-print-directory all tests
-	@$(MAKE) --no-print-directory config=sanitize all tests
+	@$(MAKE) --no-print-directory -j$(JOBS) all tests
+	@$(MAKE) --no-print-directory -j$(JOBS) config=sanitize all tests
 	@tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory -j$(JOBS) all
 	@tests/bench.sh
 
 clean:
