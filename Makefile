@@ -45,8 +45,10 @@ endif
 # The Debian packages the build and the tests need (checked by `make deps`).
 # libboost-dev: OpenVDB 10's headers include Boost, which Debian's
 # libopenvdb-dev does not pull in; libopenvdb-tools: vdb_print for the tests.
+# slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev \
-                libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools
+                libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
+                slurm-wlm munge
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)

@@ -170,6 +170,122 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 	return 0;
 }
 
+static int want_executor(struct ctx *x, const yaml_node_t *n,
+			 enum executor *out)
+{
+	const char *s = scalar(n);
+	if (s && !strcmp(s, "local"))
+		*out = EXECUTOR_LOCAL;
+	else if (s && !strcmp(s, "slurm"))
+		*out = EXECUTOR_SLURM;
+	else
+		return fail_at(x, n, "'executor' is 'local' or 'slurm'");
+	return 0;
+}
+
+/* A Slurm time limit as sbatch takes it: minutes, M:S, H:M:S, D-H,
+ * D-H:M, D-H:M:S, or "infinite"/"unlimited". */
+static int valid_time_limit(const char *s)
+{
+	if (!strcmp(s, "infinite") || !strcmp(s, "unlimited"))
+		return 1;
+	int fields = 0, digits = 0, dash = 0;
+	for (; *s; s++) {
+		if (*s >= '0' && *s <= '9') {
+			digits++;
+			continue;
+		}
+		if (!digits || (*s != ':' && *s != '-') || (*s == '-' && (dash || fields)))
+			return 0;
+		dash += *s == '-';
+		fields++;
+		digits = 0;
+	}
+	return digits > 0 && fields <= 3;
+}
+
+static int want_time_limit(struct ctx *x, const yaml_node_t *n,
+			   const char *key, char *out, size_t cap)
+{
+	if (want_string(x, n, key, out, cap))
+		return 1;
+	if (!valid_time_limit(out))
+		return fail_at(x, n, "'%s' is '%s', not a Slurm time limit "
+			       "(minutes, H:M:S or D-H:M:S)", key, out);
+	return 0;
+}
+
+/* slurm: {partition, account, time_limit, time: {stage: limit},
+ * sbatch_args: [...]}; used with resources.executor: slurm. */
+static int parse_slurm(struct ctx *x, yaml_node_t *map)
+{
+	struct slurm_opts *o = &x->c->slurm;
+	if (want_mapping(x, map, "slurm"))
+		return 1;
+	yaml_node_t *k, *v;
+	FOR_PAIRS(x, map, k, v, it) {
+		const char *key = scalar(k);
+		int err = 0;
+		if (!key)
+			return fail_at(x, k, "keys must be strings");
+		if (!strcmp(key, "partition"))
+			err = want_string(x, v, key, o->partition,
+					  sizeof o->partition);
+		else if (!strcmp(key, "account"))
+			err = want_string(x, v, key, o->account,
+					  sizeof o->account);
+		else if (!strcmp(key, "time_limit"))
+			err = want_time_limit(x, v, key, o->time_limit,
+					      sizeof o->time_limit);
+		else if (!strcmp(key, "time")) {
+			if (want_mapping(x, v, "slurm.time"))
+				return 1;
+			yaml_node_t *sk, *sv;
+			FOR_PAIRS(x, v, sk, sv, st) {
+				const char *name = scalar(sk);
+				const struct stage_info *si =
+					name ? stage_lookup(name) : NULL;
+				if (!si)
+					return fail_at(x, sk, "'slurm.time' maps "
+						       "stages to time limits; "
+						       "'%s' is no stage",
+						       name ? name : "?");
+				if (want_time_limit(x, sv, name,
+						    o->stage_time[si->type],
+						    sizeof o->stage_time[0]))
+					return 1;
+			}
+		} else if (!strcmp(key, "sbatch_args")) {
+			if (v->type != YAML_SEQUENCE_NODE)
+				return fail_at(x, v, "'sbatch_args' must be a "
+					       "list of arguments");
+			for (yaml_node_item_t *ni = v->data.sequence.items.start;
+			     ni < v->data.sequence.items.top; ni++) {
+				yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
+				if (o->nargs == 8)
+					return fail_at(x, e, "more than 8 "
+						       "sbatch_args");
+				if (want_string(x, e, "sbatch_args",
+						o->args[o->nargs],
+						sizeof o->args[0]))
+					return 1;
+				if (o->args[o->nargs][0] != '-')
+					return fail_at(x, e, "sbatch_args are "
+						       "options (starting "
+						       "with '-')");
+				o->nargs++;
+			}
+		} else {
+			return fail_at(x, k, "unknown key 'slurm.%s' (known: "
+				       "partition, account, time_limit, time, "
+				       "sbatch_args)", key);
+		}
+		if (err)
+			return 1;
+	}
+	return 0;
+}
+
 static int parse_resources(struct ctx *x, yaml_node_t *map)
 {
 	struct config *c = x->c;
@@ -189,10 +305,12 @@ static int parse_resources(struct ctx *x, yaml_node_t *map)
 			err = want_size(x, v, key, &c->mem_budget);
 		else if (!strcmp(key, "job_mem_budget"))
 			err = want_size(x, v, key, &c->job_mem_budget);
+		else if (!strcmp(key, "executor"))
+			err = want_executor(x, v, &c->executor);
 		else
 			return fail_at(x, k, "unknown key 'resources.%s' (known: "
 				       "jobs, threads, mem_budget, "
-				       "job_mem_budget)", key);
+				       "job_mem_budget, executor)", key);
 		if (err)
 			return 1;
 	}
@@ -397,6 +515,13 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 			}
 		} else if (!strcmp(key, "resources")) {
 			err = parse_resources(x, v);
+		} else if (!strcmp(key, "slurm")) {
+			err = parse_slurm(x, v);
+		} else if (!strcmp(key, "outputs")) {
+			err = want_string(x, v, key, c->outputs,
+					  sizeof c->outputs - 64);
+			if (!err && !*c->outputs)
+				return fail_at(x, v, "'outputs' is empty");
 		} else if (!strcmp(key, "jobs")) {
 			jobs_node = v;
 			if (want_mapping(x, v, "jobs"))
@@ -425,8 +550,8 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 		} else {
 			return fail_at(x, k, "unknown key '%s' (known: version, "
 				       "name, input, levels, chunk_level, "
-				       "resolutions, resources, jobs, report)",
-				       key);
+				       "resolutions, resources, slurm, outputs, "
+				       "jobs, report)", key);
 		}
 		if (err)
 			return 1;
@@ -503,6 +628,8 @@ int config_load(struct config *c, const char *path)
 		int t = vd_hardware_threads() / c->jobs;
 		c->threads = t > 0 ? t : 1;
 	}
+	if (!err && !*c->outputs)
+		snprintf(c->outputs, sizeof c->outputs, "out/%s", c->name);
 	if (!err && c->nres == 0)
 		for (int l = c->levels; l >= 1 && l > c->levels - 4; l--)
 			c->resolutions[c->nres++] = l;

@@ -19,11 +19,15 @@ static const char usage[] =
 	"                  crash or kill the same command carries on\n"
 	"  plan CONFIG     print the expanded job graph without running anything\n"
 	"  status CONFIG   what is done, pending, or started and not finished\n"
-	"  report CONFIG   write out/<name>/report.md (.json, .csv) again\n"
-	"  clean CONFIG    remove out/<name>/\n"
+	"  report CONFIG   write the report (report.md, .json, .csv) again\n"
+	"  clean CONFIG    remove the output directory (out/<name>/ unless the\n"
+	"                  YAML's 'outputs' names another)\n"
 	"\n"
 	"Options:\n"
 	"  -q, --quiet     no progress lines\n"
+	"  --executor local|slurm\n"
+	"                  where jobs run (overrides resources.executor): here,\n"
+	"                  or each job an sbatch on a Slurm cluster\n"
 	"  -h, --help      this text\n"
 	"\n"
 	"The YAML format is described in schemas/pipeline.md.\n"
@@ -68,7 +72,6 @@ static int cmd_plan(struct plan *p)
 
 static int cmd_clean(struct plan *p)
 {
-	snprintf(p->dir, sizeof p->dir, "out/%s", p->cfg->name);
 	char lock[1200];
 	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
 	int fd = open(lock, O_RDWR);
@@ -86,14 +89,26 @@ int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
 		{"quiet", no_argument, NULL, 'q'},
+		{"executor", required_argument, NULL, 'E'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
+	if (argc > 1 && !strcmp(argv[1], "job-exec"))
+		return slurm_job_exec(argc, argv);
 	struct run_opts o = {0};
+	const char *executor = NULL;
 	int c;
 	while ((c = getopt_long(argc, argv, "qh", longopts, NULL)) != -1) {
 		if (c == 'q') {
 			o.quiet = 1;
+		} else if (c == 'E') {
+			if (strcmp(optarg, "local") && strcmp(optarg, "slurm")) {
+				fprintf(stderr, "voxdag: --executor is 'local' or "
+					"'slurm', not '%s'\nTry 'voxdag "
+					"--help'.\n", optarg);
+				return 2;
+			}
+			executor = optarg;
 		} else if (c == 'h') {
 			fputs(usage, stdout);
 			return 0;
@@ -121,8 +136,11 @@ int main(int argc, char **argv)
 	struct config cfg;
 	if (config_load(&cfg, path))
 		return 1;
+	if (executor)
+		cfg.executor = !strcmp(executor, "slurm") ? EXECUTOR_SLURM
+							  : EXECUTOR_LOCAL;
 	struct plan p = {.cfg = &cfg};
-	snprintf(p.dir, sizeof p.dir, "out/%s", cfg.name);
+	snprintf(p.dir, sizeof p.dir, "%s", cfg.outputs);
 	int rc;
 	switch (which) {
 	case 0:

@@ -70,6 +70,15 @@ struct config {
 	int njobs;
 	struct job_decl jobs_decl[MAX_JOBS_DECL];
 	char title[256];
+	char outputs[1024];        /* the output directory; default out/<name> */
+	enum executor { EXECUTOR_LOCAL, EXECUTOR_SLURM } executor;
+	struct slurm_opts {
+		char partition[MAX_NAME], account[MAX_NAME];
+		char time_limit[32];               /* every job's, unless... */
+		char stage_time[STAGE_COUNT_][32]; /* ...its stage has one */
+		int nargs;
+		char args[8][256];                 /* extra sbatch arguments */
+	} slurm;
 };
 
 /* Reads and validates `path`. On failure prints one line
@@ -85,6 +94,7 @@ enum job_state { JOB_PENDING, JOB_RUNNING, JOB_DONE, JOB_SKIPPED, JOB_FAILED,
 
 struct job {
 	char id[160];              /* "svdag/cell-L2-3f", for logs and status */
+	long slurm_id;             /* with executor slurm: its Slurm job, or 0 */
 	int decl;                  /* the job_decl it comes from */
 	char **argv;               /* NULL-terminated; argv[0] is the program */
 	char output[1024];         /* the file (or directory) it produces */
@@ -100,6 +110,7 @@ struct job {
 	uint64_t peak_rss;         /* from wait4 */
 	uint64_t voxels;           /* from the stage's stats, for throughput */
 	int logged;                /* its skip is in runner.log */
+	int adopt_checked;         /* Slurm: looked for an earlier submission */
 };
 
 struct plan {
@@ -131,6 +142,56 @@ struct run_opts {
 };
 
 int run_pipeline(struct plan *p, const struct run_opts *o);
+
+/* How a job ended, from wait4 (local) or its status file (Slurm). */
+struct job_end {
+	int exited, code, signal;  /* exited: code valid; else signal (or 0) */
+	double seconds;
+	uint64_t peak_rss;         /* bytes */
+	char reason[160];          /* Slurm's state and reason when it failed */
+};
+
+/* ---------------------------------------------------- the Slurm executor
+ * (slurm.c). The runner stays the driver: it submits each job with sbatch
+ * once its dependencies are done or themselves submitted (afterok), polls
+ * for ends, and on a restart adopts jobs still queued or running. Per job
+ * it keeps DIR/slurm/<job>.id (the Slurm job id) and the job writes
+ * DIR/slurm/<job>.end through `voxdag job-exec`. */
+
+/* Checks, before anything is submitted: sbatch on PATH, the controller
+ * answers, the partition exists, the output directory is not node-local.
+ * Prints one line and returns non-zero on a problem. */
+int slurm_preflight(const struct plan *p);
+
+/* Submits j (its dependencies running in Slurm become afterok). Returns 0
+ * and sets j->slurm_id, or prints one line and returns non-zero. */
+int slurm_submit(const struct plan *p, struct job *j);
+
+/* If a previous driver submitted j with the same command and Slurm still
+ * has it queued or running, or it ended while no driver watched: sets
+ * j->slurm_id and returns 1 (the caller then treats j as running). */
+int slurm_adopt(const struct plan *p, struct job *j);
+
+/* Looks for a running Slurm job that ended. Returns its index and fills
+ * *end, or -1 when none has (yet). Asks squeue at most every few seconds
+ * for jobs that vanished without an end file (cancelled, out of memory,
+ * time limit, node failure) and takes Slurm's reason for them. */
+int slurm_reap(const struct plan *p, struct job_end *end);
+
+/* Cancels j in Slurm (a dependency of it failed). */
+void slurm_cancel(const struct plan *p, struct job *j);
+
+/* Forgets j's id and end files once its output is recorded. */
+void slurm_forget(const struct plan *p, const struct job *j);
+
+/* `voxdag job-exec END -- PROG ARGS...`, what each Slurm job runs: runs the
+ * stage, then writes END (exit status, seconds, peak memory) atomically. */
+int slurm_job_exec(int argc, char **argv);
+
+/* For `voxdag status`: the Slurm state of j ("PENDING", "RUNNING", ...)
+ * when a driver submitted it, else NULL. */
+const char *slurm_state(const struct plan *p, const struct job *j,
+			char *buf, size_t cap);
 int report_write(const struct plan *p);
 int status_print(struct plan *p);
 

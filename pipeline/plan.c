@@ -655,7 +655,7 @@ static void plan_render(struct plan *p, int d)
 int plan_expand(struct plan *p)
 {
 	const struct config *c = p->cfg;
-	snprintf(p->dir, sizeof p->dir, "out/%s", c->name);
+	snprintf(p->dir, sizeof p->dir, "%s", c->outputs);
 	int before;
 	do {
 		before = p->n;

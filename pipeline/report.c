@@ -219,8 +219,15 @@ int status_print(struct plan *p)
 	int counts[JOB_BLOCKED + 1] = {0};
 	char lock[1200];
 	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
+	int in_slurm = 0;
 	for (int i = 0; i < p->n; i++) {
 		struct job *j = &p->jobs[i];
+		char st[256];
+		if (j->state == JOB_PENDING && slurm_state(p, j, st, sizeof st)) {
+			j->state = JOB_RUNNING; /* submitted by a driver */
+			in_slurm++;
+			continue;
+		}
 		if (j->state == JOB_PENDING) {
 			/* a log without a key: it ran and did not finish */
 			char lp[1300], id[200];
@@ -242,6 +249,14 @@ int status_print(struct plan *p)
 	printf("  done     %d\n  started  %d (running now, or interrupted or "
 	       "failed: see %s/logs/)\n  pending  %d\n", counts[JOB_SKIPPED],
 	       counts[JOB_FAILED], p->dir, counts[JOB_PENDING]);
+	if (in_slurm)
+		printf("  in Slurm %d (submitted by a driver):\n", in_slurm);
+	for (int i = 0; i < p->n && in_slurm; i++) {
+		char st[256];
+		if (p->jobs[i].state == JOB_RUNNING &&
+		    slurm_state(p, &p->jobs[i], st, sizeof st))
+			printf("    %s: %s\n", p->jobs[i].id, st);
+	}
 	for (int i = 0; i < p->n; i++)
 		if (p->jobs[i].state == JOB_FAILED)
 			printf("  started, not finished: %s\n", p->jobs[i].id);

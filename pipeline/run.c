@@ -114,11 +114,9 @@ static void print_command(FILE *f, const struct job *j)
 	fputc('\n', f);
 }
 
-static pid_t start_job(const struct plan *p, struct job *j)
+/* Makes the output's directory and drops its key: it is being replaced. */
+static void prepare_output(struct job *j)
 {
-	char lp[1300];
-	log_path(p, j, lp, sizeof lp);
-	/* the output's directory */
 	char dir[1100];
 	snprintf(dir, sizeof dir, "%s", j->output);
 	char *slash = strrchr(dir, '/');
@@ -126,7 +124,14 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		*slash = 0;
 		mkdir_p(dir);
 	}
-	unlink(j->key_path); /* the output is being replaced */
+	unlink(j->key_path);
+}
+
+static pid_t start_job(const struct plan *p, struct job *j)
+{
+	char lp[1300];
+	log_path(p, j, lp, sizeof lp);
+	prepare_output(j);
 	pid_t pid = fork();
 	if (pid < 0)
 		return -1;
@@ -154,18 +159,21 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	return pid;
 }
 
+/* 0 ready, 1 waiting, 2 blocked, 3 waiting only for jobs Slurm has (so
+ * it can be submitted with afterok on them). */
 static int deps_state(const struct plan *p, const struct job *j)
 {
-	/* 0 ready, 1 waiting, 2 blocked */
-	int waiting = 0;
+	int waiting = 0, in_slurm = 0;
 	for (int k = 0; k < j->ndeps; k++) {
-		enum job_state s = p->jobs[j->deps[k]].state;
-		if (s == JOB_FAILED || s == JOB_BLOCKED)
+		const struct job *d = &p->jobs[j->deps[k]];
+		if (d->state == JOB_FAILED || d->state == JOB_BLOCKED)
 			return 2;
-		if (s != JOB_DONE && s != JOB_SKIPPED)
+		if (d->state == JOB_RUNNING && d->slurm_id > 0)
+			in_slurm = 1;
+		else if (d->state != JOB_DONE && d->state != JOB_SKIPPED)
 			waiting = 1;
 	}
-	return waiting;
+	return waiting ? 1 : in_slurm ? 3 : 0;
 }
 
 static void fmt_time(char *buf, size_t cap, double s)
@@ -260,6 +268,99 @@ static void progress(const struct plan *p, double t0, int tty, int final)
 		said, tty && !final ? "" : "\n");
 }
 
+/* The index of a local job that ended (filling *e), -1 when none has yet,
+ * -2 when there is no child left to wait for. */
+static int reap_local(const struct plan *p, struct job_end *e)
+{
+	int status;
+	struct rusage ru;
+	pid_t pid = wait4(-1, &status, WNOHANG, &ru);
+	if (pid == 0 || (pid < 0 && errno == EINTR))
+		return -1;
+	if (pid < 0)
+		return -2;
+	for (int i = 0; i < p->n; i++) {
+		const struct job *j = &p->jobs[i];
+		if (j->state != JOB_RUNNING || j->pid != pid)
+			continue;
+		memset(e, 0, sizeof *e);
+		e->exited = WIFEXITED(status);
+		e->code = e->exited ? WEXITSTATUS(status) : 0;
+		e->signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+		e->seconds = vd_seconds() - j->start;
+		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
+		return i;
+	}
+	return -1; /* not one of ours */
+}
+
+/* Records how j ended: its key when it succeeded, else the failure report
+ * (job, command line, Slurm's reason, the end of its log). Returns 0 when
+ * it succeeded. */
+static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
+		      int tty)
+{
+	j->seconds = e->seconds;
+	j->peak_rss = e->peak_rss;
+	int ok = e->exited && e->code == 0 && !*e->reason;
+	if (ok && write_key(j) != 0)
+		ok = 0;
+	if (ok) {
+		j->state = JOB_DONE;
+		j->voxels = job_voxels(j);
+		log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
+			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
+			 (unsigned long long)(j->mem_estimate >> 20));
+		if (j->slurm_id > 0)
+			slurm_forget(p, j);
+		plan_expand(p);
+		return 0;
+	}
+	j->state = JOB_FAILED;
+	char lp[1300];
+	log_path(p, j, lp, sizeof lp);
+	log_line("failed %s%s%s", j->id, *e->reason ? ": " : "", e->reason);
+	if (tty)
+		fputs("\r\033[K", stderr);
+	if (*e->reason)
+		fprintf(stderr, "voxdag: job %s did not finish: %s\n", j->id,
+			e->reason);
+	else if (!e->exited)
+		fprintf(stderr, "voxdag: job %s killed by signal %d\n", j->id,
+			e->signal);
+	else
+		fprintf(stderr, "voxdag: job %s failed (exit %d)\n", j->id,
+			e->code);
+	fprintf(stderr, "  command: ");
+	print_command(stderr, j);
+	fprintf(stderr, "  log: %s\n", lp);
+	print_tail(lp, 8);
+	if (j->slurm_id > 0)
+		slurm_forget(p, j);
+	return -1;
+}
+
+/* With Slurm, jobs already submitted with afterok on a failed job would
+ * wait forever: cancel them and mark them blocked. */
+static void cancel_dependents(struct plan *p, int *running)
+{
+	int changed = 1;
+	while (changed) {
+		changed = 0;
+		for (int i = 0; i < p->n; i++) {
+			struct job *j = &p->jobs[i];
+			if (j->state != JOB_RUNNING || j->slurm_id <= 0 ||
+			    deps_state(p, j) != 2)
+				continue;
+			slurm_cancel(p, j);
+			j->state = JOB_BLOCKED;
+			log_line("blocked %s (cancelled in Slurm)", j->id);
+			(*running)--;
+			changed = 1;
+		}
+	}
+}
+
 int run_pipeline(struct plan *p, const struct run_opts *o)
 {
 	const struct config *c = p->cfg;
@@ -271,6 +372,9 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		return 1;
 	}
 	if (take_lock(p) < 0)
+		return 1;
+	int slurm = c->executor == EXECUTOR_SLURM;
+	if (slurm && slurm_preflight(p) != 0)
 		return 1;
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
@@ -298,31 +402,59 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				log_line("blocked %s", j->id);
 				continue;
 			}
-			if (ds == 1)
+			if (slurm && !j->adopt_checked) {
+				/* a previous driver's submission, still alive */
+				j->adopt_checked = 1;
+				if (slurm_adopt(p, j)) {
+					j->state = JOB_RUNNING;
+					j->start = vd_seconds();
+					running++;
+					log_line("adopted %s (Slurm job %ld)", j->id,
+						 j->slurm_id);
+					continue;
+				}
+			}
+			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
-			if (job_is_fresh(j)) {
+			if (ds == 0 && job_is_fresh(j)) {
 				j->state = JOB_SKIPPED;
 				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
 				continue;
 			}
-			if (running >= c->jobs ||
-			    (running > 0 && mem_used + j->mem_estimate > c->mem_budget))
-				continue;
-			j->pid = start_job(p, j);
-			if (j->pid < 0) {
-				fprintf(stderr, "voxdag: cannot start '%s': %s\n",
-					j->id, strerror(errno));
-				j->state = JOB_FAILED;
-				failures++;
-				continue;
+			if (slurm) {
+				/* Slurm schedules within the cluster's limits */
+				prepare_output(j);
+				if (slurm_submit(p, j) != 0) {
+					j->state = JOB_FAILED;
+					failures++;
+					cancel_dependents(p, &running);
+					continue;
+				}
+				log_line("submitted %s (Slurm job %ld, %llu MiB)",
+					 j->id, j->slurm_id,
+					 (unsigned long long)(j->mem_estimate >> 20));
+			} else {
+				if (running >= c->jobs ||
+				    (running > 0 &&
+				     mem_used + j->mem_estimate > c->mem_budget))
+					continue;
+				j->pid = start_job(p, j);
+				if (j->pid < 0) {
+					fprintf(stderr, "voxdag: cannot start "
+						"'%s': %s\n", j->id,
+						strerror(errno));
+					j->state = JOB_FAILED;
+					failures++;
+					continue;
+				}
+				mem_used += j->mem_estimate;
+				log_line("started %s (estimate %llu MiB)", j->id,
+					 (unsigned long long)(j->mem_estimate >> 20));
 			}
 			j->state = JOB_RUNNING;
 			j->start = vd_seconds();
-			mem_used += j->mem_estimate;
 			running++;
-			log_line("started %s (estimate %llu MiB)", j->id,
-				 (unsigned long long)(j->mem_estimate >> 20));
 		}
 		if (running == 0) {
 			int before = p->n;
@@ -341,11 +473,12 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			break;
 		}
 		/* wait for a job, showing progress meanwhile */
-		int status;
-		struct rusage ru;
-		pid_t pid = wait4(-1, &status, WNOHANG, &ru);
-		if (pid == 0) {
-			struct timespec ts = {0, 50 * 1000 * 1000};
+		struct job_end end;
+		int done = slurm ? slurm_reap(p, &end) : reap_local(p, &end);
+		if (done == -2)
+			break;
+		if (done < 0) {
+			struct timespec ts = {0, (slurm ? 200 : 50) * 1000 * 1000};
 			nanosleep(&ts, NULL);
 			double now = vd_seconds();
 			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
@@ -354,49 +487,14 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			}
 			continue;
 		}
-		if (pid < 0) {
-			if (errno == EINTR)
-				continue;
-			break;
-		}
-		for (int i = 0; i < p->n; i++) {
-			struct job *j = &p->jobs[i];
-			if (j->state != JOB_RUNNING || j->pid != pid)
-				continue;
-			running--;
+		struct job *j = &p->jobs[done];
+		running--;
+		if (!slurm)
 			mem_used -= j->mem_estimate;
-			j->seconds = vd_seconds() - j->start;
-			j->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
-			int ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-			if (ok && write_key(j) != 0)
-				ok = 0;
-			if (ok) {
-				j->state = JOB_DONE;
-				j->voxels = job_voxels(j);
-				log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
-					 j->id, j->seconds,
-					 (unsigned long long)(j->peak_rss >> 20),
-					 (unsigned long long)(j->mem_estimate >> 20));
-				plan_expand(p);
-			} else {
-				j->state = JOB_FAILED;
-				failures++;
-				char lp[1300];
-				log_path(p, j, lp, sizeof lp);
-				log_line("failed %s", j->id);
-				if (tty)
-					fputs("\r\033[K", stderr);
-				if (WIFSIGNALED(status))
-					fprintf(stderr, "voxdag: job %s killed by signal %d\n",
-						j->id, WTERMSIG(status));
-				else
-					fprintf(stderr, "voxdag: job %s failed (exit %d)\n",
-						j->id, WEXITSTATUS(status));
-				fprintf(stderr, "  command: ");
-				print_command(stderr, j);
-				fprintf(stderr, "  log: %s\n", lp);
-				print_tail(lp, 8);
-			}
+		if (finish_job(p, j, &end, tty) != 0) {
+			failures++;
+			if (slurm)
+				cancel_dependents(p, &running);
 		}
 	}
 	if (!o->quiet)

@@ -1,0 +1,183 @@
+#!/usr/bin/env bash
+# The Slurm executor against a real one-node Slurm on this machine
+# (tests/slurm/local-slurm.sh; Debian slurm-wlm + munge, installed by
+# `make deps`): the bundled pipeline gives the same bytes as a local run; a
+# driver killed while Slurm holds its jobs is resumed by adopting them, no
+# job submitted twice; a cancelled job is reported with Slurm's reason and
+# blocks its dependents; bad set-ups are refused before anything is
+# submitted. The daemons are stopped by their process ids whatever happens.
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+
+if [ "$(id -u)" != 0 ] || ! command -v slurmctld >/dev/null ||
+	! command -v munged >/dev/null; then
+	echo "SKIP slurm (needs root and Debian's slurm-wlm and munge: make deps)"
+	exit 0
+fi
+
+# Outputs must be on a shared (here: not node-local) file system, so under
+# out/, not under /tmp.
+W=out/tmp/slurm-cli
+rm -rf "$W" && mkdir -p "$W"
+S=$(mktemp -d /tmp/voxdag-slurm.XXXXXX)
+trap 'tests/slurm/local-slurm.sh stop "$S"; rm -rf "$T" "$S"' EXIT
+if ! env=$(tests/slurm/local-slurm.sh start "$S" 2>"$T/slurm.err"); then
+	fail slurm_starts "the local Slurm did not start:" "$(cat "$T/slurm.err")"
+	exit 1
+fi
+eval "$env"
+pass slurm_starts
+
+# pipeline NAME [YAML lines...]: config/default.yaml with outputs in $W.
+pipeline() {
+	local name=$1
+	shift
+	sed "s/^name: default/name: $name/" config/default.yaml > "$W/$name.yaml"
+	echo "outputs: $W/$name" >> "$W/$name.yaml"
+	for line in "$@"; do echo "$line" >> "$W/$name.yaml"; done
+}
+
+# The bytes a run leaves: every chunk, encoding and picture.
+sums() {
+	(cd "$1" && find . -type f \( -name '*.svo' -o -name '*.dag' -o \
+		-name '*.sdag' -o -name '*dag' -o -name '*.png' \) | LC_ALL=C sort |
+		xargs sha256sum)
+}
+
+release_held() { # releases our held jobs until the runner $1 exits
+	while kill -0 "$1" 2>/dev/null; do
+		squeue --me -h -t PD -o %i | xargs -r scontrol release 2>/dev/null
+		sleep 0.3
+	done
+}
+
+wait_log() { # wait_log FILE REGEX SECONDS
+	local i
+	for i in $(seq $(($3 * 10))); do
+		grep -Eq "$2" "$1" 2>/dev/null && return 0
+		sleep 0.1
+	done
+	return 1
+}
+
+# --- the same bytes as a local run ---------------------------------------
+pipeline same
+$BIN/voxdag run "$W/same.yaml" -q 2>"$T/err" || fail slurm_local_run "$(cat "$T/err")"
+sums "$W/same" > "$W/local.sum"
+$BIN/voxdag clean "$W/same.yaml"
+if $BIN/voxdag run "$W/same.yaml" --executor slurm -q 2>"$T/err"; then
+	sums "$W/same" > "$W/slurm.sum"
+	if [ "$(wc -l < "$W/local.sum")" -ge 30 ] &&
+		cmp -s "$W/local.sum" "$W/slurm.sum"; then
+		pass slurm_outputs_identical_to_local
+	else
+		fail slurm_outputs_identical_to_local "$(diff "$W/local.sum" "$W/slurm.sum" | head)"
+	fi
+	n=$(grep -c '^.* submitted ' "$W/same/logs/runner.log")
+	jobs=$(grep -c '^.* done ' "$W/same/logs/runner.log")
+	if [ "$n" -eq 21 ] && [ "$jobs" -eq 21 ]; then
+		pass slurm_every_job_submitted_once
+	else
+		fail slurm_every_job_submitted_once "$n submitted, $jobs done (21 jobs)"
+	fi
+else
+	fail slurm_outputs_identical_to_local "$(cat "$T/err")"
+fi
+
+# --- kill the driver while Slurm holds its jobs, resume ------------------
+# the same pipeline (same bytes expected), its jobs held until released
+$BIN/voxdag clean "$W/same.yaml"
+cp "$W/same.yaml" "$W/resume.yaml"
+echo "slurm: {sbatch_args: [--hold]}" >> "$W/resume.yaml"
+$BIN/voxdag run "$W/resume.yaml" --executor slurm -q 2>"$T/err1" &
+r=$!
+release_held $r &
+rel=$!
+# kill once the cells are submitted and held, voxelize done
+if wait_log "$W/same/logs/runner.log" 'submitted svdag/cells/chunk-L1-7' 60; then
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	sleep 0.5
+	kill -9 $r; wait $r 2>/dev/null
+	held=$(squeue --me -h -t PD -o %i | wc -l)
+	$BIN/voxdag status "$W/resume.yaml" > "$T/status" 2>&1
+	if [ "$held" -ge 1 ] && grep -q 'in Slurm' "$T/status" &&
+		grep -q 'PENDING' "$T/status"; then
+		pass slurm_status_shows_queued_jobs
+	else
+		fail slurm_status_shows_queued_jobs "$held held;" "$(cat "$T/status")"
+	fi
+	$BIN/voxdag run "$W/resume.yaml" --executor slurm -q 2>"$T/err2" &
+	r=$!
+	release_held $r &
+	rel=$!
+	wait $r
+	rc=$?
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	sums "$W/same" > "$W/resume.sum"
+	# runner.log holds this pipeline's runs since the clean
+	subs=$(grep -oE 'submitted [^ ]+' "$W/same/logs/runner.log" | sort | uniq -d)
+	adopted=$(grep -c ' adopted ' "$W/same/logs/runner.log")
+	if [ $rc -eq 0 ] && cmp -s "$W/local.sum" "$W/resume.sum" &&
+		[ -z "$subs" ] && [ "$adopted" -ge 1 ]; then
+		pass slurm_resume_adopts_and_matches
+	else
+		fail slurm_resume_adopts_and_matches "exit $rc, $adopted adopted," \
+			"submitted twice: $subs" "$(cat "$T/err2")" \
+			"$(diff "$W/local.sum" "$W/resume.sum" | head -5)"
+	fi
+else
+	kill $r $rel 2>/dev/null
+	fail slurm_resume_adopts_and_matches "cells were never submitted:" "$(cat "$T/err1")"
+fi
+
+# --- a cancelled job: its reason, its dependents not run -----------------
+pipeline cancel "slurm: {sbatch_args: [--hold]}"
+$BIN/voxdag run "$W/cancel.yaml" --executor slurm -q 2>"$T/err" &
+r=$!
+if wait_log "$W/cancel/logs/runner.log" 'submitted voxelize' 30; then
+	id=$(sed -n 's/.*submitted voxelize (Slurm job \([0-9]*\).*/\1/p' \
+		"$W/cancel/logs/runner.log")
+	scancel "$id"
+	wait $r
+	rc=$?
+	if [ $rc -eq 1 ] && grep -q "job voxelize did not finish: Slurm job $id: state CANCELLED" "$T/err" &&
+		grep -q '  command: .*voxelize' "$T/err" &&
+		grep -q '1 job failed' "$T/err" &&
+		! grep -q 'submitted svdag' "$W/cancel/logs/runner.log"; then
+		pass slurm_cancelled_job_reported
+	else
+		fail slurm_cancelled_job_reported "exit $rc" "$(cat "$T/err")"
+	fi
+else
+	kill $r 2>/dev/null
+	fail slurm_cancelled_job_reported "voxelize was never submitted"
+fi
+
+# --- set-ups refused before anything is submitted ------------------------
+before=$(squeue --me -h | wc -l)
+pipeline badpart "slurm: {partition: nosuch}"
+expect slurm_unknown_partition 1 "partition 'nosuch' does not exist" \
+	$BIN/voxdag run "$W/badpart.yaml" --executor slurm -q
+sed "s/^name: default/name: local/" config/default.yaml > "$W/local.yaml"
+echo "outputs: $S/outputs" >> "$W/local.yaml"
+expect slurm_node_local_outputs 1 "node-local directory.*'outputs:'" \
+	$BIN/voxdag run "$W/local.yaml" --executor slurm -q
+mkdir -p "$T/bin"
+expect slurm_no_sbatch 1 "no 'sbatch' on PATH" \
+	env PATH="$T/bin" $BIN/voxdag run "$W/badpart.yaml" --executor slurm -q
+sed -e 's/^SlurmctldPort=.*/SlurmctldPort=9/' -e '$a MessageTimeout=2' \
+	"$SLURM_CONF" > "$T/down.conf"
+expect slurm_controller_down 1 "controller does not answer" \
+	env SLURM_CONF="$T/down.conf" $BIN/voxdag run "$W/badpart.yaml" --executor slurm -q
+expect slurm_bad_executor 2 "--executor is 'local' or 'slurm'" \
+	$BIN/voxdag run "$W/badpart.yaml" --executor cloud
+pipeline badtime "slurm: {time: {svo-to-dag: soon}}"
+expect slurm_bad_time_limit 1 "not a Slurm time limit" \
+	$BIN/voxdag run "$W/badtime.yaml" --executor slurm
+after=$(squeue --me -h | wc -l)
+if [ "$after" -eq "$before" ] && [ ! -e "$W/badpart/voxelize" ]; then
+	pass slurm_refusals_submit_nothing
+else
+	fail slurm_refusals_submit_nothing "queue $before -> $after"
+fi
+rm -rf "$W"
