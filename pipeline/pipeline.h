@@ -131,8 +131,16 @@ void plan_free(struct plan *p);
  * inputs. Returns 0 and fills key[17], or non-zero if an input is missing. */
 int job_key(const struct job *j, char key[17]);
 
-/* 1 if the output of j exists with a matching key (resume). */
-int job_is_fresh(const struct job *j);
+/* The text of j's key file once it finished: its key, then the digest of
+ * its output (a file's XXH3, a directory's manifest's), so that a deleted,
+ * truncated or corrupted output is noticed on the next run. Returns
+ * non-zero (and says why on stderr) when the output is not whole. */
+int job_key_text(const struct job *j, char *text, size_t cap);
+
+/* 1 if j's output exists with a matching key and is still what j wrote
+ * (resume). When 0 and the output was there but is damaged, `why` says
+ * what is wrong with it ("" otherwise). */
+int job_is_fresh(const struct job *j, char *why, size_t cap);
 
 /* ------------------------------------------------------------- running */
 

@@ -163,32 +163,60 @@ static int job_finished(const struct job *j)
 
 /* A file's fingerprint: for chunk files the footer (size and whole-file
  * checksum, already computed by the writer), otherwise a hash of all of it.
- * Returns 0 if the file is missing. */
+ * Returns 0 if the file is missing or cannot be read whole. */
 static int fingerprint(const char *path, uint64_t *out)
 {
 	int fd = open(path, O_RDONLY);
 	if (fd < 0)
 		return 0;
 	struct stat st;
-	fstat(fd, &st);
 	uint8_t foot[24];
 	static const uint8_t footer_magic[8] = {0x89, 'V', 'X', 'D', 'E', 'N', 'D', '\n'};
-	if (st.st_size >= 24 && pread(fd, foot, 24, st.st_size - 24) == 24 &&
+	if (fstat(fd, &st) != 0) {
+		close(fd);
+		return 0;
+	}
+	if (S_ISREG(st.st_mode) && st.st_size >= 24 &&
+	    pread(fd, foot, 24, st.st_size - 24) == 24 &&
 	    memcmp(foot, footer_magic, 8) == 0) {
 		*out = XXH3_64bits(foot, 24);
 		close(fd);
 		return 1;
 	}
-	XXH3_state_t *s = XXH3_createState();
-	XXH3_64bits_reset(s);
-	static uint8_t buf[1 << 16];
-	ssize_t n;
-	while ((n = read(fd, buf, sizeof buf)) > 0)
-		XXH3_64bits_update(s, buf, (size_t)n);
-	*out = XXH3_64bits_digest(s);
-	XXH3_freeState(s);
 	close(fd);
+	uint64_t size;
+	if (vd_file_xxh3(path, out, &size) != VD_OK) {
+		vd_error_clear();
+		return 0; /* a read error: no partial hash stands for the file */
+	}
 	return 1;
+}
+
+/* What a finished output is, checked before it is trusted again: a
+ * directory output (voxelize, encode) through its manifest (every file's
+ * size and checksum, no file more), a file through the XXH3 of all its
+ * bytes. Returns 0 and the digest, or non-zero with `why` filled. */
+static int output_digest(const char *path, uint64_t *digest, char *why,
+			 size_t cap)
+{
+	struct stat st;
+	int err;
+	if (stat(path, &st) != 0) {
+		snprintf(why, cap, "'%s' is missing", path);
+		return 1;
+	}
+	if (S_ISDIR(st.st_mode)) {
+		err = vd_manifest_verify(path, digest);
+	} else {
+		uint64_t size;
+		err = vd_file_xxh3(path, digest, &size);
+	}
+	if (err) {
+		snprintf(why, cap, "%s: %s", vd_strerror(err), vd_error_detail());
+		vd_error_clear();
+		return 1;
+	}
+	return 0;
 }
 
 /* Arguments that do not change what a job writes are left out of its key,
@@ -202,12 +230,17 @@ static int volatile_arg(const char *a)
 int job_key(const struct job *j, char key[17])
 {
 	XXH3_state_t *s = XXH3_createState();
+	if (!s)
+		return 1;
 	XXH3_64bits_reset(s);
-	XXH3_64bits_update(s, "voxdag-key-1 " VD_VERSION_STRING, 19);
-	/* argv[0] is an absolute path that may move: hash its name only */
+	XXH3_64bits_update(s, "voxdag-key-2", 12);
+	/* argv[0] is an absolute path that may move: hash its name only, and
+	 * the stage's own version, so outputs of older code are rebuilt */
 	const char *prog = strrchr(j->argv[0], '/');
 	prog = prog ? prog + 1 : j->argv[0];
 	XXH3_64bits_update(s, prog, strlen(prog) + 1);
+	int32_t version = vd_stage_version(prog);
+	XXH3_64bits_update(s, &version, sizeof version);
 	for (int i = 1; j->argv[i]; i++) {
 		if (volatile_arg(j->argv[i])) {
 			if (strcmp(j->argv[i], "-q") != 0 && j->argv[i + 1])
@@ -229,18 +262,46 @@ int job_key(const struct job *j, char key[17])
 	return 0;
 }
 
-int job_is_fresh(const struct job *j)
+int job_key_text(const struct job *j, char *text, size_t cap)
 {
-	char want[17], have[32] = {0};
-	struct stat st;
-	if (stat(j->output, &st) != 0 || job_key(j, want))
-		return 0;
+	char key[17], why[600];
+	uint64_t digest;
+	if (job_key(j, key))
+		return 1;
+	if (output_digest(j->output, &digest, why, sizeof why)) {
+		fprintf(stderr, "voxdag: job %s: %s\n", j->id, why);
+		return 1;
+	}
+	snprintf(text, cap, "%s\n%016llx\n", key, (unsigned long long)digest);
+	return 0;
+}
+
+int job_is_fresh(const struct job *j, char *why, size_t cap)
+{
+	char want[17], have[64] = {0};
+	*why = 0;
 	FILE *f = fopen(j->key_path, "r");
 	if (!f)
-		return 0;
+		return 0; /* never finished */
 	size_t n = fread(have, 1, sizeof have - 1, f);
 	fclose(f);
-	return n >= 16 && memcmp(have, want, 16) == 0;
+	unsigned long long recorded;
+	if (n < 34 || have[16] != '\n' ||
+	    sscanf(have + 17, "%16llx", &recorded) != 1) {
+		snprintf(why, cap, "its key file '%s' is damaged", j->key_path);
+		return 0;
+	}
+	if (job_key(j, want) || memcmp(have, want, 16) != 0)
+		return 0; /* its inputs, arguments or stage version changed */
+	uint64_t digest;
+	if (output_digest(j->output, &digest, why, cap))
+		return 0;
+	if (digest != recorded) {
+		snprintf(why, cap, "'%s' changed after it was written",
+			 j->output);
+		return 0;
+	}
+	return 1;
 }
 
 /* -------------------------------------------------------------- expansion */
@@ -686,7 +747,8 @@ int plan_expand(struct plan *p)
 			int ready = j->state == JOB_PENDING;
 			for (int k = 0; k < j->ndeps && ready; k++)
 				ready = job_finished(&p->jobs[j->deps[k]]);
-			if (ready && job_is_fresh(j))
+			char why[600]; /* the runner says it when it reruns j */
+			if (ready && job_is_fresh(j, why, sizeof why))
 				j->state = JOB_SKIPPED;
 		}
 	} while (p->n != before);

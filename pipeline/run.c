@@ -75,14 +75,14 @@ static int take_lock(const struct plan *p)
 
 static int write_key(const struct job *j)
 {
-	char key[17], tmp[1300];
-	if (job_key(j, key))
+	char text[64], tmp[1300];
+	if (job_key_text(j, text, sizeof text))
 		return -1;
 	snprintf(tmp, sizeof tmp, "%s.tmp", j->key_path);
 	FILE *f = fopen(tmp, "w");
 	if (!f)
 		return -1;
-	fprintf(f, "%s\n", key);
+	fputs(text, f);
 	if (fflush(f) != 0 || fsync(fileno(f)) != 0) {
 		fclose(f);
 		return -1;
@@ -416,11 +416,18 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			}
 			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
-			if (ds == 0 && job_is_fresh(j)) {
+			char why[600];
+			if (ds == 0 && job_is_fresh(j, why, sizeof why)) {
 				j->state = JOB_SKIPPED;
 				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
 				continue;
+			}
+			if (*why) {
+				log_line("rebuilding %s: %s", j->id, why);
+				if (!o->quiet)
+					fprintf(stderr, "%svoxdag: rebuilding %s: %s\n",
+						tty ? "\r\033[K" : "", j->id, why);
 			}
 			if (slurm) {
 				/* Slurm schedules within the cluster's limits */

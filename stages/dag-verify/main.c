@@ -16,12 +16,15 @@ static const char usage[] =
 	"its voxels with the union of the SVO chunks, which must lie inside the\n"
 	"DAG's cell and not overlap (cells without a chunk are empty). DAG may\n"
 	"also be an encoded scene (.svdag, .ussvdag, .esvdag, .ssvdag), decoded\n"
-	"and compared with the SVO chunks of the whole grid. Prints nothing\n"
+	"and compared with the SVO chunks of the whole grid, after checking it\n"
+	"against the manifest encode wrote beside it. Prints nothing\n"
 	"when they are equal; otherwise the number of differing voxels and the\n"
 	"first one in Morton order.\n"
 	"\n"
 	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB)\n"
 	"  -q, --quiet             no message on a difference (exit status only)\n"
+	"      --no-verify         read an encoding without a manifest (a file\n"
+	"                          written by the SymVox tools)\n"
 	"  -h, --help              this text\n"
 	"\n"
 	"Exit status: 0 equal, 1 different or failure (bad input, I/O, budget),\n"
@@ -74,11 +77,13 @@ static int cmp_cell(const void *a, const void *b)
 
 /* Compares an encoded scene with the SVO chunks (all of one chunk level). */
 static int verify_encoding(const char *path, int format, struct vd_svo *svos,
-			   size_t n, int quiet)
+			   size_t n, int quiet, int check_manifest)
 {
 	struct vd_enc e;
 	memset(&e, 0, sizeof e);
-	int err = vd_enc_load(&e, path, format);
+	int err = check_manifest ? vd_manifest_check_file(path) : VD_OK;
+	if (!err)
+		err = vd_enc_load(&e, path, format);
 	if (err)
 		return vd_cli_fail(TOOL, err, "cannot read", path);
 	qsort(svos, n, sizeof *svos, cmp_cell);
@@ -101,7 +106,13 @@ static int verify_encoding(const char *path, int format, struct vd_svo *svos,
 		k += svos[i].count;
 	}
 	struct enc_cmp c = {.keys = keys, .masks = masks, .n = total};
-	vd_enc_expand(&e, enc_brick, &c);
+	err = vd_enc_expand(&e, enc_brick, &c);
+	if (err) {
+		free(keys);
+		free(masks);
+		vd_enc_release(&e);
+		return vd_cli_fail(TOOL, err, "cannot decode", path);
+	}
 	while (c.at < c.n) {
 		note(&c, keys[c.at], 0, masks[c.at]);
 		c.at++;
@@ -128,11 +139,12 @@ int main(int argc, char **argv)
 	static const struct option longopts[] = {
 		{"mem-budget", required_argument, NULL, 'm'},
 		{"quiet", no_argument, NULL, 'q'},
+		{"no-verify", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
 	uint64_t budget = 2ull << 30;
-	int c, quiet = 0;
+	int c, quiet = 0, check_manifest = 1;
 	while ((c = getopt_long(argc, argv, "m:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'm':
@@ -142,6 +154,9 @@ int main(int argc, char **argv)
 			break;
 		case 'q':
 			quiet = 1;
+			break;
+		case 'V':
+			check_manifest = 0;
 			break;
 		case 'h':
 			fputs(usage, stdout);
@@ -203,7 +218,8 @@ int main(int argc, char **argv)
 		sp[i] = &svos[i];
 	}
 	if (!rc && format >= 0) {
-		rc = verify_encoding(dag_path, format, svos, n, quiet);
+		rc = verify_encoding(dag_path, format, svos, n, quiet,
+				     check_manifest);
 	} else if (!rc) {
 		struct vd_dag_diff diff;
 		err = vd_dag_compare_svo(&dag, sp, n, &diff);

@@ -106,6 +106,14 @@ void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 		 (unsigned long long)cell_morton, ext);
 }
 
+int vd_stage_version(const char *tool)
+{
+#define VD_STAGE_VERSION_CASE(name, v) if (!strcmp(tool, name)) return v;
+	VD_STAGE_VERSIONS(VD_STAGE_VERSION_CASE)
+#undef VD_STAGE_VERSION_CASE
+	return 0;
+}
+
 char *vd_provenance_new(const char *tool, int argc, char **argv)
 {
 	size_t n = strlen(tool) + 64;
@@ -114,7 +122,8 @@ char *vd_provenance_new(const char *tool, int argc, char **argv)
 	char *s = malloc(n), *p = s;
 	if (!s)
 		return NULL;
-	p += sprintf(p, "tool=%s version=%s args=", tool, VD_VERSION_STRING);
+	p += sprintf(p, "tool=%s version=%s stage_version=%d args=", tool,
+		     VD_VERSION_STRING, vd_stage_version(tool));
 	for (int i = 1; i < argc; i++) {
 		/* shell-quoted, so the line can be pasted back */
 		*p++ = i > 1 ? ' ' : '\0';

@@ -33,6 +33,22 @@ extern "C" {
 
 #define VD_VERSION_STRING "0.1.0"
 
+/* Every stage's own version. It is part of every resume key the runner
+ * computes and of the provenance each file records, so outputs written by
+ * older code are rebuilt, never reused. RULE: bump a stage's number in the
+ * same commit that changes the bytes or the format of what it writes, and
+ * say why beside it. */
+#define VD_STAGE_VERSIONS(X)                                                 \
+	X("voxelize", 2)       /* 2: manifest, stage_version in provenance */ \
+	X("voxelize-vdb", 2)   /* 2: the same */                             \
+	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
+	X("symmetry-merge", 2) /* 2: the same */                             \
+	X("encode", 2)         /* 2: manifest beside the encodings */        \
+	X("render", 1)
+
+/* The version of the stage named `tool` (as in out/bin/), 0 if unknown. */
+int vd_stage_version(const char *tool);
+
 /* Largest grid depth: voxel Morton codes need 3*L bits of a uint64_t. */
 #define VD_MAX_LEVELS 21
 
@@ -422,6 +438,51 @@ char *vd_provenance_new(const char *tool, int argc, char **argv);
  * exists and is not a regular file: run as root, a rename over an output
  * path such as /dev/null would replace the device. */
 int vd_replace_file(const char *tmp, const char *path);
+
+/* ------------------------------------------------- manifests (io/manifest.c)
+ * A directory output (voxelize's chunks, encode's encodings and tables)
+ * carries `manifest`: one line per file with its XXH3-64 checksum, size and
+ * name (schemas/manifest.md). It is written last, inside a staging
+ * directory that replaces the old output in one rename, so an output
+ * directory is always a whole run's. */
+#define VD_MANIFEST_NAME "manifest"
+
+/* XXH3-64 of a whole file and its size. VD_ERR_IO when it cannot be read. */
+int vd_file_xxh3(const char *path, uint64_t *hash, uint64_t *size);
+
+/* Writes dir/manifest for the regular files in dir (hidden names, the
+ * manifest and temporaries excepted), atomically. */
+int vd_manifest_write(const char *dir);
+
+/* Checks every file dir/manifest lists (size, then checksum over all its
+ * bytes) and that dir holds no other file. On success sets *digest (may be
+ * NULL) to the XXH3-64 of the manifest's bytes, which stands for the whole
+ * directory. Errors: VD_ERR_TRUNCATED (no manifest, a file missing or
+ * short), VD_ERR_TRAILING (a file longer), VD_ERR_CHECKSUM, VD_ERR_CORRUPT
+ * (a malformed manifest, a file not listed); the detail names the file. */
+int vd_manifest_verify(const char *dir, uint64_t *digest);
+
+/* Checks one file against the manifest of its directory (the encodings:
+ * SymVox reads them by offsets, so their checksum lives beside them).
+ * Errors as vd_manifest_verify(); a missing manifest's detail names the
+ * way out (--no-verify) for files written elsewhere. */
+int vd_manifest_check_file(const char *path);
+
+/* Starts a directory output: checks that `final` is absent, empty, a
+ * voxdag output (has a manifest) or holds only files `ours` (may be NULL)
+ * accepts, removes staging directories of dead runs, and creates the
+ * staging directory "<final>.tmp.<pid>" into `staging` (cap bytes). The
+ * caller writes its files there, then calls vd_dir_publish(), or
+ * vd_dir_abandon() on failure. */
+int vd_dir_stage(const char *final, int (*ours)(const char *name),
+		 char *staging, size_t cap);
+
+/* Writes the staging directory's manifest and puts it in place of `final`
+ * in one step (renameat2 RENAME_EXCHANGE), then removes the old output. */
+int vd_dir_publish(const char *staging, const char *final);
+
+/* Removes a staging directory after a failure; keeps the error detail. */
+void vd_dir_abandon(const char *staging);
 
 /* Command-line helpers for the tools' main()s (cli.c). vd_cli_usage prints
  * "TOOL: message" and "Try 'TOOL --help'." to stderr and returns 2, the
@@ -1349,10 +1410,12 @@ struct vd_render_job {
 	int has_light;             /* opts.light given (else above the eye) */
 	struct vd_render_opts opts;
 	int quiet;                 /* no summary on stderr */
+	int no_verify;             /* read an encoding without its manifest */
 };
 
 /* Loads the input (a chunk file by its magic, else an encoding by its
- * extension), sets up the camera and light, renders and writes the
+ * extension, checked against the manifest beside it unless no_verify:
+ * vd_manifest_check_file()), sets up the camera and light, renders and writes the
  * outputs. On failure the detail is the whole message after the tool name
  * ("cannot read 'x.ssvdag': truncated file: ..."). */
 int vd_render_run(const struct vd_render_job *job);

@@ -37,6 +37,9 @@ static const char usage[] =
 	"  -L, --lod PIXELS        level of detail: stop at nodes whose projection\n"
 	"                          is at most PIXELS pixels (default 0: exact)\n"
 	"  -q, --quiet             no summary line on stderr\n"
+	"      --no-verify         read an encoding that has no manifest beside\n"
+	"                          it (a file from the SymVox tools); encode's\n"
+	"                          are checked against theirs by default\n"
 	"  -h, --help              this text\n"
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O), 2 usage (including\n"
@@ -95,6 +98,7 @@ int main(int argc, char **argv)
 		{"threads", required_argument, NULL, 'j'},
 		{"lod", required_argument, NULL, 'L'},
 		{"quiet", no_argument, NULL, 'q'},
+		{"no-verify", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
@@ -169,6 +173,9 @@ int main(int argc, char **argv)
 			break;
 		case 'q':
 			job.quiet = 1;
+			break;
+		case 'V':
+			job.no_verify = 1;
 			break;
 		case 'h':
 			fputs(usage, stdout);

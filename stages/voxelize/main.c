@@ -19,8 +19,10 @@ static const char usage[] =
 	"\n"
 	"Voxelizes the surface of a triangle mesh (PLY, OBJ, STL or AC3D) into\n"
 	"a grid of 2^L voxels per side and writes one SVO chunk file per\n"
-	"non-empty cell of the chunk level L0, plus OUTDIR/voxelize.stats.json.\n"
-	"Earlier chunk files in OUTDIR are replaced.\n"
+	"non-empty cell of the chunk level L0, plus OUTDIR/voxelize.stats.json\n"
+	"and OUTDIR/manifest (every file's size and checksum). The new OUTDIR is\n"
+	"built beside the old one and replaces it whole only when complete; a\n"
+	"failure leaves the old one as it was.\n"
 	"\n"
 	"An input named *.vdb is an OpenVDB file: the chosen grid's voxels are\n"
 	"imported instead. Without --levels one grid voxel is one voxel and L is\n"
@@ -52,7 +54,15 @@ static const char usage[] =
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O, budget), 2 usage.\n";
 
-
+/* Files an OUTDIR written before manifests existed may hold, so it can be
+ * replaced; anything else in OUTDIR is the user's and stops the run. */
+static int our_file(const char *name)
+{
+	size_t n = strlen(name);
+	return (!strncmp(name, "chunk-L", 7) && n > 4 &&
+		!strcmp(name + n - 4, ".svo")) ||
+	       !strcmp(name, "voxelize.stats.json") || !strcmp(name, "bins.tmp");
+}
 
 /* OpenVDB costs a process about 30 MB of memory at start (relocating
  * libopenvdb), which mesh voxelization should not pay against its budget.
@@ -187,24 +197,34 @@ int main(int argc, char **argv)
 				   "are for OpenVDB (.vdb) input only");
 	o.provenance = provenance;
 
-	char path[4096];
-	snprintf(path, sizeof path, "%s/voxelize.stats.json", outdir);
-	int err;
+#ifndef VOXELIZE_WITH_VDB
 	if (vdb) {
-#ifdef VOXELIZE_WITH_VDB
-		struct vd_vdb_import_result res;
-		err = vd_vdb_import(mesh, outdir, &sel, &o, &res);
-		if (!err)
-			err = vd_vdb_import_write_stats(&res, path);
-#else
 		(void)sel;
 		return exec_vdb_sibling(argv_given);
+	}
 #endif
-	} else {
-		struct vd_voxelize_result res;
-		err = vd_voxelize_mesh(mesh, outdir, &o, &res);
+	/* all or nothing: build beside OUTDIR, then swap it in whole */
+	char stage[4096], path[4200];
+	int err = vd_dir_stage(outdir, our_file, stage, sizeof stage);
+	if (!err) {
+		snprintf(path, sizeof path, "%s/voxelize.stats.json", stage);
+		if (vdb) {
+#ifdef VOXELIZE_WITH_VDB
+			struct vd_vdb_import_result res;
+			err = vd_vdb_import(mesh, stage, &sel, &o, &res);
+			if (!err)
+				err = vd_vdb_import_write_stats(&res, path);
+#endif
+		} else {
+			struct vd_voxelize_result res;
+			err = vd_voxelize_mesh(mesh, stage, &o, &res);
+			if (!err)
+				err = vd_voxelize_write_stats(&res, path);
+		}
 		if (!err)
-			err = vd_voxelize_write_stats(&res, path);
+			err = vd_dir_publish(stage, outdir);
+		if (err)
+			vd_dir_abandon(stage);
 	}
 	free(provenance);
 	free(argv_given);

@@ -91,5 +91,5 @@ expect bad_stats 1 "^encode: cannot read '.*bunny.ply': malformed input: not a s
 	$E "$M/root.dag" "$M/root.ssvdag" -o "$T/bad7" --stats $BUNNY
 expect budget 1 "^encode: cannot load '.*root.dag': needs about [0-9]+ MiB, budget --mem-budget 0 MiB" \
 	$E "$M/root.dag" "$M/root.ssvdag" -o "$T/bad8" --mem-budget 1K
-expect unwritable_output 1 "^encode: cannot create directory '/proc/nope'" \
+expect unwritable_output 1 "^encode: cannot create '/proc/nope" \
 	$E "$M/root.dag" "$M/root.ssvdag" -o /proc/nope

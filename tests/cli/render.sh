@@ -68,14 +68,36 @@ expect missing_file 1 "cannot open '$T/none.ssvdag': No such file" \
 echo "hello" > "$T/scene.txt"
 expect unknown_format 1 "cannot read '$T/scene.txt': unknown format" \
 	$R "$T/scene.txt" -o "$T/bad.png"
+# the decoders themselves (files without a manifest, as SymVox writes them)
 for f in ssvdag esvdag svdag; do
 	head -c 100 "$M/enc/bunny.$f" > "$T/cut.$f"
 	expect "truncated_$f" 1 "cannot read '$T/cut.$f': truncated file" \
-		$R "$T/cut.$f" -o "$T/bad.png"
+		$R "$T/cut.$f" -o "$T/bad.png" --no-verify
 	cp "$M/enc/bunny.$f" "$T/long.$f" && echo x >> "$T/long.$f"
 	expect "trailing_$f" 1 "cannot read '$T/long.$f': trailing bytes" \
-		$R "$T/long.$f" -o "$T/bad.png"
+		$R "$T/long.$f" -o "$T/bad.png" --no-verify
 done
+# encode's files are checked against the manifest beside them first: a
+# flipped bit in a brick, a cut or a longer file never becomes a picture
+cp -r "$M/enc" "$T/enc2"
+expect manifest_intact 0 '' $R "$T/enc2/bunny.ssvdag" -o "$T/ok.png" --size 8x8 -q
+size=$(stat -c %s "$T/enc2/bunny.ssvdag")
+# the last word of an .ssvdag is in its leaf bricks
+b=$(od -An -tu1 -j $((size - 1)) -N1 "$T/enc2/bunny.ssvdag" | tr -d ' ')
+printf "$(printf '\\%03o' $((b ^ 1)))" |
+	dd of="$T/enc2/bunny.ssvdag" bs=1 seek=$((size - 1)) conv=notrunc 2>/dev/null
+expect manifest_bit_flip 1 "cannot read '$T/enc2/bunny.ssvdag': checksum mismatch: .*does not match its checksum" \
+	$R "$T/enc2/bunny.ssvdag" -o "$T/bad.png"
+truncate -s 100 "$T/enc2/bunny.esvdag"
+expect manifest_cut 1 "bunny.esvdag' has 100 bytes, the manifest says" \
+	$R "$T/enc2/bunny.esvdag" -o "$T/bad.png"
+cp "$M/enc/bunny.svdag" "$T/lonely.svdag"
+expect manifest_missing 1 "no manifest beside '$T/lonely.svdag'.*--no-verify" \
+	$R "$T/lonely.svdag" -o "$T/bad.png"
+expect manifest_missing_no_verify 0 '' $R "$T/lonely.svdag" -o "$T/ok2.png" --size 8x8 -q --no-verify
+expect dag_verify_bit_flip 1 "checksum" \
+	$BIN/dag-verify "$T/enc2/bunny.ssvdag" "$M/chunk-L0-0.svo"
+expect dag_verify_intact 0 '' $BIN/dag-verify "$M/enc/bunny.ssvdag" "$M/chunk-L0-0.svo"
 head -c 300 "$M/root.ssvdag" > "$T/cut_chunk.ssvdag"
 expect truncated_chunk 1 "cannot read '$T/cut_chunk.ssvdag': truncated file" \
 	$R "$T/cut_chunk.ssvdag" -o "$T/bad.png"
@@ -83,7 +105,7 @@ expect svo_chunk 1 "cannot read '$M/chunk-L0-0.svo': wrong chunk kind" \
 	$R "$M/chunk-L0-0.svo" -o "$T/bad.png"
 : > "$T/empty.esvdag"
 expect empty_file 1 "cannot read '$T/empty.esvdag': truncated file" \
-	$R "$T/empty.esvdag" -o "$T/bad.png"
+	$R "$T/empty.esvdag" -o "$T/bad.png" --no-verify
 expect unwritable_output 1 "cannot write '$T/nodir/x.png'" \
 	$R "$M/enc/bunny.ssvdag" -o "$T/nodir/x.png" --size 8x8
 [ ! -e "$T/bad.png" ] && ! ls "$T" | grep -q '\.tmp\.' && pass nothing_left ||

@@ -1424,6 +1424,23 @@ static int same_transform(const struct vd_transform *a,
 	return a->root_side == b->root_side;
 }
 
+/* Files an output directory from before manifests may hold (so it can be
+ * replaced); anything else there is the user's. */
+static int encode_file(const char *name)
+{
+	static const char *const ends[] = {".svdag", ".ussvdag", ".esvdag",
+					   ".ssvdag", ".tables.json",
+					   ".table1.csv", ".table2.csv",
+					   ".tables.md", ".encode.stats.json"};
+	size_t n = strlen(name);
+	for (size_t i = 0; i < sizeof ends / sizeof *ends; i++) {
+		size_t e = strlen(ends[i]);
+		if (n > e && !strcmp(name + n - e, ends[i]))
+			return 1;
+	}
+	return 0;
+}
+
 int vd_enc_run(const struct vd_enc_job *job)
 {
 	struct vd_dag dag = {0}, ss = {0};
@@ -1431,7 +1448,8 @@ int vd_enc_run(const struct vd_enc_job *job)
 	struct vd_enc_row *rows = NULL;
 	int *errs = NULL;
 	char (*details)[512] = NULL;
-	int err;
+	int err, staged = 0;
+	char dir[4096];
 	uint64_t used = 0;
 	double t0 = vd_seconds();
 	const char *name = job->name ? job->name : "scene";
@@ -1464,22 +1482,20 @@ int vd_enc_run(const struct vd_enc_job *job)
 			err = reword(err, "cannot read", job->stats_paths[i]);
 			goto out;
 		}
-	struct stat st;
-	if (mkdir(job->outdir, 0777) != 0 &&
-	    (errno != EEXIST || stat(job->outdir, &st) != 0 || !S_ISDIR(st.st_mode))) {
-		err = vd_fail(VD_ERR_IO, "cannot create directory '%s': %s",
-			      job->outdir, errno == EEXIST ? "a file of that "
-			      "name exists" : strerror(errno));
+	/* every encoding and table or none: written into a staging directory
+	 * that replaces job->outdir whole (with its manifest, the encodings'
+	 * checksums) only once all are there */
+	if ((err = vd_dir_stage(job->outdir, encode_file, dir, sizeof dir)))
 		goto out;
-	}
+	staged = 1;
 	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
 	uint64_t bytes[VD_ENC_COUNT_] = {0};
 	int written[VD_ENC_COUNT_] = {0};
-	char path[4096];
+	char path[4096 + 512];
 	for (int f = 0; f < VD_ENC_COUNT_ && !err; f++) {
 		if (vd_enc_format_compact(f) && dag.levels < 3) continue;
 		struct vd_enc e;
-		snprintf(path, sizeof path, "%s/%s.%s", job->outdir, name,
+		snprintf(path, sizeof path, "%s/%s.%s", dir, name,
 			 format_names[f]);
 		err = vd_enc_build(&e, f, vd_enc_format_symmetric(f) ? &ss : &dag,
 				   &t1);
@@ -1512,14 +1528,14 @@ int vd_enc_run(const struct vd_enc_job *job)
 				      vd_strerror(errs[i]), details[i]);
 			goto out;
 		}
-	if ((err = vd_enc_write_tables(job->outdir, name, rows, nrows, &tm,
+	if ((err = vd_enc_write_tables(dir, name, rows, nrows, &tm,
 				       t_enc))) {
 		err = reword(err, "cannot write the tables in", job->outdir);
 		goto out;
 	}
 	double t_tab = vd_seconds() - t_tab0;
 
-	snprintf(path, sizeof path, "%s/%s.encode.stats.json", job->outdir, name);
+	snprintf(path, sizeof path, "%s/%s.encode.stats.json", dir, name);
 	struct vd_json *j;
 	if ((err = vd_json_open(&j, path))) {
 		err = reword(err, "cannot write", path);
@@ -1568,7 +1584,11 @@ int vd_enc_run(const struct vd_enc_job *job)
 		fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
 			t_enc, t_tab, job->outdir);
 	}
+	if (!err && (err = vd_dir_publish(dir, job->outdir)))
+		err = reword(err, "cannot finish", job->outdir);
 out:
+	if (err && staged)
+		vd_dir_abandon(dir);
 	free(rows);
 	free(errs);
 	free(details);

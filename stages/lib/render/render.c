@@ -962,7 +962,7 @@ static void input_release(struct input *in)
 	vd_dag_release(&in->dag);
 }
 
-static int load_input(struct input *in, const char *path)
+static int load_input(struct input *in, const char *path, int check_manifest)
 {
 	memset(in, 0, sizeof *in);
 	FILE *f = fopen(path, "rb");
@@ -980,7 +980,10 @@ static int load_input(struct input *in, const char *path)
 				       "unknown format: neither a chunk file nor "
 				       "an encoding (.svdag, .ussvdag, .esvdag, "
 				       ".ssvdag)", path);
-		err = vd_enc_load(&in->enc, path, format);
+		/* the bytes are SymVox's: their checksum is in the manifest
+		 * beside them, checked before a picture is made of them */
+		err = check_manifest ? vd_manifest_check_file(path) : VD_OK;
+		if (!err) err = vd_enc_load(&in->enc, path, format);
 		if (!err) err = vd_render_scene_from_enc(&in->scene, &in->enc);
 		if (err) return reword(err, "cannot read", path);
 		snprintf(in->what, sizeof in->what, "%s encoding",
@@ -1010,7 +1013,7 @@ int vd_render_run(const struct vd_render_job *job)
 	int err = check_size(o.width, o.height);
 	if (err) return reword(err, "cannot render", job->input);
 	struct input in;
-	err = load_input(&in, job->input);
+	err = load_input(&in, job->input, !job->no_verify);
 	if (err) {
 		input_release(&in);
 		return err;
