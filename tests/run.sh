@@ -21,16 +21,27 @@ tally() { # reads PASS/FAIL/SKIP lines on stdin, echoes them, counts them
 	done
 }
 
+times=
+timed() { # timed NAME: after a program, note its seconds for the summary
+	times="$times$(printf '%6ds  %s' $((SECONDS - t0)) "$1")
+"
+}
 for t in out/sanitize/tests/test_*; do
 	case "$t" in *.o) continue ;; esac
 	echo "== $t"
+	t0=$SECONDS
 	tally < <(tests/run-unit.sh "$t" 2>>"$log")
+	timed "$t"
 done
 for t in tests/cli/*.sh; do
 	[ "$(basename "$t")" = lib.sh ] && continue
 	echo "== $t"
+	t0=$SECONDS
 	tally < <(bash "$t" 2>>"$log"; rc=$?; [ $rc -eq 0 ] || echo "FAIL $t exited $rc")
+	timed "$t"
 done
+echo "--- seconds per test program, slowest first:"
+printf '%s' "$times" | sort -rn | head -n 8
 if [ "$failed" -gt 0 ]; then
 	echo "--- stderr of the tests (out/tests.log), last 60 lines:"
 	tail -n 60 "$log"
