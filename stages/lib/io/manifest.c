@@ -310,15 +310,24 @@ int vd_manifest_verify(const char *dir, uint64_t *digest)
 	return err;
 }
 
+/* The directory part of path into dir ("." or "/" when it has none) and
+ * a pointer to its last component. */
+static const char *split_path(const char *path, char *dir, size_t cap)
+{
+	const char *slash = strrchr(path, '/');
+	if (!slash)
+		snprintf(dir, cap, ".");
+	else if (slash == path)
+		snprintf(dir, cap, "/");
+	else
+		snprintf(dir, cap, "%.*s", (int)(slash - path), path);
+	return slash ? slash + 1 : path;
+}
+
 int vd_manifest_check_file(const char *path)
 {
 	char dir[PATH_MAX];
-	const char *slash = strrchr(path, '/');
-	const char *name = slash ? slash + 1 : path;
-	snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) : 1,
-		 slash ? path : ".");
-	if (slash == path)
-		strcpy(dir, "/");
+	const char *name = split_path(path, dir, sizeof dir);
 	struct entry *e;
 	size_t n;
 	uint64_t d;
@@ -421,12 +430,7 @@ int vd_dir_stage(const char *final, int (*ours)(const char *name),
 	}
 	/* staging directories of runs that died: <final>.tmp.<pid> */
 	char parent[PATH_MAX];
-	const char *slash = strrchr(final, '/');
-	const char *base = slash ? slash + 1 : final;
-	snprintf(parent, sizeof parent, "%.*s", slash ? (int)(slash - final) : 1,
-		 slash ? final : ".");
-	if (slash == final)
-		strcpy(parent, "/");
+	const char *base = split_path(final, parent, sizeof parent);
 	DIR *d = opendir(parent);
 	if (d) {
 		struct dirent *e;
