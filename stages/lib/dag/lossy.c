@@ -308,6 +308,93 @@ static int dbl_desc(const void *a, const void *b)
 	return x > y ? -1 : x < y;
 }
 
+#define MCL_EPS 1e-9
+
+/* The clustering of a converged matrix, as mcl interprets it: attractors
+ * (positive diagonal) joined into systems when one flows to another; a
+ * node belongs to the system(s) its column flows to; nodes flowing to
+ * several systems (overlap, on symmetric graphs) are cut out as clusters
+ * of their own, one per set of systems (mcl's default -overlap mode).
+ * cluster[j] = the smallest node of j's cluster. `sys` and `tmp` are
+ * scratch arrays of n entries. */
+static int mcl_interpret(const struct smat *M, uint32_t *cluster,
+			 uint32_t *sys, uint32_t *tmp)
+{
+	uint32_t n = M->n;
+	for (uint32_t j = 0; j < n; j++) sys[j] = j;
+	for (uint32_t j = 0; j < n; j++) {
+		int att = 0;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++)
+			if (M->row[e] == j && M->val[e] > MCL_EPS) att = 1;
+		if (!att) continue;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
+			uint32_t i = M->row[e];
+			if (M->val[e] <= MCL_EPS || i == j) continue;
+			/* i is an attractor too when its own column keeps it */
+			for (uint64_t f = M->off[i]; f < M->off[i + 1]; f++)
+				if (M->row[f] == i && M->val[f] > MCL_EPS)
+					uf_union(sys, i, j);
+		}
+	}
+	/* each node's systems: their roots, sorted, in a flat list */
+	uint64_t *off = malloc((n + 1ull) * 8);
+	uint32_t *list = NULL;
+	uint64_t cnt = 0;
+	for (uint32_t j = 0; j < n; j++)
+		cnt += M->off[j + 1] - M->off[j];
+	list = malloc((cnt + 1) * 4);
+	if (!off || !list) {
+		free(off);
+		free(list);
+		return NOMEM();
+	}
+	uint64_t k = 0;
+	for (uint32_t j = 0; j < n; j++) {
+		off[j] = k;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
+			if (M->val[e] <= MCL_EPS) continue;
+			list[k++] = uf_find(sys, M->row[e]);
+		}
+		qsort(list + off[j], k - off[j], 4, u32_cmp);
+		uint64_t w = off[j];
+		for (uint64_t r = off[j]; r < k; r++)
+			if (r == off[j] || list[r] != list[w - 1]) list[w++] = list[r];
+		k = w;
+	}
+	off[n] = k;
+	/* cluster id: the root of a single system; for overlap the first node
+	 * with the same set of systems */
+	uint32_t no = 0;
+	for (uint32_t j = 0; j < n; j++) {
+		uint64_t a = off[j], len = off[j + 1] - a;
+		if (len == 1) {
+			cluster[j] = list[a];
+			continue;
+		}
+		cluster[j] = n + j; /* a fresh overlap cluster */
+		for (uint32_t t = 0; t < no; t++) {
+			uint32_t o = tmp[t];
+			if (off[o + 1] - off[o] == len &&
+			    !memcmp(list + off[o], list + a, len * 4)) {
+				cluster[j] = cluster[o];
+				break;
+			}
+		}
+		if (cluster[j] == n + j) tmp[no++] = j;
+	}
+	free(off);
+	free(list);
+	/* relabel every cluster by its smallest node */
+	uint32_t *low = malloc(2ull * n * 4);
+	if (!low) return NOMEM();
+	for (uint64_t i = 0; i < 2ull * n; i++) low[i] = NONE;
+	for (uint32_t j = 0; j < n; j++)
+		if (low[cluster[j]] == NONE) low[cluster[j]] = j;
+	for (uint32_t j = 0; j < n; j++) cluster[j] = low[cluster[j]];
+	free(low);
+	return 0;
+}
+
 /* One MCL run on a connected component of n nodes (local indices), given
  * its symmetric adjacency (CSR: adj_off/adj_to/adj_w, no loops). Writes
  * the cluster of each node as the smallest local index in it. */
@@ -419,12 +506,7 @@ static int mcl_component(uint32_t n, const uint64_t *adj_off,
 		N = t;
 		if (chaos < 1e-9) break;
 	}
-	/* clusters: nodes joined through the attractors they point to */
-	for (uint32_t j = 0; j < n; j++) cluster[j] = j;
-	for (uint32_t j = 0; j < n; j++)
-		for (uint64_t e = M.off[j]; e < M.off[j + 1]; e++)
-			if (M.val[e] > 1e-6) uf_union(cluster, j, M.row[e]);
-	for (uint32_t j = 0; j < n; j++) cluster[j] = uf_find(cluster, j);
+	err = mcl_interpret(&M, cluster, touched, mark);
 out:
 	smat_free(&M);
 	smat_free(&N);
