@@ -1416,10 +1416,11 @@ int vd_lossy_effective_refs(const struct vd_dag *dag, int to_level,
 
 /* The similar pairs among the candidates of level l (eff[i] <= max_refs),
  * edges as node indices of level l sorted by (u, v), in a new array
- * (free()); *candidates gets their number. */
+ * (free()); *candidates gets their number. The same for any `threads`. */
 int vd_lossy_similar_pairs(const struct vd_dag *dag, int l,
 			   const uint64_t *eff, uint64_t max_refs,
-			   double diff_factor, struct vd_lossy_edge **edges,
+			   double diff_factor, int threads,
+			   struct vd_lossy_edge **edges,
 			   size_t *n_edges, uint64_t *candidates);
 
 /* Markov clustering of the graph of n nodes and edges e[0..ne-1] (u < v,

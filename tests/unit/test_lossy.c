@@ -213,7 +213,7 @@ static void check_pairs(const struct scene *s, uint64_t R, double p)
 		struct vd_lossy_edge *got;
 		size_t ng;
 		uint64_t ncand;
-		CHECK_EQ(vd_lossy_similar_pairs(d, l, eff[l], R, p, &got, &ng,
+		CHECK_EQ(vd_lossy_similar_pairs(d, l, eff[l], R, p, 2, &got, &ng,
 						&ncand), VD_OK);
 		CHECK_EQ(ncand, nc);
 		CHECK_EQ(ng, nw);
@@ -272,7 +272,7 @@ static void check_mcl(const struct scene *s, int l, double inflation,
 	struct vd_lossy_edge *e;
 	size_t ne;
 	uint64_t nc;
-	CHECK_EQ(vd_lossy_similar_pairs(d, l, eff[l], 1, 1.0, &e, &ne, &nc),
+	CHECK_EQ(vd_lossy_similar_pairs(d, l, eff[l], 1, 1.0, 1, &e, &ne, &nc),
 		 VD_OK);
 	for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 	if (!ne) {

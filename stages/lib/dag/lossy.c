@@ -136,8 +136,101 @@ static int64_t pair_diff(const struct vd_dag *d, int l, uint32_t a,
 	return acc;
 }
 
+/* The pair search over the sorted candidates c[0..nc-1], in fixed slices
+ * of the first member (independent of the thread count; the edges are
+ * sorted afterwards). Height 2 (m == 1 and keys are bricks): the 64
+ * one-bit flips of each encoding looked up in the sorted array. Taller:
+ * within a group of equal topology hash, sorted by voxel count, only the
+ * window of counts within m (|pop a - pop b| <= d) is compared. */
+#define PAIR_SLICES 64
+
+struct pair_job {
+	const struct vd_dag *d;
+	int l, h2;
+	const struct enc *c;
+	size_t nc;
+	int64_t m;
+	struct edges part[PAIR_SLICES];
+	int err[PAIR_SLICES];
+};
+
+static void pair_slice(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct pair_job *J = ctx;
+	const struct enc *c = J->c;
+	size_t nc = J->nc, a0 = nc * k / PAIR_SLICES, a1 = nc * (k + 1) / PAIR_SLICES;
+	struct edges *g = &J->part[k];
+	int64_t m = J->m;
+	int err = 0;
+	for (size_t a = a0; a < a1 && !err; a++) {
+		if (J->h2) {
+			for (unsigned b = 0; b < 64 && !err; b++) {
+				uint64_t x = c[a].key ^ (1ull << b);
+				size_t lo = 0, hi = nc;
+				while (lo < hi) {
+					size_t mid = lo + (hi - lo) / 2;
+					if (c[mid].key < x) lo = mid + 1;
+					else hi = mid;
+				}
+				if (lo < nc && c[lo].key == x && c[lo].node > c[a].node)
+					err = edge_add(g, c[a].node, c[lo].node, 1, 0.5);
+			}
+			continue;
+		}
+		for (size_t b = a + 1; b < nc && !err; b++) {
+			if (c[b].key != c[a].key || c[b].pop - c[a].pop > (uint64_t)m)
+				break;
+			int64_t dd = pair_diff(J->d, J->l, c[a].node, c[b].node, 0, m);
+			if (dd < 0 || dd > m) continue;
+			uint32_t u = c[a].node, v = c[b].node;
+			if (u > v) {
+				uint32_t t = u;
+				u = v;
+				v = t;
+			}
+			err = edge_add(g, u, v, (uint32_t)dd,
+				       1.0 - (double)dd / (double)(m + 1));
+		}
+	}
+	J->err[k] = err;
+}
+
+static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
+			size_t nc, int64_t m, int threads, struct edges *g)
+{
+	struct pair_job *J = calloc(1, sizeof *J);
+	if (!J) return NOMEM();
+	J->d = d;
+	J->l = l;
+	J->h2 = d->levels - l == 2;
+	J->c = c;
+	J->nc = nc;
+	J->m = m;
+	int err = vd_parallel_for(PAIR_SLICES, threads, pair_slice, J);
+	size_t total = 0;
+	for (int k = 0; k < PAIR_SLICES; k++) {
+		if (!err && J->err[k]) err = J->err[k];
+		total += J->part[k].n;
+	}
+	if (!err && total) {
+		g->e = malloc(total * sizeof *g->e);
+		if (!g->e) err = NOMEM();
+		for (int k = 0; k < PAIR_SLICES && !err; k++) {
+			if (J->part[k].n)
+				memcpy(g->e + g->n, J->part[k].e,
+				       J->part[k].n * sizeof *g->e);
+			g->n += J->part[k].n;
+		}
+		g->cap = g->n;
+	}
+	for (int k = 0; k < PAIR_SLICES; k++) free(J->part[k].e);
+	free(J);
+	return err;
+}
+
 int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
-			   uint64_t max_refs, double diff_factor,
+			   uint64_t max_refs, double diff_factor, int threads,
 			   struct vd_lossy_edge **out, size_t *n_out,
 			   uint64_t *candidates)
 {
@@ -161,19 +254,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
 		qsort(c, nc, sizeof *c, enc_cmp);
-		/* m = 1: the 64 one-bit flips looked up in the sorted array */
-		for (size_t a = 0; a < nc && !err; a++)
-			for (unsigned b = 0; b < 64 && !err; b++) {
-				uint64_t x = c[a].key ^ (1ull << b);
-				size_t lo = 0, hi = nc;
-				while (lo < hi) {
-					size_t mid = lo + (hi - lo) / 2;
-					if (c[mid].key < x) lo = mid + 1;
-					else hi = mid;
-				}
-				if (lo < nc && c[lo].key == x && c[lo].node > c[a].node)
-					err = edge_add(&g, c[a].node, c[lo].node, 1, 0.5);
-			}
+		err = search_pairs(d, l, c, nc, 1, threads, &g);
 		goto done;
 	}
 	/* taller: topology hashes (masks of levels l..L-2) and voxel counts
@@ -208,23 +289,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	/* within a group of equal hash, sorted by voxel count: |pop a - pop b|
-	 * <= d, so only a window of counts within m needs comparing */
-	for (size_t a = 0; a < nc && !err; a++)
-		for (size_t b = a + 1; b < nc && !err; b++) {
-			if (c[b].key != c[a].key || c[b].pop - c[a].pop > (uint64_t)m)
-				break;
-			int64_t dd = pair_diff(d, l, c[a].node, c[b].node, 0, m);
-			if (dd < 0 || dd > m) continue;
-			uint32_t u = c[a].node, v = c[b].node;
-			if (u > v) {
-				uint32_t t = u;
-				u = v;
-				v = t;
-			}
-			err = edge_add(&g, u, v, (uint32_t)dd,
-				       1.0 - (double)dd / (double)(m + 1));
-		}
+	err = search_pairs(d, l, c, nc, m, threads, &g);
 done:
 	for (int k = 0; k < VD_MAX_LEVELS; k++) {
 		free(topo[k]);
@@ -486,7 +551,8 @@ static int mcl_component(uint32_t n, const uint64_t *adj_off,
 				uint32_t r = touched[t];
 				mark[r] = 0;
 				if (acc[r] < cut) continue;
-				double v = pow(acc[r], inflation);
+				double v = inflation == 2.0 ? acc[r] * acc[r]
+						       : pow(acc[r], inflation);
 				N.row[nk] = r;
 				N.val[nk++] = v;
 				sum += v;
@@ -856,7 +922,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
 		err = vd_lossy_similar_pairs(d, l, eff[l], o->max_refs,
-					     o->diff_factor, &e, &ne,
+					     o->diff_factor, o->threads, &e, &ne,
 					     &ls->candidates);
 		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 		if (err) break;
