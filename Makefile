@@ -46,7 +46,7 @@ endif
 # libboost-dev: OpenVDB 10's headers include Boost, which Debian's
 # libopenvdb-dev does not pull in; libopenvdb-tools: vdb_print for the tests.
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
-DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev \
+DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge
 

@@ -44,7 +44,8 @@ extern "C" {
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
-	X("render", 1)
+	X("render", 1)                                                      \
+	X("lossy-cluster", 1)
 
 /* The version of the stage named `tool` (as in out/bin/), 0 if unknown. */
 int vd_stage_version(const char *tool);
@@ -1425,5 +1426,92 @@ int vd_render_run(const struct vd_render_job *job);
 #ifdef __cplusplus
 }
 #endif
+
+/* ------------------------------------------------ lossy SVDAGs (lossy.c)
+ * van der Laan, Scandolo and Eisemann 2020: on each level from height 2
+ * (level L-2) up to the root, nodes whose effective reference count (how
+ * often their subtree occurs in the scene) is at most max_refs and whose
+ * voxels differ by at most m = h^2 * diff_factor (m = 1 at height 2) from
+ * another such node are joined in a similarity graph, clustered by Markov
+ * clustering per connected component, and every cluster replaced by its
+ * member with the largest sum of similarities; the levels above are then
+ * reduced losslessly again. The result is an ordinary minimal SVDAG. */
+struct vd_lossy_opts {
+	double inflation;          /* MCL inflation, > 1 (default 2.0) */
+	double diff_factor;        /* p of m = h^2 * p (default 1.0) */
+	uint64_t max_refs;         /* R: candidates have <= R effective refs */
+	int threads;               /* 0: all cores */
+};
+
+struct vd_lossy_level_stats {
+	int level, height;
+	uint64_t candidates, graph_nodes, edges, clusters, merged;
+	uint64_t level_nodes_before, level_nodes_after; /* on this level */
+	uint64_t nodes_before, nodes_after;             /* all levels */
+};
+
+struct vd_lossy_stats {
+	struct vd_lossy_level_stats level[VD_MAX_LEVELS]; /* bottom-up */
+	int n_levels;
+	uint64_t nodes_before, nodes_after;
+	uint64_t voxels_before, voxels_after, voxels_set, voxels_cleared;
+	double seconds_eff, seconds_graph, seconds_cluster, seconds_reduce,
+	       seconds_diff;
+};
+
+/* An edge of a similarity graph: u < v, `diff` voxels apart, similarity
+ * s = 1 - diff / (m + 1). */
+struct vd_lossy_edge {
+	uint32_t u, v, diff;
+	double s;
+};
+
+/* Clusters the SVDAG `dag` in place (VD_ERR_WRONG_KIND for an SSVDAG,
+ * VD_ERR_ARG for parameters out of range). The voxel statistics come from
+ * vd_dag_diff() of the input and the result. */
+int vd_lossy_cluster(struct vd_dag *dag, const struct vd_lossy_opts *o,
+		     struct vd_lossy_stats *st);
+
+/* Effective reference counts of the nodes of levels chunk_level..to_level
+ * into new arrays eff[l] (free each; the others are set to NULL): the root
+ * counts 1, a node the sum of its parents' counts per reference. */
+int vd_lossy_effective_refs(const struct vd_dag *dag, int to_level,
+			    uint64_t **eff);
+
+/* The similar pairs among the candidates of level l (eff[i] <= max_refs),
+ * edges as node indices of level l sorted by (u, v), in a new array
+ * (free()); *candidates gets their number. The same for any `threads`. */
+int vd_lossy_similar_pairs(const struct vd_dag *dag, int l,
+			   const uint64_t *eff, uint64_t max_refs,
+			   double diff_factor, int threads,
+			   struct vd_lossy_edge **edges,
+			   size_t *n_edges, uint64_t *candidates);
+
+/* Markov clustering of the graph of n nodes and edges e[0..ne-1] (u < v,
+ * weights s), per connected component, with mcl's defaults (a loop on every
+ * node weighing its largest edge weight, pruning below 1/10000, at most
+ * 1100 entries per column). cluster[i] = the smallest node of i's cluster.
+ * The same clusters for any `threads`. */
+int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
+		 double inflation, int threads, uint32_t *cluster);
+
+/* Voxels set in a but not in b (*only_a) and in b but not in a (*only_b),
+ * walking both SVDAGs of the same cell together (pairs of nodes counted
+ * once); *voxels_b gets b's voxel count. */
+int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
+		uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b);
+
+/* Writes the statistics of a lossy clustering as JSON to `path` (atomic). */
+int vd_lossy_write_stats(const struct vd_dag *dag,
+			 const struct vd_lossy_opts *o,
+			 const struct vd_lossy_stats *st, double seconds_load,
+			 double seconds_save, const char *path);
+
+/* The lossy-cluster stage: reads the DAG chunk `in` (kind dag), clusters
+ * it, writes `out` and `out`.stats.json (atomic; neither is left on a
+ * failure). mem_budget 0: no limit. */
+int vd_lossy_run(const char *in, const char *out,
+		 const struct vd_lossy_opts *o, uint64_t mem_budget,
+		 const char *provenance, int quiet);
 
 #endif /* VOXDAG_H */

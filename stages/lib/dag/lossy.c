@@ -1,0 +1,1311 @@
+/* lossy.c - lossy SVDAGs (van der Laan, Scandolo and Eisemann 2020):
+ * rarely used subtrees that differ in a few voxels are clustered with
+ * Markov clustering and replaced by one representative per cluster, level
+ * after level from height 2 to the root, with the lossless reduction of
+ * the levels above after each level. Also the voxel difference of two DAGs.
+ *
+ * Heights: a node on level l has height h = L - l; level L-1 holds the
+ * 2x2x2 masks (height 1), level L-2 the nodes over them (height 2, one
+ * 64-bit brick each). */
+#include "voxdag.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <stdio.h>
+#include <string.h>
+
+#define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
+#define NONE UINT32_MAX
+
+static inline uint64_t mix64(uint64_t x)
+{
+	x ^= x >> 33;
+	x *= 0xff51afd7ed558ccdULL;
+	x ^= x >> 33;
+	x *= 0xc4ceb9fe1a85ec53ULL;
+	x ^= x >> 33;
+	return x;
+}
+
+/* The brick (height-2 encoding) of node i on level L-2: byte c = the leaf
+ * mask of child slot c. */
+static uint64_t node_brick(const struct vd_dag *d, uint64_t i)
+{
+	int L = d->levels;
+	const struct vd_dag_level *lv = &d->lv[L - 2];
+	uint64_t v = 0, j = lv->first[i];
+	for (unsigned s = 0; s < 8; s++)
+		if (lv->mask[i] >> s & 1)
+			v |= (uint64_t)d->lv[L - 1].mask[lv->child[j++]] << (8 * s);
+	return v;
+}
+
+/* --------------------------------------------- effective reference counts */
+
+int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
+			    uint64_t **eff)
+{
+	int A = d->chunk_level;
+	for (int l = 0; l < VD_MAX_LEVELS; l++) eff[l] = NULL;
+	for (int l = A; l <= to_level; l++) {
+		eff[l] = calloc(d->lv[l].nodes ? d->lv[l].nodes : 1, 8);
+		if (!eff[l]) {
+			for (int k = A; k < l; k++) free(eff[k]);
+			return NOMEM();
+		}
+	}
+	if (!d->lv[A].nodes) return 0;
+	eff[A][0] = 1;
+	for (int l = A; l < to_level; l++) {
+		const struct vd_dag_level *lv = &d->lv[l];
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++) {
+				uint64_t *e = &eff[l + 1][lv->child[j]];
+				*e = *e > UINT64_MAX - eff[l][i] ? UINT64_MAX
+								   : *e + eff[l][i];
+			}
+	}
+	return 0;
+}
+
+/* ------------------------------------------------------ similarity graph */
+
+struct edges {
+	struct vd_lossy_edge *e;
+	size_t n, cap;
+};
+
+static int edge_add(struct edges *g, uint32_t u, uint32_t v, uint32_t diff,
+		    double s)
+{
+	if (g->n == g->cap) {
+		size_t c = g->cap ? g->cap * 2 : 1024;
+		void *p = realloc(g->e, c * sizeof *g->e);
+		if (!p) return NOMEM();
+		g->e = p;
+		g->cap = c;
+	}
+	g->e[g->n++] = (struct vd_lossy_edge){u, v, diff, s};
+	return 0;
+}
+
+static int edge_cmp(const void *a, const void *b)
+{
+	const struct vd_lossy_edge *x = a, *y = b;
+	if (x->u != y->u) return x->u < y->u ? -1 : 1;
+	if (x->v != y->v) return x->v < y->v ? -1 : 1;
+	return 0;
+}
+
+struct enc {
+	uint64_t key;  /* encoding, or topology hash */
+	uint64_t pop;  /* voxels (taller levels) */
+	uint32_t node;
+};
+
+static int enc_cmp(const void *a, const void *b)
+{
+	const struct enc *x = a, *y = b;
+	if (x->key != y->key) return x->key < y->key ? -1 : 1;
+	if (x->pop != y->pop) return x->pop < y->pop ? -1 : 1;
+	return x->node < y->node ? -1 : x->node > y->node;
+}
+
+/* Voxel difference of nodes a and b on level l (>= L-2) of equal topology
+ * down to level L-2, stopping once over `m`. Returns -1 if the topologies
+ * differ (a topology hash collision). */
+static int64_t pair_diff(const struct vd_dag *d, int l, uint32_t a,
+			 uint32_t b, int64_t acc, int64_t m)
+{
+	int L = d->levels;
+	const struct vd_dag_level *lv = &d->lv[l];
+	if (lv->mask[a] != lv->mask[b]) return -1;
+	uint64_t ja = lv->first[a], jb = lv->first[b], k = lv->first[a + 1] - ja;
+	for (uint64_t t = 0; t < k; t++) {
+		uint32_t ca = lv->child[ja + t], cb = lv->child[jb + t];
+		if (l == L - 2) {
+			acc += __builtin_popcount(d->lv[L - 1].mask[ca] ^
+						  d->lv[L - 1].mask[cb]);
+		} else if (ca != cb) {
+			acc = pair_diff(d, l + 1, ca, cb, acc, m);
+			if (acc < 0) return -1;
+		}
+		if (acc > m) return acc;
+	}
+	return acc;
+}
+
+/* The pair search over the sorted candidates c[0..nc-1], in fixed slices
+ * of the first member (independent of the thread count; the edges are
+ * sorted afterwards). Height 2 (m == 1 and keys are bricks): the 64
+ * one-bit flips of each encoding looked up in the sorted array. Taller:
+ * within a group of equal topology hash, sorted by voxel count, only the
+ * window of counts within m (|pop a - pop b| <= d) is compared. */
+#define PAIR_SLICES 64
+
+struct pair_job {
+	const struct vd_dag *d;
+	int l, h2;
+	const struct enc *c;
+	size_t nc;
+	int64_t m;
+	struct edges part[PAIR_SLICES];
+	int err[PAIR_SLICES];
+};
+
+static void pair_slice(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct pair_job *J = ctx;
+	const struct enc *c = J->c;
+	size_t nc = J->nc, a0 = nc * k / PAIR_SLICES, a1 = nc * (k + 1) / PAIR_SLICES;
+	struct edges *g = &J->part[k];
+	int64_t m = J->m;
+	int err = 0;
+	for (size_t a = a0; a < a1 && !err; a++) {
+		if (J->h2) {
+			for (unsigned b = 0; b < 64 && !err; b++) {
+				uint64_t x = c[a].key ^ (1ull << b);
+				size_t lo = 0, hi = nc;
+				while (lo < hi) {
+					size_t mid = lo + (hi - lo) / 2;
+					if (c[mid].key < x) lo = mid + 1;
+					else hi = mid;
+				}
+				if (lo < nc && c[lo].key == x && c[lo].node > c[a].node)
+					err = edge_add(g, c[a].node, c[lo].node, 1, 0.5);
+			}
+			continue;
+		}
+		for (size_t b = a + 1; b < nc && !err; b++) {
+			if (c[b].key != c[a].key || c[b].pop - c[a].pop > (uint64_t)m)
+				break;
+			int64_t dd = pair_diff(J->d, J->l, c[a].node, c[b].node, 0, m);
+			if (dd < 0 || dd > m) continue;
+			uint32_t u = c[a].node, v = c[b].node;
+			if (u > v) {
+				uint32_t t = u;
+				u = v;
+				v = t;
+			}
+			err = edge_add(g, u, v, (uint32_t)dd,
+				       1.0 - (double)dd / (double)(m + 1));
+		}
+	}
+	J->err[k] = err;
+}
+
+static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
+			size_t nc, int64_t m, int threads, struct edges *g)
+{
+	struct pair_job *J = calloc(1, sizeof *J);
+	if (!J) return NOMEM();
+	J->d = d;
+	J->l = l;
+	J->h2 = d->levels - l == 2;
+	J->c = c;
+	J->nc = nc;
+	J->m = m;
+	int err = vd_parallel_for(PAIR_SLICES, threads, pair_slice, J);
+	size_t total = 0;
+	for (int k = 0; k < PAIR_SLICES; k++) {
+		if (!err && J->err[k]) err = J->err[k];
+		total += J->part[k].n;
+	}
+	if (!err && total) {
+		g->e = malloc(total * sizeof *g->e);
+		if (!g->e) err = NOMEM();
+		for (int k = 0; k < PAIR_SLICES && !err; k++) {
+			if (J->part[k].n)
+				memcpy(g->e + g->n, J->part[k].e,
+				       J->part[k].n * sizeof *g->e);
+			g->n += J->part[k].n;
+		}
+		g->cap = g->n;
+	}
+	for (int k = 0; k < PAIR_SLICES; k++) free(J->part[k].e);
+	free(J);
+	return err;
+}
+
+int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
+			   uint64_t max_refs, double diff_factor, int threads,
+			   struct vd_lossy_edge **out, size_t *n_out,
+			   uint64_t *candidates)
+{
+	int L = d->levels, A = d->chunk_level;
+	struct edges g = {0};
+	struct enc *c = NULL;
+	uint64_t *topo[VD_MAX_LEVELS] = {0}, *vox[VD_MAX_LEVELS] = {0};
+	int err = 0;
+	*out = NULL;
+	*n_out = 0;
+	*candidates = 0;
+	if (l < A || l > L - 2) return 0;
+	const struct vd_dag_level *lv = &d->lv[l];
+	size_t nc = 0;
+	c = malloc((lv->nodes ? lv->nodes : 1) * sizeof *c);
+	if (!c) return NOMEM();
+	int h = L - l;
+	if (h == 2) {
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			if (eff[i] <= max_refs)
+				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
+		*candidates = nc;
+		qsort(c, nc, sizeof *c, enc_cmp);
+		err = search_pairs(d, l, c, nc, 1, threads, &g);
+		goto done;
+	}
+	/* taller: topology hashes (masks of levels l..L-2) and voxel counts
+	 * bottom-up for every node of levels L-2..l */
+	for (int k = L - 2; k >= l && !err; k--) {
+		const struct vd_dag_level *kv = &d->lv[k];
+		topo[k] = malloc((kv->nodes ? kv->nodes : 1) * 8);
+		vox[k] = malloc((kv->nodes ? kv->nodes : 1) * 8);
+		if (!topo[k] || !vox[k]) {
+			err = NOMEM();
+			break;
+		}
+		for (uint64_t i = 0; i < kv->nodes; i++) {
+			uint64_t hsh = mix64(kv->mask[i] + 0x9e3779b97f4a7c15ULL), v = 0;
+			for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++) {
+				uint32_t ch = kv->child[j];
+				if (k == L - 2) {
+					v += (uint64_t)__builtin_popcount(d->lv[L - 1].mask[ch]);
+				} else {
+					hsh = mix64(hsh ^ topo[k + 1][ch]) + j - kv->first[i];
+					v += vox[k + 1][ch];
+				}
+			}
+			topo[k][i] = hsh;
+			vox[k][i] = v;
+		}
+	}
+	if (err) goto done;
+	for (uint64_t i = 0; i < lv->nodes; i++)
+		if (eff[i] <= max_refs)
+			c[nc++] = (struct enc){topo[l][i], vox[l][i], (uint32_t)i};
+	*candidates = nc;
+	qsort(c, nc, sizeof *c, enc_cmp);
+	int64_t m = (int64_t)floor((double)h * h * diff_factor);
+	err = search_pairs(d, l, c, nc, m, threads, &g);
+done:
+	for (int k = 0; k < VD_MAX_LEVELS; k++) {
+		free(topo[k]);
+		free(vox[k]);
+	}
+	free(c);
+	if (err) {
+		free(g.e);
+		return err;
+	}
+	if (g.n) qsort(g.e, g.n, sizeof *g.e, edge_cmp);
+	*out = g.e;
+	*n_out = g.n;
+	return 0;
+}
+
+/* ------------------------------------------------------ Markov clustering */
+
+static uint32_t uf_find(uint32_t *p, uint32_t x)
+{
+	while (p[x] != x) {
+		p[x] = p[p[x]];
+		x = p[x];
+	}
+	return x;
+}
+
+static void uf_union(uint32_t *p, uint32_t a, uint32_t b)
+{
+	a = uf_find(p, a);
+	b = uf_find(p, b);
+	if (a < b) p[b] = a;
+	else if (b < a) p[a] = b;
+}
+
+/* A sparse column-stochastic matrix, column j's entries at off[j]..off[j+1]
+ * sorted by row. */
+struct smat {
+	uint32_t n;
+	uint64_t *off;
+	uint32_t *row;
+	double *val;
+	uint64_t cap;
+};
+
+static void smat_free(struct smat *s)
+{
+	free(s->off);
+	free(s->row);
+	free(s->val);
+}
+
+static int smat_reserve(struct smat *s, uint64_t need)
+{
+	if (need <= s->cap) return 0;
+	uint64_t c = s->cap ? s->cap : 64;
+	while (c < need) c *= 2;
+	uint32_t *r = realloc(s->row, c * sizeof *r);
+	if (!r) return NOMEM();
+	s->row = r;
+	double *v = realloc(s->val, c * sizeof *v);
+	if (!v) return NOMEM();
+	s->val = v;
+	s->cap = c;
+	return 0;
+}
+
+#define MCL_PRUNE (1.0 / 10000) /* mcl's -P 10000 */
+#define MCL_SELECT 1100         /* mcl's -S 1100 */
+#define MCL_MAX_ITER 10000
+
+static int u32_cmp(const void *a, const void *b)
+{
+	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+	return x < y ? -1 : x > y;
+}
+
+static int dbl_desc(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return x > y ? -1 : x < y;
+}
+
+#define MCL_EPS 1e-9
+
+/* The clustering of a converged matrix, as mcl interprets it: attractors
+ * (positive diagonal) joined into systems when one flows to another; a
+ * node belongs to the system(s) its column flows to; nodes flowing to
+ * several systems (overlap, on symmetric graphs) are cut out as clusters
+ * of their own, one per set of systems (mcl's default -overlap mode).
+ * cluster[j] = the smallest node of j's cluster. `sys` and `tmp` are
+ * scratch arrays of n entries. */
+static int mcl_interpret(const struct smat *M, uint32_t *cluster,
+			 uint32_t *sys, uint32_t *tmp)
+{
+	uint32_t n = M->n;
+	for (uint32_t j = 0; j < n; j++) sys[j] = j;
+	for (uint32_t j = 0; j < n; j++) {
+		int att = 0;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++)
+			if (M->row[e] == j && M->val[e] > MCL_EPS) att = 1;
+		if (!att) continue;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
+			uint32_t i = M->row[e];
+			if (M->val[e] <= MCL_EPS || i == j) continue;
+			/* i is an attractor too when its own column keeps it */
+			for (uint64_t f = M->off[i]; f < M->off[i + 1]; f++)
+				if (M->row[f] == i && M->val[f] > MCL_EPS)
+					uf_union(sys, i, j);
+		}
+	}
+	/* each node's systems: their roots, sorted, in a flat list */
+	uint64_t *off = malloc((n + 1ull) * 8);
+	uint32_t *list = NULL;
+	uint64_t cnt = 0;
+	for (uint32_t j = 0; j < n; j++)
+		cnt += M->off[j + 1] - M->off[j];
+	list = malloc((cnt + 1) * 4);
+	if (!off || !list) {
+		free(off);
+		free(list);
+		return NOMEM();
+	}
+	uint64_t k = 0;
+	for (uint32_t j = 0; j < n; j++) {
+		off[j] = k;
+		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
+			if (M->val[e] <= MCL_EPS) continue;
+			list[k++] = uf_find(sys, M->row[e]);
+		}
+		qsort(list + off[j], k - off[j], 4, u32_cmp);
+		uint64_t w = off[j];
+		for (uint64_t r = off[j]; r < k; r++)
+			if (r == off[j] || list[r] != list[w - 1]) list[w++] = list[r];
+		k = w;
+	}
+	off[n] = k;
+	/* cluster id: the root of a single system; for overlap the first node
+	 * with the same set of systems */
+	uint32_t no = 0;
+	for (uint32_t j = 0; j < n; j++) {
+		uint64_t a = off[j], len = off[j + 1] - a;
+		if (len == 1) {
+			cluster[j] = list[a];
+			continue;
+		}
+		cluster[j] = n + j; /* a fresh overlap cluster */
+		for (uint32_t t = 0; t < no; t++) {
+			uint32_t o = tmp[t];
+			if (off[o + 1] - off[o] == len &&
+			    !memcmp(list + off[o], list + a, len * 4)) {
+				cluster[j] = cluster[o];
+				break;
+			}
+		}
+		if (cluster[j] == n + j) tmp[no++] = j;
+	}
+	free(off);
+	free(list);
+	/* relabel every cluster by its smallest node */
+	uint32_t *low = malloc(2ull * n * 4);
+	if (!low) return NOMEM();
+	for (uint64_t i = 0; i < 2ull * n; i++) low[i] = NONE;
+	for (uint32_t j = 0; j < n; j++)
+		if (low[cluster[j]] == NONE) low[cluster[j]] = j;
+	for (uint32_t j = 0; j < n; j++) cluster[j] = low[cluster[j]];
+	free(low);
+	return 0;
+}
+
+/* One MCL run on a connected component of n nodes (local indices), given
+ * its symmetric adjacency (CSR: adj_off/adj_to/adj_w, no loops). Writes
+ * the cluster of each node as the smallest local index in it. */
+static int mcl_component(uint32_t n, const uint64_t *adj_off,
+			 const uint32_t *adj_to, const double *adj_w,
+			 double inflation, uint32_t *cluster)
+{
+	struct smat M = {n, NULL, NULL, NULL, 0}, N = {n, NULL, NULL, NULL, 0};
+	double *acc = calloc(n, sizeof *acc), *tmp = NULL;
+	uint32_t *touched = malloc(n * sizeof *touched), *mark = calloc(n, 4);
+	int err = 0;
+	M.off = malloc((n + 1ull) * 8);
+	N.off = malloc((n + 1ull) * 8);
+	if (!acc || !touched || !mark || !M.off || !N.off ||
+	    (err = smat_reserve(&M, adj_off[n] + n))) {
+		err = err ? err : NOMEM();
+		goto out;
+	}
+	/* the start matrix: the weights, a loop on every node weighing the
+	 * largest of its edge weights (mcl's default), columns normalized */
+	uint64_t k = 0;
+	for (uint32_t j = 0; j < n; j++) {
+		M.off[j] = k;
+		double mx = 0, sum = 0;
+		for (uint64_t e = adj_off[j]; e < adj_off[j + 1]; e++)
+			if (adj_w[e] > mx) mx = adj_w[e];
+		int placed = 0;
+		for (uint64_t e = adj_off[j]; e <= adj_off[j + 1]; e++) {
+			if (!placed && (e == adj_off[j + 1] || adj_to[e] > j)) {
+				M.row[k] = j;
+				M.val[k++] = mx;
+				sum += mx;
+				placed = 1;
+			}
+			if (e < adj_off[j + 1]) {
+				M.row[k] = adj_to[e];
+				M.val[k++] = adj_w[e];
+				sum += adj_w[e];
+			}
+		}
+		for (uint64_t e = M.off[j]; e < k; e++) M.val[e] /= sum;
+	}
+	M.off[n] = k;
+	tmp = malloc((size_t)n * sizeof *tmp);
+	if (!tmp) {
+		err = NOMEM();
+		goto out;
+	}
+	for (int it = 0; it < MCL_MAX_ITER; it++) {
+		/* expansion N = M * M, pruning, inflation, normalization */
+		uint64_t nk = 0;
+		double chaos = 0;
+		for (uint32_t j = 0; j < n; j++) {
+			uint32_t nt = 0;
+			for (uint64_t e = M.off[j]; e < M.off[j + 1]; e++) {
+				uint32_t kk = M.row[e];
+				double w = M.val[e];
+				for (uint64_t f = M.off[kk]; f < M.off[kk + 1]; f++) {
+					uint32_t r = M.row[f];
+					if (!mark[r]) {
+						mark[r] = 1;
+						touched[nt++] = r;
+						acc[r] = 0;
+					}
+					acc[r] += w * M.val[f];
+				}
+			}
+			/* prune entries below 1/P, then keep the S largest */
+			uint32_t kept = 0;
+			for (uint32_t t = 0; t < nt; t++)
+				if (acc[touched[t]] >= MCL_PRUNE) tmp[kept++] = acc[touched[t]];
+			double cut = MCL_PRUNE;
+			if (kept == 0) {
+				/* keep the largest entry: a column never empties */
+				double mx = 0;
+				for (uint32_t t = 0; t < nt; t++)
+					if (acc[touched[t]] > mx) mx = acc[touched[t]];
+				cut = mx;
+			} else if (kept > MCL_SELECT) {
+				qsort(tmp, kept, sizeof *tmp, dbl_desc);
+				cut = tmp[MCL_SELECT - 1];
+			}
+			/* rows in increasing order */
+			if ((err = smat_reserve(&N, nk + nt))) goto out;
+			N.off[j] = nk;
+			qsort(touched, nt, sizeof *touched, u32_cmp);
+			double sum = 0, mx = 0, sq = 0;
+			for (uint32_t t = 0; t < nt; t++) {
+				uint32_t r = touched[t];
+				mark[r] = 0;
+				if (acc[r] < cut) continue;
+				double v = inflation == 2.0 ? acc[r] * acc[r]
+						       : pow(acc[r], inflation);
+				N.row[nk] = r;
+				N.val[nk++] = v;
+				sum += v;
+			}
+			for (uint64_t e = N.off[j]; e < nk; e++) {
+				N.val[e] /= sum;
+				if (N.val[e] > mx) mx = N.val[e];
+				sq += N.val[e] * N.val[e];
+			}
+			/* chaos: max - sum of squares, 0 when every entry of the
+			 * column is equal (a doubly idempotent limit) */
+			if (mx - sq > chaos) chaos = mx - sq;
+		}
+		N.off[n] = nk;
+		struct smat t = M;
+		M = N;
+		N = t;
+		if (chaos < 1e-9) break;
+	}
+	err = mcl_interpret(&M, cluster, touched, mark);
+out:
+	smat_free(&M);
+	smat_free(&N);
+	free(acc);
+	free(tmp);
+	free(touched);
+	free(mark);
+	return err;
+}
+
+/* The graph of n nodes in CSR form and its connected components. */
+struct graph {
+	uint32_t n;
+	uint64_t *off;
+	uint32_t *to;
+	double *w;
+	uint32_t *comp;      /* component root (smallest node) per node */
+	uint32_t *order;     /* nodes grouped by component, increasing */
+	uint64_t *comp_off;  /* component c: order[comp_off[c]..comp_off[c+1]] */
+	uint32_t *local;     /* node -> its index inside its component */
+	uint64_t ncomp;
+};
+
+static void graph_free(struct graph *g)
+{
+	free(g->off);
+	free(g->to);
+	free(g->w);
+	free(g->comp);
+	free(g->order);
+	free(g->comp_off);
+	free(g->local);
+}
+
+static int graph_build(struct graph *g, uint32_t n,
+		       const struct vd_lossy_edge *e, size_t ne)
+{
+	memset(g, 0, sizeof *g);
+	g->n = n;
+	g->off = calloc(n + 1ull, 8);
+	g->to = malloc((2 * ne + 1) * 4);
+	g->w = malloc((2 * ne + 1) * 8);
+	g->comp = malloc((n + 1ull) * 4);
+	g->order = malloc((n + 1ull) * 4);
+	g->comp_off = malloc((n + 2ull) * 8);
+	g->local = malloc((n + 1ull) * 4);
+	uint64_t *fill = calloc(n + 1ull, 8);
+	if (!g->off || !g->to || !g->w || !g->comp || !g->order ||
+	    !g->comp_off || !g->local || !fill) {
+		free(fill);
+		return NOMEM();
+	}
+	for (size_t i = 0; i < ne; i++) {
+		g->off[e[i].u + 1]++;
+		g->off[e[i].v + 1]++;
+	}
+	for (uint32_t i = 0; i < n; i++) g->off[i + 1] += g->off[i];
+	/* edges sorted by (u, v): filling in order keeps each list sorted
+	 * except that lower neighbours (from edges (x, u)) come first, which
+	 * is increasing too since those edges are visited by increasing x */
+	for (size_t i = 0; i < ne; i++) {
+		uint32_t u = e[i].u, v = e[i].v;
+		uint64_t pv = g->off[v] + fill[v]++;
+		g->to[pv] = u;
+		g->w[pv] = e[i].s;
+	}
+	for (size_t i = 0; i < ne; i++) {
+		uint32_t u = e[i].u, v = e[i].v;
+		uint64_t pu = g->off[u] + fill[u]++;
+		g->to[pu] = v;
+		g->w[pu] = e[i].s;
+	}
+	free(fill);
+	for (uint32_t i = 0; i < n; i++) g->comp[i] = i;
+	for (size_t i = 0; i < ne; i++) uf_union(g->comp, e[i].u, e[i].v);
+	/* counting sort of the nodes by component root */
+	uint64_t *cnt = calloc(n + 1ull, 8);
+	if (!cnt) return NOMEM();
+	for (uint32_t i = 0; i < n; i++) {
+		g->comp[i] = uf_find(g->comp, i);
+		cnt[g->comp[i]]++;
+	}
+	uint64_t c = 0, at = 0;
+	for (uint32_t i = 0; i < n; i++)
+		if (cnt[i]) {
+			g->comp_off[c++] = at;
+			uint64_t k = cnt[i];
+			cnt[i] = at;
+			at += k;
+		}
+	g->comp_off[c] = at;
+	g->ncomp = c;
+	for (uint32_t i = 0; i < n; i++) {
+		uint64_t p = cnt[g->comp[i]]++;
+		g->order[p] = i;
+	}
+	for (uint64_t k = 0; k < c; k++)
+		for (uint64_t p = g->comp_off[k]; p < g->comp_off[k + 1]; p++)
+			g->local[g->order[p]] = (uint32_t)(p - g->comp_off[k]);
+	free(cnt);
+	return 0;
+}
+
+struct mcl_job {
+	const struct graph *g;
+	double inflation;
+	uint32_t *cluster; /* out: per node, the smallest node of its cluster */
+	int err;           /* first error (by component order) */
+	uint64_t err_comp;
+};
+
+static void mcl_run_comp(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct mcl_job *J = ctx;
+	const struct graph *g = J->g;
+	uint64_t a = g->comp_off[k];
+	uint32_t n = (uint32_t)(g->comp_off[k + 1] - a);
+	const uint32_t *nodes = g->order + a;
+	if (n <= 2) {
+		/* decided directly: a pair is one cluster (with mcl's loops the
+		 * 2x2 matrix is already idempotent) */
+		for (uint32_t i = 0; i < n; i++) J->cluster[nodes[i]] = nodes[0];
+		return;
+	}
+	uint64_t m = 0;
+	for (uint32_t i = 0; i < n; i++)
+		m += g->off[nodes[i] + 1] - g->off[nodes[i]];
+	uint64_t *off = malloc((n + 1ull) * 8);
+	uint32_t *to = malloc((m + 1) * 4), *cl = malloc(n * 4ull);
+	double *w = malloc((m + 1) * 8);
+	int err = 0;
+	if (!off || !to || !cl || !w) {
+		err = NOMEM();
+	} else {
+		uint64_t p = 0;
+		for (uint32_t i = 0; i < n; i++) {
+			off[i] = p;
+			for (uint64_t e = g->off[nodes[i]]; e < g->off[nodes[i] + 1]; e++) {
+				to[p] = g->local[g->to[e]];
+				w[p++] = g->w[e];
+			}
+		}
+		off[n] = p;
+		err = mcl_component(n, off, to, w, J->inflation, cl);
+		if (!err)
+			for (uint32_t i = 0; i < n; i++)
+				J->cluster[nodes[i]] = nodes[cl[i]];
+	}
+	free(off);
+	free(to);
+	free(cl);
+	free(w);
+	if (err) {
+		/* keep the error of the first failing component */
+		__atomic_store_n(&J->err, err, __ATOMIC_RELAXED);
+	}
+}
+
+int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
+		 double inflation, int threads, uint32_t *cluster)
+{
+	struct graph g;
+	int err = graph_build(&g, n, e, ne);
+	if (!err) {
+		struct mcl_job J = {&g, inflation, cluster, 0, 0};
+		err = vd_parallel_for(g.ncomp, threads, mcl_run_comp, &J);
+		if (!err && J.err)
+			err = vd_fail(VD_ERR_NOMEM, "out of memory clustering");
+	}
+	graph_free(&g);
+	return err;
+}
+
+/* --------------------------------------------------- lossless reduction */
+
+/* Removes the nodes not reachable from the root, keeping the order. */
+static int dag_gc(struct vd_dag *d)
+{
+	int L = d->levels, A = d->chunk_level;
+	uint32_t *nid[VD_MAX_LEVELS] = {0};
+	int err = 0;
+	for (int l = A; l < L; l++) {
+		nid[l] = malloc((d->lv[l].nodes ? d->lv[l].nodes : 1) * 4);
+		if (!nid[l]) {
+			err = NOMEM();
+			goto out;
+		}
+		for (uint64_t i = 0; i < d->lv[l].nodes; i++) nid[l][i] = NONE;
+	}
+	if (!d->lv[A].nodes) goto out;
+	nid[A][0] = 0;
+	for (int l = A; l < L - 1; l++) {
+		struct vd_dag_level *lv = &d->lv[l];
+		for (uint64_t i = 0; i < lv->nodes; i++)
+			if (nid[l][i] != NONE)
+				for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
+					nid[l + 1][lv->child[j]] = 0;
+		uint32_t c = 0;
+		for (uint64_t i = 0; i < d->lv[l + 1].nodes; i++)
+			if (nid[l + 1][i] != NONE) nid[l + 1][i] = c++;
+	}
+	for (int l = A; l < L; l++) {
+		struct vd_dag_level *lv = &d->lv[l];
+		uint64_t n = 0, r = 0;
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			if (nid[l][i] == NONE) continue;
+			lv->mask[n] = lv->mask[i];
+			if (l < L - 1) {
+				uint64_t f = lv->first[i], t = lv->first[i + 1];
+				lv->first[n] = r;
+				for (uint64_t j = f; j < t; j++)
+					lv->child[r++] = nid[l + 1][lv->child[j]];
+			}
+			n++;
+		}
+		lv->nodes = n;
+		if (l < L - 1) {
+			lv->first[n] = r;
+			lv->refs = r;
+		}
+	}
+out:
+	for (int l = 0; l < VD_MAX_LEVELS; l++) free(nid[l]);
+	return err;
+}
+
+/* Merges identical nodes on levels `from` up to the root (each level's
+ * references already point at the representatives below), then removes
+ * what is unreachable. */
+static int dag_dedupe_up(struct vd_dag *d, int from)
+{
+	int A = d->chunk_level;
+	int err = 0;
+	for (int l = from; l >= A && !err; l--) {
+		struct vd_dag_level *lv = &d->lv[l];
+		uint64_t cap = 16;
+		while (cap < 2 * lv->nodes) cap *= 2;
+		uint32_t *slot = malloc(cap * 4), *rep = malloc((lv->nodes + 1) * 4);
+		if (!slot || !rep) {
+			free(slot);
+			free(rep);
+			return NOMEM();
+		}
+		memset(slot, 0xff, cap * 4);
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint64_t f = lv->first[i], k = lv->first[i + 1] - f;
+			uint64_t h = mix64(lv->mask[i]);
+			for (uint64_t j = 0; j < k; j++) h = mix64(h ^ lv->child[f + j]);
+			uint64_t s = h & (cap - 1);
+			for (;;) {
+				uint32_t o = slot[s];
+				if (o == NONE) {
+					slot[s] = (uint32_t)i;
+					rep[i] = (uint32_t)i;
+					break;
+				}
+				if (lv->mask[o] == lv->mask[i] &&
+				    !memcmp(lv->child + lv->first[o], lv->child + f, k * 4)) {
+					rep[i] = o;
+					break;
+				}
+				s = (s + 1) & (cap - 1);
+			}
+		}
+		if (l > A) {
+			struct vd_dag_level *pv = &d->lv[l - 1];
+			for (uint64_t j = 0; j < pv->refs; j++)
+				pv->child[j] = rep[pv->child[j]];
+		}
+		free(slot);
+		free(rep);
+	}
+	return dag_gc(d);
+}
+
+/* ------------------------------------------------------------ the stage */
+
+static uint64_t dag_nodes(const struct vd_dag *d)
+{
+	uint64_t n = 0;
+	for (int l = d->chunk_level; l < d->levels; l++) n += d->lv[l].nodes;
+	return n;
+}
+
+static int rebuild_bricks(struct vd_dag *d)
+{
+	int L = d->levels;
+	free(d->bricks);
+	d->bricks = NULL;
+	if (L < 2 || d->chunk_level > L - 2 || !d->lv[d->chunk_level].nodes)
+		return 0;
+	uint64_t n = d->lv[L - 2].nodes;
+	d->bricks = malloc((n ? n : 1) * 8);
+	if (!d->bricks) return NOMEM();
+	for (uint64_t i = 0; i < n; i++) d->bricks[i] = node_brick(d, i);
+	return 0;
+}
+
+int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
+		     struct vd_lossy_stats *st)
+{
+	int L = d->levels, A = d->chunk_level, err = 0;
+	memset(st, 0, sizeof *st);
+	if (d->kind != VD_KIND_DAG)
+		return vd_fail(VD_ERR_WRONG_KIND, "lossy clustering needs a dag "
+			       "(SVDAG) chunk, not %s", vd_chunk_kind_name(d->kind));
+	if (!(o->inflation > 1.0) || !(o->inflation <= 100.0))
+		return vd_fail(VD_ERR_ARG, "inflation %g is not in (1, 100]",
+			       o->inflation);
+	if (!(o->diff_factor >= 0) || !(o->diff_factor <= 1e6))
+		return vd_fail(VD_ERR_ARG, "diff factor %g is not in [0, 1e6]",
+			       o->diff_factor);
+	struct vd_dag orig = {0};
+	/* a copy of the input for the final voxel difference */
+	orig = *d;
+	memset(orig.lv, 0, sizeof orig.lv);
+	orig.bricks = NULL;
+	for (int l = A; l < L; l++) {
+		struct vd_dag_level *s = &d->lv[l], *t = &orig.lv[l];
+		t->nodes = s->nodes;
+		t->refs = s->refs;
+		t->mask = malloc(s->nodes + 1);
+		if (!t->mask) goto nomem;
+		memcpy(t->mask, s->mask, s->nodes);
+		if (l < L - 1) {
+			t->first = malloc((s->nodes + 1) * 8);
+			t->child = malloc((s->refs + 1) * 4);
+			if (!t->first || !t->child) goto nomem;
+			memcpy(t->first, s->first, (s->nodes + 1) * 8);
+			memcpy(t->child, s->child, s->refs * 4);
+		}
+	}
+	st->nodes_before = dag_nodes(d);
+	st->voxels_before = d->voxels;
+	for (int l = L - 2; l >= A && !err; l--) {
+		struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
+		ls->level = l;
+		ls->height = L - l;
+		ls->nodes_before = dag_nodes(d);
+		ls->level_nodes_before = d->lv[l].nodes;
+		double t0 = vd_seconds();
+		uint64_t *eff[VD_MAX_LEVELS];
+		if ((err = vd_lossy_effective_refs(d, l, eff))) break;
+		double t1 = vd_seconds();
+		st->seconds_eff += t1 - t0;
+		struct vd_lossy_edge *e = NULL;
+		size_t ne = 0;
+		err = vd_lossy_similar_pairs(d, l, eff[l], o->max_refs,
+					     o->diff_factor, o->threads, &e, &ne,
+					     &ls->candidates);
+		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
+		if (err) break;
+		double t2 = vd_seconds();
+		st->seconds_graph += t2 - t1;
+		ls->edges = ne;
+		if (!ne) {
+			free(e);
+			ls->nodes_after = ls->nodes_before;
+			ls->level_nodes_after = d->lv[l].nodes;
+			continue;
+		}
+		/* graph nodes: the candidates with an edge, renumbered */
+		uint64_t nl = d->lv[l].nodes;
+		uint32_t *gid = malloc(nl * 4), *gnode = NULL, *cl = NULL,
+			 *map = NULL;
+		double *simsum = NULL;
+		if (!gid) {
+			free(e);
+			err = NOMEM();
+			break;
+		}
+		for (uint64_t i = 0; i < nl; i++) gid[i] = NONE;
+		for (size_t k = 0; k < ne; k++) gid[e[k].u] = gid[e[k].v] = 0;
+		uint32_t gn = 0;
+		for (uint64_t i = 0; i < nl; i++)
+			if (gid[i] != NONE) gid[i] = gn++;
+		gnode = malloc((gn + 1ull) * 4);
+		cl = malloc((gn + 1ull) * 4);
+		simsum = calloc(gn + 1ull, 8);
+		map = malloc(nl * 4);
+		if (!gnode || !cl || !simsum || !map) {
+			err = NOMEM();
+		} else {
+			for (uint64_t i = 0; i < nl; i++) {
+				map[i] = (uint32_t)i;
+				if (gid[i] != NONE) gnode[gid[i]] = (uint32_t)i;
+			}
+			for (size_t k = 0; k < ne; k++) {
+				e[k].u = gid[e[k].u];
+				e[k].v = gid[e[k].v];
+			}
+			ls->graph_nodes = gn;
+			err = vd_lossy_mcl(gn, e, ne, o->inflation, o->threads, cl);
+		}
+		double t3 = vd_seconds();
+		st->seconds_cluster += t3 - t2;
+		if (!err) {
+			/* representative: the largest sum of similarities to
+			 * the other members, ties to the smallest node */
+			for (size_t k = 0; k < ne; k++)
+				if (cl[e[k].u] == cl[e[k].v]) {
+					simsum[e[k].u] += e[k].s;
+					simsum[e[k].v] += e[k].s;
+				}
+			uint32_t *best = malloc((gn + 1ull) * 4);
+			if (!best) {
+				err = NOMEM();
+			} else {
+				for (uint32_t i = 0; i < gn; i++) best[i] = NONE;
+				for (uint32_t i = 0; i < gn; i++) {
+					uint32_t c = cl[i];
+					if (best[c] == NONE || simsum[i] > simsum[best[c]])
+						best[c] = i;
+				}
+				for (uint32_t i = 0; i < gn; i++) {
+					if (cl[i] == i) ls->clusters++;
+					uint32_t r = best[cl[i]];
+					map[gnode[i]] = gnode[r];
+					if (r != i) ls->merged++;
+				}
+				free(best);
+				if (l > A) {
+					struct vd_dag_level *pv = &d->lv[l - 1];
+					for (uint64_t j = 0; j < pv->refs; j++)
+						pv->child[j] = map[pv->child[j]];
+				}
+				err = l > A ? dag_dedupe_up(d, l - 1) : 0;
+			}
+		}
+		st->seconds_reduce += vd_seconds() - t3;
+		free(gid);
+		free(gnode);
+		free(cl);
+		free(simsum);
+		free(map);
+		free(e);
+		ls->nodes_after = dag_nodes(d);
+		ls->level_nodes_after = d->lv[l].nodes;
+	}
+	if (!err) err = rebuild_bricks(d);
+	if (!err) {
+		double t0 = vd_seconds();
+		err = vd_dag_diff(&orig, d, &st->voxels_cleared, &st->voxels_set,
+				  &st->voxels_after);
+		d->voxels = st->voxels_after;
+		st->seconds_diff = vd_seconds() - t0;
+	}
+	st->nodes_after = dag_nodes(d);
+	vd_dag_release(&orig);
+	return err;
+nomem:
+	vd_dag_release(&orig);
+	return NOMEM();
+}
+
+/* ------------------------------------------------------- voxel difference */
+
+/* Pairs (node of a, node of b) already counted, per level, with their
+ * counts: an open-addressing table. */
+struct pmemo {
+	uint64_t *key;   /* a << 32 | b, UINT64_MAX empty */
+	uint64_t *only;  /* [2*s]: only in a, only in b */
+	uint64_t cap, n;
+};
+
+struct differ {
+	const struct vd_dag *a, *b;
+	uint64_t *vox[2][VD_MAX_LEVELS]; /* voxels under each node */
+	struct pmemo memo[VD_MAX_LEVELS];
+	int err;
+};
+
+static int memo_grow(struct pmemo *m)
+{
+	uint64_t nc = m->cap ? m->cap * 2 : 1024;
+	uint64_t *k = malloc(nc * 8), *o = malloc(nc * 16);
+	if (!k || !o) {
+		free(k);
+		free(o);
+		return NOMEM();
+	}
+	memset(k, 0xff, nc * 8);
+	for (uint64_t i = 0; i < m->cap; i++) {
+		if (m->key[i] == UINT64_MAX) continue;
+		uint64_t s = mix64(m->key[i]) & (nc - 1);
+		while (k[s] != UINT64_MAX) s = (s + 1) & (nc - 1);
+		k[s] = m->key[i];
+		o[2 * s] = m->only[2 * i];
+		o[2 * s + 1] = m->only[2 * i + 1];
+	}
+	free(m->key);
+	free(m->only);
+	m->key = k;
+	m->only = o;
+	m->cap = nc;
+	return 0;
+}
+
+static void diff_node(struct differ *x, int l, uint32_t na, uint32_t nb,
+		      uint64_t *oa, uint64_t *ob)
+{
+	const struct vd_dag *a = x->a, *b = x->b;
+	int L = a->levels;
+	*oa = *ob = 0;
+	if (x->err) return;
+	if (l == L - 1) {
+		*oa = (uint64_t)__builtin_popcount(a->lv[l].mask[na] & ~b->lv[l].mask[nb]);
+		*ob = (uint64_t)__builtin_popcount(b->lv[l].mask[nb] & ~a->lv[l].mask[na]);
+		return;
+	}
+	struct pmemo *m = &x->memo[l];
+	uint64_t key = (uint64_t)na << 32 | nb;
+	if (m->cap) {
+		uint64_t s = mix64(key) & (m->cap - 1);
+		while (m->key[s] != UINT64_MAX) {
+			if (m->key[s] == key) {
+				*oa = m->only[2 * s];
+				*ob = m->only[2 * s + 1];
+				return;
+			}
+			s = (s + 1) & (m->cap - 1);
+		}
+	}
+	const struct vd_dag_level *la = &a->lv[l], *lb = &b->lv[l];
+	unsigned ma = la->mask[na], mb = lb->mask[nb];
+	uint64_t ja = la->first[na], jb = lb->first[nb];
+	for (unsigned s = 0; s < 8; s++) {
+		int ia = ma >> s & 1, ib = mb >> s & 1;
+		if (ia && ib) {
+			uint64_t ca, cb;
+			diff_node(x, l + 1, la->child[ja++], lb->child[jb++], &ca, &cb);
+			*oa += ca;
+			*ob += cb;
+		} else if (ia) {
+			*oa += x->vox[0][l + 1][la->child[ja++]];
+		} else if (ib) {
+			*ob += x->vox[1][l + 1][lb->child[jb++]];
+		}
+	}
+	if (x->err) return;
+	if (2 * (m->n + 1) > m->cap && (x->err = memo_grow(m))) return;
+	uint64_t s = mix64(key) & (m->cap - 1);
+	while (m->key[s] != UINT64_MAX) s = (s + 1) & (m->cap - 1);
+	m->key[s] = key;
+	m->only[2 * s] = *oa;
+	m->only[2 * s + 1] = *ob;
+	m->n++;
+}
+
+int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
+		uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b)
+{
+	int L = a->levels, A = a->chunk_level;
+	if (a->kind != VD_KIND_DAG || b->kind != VD_KIND_DAG)
+		return vd_fail(VD_ERR_WRONG_KIND, "the voxel difference needs "
+			       "two dag (SVDAG) chunks");
+	if (b->levels != L || b->chunk_level != A ||
+	    b->cell_morton != a->cell_morton)
+		return vd_fail(VD_ERR_MISMATCH, "the chunks are of different "
+			       "cells or depths");
+	struct differ x = {a, b, {{0}}, {{0}}, 0};
+	int err = 0;
+	const struct vd_dag *ds[2] = {a, b};
+	for (int s = 0; s < 2 && !err; s++)
+		for (int l = L - 1; l >= A; l--) {
+			const struct vd_dag_level *lv = &ds[s]->lv[l];
+			uint64_t *v = x.vox[s][l] = malloc((lv->nodes + 1) * 8);
+			if (!v) {
+				err = NOMEM();
+				break;
+			}
+			for (uint64_t i = 0; i < lv->nodes; i++) {
+				if (l == L - 1) {
+					v[i] = (uint64_t)__builtin_popcount(lv->mask[i]);
+					continue;
+				}
+				v[i] = 0;
+				for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
+					v[i] += x.vox[s][l + 1][lv->child[j]];
+			}
+		}
+	if (!err) {
+		uint64_t va = a->lv[A].nodes ? x.vox[0][A][0] : 0,
+			 vb = b->lv[A].nodes ? x.vox[1][A][0] : 0;
+		*voxels_b = vb;
+		if (!a->lv[A].nodes || !b->lv[A].nodes) {
+			*only_a = va;
+			*only_b = vb;
+		} else {
+			diff_node(&x, A, 0, 0, only_a, only_b);
+			err = x.err;
+		}
+	}
+	for (int s = 0; s < 2; s++)
+		for (int l = 0; l < VD_MAX_LEVELS; l++) free(x.vox[s][l]);
+	for (int l = 0; l < VD_MAX_LEVELS; l++) {
+		free(x.memo[l].key);
+		free(x.memo[l].only);
+	}
+	return err;
+}
+
+/* ------------------------------------------------------------ stage run */
+
+int vd_lossy_write_stats(const struct vd_dag *dag,
+			 const struct vd_lossy_opts *o,
+			 const struct vd_lossy_stats *st, double seconds_load,
+			 double seconds_save, const char *path)
+{
+	struct vd_json *j;
+	int err = vd_json_open(&j, path);
+	if (err) return err;
+	vd_json_str(j, "tool", "lossy-cluster");
+	vd_json_str(j, "version", VD_VERSION_STRING);
+	vd_json_str(j, "kind", vd_chunk_kind_name(dag->kind));
+	vd_json_u64(j, "levels", (uint64_t)dag->levels);
+	vd_json_u64(j, "chunk_level", (uint64_t)dag->chunk_level);
+	vd_json_f64(j, "inflation", o->inflation);
+	vd_json_f64(j, "diff_factor", o->diff_factor);
+	vd_json_u64(j, "max_refs", o->max_refs);
+	vd_json_u64(j, "nodes_before", st->nodes_before);
+	vd_json_u64(j, "nodes_after", st->nodes_after);
+	vd_json_u64(j, "voxels_before", st->voxels_before);
+	vd_json_u64(j, "voxels_after", st->voxels_after);
+	vd_json_u64(j, "voxels_set", st->voxels_set);
+	vd_json_u64(j, "voxels_cleared", st->voxels_cleared);
+	vd_json_u64(j, "voxels_changed", st->voxels_set + st->voxels_cleared);
+	vd_json_f64(j, "error_rate", st->voxels_before ?
+		    (double)(st->voxels_set + st->voxels_cleared) /
+		    (double)st->voxels_before : 0);
+	vd_json_array(j, "per_level");
+	for (int i = 0; i < st->n_levels; i++) {
+		const struct vd_lossy_level_stats *l = &st->level[i];
+		vd_json_object(j, NULL);
+		vd_json_u64(j, "level", (uint64_t)l->level);
+		vd_json_u64(j, "height", (uint64_t)l->height);
+		vd_json_u64(j, "candidates", l->candidates);
+		vd_json_u64(j, "graph_nodes", l->graph_nodes);
+		vd_json_u64(j, "edges", l->edges);
+		vd_json_u64(j, "clusters", l->clusters);
+		vd_json_u64(j, "merged", l->merged);
+		vd_json_u64(j, "level_nodes_before", l->level_nodes_before);
+		vd_json_u64(j, "level_nodes_after", l->level_nodes_after);
+		vd_json_u64(j, "nodes_before", l->nodes_before);
+		vd_json_u64(j, "nodes_after", l->nodes_after);
+		vd_json_end_object(j);
+	}
+	vd_json_end_array(j);
+	vd_json_f64(j, "seconds_load", seconds_load);
+	vd_json_f64(j, "seconds_effective_refs", st->seconds_eff);
+	vd_json_f64(j, "seconds_graph", st->seconds_graph);
+	vd_json_f64(j, "seconds_clustering", st->seconds_cluster);
+	vd_json_f64(j, "seconds_reduction", st->seconds_reduce);
+	vd_json_f64(j, "seconds_diff", st->seconds_diff);
+	vd_json_f64(j, "seconds_lossy", st->seconds_eff + st->seconds_graph +
+		    st->seconds_cluster + st->seconds_reduce);
+	vd_json_f64(j, "seconds_save", seconds_save);
+	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	return vd_json_close(j);
+}
+
+int vd_lossy_run(const char *in, const char *out,
+		 const struct vd_lossy_opts *o, uint64_t mem_budget,
+		 const char *provenance, int quiet)
+{
+	struct vd_dag d = {0};
+	struct vd_chunk_header h;
+	struct vd_chunk *c = NULL;
+	double t0 = vd_seconds();
+	int err = vd_chunk_open(&c, in, VD_KIND_ANY);
+	if (!err && vd_chunk_header(c)->kind != VD_KIND_DAG)
+		err = vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, not dag (the "
+			      "clustering works on the plain SVDAG)",
+			      vd_chunk_kind_name(vd_chunk_header(c)->kind));
+	if (err) {
+		vd_chunk_free(c);
+		return vd_fail(err, "cannot read '%s': %s: %s", in,
+			       vd_strerror(err), vd_error_detail());
+	}
+	h = *vd_chunk_header(c);
+	/* the input twice (working copy and original) plus the per-level
+	 * arrays: about 5x the loaded DAG, bounded by 8 refs per node */
+	uint64_t est = 5 * vd_dag_estimate_header(&h);
+	if (mem_budget && est > mem_budget) {
+		vd_chunk_free(c);
+		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
+			       "%" PRIu64 " MiB, over the budget of %" PRIu64
+			       " MiB", in, est >> 20, mem_budget >> 20);
+	}
+	err = vd_dag_from_chunk(&d, c, VD_KIND_DAG);
+	vd_chunk_free(c);
+	if (err) {
+		vd_dag_release(&d);
+		return vd_fail(err, "cannot read '%s': %s: %s", in,
+			       vd_strerror(err), vd_error_detail());
+	}
+	double t_load = vd_seconds() - t0;
+	struct vd_lossy_stats st;
+	if ((err = vd_lossy_cluster(&d, o, &st))) {
+		vd_dag_release(&d);
+		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
+			       vd_strerror(err), vd_error_detail());
+	}
+	double t1 = vd_seconds();
+	err = vd_dag_save(&d, &h.transform, out, provenance);
+	double t_save = vd_seconds() - t1;
+	char *sp = NULL;
+	if (!err) {
+		size_t plen = strlen(out) + 16;
+		if (!(sp = malloc(plen))) err = NOMEM();
+		else snprintf(sp, plen, "%s.stats.json", out);
+	}
+	if (!err) err = vd_lossy_write_stats(&d, o, &st, t_load, t_save, sp);
+	if (err) {
+		err = vd_fail(err, "cannot write '%s': %s: %s", sp ? sp : out,
+			      vd_strerror(err), vd_error_detail());
+		remove(out);
+	} else if (!quiet) {
+		fprintf(stderr, "lossy-cluster: wrote '%s': %" PRIu64 " -> %"
+			PRIu64 " nodes (%.1f%%), %" PRIu64 " voxels changed "
+			"(%.3f%%), %.3f s lossy, %.3f s total\n", out,
+			st.nodes_before, st.nodes_after,
+			st.nodes_before ? 100.0 * ((double)st.nodes_after -
+						   (double)st.nodes_before) /
+				(double)st.nodes_before : 0,
+			st.voxels_set + st.voxels_cleared,
+			st.voxels_before ? 100.0 * (double)(st.voxels_set +
+				st.voxels_cleared) / (double)st.voxels_before : 0,
+			st.seconds_eff + st.seconds_graph + st.seconds_cluster +
+				st.seconds_reduce, vd_seconds() - t0);
+	}
+	free(sp);
+	vd_dag_release(&d);
+	return err;
+}
