@@ -57,7 +57,7 @@ BUILD=$(cd "$BUILD" && pwd)
 # ---- stand-ins for the unpublished headers ---------------------------------
 INC=$BUILD/include
 mkdir -p "$INC/sl" "$INC/liblas"
-cat > "$INC/sl/standin.hpp" <<'EOF'
+cat > "$INC/sl/standin.hpp.new" <<'EOF'
 // Minimal stand-in for the parts of CRS4's unpublished "sl" library that
 // SymVox's svbuilder uses. Written by voxdag's tests/bench/vs_symvox.sh.
 #pragma once
@@ -233,9 +233,9 @@ inline std::string pathname_without_extension(const std::string &p) {
 EOF
 for h in fixed_size_point fixed_size_vector axis_aligned_box clock cstdint \
 	external_array linear_map_factory projective_map rigid_body_map; do
-	printf '#pragma once\n#include "standin.hpp"\n' > "$INC/sl/$h.hpp"
+	printf '#pragma once\n#include "standin.hpp"\n' > "$INC/sl/$h.hpp.new"
 done
-cat > "$INC/liblas/liblas.hpp" <<'EOF'
+cat > "$INC/liblas/liblas.hpp.new" <<'EOF'
 // Stand-in: LAS input is not used by the benchmark (it feeds OBJ files).
 #pragma once
 #include <istream>
@@ -254,6 +254,10 @@ struct ReaderFactory {
 };
 }
 EOF
+# replace a header only when its text changed, so objects are not rebuilt
+for f in "$INC"/sl/*.new "$INC"/liblas/*.new; do
+	if cmp -s "$f" "${f%.new}"; then rm -f "$f"; else mv "$f" "${f%.new}"; fi
+done
 
 # ---- build svbuilder (only when a source or a stand-in changed) ------------
 SVB=$BUILD/svbuilder
@@ -411,7 +415,7 @@ r = [r for r in t['table2'] if r['levels'] == int(sys.argv[2])][0]
 print(r['voxels'], r['nodes_svdag'], r['nodes_ssvdag'])
 EOF
 	)
-	printf '%s %s %s %s %s %s %s %s %s %s %s\n' "$base" "$LEVEL" \
+	printf '%s %s %s %s %s %s %s %s %s %s %s %s\n' "$base" "$LEVEL" \
 		"$(cut -d' ' -f1 "$BUILD/$base.a" | med)" "$(cut -d' ' -f1 "$BUILD/$base.b" | med)" \
 		"$(cut -d' ' -f2 "$BUILD/$base.a" | med)" "$(cut -d' ' -f2 "$BUILD/$base.b" | med)" \
 		"$(sv Voxels)" "$vv" "$(sv 'DAG Nodes')" "$vd" "$(sv 'SDAG Nodes')" "$vs" >> "$summary"
