@@ -2,6 +2,8 @@
 # make bench: voxelize the shared scenes (../shared/data) at several depths
 # and print throughput and peak memory. Skips cleanly when the data is
 # absent. Numbers come from each run's voxelize.stats.json and GNU time.
+# The side-by-side comparison with the SSVDAG reference code is separate and
+# not run here: tests/bench/vs_symvox.sh /path/to/SVDAG-Compression.
 set -u
 cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
