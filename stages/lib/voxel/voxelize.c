@@ -340,11 +340,13 @@ static uint64_t cell_bound(const uint64_t *keys, size_t n, size_t i, int L,
 
 /* ------------------------------------------------------------- binning */
 
-struct bin {
-	float *buf;      /* 9 floats a triangle */
-	uint32_t n, cap;
-	uint64_t total;  /* triangles binned to this cell */
-	uint64_t blocks; /* estimate, for scheduling and the budget */
+/* Triangles waiting to be appended to their cell's bin: one arena of
+ * records {cell, 9 floats} of a fixed size (the budget's share), sorted by
+ * cell when full and written out, so memory does not grow with the number
+ * of cells a mesh touches. */
+struct bin_rec {
+	uint64_t cell;
+	float v[9];
 };
 
 struct binner {
@@ -352,8 +354,9 @@ struct binner {
 	int err;
 	struct grid g;
 	const char *dir;
-	struct bin *bins;      /* 8^L0 */
-	size_t buffered, cap;  /* triangles held in memory */
+	uint64_t *totals;      /* 8^L0: triangles binned to each cell */
+	struct bin_rec *recs;
+	size_t buffered, cap;  /* records held in memory */
 	uint64_t pairs;
 };
 
@@ -362,27 +365,34 @@ static void bin_path(char *buf, size_t cap, const char *dir, uint64_t cell)
 	snprintf(buf, cap, "%s/bins.tmp/%llx.tri", dir, (unsigned long long)cell);
 }
 
+static int cmp_rec(const void *a, const void *b)
+{
+	uint64_t x = ((const struct bin_rec *)a)->cell,
+		 y = ((const struct bin_rec *)b)->cell;
+	return (x > y) - (x < y);
+}
+
 /* Bins are scratch files read back by this same process, so they hold the
  * floats as they lie in memory; they are never a format. */
 static int flush_bins(struct binner *b)
 {
-	size_t ncell = (size_t)1 << 3 * b->g.L0;
 	char path[4096];
-	for (size_t c = 0; c < ncell; c++) {
-		struct bin *bn = &b->bins[c];
-		if (!bn->n)
-			continue;
+	qsort(b->recs, b->buffered, sizeof *b->recs, cmp_rec);
+	for (size_t i = 0; i < b->buffered;) {
+		uint64_t c = b->recs[i].cell;
 		bin_path(path, sizeof path, b->dir, c);
 		FILE *f = fopen(path, "ab");
 		if (!f)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
-		size_t w = fwrite(bn->buf, 9 * sizeof(float), bn->n, f);
+		size_t w = 0, j = i;
+		for (; j < b->buffered && b->recs[j].cell == c; j++)
+			w += fwrite(b->recs[j].v, sizeof b->recs[j].v, 1, f);
 		int rc = fclose(f);
-		if (w != bn->n || rc != 0)
+		if (w != j - i || rc != 0)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
-		bn->n = 0;
+		i = j;
 	}
 	b->buffered = 0;
 	return VD_OK;
@@ -390,20 +400,12 @@ static int flush_bins(struct binner *b)
 
 static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
 {
-	struct bin *bn = &b->bins[cell];
-	if (bn->n == bn->cap) {
-		uint32_t cap = bn->cap ? bn->cap * 2 : 64;
-		float *p = realloc(bn->buf, (size_t)cap * 9 * sizeof(float));
-		if (!p)
-			return vd_fail(VD_ERR_NOMEM, "bin buffer");
-		bn->buf = p;
-		bn->cap = cap;
-	}
-	memcpy(bn->buf + 9 * (size_t)bn->n, t->v, 9 * sizeof(float));
-	bn->n++;
-	bn->total++;
+	struct bin_rec *r = &b->recs[b->buffered++];
+	r->cell = cell;
+	memcpy(r->v, t->v, sizeof r->v);
+	b->totals[cell]++;
 	b->pairs++;
-	if (++b->buffered >= b->cap)
+	if (b->buffered == b->cap)
 		return flush_bins(b);
 	return VD_OK;
 }
@@ -899,8 +901,8 @@ struct plan {
 static uint64_t cell_arrays_bytes(int l, uint64_t pages)
 {
 	uint64_t all = ((uint64_t)1 << 3 * l) *
-		       (sizeof(struct bin) + sizeof(struct cell_job));
-	uint64_t touched = pages * (4096 + 128 * sizeof(struct cell_job));
+		       (sizeof(uint64_t) + sizeof(struct cell_job));
+	uint64_t touched = pages * (4096 + 512 * sizeof(struct cell_job));
 	return pages && touched < all ? touched : all;
 }
 
@@ -1031,12 +1033,12 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 						 est.coarse, &i, &lower);
 			if (nb > max_blocks[l])
 				max_blocks[l] = nb;
-			/* pages of the bins array: 128 bins a page */
+			/* pages of the totals array: 512 cells a page */
 			int sh = L - BLOCK_SHIFT - est.coarse - l;
 			if (sh < 0) {
 				all_pages = 1;
 			} else {
-				uint64_t page = bkeys[i - 1] >> 3 * sh >> 7;
+				uint64_t page = bkeys[i - 1] >> 3 * sh >> 9;
 				if (!cells_hit[l] || page != last_page)
 					cells_hit[l]++;
 				last_page = page;
@@ -1086,9 +1088,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
-	b.cap = bin_bytes / (9 * sizeof(float) * 2); /* x2: realloc slack */
-	b.bins = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.bins);
-	if (!b.bins) {
+	b.cap = bin_bytes / sizeof *b.recs;
+	b.recs = malloc(b.cap * sizeof *b.recs);
+	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
+	if (!b.recs || !b.totals) {
 		err = vd_fail(VD_ERR_NOMEM, "bins");
 		goto out;
 	}
@@ -1131,15 +1134,15 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 				nb = cell_block_cap(L, r.g.L0);
 			}
 		}
-		if (b.bins[c].total)
+		if (b.totals[c])
 			r.jobs[r.njobs++] = (struct cell_job){c, nb};
 	}
 	free(bkeys);
 	bkeys = NULL;
-	for (size_t c = 0; c < ncell; c++)
-		free(b.bins[c].buf);
-	free(b.bins);
-	b.bins = NULL;
+	free(b.totals);
+	free(b.recs);
+	b.totals = NULL;
+	b.recs = NULL;
 	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_jobs);
 	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
 	r.level_nodes = nodes;
@@ -1211,11 +1214,8 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 			      (unsigned long long)(res->peak_rss_bytes >> 20),
 			      (unsigned long long)(opts->mem_budget_bytes >> 20));
 out:
-	if (b.bins) {
-		for (size_t c = 0; c < ((size_t)1 << 3 * b.g.L0); c++)
-			free(b.bins[c].buf);
-		free(b.bins);
-	}
+	free(b.totals);
+	free(b.recs);
 	if (r.workers) {
 		for (int i = 0; i < r.nworkers; i++) {
 			map_free(&r.workers[i].map);
