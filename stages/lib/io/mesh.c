@@ -495,9 +495,9 @@ static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
 			if (m->nverts >= cap)
 				return vd_fail(VD_ERR_BUDGET, "more than %" PRIu64
 					       " vertices need more than %" PRIu64
-					       " MiB in memory, the vertex share "
-					       "of the memory budget",
-					       m->nverts, m->verts_limit >> 20);
+					       " KiB in memory, the vertex share "
+					       "(half) of the memory budget",
+					       m->nverts, m->verts_limit >> 10);
 		}
 		float *p = realloc(m->verts, (size_t)cap * 12);
 		if (!p)
@@ -1049,11 +1049,11 @@ static int vd_ply_open(struct vd_mesh *m)
 		}
 		if (m->verts_limit && ve->count * 12 > m->verts_limit)
 			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
-				       "%" PRIu64 " MiB in memory, more than the "
-				       "vertex share (%" PRIu64 " MiB) of the "
-				       "memory budget", ve->count,
-				       (ve->count * 12 >> 20) + 1,
-				       m->verts_limit >> 20);
+				       "%" PRIu64 " KiB in memory, more than the "
+				       "vertex share (%" PRIu64 " KiB, half) of "
+				       "the memory budget", ve->count,
+				       (ve->count * 12 >> 10) + 1,
+				       m->verts_limit >> 10);
 		m->verts = malloc(ve->count ? (size_t)ve->count * 12 : 12);
 		if (!m->verts)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
