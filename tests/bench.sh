@@ -82,3 +82,43 @@ echo
 pipeline dragon-12 stanford_dragon.ply 12
 pipeline dragon-14 stanford_dragon.ply 14
 pipeline terrain-14 fg_terrain_reykjavik.ply 14
+
+# Memory budgets (issue 10): every pass of voxelize within --mem-budget.
+# Each run either finishes under its budget or stops early with one line
+# saying what it needs; peak RSS is GNU time's (wait4), beside the budget
+# and voxelize's own report. Deep grids produce enormous outputs (the
+# dragon's surface at 2^18 is ~10^11 voxels), so runs are stopped after
+# BUDGET_SECONDS (default 600) and shown as "stopped", with the peak so far;
+# outputs are deleted.
+echo
+BUDGET_SECONDS=${BUDGET_SECONDS:-600}
+printf '%-24s %3s %8s %10s %9s  %s\n' scene L budget 'peak MiB' seconds outcome
+budget_run() { # budget_run MESH LEVELS BUDGET
+	local dir=$OUT/budget-$(basename "$1" .ply)-$2 t0 rc kib secs outcome
+	t0=$(date +%s.%N)
+	/usr/bin/time -f %M -o "$OUT/time" timeout "$BUDGET_SECONDS" \
+		out/bin/voxelize "$1" -o "$dir" --levels "$2" --mem-budget "$3" -q \
+		2> "$OUT/err"
+	rc=$?
+	secs=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+	kib=$(tail -n 1 "$OUT/time")
+	case $rc in
+	0) outcome="done, $(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "$dir/voxelize.stats.json") voxels" ;;
+	124) outcome="stopped after ${BUDGET_SECONDS}s (running within budget)" ;;
+	*) outcome="exit $rc: $(tail -n 1 "$OUT/err" | sed 's/^voxelize: cannot voxelize [^:]*: //')" ;;
+	esac
+	printf '%-24s %3d %8s %10.0f %9s  %s\n' "$(basename "$1")" "$2" "$3" \
+		"$((kib / 1024))" "$secs" "$outcome"
+	rm -rf "$dir"
+}
+for L in 16 18 21; do
+	budget_run "$DATA/stanford_dragon.ply" $L 256MiB
+	budget_run "$DATA/stanford_bunny.ply" $L 256MiB
+done
+# a mesh of 22 million triangles: the terrain, each triangle split in 16
+if [ ! -s out/terrain-x16.ply ]; then
+	gcc -O2 -o out/subdivide tests/bench/subdivide.c &&
+		out/subdivide "$DATA/fg_terrain_reykjavik.ply" out/terrain-x16.ply
+fi
+budget_run out/terrain-x16.ply 14 512MiB
+budget_run out/terrain-x16.ply 16 512MiB

@@ -10,6 +10,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #define XXH_INLINE_ALL
 #include <xxhash.h>
@@ -51,6 +52,18 @@ uint64_t vd_peak_rss_bytes(void)
 	if (getrusage(RUSAGE_SELF, &ru) != 0)
 		return 0;
 	return (uint64_t)ru.ru_maxrss * 1024; /* Linux reports KiB */
+}
+
+uint64_t vd_current_rss_bytes(void)
+{
+	FILE *f = fopen("/proc/self/statm", "r");
+	unsigned long long size = 0, resident = 0;
+	int n = f ? fscanf(f, "%llu %llu", &size, &resident) : 0;
+	if (f)
+		fclose(f);
+	if (n != 2)
+		return vd_peak_rss_bytes(); /* no procfs: the safe side */
+	return (uint64_t)resident * (uint64_t)sysconf(_SC_PAGESIZE);
 }
 
 double vd_seconds(void)

@@ -346,6 +346,12 @@ struct vd_mesh;
  * format), VD_ERR_FORMAT (bad header), VD_ERR_TRUNCATED (also counts the
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
 int vd_mesh_open(struct vd_mesh **out, const char *path);
+/* As vd_mesh_open, but the vertex array may not grow beyond
+ * `max_vertex_bytes` (0: no limit): VD_ERR_BUDGET, from vd_mesh_open_limited
+ * for a PLY whose header asks for more, from vd_mesh_read for other formats,
+ * before the memory is taken. */
+int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
+			 uint64_t max_vertex_bytes);
 
 /* Reads up to `cap` triangles into `buf` and sets *n; *n == 0 means the
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
@@ -425,6 +431,9 @@ int vd_parse_size(const char *s, uint64_t *bytes);
 
 /* Peak resident set size of this process so far, in bytes. */
 uint64_t vd_peak_rss_bytes(void);
+/* Resident set size of this process now, in bytes (the peak if
+ * /proc/self/statm cannot be read). */
+uint64_t vd_current_rss_bytes(void);
 
 /* Monotonic seconds. */
 double vd_seconds(void);

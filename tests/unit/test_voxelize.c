@@ -12,6 +12,8 @@
 #include "voxel/voxelize_internal.h"
 
 #include <dirent.h>
+#include <math.h>
+#include <unistd.h>
 
 typedef __int128 i128;
 
@@ -363,6 +365,119 @@ static void test_resolutions_agree(void)
 	free(up.v);
 }
 
+/* ------------------------------------------ oa_am_underworks2 vs SymVox */
+
+/* Every voxel of the triangle's closed bounding box (voxel side `side`,
+ * coordinates as given: no snapping), tested by the reference. */
+static void exact_voxels(const int64_t t[3][3], int L, int64_t side,
+			 struct vset *out)
+{
+	const int64_t top = ((int64_t)1 << L) - 1;
+	int64_t lo[3], hi[3];
+	for (int a = 0; a < 3; a++) {
+		int64_t mn = t[0][a], mx = t[0][a];
+		for (int k = 1; k < 3; k++) {
+			mn = t[k][a] < mn ? t[k][a] : mn;
+			mx = t[k][a] > mx ? t[k][a] : mx;
+		}
+		lo[a] = mn / side - 1;
+		hi[a] = mx / side;
+		lo[a] = lo[a] < 0 ? 0 : lo[a];
+		hi[a] = hi[a] > top ? top : hi[a];
+	}
+	for (int64_t x = lo[0]; x <= hi[0]; x++)
+		for (int64_t y = lo[1]; y <= hi[1]; y++)
+			for (int64_t z = lo[2]; z <= hi[2]; z++) {
+				int64_t b[3] = {x * side, y * side, z * side};
+				if (ref_overlap(t, b, side))
+					collect(out, x, y, z);
+			}
+}
+
+/* oa_am_underworks2 (a Quake 3 map) has mostly integer vertices (82% of
+ * the corner coordinates are multiples of 2^-13; the rest are curved
+ * patches), faces lying exactly on voxel faces and edges ending exactly on
+ * voxel edges: exact touching everywhere. Its cube side, 3072, is not a
+ * power of two times the coordinate unit, so snapping to 2^-24 of the side
+ * moves most integer vertices (by < 1e-4) and breaks touches the real
+ * geometry has. SymVox tests unsnapped coordinates in double precision,
+ * exact for these integers. Pinned: our 2^9 count is the 1,249,500 SymVox
+ * was compared with (issue 10), and the reference test on a 2^-13 lattice,
+ * which holds the integer coordinates exactly, gives SymVox's 1,255,539
+ * within 0.08% (406 over when rounding the finer coordinates, 203 under
+ * when truncating them), not 0.5% below. */
+static void test_underworks_vs_symvox(void)
+{
+	char mesh[1024];
+	snprintf(mesh, sizeof mesh, "%s/oa_am_underworks2.ply",
+		 test_shared_data());
+	if (access(mesh, R_OK) != 0) {
+		printf("skip: %s absent\n", mesh);
+		return;
+	}
+	const int L = 9;
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open(&m, mesh), VD_OK);
+	static struct vd_triangle buf[4096];
+	size_t n;
+	double lo[3] = {1e30, 1e30, 1e30}, hi[3] = {-1e30, -1e30, -1e30};
+	while (vd_mesh_read(m, buf, 4096, &n) == VD_OK && n)
+		for (size_t i = 0; i < n; i++)
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++) {
+					double v = buf[i].v[k][a];
+					lo[a] = v < lo[a] ? v : lo[a];
+					hi[a] = v > hi[a] ? v : hi[a];
+				}
+	/* the grid: cube of the largest extent, centred on the box. Every
+	 * coordinate is below 2048 in magnitude, so a float is a multiple of
+	 * 2^-13: scaled by 2^(14+L), coordinates relative to the origin are
+	 * exact integers (the centre may be a half-ulp) and a voxel is
+	 * 2^14 * side units. */
+	double side = 0;
+	for (int a = 0; a < 3; a++)
+		side = hi[a] - lo[a] > side ? hi[a] - lo[a] : side;
+	CHECK(side == 3072);
+	const double unit = 0x1p13;
+	int64_t vside = 2 * (int64_t)side * (int64_t)unit;
+	int integral = 1;
+	struct vset exact = {0};
+	CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	while (vd_mesh_read(m, buf, 4096, &n) == VD_OK && n)
+		for (size_t i = 0; i < n; i++) {
+			int64_t t[3][3];
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++) {
+					/* 2 (v - (c - side/2)) = 2v - (lo+hi) + side,
+					 * exact in double at this scale */
+					double w = (2.0 * buf[i].v[k][a] -
+						    (lo[a] + hi[a]) + side) * unit;
+					integral += w == (double)(int64_t)w;
+					t[k][a] = llround(w) << L;
+				}
+			exact_voxels(t, L, vside, &exact);
+		}
+	vd_mesh_close(m);
+	printf("underworks: %d corner coordinates on the 2^-13 lattice\n",
+	       integral);
+	vset_finish(&exact);
+	printf("underworks 2^9: %zu voxels on the 2^-13 lattice, SymVox "
+	       "1255539\n", exact.n);
+
+	struct vset got = {0};
+	int nc;
+	CHECK_EQ(test_voxelize(mesh, L, 1, dir, NULL), VD_OK);
+	CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &got, &nc), VD_OK);
+	CHECK_EQ(got.n, (size_t)1249500);
+	/* the snapped lattice loses ~6000 voxels of touching; the lattice
+	 * that holds the integer coordinates lands within 0.08% of SymVox
+	 * (what remains: rounding the curved patches' finer coordinates) */
+	CHECK(exact.n > got.n + 5000);
+	CHECK(exact.n > 1255539 - 1000 && exact.n < 1255539 + 1000);
+	free(exact.v);
+	free(got.v);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("voxelize");
@@ -372,5 +487,6 @@ int main(void)
 	RUN(test_real_mesh_brute_force);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_resolutions_agree);
+	RUN(test_underworks_vs_symvox);
 	return CHECK_DONE();
 }

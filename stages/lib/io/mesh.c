@@ -425,6 +425,7 @@ struct vd_mesh {
 
 	float *verts;          /* x y z per vertex */
 	uint64_t nverts, verts_cap;
+	uint64_t verts_limit;  /* bytes the vertex array may take; 0: any */
 	int nonfinite;         /* some vertex has a NaN/inf coordinate */
 
 	/* The polygon being fanned out: vertex indices into verts. */
@@ -489,6 +490,15 @@ static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
 			return vd_fail(VD_ERR_RANGE,
 				       "more than %" PRIu32 " vertices",
 				       UINT32_MAX);
+		if (m->verts_limit && cap * 12 > m->verts_limit) {
+			cap = m->verts_limit / 12;
+			if (m->nverts >= cap)
+				return vd_fail(VD_ERR_BUDGET, "more than %" PRIu64
+					       " vertices need more than %" PRIu64
+					       " KiB in memory, the vertex share "
+					       "(half) of the memory budget",
+					       m->nverts, m->verts_limit >> 10);
+		}
 		float *p = realloc(m->verts, (size_t)cap * 12);
 		if (!p)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
@@ -1037,6 +1047,13 @@ static int vd_ply_open(struct vd_mesh *m)
 					return e;
 			continue;
 		}
+		if (m->verts_limit && ve->count * 12 > m->verts_limit)
+			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
+				       "%" PRIu64 " KiB in memory, more than the "
+				       "vertex share (%" PRIu64 " KiB, half) of "
+				       "the memory budget", ve->count,
+				       (ve->count * 12 >> 10) + 1,
+				       m->verts_limit >> 10);
 		m->verts = malloc(ve->count ? (size_t)ve->count * 12 : 12);
 		if (!m->verts)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
@@ -2000,6 +2017,12 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 
 int vd_mesh_open(struct vd_mesh **out, const char *path)
 {
+	return vd_mesh_open_limited(out, path, 0);
+}
+
+int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
+			 uint64_t max_vertex_bytes)
+{
 	if (!out || !path)
 		return vd_fail(VD_ERR_ARG, "vd_mesh_open: NULL argument");
 	*out = NULL;
@@ -2031,6 +2054,7 @@ int vd_mesh_open(struct vd_mesh **out, const char *path)
 		e = vd_fail(VD_ERR_NOMEM, "read buffer");
 	else {
 		m->r.cap = MESH_BUF_BYTES;
+		m->verts_limit = max_vertex_bytes;
 		m->file_bytes = (uint64_t)st.st_size;
 		e = vd_mesh_detect(m, path);
 	}

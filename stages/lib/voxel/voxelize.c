@@ -186,18 +186,59 @@ static int keyset_add(struct keyset *s, uint64_t key)
 
 /* The memory bound: the distinct 32^3 blocks that triangles may touch.
  * Blocks are aligned with every cell of 32 voxels or more, so per-cell
- * counts partition them exactly and coarser levels just add up. */
+ * counts partition them exactly and coarser levels just add up.
+ *
+ * The set may hold at most `max_keys` keys (its share of the budget). When
+ * the mesh touches more blocks than that, the set is coarsened: keys become
+ * blocks of 2^(5+coarse) voxels (Morton key >> 3 per step), each standing
+ * for at most 8^coarse real blocks. The bound stays an upper bound, only
+ * looser, and the set never grows with the mesh. */
 struct estimate {
 	struct grid g;
-	struct keyset blocks;  /* Morton keys of candidate blocks */
+	struct keyset blocks;  /* Morton keys of candidate (coarse) blocks */
+	int coarse;            /* extra levels of coarsening, 0: exact */
+	int raster_coarse;     /* `coarse` when the current raster began */
+	size_t max_keys;
 	int err;
 };
+
+/* Replaces every key by its parent, until the set is at most half full. */
+static int estimate_coarsen(struct estimate *e)
+{
+	while (e->blocks.count > e->max_keys / 2 &&
+	       e->g.L - BLOCK_SHIFT - e->coarse > 1) {
+		struct keyset old = e->blocks;
+		e->blocks = (struct keyset){0};
+		e->coarse++;
+		int err = VD_OK;
+		/* the new set is at most as large as the old one */
+		for (size_t i = 0; i < old.cap && !err; i++)
+			if (old.slots[i])
+				err = keyset_add(&e->blocks, (old.slots[i] - 1) >> 3);
+		free(old.slots);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+static int estimate_add(struct estimate *e, uint64_t key)
+{
+	int err = keyset_add(&e->blocks, key);
+	if (!err && e->blocks.count >= e->max_keys)
+		err = estimate_coarsen(e);
+	return err;
+}
 
 static void add_block(void *ctx, int64_t x, int64_t y, int64_t z)
 {
 	struct estimate *e = ctx;
-	int err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y,
-						    (uint32_t)z));
+	if (e->err)
+		return;
+	/* the raster runs on the lattice of before a coarsening: map down */
+	int d = e->coarse - e->raster_coarse;
+	int err = estimate_add(e, vd_morton3((uint32_t)x, (uint32_t)y,
+					     (uint32_t)z) >> 3 * d);
 	if (err)
 		e->err = err;
 }
@@ -215,23 +256,26 @@ static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
 			return err;
 		if (!tri_voxel_range(&st, e->g.L, lo, hi))
 			continue;
+		int sh = BLOCK_SHIFT + e->coarse;
 		int64_t b0[3], b1[3], nb = 1;
 		for (int a = 0; a < 3; a++) {
-			b0[a] = lo[a] >> BLOCK_SHIFT, b1[a] = hi[a] >> BLOCK_SHIFT;
+			b0[a] = lo[a] >> sh, b1[a] = hi[a] >> sh;
 			nb *= b1[a] - b0[a] + 1;
 		}
 		if (nb <= 8) {
+			int c = e->coarse;
 			for (int64_t x = b0[0]; x <= b1[0]; x++)
 				for (int64_t y = b0[1]; y <= b1[1]; y++)
 					for (int64_t z = b0[2]; z <= b1[2]; z++)
-						if ((err = keyset_add(&e->blocks, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z))))
+						if ((err = estimate_add(e, vd_morton3((uint32_t)x, (uint32_t)y, (uint32_t)z) >> 3 * (e->coarse - c))))
 							return err;
 			continue;
 		}
 		/* A large triangle: its blocks are the voxels it overlaps in
-		 * the grid 32 times coarser (same lattice, same exact rule). */
+		 * the grid 2^sh times coarser (same lattice, same exact rule). */
 		e->err = VD_OK;
-		vd_raster_triangle(&st, e->g.L - BLOCK_SHIFT, b0, b1, add_block, e);
+		e->raster_coarse = e->coarse;
+		vd_raster_triangle(&st, e->g.L - sh, b0, b1, add_block, e);
 		if (e->err)
 			return e->err;
 	}
@@ -263,20 +307,6 @@ static int estimate_sorted(struct estimate *e, uint64_t **keys, size_t *n)
 	return VD_OK;
 }
 
-/* End of the run of sorted block keys, starting at i, that lie in the same
- * cell of level l. */
-static size_t cell_blocks_end(const uint64_t *keys, size_t n, size_t i, int L,
-			      int l)
-{
-	int sh = L - BLOCK_SHIFT - l;
-	if (sh < 0)
-		return i + 1;
-	uint64_t c = keys[i] >> 3 * sh;
-	while (i < n && keys[i] >> 3 * sh == c)
-		i++;
-	return i;
-}
-
 /* Blocks a whole cell at level l can hold. */
 static uint64_t cell_block_cap(int L, int l)
 {
@@ -284,13 +314,39 @@ static uint64_t cell_block_cap(int L, int l)
 	return k <= 0 ? 1 : (uint64_t)1 << 3 * k;
 }
 
+/* The bound of the cell of level l whose sorted (coarse) keys start at
+ * keys[i]; sets *end past them. A coarse key stands for 8^coarse blocks;
+ * one larger than the cell gives the cell's whole capacity. */
+static uint64_t cell_bound(const uint64_t *keys, size_t n, size_t i, int L,
+			   int l, int coarse, size_t *end, uint64_t *lower)
+{
+	uint64_t cap = cell_block_cap(L, l);
+	int sh = L - BLOCK_SHIFT - coarse - l;
+	if (sh < 0) {
+		*end = i + 1;
+		*lower = 1;
+		return cap;
+	}
+	uint64_t c = keys[i] >> 3 * sh;
+	size_t j = i;
+	while (j < n && keys[j] >> 3 * sh == c)
+		j++;
+	*end = j;
+	*lower = j - i; /* every coarse key holds at least one block */
+	uint64_t b = (uint64_t)(j - i) << 3 * coarse;
+	return b < cap ? b : cap;
+}
+
+
 /* ------------------------------------------------------------- binning */
 
-struct bin {
-	float *buf;      /* 9 floats a triangle */
-	uint32_t n, cap;
-	uint64_t total;  /* triangles binned to this cell */
-	uint64_t blocks; /* estimate, for scheduling and the budget */
+/* Triangles waiting to be appended to their cell's bin: one arena of
+ * records {cell, 9 floats} of a fixed size (the budget's share), sorted by
+ * cell when full and written out, so memory does not grow with the number
+ * of cells a mesh touches. */
+struct bin_rec {
+	uint64_t cell;
+	float v[9];
 };
 
 struct binner {
@@ -298,8 +354,9 @@ struct binner {
 	int err;
 	struct grid g;
 	const char *dir;
-	struct bin *bins;      /* 8^L0 */
-	size_t buffered, cap;  /* triangles held in memory */
+	uint64_t *totals;      /* 8^L0: triangles binned to each cell */
+	struct bin_rec *recs;
+	size_t buffered, cap;  /* records held in memory */
 	uint64_t pairs;
 };
 
@@ -308,27 +365,34 @@ static void bin_path(char *buf, size_t cap, const char *dir, uint64_t cell)
 	snprintf(buf, cap, "%s/bins.tmp/%llx.tri", dir, (unsigned long long)cell);
 }
 
+static int cmp_rec(const void *a, const void *b)
+{
+	uint64_t x = ((const struct bin_rec *)a)->cell,
+		 y = ((const struct bin_rec *)b)->cell;
+	return (x > y) - (x < y);
+}
+
 /* Bins are scratch files read back by this same process, so they hold the
  * floats as they lie in memory; they are never a format. */
 static int flush_bins(struct binner *b)
 {
-	size_t ncell = (size_t)1 << 3 * b->g.L0;
 	char path[4096];
-	for (size_t c = 0; c < ncell; c++) {
-		struct bin *bn = &b->bins[c];
-		if (!bn->n)
-			continue;
+	qsort(b->recs, b->buffered, sizeof *b->recs, cmp_rec);
+	for (size_t i = 0; i < b->buffered;) {
+		uint64_t c = b->recs[i].cell;
 		bin_path(path, sizeof path, b->dir, c);
 		FILE *f = fopen(path, "ab");
 		if (!f)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
-		size_t w = fwrite(bn->buf, 9 * sizeof(float), bn->n, f);
+		size_t w = 0, j = i;
+		for (; j < b->buffered && b->recs[j].cell == c; j++)
+			w += fwrite(b->recs[j].v, sizeof b->recs[j].v, 1, f);
 		int rc = fclose(f);
-		if (w != bn->n || rc != 0)
+		if (w != j - i || rc != 0)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
-		bn->n = 0;
+		i = j;
 	}
 	b->buffered = 0;
 	return VD_OK;
@@ -336,20 +400,12 @@ static int flush_bins(struct binner *b)
 
 static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
 {
-	struct bin *bn = &b->bins[cell];
-	if (bn->n == bn->cap) {
-		uint32_t cap = bn->cap ? bn->cap * 2 : 64;
-		float *p = realloc(bn->buf, (size_t)cap * 9 * sizeof(float));
-		if (!p)
-			return vd_fail(VD_ERR_NOMEM, "bin buffer");
-		bn->buf = p;
-		bn->cap = cap;
-	}
-	memcpy(bn->buf + 9 * (size_t)bn->n, t->v, 9 * sizeof(float));
-	bn->n++;
-	bn->total++;
+	struct bin_rec *r = &b->recs[b->buffered++];
+	r->cell = cell;
+	memcpy(r->v, t->v, sizeof r->v);
+	b->totals[cell]++;
 	b->pairs++;
-	if (++b->buffered >= b->cap)
+	if (b->buffered == b->cap)
 		return flush_bins(b);
 	return VD_OK;
 }
@@ -706,7 +762,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	size_t n;
 	float *fb = (float *)w->tris;
 	while (!err && (n = fread(fb, 9 * sizeof(float), TRI_BATCH, f)) > 0) {
-		for (size_t i = 0; i < n && !err; i++) {
+		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
 			memcpy(t.v, fb + 9 * i, sizeof t.v);
@@ -838,17 +894,31 @@ struct plan {
 	size_t block_limit;
 };
 
+/* Per-cell arrays of the binning and the jobs at chunk level l: allocated
+ * for every cell but resident only in the pages of the bins array that
+ * non-empty cells touch (`pages`, counted by the estimate) and the job list
+ * (`pages` is 0 when unknown: all of it). */
+static uint64_t cell_arrays_bytes(int l, uint64_t pages)
+{
+	uint64_t all = ((uint64_t)1 << 3 * l) *
+		       (sizeof(uint64_t) + sizeof(struct cell_job));
+	uint64_t touched = pages * (4096 + 512 * sizeof(struct cell_job));
+	return pages && touched < all ? touched : all;
+}
+
 /* Memory the workers may use: the budget less what the process holds. */
 static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
-		       int max_level, const uint64_t *max_blocks, int L,
-		       struct plan *p)
+		       int max_level, const uint64_t *max_blocks,
+		       const uint64_t *nonempty, int coarse, struct plan *p)
 {
 	int threads = o->threads > 0 ? o->threads : vd_hardware_threads();
-	uint64_t avail = o->mem_budget_bytes > base ? o->mem_budget_bytes - base : 0;
 	for (int want = threads; want >= 1; want = want > 1 ? 1 : 0) {
 		for (int l = 0; l <= max_level; l++) {
 			if (max_blocks[l] == UINT64_MAX)
 				continue; /* level not a candidate */
+			uint64_t held = base + cell_arrays_bytes(l, nonempty[l]);
+			uint64_t avail = o->mem_budget_bytes > held
+						 ? o->mem_budget_bytes - held : 0;
 			uint64_t cells = (uint64_t)1 << 3 * l;
 			int t = (uint64_t)want > cells ? (int)cells : want;
 			uint64_t per = max_blocks[l] * BLOCK_COST + WORKER_OVERHEAD;
@@ -862,12 +932,16 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 			}
 		}
 	}
-	uint64_t need = max_blocks[max_level] * BLOCK_COST + WORKER_OVERHEAD + base;
-	(void)L;
-	return vd_fail(VD_ERR_BUDGET, "--mem-budget %llu bytes cannot hold one "
-		       "cell even at chunk level %d (about %llu MiB needed)",
-		       (unsigned long long)o->mem_budget_bytes, max_level,
-		       (unsigned long long)(need >> 20) + 1);
+	int l = max_level;
+	while (l > 0 && max_blocks[l] == UINT64_MAX)
+		l--;
+	uint64_t need = max_blocks[l] * BLOCK_COST + WORKER_OVERHEAD + base +
+			cell_arrays_bytes(l, nonempty[l]);
+	return vd_fail(VD_ERR_BUDGET, "--mem-budget %llu MiB cannot hold one "
+		       "cell even at chunk level %d (about %llu MiB needed%s)",
+		       (unsigned long long)(o->mem_budget_bytes >> 20), l,
+		       (unsigned long long)(need >> 20) + 1,
+		       coarse ? ", a coarse upper bound" : "");
 }
 
 int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
@@ -891,14 +965,18 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 				.start = t0,
 				.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct vd_mesh *mesh;
-	int err = vd_mesh_open(&mesh, mesh_path);
+	/* indexed meshes keep their vertices in memory: at most half the
+	 * budget, refused before it is taken */
+	int err = vd_mesh_open_limited(&mesh, mesh_path,
+				       opts->mem_budget_bytes / 2);
 	if (err)
 		return err;
 	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
 	struct run r = {.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct binner b = {0};
 	struct estimate est = {0};
-	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1];
+	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1], min_blocks[MAX_CHUNK_LEVEL + 1];
+	uint64_t cells_hit[MAX_CHUNK_LEVEL + 1] = {0};
 	uint64_t *bkeys = NULL;
 	size_t nbkeys = 0;
 	int cleaned = 0;
@@ -927,6 +1005,11 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* 2. estimate and plan */
 	double t1 = vd_seconds();
 	est.g = r.g;
+	/* the estimate's set: about an eighth of the budget (keys at most
+	 * a quarter of its slots, 8 bytes each), never fewer than 4096 */
+	est.max_keys = (size_t)(opts->mem_budget_bytes / 8 / 8 / 4);
+	if (est.max_keys < 4096)
+		est.max_keys = 4096;
 	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
 	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)bd.n);
@@ -937,28 +1020,61 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		goto out;
 	/* per level: the largest cell's bound */
 	for (int l = 0; l <= MAX_CHUNK_LEVEL; l++)
-		max_blocks[l] = UINT64_MAX;
+		max_blocks[l] = min_blocks[l] = UINT64_MAX;
 	for (int l = 0; l <= F; l++) {
 		if (opts->chunk_level >= 0 && l != opts->chunk_level)
 			continue;
 		max_blocks[l] = 0;
+		uint64_t lo = 0, last_page = 0;
+		int all_pages = L - l <= BLOCK_SHIFT;
 		for (size_t i = 0; i < nbkeys;) {
-			size_t j = cell_blocks_end(bkeys, nbkeys, i, L, l);
-			if (j - i > max_blocks[l])
-				max_blocks[l] = j - i;
-			i = j;
+			uint64_t lower;
+			uint64_t nb = cell_bound(bkeys, nbkeys, i, L, l,
+						 est.coarse, &i, &lower);
+			if (nb > max_blocks[l])
+				max_blocks[l] = nb;
+			/* pages of the totals array: 512 cells a page */
+			int sh = L - BLOCK_SHIFT - est.coarse - l;
+			if (sh < 0) {
+				all_pages = 1;
+			} else {
+				uint64_t page = bkeys[i - 1] >> 3 * sh >> 9;
+				if (!cells_hit[l] || page != last_page)
+					cells_hit[l]++;
+				last_page = page;
+			}
+			if (lower > lo)
+				lo = lower;
 		}
 		uint64_t cap = cell_block_cap(L, l);
 		if (max_blocks[l] > cap || L - l <= BLOCK_SHIFT)
 			max_blocks[l] = cap;
+		if (all_pages)
+			cells_hit[l] = 0;
+		if (l == F)
+			min_blocks[l] = lo < max_blocks[l] ? lo : max_blocks[l];
 	}
-	/* what the process holds already: vertices, buffers, the estimate */
-	uint64_t base = vd_peak_rss_bytes();
+	/* what the process holds now: vertices, buffers, the sorted
+	 * estimate (the estimate's set is freed: its peak was its share) */
+	uint64_t base = vd_current_rss_bytes();
 	/* bin buffers: an eighth of the budget, 16 MiB to 256 MiB */
 	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
 	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
 	struct plan plan = {0};
-	err = plan_budget(opts, base + bin_bytes, F, max_blocks, L, &plan);
+	err = plan_budget(opts, base + bin_bytes, F, max_blocks, cells_hit,
+			  est.coarse, &plan);
+	if (err && est.coarse) {
+		/* The coarse bound is loose: if the cells of level F may fit
+		 * (the lower bound does), take F and let each cell's block
+		 * limit decide while rasterizing, largest cell first. */
+		err = plan_budget(opts, base + bin_bytes, F, min_blocks,
+				  cells_hit, 0, &plan);
+		if (err)
+			goto out;
+		progress_say(&prog, 1, "memory estimate coarsened %d times; "
+			     "cells of level %d checked while rasterizing",
+			     est.coarse, F);
+	}
 	if (err)
 		goto out;
 	r.g.L0 = plan.L0;
@@ -972,9 +1088,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
-	b.cap = bin_bytes / (9 * sizeof(float) * 2); /* x2: realloc slack */
-	b.bins = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.bins);
-	if (!b.bins) {
+	b.cap = bin_bytes / sizeof *b.recs;
+	b.recs = malloc(b.cap * sizeof *b.recs);
+	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
+	if (!b.recs || !b.totals) {
 		err = vd_fail(VD_ERR_NOMEM, "bins");
 		goto out;
 	}
@@ -999,26 +1116,33 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	}
 	for (size_t c = 0, i = 0; c < ncell; c++) {
 		/* bkeys are sorted, cells visited in order: one merge walk */
-		size_t j = i;
+		uint64_t nb = 1;
 		if (L - r.g.L0 > BLOCK_SHIFT) {
-			int sh = 3 * (L - BLOCK_SHIFT - r.g.L0);
-			while (i < nbkeys && bkeys[i] >> sh < c)
-				i++;
-			j = i;
-			while (j < nbkeys && bkeys[j] >> sh == c)
-				j++;
+			int sh = L - BLOCK_SHIFT - est.coarse - r.g.L0;
+			if (sh >= 0) {
+				while (i < nbkeys && bkeys[i] >> 3 * sh < c)
+					i++;
+				size_t j = i;
+				nb = 0;
+				uint64_t lower;
+				if (i < nbkeys && bkeys[i] >> 3 * sh == c)
+					nb = cell_bound(bkeys, nbkeys, i, L,
+							r.g.L0, est.coarse, &j,
+							&lower);
+				i = j;
+			} else {
+				nb = cell_block_cap(L, r.g.L0);
+			}
 		}
-		if (b.bins[c].total)
-			r.jobs[r.njobs++] = (struct cell_job){
-				c, L - r.g.L0 > BLOCK_SHIFT ? j - i : 1};
-		i = j;
+		if (b.totals[c])
+			r.jobs[r.njobs++] = (struct cell_job){c, nb};
 	}
 	free(bkeys);
 	bkeys = NULL;
-	for (size_t c = 0; c < ncell; c++)
-		free(b.bins[c].buf);
-	free(b.bins);
-	b.bins = NULL;
+	free(b.totals);
+	free(b.recs);
+	b.totals = NULL;
+	b.recs = NULL;
 	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_jobs);
 	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
 	r.level_nodes = nodes;
@@ -1090,11 +1214,8 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 			      (unsigned long long)(res->peak_rss_bytes >> 20),
 			      (unsigned long long)(opts->mem_budget_bytes >> 20));
 out:
-	if (b.bins) {
-		for (size_t c = 0; c < ((size_t)1 << 3 * b.g.L0); c++)
-			free(b.bins[c].buf);
-		free(b.bins);
-	}
+	free(b.totals);
+	free(b.recs);
 	if (r.workers) {
 		for (int i = 0; i < r.nworkers; i++) {
 			map_free(&r.workers[i].map);
