@@ -38,7 +38,10 @@ void path_join(char *buf, size_t cap, const char *a, const char *b)
 int mkdir_p(const char *path)
 {
 	char tmp[1100];
-	snprintf(tmp, sizeof tmp, "%s", path);
+	if ((size_t)snprintf(tmp, sizeof tmp, "%s", path) >= sizeof tmp) {
+		errno = ENAMETOOLONG; /* never a shorter directory instead */
+		return -1;
+	}
 	for (char *p = tmp + 1; *p; p++)
 		if (*p == '/') {
 			*p = 0;
