@@ -51,13 +51,16 @@ for i in $(seq 1 20); do
 	victim=$pid
 	if [ $what = job ]; then
 		victim=
-		for k in $(seq 1 300); do # the next running job, at random
-			victim=$(pgrep -P $pid | shuf -n 1 --random-source=<(yes $RANDOM))
-			[ -n "$victim" ] && break
+		for k in $(seq 1 300); do # a running job (not one that ended
+			# and waits to be reaped), at random
+			victim=$(ps -o pid=,stat= --ppid $pid | awk '$2 !~ /Z/ { print $1 }' |
+				shuf -n 1 --random-source=<(yes $RANDOM))
+			[ -n "$victim" ] && kill -9 "$victim" 2>/dev/null && break
+			victim=
 			sleep 0.01
 		done
 	fi
-	if [ -z "$victim" ] || ! kill -9 "$victim" 2>/dev/null; then
+	if [ -z "$victim" ] || { [ $what = runner ] && ! kill -9 "$victim" 2>/dev/null; }; then
 		wait $pid
 		fail "kill_${i}_$what" "nothing to kill at ${at} ms"
 		continue
@@ -67,6 +70,10 @@ for i in $(seq 1 20); do
 	log=$D/logs/runner.log
 	started=$(grep -c ' started ' $log 2>/dev/null)
 	finished=$(grep -cE ' (done|skipped) ' $log 2>/dev/null)
+	if [ $what = job ] && ! grep -q 'killed by signal 9' "$T/kill.err"; then
+		fail "kill_${i}_${what}_interrupted" "at ${at} ms: no job reported killed" "$(head -3 "$T/kill.err")"
+		continue
+	fi
 	if [ "${started:-0}" -eq 0 ] || [ "${finished:-0}" -ge "$total" ] || [ $rc -eq 0 ]; then
 		fail "kill_${i}_${what}_interrupted" "at ${at} ms: exit $rc, $started started, $finished of $total finished"
 		continue
