@@ -101,6 +101,11 @@ struct job {
 	char key_path[1100];       /* output + ".key" */
 	int ndeps;
 	int *deps;                 /* indices of jobs that must finish first */
+	int cell;                  /* a per-cell job of a DAG stage */
+	int nwait;                 /* dependencies not finished yet */
+	int nbad;                  /* dependencies failed or blocked */
+	int nrdeps, caprdeps;
+	int *rdeps;                /* jobs that depend on this one */
 	int ninputs;
 	char **inputs;             /* files whose content the key covers */
 	uint64_t mem_estimate;
@@ -119,11 +124,24 @@ struct plan {
 	int n, cap;
 	struct job *jobs;
 	int expanded;              /* all cells known (voxelize done) */
+	/* jobs by id: open addressing, indices + 1 (0 empty) */
+	int *index, index_cap;
+	int unfinished[MAX_JOBS_DECL]; /* per declared job: planned, not
+					* done or skipped */
+	int cells_planned[MAX_JOBS_DECL], merges_planned[MAX_JOBS_DECL];
+	int cells_left[MAX_JOBS_DECL];  /* cell jobs not ended */
 };
+
+/* Sets j's state, keeping the dependency counters of the jobs that wait
+ * for it (nwait, nbad) and the per-declaration counts right. Every change
+ * to DONE, SKIPPED, FAILED or BLOCKED goes through here. */
+void job_set_state(struct plan *p, struct job *j, enum job_state s);
 
 /* Expands the graph as far as it is known: voxelize jobs always; per-cell
  * jobs and merges once the voxelize output exists (after it finished).
- * Call again after jobs finish to add what became known. */
+ * Call again when every planned job of a declared job has finished (the
+ * only moment something new becomes known): each stage's cells and merges
+ * are planned once, so the runner's cost stays linear in the jobs. */
 int plan_expand(struct plan *p);
 void plan_free(struct plan *p);
 

@@ -38,7 +38,10 @@ void path_join(char *buf, size_t cap, const char *a, const char *b)
 int mkdir_p(const char *path)
 {
 	char tmp[1100];
-	snprintf(tmp, sizeof tmp, "%s", path);
+	if ((size_t)snprintf(tmp, sizeof tmp, "%s", path) >= sizeof tmp) {
+		errno = ENAMETOOLONG; /* never a shorter directory instead */
+		return -1;
+	}
 	for (char *p = tmp + 1; *p; p++)
 		if (*p == '/') {
 			*p = 0;
@@ -67,6 +70,16 @@ static const char *bin_dir(void)
 	return dir;
 }
 
+static void *xrealloc(void *q, size_t n)
+{
+	void *r = realloc(q, n ? n : 1);
+	if (!r) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	return r;
+}
+
 static char *xstrdup(const char *s)
 {
 	char *d = strdup(s);
@@ -77,20 +90,55 @@ static char *xstrdup(const char *s)
 	return d;
 }
 
-/* Appends a job; argv is a NULL-terminated list of strings (copied). */
+static uint32_t id_hash(const char *id)
+{
+	return (uint32_t)XXH3_64bits(id, strlen(id));
+}
+
+/* The slot of `id` in the index: where it is, or the empty slot where it
+ * would go. */
+static int *index_slot(const struct plan *p, const char *id)
+{
+	uint32_t mask = (uint32_t)p->index_cap - 1;
+	for (uint32_t h = id_hash(id) & mask;; h = (h + 1) & mask) {
+		int *slot = &p->index[h];
+		if (!*slot || !strcmp(p->jobs[*slot - 1].id, id))
+			return slot;
+	}
+}
+
+static int find_job(const struct plan *p, const char *id)
+{
+	if (!p->index_cap)
+		return -1;
+	int v = *index_slot(p, id);
+	return v - 1;
+}
+
+static void index_grow(struct plan *p)
+{
+	free(p->index);
+	p->index_cap = p->index_cap ? 2 * p->index_cap : 256;
+	p->index = calloc((size_t)p->index_cap, sizeof *p->index);
+	if (!p->index) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	for (int i = 0; i < p->n; i++)
+		*index_slot(p, p->jobs[i].id) = i + 1;
+}
+
+/* Appends a job, or returns NULL when one with that id is planned. */
 static struct job *add_job(struct plan *p, int decl, const char *id,
 			   const char *output, const char *key_path)
 {
-	for (int i = 0; i < p->n; i++)
-		if (!strcmp(p->jobs[i].id, id))
-			return NULL; /* already planned */
+	if (find_job(p, id) >= 0)
+		return NULL; /* already planned */
+	if (2 * (p->n + 1) > p->index_cap)
+		index_grow(p);
 	if (p->n == p->cap) {
 		p->cap = p->cap ? 2 * p->cap : 64;
-		p->jobs = realloc(p->jobs, (size_t)p->cap * sizeof *p->jobs);
-		if (!p->jobs) {
-			fprintf(stderr, "voxdag: out of memory\n");
-			exit(1);
-		}
+		p->jobs = xrealloc(p->jobs, (size_t)p->cap * sizeof *p->jobs);
 	}
 	struct job *j = &p->jobs[p->n++];
 	memset(j, 0, sizeof *j);
@@ -98,25 +146,50 @@ static struct job *add_job(struct plan *p, int decl, const char *id,
 	snprintf(j->id, sizeof j->id, "%s", id);
 	snprintf(j->output, sizeof j->output, "%s", output);
 	snprintf(j->key_path, sizeof j->key_path, "%s", key_path);
+	*index_slot(p, j->id) = p->n;
+	p->unfinished[decl]++;
 	return j;
 }
 
+static int job_finished(const struct job *j);
+
+void job_set_state(struct plan *p, struct job *j, enum job_state s)
+{
+	int was_end = job_finished(j) || j->state == JOB_FAILED ||
+		      j->state == JOB_BLOCKED;
+	j->state = s;
+	if (was_end || s == JOB_PENDING || s == JOB_RUNNING)
+		return;
+	p->unfinished[j->decl]--;
+	if (j->cell)
+		p->cells_left[j->decl]--;
+	for (int k = 0; k < j->nrdeps; k++) {
+		struct job *r = &p->jobs[j->rdeps[k]];
+		if (job_finished(j))
+			r->nwait--;
+		else
+			r->nbad++;
+	}
+}
+
+/* argv[0] is the stage's path; any number of arguments (no silent cut). */
 static void set_argv(struct job *j, const char *prog, ...)
 {
-	const char *args[64];
-	int n = 0;
-	static char path[1100];
+	char path[1100];
 	snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
-	args[n++] = path;
 	va_list ap;
+	int n = 1;
 	va_start(ap, prog);
-	const char *a;
-	while ((a = va_arg(ap, const char *)) && n < 63)
-		args[n++] = a;
+	while (va_arg(ap, const char *))
+		n++;
 	va_end(ap);
-	j->argv = calloc((size_t)n + 1, sizeof *j->argv);
-	for (int i = 0; i < n; i++)
-		j->argv[i] = xstrdup(args[i]);
+	j->argv = xrealloc(NULL, ((size_t)n + 1) * sizeof *j->argv);
+	j->argv[0] = xstrdup(path);
+	va_start(ap, prog);
+	for (int i = 1; i < n; i++)
+		j->argv[i] = xstrdup(va_arg(ap, const char *));
+	va_end(ap);
+	j->argv[n] = NULL;
 }
 
 /* The same from a NULL-terminated list. */
@@ -127,31 +200,35 @@ static void set_argv_list(struct job *j, const char *prog, const char *const *ar
 		n++;
 	char path[1100];
 	snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
-	j->argv = calloc((size_t)n + 2, sizeof *j->argv);
+	j->argv = xrealloc(NULL, ((size_t)n + 2) * sizeof *j->argv);
 	j->argv[0] = xstrdup(path);
 	for (int i = 0; i < n; i++)
 		j->argv[i + 1] = xstrdup(args[i]);
+	j->argv[n + 1] = NULL;
 }
 
 /* Adds inputs (files whose content the key covers). */
 static void add_input(struct job *j, const char *path)
 {
-	j->inputs = realloc(j->inputs, (size_t)(j->ninputs + 1) * sizeof *j->inputs);
+	j->inputs = xrealloc(j->inputs, (size_t)(j->ninputs + 1) * sizeof *j->inputs);
 	j->inputs[j->ninputs++] = xstrdup(path);
 }
 
-static void add_dep(struct job *j, int dep)
+/* j (the last job added) waits for `dep`. */
+static void add_dep(struct plan *p, struct job *j, int dep)
 {
-	j->deps = realloc(j->deps, (size_t)(j->ndeps + 1) * sizeof *j->deps);
+	struct job *d = &p->jobs[dep];
+	j->deps = xrealloc(j->deps, (size_t)(j->ndeps + 1) * sizeof *j->deps);
 	j->deps[j->ndeps++] = dep;
-}
-
-static int find_job(const struct plan *p, const char *id)
-{
-	for (int i = 0; i < p->n; i++)
-		if (!strcmp(p->jobs[i].id, id))
-			return i;
-	return -1;
+	if (d->nrdeps == d->caprdeps) {
+		d->caprdeps = d->caprdeps ? 2 * d->caprdeps : 4;
+		d->rdeps = xrealloc(d->rdeps, (size_t)d->caprdeps * sizeof *d->rdeps);
+	}
+	d->rdeps[d->nrdeps++] = (int)(j - p->jobs);
+	if (d->state == JOB_FAILED || d->state == JOB_BLOCKED)
+		j->nbad++;
+	else if (!job_finished(d))
+		j->nwait++;
 }
 
 static int job_finished(const struct job *j)
@@ -224,7 +301,8 @@ static int output_digest(const char *path, uint64_t *digest, char *why,
 static int volatile_arg(const char *a)
 {
 	return !strcmp(a, "--threads") || !strcmp(a, "--mem-budget") ||
-	       !strcmp(a, "-q") || !strcmp(a, "--stats");
+	       !strcmp(a, "-q") || !strcmp(a, "--stats") ||
+	       !strcmp(a, "--stats-list");
 }
 
 int job_key(const struct job *j, char key[17])
@@ -369,7 +447,7 @@ static int list_files(const char *dir, const char *ext, char ***out)
 			continue;
 		if (n == cap) {
 			cap = cap ? 2 * cap : 64;
-			names = realloc(names, (size_t)cap * sizeof *names);
+			names = xrealloc(names, (size_t)cap * sizeof *names);
 		}
 		names[n++] = xstrdup(e->d_name);
 	}
@@ -420,8 +498,10 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 	path_join(dir, sizeof dir, p->dir, decl_of(p, d)->name);
 	for (;;) {
 		int L0 = parts[0].level;
-		/* target level: the coarsest a whose groups all fit */
-		int a = 0;
+		/* target level: the coarsest a whose groups all fit, and at most
+		 * four levels up, so a merge takes at most 8^4 parts (its
+		 * command line stays far below the kernel's limit) */
+		int a = L0 > 4 ? L0 - 4 : 0;
 		for (; a < L0; a++) {
 			int fits = 1;
 			for (int i = 0; i < n && fits;) {
@@ -471,7 +551,8 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 						      "--mem-budget", budget,
 						      "--threads", threads, "-q"};
 				size_t nt = sizeof tail / sizeof *tail;
-				j->argv = calloc((size_t)(k - i) + nt + 3, sizeof *j->argv);
+				j->argv = xrealloc(NULL, ((size_t)(k - i) + nt + 3) *
+							     sizeof *j->argv);
 				int z = 0;
 				j->argv[z++] = xstrdup(path);
 				j->argv[z++] = xstrdup("--merge");
@@ -479,10 +560,11 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 					j->argv[z++] = xstrdup(parts[q].path);
 				for (size_t q = 0; q < nt; q++)
 					j->argv[z++] = xstrdup(tail[q]);
+				j->argv[z] = NULL;
 				for (int q = i; q < k; q++) {
 					add_input(j, parts[q].path);
 					if (parts[q].job >= 0)
-						add_dep(j, parts[q].job);
+						add_dep(p, j, parts[q].job);
 				}
 				j->mem_estimate = merge_estimate(sum, k - i);
 				idx = p->n - 1;
@@ -503,6 +585,9 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 
 /* The per-cell jobs of a DAG stage and its reduction tree, once the cells
  * of its input are known. */
+static void plan_dag_merges(struct plan *p, int d, const char *ext,
+			    uint32_t kind);
+
 static void plan_dag_stage(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -514,26 +599,28 @@ static void plan_dag_stage(struct plan *p, int d)
 	const char *ext = is_dag ? "dag" : "sdag";
 	const char *src_ext = is_dag ? ".svo" : ".dag";
 	uint32_t kind = is_dag ? VD_KIND_DAG : VD_KIND_SSVDAG;
+	if (p->merges_planned[d])
+		return; /* planned whole: nothing more becomes known */
+	/* the cells are planned once; the merges once they are all built */
+	if (p->cells_planned[d]) {
+		if (p->unfinished[d] == 0)
+			plan_dag_merges(p, d, ext, kind);
+		return;
+	}
 	char src_dir[1100], cells_dir[1200], dir[1100];
 	path_join(dir, sizeof dir, p->dir, dd->name);
 	snprintf(src_dir, sizeof src_dir, "%s/%s%s", p->dir, src_name,
 		 is_dag ? "" : "/cells");
-	/* the source's cells are known when all its cell jobs are finished
-	 * (they are planned together, so one planned means all are) */
-	int src_cells = 0;
-	for (int i = 0; i < p->n; i++) {
-		if (p->jobs[i].decl != src)
-			continue;
-		if (is_dag && !job_finished(&p->jobs[i]))
-			return; /* voxelize not finished */
-		if (!is_dag && strstr(p->jobs[i].id, "/cells/")) {
-			if (!job_finished(&p->jobs[i]))
-				return;
-			src_cells++;
-		}
+	/* the source's cells are known when voxelize finished, or all the
+	 * source stage's cell jobs did (they are planned together) */
+	int src_job = -1;
+	if (is_dag) {
+		src_job = find_job(p, src_name);
+		if (src_job < 0 || !job_finished(&p->jobs[src_job]))
+			return;
+	} else if (!p->cells_planned[src] || p->cells_left[src] > 0) {
+		return;
 	}
-	if (!is_dag && src_cells == 0)
-		return; /* the source's cells are not planned yet */
 	/* voxelize replaces its directory, so its listing is exact; a DAG
 	 * stage's cells are the jobs planned for it (a listing could hold
 	 * cells of an earlier configuration) */
@@ -544,7 +631,7 @@ static void plan_dag_stage(struct plan *p, int d)
 		if (n < 0)
 			return;
 	} else {
-		names = calloc((size_t)p->n + 1, sizeof *names);
+		names = xrealloc(NULL, ((size_t)p->n + 1) * sizeof *names);
 		for (int i = 0; i < p->n; i++) {
 			const char *id = p->jobs[i].id, *slash = strrchr(id, '/');
 			if (p->jobs[i].decl == src && strstr(id, "/cells/")) {
@@ -555,11 +642,11 @@ static void plan_dag_stage(struct plan *p, int d)
 		}
 	}
 	path_join(cells_dir, sizeof cells_dir, dir, "cells");
-	struct part *parts = calloc((size_t)(n ? n : 1), sizeof *parts);
-	int src_job = -1;
-	for (int i = 0; i < p->n; i++)
-		if (p->jobs[i].decl == src && (is_dag || strstr(p->jobs[i].id, "/cells/")))
-			src_job = i;
+	if (n > 0 && mkdir_p(cells_dir) != 0) {
+		fprintf(stderr, "voxdag: cannot create '%s': %s\n", cells_dir,
+			strerror(errno));
+		exit(1);
+	}
 	for (int i = 0; i < n; i++) {
 		char in[1400], out[1400], key[1500], id[300], budget[32], threads[16];
 		snprintf(in, sizeof in, "%s/%s", src_dir, names[i]);
@@ -573,32 +660,52 @@ static void plan_dag_stage(struct plan *p, int d)
 		struct vd_chunk_header h;
 		int ok = vd_chunk_read_header(in, &h) == VD_OK;
 		struct job *j = add_job(p, d, id, out, key);
-		int idx = find_job(p, id);
 		if (j) {
-			mkdir_p(cells_dir);
+			j->cell = 1;
+			p->cells_left[d]++;
 			set_argv(j, is_dag ? "svo-to-dag" : "symmetry-merge", in, "-o",
 				 out, "--mem-budget", budget, "--threads", threads,
 				 "-q", NULL);
 			add_input(j, in);
 			if (is_dag) {
-				add_dep(j, src_job);
+				add_dep(p, j, src_job);
 			} else {
 				char sid[400];
 				snprintf(sid, sizeof sid, "%s/cells/%.*s", decl_of(p, src)->name,
 					 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
 				int si = find_job(p, sid);
 				if (si >= 0)
-					add_dep(j, si);
+					add_dep(p, j, si);
 			}
 			/* the stage's own bound for this input */
 			j->mem_estimate = ok ? vd_dag_estimate_header(&h)
 					     : c->job_mem_budget;
 		}
-		parts[i] = (struct part){.job = idx};
-		snprintf(parts[i].path, sizeof parts[i].path, "%s", out);
 		free(names[i]);
 	}
 	free(names);
+	p->cells_planned[d] = 1;
+	if (p->unfinished[d] == 0)
+		plan_dag_merges(p, d, ext, kind); /* all fresh */
+}
+
+/* The reduction tree of DAG stage d, once its cells are built. */
+static void plan_dag_merges(struct plan *p, int d, const char *ext,
+			    uint32_t kind)
+{
+	int n = 0;
+	for (int i = 0; i < p->n; i++)
+		n += p->jobs[i].decl == d && p->jobs[i].cell;
+	struct part *parts = xrealloc(NULL, (size_t)(n ? n : 1) * sizeof *parts);
+	memset(parts, 0, (size_t)(n ? n : 1) * sizeof *parts);
+	n = 0;
+	for (int i = 0; i < p->n; i++)
+		if (p->jobs[i].decl == d && p->jobs[i].cell) {
+			parts[n].job = i;
+			snprintf(parts[n].path, sizeof parts[n].path, "%s",
+				 p->jobs[i].output);
+			n++;
+		}
 	/* The reduction tree is planned once the cells are built, from their
 	 * real headers: an estimate from the inputs would be far too high
 	 * (a DAG is much smaller than its SVO) and group the merges badly. */
@@ -616,8 +723,10 @@ static void plan_dag_stage(struct plan *p, int d)
 	/* a single cell at level 0 is already the root: merge anyway so the
 	 * root always has the same name (a one-part merge is cheap and checks
 	 * the part) */
-	if (all_built)
+	if (all_built) {
 		plan_merges(p, d, parts, n, ext);
+		p->merges_planned[d] = 1;
+	}
 	free(parts);
 }
 
@@ -660,32 +769,38 @@ static void plan_encode(struct plan *p, int d)
 			      budget, "--threads", threads, "-q"};
 	size_t nh = sizeof head / sizeof *head;
 	/* Table 1's seconds: the statistics of every DAG job (not part of
-	 * the key: timings are not content) */
-	int nstats = 0;
-	for (int i = 0; i < p->n; i++) {
+	 * the key: timings are not content), one path a line in a file, so
+	 * the command line does not grow with the cells (the kernel's limit
+	 * is near 25,000 arguments of this length) */
+	char list[1200], tmp[1300];
+	snprintf(list, sizeof list, "%s/%s.stats-list", p->dir, dd->name);
+	snprintf(tmp, sizeof tmp, "%s.tmp", list);
+	FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
+	for (int i = 0; f && i < p->n; i++) {
 		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
-		nstats += t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE;
+		if (t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE)
+			fprintf(f, "%s.stats.json\n", p->jobs[i].output);
 	}
-	j->argv = calloc(nh + 2 * (size_t)nstats + 2, sizeof *j->argv);
+	if (!f || fflush(f) != 0 || ferror(f) | (fclose(f) != 0) ||
+	    rename(tmp, list) != 0) {
+		fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
+			strerror(errno));
+		exit(1);
+	}
 	char path[1100];
 	snprintf(path, sizeof path, "%s/encode", bin_dir());
+	j->argv = xrealloc(NULL, (nh + 4) * sizeof *j->argv);
 	int z = 0;
 	j->argv[z++] = xstrdup(path);
 	for (size_t q = 0; q < nh; q++)
 		j->argv[z++] = xstrdup(head[q]);
-	for (int i = 0; i < p->n; i++) {
-		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
-		if (t != STAGE_SVO_TO_DAG && t != STAGE_SYMMETRY_MERGE)
-			continue;
-		char sp[1200];
-		snprintf(sp, sizeof sp, "%s.stats.json", p->jobs[i].output);
-		j->argv[z++] = xstrdup("--stats");
-		j->argv[z++] = xstrdup(sp);
-	}
+	j->argv[z++] = xstrdup("--stats-list");
+	j->argv[z++] = xstrdup(list);
+	j->argv[z] = NULL;
 	add_input(j, jd->output);
 	add_input(j, js->output);
-	add_dep(j, dag);
-	add_dep(j, ssv);
+	add_dep(p, j, dag);
+	add_dep(p, j, ssv);
 	j->mem_estimate = c->job_mem_budget;
 }
 
@@ -709,7 +824,7 @@ static void plan_render(struct plan *p, int d)
 	set_argv(j, "render", in, "-o", out, "--size", "960x720", "--camera",
 		 "iso", "--threads", threads, "-q", NULL);
 	add_input(j, in);
-	add_dep(j, enc);
+	add_dep(p, j, enc);
 	j->mem_estimate = c->job_mem_budget;
 }
 
@@ -744,12 +859,11 @@ int plan_expand(struct plan *p)
 		 * their own inputs are final (dependencies come first) */
 		for (int i = before; i < p->n; i++) {
 			struct job *j = &p->jobs[i];
-			int ready = j->state == JOB_PENDING;
-			for (int k = 0; k < j->ndeps && ready; k++)
-				ready = job_finished(&p->jobs[j->deps[k]]);
+			int ready = j->state == JOB_PENDING && j->nwait == 0 &&
+				    j->nbad == 0;
 			char why[600]; /* the runner says it when it reruns j */
 			if (ready && job_is_fresh(j, why, sizeof why))
-				j->state = JOB_SKIPPED;
+				job_set_state(p, j, JOB_SKIPPED);
 		}
 	} while (p->n != before);
 	/* the graph is whole when every declared job has its final job */
@@ -777,7 +891,9 @@ void plan_free(struct plan *p)
 			free(j->inputs[k]);
 		free(j->inputs);
 		free(j->deps);
+		free(j->rdeps);
 	}
 	free(p->jobs);
+	free(p->index);
 	memset(p, 0, sizeof *p);
 }

@@ -4,6 +4,7 @@
  * a resumed run reports the same work as an uninterrupted one. */
 #include "pipeline.h"
 
+#include <jansson.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -27,23 +28,22 @@ static char *slurp(const char *path)
 	return s;
 }
 
-/* The number after "key": in a JSON text, optionally after "within":. Our
- * stats files are flat enough for this; 0 when absent. */
+/* The number at "key" of a statistics file's JSON text, or at
+ * "within"."key" when `within` is given; 0 when the text is absent, is not
+ * JSON, or has no such number (a report still comes out, with zeros). */
 static double json_number(const char *text, const char *within, const char *key)
 {
 	if (!text)
 		return 0;
-	const char *p = text;
-	char pat[96];
-	if (within) {
-		snprintf(pat, sizeof pat, "\"%s\":", within);
-		p = strstr(p, pat);
-		if (!p)
-			return 0;
-	}
-	snprintf(pat, sizeof pat, "\"%s\":", key);
-	p = strstr(p, pat);
-	return p ? strtod(p + strlen(pat), NULL) : 0;
+	json_error_t jerr;
+	json_t *root = json_loads(text, 0, &jerr);
+	if (!root)
+		return 0;
+	json_t *obj = within ? json_object_get(root, within) : root;
+	json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
+	double d = json_is_number(v) ? json_number_value(v) : 0;
+	json_decref(root);
+	return d;
 }
 
 /* The statistics file a job's stage wrote beside its output. */

@@ -132,18 +132,31 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	char lp[1300];
 	log_path(p, j, lp, sizeof lp);
 	prepare_output(j);
-	pid_t pid = fork();
-	if (pid < 0)
+	/* the log's first line, made here: the child may only make system
+	 * calls (vfork: it shares our memory until it execs, which spares
+	 * copying the runner's page tables for every one of 100,000 jobs) */
+	size_t len = 2;
+	for (int i = 0; j->argv[i]; i++)
+		len += strlen(j->argv[i]) + 1;
+	char *head = malloc(len + 1), failed[1200];
+	if (!head)
 		return -1;
+	int nfailed = snprintf(failed, sizeof failed, "voxdag: cannot run "
+			       "'%s'\n", j->argv[0]);
+	char *h = head;
+	*h++ = '$';
+	for (int i = 0; j->argv[i]; i++)
+		h += sprintf(h, " %s", j->argv[i]);
+	*h++ = '\n';
+	pid_t pid = vfork();
 	if (pid == 0) {
 		/* die with the runner: a killed runner leaves no orphans */
 		prctl(PR_SET_PDEATHSIG, SIGKILL);
 		int fd = open(lp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
 		if (fd >= 0) {
-			dprintf(fd, "$ ");
-			for (int i = 0; j->argv[i]; i++)
-				dprintf(fd, "%s%s", i ? " " : "", j->argv[i]);
-			dprintf(fd, "\n");
+			if (write(fd, head, (size_t)(h - head)) < 0) {
+				/* the stage's own output still goes there */
+			}
 			dup2(fd, 1);
 			dup2(fd, 2);
 			close(fd);
@@ -152,10 +165,14 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		if (null >= 0)
 			dup2(null, 0);
 		execv(j->argv[0], j->argv);
-		fprintf(stderr, "voxdag: cannot run '%s': %s\n", j->argv[0],
-			strerror(errno));
+		if (write(2, failed, (size_t)nfailed) < 0) {
+			/* nothing more to say */
+		}
 		_exit(127);
 	}
+	int saved = errno;
+	free(head);
+	errno = saved;
 	return pid;
 }
 
@@ -163,6 +180,10 @@ static pid_t start_job(const struct plan *p, struct job *j)
  * it can be submitted with afterok on them). */
 static int deps_state(const struct plan *p, const struct job *j)
 {
+	if (j->nbad)
+		return 2;
+	if (p->cfg->executor != EXECUTOR_SLURM)
+		return j->nwait ? 1 : 0; /* counted as dependencies end */
 	int waiting = 0, in_slurm = 0;
 	for (int k = 0; k < j->ndeps; k++) {
 		const struct job *d = &p->jobs[j->deps[k]];
@@ -268,6 +289,10 @@ static void progress(const struct plan *p, double t0, int tty, int final)
 		said, tty && !final ? "" : "\n");
 }
 
+/* The local jobs running now (indices), so a reaped pid is found without
+ * a walk over every job. */
+static int *running_local, nrunning_local;
+
 /* The index of a local job that ended (filling *e), -1 when none has yet,
  * -2 when there is no child left to wait for. */
 static int reap_local(const struct plan *p, struct job_end *e)
@@ -279,10 +304,12 @@ static int reap_local(const struct plan *p, struct job_end *e)
 		return -1;
 	if (pid < 0)
 		return -2;
-	for (int i = 0; i < p->n; i++) {
+	for (int r = 0; r < nrunning_local; r++) {
+		int i = running_local[r];
 		const struct job *j = &p->jobs[i];
 		if (j->state != JOB_RUNNING || j->pid != pid)
 			continue;
+		running_local[r] = running_local[--nrunning_local];
 		memset(e, 0, sizeof *e);
 		e->exited = WIFEXITED(status);
 		e->code = e->exited ? WEXITSTATUS(status) : 0;
@@ -306,17 +333,20 @@ static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
 	if (ok && write_key(j) != 0)
 		ok = 0;
 	if (ok) {
-		j->state = JOB_DONE;
+		job_set_state(p, j, JOB_DONE);
 		j->voxels = job_voxels(j);
 		log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
 			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
 			 (unsigned long long)(j->mem_estimate >> 20));
 		if (j->slurm_id > 0)
 			slurm_forget(p, j);
-		plan_expand(p);
+		/* something new is known only when the last planned job of a
+		 * declared job ends (its cells, its merges, its output) */
+		if (p->unfinished[j->decl] == 0)
+			plan_expand(p);
 		return 0;
 	}
-	j->state = JOB_FAILED;
+	job_set_state(p, j, JOB_FAILED);
 	char lp[1300];
 	log_path(p, j, lp, sizeof lp);
 	log_line("failed %s%s%s", j->id, *e->reason ? ": " : "", e->reason);
@@ -353,12 +383,18 @@ static void cancel_dependents(struct plan *p, int *running)
 			    deps_state(p, j) != 2)
 				continue;
 			slurm_cancel(p, j);
-			j->state = JOB_BLOCKED;
+			job_set_state(p, j, JOB_BLOCKED);
 			log_line("blocked %s (cancelled in Slurm)", j->id);
 			(*running)--;
 			changed = 1;
 		}
 	}
+}
+
+static double rusage_seconds(const struct rusage *r)
+{
+	return (double)r->ru_utime.tv_sec + r->ru_utime.tv_usec * 1e-6 +
+	       (double)r->ru_stime.tv_sec + r->ru_stime.tv_usec * 1e-6;
 }
 
 int run_pipeline(struct plan *p, const struct run_opts *o)
@@ -385,10 +421,27 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	double t0 = vd_seconds(), last = 0;
 	uint64_t mem_used = 0;
 	int running = 0, failures = 0;
+	/* jobs before `scan_from` have all left JOB_PENDING (states only move
+	 * forward), so each pass starts there; locally a pass stops once
+	 * every slot is taken: the runner's cost stays near-linear in jobs */
+	int scan_from = 0;
+	running_local = calloc((size_t)c->jobs + 1, sizeof *running_local);
+	if (!running_local) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		return 1;
+	}
 	for (;;) {
 		/* start what is ready */
-		for (int i = 0; i < p->n; i++) {
+		int all_left = 1;
+		for (int i = scan_from; i < p->n; i++) {
 			struct job *j = &p->jobs[i];
+			if (all_left && j->state != JOB_PENDING &&
+			    (j->state != JOB_SKIPPED || j->logged))
+				scan_from = i + 1;
+			else
+				all_left = 0;
+			if (!slurm && running >= c->jobs)
+				break;
 			if (j->state == JOB_SKIPPED && !j->logged) {
 				/* found fresh when planned */
 				log_line("skipped %s (output is fresh)", j->id);
@@ -398,7 +451,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				continue;
 			int ds = deps_state(p, j);
 			if (ds == 2) {
-				j->state = JOB_BLOCKED;
+				job_set_state(p, j, JOB_BLOCKED);
 				log_line("blocked %s", j->id);
 				continue;
 			}
@@ -418,7 +471,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				continue;
 			char why[600];
 			if (ds == 0 && job_is_fresh(j, why, sizeof why)) {
-				j->state = JOB_SKIPPED;
+				job_set_state(p, j, JOB_SKIPPED);
 				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
 				continue;
@@ -433,7 +486,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				/* Slurm schedules within the cluster's limits */
 				prepare_output(j);
 				if (slurm_submit(p, j) != 0) {
-					j->state = JOB_FAILED;
+					job_set_state(p, j, JOB_FAILED);
 					failures++;
 					cancel_dependents(p, &running);
 					continue;
@@ -451,10 +504,11 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 					fprintf(stderr, "voxdag: cannot start "
 						"'%s': %s\n", j->id,
 						strerror(errno));
-					j->state = JOB_FAILED;
+					job_set_state(p, j, JOB_FAILED);
 					failures++;
 					continue;
 				}
+				running_local[nrunning_local++] = i;
 				mem_used += j->mem_estimate;
 				log_line("started %s (estimate %llu MiB)", j->id,
 					 (unsigned long long)(j->mem_estimate >> 20));
@@ -476,7 +530,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			/* pending jobs whose dependencies can never finish */
 			for (int i = 0; i < p->n; i++)
 				if (p->jobs[i].state == JOB_PENDING)
-					p->jobs[i].state = JOB_BLOCKED;
+					job_set_state(p, &p->jobs[i], JOB_BLOCKED);
 			break;
 		}
 		/* wait for a job, showing progress meanwhile */
@@ -509,8 +563,14 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	int blocked = 0;
 	for (int i = 0; i < p->n; i++)
 		blocked += p->jobs[i].state == JOB_BLOCKED;
-	log_line("finished: %d failed, %d blocked, %.1fs", failures, blocked,
-		 vd_seconds() - t0);
+	/* the runner's own cost against the stages' (children reaped) */
+	struct rusage self, kids;
+	getrusage(RUSAGE_SELF, &self);
+	getrusage(RUSAGE_CHILDREN, &kids);
+	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
+		 "%.3fs, stages cpu %.3fs", failures, blocked,
+		 vd_seconds() - t0, p->n, rusage_seconds(&self),
+		 rusage_seconds(&kids));
 	if (failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "

@@ -1,6 +1,7 @@
 /* encode - root DAG and SSVDAG chunks to the SymVox encodings and the SSVDAG paper's tables. */
 #include "voxdag.h"
 
+#include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,6 +29,9 @@ static const char usage[] =
 	"  -s, --stats FILE        statistics JSON of an svo-to-dag or\n"
 	"                          symmetry-merge run, for Table 1's seconds\n"
 	"                          (repeat for every chunk and merge run)\n"
+	"  -S, --stats-list FILE   the same for every path in FILE, one a line\n"
+	"                          (what the runner passes: no limit on their\n"
+	"                          number)\n"
 	"  -l, --min-level MIN     lowest resolution of the tables, 2^MIN\n"
 	"                          (default 6)\n"
 	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB);\n"
@@ -41,12 +45,50 @@ static const char usage[] =
 
 
 
+/* Appends the text of `path` to *buf, each line ending in NUL (one path a
+ * line). Prints one line and returns non-zero when it cannot be read. */
+static int read_list(const char *path, char **buf, size_t *len)
+{
+	FILE *f = fopen(path, "r");
+	if (!f) {
+		fprintf(stderr, "encode: cannot open '%s': %s\n", path,
+			strerror(errno));
+		return 1;
+	}
+	int ch;
+	size_t cap = *len;
+	while ((ch = fgetc(f)) != EOF) {
+		if (*len + 2 > cap) {
+			cap = cap ? 2 * cap : 4096;
+			char *g = realloc(*buf, cap);
+			if (!g) {
+				fclose(f);
+				fprintf(stderr, "encode: out of memory\n");
+				return 1;
+			}
+			*buf = g;
+		}
+		(*buf)[(*len)++] = ch == '\n' ? 0 : (char)ch;
+	}
+	int bad = ferror(f);
+	fclose(f);
+	if (bad) {
+		fprintf(stderr, "encode: cannot read '%s': %s\n", path,
+			strerror(EIO));
+		return 1;
+	}
+	if (*len && (*buf)[*len - 1]) /* a last line without its newline */
+		(*buf)[(*len)++] = 0;
+	return 0;
+}
+
 int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
 		{"output", required_argument, NULL, 'o'},
 		{"name", required_argument, NULL, 'n'},
 		{"stats", required_argument, NULL, 's'},
+		{"stats-list", required_argument, NULL, 'S'},
 		{"min-level", required_argument, NULL, 'l'},
 		{"mem-budget", required_argument, NULL, 'm'},
 		{"threads", required_argument, NULL, 'j'},
@@ -57,13 +99,16 @@ int main(int argc, char **argv)
 	struct vd_enc_job job = {.tool = "encode", .name = "scene",
 				 .min_level = 6,
 				 .mem_budget_bytes = 2ull << 30};
-	const char **stats = calloc((size_t)argc + 1, sizeof *stats);
+	size_t stats_cap = (size_t)argc + 1;
+	const char **stats = calloc(stats_cap, sizeof *stats);
+	char *lists = NULL; /* the --stats-list files' text, paths inside */
+	size_t lists_len = 0;
 	if (!stats) {
 		fprintf(stderr, "encode: out of memory\n");
 		return 1;
 	}
 	int c, rc = 0;
-	while ((c = getopt_long(argc, argv, "o:n:s:l:m:j:qh", longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, "o:n:s:S:l:m:j:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
 			job.outdir = optarg;
@@ -78,6 +123,12 @@ int main(int argc, char **argv)
 			break;
 		case 's':
 			stats[job.n_stats++] = optarg;
+			break;
+		case 'S':
+			if (read_list(optarg, &lists, &lists_len)) {
+				rc = 1;
+				goto done;
+			}
 			break;
 		case 'l':
 			if (vd_cli_int(optarg, 1, VD_MAX_LEVELS, &job.min_level)) {
@@ -125,6 +176,23 @@ int main(int argc, char **argv)
 	}
 	job.dag_path = argv[optind];
 	job.ssvdag_path = argv[optind + 1];
+	/* the --stats-list files' lines, after the --stats options */
+	for (size_t i = 0; i < lists_len; i += strlen(lists + i) + 1) {
+		if (!lists[i])
+			continue;
+		if ((size_t)job.n_stats + 1 >= stats_cap) {
+			stats_cap *= 2;
+			const char **g = realloc(stats, stats_cap * sizeof *stats);
+			if (!g) {
+				fprintf(stderr, "encode: out of memory\n");
+				rc = 1;
+				goto done;
+			}
+			stats = g;
+		}
+		stats[job.n_stats++] = lists + i;
+		stats[job.n_stats] = NULL;
+	}
 	job.stats_paths = stats;
 	if (vd_enc_run(&job)) {
 		fprintf(stderr, "encode: %s\n", vd_error_detail());
@@ -132,5 +200,6 @@ int main(int argc, char **argv)
 	}
 done:
 	free(stats);
+	free(lists);
 	return rc;
 }
