@@ -1432,6 +1432,35 @@ int vd_render_run(const struct vd_render_job *job);
 
 /* ---- end of render block */
 
+/* ---- Cube group (symmetry-merge --group 48)
+ *
+ * The 48 symmetries of the cube, numbered t = 8 * k + m: k (0..5) an axis
+ * permutation, m (0..7) a reflection in the bits of the 8-reflection group
+ * (bit 2 = X, bit 1 = Y, bit 0 = Z). Transform t maps a point p of an
+ * n-cube to q with q[i] = p[perm[k][i]] (axis 0 = X, 1 = Y, 2 = Z), then
+ * q[i] = n - 1 - q[i] for each axis i reflected by m: permute first, then
+ * reflect. t = 0 is the identity; t < 8 are the SSVDAG's reflections with
+ * the same numbering. Permutations k: 0 XYZ, 1 XZY, 2 YXZ, 3 YZX, 4 ZXY,
+ * 5 ZYX (output axis i takes input axis perm[k][i]). A transformed subtree
+ * holds voxel T(p) for each voxel p of the original. */
+#define VD_G48 48
+
+/* perm[k] of transform t: output axis i takes input axis vd_g48_perm(t)[i]. */
+const uint8_t *vd_g48_perm(unsigned t);
+/* Child index c (bit 2 = x, 1 = y, 0 = z) moved by t. */
+unsigned vd_g48_child(unsigned t, unsigned c);
+/* The transform p -> a(b(p)). */
+unsigned vd_g48_compose(unsigned a, unsigned b);
+/* The transform u with vd_g48_compose(t, u) == 0. */
+unsigned vd_g48_inverse(unsigned t);
+/* A 2x2x2 mask transformed by t: bit c -> bit vd_g48_child(t, c). */
+uint8_t vd_g48_mask(uint8_t v, unsigned t);
+/* A brick (byte c = child c's mask) transformed by t: local Morton bit
+ * c << 3 | c' -> child(t, c) << 3 | child(t, c'). */
+uint64_t vd_g48_brick(uint64_t v, unsigned t);
+
+/* ---- end of cube group block */
+
 #ifdef __cplusplus
 }
 #endif
