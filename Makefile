@@ -26,7 +26,7 @@ CPPFLAGS += -D_GNU_SOURCE -Istages/lib
 CFLAGS   += -std=c11 $(WARN) -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
 LDFLAGS  += -Wl,--as-needed
-LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -lm -lpthread
+LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -ljansson -lm -lpthread
 
 ifeq ($(config),release)
 OUT := $(O)
@@ -48,7 +48,7 @@ endif
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
-                slurm-wlm munge libjansson-dev
+                slurm-wlm munge clang libjansson-dev
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
@@ -62,7 +62,7 @@ TEST_SRC := $(wildcard tests/unit/test_*.c)
 TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
 HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.h)
 
-.PHONY: all run pipeline test bench deps clean tests
+.PHONY: all run pipeline test bench deps clean tests fuzz fuzz-build
 .DEFAULT_GOAL := all
 
 all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxelize-vdb
@@ -148,11 +148,70 @@ JOBS ?= $(shell nproc)
 test: deps
 	@$(MAKE) --no-print-directory -j$(JOBS) all tests
 	@$(MAKE) --no-print-directory -j$(JOBS) config=sanitize all tests
+	@$(MAKE) --no-print-directory -j$(JOBS) fuzz-build
 	@tests/run.sh
 
 bench: deps
 	@$(MAKE) --no-print-directory -j$(JOBS) all
 	@tests/bench.sh
+
+# Fuzzing (libFuzzer, Debian's clang): one target per reader,
+# tests/fuzz/fuzz_*.c, over the library compiled again with clang into
+# $(O)/fuzz/. `make fuzz` runs each for FUZZ_SECONDS from its seed corpus
+# tests/fuzz/corpus/<target>/ (new inputs go to $(O)/fuzz/corpus/, the
+# crashes to $(O)/fuzz/crash/); `make test` runs each for a few seconds
+# (tests/cli/fuzz.sh).
+FUZZ_SECONDS ?= 600
+FUZZ_CC  := clang
+FUZZ_CXX := clang++
+FUZZ_OUT := $(O)/fuzz
+FUZZ_SAN := -fsanitize=address,undefined -fno-sanitize-recover=undefined \
+            -fno-omit-frame-pointer
+FUZZ_CFLAGS := -std=c11 $(WARN) -Wno-unknown-warning-option -g -O1 \
+               $(FUZZ_SAN) -fsanitize=fuzzer-no-link
+FUZZ_CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -g -O1 $(FUZZ_SAN) \
+                 -fsanitize=fuzzer-no-link
+FUZZ_LIB_OBJ := $(LIB_C:stages/lib/%.c=$(FUZZ_OUT)/obj/lib/%.o) \
+                $(LIB_CC:stages/lib/%.cc=$(FUZZ_OUT)/obj/lib/%.o)
+FUZZ_LIB := $(FUZZ_OUT)/lib/libvoxdag.a
+FUZZ_SRC := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_BINS := $(FUZZ_SRC:tests/fuzz/%.c=$(FUZZ_OUT)/%)
+
+$(FUZZ_OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS) $(FUZZ_CFLAGS) -c -o $@ $<
+
+$(FUZZ_OUT)/obj/lib/%.o: stages/lib/%.cc $(HEADERS)
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) $(CPPFLAGS) $(FUZZ_CXXFLAGS) -c -o $@ $<
+
+$(FUZZ_LIB): $(FUZZ_LIB_OBJ)
+	@mkdir -p $(@D)
+	rm -f $@ && ar rcs $@ $^
+
+# The YAML target reads pipelines with the runner's own config.c.
+$(FUZZ_OUT)/obj/pipeline/%.o: pipeline/%.c pipeline/pipeline.h $(HEADERS)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS) $(FUZZ_CFLAGS) -Wno-format-truncation -c -o $@ $<
+
+$(FUZZ_OUT)/fuzz_config: $(FUZZ_OUT)/obj/pipeline/config.o
+$(FUZZ_OUT)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB) $(HEADERS)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS) -Ipipeline -Itests/fuzz $(FUZZ_CFLAGS) -c -o $@.o $<
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $@.o \
+		$(filter %.o,$(filter-out $@.o,$^)) $(FUZZ_LIB) -lyaml $(LDLIBS)
+
+fuzz-build: $(FUZZ_BINS)
+
+fuzz: fuzz-build
+	@for t in $(FUZZ_BINS); do \
+		n=$$(basename $$t); \
+		mkdir -p $(FUZZ_OUT)/corpus/$$n $(FUZZ_OUT)/crash/$$n; \
+		echo "== $$n for $(FUZZ_SECONDS) s"; \
+		$$t -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 \
+		    -artifact_prefix=$(FUZZ_OUT)/crash/$$n/ -print_final_stats=1 \
+		    $(FUZZ_OUT)/corpus/$$n tests/fuzz/corpus/$$n || exit 1; \
+	done
 
 clean:
 	rm -rf out

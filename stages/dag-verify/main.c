@@ -45,6 +45,8 @@ struct enc_cmp {
 	size_t n, at;
 	uint64_t diff, first;
 	int first_in_enc, have_first;
+	uint64_t last;   /* the last key decoded */
+	int have_last;
 };
 
 static void note(struct enc_cmp *c, uint64_t key, uint64_t a, uint64_t b)
@@ -64,6 +66,12 @@ static void note(struct enc_cmp *c, uint64_t key, uint64_t a, uint64_t b)
 static int enc_brick(void *ctx, uint64_t key, uint64_t brick)
 {
 	struct enc_cmp *c = ctx;
+	/* The merge below needs the decoder's Morton order. */
+	if (c->have_last && key <= c->last)
+		return vd_fail(VD_ERR_CORRUPT, "brick %" PRIu64 " decoded after "
+			       "brick %" PRIu64, key, c->last);
+	c->last = key;
+	c->have_last = 1;
 	while (c->at < c->n && c->keys[c->at] < key) {
 		note(c, c->keys[c->at], 0, c->masks[c->at]);
 		c->at++;

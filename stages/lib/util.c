@@ -108,6 +108,18 @@ int vd_transform_init(struct vd_transform *t, const float bbox_min[3],
 	return VD_OK;
 }
 
+int vd_transform_equal(const struct vd_transform *a,
+		       const struct vd_transform *b)
+{
+	/* Field by field: the struct has padding whose bytes are unset. */
+	return memcmp(a->bbox_min, b->bbox_min, sizeof a->bbox_min) == 0 &&
+	       memcmp(a->bbox_max, b->bbox_max, sizeof a->bbox_max) == 0 &&
+	       memcmp(&a->root_side, &b->root_side, sizeof a->root_side) == 0 &&
+	       memcmp(a->origin, b->origin, sizeof a->origin) == 0 &&
+	       memcmp(&a->voxel_size, &b->voxel_size,
+		      sizeof a->voxel_size) == 0;
+}
+
 void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 			uint64_t cell_morton, const char *ext)
 {

@@ -155,6 +155,13 @@ struct vd_transform {
 int vd_transform_init(struct vd_transform *t, const float bbox_min[3],
 		      const float bbox_max[3], int levels);
 
+/* 1 when `a` and `b` place a grid identically: every field (bounding box,
+ * root side, origin, voxel size) has the same bits, so -0 and +0 differ (the
+ * encodings store the box's bits) and a NaN equals itself. The one
+ * comparison used wherever chunks of one grid are combined. */
+int vd_transform_equal(const struct vd_transform *a,
+		       const struct vd_transform *b);
+
 /* -------------------------------------------------------------- chunk files
  * The binary format every stage reads and writes; specified in
  * schemas/chunk-format.md. A writer streams sections to a temporary file and
@@ -584,6 +591,13 @@ struct vd_vdb_info {
 };
 
 struct vd_vdb;
+
+/* Walks the structure of the OpenVDB file `f` (vdb_walk.c, no OpenVDB):
+ * magic number, header, file metadata, grid descriptors and their end
+ * offsets, and checks each length against the file's size before OpenVDB
+ * trusts it. Sets *grids to the grid count. Errors: VD_ERR_EMPTY,
+ * VD_ERR_FORMAT (no magic), VD_ERR_TRUNCATED, VD_ERR_CORRUPT, VD_ERR_IO. */
+int vd_vdb_walk(FILE *f, uint64_t *grids);
 
 /* Reads grid `sel->grid_name` (the first grid when NULL) of the OpenVDB
  * file `path` into memory (OpenVDB holds the tree; nothing is copied

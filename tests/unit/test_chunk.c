@@ -3,6 +3,7 @@
 #include "check.h"
 #include "voxdag.h"
 
+#include <math.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
@@ -311,6 +312,54 @@ static void test_svo_content_checks(void)
 	CHECK(strstr(vd_error_detail(), "outside") != NULL);
 }
 
+/* vd_transform_equal against pairs the three old comparisons (dag.c:
+ * box, side, origin, voxel size by ==; encode.c: box and side; vdb_export.c:
+ * origin and voxel size) judged wrongly. */
+static void test_transform_equal(void)
+{
+	const float lo[3] = {-1, 0, 2}, hi[3] = {3, 1, 4};
+	struct vd_transform t, u;
+	CHECK_EQ(vd_transform_init(&t, lo, hi, 8), VD_OK);
+	u = t;
+	CHECK(vd_transform_equal(&t, &u));
+	/* Another depth: same box, side and origin; encode.c said equal. */
+	CHECK_EQ(vd_transform_init(&u, lo, hi, 9), VD_OK);
+	CHECK(t.root_side == u.root_side && t.origin[0] == u.origin[0]);
+	CHECK(!vd_transform_equal(&t, &u));
+	/* Another origin, same box: encode.c said equal. */
+	u = t;
+	u.origin[1] += t.voxel_size;
+	CHECK(!vd_transform_equal(&t, &u));
+	/* Another stored box (the encodings' header), same placement:
+	 * vdb_export.c said equal. */
+	u = t;
+	u.bbox_min[2] = 2.5f;
+	CHECK(!vd_transform_equal(&t, &u));
+	/* -0 and +0: different header bytes; == said equal everywhere. */
+	const float lo0[3] = {0.0f, 0, 0}, lon[3] = {-0.0f, 0, 0};
+	const float hi1[3] = {1, 1, 1};
+	CHECK_EQ(vd_transform_init(&t, lo0, hi1, 4), VD_OK);
+	CHECK_EQ(vd_transform_init(&u, lon, hi1, 4), VD_OK);
+	CHECK(t.bbox_min[0] == u.bbox_min[0]);
+	CHECK(!vd_transform_equal(&t, &u));
+	/* A NaN field equals itself (== said never). */
+	u = t;
+	u.voxel_size = NAN;
+	struct vd_transform w = u;
+	CHECK(vd_transform_equal(&u, &w));
+	/* Padding bytes do not matter. */
+	memset(&u, 0xa5, sizeof u);
+	memset(&w, 0x5a, sizeof w);
+	u.root_side = w.root_side = 1;
+	for (int i = 0; i < 3; i++) {
+		u.bbox_min[i] = w.bbox_min[i] = 0;
+		u.bbox_max[i] = w.bbox_max[i] = 1;
+		u.origin[i] = w.origin[i] = 0;
+	}
+	u.voxel_size = w.voxel_size = 0.5;
+	CHECK(vd_transform_equal(&u, &w));
+}
+
 static void test_parse_size(void)
 {
 	uint64_t v;
@@ -363,6 +412,7 @@ int main(void)
 	RUN(test_abort_leaves_nothing);
 	RUN(test_svo_content_checks);
 	RUN(test_parse_size);
+	RUN(test_transform_equal);
 	RUN(test_morton);
 	return CHECK_DONE();
 }

@@ -1552,16 +1552,6 @@ static int reword(int err, const char *what, const char *subject)
 		       *d ? ": " : "", d);
 }
 
-static int same_transform(const struct vd_transform *a,
-			  const struct vd_transform *b)
-{
-	for (int i = 0; i < 3; i++)
-		if (a->bbox_min[i] != b->bbox_min[i] ||
-		    a->bbox_max[i] != b->bbox_max[i] ||
-		    a->origin[i] != b->origin[i])
-			return 0;
-	return a->root_side == b->root_side && a->voxel_size == b->voxel_size;
-}
 
 int vd_dag_run(const struct vd_dag_job *job)
 {
@@ -1619,7 +1609,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 			const struct vd_chunk_header *h = vd_chunk_header(c);
 			if (i == 0) tr = h->transform;
 			if (i > 0 && (int)h->levels == parts[0].levels &&
-			    !same_transform(&tr, &h->transform))
+			    !vd_transform_equal(&tr, &h->transform))
 				err = vd_fail(VD_ERR_MISMATCH, "cannot merge '%s': "
 					      "its world transform differs from "
 					      "'%s' (chunks of another scene or "

@@ -1414,15 +1414,6 @@ static void row_worker(void *ctx, size_t i, int worker)
 			  vd_error_detail());
 }
 
-static int same_transform(const struct vd_transform *a,
-			  const struct vd_transform *b)
-{
-	for (int i = 0; i < 3; i++)
-		if (a->bbox_min[i] != b->bbox_min[i] ||
-		    a->bbox_max[i] != b->bbox_max[i])
-			return 0;
-	return a->root_side == b->root_side;
-}
 
 /* Files an output directory from before manifests may hold (so it can be
  * replaced); anything else there is the user's. */
@@ -1463,7 +1454,7 @@ int vd_enc_run(const struct vd_enc_job *job)
 			     job->mem_budget_bytes)))
 		goto out;
 	if (dag.levels != ss.levels || dag.voxels != ss.voxels ||
-	    !same_transform(&t1, &t2)) {
+	    !vd_transform_equal(&t1, &t2)) {
 		err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with '%s': "
 			      "not the same scene (%d and %d levels, %" PRIu64
 			      " and %" PRIu64 " voxels, or another bounding box)",

@@ -620,11 +620,15 @@ int vd_chunk_open(struct vd_chunk **out, const char *path, uint32_t kind)
 	if (fd < 0)
 		return vd_fail(VD_ERR_IO, "%s", strerror(errno));
 	struct stat st;
-	if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+	if (fstat(fd, &st) != 0) {
 		int e = errno;
 		close(fd);
+		return vd_fail(VD_ERR_IO, "cannot stat: %s", strerror(e));
+	}
+	if (!S_ISREG(st.st_mode)) {
+		close(fd);
 		return vd_fail(VD_ERR_IO, "%s", S_ISDIR(st.st_mode) ?
-			       "is a directory" : strerror(e));
+			       "is a directory" : "not a regular file");
 	}
 	struct vd_chunk *c = calloc(1, sizeof *c);
 	size_t size = (size_t)st.st_size;

@@ -270,95 +270,6 @@ struct vd_vdb {
 
 namespace {
 
-// Walks the file's structure before OpenVDB reads it: header, file
-// metadata, then each grid's descriptor and its end offset. OpenVDB trusts
-// the lengths it reads (a cut file can make it wait on a huge read or
-// report zero grids), so a cut is found here, by the first length that
-// points past the end of the file. Layout (little-endian): int64 magic,
-// uint32 file version, uint32 library major and minor, uint8 "has grid
-// offsets", 36-byte UUID, file metadata (int32 count, then name, type and
-// value, each as uint32 length + bytes), int32 grid count, then per grid a
-// descriptor (name, type and parent name strings, int64 grid, block and
-// end offsets) followed by the grid up to its end offset.
-int check_structure(const unsigned char *head, size_t nhead, uint64_t size,
-		    FILE *f, uint64_t *grids)
-{
-	uint64_t pos = 0;
-	auto need = [&](uint64_t n, const char *what) -> int {
-		if (pos + n > size || n > size)
-			return vd_fail(VD_ERR_TRUNCATED, "the file (%llu bytes) "
-				       "ends inside %s", (unsigned long long)size,
-				       what);
-		return VD_OK;
-	};
-	unsigned char b[8];
-	auto rd = [&](int n, const char *what, uint64_t *v) -> int {
-		int err = need(uint64_t(n), what);
-		if (err)
-			return err;
-		if (pos + uint64_t(n) <= nhead) {
-			std::memcpy(b, head + pos, size_t(n));
-		} else if (std::fseek(f, long(pos), SEEK_SET) != 0 ||
-			   std::fread(b, 1, size_t(n), f) != size_t(n)) {
-			return vd_fail(VD_ERR_IO, "cannot read at byte %llu",
-				       (unsigned long long)pos);
-		}
-		pos += uint64_t(n);
-		*v = 0;
-		for (int i = n - 1; i >= 0; i--)
-			*v = *v << 8 | b[i];
-		return VD_OK;
-	};
-	auto skip_string = [&](const char *what) -> int {
-		uint64_t len;
-		int err = rd(4, what, &len);
-		if (!err && !(err = need(len, what)))
-			pos += len;
-		return err;
-	};
-	uint64_t version, v, offsets, count;
-	int err;
-	if ((err = rd(8, "the magic number", &v)) ||
-	    (err = rd(4, "the header", &version)) ||
-	    (err = rd(8, "the header", &v)) ||
-	    (err = rd(1, "the header", &offsets)) ||
-	    (err = need(36, "the header")))
-		return err;
-	pos += 36; // UUID
-	if ((err = rd(4, "the file metadata", &count)))
-		return err;
-	for (uint64_t i = 0; i < count; i++)
-		if ((err = skip_string("the file metadata")) ||
-		    (err = skip_string("the file metadata")) ||
-		    (err = skip_string("the file metadata")))
-			return err;
-	if ((err = rd(4, "the grid count", grids)))
-		return err;
-	if (!offsets)
-		return VD_OK; // old files without offsets: OpenVDB checks alone
-	for (uint64_t i = 0; i < *grids; i++) {
-		uint64_t gpos, bpos, epos;
-		if ((err = skip_string("a grid descriptor")) ||
-		    (err = skip_string("a grid descriptor")) ||
-		    (err = skip_string("a grid descriptor")) ||
-		    (err = rd(8, "a grid descriptor", &gpos)) ||
-		    (err = rd(8, "a grid descriptor", &bpos)) ||
-		    (err = rd(8, "a grid descriptor", &epos)))
-			return err;
-		if (gpos != pos || bpos < gpos || epos < bpos)
-			return vd_fail(VD_ERR_CORRUPT, "grid %llu has offsets "
-				       "%llu, %llu, %llu at byte %llu",
-				       (unsigned long long)i, (unsigned long long)gpos,
-				       (unsigned long long)bpos,
-				       (unsigned long long)epos, (unsigned long long)pos);
-		if ((err = need(epos - pos, "grid data")))
-			return err;
-		pos = epos;
-	}
-	(void)version;
-	return VD_OK;
-}
-
 // Reads the chosen grid; the caller catches.
 int read_grid(const char *path, const char *name, openvdb::GridBase::Ptr *out)
 {
@@ -366,28 +277,8 @@ int read_grid(const char *path, const char *name, openvdb::GridBase::Ptr *out)
 	FILE *f = std::fopen(path, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "%s", std::strerror(errno));
-	unsigned char head[4096];
-	size_t got = std::fread(head, 1, sizeof head, f);
-	int err = VD_OK;
-	uint64_t size = 0, grids = 0;
-	// OpenVDB files open with the int64 0x56444220 (" BDV"), little-endian
-	static const unsigned char want[8] = {0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0};
-	if (std::ferror(f))
-		err = vd_fail(VD_ERR_IO, "%s", std::strerror(errno));
-	else if (got == 0)
-		err = vd_fail(VD_ERR_EMPTY, "the file is empty");
-	else if (got < 8 && std::memcmp(head, want, got) == 0)
-		err = vd_fail(VD_ERR_TRUNCATED, "the file ends inside the "
-			      "OpenVDB magic number");
-	else if (got < 8 || std::memcmp(head, want, 8) != 0)
-		err = vd_fail(VD_ERR_FORMAT, "not an OpenVDB file (no VDB magic "
-			      "number)");
-	else if (std::fseek(f, 0, SEEK_END) != 0 || std::ftell(f) < 0)
-		err = vd_fail(VD_ERR_IO, "cannot seek: %s", std::strerror(errno));
-	else {
-		size = uint64_t(std::ftell(f));
-		err = check_structure(head, got, size, f, &grids);
-	}
+	uint64_t grids = 0;
+	int err = vd_vdb_walk(f, &grids);
 	std::fclose(f);
 	if (err)
 		return err;

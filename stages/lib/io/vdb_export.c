@@ -12,12 +12,6 @@ struct svo_feed {
 	struct vd_chunk_header first;
 };
 
-static int same_transform(const struct vd_transform *a,
-			  const struct vd_transform *b)
-{
-	return a->voxel_size == b->voxel_size && a->origin[0] == b->origin[0] &&
-	       a->origin[1] == b->origin[1] && a->origin[2] == b->origin[2];
-}
 
 static int feed_svo(void *ctx, const uint64_t **keys, const uint64_t **masks,
 		    size_t *n)
@@ -30,7 +24,7 @@ static int feed_svo(void *ctx, const uint64_t **keys, const uint64_t **masks,
 		struct vd_chunk_header h;
 		int err = vd_svo_load(&f->svo, &h, path);
 		if (!err && (h.levels != f->first.levels ||
-			     !same_transform(&h.transform, &f->first.transform)))
+			     !vd_transform_equal(&h.transform, &f->first.transform)))
 			err = vd_fail(VD_ERR_MISMATCH, "depth %u or transform "
 				      "differs from '%s' (depth %u): chunks "
 				      "of different grids", h.levels,

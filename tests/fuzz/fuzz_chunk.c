@@ -1,0 +1,29 @@
+/* fuzz_chunk.c - libFuzzer target: the chunk file reader
+ * (vd_chunk_open_mem, the same checks as vd_chunk_open), then each kind's
+ * content reader: SVO bricks, DAG and SSVDAG levels. */
+#include "fuzz.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+	struct vd_chunk *c;
+	if (vd_chunk_open_mem(&c, data, size, VD_KIND_ANY))
+		return 0;
+	const struct vd_chunk_header *h = vd_chunk_header(c);
+	(void)vd_chunk_provenance(c);
+	uint32_t n = vd_chunk_section_count(c);
+	for (uint32_t i = 0; i < n; i++)
+		(void)vd_chunk_has_section(c, vd_chunk_section_tag(c, i));
+	if (h->kind == VD_KIND_SVO) {
+		struct vd_svo s;
+		if (!vd_svo_from_chunk(&s, c))
+			vd_svo_release(&s);
+	} else if (h->kind == VD_KIND_DAG || h->kind == VD_KIND_SSVDAG) {
+		struct vd_dag d;
+		memset(&d, 0, sizeof d);
+		if (!vd_dag_from_chunk(&d, c, h->kind))
+			(void)vd_dag_memory_bytes(&d);
+		vd_dag_release(&d);
+	}
+	vd_chunk_free(c);
+	return 0;
+}
