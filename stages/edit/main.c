@@ -21,16 +21,16 @@ static const char usage[] =
 	"EDITED.dag.stats.json. The shell reads one line at a time from stdin\n"
 	"(also render FILE.png, save [FILE], stats, quit).\n"
 	"\n"
-	"  -o, --output FILE          edited chunk (written atomically)\n"
-	"  -s, --script FILE          the edits, one per line\n"
-	"  -S, --shell                interactive: lines from stdin\n"
-	"  -j, --threads N            worker threads (default: all cores)\n"
-	"  -P, --buckets-log2 P       2^P buckets on deep levels (default 16;\n"
-	"                             level l has 2^min(P, 3l+4))\n"
-	"  -M, --bucket-words-log2 M  2^M 32-bit words per bucket (default 10;\n"
-	"                             4 <= M, P + M <= 30)\n"
-	"  -q, --quiet                no summary line on stderr\n"
-	"  -h, --help                 this text\n"
+	"  -o, --output FILE       edited chunk (written atomically)\n"
+	"  -s, --script FILE       the edits, one per line\n"
+	"  -S, --shell             interactive: lines from stdin\n"
+	"  -j, --threads N         worker threads (default: all cores)\n"
+	"  -P, --buckets P         2^P buckets on deep levels (default 16;\n"
+	"                          level l has 2^min(P, 3l+4))\n"
+	"  -M, --bucket-words M    2^M 32-bit words per bucket (default 10;\n"
+	"                          4 <= M, P + M <= 30)\n"
+	"  -q, --quiet             no summary line on stderr\n"
+	"  -h, --help              this text\n"
 	"\n"
 	"A full bucket stops the edit with an error: run gc, or raise -P/-M.\n"
 	"Exit status: 0 success, 1 failure (bad input, full bucket, I/O), 2 usage.\n";
@@ -42,8 +42,8 @@ int main(int argc, char **argv)
 		{"script", required_argument, NULL, 's'},
 		{"shell", no_argument, NULL, 'S'},
 		{"threads", required_argument, NULL, 'j'},
-		{"buckets-log2", required_argument, NULL, 'P'},
-		{"bucket-words-log2", required_argument, NULL, 'M'},
+		{"buckets", required_argument, NULL, 'P'},
+		{"bucket-words", required_argument, NULL, 'M'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0}};
@@ -62,14 +62,14 @@ int main(int argc, char **argv)
 			break;
 		case 'P':
 			if (vd_cli_int(optarg, 0, 26, &job.opts.buckets_log2))
-				return vd_cli_usage(TOOL, "bad --buckets-log2 "
+				return vd_cli_usage(TOOL, "bad --buckets "
 						    "'%s' (0..26)", optarg);
 			break;
 		case 'M':
 			if (vd_cli_int(optarg, 4, 26,
 				       &job.opts.bucket_words_log2))
 				return vd_cli_usage(TOOL, "bad "
-						    "--bucket-words-log2 '%s' "
+						    "--bucket-words '%s' "
 						    "(4..26)", optarg);
 			break;
 		case 'q': job.quiet = 1; break;
@@ -87,14 +87,15 @@ int main(int argc, char **argv)
 		return vd_cli_usage(TOOL, "--script needs -o EDITED.dag");
 	if (job.opts.buckets_log2 && job.opts.bucket_words_log2 &&
 	    job.opts.buckets_log2 + job.opts.bucket_words_log2 > 30)
-		return vd_cli_usage(TOOL, "--buckets-log2 + --bucket-words-log2 "
+		return vd_cli_usage(TOOL, "--buckets + --bucket-words "
 				    "must be at most 30");
 	char *prov = vd_provenance_new(TOOL, argc, argv);
 	job.provenance = prov;
 	int err = vd_edit_run(&job);
 	free(prov);
 	if (err) {
-		fprintf(stderr, "%s: %s\n", TOOL, vd_error_detail());
+		if (*vd_error_detail()) /* the shell reported its own */
+			fprintf(stderr, "%s: %s\n", TOOL, vd_error_detail());
 		return 1;
 	}
 	return 0;

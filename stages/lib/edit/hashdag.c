@@ -64,8 +64,8 @@ static int bucket_full(const struct hd_level *lv, int l, uint32_t b)
 {
 	return vd_fail(VD_ERR_BUDGET,
 		       "bucket %u of level %d is full (%u words): run gc, or "
-		       "reserve more with --buckets-log2 (level %d has 2^%d "
-		       "buckets) or --bucket-words-log2 (now %d)",
+		       "reserve more with --buckets (level %d has 2^%d "
+		       "buckets) or --bucket-words (now %d)",
 		       b, l, 1u << lv->m, l, lv->p, lv->m);
 }
 

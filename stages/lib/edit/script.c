@@ -6,6 +6,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -21,6 +22,22 @@ struct cmd {
 	char text[256];          /* the line, for statistics */
 	char path[1024];         /* render, save */
 };
+
+/* Sets the detail to "PREFIX: [REASON: ]OLD DETAIL" (the old detail is
+ * copied first: vd_fail() formats into the same buffer). */
+static int rewrap(int err, int reason, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4)));
+static int rewrap(int err, int reason, const char *fmt, ...)
+{
+	char old[1024], pre[1200];
+	snprintf(old, sizeof old, "%s", vd_error_detail());
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(pre, sizeof pre, fmt, ap);
+	va_end(ap);
+	return vd_fail(err, "%s: %s%s%s", pre, reason ? vd_strerror(err) : "",
+		       reason && *old ? ": " : "", old);
+}
 
 struct tok {
 	const char *s;
@@ -174,7 +191,8 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 			return vd_fail(VD_ERR_FORMAT, "line %d, column %d: "
 				       "expected %d numbers", lineno,
 				       (int)strlen(line) + 1, nv);
-		if ((err = num(lineno, &t[i], !world, &v[k])))
+		if ((err = num(lineno, &t[i],
+			       !world && op->shape == VD_SHAPE_BOX, &v[k])))
 			return err;
 	}
 	if (op->kind == VD_EDIT_COPY) {
@@ -221,8 +239,8 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 		}
 	}
 	if ((err = vd_edit_op_check(h, op)))
-		return vd_fail(err, "line %d, column %d: %s", lineno,
-			       t[first].col, vd_error_detail());
+		return rewrap(err, 0, "line %d, column %d", lineno,
+			      t[first].col);
 	return VD_OK;
 }
 
@@ -269,8 +287,7 @@ static int render_to(const struct vd_edit_job *job, struct vd_hashdag *h,
 	snprintf(tmp, sizeof tmp, "%s.edit-%d.dag", png, (int)getpid());
 	int err = vd_hashdag_save(h, tmp, NULL);
 	if (err)
-		return vd_fail(err, "cannot render '%s': %s", png,
-			       vd_error_detail());
+		return rewrap(err, 1, "cannot render '%s'", png);
 	struct vd_render_job r = {.tool = job->tool, .input = tmp,
 				  .output = png, .preset = "iso", .quiet = 1};
 	r.opts.width = 640;
@@ -303,8 +320,7 @@ static int run_cmd(const struct vd_edit_job *job, struct vd_hashdag *h,
 		if (!p)
 			return vd_fail(VD_ERR_ARG, "save needs a FILE (no -o)");
 		int err = vd_hashdag_save(h, p, job->provenance);
-		return err ? vd_fail(err, "cannot write '%s': %s", p,
-				     vd_error_detail()) : VD_OK;
+		return err ? rewrap(err, 1, "cannot write '%s'", p) : VD_OK;
 	}
 	case CMD_STATS:
 		print_stats(job->out ? job->out : stdout, h);
@@ -373,8 +389,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 			cmds = v;
 		}
 		if ((err = parse_line(h, p, lineno + 1, &cmds[nc])))
-			err = vd_fail(err, "cannot parse '%s': %s", job->script,
-				      vd_error_detail());
+			err = rewrap(err, 0, "cannot parse '%s'", job->script);
 		if (!err && cmds[nc].kind != CMD_NONE)
 			nc++;
 		p = e ? e + 1 : p + strlen(p);
@@ -384,8 +399,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	snprintf(stats, sizeof stats, "%s.stats.json", job->output);
 	struct vd_json *j = NULL;
 	if (!err && (err = vd_json_open(&j, stats)))
-		err = vd_fail(err, "cannot write '%s': %s", stats,
-			      vd_error_detail());
+		err = rewrap(err, 1, "cannot write '%s'", stats);
 	if (!err) {
 		vd_json_str(j, "tool", job->tool);
 		vd_json_str(j, "version", VD_VERSION_STRING);
@@ -399,9 +413,8 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	for (size_t i = 0; i < nc && !err; i++) {
 		struct vd_edit_stats st;
 		if ((err = run_cmd(job, h, &cmds[i], &st))) {
-			err = vd_fail(err, "cannot apply line %d of '%s': %s",
-				      cmds[i].line, job->script,
-				      vd_error_detail());
+			err = rewrap(err, 0, "cannot apply line %d of '%s'",
+				     cmds[i].line, job->script);
 			break;
 		}
 		if (cmds[i].kind == CMD_OP || cmds[i].kind == CMD_GC ||
@@ -410,7 +423,8 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	}
 	free(cmds);
 	if (err) {
-		vd_json_close(j); /* never under its name: see below */
+		if (j)
+			vd_json_close(j); /* then removed: no statistics of a failed run */
 		unlink(stats);
 		return err;
 	}
@@ -419,8 +433,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	struct vd_dag dag;
 	if ((err = vd_hashdag_to_dag(h, &dag)) ||
 	    (err = vd_dag_save(&dag, &h->t, job->output, job->provenance)))
-		err = vd_fail(err, "cannot write '%s': %s", job->output,
-			      vd_error_detail());
+		err = rewrap(err, 1, "cannot write '%s'", job->output);
 	if (!err) {
 		uint64_t st1[VD_MAX_LEVELS], reach[VD_MAX_LEVELS];
 		vd_hashdag_counts(h, st1, reach);
@@ -446,8 +459,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		return err;
 	}
 	if ((err = vd_json_close(j)))
-		return vd_fail(err, "cannot write '%s': %s", stats,
-			       vd_error_detail());
+		return rewrap(err, 1, "cannot write '%s'", stats);
 	return VD_OK;
 }
 
@@ -482,9 +494,10 @@ static int run_shell(const struct vd_edit_job *job, struct vd_hashdag *h)
 			fprintf(out, "ok\n");
 		fflush(out);
 	}
-	/* A shell that met errors says so in its exit status. */
-	return failed ? vd_fail(VD_ERR_FORMAT, "some lines failed (see above)")
-		      : VD_OK;
+	/* A shell that met errors says so in its exit status; each was
+	 * reported on its line, so the detail stays empty. */
+	vd_error_clear();
+	return failed ? VD_ERR_FORMAT : VD_OK;
 }
 
 int vd_edit_run(const struct vd_edit_job *job)
@@ -493,8 +506,7 @@ int vd_edit_run(const struct vd_edit_job *job)
 	struct vd_hashdag *h;
 	int err = vd_hashdag_load(&h, job->input, &job->opts);
 	if (err)
-		return vd_fail(err, "cannot read '%s': %s", job->input,
-			       vd_error_detail());
+		return rewrap(err, 1, "cannot read '%s'", job->input);
 	err = job->script ? run_script(job, h, vd_seconds() - t0)
 			  : run_shell(job, h);
 	vd_hashdag_free(h);
