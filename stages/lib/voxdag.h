@@ -45,7 +45,8 @@ extern "C" {
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
 	X("render", 1)                                                      \
-	X("lossy-cluster", 1)
+	X("lossy-cluster", 1)                                                \
+	X("edit", 1)
 
 /* The version of the stage named `tool` (as in out/bin/), 0 if unknown. */
 int vd_stage_version(const char *tool);
@@ -1475,9 +1476,126 @@ uint64_t vd_g48_brick(uint64_t v, unsigned t);
 
 /* ---- end of cube group block */
 
-#ifdef __cplusplus
-}
-#endif
+/* ------------------------------------------------------- edit (lib/edit/)
+ * The HashDAG of Careil, Billeter and Eisemann (2020) on the CPU: a root
+ * DAG chunk loaded into per-level hashed tables so that edits (fill, carve,
+ * copy) descend only where they change something, find or append the new
+ * nodes by hashing and yield a new root while the old roots stay valid
+ * (undo / redo). Per level, 2^P buckets of 2^M 32-bit words are reserved
+ * as virtual memory (mmap MAP_NORESERVE) and committed only when touched;
+ * a node's pointer is bucket << M | offset. Inner nodes are hashed with
+ * XXH3, the 4x4x4 leaf bricks with a 64-bit bit mixer. A full bucket fails
+ * the edit with VD_ERR_BUDGET (the scene is left as it was): run gc, or
+ * reserve more (larger buckets_log2 / bucket_words_log2). Saving writes the
+ * minimal DAG svo-to-dag would build for the same voxels, byte for byte.
+ * The line format of edit scripts and the shell: schemas/edit-script.md. */
+struct vd_hashdag;
+
+struct vd_hashdag_opts {
+	int buckets_log2;      /* P of the deep levels (0: 16); level l gets
+				  min(P, 3 l + 4) */
+	int bucket_words_log2; /* M (0: 10); P + M <= 30 */
+	int threads;           /* 0: all cores */
+	int split_level;       /* edits run one job per node of this level
+				  (0: 3, clamped to L-2) */
+};
+
+enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,
+		    VD_EDIT_PAINT };
+enum vd_edit_shape { VD_SHAPE_BOX, VD_SHAPE_SPHERE };
+
+/* One edit in voxel coordinates. Box: voxels lo..hi inclusive, inside the
+ * grid. Sphere: voxels whose centre (x + 0.5, y + 0.5, z + 0.5) is at
+ * distance <= r of c. Copy: the box lo..hi of the scene before the edit is
+ * written (set and cleared voxels) at dst..dst + hi - lo. */
+struct vd_edit_op {
+	int kind;              /* enum vd_edit_kind */
+	int shape;             /* enum vd_edit_shape (copy: box) */
+	int64_t lo[3], hi[3];  /* box */
+	double c[3], r;        /* sphere */
+	int64_t dst[3];        /* copy destination corner */
+};
+
+/* What one edit (or gc) did. */
+struct vd_edit_stats {
+	uint64_t voxels_changed;
+	uint64_t nodes_added[VD_MAX_LEVELS];  /* per level 0..L-2 */
+	double seconds;
+	uint64_t hash_bytes;                  /* committed bytes afterwards */
+};
+
+/* Loads a root DAG chunk (kind dag, chunk_level 0, L >= 3). `o` may be
+ * NULL. Free with vd_hashdag_free(). */
+int vd_hashdag_load(struct vd_hashdag **out, const char *path,
+		    const struct vd_hashdag_opts *o);
+/* The same from a DAG in memory placed by `t`. */
+int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
+			const struct vd_transform *t,
+			const struct vd_hashdag_opts *o);
+void vd_hashdag_free(struct vd_hashdag *h);
+
+int vd_hashdag_levels(const struct vd_hashdag *h);
+const struct vd_transform *vd_hashdag_transform(const struct vd_hashdag *h);
+
+/* Checks `op` against the grid (VD_ERR_RANGE, detail says what). */
+int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op);
+
+/* Applies `op` to the current scene and makes the result current (the redo
+ * part of the history is dropped). VD_ERR_UNSUPPORTED for paint (no
+ * colours), VD_ERR_BUDGET for a full bucket (nothing changes). `st` may be
+ * NULL. */
+int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
+		     struct vd_edit_stats *st);
+
+/* Steps through the history: VD_ERR_RANGE when there is nothing to undo or
+ * redo. */
+int vd_hashdag_undo(struct vd_hashdag *h);
+int vd_hashdag_redo(struct vd_hashdag *h);
+
+/* Garbage collection: keeps the current root (keep_history 0; the history
+ * becomes that one root) or every root of the history, drops every other
+ * node and compacts each level bottom-up into fresh tables. Afterwards the
+ * tables hold exactly the nodes reachable from the kept roots. */
+int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
+		  struct vd_edit_stats *st);
+
+/* Per level 0..L-2: nodes stored, and nodes reachable from the current
+ * root (either may be NULL). */
+void vd_hashdag_counts(const struct vd_hashdag *h, uint64_t *stored,
+		       uint64_t *reachable);
+/* Bytes of the committed pages of the tables plus their bookkeeping. */
+uint64_t vd_hashdag_memory_bytes(const struct vd_hashdag *h);
+/* Fullest bucket of level l, in words used. */
+uint32_t vd_hashdag_max_bucket(const struct vd_hashdag *h, int l);
+
+/* The current scene as SVO bricks (Morton order), as the minimal DAG that
+ * svo-to-dag builds from those bricks, or saved as a root DAG chunk. */
+int vd_hashdag_to_svo(const struct vd_hashdag *h, struct vd_svo *svo);
+int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag);
+int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
+		    const char *provenance);
+
+/* One run of the edit tool (script.c). */
+struct vd_edit_job {
+	const char *tool;         /* "edit" */
+	const char *input;        /* root DAG chunk */
+	const char *output;       /* edited chunk; statistics beside it with
+				     ".stats.json" (script mode) */
+	const char *script;       /* script file, or NULL for the shell */
+	FILE *in, *out;           /* shell streams */
+	const char *provenance;
+	struct vd_hashdag_opts opts;
+	int quiet;
+};
+
+/* Script mode: parses and checks the whole script first (errors name line
+ * and column), loads, applies, saves and writes the statistics. Shell mode
+ * (script NULL): reads lines from job->in and answers on job->out. On
+ * failure the detail is the whole message after the tool name. */
+int vd_edit_run(const struct vd_edit_job *job);
+
+/* ----------------------------------------------------- end of edit block */
+
 
 /* ------------------------------------------------ lossy SVDAGs (lossy.c)
  * van der Laan, Scandolo and Eisemann 2020: on each level from height 2
@@ -1565,5 +1683,9 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 int vd_lossy_run(const char *in, const char *out,
 		 const struct vd_lossy_opts *o, uint64_t mem_budget,
 		 const char *provenance, int quiet);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* VOXDAG_H */

@@ -1,0 +1,89 @@
+/* edit_internal.h - the HashDAG's internals shared by hashdag.c (tables,
+ * load, decode, save, gc), ops.c (fill, carve, copy) and script.c (the
+ * line format, the script run and the shell).
+ *
+ * Levels: 0 (the root) .. L-3 hold inner nodes, L-2 the leaves, 4x4x4
+ * bricks stored as two 32-bit words (low word first). An inner node is
+ * one word with the 8-bit child mask in its low byte, then one 32-bit
+ * pointer per set bit in slot order. A pointer is bucket << M | offset in
+ * words inside the bucket, so it never moves; EMPTY (all ones) is the
+ * empty subtree and never a valid pointer (P + M <= 30). */
+#ifndef VD_EDIT_INTERNAL_H
+#define VD_EDIT_INTERNAL_H
+
+#include "voxdag.h"
+
+#include <pthread.h>
+
+#define HD_EMPTY 0xffffffffu
+#define HD_LOCKS 1024 /* bucket locks per level (striped) */
+
+struct hd_level {
+	uint32_t *words;      /* 2^(P+M) words reserved, committed on touch */
+	uint32_t *used;       /* words used in each of the 2^P buckets */
+	int p, m;             /* log2 buckets, log2 words per bucket */
+	uint64_t nodes;       /* nodes stored (atomic adds) */
+	uint32_t full;        /* the full subtree node, HD_EMPTY if not made */
+	pthread_mutex_t lock[HD_LOCKS];
+};
+
+struct vd_hashdag {
+	int levels;                  /* grid depth L (>= 3) */
+	struct vd_transform t;       /* where the grid sits in the world */
+	struct vd_hashdag_opts o;
+	struct hd_level lv[VD_MAX_LEVELS]; /* 0 .. L-2 */
+	uint32_t *roots;             /* history of roots, oldest first */
+	size_t nroots, cap_roots, cur; /* roots[cur] is the scene */
+};
+
+/* Node size in words: leaves 2, inner 1 + children. */
+static inline uint32_t hd_node_words(const struct vd_hashdag *h, int l,
+				     const uint32_t *n)
+{
+	return l == h->levels - 2 ? 2 : 1 + (uint32_t)__builtin_popcount(n[0] & 0xff);
+}
+
+static inline const uint32_t *hd_node(const struct vd_hashdag *h, int l,
+				      uint32_t ptr)
+{
+	return h->lv[l].words + ptr;
+}
+
+static inline uint64_t hd_brick(const struct vd_hashdag *h, uint32_t ptr)
+{
+	const uint32_t *w = hd_node(h, h->levels - 2, ptr);
+	return (uint64_t)w[0] | (uint64_t)w[1] << 32;
+}
+
+/* The pointer of child slot c of inner node `ptr` on level l (HD_EMPTY
+ * when absent or ptr is HD_EMPTY). */
+static inline uint32_t hd_child(const struct vd_hashdag *h, int l,
+				uint32_t ptr, int c)
+{
+	if (ptr == HD_EMPTY)
+		return HD_EMPTY;
+	const uint32_t *n = hd_node(h, l, ptr);
+	uint32_t m = n[0] & 0xff;
+	if (!(m >> c & 1))
+		return HD_EMPTY;
+	return n[1 + __builtin_popcount(m & ((1u << c) - 1))];
+}
+
+/* Finds or appends a node (thread-safe: bucket locks). *out its pointer.
+ * VD_ERR_BUDGET when its bucket is full. */
+int hd_insert_inner(struct vd_hashdag *h, int l, uint8_t mask,
+		    const uint32_t *child, uint32_t *out);
+int hd_insert_leaf(struct vd_hashdag *h, uint64_t brick, uint32_t *out);
+
+/* Makes (finds) the full subtree nodes of every level (not thread-safe:
+ * called before an edit's parallel part). */
+int hd_make_full(struct vd_hashdag *h);
+
+/* The node on level `l` covering voxel (x, y, z) in the tree of `root`. */
+uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
+		   uint32_t x, uint32_t y, uint32_t z);
+
+/* Pushes a new scene root (drops the redo part of the history). */
+int hd_push_root(struct vd_hashdag *h, uint32_t root);
+
+#endif

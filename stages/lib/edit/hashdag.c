@@ -1,0 +1,640 @@
+/* hashdag.c - the HashDAG's tables: reservation, hashing, find-or-append,
+ * loading a root DAG chunk, decoding the scene, saving it canonically,
+ * history and garbage collection (paper sections 3.2, 3.3 and 3.5). */
+#include "edit_internal.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+
+/* The leaves' bit mixer (a 64-bit finaliser in the style of splitmix). */
+static uint64_t mix64(uint64_t v)
+{
+	v ^= v >> 31;
+	v *= 0x7fb5d329728ea185ULL;
+	v ^= v >> 27;
+	v *= 0x81dadef4bc2dd44dULL;
+	v ^= v >> 33;
+	return v;
+}
+
+static void level_free(struct hd_level *lv)
+{
+	if (lv->words)
+		munmap(lv->words, (size_t)4 << (lv->p + lv->m));
+	free(lv->used);
+	if (lv->used)
+		for (int i = 0; i < HD_LOCKS; i++)
+			pthread_mutex_destroy(&lv->lock[i]);
+	memset(lv, 0, sizeof *lv);
+}
+
+static int level_init(struct hd_level *lv, int p, int m)
+{
+	memset(lv, 0, sizeof *lv);
+	lv->p = p;
+	lv->m = m;
+	lv->full = HD_EMPTY;
+	size_t bytes = (size_t)4 << (p + m);
+	void *w = mmap(NULL, bytes, PROT_READ | PROT_WRITE,
+		       MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+	if (w == MAP_FAILED)
+		return vd_fail(VD_ERR_NOMEM, "cannot reserve %zu bytes: %s",
+			       bytes, strerror(errno));
+	lv->words = w;
+	lv->used = calloc((size_t)1 << p, sizeof *lv->used);
+	if (!lv->used) {
+		munmap(w, bytes);
+		lv->words = NULL;
+		return vd_fail(VD_ERR_NOMEM, "bucket table");
+	}
+	for (int i = 0; i < HD_LOCKS; i++)
+		pthread_mutex_init(&lv->lock[i], NULL);
+	return VD_OK;
+}
+
+static int level_p(const struct vd_hashdag_opts *o, int l)
+{
+	int p = 3 * l + 4;
+	return p < o->buckets_log2 ? p : o->buckets_log2;
+}
+
+static int bucket_full(const struct hd_level *lv, int l, uint32_t b)
+{
+	return vd_fail(VD_ERR_BUDGET,
+		       "bucket %u of level %d is full (%u words): run gc, or "
+		       "reserve more with --buckets (level %d has 2^%d "
+		       "buckets) or --bucket-words (now %d)",
+		       b, l, 1u << lv->m, l, lv->p, lv->m);
+}
+
+/* Finds the node w[0..n) in its bucket or appends it. */
+static int insert_words(struct vd_hashdag *h, struct hd_level *lv, int l,
+			const uint32_t *w, uint32_t n, uint64_t hash,
+			uint32_t *out)
+{
+	uint32_t b = (uint32_t)(hash & (((uint64_t)1 << lv->p) - 1));
+	uint32_t *base = lv->words + ((size_t)b << lv->m);
+	pthread_mutex_t *lock = &lv->lock[b % HD_LOCKS];
+	pthread_mutex_lock(lock);
+	uint32_t used = lv->used[b], off = 0;
+	while (off < used) {
+		uint32_t sz = hd_node_words(h, l, base + off);
+		if (sz == n && !memcmp(base + off, w, 4 * (size_t)n)) {
+			pthread_mutex_unlock(lock);
+			*out = b << lv->m | off;
+			return VD_OK;
+		}
+		off += sz;
+	}
+	if (used + n > 1u << lv->m) {
+		pthread_mutex_unlock(lock);
+		return bucket_full(lv, l, b);
+	}
+	memcpy(base + used, w, 4 * (size_t)n);
+	lv->used[b] = used + n;
+	pthread_mutex_unlock(lock);
+	__atomic_fetch_add(&lv->nodes, 1, __ATOMIC_RELAXED);
+	*out = b << lv->m | used;
+	return VD_OK;
+}
+
+int hd_insert_inner(struct vd_hashdag *h, int l, uint8_t mask,
+		    const uint32_t *child, uint32_t *out)
+{
+	uint32_t w[9];
+	uint32_t n = 1;
+	w[0] = mask;
+	for (int c = 0; c < 8; c++)
+		if (mask >> c & 1)
+			w[n++] = child[c];
+	return insert_words(h, &h->lv[l], l, w, n,
+			    vd_hash64(w, 4 * (size_t)n, (uint64_t)l), out);
+}
+
+int hd_insert_leaf(struct vd_hashdag *h, uint64_t brick, uint32_t *out)
+{
+	uint32_t w[2] = {(uint32_t)brick, (uint32_t)(brick >> 32)};
+	return insert_words(h, &h->lv[h->levels - 2], h->levels - 2, w, 2,
+			    mix64(brick), out);
+}
+
+int hd_make_full(struct vd_hashdag *h)
+{
+	int L = h->levels, err;
+	uint32_t ch[8];
+	if (h->lv[L - 2].full == HD_EMPTY &&
+	    (err = hd_insert_leaf(h, ~0ull, &h->lv[L - 2].full)))
+		return err;
+	for (int l = L - 3; l >= 0; l--) {
+		if (h->lv[l].full != HD_EMPTY)
+			continue;
+		for (int c = 0; c < 8; c++)
+			ch[c] = h->lv[l + 1].full;
+		if ((err = hd_insert_inner(h, l, 0xff, ch, &h->lv[l].full)))
+			return err;
+	}
+	return VD_OK;
+}
+
+uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
+		   uint32_t x, uint32_t y, uint32_t z)
+{
+	uint32_t p = root;
+	int L = h->levels;
+	for (int k = 0; k < l && p != HD_EMPTY; k++) {
+		int s = L - 1 - k; /* bit of the child's coordinate */
+		int c = (int)((x >> s & 1) << 2 | (y >> s & 1) << 1 |
+			      (z >> s & 1));
+		p = hd_child(h, k, p, c);
+	}
+	return p;
+}
+
+int hd_push_root(struct vd_hashdag *h, uint32_t root)
+{
+	if (h->nroots && h->cur + 1 < h->nroots)
+		h->nroots = h->cur + 1;
+	if (h->nroots == h->cap_roots) {
+		size_t cap = h->cap_roots ? 2 * h->cap_roots : 64;
+		uint32_t *r = realloc(h->roots, cap * sizeof *r);
+		if (!r)
+			return vd_fail(VD_ERR_NOMEM, "history of roots");
+		h->roots = r;
+		h->cap_roots = cap;
+	}
+	h->roots[h->nroots++] = root;
+	h->cur = h->nroots - 1;
+	return VD_OK;
+}
+
+static int tables_init(struct vd_hashdag *h, struct hd_level *lv)
+{
+	for (int l = 0; l <= h->levels - 2; l++) {
+		int err = level_init(&lv[l], level_p(&h->o, l),
+				     h->o.bucket_words_log2);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+static int hd_new(struct vd_hashdag **out, int L, const struct vd_transform *t,
+		  const struct vd_hashdag_opts *o)
+{
+	struct vd_hashdag *h = calloc(1, sizeof *h);
+	if (!h)
+		return vd_fail(VD_ERR_NOMEM, "hashdag");
+	if (o)
+		h->o = *o;
+	if (!h->o.buckets_log2)
+		h->o.buckets_log2 = 16;
+	if (!h->o.bucket_words_log2)
+		h->o.bucket_words_log2 = 10;
+	if (!h->o.split_level)
+		h->o.split_level = 3;
+	if (h->o.split_level > L - 2)
+		h->o.split_level = L - 2;
+	h->levels = L;
+	h->t = *t;
+	*out = h;
+	if (h->o.buckets_log2 < 0 || h->o.bucket_words_log2 < 4 ||
+	    h->o.buckets_log2 + h->o.bucket_words_log2 > 30)
+		return vd_fail(VD_ERR_ARG, "buckets 2^%d of 2^%d words: need "
+			       "4 <= words log2 and a sum <= 30",
+			       h->o.buckets_log2, h->o.bucket_words_log2);
+	return tables_init(h, h->lv);
+}
+
+void vd_hashdag_free(struct vd_hashdag *h)
+{
+	if (!h)
+		return;
+	for (int l = 0; l < VD_MAX_LEVELS; l++)
+		if (h->lv[l].words || h->lv[l].used)
+			level_free(&h->lv[l]);
+	free(h->roots);
+	free(h);
+}
+
+int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
+			const struct vd_transform *t,
+			const struct vd_hashdag_opts *o)
+{
+	*out = NULL;
+	if (dag->kind != VD_KIND_DAG)
+		return vd_fail(VD_ERR_WRONG_KIND, "edit needs a DAG (not an "
+			       "SSVDAG) chunk");
+	if (dag->chunk_level != 0)
+		return vd_fail(VD_ERR_UNSUPPORTED, "edit needs a root chunk "
+			       "(chunk level 0), not level %d",
+			       dag->chunk_level);
+	int L = dag->levels;
+	if (L < 3)
+		return vd_fail(VD_ERR_UNSUPPORTED, "edit needs a grid of depth "
+			       ">= 3, not %d", L);
+	struct vd_hashdag *h = NULL;
+	int err = hd_new(&h, L, t, o);
+	*out = h;
+	if (err)
+		goto fail;
+	uint32_t root = HD_EMPTY;
+	if (dag->lv[0].nodes) {
+		uint64_t n = dag->lv[L - 2].nodes;
+		uint32_t *map = malloc((n ? n : 1) * sizeof *map), *up = NULL;
+		if (!map) {
+			err = vd_fail(VD_ERR_NOMEM, "load remap");
+			goto fail;
+		}
+		for (uint64_t i = 0; i < n && !err; i++)
+			err = hd_insert_leaf(h, dag->bricks[i], &map[i]);
+		for (int l = L - 3; l >= 0 && !err; l--) {
+			const struct vd_dag_level *dl = &dag->lv[l];
+			up = malloc((dl->nodes ? dl->nodes : 1) * sizeof *up);
+			if (!up) {
+				err = vd_fail(VD_ERR_NOMEM, "load remap");
+				break;
+			}
+			for (uint64_t i = 0; i < dl->nodes && !err; i++) {
+				uint32_t ch[8];
+				uint64_t r = dl->first[i];
+				for (int c = 0; c < 8; c++)
+					if (dl->mask[i] >> c & 1)
+						ch[c] = map[dl->child[r++]];
+				err = hd_insert_inner(h, l, dl->mask[i], ch,
+						      &up[i]);
+			}
+			free(map);
+			map = up;
+		}
+		if (!err)
+			root = map[0];
+		free(map);
+		if (err)
+			goto fail;
+	}
+	if ((err = hd_make_full(h)) || (err = hd_push_root(h, root)))
+		goto fail;
+	return VD_OK;
+fail:
+	vd_hashdag_free(h);
+	*out = NULL;
+	return err;
+}
+
+int vd_hashdag_load(struct vd_hashdag **out, const char *path,
+		    const struct vd_hashdag_opts *o)
+{
+	struct vd_dag dag = {0};
+	struct vd_chunk_header hd;
+	*out = NULL;
+	int err = vd_dag_load(&dag, &hd, path, VD_KIND_ANY);
+	if (!err)
+		err = vd_hashdag_from_dag(out, &dag, &hd.transform, o);
+	vd_dag_release(&dag);
+	return err;
+}
+
+int vd_hashdag_levels(const struct vd_hashdag *h)
+{
+	return h->levels;
+}
+
+const struct vd_transform *vd_hashdag_transform(const struct vd_hashdag *h)
+{
+	return &h->t;
+}
+
+int vd_hashdag_undo(struct vd_hashdag *h)
+{
+	if (h->cur == 0)
+		return vd_fail(VD_ERR_RANGE, "nothing to undo");
+	h->cur--;
+	return VD_OK;
+}
+
+int vd_hashdag_redo(struct vd_hashdag *h)
+{
+	if (h->cur + 1 >= h->nroots)
+		return vd_fail(VD_ERR_RANGE, "nothing to redo");
+	h->cur++;
+	return VD_OK;
+}
+
+/* ------------------------------------------------------------ decoding */
+
+struct svo_buf {
+	uint64_t *keys, *masks;
+	size_t n, cap;
+	int err;
+};
+
+static void decode(const struct vd_hashdag *h, int l, uint32_t p,
+		   uint64_t key, struct svo_buf *b)
+{
+	if (p == HD_EMPTY || b->err)
+		return;
+	if (l == h->levels - 2) {
+		if (b->n == b->cap) {
+			size_t cap = b->cap ? 2 * b->cap : 4096;
+			uint64_t *k = realloc(b->keys, cap * 8);
+			if (k)
+				b->keys = k;
+			uint64_t *m = k ? realloc(b->masks, cap * 8) : NULL;
+			if (!k || !m) {
+				b->err = vd_fail(VD_ERR_NOMEM, "decode");
+				return;
+			}
+			b->masks = m;
+			b->cap = cap;
+		}
+		b->keys[b->n] = key;
+		b->masks[b->n++] = hd_brick(h, p);
+		return;
+	}
+	for (int c = 0; c < 8; c++)
+		decode(h, l + 1, hd_child(h, l, p, c), key << 3 | (uint64_t)c,
+		       b);
+}
+
+int vd_hashdag_to_svo(const struct vd_hashdag *h, struct vd_svo *svo)
+{
+	struct svo_buf b = {0};
+	memset(svo, 0, sizeof *svo);
+	decode(h, 0, h->roots[h->cur], 0, &b);
+	if (b.err) {
+		free(b.keys);
+		free(b.masks);
+		return b.err;
+	}
+	svo->levels = h->levels;
+	svo->chunk_level = 0;
+	svo->cell_morton = 0;
+	svo->count = b.n;
+	svo->keys = b.keys ? b.keys : malloc(8);
+	svo->masks = b.masks ? b.masks : malloc(8);
+	if (!svo->keys || !svo->masks)
+		return vd_fail(VD_ERR_NOMEM, "decode");
+	return VD_OK;
+}
+
+int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
+{
+	struct vd_svo svo;
+	memset(dag, 0, sizeof *dag);
+	int err = vd_hashdag_to_svo(h, &svo);
+	if (err)
+		return err;
+	struct vd_dag_opts o = {.threads = h->o.threads};
+	err = vd_dag_from_svo(dag, &svo, VD_KIND_DAG, &o, NULL);
+	vd_svo_release(&svo);
+	return err;
+}
+
+int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
+		    const char *provenance)
+{
+	struct vd_dag dag;
+	int err = vd_hashdag_to_dag(h, &dag);
+	if (!err)
+		err = vd_dag_save(&dag, &h->t, path, provenance);
+	vd_dag_release(&dag);
+	return err;
+}
+
+/* -------------------------------------------------------- measurements */
+
+static uint64_t count_reach(const struct vd_hashdag *h, int l,
+			    const uint32_t *ptrs, size_t n, uint64_t *reach);
+
+static int cmp_u32(const void *a, const void *b)
+{
+	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+	return (x > y) - (x < y);
+}
+
+static size_t sort_unique(uint32_t *v, size_t n)
+{
+	if (!n)
+		return 0;
+	qsort(v, n, sizeof *v, cmp_u32);
+	size_t m = 1;
+	for (size_t i = 1; i < n; i++)
+		if (v[i] != v[m - 1])
+			v[m++] = v[i];
+	return m;
+}
+
+/* The distinct nodes reachable per level from ptrs[0..n) on level l:
+ * reach[k] for k >= l (sorted lists in *lists when lists is non-NULL). */
+static int reachable(const struct vd_hashdag *h, const uint32_t *roots,
+		     size_t n, uint32_t **lists, size_t *counts)
+{
+	int L = h->levels;
+	uint32_t *cur = malloc((n ? n : 1) * sizeof *cur);
+	if (!cur)
+		return vd_fail(VD_ERR_NOMEM, "gc lists");
+	size_t m = 0;
+	for (size_t i = 0; i < n; i++)
+		if (roots[i] != HD_EMPTY)
+			cur[m++] = roots[i];
+	m = sort_unique(cur, m);
+	for (int l = 0; l <= L - 2; l++) {
+		lists[l] = cur;
+		counts[l] = m;
+		if (l == L - 2)
+			break;
+		size_t k = 0;
+		for (size_t i = 0; i < m; i++)
+			k += hd_node_words(h, l, hd_node(h, l, cur[i])) - 1;
+		uint32_t *next = malloc((k ? k : 1) * sizeof *next);
+		if (!next) {
+			for (int j = 0; j <= l; j++)
+				free(lists[j]), lists[j] = NULL;
+			return vd_fail(VD_ERR_NOMEM, "gc lists");
+		}
+		k = 0;
+		for (size_t i = 0; i < m; i++) {
+			const uint32_t *nd = hd_node(h, l, cur[i]);
+			uint32_t w = hd_node_words(h, l, nd);
+			for (uint32_t j = 1; j < w; j++)
+				next[k++] = nd[j];
+		}
+		cur = next;
+		m = sort_unique(cur, k);
+	}
+	return VD_OK;
+}
+
+static uint64_t count_reach(const struct vd_hashdag *h, int l,
+			    const uint32_t *ptrs, size_t n, uint64_t *reach)
+{
+	(void)l;
+	uint32_t *lists[VD_MAX_LEVELS] = {0};
+	size_t counts[VD_MAX_LEVELS] = {0};
+	if (reachable(h, ptrs, n, lists, counts))
+		return 0;
+	for (int k = 0; k <= h->levels - 2; k++) {
+		reach[k] = counts[k];
+		free(lists[k]);
+	}
+	return 1;
+}
+
+void vd_hashdag_counts(const struct vd_hashdag *h, uint64_t *stored,
+		       uint64_t *reach)
+{
+	for (int l = 0; l <= h->levels - 2; l++) {
+		if (stored)
+			stored[l] = h->lv[l].nodes;
+		if (reach)
+			reach[l] = 0;
+	}
+	if (reach)
+		count_reach(h, 0, &h->roots[h->cur], 1, reach);
+}
+
+uint64_t vd_hashdag_memory_bytes(const struct vd_hashdag *h)
+{
+	uint64_t bytes = sizeof *h + h->cap_roots * 4;
+	for (int l = 0; l <= h->levels - 2; l++) {
+		const struct hd_level *lv = &h->lv[l];
+		uint64_t last = UINT64_MAX, pages = 0;
+		for (uint64_t b = 0; b < (uint64_t)1 << lv->p; b++) {
+			if (!lv->used[b])
+				continue;
+			uint64_t w0 = b << lv->m, w1 = w0 + lv->used[b] - 1;
+			uint64_t p0 = w0 >> 10, p1 = w1 >> 10; /* 4 KiB pages */
+			if (p0 == last)
+				p0++;
+			if (p1 >= p0)
+				pages += p1 - p0 + 1;
+			last = p1;
+		}
+		bytes += pages * 4096 + ((uint64_t)4 << lv->p);
+	}
+	return bytes;
+}
+
+uint32_t vd_hashdag_max_bucket(const struct vd_hashdag *h, int l)
+{
+	uint32_t mx = 0;
+	for (uint64_t b = 0; b < (uint64_t)1 << h->lv[l].p; b++)
+		if (h->lv[l].used[b] > mx)
+			mx = h->lv[l].used[b];
+	return mx;
+}
+
+/* ------------------------------------------------------------------ gc */
+
+static uint32_t remap(const uint32_t *list, const uint32_t *to, size_t n,
+		      uint32_t p)
+{
+	size_t lo = 0, hi = n;
+	while (lo < hi) {
+		size_t mid = (lo + hi) / 2;
+		if (list[mid] < p)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return to[lo]; /* p is always in the list */
+}
+
+int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
+		  struct vd_edit_stats *st)
+{
+	double t0 = vd_seconds();
+	int L = h->levels, err;
+	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
+	size_t nkeep = keep_history ? h->nroots : 1;
+	uint32_t *lists[VD_MAX_LEVELS] = {0}, *to[VD_MAX_LEVELS] = {0};
+	size_t counts[VD_MAX_LEVELS] = {0};
+	struct hd_level *fresh = calloc(VD_MAX_LEVELS, sizeof *fresh);
+	if (!fresh)
+		return vd_fail(VD_ERR_NOMEM, "gc tables");
+	if ((err = reachable(h, keep, nkeep, lists, counts)))
+		goto done;
+	if ((err = tables_init(h, fresh)))
+		goto done;
+	/* Bottom-up: a level's nodes are rewritten through the remap of the
+	 * level below, then found or appended in the fresh tables. */
+	for (int l = L - 2; l >= 0 && !err; l--) {
+		to[l] = malloc((counts[l] ? counts[l] : 1) * sizeof *to[l]);
+		if (!to[l]) {
+			err = vd_fail(VD_ERR_NOMEM, "gc remap");
+			break;
+		}
+		for (size_t i = 0; i < counts[l] && !err; i++) {
+			const uint32_t *nd = hd_node(h, l, lists[l][i]);
+			uint32_t w[9], n = 1;
+			uint64_t hash;
+			if (l == L - 2) {
+				w[0] = nd[0];
+				w[1] = nd[1];
+				n = 2;
+				hash = mix64((uint64_t)nd[0] |
+					     (uint64_t)nd[1] << 32);
+			} else {
+				uint32_t k = hd_node_words(h, l, nd);
+				w[0] = nd[0];
+				for (; n < k; n++)
+					w[n] = remap(lists[l + 1], to[l + 1],
+						     counts[l + 1], nd[n]);
+				hash = vd_hash64(w, 4 * (size_t)n,
+						 (uint64_t)l);
+			}
+			err = insert_words(h, &fresh[l], l, w, n, hash,
+					   &to[l][i]);
+		}
+	}
+	if (err)
+		goto done;
+	for (size_t i = 0; i < h->nroots; i++) {
+		uint32_t r = h->roots[i];
+		if (r != HD_EMPTY)
+			r = remap(lists[0], to[0], counts[0], r);
+		h->roots[i] = r;
+	}
+	if (!keep_history) {
+		h->roots[0] = h->roots[h->cur];
+		h->nroots = 1;
+		h->cur = 0;
+	}
+	/* Swap the tables in (the full nodes are made again on the next
+	 * edit, so an unreachable one does not survive the collection). */
+	for (int l = 0; l <= L - 2; l++) {
+		struct hd_level *a = &h->lv[l], *b = &fresh[l];
+		uint32_t *w = a->words, *u = a->used;
+		int p = a->p, m = a->m;
+		a->words = b->words;
+		a->used = b->used;
+		a->nodes = b->nodes;
+		a->p = b->p;
+		a->m = b->m;
+		a->full = HD_EMPTY;
+		b->words = w;
+		b->used = u;
+		b->p = p;
+		b->m = m;
+	}
+	if (st) {
+		memset(st, 0, sizeof *st);
+		for (int l = 0; l <= L - 2; l++)
+			st->nodes_added[l] = h->lv[l].nodes; /* kept */
+	}
+done:
+	for (int l = 0; l <= L - 2; l++) {
+		if (fresh[l].words || fresh[l].used)
+			level_free(&fresh[l]);
+		free(lists[l]);
+		free(to[l]);
+	}
+	free(fresh);
+	if (st) {
+		st->seconds = vd_seconds() - t0;
+		st->hash_bytes = vd_hashdag_memory_bytes(h);
+	}
+	return err;
+}

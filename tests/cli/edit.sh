@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# Command-line tests of edit (HashDAG edits of a root DAG chunk): scripts,
+# the shell, statistics, and bad input (one line, non-zero exit, nothing
+# written, the input untouched). One PASS/FAIL line per case.
+set -u
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+BIN=out/bin
+
+"$BIN/voxelize" tests/data/bunny.ply -o "$T/v" --levels 8 -q &&
+	"$BIN/svo-to-dag" "$T/v/chunk-L0-0.svo" -o "$T/b.dag" -q || {
+	fail setup "cannot build the bunny DAG"
+	exit 1
+}
+SVO=$T/v/chunk-L0-0.svo
+sum0=$(md5sum <"$T/b.dag")
+
+help_lists_options help edit stages/edit/main.c
+
+# edits that cancel out: the saved DAG holds the original voxels
+cat >"$T/id.txt" <<'X'
+# comment line
+fill box 0 0 0 63 63 63   # a corner
+carve box 0 0 0 63 63 63
+undo
+undo
+redo
+undo
+X
+expect identity 0 '' "$BIN/edit" "$T/b.dag" -o "$T/id.dag" --script "$T/id.txt" -q
+expect identity-verify 0 '' "$BIN/dag-verify" "$T/id.dag" "$SVO"
+# same node counts as svo-to-dag's DAG (canonical save)
+if [ -f "$T/id.dag" ] && cmp -s <("$BIN/chunk-check" -v "$T/id.dag" 2>&1 | grep 'nodes per level') \
+	<("$BIN/chunk-check" -v "$T/b.dag" 2>&1 | grep 'nodes per level'); then
+	pass identity-counts
+else
+	fail identity-counts "level counts differ from svo-to-dag's"
+fi
+
+# a 10^3 box in the empty corner: dag-verify counts exactly 1000 new voxels
+printf 'carve box 0 0 0 9 9 9\nfill box 0 0 0 9 9 9\n' >"$T/box.txt"
+"$BIN/edit" "$T/b.dag" -o "$T/carved.dag" --script <(echo 'carve box 0 0 0 9 9 9') -q
+base=$("$BIN/dag-verify" "$T/carved.dag" "$SVO" 2>&1 | grep -oE '^[0-9]+' | head -1)
+expect box-run 0 '' "$BIN/edit" "$T/b.dag" -o "$T/box.dag" --script "$T/box.txt" -q -j 1
+out=$("$BIN/dag-verify" "$T/box.dag" "$SVO" 2>&1)
+n=$(grep -oE '[0-9]+ (differing )?voxels?' <<<"$out" | grep -oE '^[0-9]+' | head -1)
+if [ "${n:-0}" -eq $((1000 - ${base:-0})) ] && [ "${n:-0}" -gt 0 ]; then
+	pass box-verify
+else
+	fail box-verify "dag-verify: $out (carve alone: ${base:-0})"
+fi
+if grep -q '"voxels_changed"' "$T/box.dag.stats.json" 2>/dev/null &&
+	grep -q '"nodes_added"' "$T/box.dag.stats.json"; then
+	pass stats-json
+else
+	fail stats-json "no per-operation statistics"
+fi
+
+# the shell: edits, undo, gc, stats, save, render
+printf 'fill sphere 128 128 128 20\nundo\nredo\ngc\nstats\nsave %s\nrender %s\n' \
+	"$T/sh.dag" "$T/sh.png" >"$T/sh.in"
+expect shell 0 'reachable' sh -c "'$BIN/edit' --shell '$T/b.dag' <'$T/sh.in'"
+[ -s "$T/sh.png" ] && [ -s "$T/sh.dag" ] && pass shell-files || fail shell-files "no png or dag"
+expect shell-error 1 'line 1, column 1' sh -c "echo 'explode' | '$BIN/edit' --shell '$T/b.dag'"
+
+# bad input: one line, exit 1, no output, the input untouched
+bad() { # NAME PATTERN SCRIPT-TEXT [options]
+	local name=$1 pat=$2 text=$3
+	shift 3
+	printf '%s\n' "$text" >"$T/$name.txt"
+	expect "$name" 1 "$pat" "$BIN/edit" "$T/b.dag" -o "$T/$name.dag" --script "$T/$name.txt" "$@"
+	if [ -e "$T/$name.dag" ] || [ -e "$T/$name.dag.stats.json" ] ||
+		ls "$T" | grep -q '\.tmp\.'; then
+		fail "$name-nothing-written" "$(ls "$T")"
+	else
+		pass "$name-nothing-written"
+	fi
+}
+bad outside 'line 2, column 10: box X 250..256 outside the grid' $'fill box 0 0 0 1 1 1\nfill box 250 0 0 256 1 1'
+bad negative 'line 1, column 11: box X -1..3' 'carve box -1 0 0 3 3 3'
+bad copy-outside 'copy destination' 'copy 0 0 0 9 9 9 to 250 0 0'
+bad malformed 'line 3, column 16: expected a whole number' $'# ok\nfill box 1 2 3 4 5 6\nfill box 1 2 3 x 5 6'
+bad missing 'line 1, column .*expected 6 numbers' 'fill box 1 2 3'
+bad trailing 'line 1, column 22: expected the end of the line' 'fill box 1 2 3 4 5 6 7'
+bad no-shape 'line 1, column 6: expected box or sphere' 'fill cube 1 2 3 4 5 6'
+bad paint 'no colours' 'paint box 0 0 0 3 3 3'
+bad undo-empty 'nothing to undo' 'undo'
+bad full-bucket 'full.*run gc' 'fill box 0 0 0 3 3 3' --buckets 2 --bucket-words 4
+bad sphere-outside 'sphere centre X' 'fill sphere 999 0 0 3'
+
+head -c 3000 "$T/b.dag" >"$T/trunc.dag"
+expect truncated 1 "cannot read '.*trunc.dag': truncated" "$BIN/edit" "$T/trunc.dag" -o "$T/t.dag" --script "$T/id.txt"
+[ -e "$T/t.dag" ] && fail truncated-nothing-written || pass truncated-nothing-written
+expect ssvdag 1 'SSVDAG' sh -c "'$BIN/symmetry-merge' '$T/b.dag' -o '$T/s.ssvdag' -q && '$BIN/edit' '$T/s.ssvdag' -o '$T/s.dag' --script '$T/id.txt'"
+expect no-script 2 'need one of' "$BIN/edit" "$T/b.dag" -o "$T/x.dag"
+expect no-output 2 'needs -o' "$BIN/edit" "$T/b.dag" --script "$T/id.txt"
+expect bad-threads 2 'threads' "$BIN/edit" "$T/b.dag" -o "$T/x.dag" --script "$T/id.txt" -j 0
+[ "$(md5sum <"$T/b.dag")" = "$sum0" ] && pass input-untouched || fail input-untouched
