@@ -607,16 +607,16 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 	}
 	if (err)
 		goto done;
+	if (!keep_history) { /* only the current root was kept */
+		h->roots[0] = h->roots[h->cur];
+		h->nroots = 1;
+		h->cur = 0;
+	}
 	for (size_t i = 0; i < h->nroots; i++) {
 		uint32_t r = h->roots[i];
 		if (r != HD_EMPTY)
 			r = remap(lists[0], to[0], counts[0], r);
 		h->roots[i] = r;
-	}
-	if (!keep_history) {
-		h->roots[0] = h->roots[h->cur];
-		h->nroots = 1;
-		h->cur = 0;
 	}
 	/* Swap the tables in (the full nodes are made again on the next
 	 * edit, so an unreachable one does not survive the collection). */
