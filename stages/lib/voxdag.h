@@ -1492,8 +1492,10 @@ uint64_t vd_g48_brick(uint64_t v, unsigned t);
 struct vd_hashdag;
 
 struct vd_hashdag_opts {
-	int buckets_log2;      /* P of the deep levels (0: 16); level l gets
-				  min(P, 3 l + 4) */
+	int buckets_log2;      /* P: level l gets 2^min(P, 3 l + 4) buckets;
+				  0: automatic, from the level's size at
+				  load (buckets at most half full, at least
+				  2^min(3 l + 4, 10)) */
 	int bucket_words_log2; /* M (0: 10); P + M <= 30 */
 	int threads;           /* 0: all cores */
 	int split_level;       /* edits run one job per node of this level

@@ -54,10 +54,20 @@ static int level_init(struct hd_level *lv, int p, int m)
 	return VD_OK;
 }
 
-static int level_p(const struct vd_hashdag_opts *o, int l)
+/* Buckets of level l: 2^min(P, 3l+4) with an explicit P; automatic (P 0)
+ * from the words the level holds at load time, so that buckets start at
+ * most half full, at least 2^min(3l+4, 10) and at most 2^(30-M). */
+static int level_p(const struct vd_hashdag_opts *o, int l, uint64_t words)
 {
 	int p = 3 * l + 4;
-	return p < o->buckets_log2 ? p : o->buckets_log2;
+	if (o->buckets_log2)
+		return p < o->buckets_log2 ? p : o->buckets_log2;
+	if (p > 10)
+		p = 10;
+	while (p < 30 - o->bucket_words_log2 &&
+	       ((uint64_t)1 << (p + o->bucket_words_log2)) < 2 * words)
+		p++;
+	return p;
 }
 
 static int bucket_full(const struct hd_level *lv, int l, uint32_t b)
@@ -169,11 +179,14 @@ int hd_push_root(struct vd_hashdag *h, uint32_t root)
 	return VD_OK;
 }
 
-static int tables_init(struct vd_hashdag *h, struct hd_level *lv)
+/* Reserves the tables `lv`: bucket counts from `words` per level (NULL:
+ * the same as h's tables). */
+static int tables_init(struct vd_hashdag *h, struct hd_level *lv,
+		       const uint64_t *words)
 {
 	for (int l = 0; l <= h->levels - 2; l++) {
-		int err = level_init(&lv[l], level_p(&h->o, l),
-				     h->o.bucket_words_log2);
+		int p = words ? level_p(&h->o, l, words[l]) : h->lv[l].p;
+		int err = level_init(&lv[l], p, h->o.bucket_words_log2);
 		if (err)
 			return err;
 	}
@@ -181,15 +194,13 @@ static int tables_init(struct vd_hashdag *h, struct hd_level *lv)
 }
 
 static int hd_new(struct vd_hashdag **out, int L, const struct vd_transform *t,
-		  const struct vd_hashdag_opts *o)
+		  const struct vd_hashdag_opts *o, const uint64_t *words)
 {
 	struct vd_hashdag *h = calloc(1, sizeof *h);
 	if (!h)
 		return vd_fail(VD_ERR_NOMEM, "hashdag");
 	if (o)
 		h->o = *o;
-	if (!h->o.buckets_log2)
-		h->o.buckets_log2 = 16;
 	if (!h->o.bucket_words_log2)
 		h->o.bucket_words_log2 = 10;
 	if (!h->o.split_level)
@@ -200,11 +211,12 @@ static int hd_new(struct vd_hashdag **out, int L, const struct vd_transform *t,
 	h->t = *t;
 	*out = h;
 	if (h->o.buckets_log2 < 0 || h->o.bucket_words_log2 < 4 ||
+	    h->o.bucket_words_log2 > 26 ||
 	    h->o.buckets_log2 + h->o.bucket_words_log2 > 30)
 		return vd_fail(VD_ERR_ARG, "buckets 2^%d of 2^%d words: need "
 			       "4 <= words log2 and a sum <= 30",
 			       h->o.buckets_log2, h->o.bucket_words_log2);
-	return tables_init(h, h->lv);
+	return tables_init(h, h->lv, words);
 }
 
 void vd_hashdag_free(struct vd_hashdag *h)
@@ -235,7 +247,11 @@ int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
 		return vd_fail(VD_ERR_UNSUPPORTED, "edit needs a grid of depth "
 			       ">= 3, not %d", L);
 	struct vd_hashdag *h = NULL;
-	int err = hd_new(&h, L, t, o);
+	uint64_t words[VD_MAX_LEVELS] = {0};
+	for (int l = 0; l < L - 2; l++)
+		words[l] = dag->lv[l].nodes + dag->lv[l].refs;
+	words[L - 2] = 2 * dag->lv[L - 2].nodes;
+	int err = hd_new(&h, L, t, o, words);
 	*out = h;
 	if (err)
 		goto fail;
@@ -556,7 +572,7 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		return vd_fail(VD_ERR_NOMEM, "gc tables");
 	if ((err = reachable(h, keep, nkeep, lists, counts)))
 		goto done;
-	if ((err = tables_init(h, fresh)))
+	if ((err = tables_init(h, fresh, NULL)))
 		goto done;
 	/* Bottom-up: a level's nodes are rewritten through the remap of the
 	 * level below, then found or appended in the fresh tables. */
@@ -591,16 +607,16 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 	}
 	if (err)
 		goto done;
+	if (!keep_history) { /* only the current root was kept */
+		h->roots[0] = h->roots[h->cur];
+		h->nroots = 1;
+		h->cur = 0;
+	}
 	for (size_t i = 0; i < h->nroots; i++) {
 		uint32_t r = h->roots[i];
 		if (r != HD_EMPTY)
 			r = remap(lists[0], to[0], counts[0], r);
 		h->roots[i] = r;
-	}
-	if (!keep_history) {
-		h->roots[0] = h->roots[h->cur];
-		h->nroots = 1;
-		h->cur = 0;
 	}
 	/* Swap the tables in (the full nodes are made again on the next
 	 * edit, so an unreachable one does not survive the collection). */
