@@ -794,6 +794,51 @@ int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 void vd_chunk_file_name(char *buf, size_t cap, int chunk_level,
 			uint64_t cell_morton, const char *ext);
 
+/* --------------------------------------------------------- colour chunks
+ * A colour chunk (kind VD_KIND_COLOURS, file vd_chunk_file_name(.., "col")
+ * beside the cell's "svo" chunk) holds the sRGB colours (R, G, B bytes) of
+ * one cell's voxels in the cell's depth-first Morton order: bricks in key
+ * order, within a brick voxels in mask bit order. That is the order of a
+ * depth-first walk of the cell's octree visiting children 0..7, so the
+ * cells' arrays in cell order are the scene's colour array. The header is
+ * the SVO chunk's (depth, cell, transform, counts) with the kind changed,
+ * and a BDIG section holds vd_svo_digest() of the bricks the colours were
+ * written for. Spec: schemas/chunk-format.md, "Colour chunks". */
+#define VD_TAG_COLS VD_TAG('C', 'O', 'L', 'S') /* RGB8 per voxel */
+#define VD_TAG_BDIG VD_TAG('B', 'D', 'I', 'G') /* digest of the bricks */
+
+struct vd_colours {
+	uint64_t voxels;      /* number of colours = voxels of the cell */
+	uint8_t *rgb;         /* 3 * voxels bytes */
+	uint64_t svo_digest;  /* vd_svo_digest() of the cell's bricks */
+};
+
+/* XXH3-64 over the little-endian (key, mask) u64 pairs of n bricks. */
+uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks,
+		       size_t n);
+
+/* Writes the colours `rgb` (3 * voxels bytes) of the cell whose SVO chunk
+ * header is `svo_h` (its voxel count must equal `voxels`: VD_ERR_MISMATCH)
+ * and whose bricks have digest `svo_digest`, atomically at `path`. */
+int vd_colours_save(const char *path, const struct vd_chunk_header *svo_h,
+		    uint64_t svo_digest, const uint8_t *rgb, uint64_t voxels,
+		    const char *provenance);
+
+/* Reads and verifies a colour chunk. Free with vd_colours_release(). */
+int vd_colours_load(struct vd_colours *c, struct vd_chunk_header *h,
+		    const char *path);
+int vd_colours_from_chunk(struct vd_colours *c, const struct vd_chunk *ch);
+
+/* VD_OK when colour chunk (`col_h`, `c`) belongs to the SVO chunk
+ * (`svo_h`, `svo`): same depth, cell, grid, voxel count, and (when `svo` is
+ * not NULL) brick digest; VD_ERR_MISMATCH with a detail otherwise. */
+int vd_colours_match(const struct vd_chunk_header *col_h,
+		     const struct vd_colours *c,
+		     const struct vd_chunk_header *svo_h,
+		     const struct vd_svo *svo);
+
+void vd_colours_release(struct vd_colours *c);
+
 /* ------------------------------------------------- DAG and SSVDAG (dag.c) */
 /* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
  * (VD_KIND_SSVDAG) of one cell at `chunk_level`. Specified on disk in

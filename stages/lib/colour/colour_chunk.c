@@ -1,0 +1,169 @@
+/* Colour chunks: the sRGB colours of one cell's voxels in the cell's
+ * depth-first (Morton) order, beside the cell's SVO chunk. The format is in
+ * schemas/chunk-format.md ("Colour chunks"); colours never enter the DAG
+ * (DESIGN.md, colour paper §3), so the SVO chunk's bytes do not change when
+ * colours are present. */
+#include "voxdag.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <xxhash.h>
+
+static void put64(uint8_t *p, uint64_t v)
+{
+	for (int i = 0; i < 8; i++)
+		p[i] = (uint8_t)(v >> 8 * i);
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+	uint64_t v = 0;
+	for (int i = 0; i < 8; i++)
+		v |= (uint64_t)p[i] << 8 * i;
+	return v;
+}
+
+uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
+{
+	/* Defined on little-endian (key, mask) pairs rather than on the BRKS
+	 * section's bytes, so a writer that streams its bricks and a reader
+	 * that holds them as arrays compute it alike. */
+	XXH3_state_t *s = XXH3_createState();
+	if (!s)
+		return 0;
+	XXH3_64bits_reset(s);
+	uint8_t buf[16 * 256];
+	size_t k = 0;
+	for (size_t i = 0; i < n; i++) {
+		put64(buf + 16 * k, keys[i]);
+		put64(buf + 16 * k + 8, masks[i]);
+		if (++k == 256) {
+			XXH3_64bits_update(s, buf, sizeof buf);
+			k = 0;
+		}
+	}
+	XXH3_64bits_update(s, buf, 16 * k);
+	uint64_t h = XXH3_64bits_digest(s);
+	XXH3_freeState(s);
+	return h;
+}
+
+int vd_colours_save(const char *path, const struct vd_chunk_header *svo_h,
+		    uint64_t svo_digest, const uint8_t *rgb, uint64_t voxels,
+		    const char *provenance)
+{
+	if (svo_h->kind != VD_KIND_SVO || svo_h->level_count == 0)
+		return vd_fail(VD_ERR_ARG, "colours need the header of an svo "
+			       "chunk");
+	uint64_t want = svo_h->level_nodes[svo_h->level_count - 1];
+	if (voxels != want)
+		return vd_fail(VD_ERR_MISMATCH, "%llu colours for %llu voxels",
+			       (unsigned long long)voxels,
+			       (unsigned long long)want);
+	struct vd_chunk_header h = *svo_h;
+	h.kind = VD_KIND_COLOURS;
+	struct vd_chunk_writer *w;
+	int err = vd_chunk_writer_open(&w, path, &h, provenance);
+	if (err)
+		return err;
+	uint8_t dig[8];
+	put64(dig, svo_digest);
+	err = vd_chunk_writer_section(w, VD_TAG_BDIG, dig, sizeof dig);
+	if (!err)
+		err = vd_chunk_writer_section(w, VD_TAG_COLS, rgb,
+					      (size_t)(3 * voxels));
+	if (err) {
+		vd_chunk_writer_abort(w);
+		return err;
+	}
+	return vd_chunk_writer_commit(w);
+}
+
+int vd_colours_from_chunk(struct vd_colours *c, const struct vd_chunk *ch)
+{
+	memset(c, 0, sizeof *c);
+	const struct vd_chunk_header *h = vd_chunk_header(ch);
+	if (h->kind != VD_KIND_COLOURS)
+		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected colours",
+			       vd_chunk_kind_name(h->kind));
+	if (h->level_count == 0 ||
+	    h->level_count != h->levels - h->chunk_level + 1)
+		return vd_fail(VD_ERR_CORRUPT, "%u level counts for levels "
+			       "%u..%u", h->level_count, h->chunk_level,
+			       h->levels);
+	void *dig, *rgb;
+	size_t dsize, size;
+	int err = vd_chunk_read_section(ch, VD_TAG_BDIG, &dig, &dsize);
+	if (err)
+		return err;
+	if (dsize != 8) {
+		free(dig);
+		return vd_fail(VD_ERR_CORRUPT, "brick digest of %zu bytes",
+			       dsize);
+	}
+	c->svo_digest = get64(dig);
+	free(dig);
+	err = vd_chunk_read_section(ch, VD_TAG_COLS, &rgb, &size);
+	if (err)
+		return err;
+	uint64_t voxels = h->level_nodes[h->level_count - 1];
+	if (size != 3 * voxels) {
+		free(rgb);
+		return vd_fail(VD_ERR_CORRUPT, "%zu colour bytes for %llu "
+			       "voxels", size, (unsigned long long)voxels);
+	}
+	c->voxels = voxels;
+	c->rgb = rgb;
+	return VD_OK;
+}
+
+int vd_colours_load(struct vd_colours *c, struct vd_chunk_header *h,
+		    const char *path)
+{
+	memset(c, 0, sizeof *c);
+	struct vd_chunk *ch;
+	int err = vd_chunk_open(&ch, path, VD_KIND_COLOURS);
+	if (err)
+		return err;
+	if (h)
+		*h = *vd_chunk_header(ch);
+	err = vd_colours_from_chunk(c, ch);
+	vd_chunk_free(ch);
+	return err;
+}
+
+int vd_colours_match(const struct vd_chunk_header *col_h,
+		     const struct vd_colours *c,
+		     const struct vd_chunk_header *svo_h,
+		     const struct vd_svo *svo)
+{
+	if (col_h->levels != svo_h->levels ||
+	    col_h->chunk_level != svo_h->chunk_level ||
+	    col_h->cell_morton != svo_h->cell_morton)
+		return vd_fail(VD_ERR_MISMATCH, "colours of cell %u:%llx at "
+			       "depth %u, bricks of cell %u:%llx at depth %u",
+			       col_h->chunk_level,
+			       (unsigned long long)col_h->cell_morton,
+			       col_h->levels, svo_h->chunk_level,
+			       (unsigned long long)svo_h->cell_morton,
+			       svo_h->levels);
+	if (!vd_transform_equal(&col_h->transform, &svo_h->transform))
+		return vd_fail(VD_ERR_MISMATCH, "colours and bricks placed in "
+			       "different grids");
+	uint64_t voxels = svo_h->level_nodes[svo_h->level_count - 1];
+	if (c->voxels != voxels)
+		return vd_fail(VD_ERR_MISMATCH, "%llu colours for %llu voxels",
+			       (unsigned long long)c->voxels,
+			       (unsigned long long)voxels);
+	if (svo && vd_svo_digest(svo->keys, svo->masks, svo->count) !=
+			   c->svo_digest)
+		return vd_fail(VD_ERR_MISMATCH, "colours written for other "
+			       "bricks (brick digest differs)");
+	return VD_OK;
+}
+
+void vd_colours_release(struct vd_colours *c)
+{
+	free(c->rgb);
+	memset(c, 0, sizeof *c);
+}
