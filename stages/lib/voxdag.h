@@ -1492,6 +1492,47 @@ int vd_render_run(const struct vd_render_job *job);
 
 /* ---- end of render block */
 
+/* ---- voxel counts and colour indices (colour/voxcount.c)
+ * The colour paper's §3: each DAG node's voxel count, from which a voxel's
+ * index in the scene's colour array (Morton order of the set voxels, the
+ * order of the colour chunks) is a sum along its path. Works on a DAG or
+ * SSVDAG chunk (reflections: logical child order, counts at the stored
+ * slots) and on every encoding (through the logical view of vd_enc_*). */
+struct vd_voxcount {
+	const struct vd_dag *dag;   /* one of dag, enc */
+	const struct vd_enc *enc;
+	int levels;
+	uint64_t voxels;            /* voxels below the root */
+	/* DAG: count[l][i] for node i of level l (cap = used = nodes).
+	 * Encoding: a hash per level above the brick level, key[l][j] = node
+	 * position + 1 (0 = free slot), count[l][j] its count. */
+	uint64_t *count[VD_MAX_LEVELS];
+	uint64_t *key[VD_MAX_LEVELS];
+	uint64_t cap[VD_MAX_LEVELS], used[VD_MAX_LEVELS];
+};
+
+/* Counts of every node of `d` (any chunk level) or of the encoding `e`,
+ * which must outlive *vc. Release with vd_voxcount_release(). */
+int vd_voxcount_from_dag(struct vd_voxcount *vc, const struct vd_dag *d);
+int vd_voxcount_from_enc(struct vd_voxcount *vc, const struct vd_enc *e);
+
+/* For the cell (x, y, z) of the 2^level grid (level L: a voxel; smaller: a
+ * cell, as a level-of-detail hit): returns 1 and sets *index to the colour
+ * index of the cell's first voxel in Morton order, or 0 when the cell is
+ * empty. For a chunk that is not the root, indices count from the chunk's
+ * first voxel. */
+int vd_voxcount_index(const struct vd_voxcount *vc, int level, uint32_t x,
+		      uint32_t y, uint32_t z, uint64_t *index);
+
+/* Bytes of the counts a renderer would store beside the nodes: levels
+ * above the brick level, each at the smallest of 1/2/4/8 bytes per count
+ * holding its largest one (brick and mask counts are popcounts). */
+uint64_t vd_voxcount_stored_bytes(const struct vd_voxcount *vc);
+
+void vd_voxcount_release(struct vd_voxcount *vc);
+
+/* ---- end of voxel counts block */
+
 /* ---- Cube group (symmetry-merge --group 48)
  *
  * The 48 symmetries of the cube, numbered t = 8 * k + m: k (0..5) an axis
