@@ -1419,6 +1419,8 @@ int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 		     const char *name, double fov_deg, int width, int height);
 
 /* What to render. */
+struct vd_colour_source;
+
 struct vd_render_opts {
 	int width, height;        /* pixels, 1..VD_RENDER_MAX_SIDE each */
 	struct vd_camera cam;
@@ -1427,6 +1429,10 @@ struct vd_render_opts {
 	double lod_pixels;        /* 0: exact; else stop at nodes whose
 				     projection is at most this many pixels */
 	int threads;              /* 0: all cores */
+	/* Voxel colours (NULL: one grey). A hit voxel takes its colour, an
+	 * LOD cell its first voxel's; the source must cover exactly the
+	 * scene's voxels (VD_ERR_MISMATCH). */
+	const struct vd_colour_source *colours;
 };
 
 #define VD_RENDER_MAX_SIDE 16384
@@ -1481,6 +1487,7 @@ struct vd_render_job {
 	struct vd_render_opts opts;
 	int quiet;                 /* no summary on stderr */
 	int no_verify;             /* read an encoding without its manifest */
+	const char *colours;       /* vd_colour_source_open() path, or NULL */
 };
 
 /* Loads the input (a chunk file by its magic, else an encoding by its
@@ -1530,6 +1537,29 @@ int vd_voxcount_index(const struct vd_voxcount *vc, int level, uint32_t x,
 uint64_t vd_voxcount_stored_bytes(const struct vd_voxcount *vc);
 
 void vd_voxcount_release(struct vd_voxcount *vc);
+
+/* Colour sources: the colour of voxel i of the scene's colour array, from
+ * the colour chunks voxelize writes (a directory) or a compressed file of
+ * colorize. get() is thread-safe and takes index < voxels. */
+struct vd_colour_source {
+	uint64_t voxels;            /* length of the colour array */
+	int levels;                 /* grid depth the colours were made at */
+	void (*get)(const struct vd_colour_source *s, uint64_t index,
+		    uint8_t rgb[3]);
+	void *impl;
+	void (*release)(struct vd_colour_source *s);
+};
+
+/* Opens `path`: a directory of colour chunks (each checked against the SVO
+ * chunk beside it, concatenated in cell order). */
+int vd_colour_source_open(struct vd_colour_source *s, const char *path);
+void vd_colour_source_release(struct vd_colour_source *s);
+
+/* The whole colour array of the colour chunks in `dir`, in cell order
+ * (3 bytes per voxel, free with free()), each chunk verified against the
+ * SVO chunk beside it. *first gets the first chunk's header (or NULL). */
+int vd_colour_chunks_load(const char *dir, uint8_t **rgb, uint64_t *voxels,
+			  struct vd_chunk_header *first);
 
 /* ---- end of voxel counts block */
 

@@ -36,6 +36,9 @@ static const char usage[] =
 	"  -j, --threads N         threads (default: all cores)\n"
 	"  -L, --lod PIXELS        level of detail: stop at nodes whose projection\n"
 	"                          is at most PIXELS pixels (default 0: exact)\n"
+	"  -C, --colours SRC       colour the voxels from SRC: voxelize's output\n"
+	"                          directory (its colour chunks) or a colorize\n"
+	"                          file; it must cover exactly the scene's voxels\n"
 	"  -q, --quiet             no summary line on stderr\n"
 	"      --no-verify         read an encoding that has no manifest beside\n"
 	"                          it (a file from the SymVox tools); encode's\n"
@@ -98,6 +101,7 @@ int main(int argc, char **argv)
 		{"threads", required_argument, NULL, 'j'},
 		{"lod", required_argument, NULL, 'L'},
 		{"quiet", no_argument, NULL, 'q'},
+		{"colours", required_argument, NULL, 'C'},
 		{"no-verify", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
@@ -109,7 +113,7 @@ int main(int argc, char **argv)
 	job.opts.shadows = 1;
 	int has_target = 0;
 	int c;
-	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:qh", longopts,
+	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:qC:h", longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -176,6 +180,9 @@ int main(int argc, char **argv)
 			break;
 		case 'V':
 			job.no_verify = 1;
+			break;
+		case 'C':
+			job.colours = optarg;
 			break;
 		case 'h':
 			fputs(usage, stdout);

@@ -181,6 +181,104 @@ static void test_cells(void)
 	}
 }
 
+/* A colour source over the reference list: red for voxels with x < 2^(L-1),
+ * blue for the others, so every pixel of a render says which voxel's
+ * colour it got. */
+struct halves {
+	const uint64_t *v;
+	uint32_t half;
+};
+
+static void halves_get(const struct vd_colour_source *s, uint64_t index,
+		       uint8_t rgb[3])
+{
+	const struct halves *h = s->impl;
+	uint32_t x, y, z;
+	vd_morton3_decode(h->v[index], &x, &y, &z);
+	rgb[0] = x < h->half ? 255 : 0;
+	rgb[1] = 0;
+	rgb[2] = x < h->half ? 0 : 255;
+}
+
+/* Renders with colours through the DAG, the SSVDAG and every encoding:
+ * each hit pixel has the colour of its hit voxel (no green, red exactly on
+ * the voxels of the low half) and the images are byte-identical. */
+static void test_render(void)
+{
+	const int L = 7;
+	struct vd_svo svo;
+	struct vd_transform t;
+	if (!test_voxelize_one("tests/data/bunny.ply", L, dir, &svo, &t))
+		return;
+	uint64_t n, *v = voxel_list(&svo, &n);
+	struct halves hv = {v, 1u << (L - 1)};
+	struct vd_colour_source src = {.voxels = n, .levels = L,
+				       .get = halves_get, .impl = &hv};
+	struct vd_dag d[2];
+	struct vd_dag_opts o = {.threads = 2};
+	CHECK_EQ(vd_dag_from_svo(&d[0], &svo, VD_KIND_DAG, &o, NULL), VD_OK);
+	CHECK_EQ(vd_dag_from_svo(&d[1], &svo, VD_KIND_SSVDAG, &o, NULL), VD_OK);
+	struct vd_enc e[VD_ENC_COUNT_];
+	for (int f = 0; f < VD_ENC_COUNT_; f++)
+		CHECK_EQ(vd_enc_build(&e[f], f, &d[vd_enc_format_symmetric(f)],
+				      &t), VD_OK);
+	uint8_t *first = NULL;
+	for (int k = 0; k < 2 + VD_ENC_COUNT_; k++) {
+		struct vd_render_scene sc;
+		if (k < 2)
+			CHECK_EQ(vd_render_scene_from_dag(&sc, &d[k], &t), VD_OK);
+		else
+			CHECK_EQ(vd_render_scene_from_enc(&sc, &e[k - 2]), VD_OK);
+		struct vd_render_opts ro = {.width = 96, .height = 80,
+					    .threads = 2, .shadows = 1,
+					    .colours = &src};
+		CHECK_EQ(vd_camera_preset(&ro.cam, &sc, "iso", 40, 96, 80), VD_OK);
+		ro.light[0] = ro.cam.eye[0];
+		ro.light[1] = ro.cam.eye[1] + 1;
+		ro.light[2] = ro.cam.eye[2];
+		struct vd_image img;
+		CHECK_EQ(vd_render_image(&sc, &ro, &img), VD_OK);
+		uint64_t hits = 0, wrong = 0, red = 0;
+		for (int i = 0; i < 96 * 80; i++) {
+			const struct vd_hit *h = &img.hits[i];
+			if (h->level < 0)
+				continue;
+			hits++;
+			const uint8_t *px = img.rgb + 3 * i;
+			int low = h->cell[0] < hv.half;
+			red += low;
+			wrong += px[1] != 0 || (px[0] > 0) != low ||
+				 (px[2] > 0) == low;
+		}
+		CHECK(hits > 500);
+		CHECK(red > 50 && red < hits - 50);
+		CHECK_EQ(wrong, 0);
+		if (!first) {
+			first = malloc(3 * 96 * 80);
+			memcpy(first, img.rgb, 3 * 96 * 80);
+		} else {
+			CHECK(memcmp(first, img.rgb, 3 * 96 * 80) == 0);
+		}
+		vd_image_release(&img);
+	}
+	/* a source of another length is refused */
+	struct vd_render_scene sc;
+	CHECK_EQ(vd_render_scene_from_dag(&sc, &d[0], &t), VD_OK);
+	src.voxels = n - 1;
+	struct vd_render_opts ro = {.width = 8, .height = 8, .colours = &src};
+	CHECK_EQ(vd_camera_preset(&ro.cam, &sc, "front", 40, 8, 8), VD_OK);
+	struct vd_image img;
+	CHECK_EQ(vd_render_image(&sc, &ro, &img), VD_ERR_MISMATCH);
+	vd_image_release(&img);
+	free(first);
+	for (int f = 0; f < VD_ENC_COUNT_; f++)
+		vd_enc_release(&e[f]);
+	vd_dag_release(&d[0]);
+	vd_dag_release(&d[1]);
+	free(v);
+	vd_svo_release(&svo);
+}
+
 int main(void)
 {
 	if (!mkdtemp(dir))
@@ -188,6 +286,7 @@ int main(void)
 	RUN(test_bunny);
 	RUN(test_dragon);
 	RUN(test_cells);
+	RUN(test_render);
 	char cmd[300];
 	snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
 	if (system(cmd) != 0)
