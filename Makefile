@@ -48,7 +48,7 @@ endif
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
-                slurm-wlm munge clang libjansson-dev
+                slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)

@@ -1474,6 +1474,27 @@ int vd_image_write_depth(const struct vd_image *img, const char *path);
  * Atomic. */
 int vd_image_write_ids(const struct vd_image *img, const char *path);
 
+/* Image comparison (render/metrics.c; conventions there): MSE over the RGB
+ * bytes, PSNR in dB, single-scale SSIM and 5-scale MS-SSIM on luma. */
+struct vd_image_metrics {
+	double mse, psnr, ssim, ms_ssim;
+};
+
+/* Compares two w x h RGB images. mse and psnr are always set; SSIM needs
+ * 11 pixels and MS-SSIM 176 on each side: what cannot be computed is NaN
+ * and the return VD_ERR_ARG. */
+int vd_image_metrics(const uint8_t *a, const uint8_t *b, int w, int h,
+		     struct vd_image_metrics *m);
+
+/* SSIM and mean contrast-structure of two w x h greyscale images (values
+ * in 0..255) at one scale. */
+int vd_ssim_scale(const double *a, const double *b, int w, int h,
+		  double *ssim, double *cs);
+
+/* Reads a PNG of any colour type as 8-bit RGB (*rgb: free with free()). */
+int vd_png_read_rgb(const char *path, uint8_t **rgb, int *width,
+		    int *height);
+
 /* One run of the render stage, as its main() sets it up. */
 struct vd_render_job {
 	const char *tool;          /* "render", for messages */
