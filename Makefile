@@ -111,6 +111,12 @@ $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
 
+# benchmark helpers (tests/bench/*.c that use the library)
+$(OUT)/bench/%: tests/bench/%.c $(LIB) $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@.o $<
+	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
+
 $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
@@ -152,7 +158,7 @@ test: deps
 	@tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory -j$(JOBS) all
+	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels
 	@tests/bench.sh
 
 # Fuzzing (libFuzzer, Debian's clang): one target per reader,

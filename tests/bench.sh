@@ -123,6 +123,25 @@ fi
 budget_run out/terrain-x16.ply 14 512MiB
 budget_run out/terrain-x16.ply 16 512MiB
 
+# Chunk compression: every section of the dragon's chunks at 2^12 (SVO
+# cells, root DAG and SSVDAG) recompressed at zstd levels 1..19, bytes and
+# speeds; the chunk writer's level is chosen from this
+# (schemas/chunk-format.md, "Compression level").
+zstd_levels() {
+	local d=$OUT/zstd
+	rm -rf "$d" && mkdir -p "$d" || return
+	out/bin/voxelize "$DATA/stanford_dragon.ply" -o "$d/vox" --levels 12 --chunk-level 2 -q &&
+	for f in "$d"/vox/*.svo; do
+		out/bin/svo-to-dag "$f" -o "$d/$(basename "$f" .svo).dag" -q || return
+	done &&
+	out/bin/svo-to-dag --merge "$d"/chunk-*.dag --to-level 0 -o "$d/root.dag" -q &&
+	out/bin/symmetry-merge "$d/root.dag" -o "$d/root.ssvdag" -q &&
+	echo && echo "zstd levels on the dragon's chunks at 2^12 (single thread):" &&
+	out/bench/zstd_levels "$d"/vox/*.svo "$d/root.dag" "$d/root.ssvdag"
+	rm -rf "$d"
+}
+zstd_levels
+
 # The runner's own cost at scale: a pipeline of ~100,000 cells (the terrain
 # at 2^13 in cells of 32^3, chunk level 8; a height field fills about two
 # cells per column of 256^2) planned and run, the runner's CPU (getrusage
