@@ -210,14 +210,19 @@ $(FUZZ_OUT)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB) $
 fuzz-build: $(FUZZ_BINS)
 
 fuzz: fuzz-build
-	@for t in $(FUZZ_BINS); do \
+	@failed=; for t in $(FUZZ_BINS); do \
 		n=$$(basename $$t); \
+		seeds=tests/fuzz/corpus/$${n#fuzz_}; \
+		test -d $$seeds || { echo "fuzz: no seed corpus $$seeds"; exit 1; }; \
 		mkdir -p $(FUZZ_OUT)/corpus/$$n $(FUZZ_OUT)/crash/$$n; \
 		echo "== $$n for $(FUZZ_SECONDS) s"; \
 		$$t -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 \
 		    -artifact_prefix=$(FUZZ_OUT)/crash/$$n/ -print_final_stats=1 \
-		    $(FUZZ_OUT)/corpus/$$n tests/fuzz/corpus/$$n || exit 1; \
-	done
+		    $(FUZZ_OUT)/corpus/$$n $$seeds || failed="$$failed $$n"; \
+	done; \
+	if [ -n "$$failed" ]; then \
+		echo "fuzz: crashes in$$failed (inputs in $(FUZZ_OUT)/crash/)"; exit 1; \
+	fi
 
 clean:
 	rm -rf out
