@@ -158,7 +158,7 @@ test: deps
 	@tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels
+	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation
 	@tests/bench.sh
 
 # Fuzzing (libFuzzer, Debian's clang): one target per reader,

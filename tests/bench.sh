@@ -142,6 +142,22 @@ zstd_levels() {
 }
 zstd_levels
 
+# Translation (issue 13): how many more SVDAG nodes would merge if subtrees
+# equal up to a shift of 1..3 voxels were merged, on every shared mesh at
+# 2^10 (tests/bench/translation.c says exactly what is counted).
+translation() {
+	local d=$OUT/translation m
+	echo && echo "translation-equal subtrees at 2^10 (bound on the saving over the SVDAG):"
+	for m in "$DATA"/*.ply; do
+		rm -rf "$d" && mkdir -p "$d" &&
+		out/bin/voxelize "$m" -o "$d/vox" --levels 10 --chunk-level 0 -q &&
+		out/bin/svo-to-dag "$d/vox/chunk-L0-0.svo" -o "$d/root.dag" -q &&
+		out/bench/translation "$d/root.dag" | sed "s|$d/root.dag|$(basename "$m" .ply)|"
+	done
+	rm -rf "$d"
+}
+translation
+
 # The runner's own cost at scale: a pipeline of ~100,000 cells (the terrain
 # at 2^13 in cells of 32^3, chunk level 8; a height field fills about two
 # cells per column of 256^2) planned and run, the runner's CPU (getrusage
