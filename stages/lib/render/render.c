@@ -556,7 +556,23 @@ static void primary_row(void *ctx, size_t row, int worker)
 		r.tmax = INFINITY;
 		r.lod = c->lod_k;
 		struct vd_hit *h = &img->hits[i];
-		if (vd_render_trace(s, &r, h)) {
+		int hit = vd_render_trace(s, &r, h);
+		if (c->o->diff) {
+			/* the first voxel of the union is the nearer of the two
+			 * first hits; the voxels along a ray come in one order
+			 * whatever the scene, so when the two hits are not one
+			 * voxel, the nearer is not set in the other scene (it
+			 * would have been hit there first) */
+			struct vd_hit h2;
+			int hit2 = vd_render_trace(c->o->diff, &r, &h2);
+			int same = hit && hit2 && h->level == h2.level &&
+				   !memcmp(h->cell, h2.cell, sizeof h->cell);
+			if (hit2 && (!hit || (!same && h2.t < h->t)))
+				*h = h2;
+			img->differs[i] = (hit || hit2) && !same;
+			hit |= hit2;
+		}
+		if (hit) {
 			img->depth[i] = (float)h->t;
 		} else {
 			memset(h, 0, sizeof *h);
@@ -679,12 +695,16 @@ static void shade_row(void *ctx, size_t row, int worker)
 			r.lod = c->lod_k;
 			struct vd_hit sh;
 			shadow_rays++;
-			if (vd_render_trace(s, &r, &sh)) vis = 0;
+			if (vd_render_trace(s, &r, &sh) ||
+			    (c->o->diff && vd_render_trace(c->o->diff, &r, &sh)))
+				vis = 0;
 		}
 		double sky = 0.5 + 0.5 * n[1];
 		double light = 0.10 + 0.12 * sky + 0.80 * (lambert > 0 ? lambert : 0) * vis;
-		static const double albedo[3] = {0.82, 0.76, 0.66};
-		for (int k = 0; k < 3; k++) px[k] = to_srgb8(albedo[k] * light);
+		static const double albedo[3] = {0.82, 0.76, 0.66},
+				    red[3] = {0.90, 0.05, 0.04};
+		const double *a = img->differs && img->differs[i] ? red : albedo;
+		for (int k = 0; k < 3; k++) px[k] = to_srgb8(a[k] * light);
 	}
 	c->shadow_rays[row] = shadow_rays;
 }
@@ -694,6 +714,7 @@ void vd_image_release(struct vd_image *img)
 	free(img->rgb);
 	free(img->depth);
 	free(img->hits);
+	free(img->differs);
 	memset(img, 0, sizeof *img);
 }
 
@@ -722,6 +743,15 @@ int vd_render_image(const struct vd_render_scene *s,
 	if (!(o->lod_pixels >= 0) || !isfinite(o->lod_pixels))
 		return vd_fail(VD_ERR_ARG, "LOD %g pixels is not a number >= 0",
 			       o->lod_pixels);
+	if (o->diff && o->lod_pixels > 0)
+		return vd_fail(VD_ERR_ARG, "the differences of two scenes are "
+			       "drawn exactly only (no LOD)");
+	if (o->diff && (o->diff->levels != s->levels ||
+			o->diff->voxel_size != s->voxel_size ||
+			memcmp(o->diff->origin, s->origin, sizeof s->origin)))
+		return vd_fail(VD_ERR_MISMATCH, "the two scenes are not on one "
+			       "grid (2^%d and 2^%d, or another origin or voxel "
+			       "size)", s->levels, o->diff->levels);
 	size_t n = (size_t)o->width * (size_t)o->height;
 	img->width = o->width;
 	img->height = o->height;
@@ -729,7 +759,10 @@ int vd_render_image(const struct vd_render_scene *s,
 	img->depth = malloc(n * sizeof *img->depth);
 	img->hits = malloc(n * sizeof *img->hits);
 	uint64_t *rows = calloc((size_t)o->height, sizeof *rows);
-	if (!img->rgb || !img->depth || !img->hits || !rows) {
+	if (o->diff)
+		img->differs = calloc(n, 1);
+	if (!img->rgb || !img->depth || !img->hits || !rows ||
+	    (o->diff && !img->differs)) {
 		free(rows);
 		return NOMEM();
 	}
@@ -745,6 +778,8 @@ int vd_render_image(const struct vd_render_scene *s,
 	double t2 = vd_seconds();
 	img->primary_rays = n;
 	for (int y = 0; y < o->height; y++) img->shadow_rays += rows[y];
+	for (size_t i = 0; img->differs && i < n; i++)
+		img->differing_pixels += img->differs[i];
 	img->seconds_primary = t1 - t0;
 	img->seconds_shade = t2 - t1;
 	free(rows);
@@ -1019,6 +1054,17 @@ int vd_render_run(const struct vd_render_job *job)
 		return err;
 	}
 	const struct vd_render_scene *s = &in.scene;
+	struct input other;
+	memset(&other, 0, sizeof other);
+	if (job->diff_input) {
+		err = load_input(&other, job->diff_input, !job->no_verify);
+		if (err) {
+			input_release(&other);
+			input_release(&in);
+			return err;
+		}
+		o.diff = &other.scene;
+	}
 	if (!job->has_eye) {
 		err = vd_camera_preset(&o.cam, s, job->preset ? job->preset : "front",
 				       o.cam.fov_deg, o.width, o.height);
@@ -1035,6 +1081,7 @@ int vd_render_run(const struct vd_render_job *job)
 	}
 	if (!err) err = vd_camera_check(&o.cam);
 	if (err) {
+		input_release(&other);
 		input_release(&in);
 		return reword(err, "cannot render", job->input);
 	}
@@ -1080,9 +1127,15 @@ int vd_render_run(const struct vd_render_job *job)
 			img.shadow_rays, img.seconds_shade,
 			img.shadow_rays / (img.seconds_shade > 0 ? img.seconds_shade : 1e-9) / 1e6,
 			threads, job->output);
+		if (job->diff_input)
+			fprintf(stderr, "%s: %" PRIu64 " pixels show voxels set in "
+				"only one of '%s' and '%s' (red)\n", job->tool,
+				img.differing_pixels, job->input,
+				job->diff_input);
 		(void)rays;
 	}
 	vd_image_release(&img);
+	input_release(&other);
 	input_release(&in);
 	return err;
 }
