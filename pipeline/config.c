@@ -784,5 +784,16 @@ int config_load(struct config *c, const char *path)
 	if (!err && c->nres == 0)
 		for (int l = c->levels; l >= 1 && l > c->levels - 4; l--)
 			c->resolutions[c->nres++] = l;
+	if (err)
+		config_release(c);
 	return err;
+}
+
+void config_release(struct config *c)
+{
+	/* a job that failed to parse is not counted in njobs */
+	for (int i = 0; i < MAX_JOBS_DECL; i++) {
+		free(c->jobs_decl[i].script_text);
+		c->jobs_decl[i].script_text = NULL;
+	}
 }

@@ -101,6 +101,10 @@ struct config {
  * cycles, the stage graph's shape and the input's existence. */
 int config_load(struct config *c, const char *path);
 
+/* Frees what config_load allocated (inline edit scripts); config_load
+ * does it itself when it fails. */
+void config_release(struct config *c);
+
 /* ------------------------------------------------------------------ jobs */
 
 enum job_state { JOB_PENDING, JOB_RUNNING, JOB_DONE, JOB_SKIPPED, JOB_FAILED,
