@@ -471,6 +471,32 @@ int report_write(const struct plan *p)
 				 c->name);
 			vd_json_str(j, "tables", path);
 		}
+		/* where the lossy tables' numbers come from */
+		vd_json_array(j, "lossy");
+		for (int d = 0; d < c->njobs; d++) {
+			const struct job_decl *ld = &c->jobs_decl[d];
+			if (ld->stage->type != STAGE_LOSSY)
+				continue;
+			vd_json_object(j, NULL);
+			vd_json_str(j, "job", ld->name);
+			snprintf(path, sizeof path, "%s/%s/root.dag.stats.json",
+				 p->dir, ld->name);
+			vd_json_str(j, "stats", path);
+			const struct job *e0 = encode_of(p, ld->needs[0]),
+					 *e1 = encode_of(p, d);
+			if (e0) {
+				snprintf(path, sizeof path, "%s/%s.tables.json",
+					 e0->output, c->name);
+				vd_json_str(j, "tables_lossless", path);
+			}
+			if (e1) {
+				snprintf(path, sizeof path, "%s/%s.tables.json",
+					 e1->output, c->name);
+				vd_json_str(j, "tables_lossy", path);
+			}
+			vd_json_end_object(j);
+		}
+		vd_json_end_array(j);
 		err |= vd_json_close(j) != VD_OK;
 	} else {
 		err = 1;

@@ -127,6 +127,8 @@ EOF
 	pass report_lsvdag_nodes_are_lossy_clusters || fail report_lsvdag_nodes_are_lossy_clusters
 grep -qF "Error rate $(printf %g "$(jq .error_rate $S)") ($changed voxels changed" $D/report.md &&
 	pass report_error_rate || fail report_error_rate "$(grep 'Error rate' $D/report.md)"
+[ "$(jq -r '.lossy[0] | .job + " " + .stats + " " + .tables_lossless + " " + .tables_lossy' $D/report.json)" = \
+  "lossy $S $T0 $T1" ] && pass report_json_lossy_sources || fail report_json_lossy_sources "$(jq .lossy $D/report.json)"
 grep -qF '![pic](pic.png) ![lpic](lpic.png)' $D/report.md &&
 	pass report_pictures_side_by_side || fail report_pictures_side_by_side
 
