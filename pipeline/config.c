@@ -5,6 +5,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,8 +17,15 @@ static const struct stage_info stages[] = {
 	{"svo-to-dag", STAGE_SVO_TO_DAG, 1, 1},
 	{"symmetry-merge", STAGE_SYMMETRY_MERGE, 1, 1},
 	{"encode", STAGE_ENCODE, 2, 2},
-	{"render", STAGE_RENDER, 1, 1},
+	{"render", STAGE_RENDER, 1, 2},
+	{"lossy-cluster", STAGE_LOSSY, 1, 1},
+	{"edit", STAGE_EDIT, 1, 1},
 };
+
+int stage_makes_root_dag(enum stage_type t)
+{
+	return t == STAGE_SVO_TO_DAG || t == STAGE_LOSSY || t == STAGE_EDIT;
+}
 
 const struct stage_info *stage_lookup(const char *name)
 {
@@ -87,6 +95,25 @@ static int want_int(struct ctx *x, const yaml_node_t *n, const char *key,
 		return fail_at(x, n, "'%s' is %ld, outside %ld..%ld", key, v, lo,
 			       hi);
 	*out = (int)v;
+	return 0;
+}
+
+/* A number lo..hi (lo excluded when lo_open), kept as the YAML's text. */
+static int want_number(struct ctx *x, const yaml_node_t *n, const char *key,
+		       double lo, double hi, int lo_open, char *out, size_t cap)
+{
+	const char *s = scalar(n);
+	char *end;
+	double v = s ? strtod(s, &end) : 0;
+	if (!s || !*s || *end || !isfinite(v))
+		return fail_at(x, n, "'%s' must be a number", key);
+	if (v < lo || v > hi || (lo_open && v == lo))
+		return fail_at(x, n, "'%s' is %s, outside %s%g..%g", key, s,
+			       lo_open ? "(" : "", lo, hi);
+	if (strlen(s) >= cap)
+		return fail_at(x, n, "'%s' is longer than %zu characters", key,
+			       cap - 1);
+	strcpy(out, s);
 	return 0;
 }
 
@@ -317,6 +344,53 @@ static int parse_resources(struct ctx *x, yaml_node_t *map)
 	return 0;
 }
 
+/* An edit job's `script:`: a file name (relative to the YAML's directory)
+ * or a list of lines, each one edit (schemas/edit-script.md). */
+static int parse_script(struct ctx *x, struct job_decl *d, yaml_node_t *v)
+{
+	if (v->type == YAML_SCALAR_NODE) {
+		const char *s = scalar(v);
+		if (!*s)
+			return fail_at(x, v, "'script' is empty");
+		const char *slash = strrchr(x->path, '/');
+		int dirlen = s[0] == '/' || !slash ? 0 : (int)(slash - x->path) + 1;
+		if ((size_t)snprintf(d->script, sizeof d->script, "%.*s%s",
+				     dirlen, x->path, s) >= sizeof d->script)
+			return fail_at(x, v, "'script' path is too long");
+		struct stat st;
+		if (stat(d->script, &st) != 0)
+			return fail_at(x, v, "edit script '%s': %s", d->script,
+				       strerror(errno));
+		if (!S_ISREG(st.st_mode))
+			return fail_at(x, v, "edit script '%s' is not a file",
+				       d->script);
+		return 0;
+	}
+	if (v->type != YAML_SEQUENCE_NODE)
+		return fail_at(x, v, "'script' is a file name or a list of edit "
+			       "lines");
+	size_t len = 0;
+	for (yaml_node_item_t *ni = v->data.sequence.items.start;
+	     ni < v->data.sequence.items.top; ni++) {
+		yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
+		const char *s = scalar(e);
+		if (!s)
+			return fail_at(x, e, "'script' lines are strings (one "
+				       "edit each)");
+		if (strchr(s, '\n') || strchr(s, '\r'))
+			return fail_at(x, e, "a 'script' line holds one edit, "
+				       "without line breaks");
+		char *t = realloc(d->script_text, len + strlen(s) + 2);
+		if (!t)
+			return fail_at(x, e, "out of memory");
+		d->script_text = t;
+		len += (size_t)sprintf(t + len, "%s\n", s);
+	}
+	if (!len)
+		return fail_at(x, v, "'script' has no lines");
+	return 0;
+}
+
 static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 {
 	struct config *c = x->c;
@@ -336,6 +410,9 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 	d->column = (int)name->start_mark.column + 1;
 	if (want_mapping(x, map, n))
 		return 1;
+	/* parameters of one stage; checked against the stage once it is
+	 * known (it may come after them) */
+	yaml_node_t *lossy_param = NULL, *edit_param = NULL;
 	yaml_node_t *k, *v;
 	FOR_PAIRS(x, map, k, v, it) {
 		const char *key = scalar(k);
@@ -346,7 +423,8 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			if (!s || !(d->stage = stage_lookup(s)))
 				return fail_at(x, v, "unknown stage '%s' (known: "
 					       "voxelize, svo-to-dag, "
-					       "symmetry-merge, encode, render)",
+					       "symmetry-merge, lossy-cluster, "
+					       "edit, encode, render)",
 					       s ? s : "?");
 		} else if (!strcmp(key, "needs")) {
 			if (v->type != YAML_SEQUENCE_NODE)
@@ -364,13 +442,53 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 						       MAX_NEEDS);
 				strcpy(d->needs_name[d->nneeds++], s);
 			}
+		} else if (!strcmp(key, "inflation")) {
+			/* the ranges are lossy-cluster's own */
+			if (want_number(x, v, key, 1.0, 100.0, 1, d->inflation,
+					sizeof d->inflation))
+				return 1;
+			lossy_param = k;
+		} else if (!strcmp(key, "diff_factor")) {
+			if (want_number(x, v, key, 0.0, 1e6, 0, d->diff_factor,
+					sizeof d->diff_factor))
+				return 1;
+			lossy_param = k;
+		} else if (!strcmp(key, "max_refs")) {
+			int r;
+			if (want_int(x, v, key, 0, 1000000, &r))
+				return 1;
+			snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
+			lossy_param = k;
+		} else if (!strcmp(key, "script")) {
+			if (parse_script(x, d, v))
+				return 1;
+			edit_param = k;
 		} else {
 			return fail_at(x, k, "unknown key '%s' in job '%s' "
-				       "(known: stage, needs)", key, n);
+				       "(known: stage, needs; inflation, "
+				       "diff_factor, max_refs for lossy-cluster; "
+				       "script for edit)", key, n);
 		}
 	}
 	if (!d->stage)
 		return fail_at(x, map, "job '%s' has no 'stage'", n);
+	if (lossy_param && d->stage->type != STAGE_LOSSY)
+		return fail_at(x, lossy_param, "'%s' is a parameter of "
+			       "lossy-cluster jobs, not of '%s' (stage %s)",
+			       scalar(lossy_param), n, d->stage->name);
+	if (edit_param && d->stage->type != STAGE_EDIT)
+		return fail_at(x, edit_param, "'script' is a parameter of edit "
+			       "jobs, not of '%s' (stage %s)", n, d->stage->name);
+	if (d->stage->type == STAGE_EDIT && !edit_param)
+		return fail_at(x, map, "edit job '%s' has no 'script' (a file "
+			       "or a list of edit lines)", n);
+	/* lossy-cluster's defaults (van der Laan et al. 2020) */
+	if (!*d->inflation)
+		strcpy(d->inflation, "2.0");
+	if (!*d->diff_factor)
+		strcpy(d->diff_factor, "1.0");
+	if (!*d->max_refs)
+		strcpy(d->max_refs, "1");
 	c->njobs++;
 	return 0;
 }
@@ -422,30 +540,63 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 				return 1;
 			}
 	}
-	/* what each stage takes */
-	static const enum stage_type wants[STAGE_COUNT_][2] = {
-		[STAGE_SVO_TO_DAG] = {STAGE_VOXELIZE, STAGE_VOXELIZE},
-		[STAGE_SYMMETRY_MERGE] = {STAGE_SVO_TO_DAG, STAGE_SVO_TO_DAG},
-		[STAGE_ENCODE] = {STAGE_SVO_TO_DAG, STAGE_SYMMETRY_MERGE},
-		[STAGE_RENDER] = {STAGE_ENCODE, STAGE_ENCODE},
-	};
+	/* what each stage takes: a job producing one root DAG chunk is
+	 * svo-to-dag's tree, lossy-cluster or edit; symmetry-merge runs per
+	 * cell after svo-to-dag, as one process on the root after the others */
 	for (int i = 0; i < c->njobs; i++) {
 		struct job_decl *d = &c->jobs_decl[i];
 		const struct stage_info *s = d->stage;
 		int bad = d->nneeds < s->min_needs || d->nneeds > s->max_needs;
+		enum stage_type t[MAX_NEEDS];
+		for (int k = 0; k < d->nneeds; k++)
+			t[k] = c->jobs_decl[d->needs[k]].stage->type;
 		for (int k = 0; k < d->nneeds && !bad; k++) {
-			enum stage_type t = c->jobs_decl[d->needs[k]].stage->type;
-			bad = t != wants[s->type][0] && t != wants[s->type][1];
+			switch (s->type) {
+			case STAGE_SVO_TO_DAG:
+				bad = t[k] != STAGE_VOXELIZE;
+				break;
+			case STAGE_SYMMETRY_MERGE:
+			case STAGE_LOSSY:
+			case STAGE_EDIT:
+				bad = !stage_makes_root_dag(t[k]);
+				break;
+			case STAGE_ENCODE:
+				bad = !stage_makes_root_dag(t[k]) &&
+				      t[k] != STAGE_SYMMETRY_MERGE;
+				break;
+			case STAGE_RENDER:
+				bad = t[k] != STAGE_ENCODE;
+				break;
+			default:
+				bad = 1;
+			}
 		}
-		if (s->type == STAGE_ENCODE && !bad)
-			bad = c->jobs_decl[d->needs[0]].stage->type ==
-			      c->jobs_decl[d->needs[1]].stage->type;
+		if (s->type == STAGE_ENCODE && !bad) {
+			/* one DAG job and the symmetry-merge job built from
+			 * it: else the encodings are of two scenes */
+			int dk = stage_makes_root_dag(t[0]) ? 0 : 1;
+			const struct job_decl *sm = &c->jobs_decl[d->needs[1 - dk]];
+			bad = !stage_makes_root_dag(t[dk]) ||
+			      t[1 - dk] != STAGE_SYMMETRY_MERGE ||
+			      sm->needs[0] != d->needs[dk];
+		}
 		if (bad) {
-			static const char *const shape[] = {
-				"no needs", "needs: [a voxelize job]",
-				"needs: [an svo-to-dag job]",
-				"needs: [an svo-to-dag job, a symmetry-merge job]",
-				"needs: [an encode job]"};
+			static const char *const shape[STAGE_COUNT_] = {
+				[STAGE_VOXELIZE] = "no needs",
+				[STAGE_SVO_TO_DAG] = "needs: [a voxelize job]",
+				[STAGE_SYMMETRY_MERGE] = "needs: [an svo-to-dag, "
+					"lossy-cluster or edit job]",
+				[STAGE_ENCODE] = "needs: [a DAG job (svo-to-dag, "
+					"lossy-cluster or edit), the symmetry-merge "
+					"job that needs it]",
+				[STAGE_RENDER] = "needs: [an encode job] or [an "
+					"encode job, an encode job to show the "
+					"differences from]",
+				[STAGE_LOSSY] = "needs: [an svo-to-dag, "
+					"lossy-cluster or edit job]",
+				[STAGE_EDIT] = "needs: [an svo-to-dag, "
+					"lossy-cluster or edit job]",
+			};
 			fprintf(stderr, "voxdag: %s:%d:%d: job '%s' (stage %s) "
 				"takes %s\n", x->path, d->line, d->column,
 				d->name, s->name, shape[s->type]);
@@ -633,5 +784,16 @@ int config_load(struct config *c, const char *path)
 	if (!err && c->nres == 0)
 		for (int l = c->levels; l >= 1 && l > c->levels - 4; l--)
 			c->resolutions[c->nres++] = l;
+	if (err)
+		config_release(c);
 	return err;
+}
+
+void config_release(struct config *c)
+{
+	/* a job that failed to parse is not counted in njobs */
+	for (int i = 0; i < MAX_JOBS_DECL; i++) {
+		free(c->jobs_decl[i].script_text);
+		c->jobs_decl[i].script_text = NULL;
+	}
 }

@@ -166,5 +166,6 @@ int main(int argc, char **argv)
 		break;
 	}
 	plan_free(&p);
+	config_release(&cfg);
 	return rc;
 }

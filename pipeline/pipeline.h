@@ -30,6 +30,8 @@ enum stage_type {
 	STAGE_SYMMETRY_MERGE, /* per cell + merge tree -> root .ssvdag */
 	STAGE_ENCODE,         /* roots -> encodings and tables */
 	STAGE_RENDER,         /* an encoding -> a picture for the report */
+	STAGE_LOSSY,          /* root .dag -> lossy root .dag (one process) */
+	STAGE_EDIT,           /* root .dag + edit script -> edited root .dag */
 	STAGE_COUNT_
 };
 
@@ -48,7 +50,19 @@ struct job_decl {
 	int needs[MAX_NEEDS];            /* indices into config.jobs */
 	char needs_name[MAX_NEEDS][MAX_NAME];
 	int line, column;                /* where declared, for errors */
+	/* lossy-cluster: the YAML's text of each number, checked, so the
+	 * command line (and the resume key) says what the file says */
+	char inflation[32], diff_factor[32], max_refs[32];
+	/* edit: the script file (relative to the YAML's directory in the
+	 * file, resolved here), or its lines given inline (script_text, the
+	 * lines joined by newlines; the runner writes them to a file) */
+	char script[1024];
+	char *script_text;
 };
+
+/* 1 for the stages whose output is one root DAG chunk (kind dag):
+ * svo-to-dag's reduction tree, lossy-cluster and edit. */
+int stage_makes_root_dag(enum stage_type t);
 
 struct config {
 	char path[1024];
@@ -86,6 +100,10 @@ struct config {
  * unknown keys, types, ranges, unknown stages, needs that name no job,
  * cycles, the stage graph's shape and the input's existence. */
 int config_load(struct config *c, const char *path);
+
+/* Frees what config_load allocated (inline edit scripts); config_load
+ * does it itself when it fails. */
+void config_release(struct config *c);
 
 /* ------------------------------------------------------------------ jobs */
 

@@ -7,6 +7,8 @@
  *   <dag job>/root.dag         the whole scene
  *   (the same for symmetry-merge jobs, with .sdag; .ssvdag is the
  *   SymVox encoding that encode writes)
+ *   <lossy or edit job>/root.dag   one process on the root DAG chunk
+ *   <symmetry-merge job>/root.sdag  the same after lossy-cluster or edit
  *   <encode job>/              the encodings and tables
  *   logs/                      one log per job, runner.log
  * Every output has a key beside it (<output>.key, or <dir>/.key): the
@@ -588,6 +590,133 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 static void plan_dag_merges(struct plan *p, int d, const char *ext,
 			    uint32_t kind);
 
+static int stage_root_job(const struct plan *p, int d);
+
+/* A global stage on the root DAG chunk of job decl `src` (lossy-cluster,
+ * edit, or symmetry-merge after one of them): one process whose job id is
+ * "<name>/root" and whose output is <name>/root.<ext>, like the root of a
+ * reduction tree, so the stages after it find it the same way. Returns
+ * the job (NULL when the input is not planned yet or it is planned). */
+static struct job *add_root_job(struct plan *p, int d, int src,
+				const char *ext, int *in_job)
+{
+	*in_job = stage_root_job(p, src);
+	if (*in_job < 0)
+		return NULL;
+	char out[1200], key[1300], id[200];
+	snprintf(out, sizeof out, "%s/%s/root.%s", p->dir, decl_of(p, d)->name,
+		 ext);
+	snprintf(key, sizeof key, "%s.key", out);
+	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
+	struct job *j = add_job(p, d, id, out, key);
+	if (j)
+		/* its input is a whole scene: the stage's bound from its
+		 * header is not known before it exists; the budget is the
+		 * limit the stage itself holds to */
+		j->mem_estimate = p->cfg->job_mem_budget;
+	return j;
+}
+
+/* symmetry-merge of a single root DAG chunk (after lossy-cluster or edit):
+ * no cells, no tree. */
+static void plan_root_ssvdag(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	int in;
+	struct job *j = add_root_job(p, d, decl_of(p, d)->needs[0], "sdag", &in);
+	if (!j)
+		return;
+	char budget[32], threads[16];
+	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	const char *src = p->jobs[in].output;
+	set_argv(j, "symmetry-merge", src, "-o", j->output, "--mem-budget",
+		 budget, "--threads", threads, "-q", NULL);
+	add_input(j, src);
+	add_dep(p, j, in);
+	p->merges_planned[d] = 1;
+}
+
+/* lossy-cluster on the root DAG chunk: the lossy root (LSVDAG). */
+static void plan_lossy(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int in;
+	struct job *j = add_root_job(p, d, dd->needs[0], "dag", &in);
+	if (!j)
+		return;
+	char budget[32], threads[16];
+	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	const char *src = p->jobs[in].output;
+	set_argv(j, "lossy-cluster", src, "-o", j->output, "--inflation",
+		 dd->inflation, "--diff-factor", dd->diff_factor, "--max-refs",
+		 dd->max_refs, "--mem-budget", budget, "--threads", threads, "-q",
+		 NULL);
+	add_input(j, src);
+	add_dep(p, j, in);
+}
+
+/* Writes `text` to `path` unless it holds exactly that already (atomic). */
+static int write_if_changed(const char *path, const char *text)
+{
+	size_t n = strlen(text);
+	FILE *f = fopen(path, "rb");
+	if (f) {
+		char *have = malloc(n + 1);
+		size_t got = have ? fread(have, 1, n + 1, f) : 0;
+		int same = have && got == n && memcmp(have, text, n) == 0;
+		free(have);
+		fclose(f);
+		if (same)
+			return 0;
+	}
+	char tmp[1300];
+	snprintf(tmp, sizeof tmp, "%s.tmp", path);
+	f = fopen(tmp, "wb");
+	if (!f)
+		return -1;
+	int bad = fwrite(text, 1, n, f) != n;
+	bad |= fclose(f) != 0;
+	return bad ? -1 : rename(tmp, path);
+}
+
+/* edit on the root DAG chunk with the job's script; the script's content
+ * is an input, so a changed script reruns the edit and what follows. */
+static void plan_edit(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int in;
+	struct job *j = add_root_job(p, d, dd->needs[0], "dag", &in);
+	if (!j)
+		return;
+	char threads[16], script[1200];
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	if (dd->script_text) {
+		/* inline lines: written beside the output, where the edit
+		 * tool and its key read them */
+		char dir[1100];
+		path_join(dir, sizeof dir, p->dir, dd->name);
+		snprintf(script, sizeof script, "%s/script.txt", dir);
+		if (mkdir_p(dir) != 0 ||
+		    write_if_changed(script, dd->script_text) != 0) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", script,
+				strerror(errno));
+			exit(1);
+		}
+	} else {
+		snprintf(script, sizeof script, "%s", dd->script);
+	}
+	const char *src = p->jobs[in].output;
+	set_argv(j, "edit", src, "-o", j->output, "--script", script,
+		 "--threads", threads, "-q", NULL);
+	add_input(j, src);
+	add_input(j, script);
+	add_dep(p, j, in);
+}
+
 static void plan_dag_stage(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -601,6 +730,10 @@ static void plan_dag_stage(struct plan *p, int d)
 	uint32_t kind = is_dag ? VD_KIND_DAG : VD_KIND_SSVDAG;
 	if (p->merges_planned[d])
 		return; /* planned whole: nothing more becomes known */
+	if (!is_dag && decl_of(p, src)->stage->type != STAGE_SVO_TO_DAG) {
+		plan_root_ssvdag(p, d);
+		return;
+	}
 	/* the cells are planned once; the merges once they are all built */
 	if (p->cells_planned[d]) {
 		if (p->unfinished[d] == 0)
@@ -737,6 +870,17 @@ static int stage_root_job(const struct plan *p, int d)
 	return find_job(p, id);
 }
 
+/* 1 when declared job `a` is `d` or one it needs, directly or not. */
+static int decl_needs(const struct config *c, int d, int a)
+{
+	if (d == a)
+		return 1;
+	for (int k = 0; k < c->jobs_decl[d].nneeds; k++)
+		if (decl_needs(c, c->jobs_decl[d].needs[k], a))
+			return 1;
+	return 0;
+}
+
 static void plan_encode(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -744,7 +888,7 @@ static void plan_encode(struct plan *p, int d)
 	int dag = -1, ssv = -1;
 	for (int k = 0; k < dd->nneeds; k++) {
 		int n = dd->needs[k];
-		if (decl_of(p, n)->stage->type == STAGE_SVO_TO_DAG)
+		if (stage_makes_root_dag(decl_of(p, n)->stage->type))
 			dag = stage_root_job(p, n);
 		else
 			ssv = stage_root_job(p, n);
@@ -778,7 +922,10 @@ static void plan_encode(struct plan *p, int d)
 	FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
 	for (int i = 0; f && i < p->n; i++) {
 		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
-		if (t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE)
+		/* only this scene's: a lossy or edited scene's own
+		 * symmetry-merge is not the lossless one's work */
+		if ((t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE) &&
+		    decl_needs(p->cfg, d, p->jobs[i].decl))
 			fprintf(f, "%s.stats.json\n", p->jobs[i].output);
 	}
 	if (!f || fflush(f) != 0 || ferror(f) | (fclose(f) != 0) ||
@@ -811,7 +958,10 @@ static void plan_render(struct plan *p, int d)
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
 	int enc = find_job(p, decl_of(p, dd->needs[0])->name);
-	if (enc < 0)
+	/* with a second encode job: its scene's differing voxels in red */
+	int other = dd->nneeds > 1 ? find_job(p, decl_of(p, dd->needs[1])->name)
+				   : -1;
+	if (enc < 0 || (dd->nneeds > 1 && other < 0))
 		return;
 	char out[1100], key[1200], in[1300], threads[16];
 	snprintf(out, sizeof out, "%s/%s.png", p->dir, dd->name);
@@ -821,8 +971,19 @@ static void plan_render(struct plan *p, int d)
 		return;
 	snprintf(in, sizeof in, "%s/%s.ssvdag", p->jobs[enc].output, c->name);
 	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
-	set_argv(j, "render", in, "-o", out, "--size", "960x720", "--camera",
-		 "iso", "--threads", threads, "-q", NULL);
+	if (other >= 0) {
+		char in2[1300];
+		snprintf(in2, sizeof in2, "%s/%s.ssvdag", p->jobs[other].output,
+			 c->name);
+		set_argv(j, "render", in, "-o", out, "--size", "960x720",
+			 "--camera", "iso", "--diff", in2, "--threads", threads,
+			 "-q", NULL);
+		add_input(j, in2);
+		add_dep(p, j, other);
+	} else {
+		set_argv(j, "render", in, "-o", out, "--size", "960x720",
+			 "--camera", "iso", "--threads", threads, "-q", NULL);
+	}
 	add_input(j, in);
 	add_dep(p, j, enc);
 	j->mem_estimate = c->job_mem_budget;
@@ -850,6 +1011,12 @@ int plan_expand(struct plan *p)
 			case STAGE_RENDER:
 				plan_render(p, d);
 				break;
+			case STAGE_LOSSY:
+				plan_lossy(p, d);
+				break;
+			case STAGE_EDIT:
+				plan_edit(p, d);
+				break;
 			default:
 				break;
 			}
@@ -871,7 +1038,7 @@ int plan_expand(struct plan *p)
 	for (int d = 0; d < c->njobs; d++) {
 		char id[200];
 		snprintf(id, sizeof id, "%s%s", c->jobs_decl[d].name,
-			 c->jobs_decl[d].stage->type == STAGE_SVO_TO_DAG ||
+			 stage_makes_root_dag(c->jobs_decl[d].stage->type) ||
 			 c->jobs_decl[d].stage->type == STAGE_SYMMETRY_MERGE
 				 ? "/root" : "");
 		if (find_job(p, id) < 0)

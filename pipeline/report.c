@@ -46,6 +46,46 @@ static double json_number(const char *text, const char *within, const char *key)
 	return d;
 }
 
+/* The number at root.array[index].key of a JSON text (0 when absent). */
+static double json_row_number(const char *text, const char *array,
+			      size_t index, const char *key)
+{
+	if (!text)
+		return 0;
+	json_error_t jerr;
+	json_t *root = json_loads(text, 0, &jerr);
+	if (!root)
+		return 0;
+	json_t *row = json_array_get(json_object_get(root, array), index);
+	json_t *v = json_is_object(row) ? json_object_get(row, key) : NULL;
+	double d = json_is_number(v) ? json_number_value(v) : 0;
+	json_decref(root);
+	return d;
+}
+
+/* The sum of root.array[*].key, and the number of rows in *rows. */
+static double json_sum(const char *text, const char *array, const char *key,
+		       size_t *rows)
+{
+	*rows = 0;
+	if (!text)
+		return 0;
+	json_error_t jerr;
+	json_t *root = json_loads(text, 0, &jerr);
+	if (!root)
+		return 0;
+	json_t *a = json_object_get(root, array), *row;
+	size_t i;
+	double sum = 0;
+	json_array_foreach(a, i, row) {
+		json_t *v = json_object_get(row, key);
+		sum += json_is_number(v) ? json_number_value(v) : 0;
+		(*rows)++;
+	}
+	json_decref(root);
+	return sum;
+}
+
 /* The statistics file a job's stage wrote beside its output. */
 static void stats_path(const struct plan *p, const struct job *j, char *buf,
 		       size_t cap)
@@ -69,6 +109,204 @@ struct stage_row {
 	uint64_t peak_rss;     /* largest job */
 };
 
+/* The pictures side by side (one paragraph), then what each shows. */
+static void write_pictures(FILE *f, const struct plan *p)
+{
+	const struct config *c = p->cfg;
+	int n = 0;
+	for (int d = 0; d < c->njobs; d++) {
+		if (c->jobs_decl[d].stage->type != STAGE_RENDER)
+			continue;
+		/* relative to the report, which sits in p->dir */
+		char out[1100];
+		snprintf(out, sizeof out, "%s.png", c->jobs_decl[d].name);
+		fprintf(f, "%s![%s](%s)", n++ ? " " : "", c->jobs_decl[d].name,
+			out);
+	}
+	if (!n)
+		return;
+	fprintf(f, "\n\n");
+	if (n == 1)
+		return;
+	fprintf(f, "Left to right:");
+	n = 0;
+	for (int d = 0; d < c->njobs; d++) {
+		const struct job_decl *r = &c->jobs_decl[d];
+		if (r->stage->type != STAGE_RENDER)
+			continue;
+		fprintf(f, "%s `%s`, the scene of `%s`", n++ ? ";" : "", r->name,
+			c->jobs_decl[r->needs[0]].name);
+		if (r->nneeds > 1)
+			fprintf(f, ", voxels set in only one of it and `%s`'s "
+				"scene in red", c->jobs_decl[r->needs[1]].name);
+	}
+	fprintf(f, ".\n\n");
+}
+
+/* The job of declared job d when it is an encode job, or NULL. */
+static const struct job *encode_job(const struct plan *p, int d)
+{
+	if (p->cfg->jobs_decl[d].stage->type != STAGE_ENCODE)
+		return NULL;
+	for (int i = 0; i < p->n; i++)
+		if (p->jobs[i].decl == d)
+			return &p->jobs[i];
+	return NULL;
+}
+
+/* The encode job whose DAG input is declared job `dag`, or NULL. */
+static const struct job *encode_of(const struct plan *p, int dag)
+{
+	const struct config *c = p->cfg;
+	for (int i = 0; i < p->n; i++) {
+		const struct job_decl *d = &c->jobs_decl[p->jobs[i].decl];
+		if (d->stage->type == STAGE_ENCODE &&
+		    (d->needs[0] == dag || d->needs[1] == dag))
+			return &p->jobs[i];
+	}
+	return NULL;
+}
+
+static double mb(double bytes)
+{
+	return bytes / 1048576.0;
+}
+
+/* The lossy paper's Tables 1 and 2 (van der Laan et al. 2020) for
+ * lossy-cluster job d: the graph and times from its statistics, nodes and
+ * sizes from the tables of the encode jobs of its input and its output.
+ * `svdag_seconds` is the run's sum for the input's job, used when the
+ * lossless encode has no Table 1 seconds. */
+static void write_lossy(FILE *f, const struct plan *p, int d,
+			double svdag_seconds)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *ld = &c->jobs_decl[d];
+	char path[1200], id[200];
+	snprintf(id, sizeof id, "%s/root", ld->name);
+	const struct job *lj = NULL;
+	for (int i = 0; i < p->n && !lj; i++)
+		if (!strcmp(p->jobs[i].id, id))
+			lj = &p->jobs[i];
+	fprintf(f, "# Lossy compression: job `%s`\n\n", ld->name);
+	snprintf(path, sizeof path, "%s.stats.json", lj ? lj->output : "");
+	char *st = lj ? slurp(path) : NULL;
+	if (!st) {
+		fprintf(f, "(not built)\n\n");
+		return;
+	}
+	const struct job *e0 = encode_of(p, ld->needs[0]), *e1 = encode_of(p, d);
+	char *t0 = NULL, *t1 = NULL;
+	if (e0) {
+		snprintf(path, sizeof path, "%s/%s.tables.json", e0->output, c->name);
+		t0 = slurp(path);
+	}
+	if (e1) {
+		snprintf(path, sizeof path, "%s/%s.tables.json", e1->output, c->name);
+		t1 = slurp(path);
+	}
+	size_t nlev;
+	double gnodes = json_sum(st, "per_level", "graph_nodes", &nlev);
+	double gedges = json_sum(st, "per_level", "edges", &nlev);
+	double vbefore = json_number(st, NULL, "voxels_before");
+	double svdag_s = t0 ? json_row_number(t0, "table1", 0,
+					      "seconds_svo_to_dag") : 0;
+	if (svdag_s == 0)
+		svdag_s = svdag_seconds;
+	fprintf(f, "Lossy SVDAG (van der Laan, Scandolo and Eisemann 2020) of "
+		"`%s`: inflation %s, diff_factor %s, max_refs %s. Resolution "
+		"%d^3 (the lossy DAG is built at the full resolution only).\n\n",
+		c->jobs_decl[ld->needs[0]].name, ld->inflation, ld->diff_factor,
+		ld->max_refs, 1 << c->levels);
+	fprintf(f, "## Table 1: similarity graph and times (seconds)\n\n"
+		"| resolution | MVoxels | graph MNodes | graph MEdges | SVDAG "
+		"constr. | sim. graph constr. | clustering |\n"
+		"|---:|---:|---:|---:|---:|---:|---:|\n"
+		"| %d^3 | %.6f | %.6f | %.6f | %.3f | %.3f | %.3f |\n\n",
+		1 << c->levels, vbefore / 1e6, gnodes / 1e6, gedges / 1e6,
+		svdag_s, json_number(st, NULL, "seconds_graph"),
+		json_number(st, NULL, "seconds_clustering"));
+	fprintf(f, "SVDAG construction: `svo-to-dag` over all its processes; "
+		"graph and clustering summed over the %zu levels clustered. "
+		"Effective reference counts %.3f s, lossless reduction %.3f s.\n\n",
+		nlev, json_number(st, NULL, "seconds_effective_refs"),
+		json_number(st, NULL, "seconds_reduction"));
+	fprintf(f, "## Table 2: nodes and memory (MB = 2^20 bytes)\n\n");
+	if (!t0 || !t1) {
+		fprintf(f, "(needs an encode job of `%s` and one of `%s`)\n\n",
+			c->jobs_decl[ld->needs[0]].name, ld->name);
+	} else {
+		/* name, tables text, node key, bytes key (format name) */
+		static const struct {
+			const char *name;
+			int lossy;
+			const char *nodes, *fmt;
+		} rows[] = {
+			{"SVO", 0, "nodes_svo", "svo"},
+			{"SVDAG", 0, "nodes_svdag", "svdag"},
+			{"LSVDAG", 1, "nodes_svdag", "svdag"},
+			{"ESVDAG", 0, "nodes_svdag", "esvdag"},
+			{"LESVDAG", 1, "nodes_svdag", "esvdag"},
+			{"SSVDAG", 0, "nodes_ssvdag", "ssvdag"},
+			{"LSSVDAG", 1, "nodes_ssvdag", "ssvdag"},
+		};
+		fprintf(f, "| method | nodes | MNodes | MB | bits/voxel | vs "
+			"lossless |\n|---|---:|---:|---:|---:|---:|\n");
+		for (size_t k = 0; k < sizeof rows / sizeof *rows; k++) {
+			const char *t = rows[k].lossy ? t1 : t0;
+			char bk[64], vk[64];
+			snprintf(bk, sizeof bk, "bytes_%s", rows[k].fmt);
+			snprintf(vk, sizeof vk, "bits_per_voxel_%s", rows[k].fmt);
+			double nodes = json_row_number(t, "table2", 0, rows[k].nodes);
+			double bytes = json_row_number(t, "table2", 0, bk);
+			fprintf(f, "| %s | %.0f | %.6f | %.6f | %g |", rows[k].name,
+				nodes, nodes / 1e6, mb(bytes),
+				json_row_number(t, "table2", 0, vk));
+			if (rows[k].lossy) {
+				double b0 = json_row_number(t0, "table2", 0, bk);
+				fprintf(f, " %+.1f%% MB |\n", b0 > 0 ?
+					100.0 * (bytes - b0) / b0 : 0);
+			} else {
+				fprintf(f, " |\n");
+			}
+		}
+		fprintf(f, "\n");
+	}
+	fprintf(f, "Error rate %g (%.0f voxels changed of %.0f: %.0f set, %.0f "
+		"cleared; %.0f voxels after).\n\n",
+		json_number(st, NULL, "error_rate"),
+		json_number(st, NULL, "voxels_changed"), vbefore,
+		json_number(st, NULL, "voxels_set"),
+		json_number(st, NULL, "voxels_cleared"),
+		json_number(st, NULL, "voxels_after"));
+	free(st);
+	free(t0);
+	free(t1);
+}
+
+/* What edit job d did, from its statistics. */
+static void write_edit(FILE *f, const struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	char path[1200];
+	snprintf(path, sizeof path, "%s/%s/root.dag.stats.json", p->dir,
+		 c->jobs_decl[d].name);
+	char *st = slurp(path);
+	size_t nops;
+	double changed = json_sum(st, "operations", "voxels_changed", &nops);
+	fprintf(f, "# Edits: job `%s`\n\n", c->jobs_decl[d].name);
+	if (!st)
+		fprintf(f, "(not built)\n\n");
+	else
+		fprintf(f, "%zu operations on `%s`'s scene (script `%s`), %.0f "
+			"voxel changes in all; %.0f voxels after.\n\n", nops,
+			c->jobs_decl[c->jobs_decl[d].needs[0]].name,
+			c->jobs_decl[d].script_text ? "inline" :
+			c->jobs_decl[d].script, changed,
+			json_number(st, NULL, "voxels"));
+	free(st);
+}
+
 int report_write(const struct plan *p)
 {
 	const struct config *c = p->cfg;
@@ -81,6 +319,17 @@ int report_write(const struct plan *p)
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
 		double secs = json_number(text, "seconds", "total");
+		enum stage_type t = c->jobs_decl[j->decl].stage->type;
+		size_t nops;
+		if (t == STAGE_LOSSY) /* its phases, the check of its count too */
+			secs = json_number(text, NULL, "seconds_load") +
+			       json_number(text, NULL, "seconds_lossy") +
+			       json_number(text, NULL, "seconds_diff") +
+			       json_number(text, NULL, "seconds_save");
+		else if (t == STAGE_EDIT) /* load, every operation, save */
+			secs = json_number(text, NULL, "seconds_load") +
+			       json_sum(text, "operations", "seconds", &nops) +
+			       json_number(text, NULL, "seconds_save");
 		if (secs == 0) /* the DAG stages report their phases */
 			secs = json_number(text, NULL, "seconds_load") +
 			       json_number(text, NULL, "seconds_build") +
@@ -99,12 +348,17 @@ int report_write(const struct plan *p)
 	char path[1200];
 	/* the voxelization summary */
 	const struct job *vox = NULL, *enc = NULL;
+	int nenc = 0;
 	for (int i = 0; i < p->n; i++) {
 		enum stage_type t = c->jobs_decl[p->jobs[i].decl].stage->type;
 		if (t == STAGE_VOXELIZE)
 			vox = &p->jobs[i];
-		if (t == STAGE_ENCODE)
+		if (t != STAGE_ENCODE)
+			continue;
+		/* the first encode job declared comes first */
+		if (!enc || p->jobs[i].decl < enc->decl)
 			enc = &p->jobs[i];
+		nenc++;
 	}
 	char *vstats = NULL;
 	if (vox) {
@@ -134,18 +388,33 @@ int report_write(const struct plan *p)
 		c->levels, 1 << c->levels, (int)json_number(vstats, NULL, "chunk_level"),
 		json_number(vstats, NULL, "triangles_read"),
 		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
-	for (int i = 0; i < p->n; i++) {
-		const struct job *r = &p->jobs[i];
-		if (c->jobs_decl[r->decl].stage->type == STAGE_RENDER)
-			/* relative to the report, which sits in p->dir */
-			fprintf(f, "![%s](%s)\n\n", c->jobs_decl[r->decl].name,
-				r->output + strlen(p->dir) + 1);
-	}
+	write_pictures(f, p);
+	if (tables && nenc > 1)
+		fprintf(f, "# Scene of job `%s`\n\n",
+			c->jobs_decl[enc->decl].name);
 	if (tables) /* encode's own title line is ours already */
 		fprintf(f, "%s\n", strncmp(tables, "# ", 2) == 0 && strchr(tables, '\n')
 				       ? strchr(tables, '\n') + 1 : tables);
 	else
 		fprintf(f, "(no encode job in this pipeline: no size tables)\n\n");
+	/* the other encode jobs' tables (a lossy or edited scene) */
+	for (int d = 0; d < c->njobs; d++) {
+		const struct job *e = encode_job(p, d);
+		if (!e || e == enc)
+			continue;
+		snprintf(path, sizeof path, "%s/%s.tables.md", e->output, c->name);
+		char *t = slurp(path);
+		fprintf(f, "# Scene of job `%s`\n\n%s\n", c->jobs_decl[e->decl].name,
+			!t ? "(not built)\n" : strncmp(t, "# ", 2) == 0 &&
+			strchr(t, '\n') ? strchr(t, '\n') + 1 : t);
+		free(t);
+	}
+	for (int d = 0; d < c->njobs; d++) {
+		if (c->jobs_decl[d].stage->type == STAGE_LOSSY)
+			write_lossy(f, p, d, rows[c->jobs_decl[d].needs[0]].seconds);
+		if (c->jobs_decl[d].stage->type == STAGE_EDIT)
+			write_edit(f, p, d);
+	}
 	fprintf(f, "## The run\n\n");
 	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
 		"their statistics files); peak memory is the largest job's, "
@@ -202,6 +471,32 @@ int report_write(const struct plan *p)
 				 c->name);
 			vd_json_str(j, "tables", path);
 		}
+		/* where the lossy tables' numbers come from */
+		vd_json_array(j, "lossy");
+		for (int d = 0; d < c->njobs; d++) {
+			const struct job_decl *ld = &c->jobs_decl[d];
+			if (ld->stage->type != STAGE_LOSSY)
+				continue;
+			vd_json_object(j, NULL);
+			vd_json_str(j, "job", ld->name);
+			snprintf(path, sizeof path, "%s/%s/root.dag.stats.json",
+				 p->dir, ld->name);
+			vd_json_str(j, "stats", path);
+			const struct job *e0 = encode_of(p, ld->needs[0]),
+					 *e1 = encode_of(p, d);
+			if (e0) {
+				snprintf(path, sizeof path, "%s/%s.tables.json",
+					 e0->output, c->name);
+				vd_json_str(j, "tables_lossless", path);
+			}
+			if (e1) {
+				snprintf(path, sizeof path, "%s/%s.tables.json",
+					 e1->output, c->name);
+				vd_json_str(j, "tables_lossy", path);
+			}
+			vd_json_end_object(j);
+		}
+		vd_json_end_array(j);
 		err |= vd_json_close(j) != VD_OK;
 	} else {
 		err = 1;

@@ -195,6 +195,15 @@ YAML
 			name, cells, jobs, r, s, s > 0 ? 100 * r / s : 0 }'
 	rm -rf "out/$name"
 }
+# The HashDAG edit stage (issue 16): fill, carve and copy of 1K, 100K and
+# 10M voxels on the dragon at 2^12 and 2^14 with 1 and 2 threads, hashed
+# memory against the plain DAG, gc (tests/bench_edit.sh, which also runs
+# alone). VOXDAG_BENCH_EDIT=0 skips it.
+if [ "${VOXDAG_BENCH_EDIT:-1}" != 0 ]; then
+	echo
+	tests/bench_edit.sh
+fi
+
 if [ "${VOXDAG_BENCH_RUNNER:-1}" != 0 ]; then
 	echo
 	runner_scale bunny-9-L4 tests/data/bunny.ply 9 4

@@ -25,6 +25,9 @@ static const char usage[] =
 	"With --diff, walks two SVDAG chunks of the same cell together and\n"
 	"prints the voxels that differ on stdout: 'differing_voxels=N\n"
 	"only_a=X only_b=Y' (exit 0 once counted, whether or not they differ).\n"
+	"Either may also be an SSVDAG root chunk or an encoding (decoded by its\n"
+	"own decoder, checked against its manifest): then both scenes are\n"
+	"expanded to their 4^3 bricks and compared.\n"
 	"\n"
 	"  -d, --diff              count the voxels differing between two DAGs\n"
 	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB)\n"
@@ -148,17 +151,133 @@ static int verify_encoding(const char *path, int format, struct vd_svo *svos,
 	return 1;
 }
 
+/* A scene's bricks in Morton order (from vd_dag_expand/vd_enc_expand). */
+struct bricks {
+	uint64_t *keys, *masks;
+	size_t n, cap;
+	uint64_t bytes, budget; /* held so far, --mem-budget */
+};
+
+static int add_brick(void *ctx, uint64_t key, uint64_t brick)
+{
+	struct bricks *b = ctx;
+	if (b->n == b->cap) {
+		size_t cap = b->cap ? 2 * b->cap : 4096;
+		if (b->bytes + 16 * (cap - b->cap) > b->budget)
+			return vd_fail(VD_ERR_BUDGET, "the expanded bricks need "
+				       "more than --mem-budget %" PRIu64 " MiB",
+				       b->budget >> 20);
+		uint64_t *k = realloc(b->keys, cap * 8);
+		if (k) b->keys = k;
+		uint64_t *m = k ? realloc(b->masks, cap * 8) : NULL;
+		if (m) b->masks = m;
+		if (!k || !m)
+			return vd_fail(VD_ERR_NOMEM, "out of memory");
+		b->bytes += 16 * (cap - b->cap);
+		b->cap = cap;
+	}
+	b->keys[b->n] = key;
+	b->masks[b->n++] = brick;
+	return 0;
+}
+
+/* Expands `path`, a DAG/SSVDAG root chunk or an encoding, into *b and its
+ * depth into *levels. Prints one line and returns 1 on failure. */
+static int load_bricks(const char *path, struct bricks *b, int *levels,
+		       int check_manifest)
+{
+	struct vd_chunk_header h;
+	int err = vd_chunk_read_header(path, &h);
+	if (err == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(path) >= 0) {
+		struct vd_enc e;
+		memset(&e, 0, sizeof e);
+		err = check_manifest ? vd_manifest_check_file(path) : VD_OK;
+		if (!err)
+			err = vd_enc_load(&e, path, -1);
+		if (err) {
+			vd_enc_release(&e);
+			return vd_cli_fail(TOOL, err, "cannot read", path);
+		}
+		*levels = (int)e.levels;
+		err = vd_enc_expand(&e, add_brick, b);
+		vd_enc_release(&e);
+		return err ? vd_cli_fail(TOOL, err, "cannot decode", path) : 0;
+	}
+	if (err)
+		return vd_cli_fail(TOOL, err, "cannot read", path);
+	struct vd_dag d;
+	memset(&d, 0, sizeof d);
+	if ((err = vd_dag_load(&d, NULL, path, VD_KIND_ANY)))
+		return vd_cli_fail(TOOL, err, "cannot read", path);
+	b->bytes += vd_dag_memory_bytes(&d);
+	*levels = d.levels;
+	err = d.chunk_level != 0
+		      ? vd_fail(VD_ERR_ARG, "not a root chunk (chunk level %d)",
+				d.chunk_level)
+	      : b->bytes > b->budget
+		      ? vd_fail(VD_ERR_BUDGET, "needs more than --mem-budget "
+				"%" PRIu64 " MiB", b->budget >> 20)
+		      : vd_dag_expand(&d, add_brick, b);
+	b->bytes -= vd_dag_memory_bytes(&d);
+	vd_dag_release(&d);
+	return err ? vd_cli_fail(TOOL, err, "cannot expand", path) : 0;
+}
+
+/* --diff where one side is not an SVDAG chunk: both expanded to bricks
+ * and merged in Morton order. */
+static int diff_bricks(const char *pa, const char *pb, uint64_t budget,
+		       int quiet, int check_manifest)
+{
+	struct bricks a = {.budget = budget}, b = {.budget = budget};
+	int la = 0, lb = 0, rc = load_bricks(pa, &a, &la, check_manifest);
+	b.bytes = a.bytes;
+	if (!rc)
+		rc = load_bricks(pb, &b, &lb, check_manifest);
+	if (!rc && la != lb) {
+		fprintf(stderr, "dag-verify: cannot compare '%s' (2^%d) and '%s' "
+			"(2^%d): not the same grid\n", pa, la, pb, lb);
+		rc = 1;
+	}
+	uint64_t oa = 0, ob = 0;
+	for (size_t i = 0, k = 0; !rc && (i < a.n || k < b.n);) {
+		if (k == b.n || (i < a.n && a.keys[i] < b.keys[k])) {
+			oa += (uint64_t)__builtin_popcountll(a.masks[i++]);
+		} else if (i == a.n || b.keys[k] < a.keys[i]) {
+			ob += (uint64_t)__builtin_popcountll(b.masks[k++]);
+		} else {
+			oa += (uint64_t)__builtin_popcountll(a.masks[i] & ~b.masks[k]);
+			ob += (uint64_t)__builtin_popcountll(b.masks[k] & ~a.masks[i]);
+			i++, k++;
+		}
+	}
+	free(a.keys);
+	free(a.masks);
+	free(b.keys);
+	free(b.masks);
+	if (!rc && !quiet)
+		printf("differing_voxels=%" PRIu64 " only_a=%" PRIu64 " only_b=%"
+		       PRIu64 "\n", oa + ob, oa, ob);
+	return rc;
+}
+
 /* --diff: the voxels differing between two SVDAG chunks. */
 static int diff_dags(const char *pa, const char *pb, uint64_t budget,
-		     int quiet)
+		     int quiet, int check_manifest)
 {
 	struct vd_dag a, b;
 	struct vd_chunk_header ha, hb;
 	memset(&a, 0, sizeof a);
 	memset(&b, 0, sizeof b);
 	int err = vd_chunk_read_header(pa, &ha);
+	int errb = vd_chunk_read_header(pb, &hb);
+	/* an encoding or an SSVDAG on either side: through the bricks */
+	if ((err == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pa) >= 0) ||
+	    (errb == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pb) >= 0) ||
+	    (!err && !errb && (ha.kind == VD_KIND_SSVDAG ||
+			       hb.kind == VD_KIND_SSVDAG)))
+		return diff_bricks(pa, pb, budget, quiet, check_manifest);
 	if (err) return vd_cli_fail(TOOL, err, "cannot read", pa);
-	if ((err = vd_chunk_read_header(pb, &hb)))
+	if ((err = errb))
 		return vd_cli_fail(TOOL, err, "cannot read", pb);
 	/* both loaded plus the pair memo: about 3x their bounds */
 	uint64_t need = 3 * (vd_dag_estimate_header(&ha) +
@@ -226,8 +345,9 @@ int main(int argc, char **argv)
 	if (diff_mode) {
 		if (argc - optind != 2)
 			return vd_cli_usage(TOOL, "%s", "--diff needs exactly two "
-					   "DAG chunks");
-		return diff_dags(argv[optind], argv[optind + 1], budget, quiet);
+					   "DAG chunks or encodings");
+		return diff_dags(argv[optind], argv[optind + 1], budget, quiet,
+				 check_manifest);
 	}
 	if (argc - optind < 2)
 		return vd_cli_usage(TOOL, "%s", "needs a DAG chunk and at least one "

@@ -1433,6 +1433,12 @@ struct vd_render_opts {
 	 * LOD cell its first voxel's; the source must cover exactly the
 	 * scene's voxels (VD_ERR_MISMATCH). */
 	const struct vd_colour_source *colours;
+	const struct vd_render_scene *diff; /* NULL, or a second scene on the
+				     same grid (levels, origin, voxel size):
+				     the picture is then of both scenes'
+				     voxels, and those set in only one of
+				     them are red (lossy paper, Fig. 1);
+				     exact rendering only (lod_pixels 0) */
 };
 
 #define VD_RENDER_MAX_SIDE 16384
@@ -1445,6 +1451,9 @@ struct vd_image {
 	float *depth;             /* hit distance in world units along the
 				     unit view ray; INFINITY on a miss */
 	struct vd_hit *hits;      /* level -1 on a miss */
+	uint8_t *differs;         /* with opts.diff: 1 where the hit voxel is
+				     set in one scene only; else NULL */
+	uint64_t differing_pixels;
 	uint64_t primary_rays, shadow_rays;
 	double seconds_primary, seconds_shade;
 };
@@ -1502,6 +1511,7 @@ struct vd_render_job {
 	const char *output;        /* PNG */
 	const char *depth_path;    /* or NULL */
 	const char *ids_path;      /* or NULL */
+	const char *diff_input;    /* or NULL: a second scene (opts.diff) */
 	const char *preset;        /* camera preset, used when !has_eye */
 	int has_eye;               /* opts.cam.eye/target given */
 	int has_light;             /* opts.light given (else above the eye) */
@@ -1515,7 +1525,9 @@ struct vd_render_job {
  * extension, checked against the manifest beside it unless no_verify:
  * vd_manifest_check_file()), sets up the camera and light, renders and writes the
  * outputs. On failure the detail is the whole message after the tool name
- * ("cannot read 'x.ssvdag': truncated file: ..."). */
+ * ("cannot read 'x.ssvdag': truncated file: ..."). With diff_input,
+ * that scene is loaded the same way and must lie on the same grid
+ * (VD_ERR_MISMATCH); the camera frames the input. */
 int vd_render_run(const struct vd_render_job *job);
 
 /* ---- end of render block */

@@ -40,6 +40,11 @@ static const char usage[] =
 	"  -C, --colours SRC       colour the voxels from SRC: voxelize's output\n"
 	"                          directory (its colour chunks) or a colorize\n"
 	"                          file; it must cover exactly the scene's voxels\n"
+	"  -D, --diff OTHER        also trace OTHER (an encoding or root chunk on\n"
+	"                          the same grid): draw the voxels of both scenes\n"
+	"                          and those set in only one of them in red, as\n"
+	"                          the lossy SVDAG paper's Fig. 1 (exact only,\n"
+	"                          no --lod); the camera frames SCENE\n"
 	"  -q, --quiet             no summary line on stderr\n"
 	"      --no-verify         read an encoding that has no manifest beside\n"
 	"                          it (a file from the SymVox tools); encode's\n"
@@ -141,6 +146,7 @@ int main(int argc, char **argv)
 		{"voxel-id", required_argument, NULL, 'i'},
 		{"threads", required_argument, NULL, 'j'},
 		{"lod", required_argument, NULL, 'L'},
+		{"diff", required_argument, NULL, 'D'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"colours", required_argument, NULL, 'C'},
 		{"compare", no_argument, NULL, 'K'},
@@ -155,7 +161,7 @@ int main(int argc, char **argv)
 	job.opts.shadows = 1;
 	int has_target = 0, compare = 0;
 	int c;
-	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:qC:h", longopts,
+	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:D:qC:h", longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -217,6 +223,9 @@ int main(int argc, char **argv)
 				return vd_cli_usage(TOOL, "--lod '%s' is not a number of "
 						   "pixels >= 0", optarg);
 			break;
+		case 'D':
+			job.diff_input = optarg;
+			break;
 		case 'q':
 			job.quiet = 1;
 			break;
@@ -261,6 +270,9 @@ int main(int argc, char **argv)
 			return vd_cli_usage(TOOL, "%s", "--eye and --target are the same "
 					   "point");
 	}
+	if (job.diff_input && job.opts.lod_pixels > 0)
+		return vd_cli_usage(TOOL, "%s", "--diff draws voxels exactly: no "
+				   "--lod with it");
 	if (job.depth_path) {
 		size_t n = strlen(job.depth_path);
 		if (!(n > 4 && (!strcmp(job.depth_path + n - 4, ".pfm") ||

@@ -48,7 +48,7 @@ printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njob
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [w]}\n' |
 	bad_cfg config_unknown_need 'bad.yaml:7:3: job .d. needs .w., which is not a job'
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  s: {stage: symmetry-merge, needs: [v]}\n' |
-	bad_cfg config_wrong_input_stage 'takes needs: \[an svo-to-dag job\]'
+	bad_cfg config_wrong_input_stage 'takes needs: \[an svo-to-dag, lossy-cluster or edit job\]'
 printf 'version: 1\nname: x\ninput: {mesh: out/none.ply, fetch: config/fetch-x.sh}\nlevels: 6\njobs: {v: {stage: voxelize}}\n' |
 	bad_cfg config_missing_input 'missing; fetch it with: config/fetch-x.sh'
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply\nlevels: 6\n' |

@@ -15,6 +15,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		if (!freopen("/dev/null", "w", stderr))
 			abort();
 	}
-	(void)config_load(&c, path);
+	if (config_load(&c, path) == 0)
+		config_release(&c);
 	return 0;
 }

@@ -626,6 +626,87 @@ static void test_identical_images(void)
 	scene6_free(&s);
 }
 
+/* render --diff (vd_render_opts.diff): a scene against itself is the plain
+ * picture; against a scene with some bricks thinned and others thickened,
+ * every pixel shows the nearer of the two scenes' own hits, and it is red
+ * exactly when that voxel is set in one of the two dense reference grids
+ * only. */
+static void test_diff_images(void)
+{
+	struct scene6 a, b;
+	const char *dir = test_tmpdir("test_render_diff");
+	struct vd_svo svo;
+	struct vd_transform t;
+	if (!test_voxelize_one("tests/data/bunny.ply", 7, dir, &svo, &t)) return;
+	scene6_build(&a, &svo, &t);
+	for (size_t i = 0; i < svo.count; i++) {
+		uint64_t m = svo.masks[i];
+		if (i % 5 == 0 && (m & (m - 1))) /* drop the lowest voxel */
+			svo.masks[i] = m & (m - 1);
+		else if (i % 5 == 1) /* and add a neighbour */
+			svo.masks[i] = m | m << 1 | 1;
+	}
+	scene6_build(&b, &svo, &t);
+	vd_svo_release(&svo);
+	const int W = 101, H = 77;
+	const struct vd_render_scene *ra = &a.rs[a.n_rs - 2], *rb = &b.rs[b.n_rs - 1];
+	struct vd_render_opts o = image_opts(ra, "iso", W, H);
+	struct vd_image plain, self, pa, pb, dif;
+	CHECK_EQ(vd_render_image(ra, &o, &plain), VD_OK);
+	o.diff = &a.rs[a.n_rs - 1]; /* the same voxels, as an SSVDAG */
+	CHECK_EQ(vd_render_image(ra, &o, &self), VD_OK);
+	CHECK(memcmp(plain.rgb, self.rgb, 3 * (size_t)W * H) == 0);
+	CHECK_EQ(self.differing_pixels, 0);
+	o.diff = NULL;
+	CHECK_EQ(vd_render_image(ra, &o, &pa), VD_OK);
+	CHECK_EQ(vd_render_image(rb, &o, &pb), VD_OK);
+	o.diff = rb;
+	CHECK_EQ(vd_render_image(ra, &o, &dif), VD_OK);
+	uint64_t red = 0, bad = 0;
+	for (size_t p = 0; p < (size_t)W * H; p++) {
+		const struct vd_hit *h = &dif.hits[p], *ha = &pa.hits[p],
+				    *hb = &pb.hits[p];
+		if (h->level < 0) {
+			bad += ha->level >= 0 || hb->level >= 0 || dif.differs[p];
+			continue;
+		}
+		/* the nearer of the two own hits */
+		int is_a = ha->level >= 0 && hits_equal(h, ha),
+		    is_b = hb->level >= 0 && hits_equal(h, hb);
+		bad += !is_a && !is_b;
+		bad += (ha->level >= 0 && ha->t < h->t) || (hb->level >= 0 && hb->t < h->t);
+		int in_a = dense_get(&a.ref, h->cell[0], h->cell[1], h->cell[2]),
+		    in_b = dense_get(&b.ref, h->cell[0], h->cell[1], h->cell[2]);
+		bad += !(in_a | in_b);
+		bad += dif.differs[p] != (in_a != in_b);
+		red += dif.differs[p];
+	}
+	CHECK_EQ(bad, 0);
+	CHECK_EQ(red, dif.differing_pixels);
+	CHECK(red > 50);
+	/* on another grid, or with LOD: refused */
+	struct scene6 c;
+	if (bunny(6, &c)) {
+		o.diff = &c.rs[0];
+		struct vd_image x;
+		CHECK_EQ(vd_render_image(ra, &o, &x), VD_ERR_MISMATCH);
+		vd_image_release(&x);
+		scene6_free(&c);
+	}
+	o.diff = rb;
+	o.lod_pixels = 2;
+	struct vd_image y;
+	CHECK_EQ(vd_render_image(ra, &o, &y), VD_ERR_ARG);
+	vd_image_release(&y);
+	vd_image_release(&plain);
+	vd_image_release(&self);
+	vd_image_release(&pa);
+	vd_image_release(&pb);
+	vd_image_release(&dif);
+	scene6_free(&a);
+	scene6_free(&b);
+}
+
 /* Images are written so that libpng reads them back as they were; the depth
  * and id files have the documented sizes and headers. */
 static void test_outputs(void)
@@ -737,6 +818,7 @@ int main(void)
 	RUN(test_bunny_rays);
 	RUN(test_lod);
 	RUN(test_identical_images);
+	RUN(test_diff_images);
 	RUN(test_outputs);
 	RUN(test_bad_cameras);
 	return CHECK_DONE();

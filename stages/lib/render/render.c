@@ -558,7 +558,23 @@ static void primary_row(void *ctx, size_t row, int worker)
 		r.tmax = INFINITY;
 		r.lod = c->lod_k;
 		struct vd_hit *h = &img->hits[i];
-		if (vd_render_trace(s, &r, h)) {
+		int hit = vd_render_trace(s, &r, h);
+		if (c->o->diff) {
+			/* the first voxel of the union is the nearer of the two
+			 * first hits; the voxels along a ray come in one order
+			 * whatever the scene, so when the two hits are not one
+			 * voxel, the nearer is not set in the other scene (it
+			 * would have been hit there first) */
+			struct vd_hit h2;
+			int hit2 = vd_render_trace(c->o->diff, &r, &h2);
+			int same = hit && hit2 && h->level == h2.level &&
+				   !memcmp(h->cell, h2.cell, sizeof h->cell);
+			if (hit2 && (!hit || (!same && h2.t < h->t)))
+				*h = h2;
+			img->differs[i] = (hit || hit2) && !same;
+			hit |= hit2;
+		}
+		if (hit) {
 			img->depth[i] = (float)h->t;
 		} else {
 			memset(h, 0, sizeof *h);
@@ -681,15 +697,21 @@ static void shade_row(void *ctx, size_t row, int worker)
 			r.lod = c->lod_k;
 			struct vd_hit sh;
 			shadow_rays++;
-			if (vd_render_trace(s, &r, &sh)) vis = 0;
+			if (vd_render_trace(s, &r, &sh) ||
+			    (c->o->diff && vd_render_trace(c->o->diff, &r, &sh)))
+				vis = 0;
 		}
 		double sky = 0.5 + 0.5 * n[1];
 		double light = 0.10 + 0.12 * sky + 0.80 * (lambert > 0 ? lambert : 0) * vis;
-		static const double grey[3] = {0.82, 0.76, 0.66};
+		static const double grey[3] = {0.82, 0.76, 0.66},
+				    red[3] = {0.90, 0.05, 0.04};
 		double albedo[3] = {grey[0], grey[1], grey[2]};
 		uint64_t index;
-		if (c->counts && vd_voxcount_index(c->counts, h->level, h->cell[0],
-						   h->cell[1], h->cell[2], &index)) {
+		if (img->differs && img->differs[i]) {
+			memcpy(albedo, red, sizeof albedo);
+		} else if (c->counts &&
+			   vd_voxcount_index(c->counts, h->level, h->cell[0],
+					     h->cell[1], h->cell[2], &index)) {
 			/* a voxel's own colour; an LOD cell's first voxel's */
 			uint8_t rgb[3];
 			c->o->colours->get(c->o->colours, index, rgb);
@@ -706,6 +728,7 @@ void vd_image_release(struct vd_image *img)
 	free(img->rgb);
 	free(img->depth);
 	free(img->hits);
+	free(img->differs);
 	memset(img, 0, sizeof *img);
 }
 
@@ -734,6 +757,15 @@ int vd_render_image(const struct vd_render_scene *s,
 	if (!(o->lod_pixels >= 0) || !isfinite(o->lod_pixels))
 		return vd_fail(VD_ERR_ARG, "LOD %g pixels is not a number >= 0",
 			       o->lod_pixels);
+	if (o->diff && o->lod_pixels > 0)
+		return vd_fail(VD_ERR_ARG, "the differences of two scenes are "
+			       "drawn exactly only (no LOD)");
+	if (o->diff && (o->diff->levels != s->levels ||
+			o->diff->voxel_size != s->voxel_size ||
+			memcmp(o->diff->origin, s->origin, sizeof s->origin)))
+		return vd_fail(VD_ERR_MISMATCH, "the two scenes are not on one "
+			       "grid (2^%d and 2^%d, or another origin or voxel "
+			       "size)", s->levels, o->diff->levels);
 	size_t n = (size_t)o->width * (size_t)o->height;
 	img->width = o->width;
 	img->height = o->height;
@@ -741,7 +773,10 @@ int vd_render_image(const struct vd_render_scene *s,
 	img->depth = malloc(n * sizeof *img->depth);
 	img->hits = malloc(n * sizeof *img->hits);
 	uint64_t *rows = calloc((size_t)o->height, sizeof *rows);
-	if (!img->rgb || !img->depth || !img->hits || !rows) {
+	if (o->diff)
+		img->differs = calloc(n, 1);
+	if (!img->rgb || !img->depth || !img->hits || !rows ||
+	    (o->diff && !img->differs)) {
 		free(rows);
 		return NOMEM();
 	}
@@ -776,6 +811,8 @@ int vd_render_image(const struct vd_render_scene *s,
 	double t2 = vd_seconds();
 	img->primary_rays = n;
 	for (int y = 0; y < o->height; y++) img->shadow_rays += rows[y];
+	for (size_t i = 0; img->differs && i < n; i++)
+		img->differing_pixels += img->differs[i];
 	img->seconds_primary = t1 - t0;
 	img->seconds_shade = t2 - t1;
 	free(rows);
@@ -1051,6 +1088,17 @@ int vd_render_run(const struct vd_render_job *job)
 		return err;
 	}
 	const struct vd_render_scene *s = &in.scene;
+	struct input other;
+	memset(&other, 0, sizeof other);
+	if (job->diff_input) {
+		err = load_input(&other, job->diff_input, !job->no_verify);
+		if (err) {
+			input_release(&other);
+			input_release(&in);
+			return err;
+		}
+		o.diff = &other.scene;
+	}
 	if (!job->has_eye) {
 		err = vd_camera_preset(&o.cam, s, job->preset ? job->preset : "front",
 				       o.cam.fov_deg, o.width, o.height);
@@ -1067,6 +1115,7 @@ int vd_render_run(const struct vd_render_job *job)
 	}
 	if (!err) err = vd_camera_check(&o.cam);
 	if (err) {
+		input_release(&other);
 		input_release(&in);
 		return reword(err, "cannot render", job->input);
 	}
@@ -1127,9 +1176,15 @@ int vd_render_run(const struct vd_render_job *job)
 			img.shadow_rays, img.seconds_shade,
 			img.shadow_rays / (img.seconds_shade > 0 ? img.seconds_shade : 1e-9) / 1e6,
 			threads, job->output);
+		if (job->diff_input)
+			fprintf(stderr, "%s: %" PRIu64 " pixels show voxels set in "
+				"only one of '%s' and '%s' (red)\n", job->tool,
+				img.differing_pixels, job->input,
+				job->diff_input);
 		(void)rays;
 	}
 	vd_image_release(&img);
+	input_release(&other);
 	input_release(&in);
 	return err;
 }
