@@ -737,6 +737,24 @@ static int stage_root_job(const struct plan *p, int d)
 	return find_job(p, id);
 }
 
+/* 1 when the file at path holds exactly the n bytes of text. */
+static int same_content(const char *path, const char *text, size_t n)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return 0;
+	char buf[1 << 14];
+	size_t off = 0, got;
+	int same = 1;
+	while (same && (got = fread(buf, 1, sizeof buf, f)) > 0) {
+		same = off + got <= n && memcmp(buf, text + off, got) == 0;
+		off += got;
+	}
+	same = same && !ferror(f) && off == n;
+	fclose(f);
+	return same;
+}
+
 static void plan_encode(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -775,18 +793,35 @@ static void plan_encode(struct plan *p, int d)
 	char list[1200], tmp[1300];
 	snprintf(list, sizeof list, "%s/%s.stats-list", p->dir, dd->name);
 	snprintf(tmp, sizeof tmp, "%s.tmp", list);
-	FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
-	for (int i = 0; f && i < p->n; i++) {
-		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
-		if (t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE)
-			fprintf(f, "%s.stats.json\n", p->jobs[i].output);
-	}
-	if (!f || fflush(f) != 0 || ferror(f) | (fclose(f) != 0) ||
-	    rename(tmp, list) != 0) {
-		fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
-			strerror(errno));
+	char *text = NULL;
+	size_t len = 0;
+	FILE *m = open_memstream(&text, &len);
+	if (!m) {
+		fprintf(stderr, "voxdag: out of memory\n");
 		exit(1);
 	}
+	for (int i = 0; i < p->n; i++) {
+		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
+		if (t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE)
+			fprintf(m, "%s.stats.json\n", p->jobs[i].output);
+	}
+	if (fclose(m) != 0) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	/* written only when it changes: a rerun on a full disk that has
+	 * nothing left to build must not fail here */
+	if (!same_content(list, text, len)) {
+		FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
+		if (!f || fwrite(text, 1, len, f) != len || fflush(f) != 0 ||
+		    ferror(f) | (fclose(f) != 0) || rename(tmp, list) != 0) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
+				strerror(errno));
+			unlink(tmp);
+			exit(1);
+		}
+	}
+	free(text);
 	char path[1100];
 	snprintf(path, sizeof path, "%s/encode", bin_dir());
 	j->argv = xrealloc(NULL, (nh + 4) * sizeof *j->argv);
