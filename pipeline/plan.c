@@ -358,7 +358,22 @@ int job_is_fresh(const struct job *j, char *why, size_t cap)
 {
 	char want[17], have[64] = {0};
 	*why = 0;
+	/* an output or key that is there but cannot be read (permissions):
+	 * the user's to fix, not ours to rebuild over */
+	struct stat st;
+	if (stat(j->output, &st) == 0 &&
+	    faccessat(AT_FDCWD, j->output, S_ISDIR(st.st_mode) ? R_OK | X_OK
+			: R_OK, AT_EACCESS) != 0 && errno != ENOENT) {
+		snprintf(why, cap, "cannot read '%s': %s", j->output,
+			 strerror(errno));
+		return -1;
+	}
 	FILE *f = fopen(j->key_path, "r");
+	if (!f && errno != ENOENT) {
+		snprintf(why, cap, "cannot read '%s': %s", j->key_path,
+			 strerror(errno));
+		return -1;
+	}
 	if (!f)
 		return 0; /* never finished */
 	size_t n = fread(have, 1, sizeof have - 1, f);
@@ -897,7 +912,7 @@ int plan_expand(struct plan *p)
 			int ready = j->state == JOB_PENDING && j->nwait == 0 &&
 				    j->nbad == 0;
 			char why[600]; /* the runner says it when it reruns j */
-			if (ready && job_is_fresh(j, why, sizeof why))
+			if (ready && job_is_fresh(j, why, sizeof why) == 1)
 				job_set_state(p, j, JOB_SKIPPED);
 		}
 	} while (p->n != before);

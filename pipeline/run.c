@@ -522,11 +522,20 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			}
 			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
-			char why[600];
-			if (ds == 0 && job_is_fresh(j, why, sizeof why)) {
+			char why[600] = "";
+			int fresh = ds == 0 ? job_is_fresh(j, why, sizeof why) : 0;
+			if (fresh == 1) {
 				job_set_state(p, j, JOB_SKIPPED);
 				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
+				continue;
+			}
+			if (fresh < 0) {
+				log_line("failed %s: %s", j->id, why);
+				fprintf(stderr, "%svoxdag: cannot check job %s: %s\n",
+					tty ? "\r\033[K" : "", j->id, why);
+				job_set_state(p, j, JOB_FAILED);
+				failures++;
 				continue;
 			}
 			if (*why) {
