@@ -175,7 +175,9 @@ int job_key_text(const struct job *j, char *text, size_t cap);
 
 /* 1 if j's output exists with a matching key and is still what j wrote
  * (resume). When 0 and the output was there but is damaged, `why` says
- * what is wrong with it ("" otherwise). */
+ * what is wrong with it ("" otherwise). -1, with `why` set, when the
+ * output or its key is there but cannot be read (permissions): rebuilding
+ * over it would hide the cause. */
 int job_is_fresh(const struct job *j, char *why, size_t cap);
 
 /* ------------------------------------------------------------- running */

@@ -360,7 +360,22 @@ int job_is_fresh(const struct job *j, char *why, size_t cap)
 {
 	char want[17], have[64] = {0};
 	*why = 0;
+	/* an output or key that is there but cannot be read (permissions):
+	 * the user's to fix, not ours to rebuild over */
+	struct stat st;
+	if (stat(j->output, &st) == 0 &&
+	    faccessat(AT_FDCWD, j->output, S_ISDIR(st.st_mode) ? R_OK | X_OK
+			: R_OK, AT_EACCESS) != 0 && errno != ENOENT) {
+		snprintf(why, cap, "cannot read '%s': %s", j->output,
+			 strerror(errno));
+		return -1;
+	}
 	FILE *f = fopen(j->key_path, "r");
+	if (!f && errno != ENOENT) {
+		snprintf(why, cap, "cannot read '%s': %s", j->key_path,
+			 strerror(errno));
+		return -1;
+	}
 	if (!f)
 		return 0; /* never finished */
 	size_t n = fread(have, 1, sizeof have - 1, f);
@@ -881,6 +896,24 @@ static int decl_needs(const struct config *c, int d, int a)
 	return 0;
 }
 
+/* 1 when the file at path holds exactly the n bytes of text. */
+static int same_content(const char *path, const char *text, size_t n)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return 0;
+	char buf[1 << 14];
+	size_t off = 0, got;
+	int same = 1;
+	while (same && (got = fread(buf, 1, sizeof buf, f)) > 0) {
+		same = off + got <= n && memcmp(buf, text + off, got) == 0;
+		off += got;
+	}
+	same = same && !ferror(f) && off == n;
+	fclose(f);
+	return same;
+}
+
 static void plan_encode(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -919,21 +952,38 @@ static void plan_encode(struct plan *p, int d)
 	char list[1200], tmp[1300];
 	snprintf(list, sizeof list, "%s/%s.stats-list", p->dir, dd->name);
 	snprintf(tmp, sizeof tmp, "%s.tmp", list);
-	FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
-	for (int i = 0; f && i < p->n; i++) {
+	char *text = NULL;
+	size_t len = 0;
+	FILE *m = open_memstream(&text, &len);
+	if (!m) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	for (int i = 0; i < p->n; i++) {
 		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
 		/* only this scene's: a lossy or edited scene's own
 		 * symmetry-merge is not the lossless one's work */
 		if ((t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE) &&
 		    decl_needs(p->cfg, d, p->jobs[i].decl))
-			fprintf(f, "%s.stats.json\n", p->jobs[i].output);
+			fprintf(m, "%s.stats.json\n", p->jobs[i].output);
 	}
-	if (!f || fflush(f) != 0 || ferror(f) | (fclose(f) != 0) ||
-	    rename(tmp, list) != 0) {
-		fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
-			strerror(errno));
+	if (fclose(m) != 0) {
+		fprintf(stderr, "voxdag: out of memory\n");
 		exit(1);
 	}
+	/* written only when it changes: a rerun on a full disk that has
+	 * nothing left to build must not fail here */
+	if (!same_content(list, text, len)) {
+		FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
+		if (!f || fwrite(text, 1, len, f) != len || fflush(f) != 0 ||
+		    ferror(f) | (fclose(f) != 0) || rename(tmp, list) != 0) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
+				strerror(errno));
+			unlink(tmp);
+			exit(1);
+		}
+	}
+	free(text);
 	char path[1100];
 	snprintf(path, sizeof path, "%s/encode", bin_dir());
 	j->argv = xrealloc(NULL, (nh + 4) * sizeof *j->argv);
@@ -1029,7 +1079,7 @@ int plan_expand(struct plan *p)
 			int ready = j->state == JOB_PENDING && j->nwait == 0 &&
 				    j->nbad == 0;
 			char why[600]; /* the runner says it when it reruns j */
-			if (ready && job_is_fresh(j, why, sizeof why))
+			if (ready && job_is_fresh(j, why, sizeof why) == 1)
 				job_set_state(p, j, JOB_SKIPPED);
 		}
 	} while (p->n != before);

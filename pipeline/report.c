@@ -4,9 +4,11 @@
  * a resumed run reports the same work as an uninterrupted one. */
 #include "pipeline.h"
 
+#include <errno.h>
 #include <jansson.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Reads a whole small text file (NULL if absent). */
 static char *slurp(const char *path)
@@ -100,6 +102,41 @@ static void stats_path(const struct plan *p, const struct job *j, char *buf,
 			 p->cfg->name);
 	else
 		snprintf(buf, cap, "%s.stats.json", j->output);
+}
+
+/* The report's files are written under temporary names and renamed when
+ * complete, like every output: a full disk leaves the previous report as
+ * it was (writing in place truncated it), and the cause is said. */
+static FILE *open_tmp(const char *path, char *tmp, size_t cap)
+{
+	snprintf(tmp, cap, "%s.tmp.%ld", path, (long)getpid());
+	return fopen(tmp, "w");
+}
+
+/* Closes f and renames tmp to path; on failure removes tmp, puts the
+ * cause in why (if it holds none yet) and returns 1. */
+static int close_tmp(FILE *f, const char *tmp, const char *path, char *why,
+		     size_t cap)
+{
+	int bad = !f, e = errno;
+	if (f) {
+		bad = fflush(f) != 0 || ferror(f);
+		e = errno;
+		if (fclose(f) != 0 && !bad) {
+			bad = 1;
+			e = errno;
+		}
+		if (!bad && rename(tmp, path) != 0) {
+			bad = 1;
+			e = errno;
+		}
+	}
+	if (!bad)
+		return 0;
+	unlink(tmp);
+	if (!*why)
+		snprintf(why, cap, "cannot write '%s': %s", path, strerror(e));
+	return 1;
 }
 
 struct stage_row {
@@ -371,10 +408,12 @@ int report_write(const struct plan *p)
 		tables = slurp(path);
 	}
 
+	char tmp[1300], why[1600] = "";
 	snprintf(path, sizeof path, "%s/report.md", p->dir);
-	FILE *f = fopen(path, "w");
+	FILE *f = open_tmp(path, tmp, sizeof tmp);
 	if (!f) {
-		fprintf(stderr, "voxdag: cannot write '%s'\n", path);
+		close_tmp(f, tmp, path, why, sizeof why);
+		fprintf(stderr, "voxdag: %s\n", why);
 		free(vstats);
 		free(tables);
 		return 1;
@@ -402,8 +441,9 @@ int report_write(const struct plan *p)
 		const struct job *e = encode_job(p, d);
 		if (!e || e == enc)
 			continue;
-		snprintf(path, sizeof path, "%s/%s.tables.md", e->output, c->name);
-		char *t = slurp(path);
+		char other[1200]; /* `path` is the report's until it is renamed */
+		snprintf(other, sizeof other, "%s/%s.tables.md", e->output, c->name);
+		char *t = slurp(other);
 		fprintf(f, "# Scene of job `%s`\n\n%s\n", c->jobs_decl[e->decl].name,
 			!t ? "(not built)\n" : strncmp(t, "# ", 2) == 0 &&
 			strchr(t, '\n') ? strchr(t, '\n') + 1 : t);
@@ -428,10 +468,10 @@ int report_write(const struct plan *p)
 			rows[d].jobs, rows[d].seconds,
 			(double)rows[d].peak_rss / (1 << 20),
 			(unsigned long long)(c->job_mem_budget >> 20));
-	int err = fclose(f) != 0;
+	int err = close_tmp(f, tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.csv", p->dir);
-	f = fopen(path, "w");
+	f = err ? NULL : open_tmp(path, tmp, sizeof tmp);
 	if (f) {
 		fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
 		for (int d = 0; d < c->njobs; d++)
@@ -440,14 +480,15 @@ int report_write(const struct plan *p)
 				rows[d].seconds,
 				(unsigned long long)rows[d].peak_rss,
 				(unsigned long long)c->job_mem_budget);
-		err |= fclose(f) != 0;
-	} else {
-		err = 1;
 	}
+	if (!err)
+		err = close_tmp(f, tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.json", p->dir);
 	struct vd_json *j;
-	if (vd_json_open(&j, path) == VD_OK) {
+	if (err) {
+		/* said already */
+	} else if (vd_json_open(&j, path) == VD_OK) {
 		vd_json_str(j, "pipeline", c->path);
 		vd_json_str(j, "name", c->name);
 		vd_json_str(j, "input", *c->mesh ? c->mesh : c->vdb);
@@ -497,14 +538,18 @@ int report_write(const struct plan *p)
 			vd_json_end_object(j);
 		}
 		vd_json_end_array(j);
-		err |= vd_json_close(j) != VD_OK;
+		if (vd_json_close(j) != VD_OK) {
+			err = 1;
+			snprintf(why, sizeof why, "%s", vd_error_detail());
+		}
 	} else {
 		err = 1;
+		snprintf(why, sizeof why, "%s", vd_error_detail());
 	}
 	free(vstats);
 	free(tables);
 	if (err)
-		fprintf(stderr, "voxdag: cannot write the report in '%s'\n", p->dir);
+		fprintf(stderr, "voxdag: cannot write the report: %s\n", why);
 	return err;
 }
 

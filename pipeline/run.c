@@ -83,13 +83,19 @@ static int write_key(const struct job *j)
 	if (!f)
 		return -1;
 	fputs(text, f);
-	if (fflush(f) != 0 || fsync(fileno(f)) != 0) {
-		fclose(f);
-		return -1;
+	int bad = fflush(f) != 0 || fsync(fileno(f)) != 0;
+	int e = errno;
+	if (fclose(f) != 0 && !bad) {
+		bad = 1;
+		e = errno;
 	}
-	if (fclose(f) != 0)
-		return -1;
-	return rename(tmp, j->key_path);
+	if (!bad && rename(tmp, j->key_path) == 0)
+		return 0;
+	if (!bad)
+		e = errno;
+	unlink(tmp); /* no half key beside the output */
+	errno = e;
+	return -1;
 }
 
 static void print_tail(const char *path, int lines)
@@ -127,6 +133,9 @@ static void prepare_output(struct job *j)
 	unlink(j->key_path);
 }
 
+/* Why start_job last failed. */
+static char start_error[1500];
+
 static pid_t start_job(const struct plan *p, struct job *j)
 {
 	char lp[1300];
@@ -148,19 +157,27 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	for (int i = 0; j->argv[i]; i++)
 		h += sprintf(h, " %s", j->argv[i]);
 	*h++ = '\n';
+	/* the log is opened and begun here, not in the child: a job whose
+	 * log cannot be written (a full disk) is not started, as its error
+	 * would be lost with the log */
+	int fd = open(lp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+	ssize_t wrote = fd >= 0 ? write(fd, head, (size_t)(h - head)) : -1;
+	if (wrote != (ssize_t)(h - head)) {
+		int e = wrote < 0 ? errno : ENOSPC;
+		snprintf(start_error, sizeof start_error, "cannot %s its log "
+			 "'%s': %s", fd < 0 ? "create" : "write", lp,
+			 strerror(e));
+		if (fd >= 0)
+			close(fd);
+		free(head);
+		return -1;
+	}
 	pid_t pid = vfork();
 	if (pid == 0) {
 		/* die with the runner: a killed runner leaves no orphans */
 		prctl(PR_SET_PDEATHSIG, SIGKILL);
-		int fd = open(lp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
-		if (fd >= 0) {
-			if (write(fd, head, (size_t)(h - head)) < 0) {
-				/* the stage's own output still goes there */
-			}
-			dup2(fd, 1);
-			dup2(fd, 2);
-			close(fd);
-		}
+		dup2(fd, 1); /* the copies lose O_CLOEXEC; fd closes at exec */
+		dup2(fd, 2);
 		int null = open("/dev/null", O_RDONLY);
 		if (null >= 0)
 			dup2(null, 0);
@@ -171,8 +188,10 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		_exit(127);
 	}
 	int saved = errno;
+	close(fd);
 	free(head);
-	errno = saved;
+	if (pid < 0)
+		snprintf(start_error, sizeof start_error, "%s", strerror(saved));
 	return pid;
 }
 
@@ -322,16 +341,20 @@ static int reap_local(const struct plan *p, struct job_end *e)
 }
 
 /* Records how j ended: its key when it succeeded, else the failure report
- * (job, command line, Slurm's reason, the end of its log). Returns 0 when
- * it succeeded. */
+ * (job, command line, Slurm's reason, the end of its log; one line only
+ * when it is not the run's first failure). Returns 0 when it succeeded. */
 static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
-		      int tty)
+		      int tty, int first_failure)
 {
 	j->seconds = e->seconds;
 	j->peak_rss = e->peak_rss;
 	int ok = e->exited && e->code == 0 && !*e->reason;
-	if (ok && write_key(j) != 0)
+	char key_error[1500] = "";
+	if (ok && write_key(j) != 0) {
 		ok = 0;
+		snprintf(key_error, sizeof key_error, "cannot write its key "
+			 "'%s': %s", j->key_path, strerror(errno));
+	}
 	if (ok) {
 		job_set_state(p, j, JOB_DONE);
 		j->voxels = job_voxels(j);
@@ -349,9 +372,34 @@ static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
 	job_set_state(p, j, JOB_FAILED);
 	char lp[1300];
 	log_path(p, j, lp, sizeof lp);
-	log_line("failed %s%s%s", j->id, *e->reason ? ": " : "", e->reason);
+	log_line("failed %s%s%s%s%s", j->id, *e->reason ? ": " : "", e->reason,
+		 *key_error ? ": " : "", key_error);
 	if (tty)
 		fputs("\r\033[K", stderr);
+	if (!first_failure) {
+		/* jobs that were running beside the first failure: one line
+		 * each, so the first cause is not lost in their repetitions */
+		char how[64];
+		if (!e->exited)
+			snprintf(how, sizeof how, "killed by signal %d", e->signal);
+		else
+			snprintf(how, sizeof how, "exit %d", e->code);
+		fprintf(stderr, "voxdag: job %s failed too (%s), log: %s\n",
+			j->id, *e->reason ? e->reason : *key_error ?
+			"its key could not be written" : how, lp);
+		if (j->slurm_id > 0)
+			slurm_forget(p, j);
+		return -1;
+	}
+	if (*key_error) {
+		/* the stage succeeded; its output stays but is not trusted
+		 * without its key: the rerun makes it again */
+		fprintf(stderr, "voxdag: job %s finished but %s\n", j->id,
+			key_error);
+		if (j->slurm_id > 0)
+			slurm_forget(p, j);
+		return -1;
+	}
 	if (*e->reason)
 		fprintf(stderr, "voxdag: job %s did not finish: %s\n", j->id,
 			e->reason);
@@ -442,6 +490,11 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				all_left = 0;
 			if (!slurm && running >= c->jobs)
 				break;
+			/* after a failure, no new local job: the cause (a full
+			 * disk, a budget) would fail them too, and the rerun
+			 * keeps every finished one */
+			if (!slurm && failures)
+				break;
 			if (j->state == JOB_SKIPPED && !j->logged) {
 				/* found fresh when planned */
 				log_line("skipped %s (output is fresh)", j->id);
@@ -469,11 +522,20 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			}
 			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
-			char why[600];
-			if (ds == 0 && job_is_fresh(j, why, sizeof why)) {
+			char why[600] = "";
+			int fresh = ds == 0 ? job_is_fresh(j, why, sizeof why) : 0;
+			if (fresh == 1) {
 				job_set_state(p, j, JOB_SKIPPED);
 				j->logged = 1;
 				log_line("skipped %s (output is fresh)", j->id);
+				continue;
+			}
+			if (fresh < 0) {
+				log_line("failed %s: %s", j->id, why);
+				fprintf(stderr, "%svoxdag: cannot check job %s: %s\n",
+					tty ? "\r\033[K" : "", j->id, why);
+				job_set_state(p, j, JOB_FAILED);
+				failures++;
 				continue;
 			}
 			if (*why) {
@@ -501,9 +563,9 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 					continue;
 				j->pid = start_job(p, j);
 				if (j->pid < 0) {
-					fprintf(stderr, "voxdag: cannot start "
-						"'%s': %s\n", j->id,
-						strerror(errno));
+					fprintf(stderr, "%svoxdag: cannot start "
+						"job %s: %s\n", tty ? "\r\033[K" : "",
+						j->id, start_error);
 					job_set_state(p, j, JOB_FAILED);
 					failures++;
 					continue;
@@ -552,7 +614,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		running--;
 		if (!slurm)
 			mem_used -= j->mem_estimate;
-		if (finish_job(p, j, &end, tty) != 0) {
+		if (finish_job(p, j, &end, tty, failures == 0) != 0) {
 			failures++;
 			if (slurm)
 				cancel_dependents(p, &running);

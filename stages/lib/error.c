@@ -3,6 +3,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 static _Thread_local char detail[512];
 
@@ -37,12 +38,18 @@ const char *vd_error_detail(void)
 	return detail;
 }
 
+/* Formatted into a local buffer first: callers rewrap the current detail
+ * (vd_fail(e, "cannot write '%s': %s", p, vd_error_detail())), and
+ * vsnprintf into the buffer it reads from is undefined (it printed
+ * "I/O error:  space left on device"). */
 int vd_fail(int err, const char *fmt, ...)
 {
+	char line[sizeof detail];
 	va_list ap;
 	va_start(ap, fmt);
-	vsnprintf(detail, sizeof detail, fmt, ap);
+	vsnprintf(line, sizeof line, fmt, ap);
 	va_end(ap);
+	memcpy(detail, line, sizeof detail);
 	return err;
 }
 

@@ -180,3 +180,25 @@ int vd_replace_file(const char *tmp, const char *path)
 			       path, strerror(errno));
 	return VD_OK;
 }
+
+int vd_stage_name(const char *final, char *buf, size_t cap)
+{
+	if ((size_t)snprintf(buf, cap, "%s.tmp.%ld.new", final,
+			     (long)getpid()) >= cap)
+		return vd_fail(VD_ERR_RANGE, "output path '%s' is too long",
+			       final);
+	return VD_OK;
+}
+
+int vd_publish_pair(const char *staged_out, const char *out,
+		    const char *staged_stats, const char *stats)
+{
+	int err = vd_replace_file(staged_out, out);
+	if (!err)
+		err = vd_replace_file(staged_stats, stats);
+	if (err) {
+		unlink(staged_out);
+		unlink(staged_stats);
+	}
+	return err;
+}

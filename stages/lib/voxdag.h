@@ -457,6 +457,19 @@ char *vd_provenance_new(const char *tool, int argc, char **argv);
  * path such as /dev/null would replace the device. */
 int vd_replace_file(const char *tmp, const char *path);
 
+/* A file output and the statistics beside it are published as a pair:
+ * both are written complete under staging names (vd_stage_name: "<final>
+ * .tmp.<pid>.new", so it is taken for a temporary everywhere), then
+ * vd_publish_pair renames them into place. Renames need no space, so a
+ * full disk fails before either is replaced and the previous pair stays
+ * whole (writing the output and then its statistics left a new output
+ * beside old statistics, or none). vd_stage_name returns VD_ERR_RANGE when
+ * `cap` is too small. vd_publish_pair removes the staged files it did not
+ * rename when a rename fails (VD_ERR_IO). */
+int vd_stage_name(const char *final, char *buf, size_t cap);
+int vd_publish_pair(const char *staged_out, const char *out,
+		    const char *staged_stats, const char *stats);
+
 /* ------------------------------------------------- manifests (io/manifest.c)
  * A directory output (voxelize's chunks, encode's encodings and tables)
  * carries `manifest`: one line per file with its XXH3-64 checksum, size and

@@ -54,9 +54,75 @@ static void test_chunk_not_regular(void)
 	CHECK(strstr(vd_error_detail(), "is a directory") != NULL);
 }
 
+/* Writes `text` to a temporary file; returns its path (static buffer). */
+static const char *stats_file(const char *text)
+{
+	static char path[64];
+	snprintf(path, sizeof path, "/tmp/voxdag-stats-XXXXXX");
+	int fd = mkstemp(path);
+	CHECK(fd >= 0);
+	size_t n = strlen(text);
+	CHECK_EQ(write(fd, text, n), (long long)n);
+	close(fd);
+	return path;
+}
+
+/* Statistics files are parsed as JSON: the top-level numbers count, not
+ * the first text that looks like the key (the old strstr parser took the
+ * nested 100 and the string "seconds_load", and accepted a file without
+ * its closing brace or with its tool only in a nested object). */
+static void test_enc_timing_json(void)
+{
+	struct vd_enc_timing t = {-1, -1};
+	const char *p = stats_file(
+		"{\"note\": \"seconds_load\", \"child\": {\"seconds_load\": 100,"
+		" \"tool\": \"symmetry-merge\"},\n \"seconds_save\": 4,"
+		" \"seconds_build\": 2, \"tool\": \"svo-to-dag\","
+		" \"seconds_load\": 1}");
+	CHECK_EQ(vd_enc_timing_add(&t, p), VD_OK);
+	CHECK(t.seconds_svo_to_dag == 7);
+	CHECK(t.seconds_symmetry_merge < 0);
+	unlink(p);
+
+	static const struct {
+		const char *text, *detail;
+	} bad[] = {
+		{"{\"tool\": \"svo-to-dag\", \"seconds_load\": 1, "
+		 "\"seconds_build\": 2, \"seconds_save\": 3",
+		 "not a statistics file (invalid JSON at line 1"},
+		{"{\"tool\": \"encode\", \"up\": {\"tool\": \"svo-to-dag\"}, "
+		 "\"seconds_load\": 1, \"seconds_build\": 2, \"seconds_save\": 3}",
+		 "(\"tool\" is \"encode\")"},
+		{"[\"tool\", \"svo-to-dag\"]", "not a JSON object"},
+		{"{\"tool\": \"symmetry-merge\", \"seconds_load\": \"1\", "
+		 "\"seconds_build\": 2, \"seconds_save\": 3}",
+		 "no \"seconds_load\" number"},
+		{"{\"tool\": \"symmetry-merge\", \"x\": {\"seconds_build\": 2}, "
+		 "\"seconds_load\": 1, \"seconds_save\": 3}",
+		 "no \"seconds_build\" number"},
+		{"{\"tool\": \"symmetry-merge\", \"seconds_load\": 1, "
+		 "\"seconds_build\": 2, \"seconds_save\": 3, \"seconds_save\": 3}",
+		 "duplicate object key"},
+		{"", "invalid JSON"},
+	};
+	for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+		p = stats_file(bad[i].text);
+		CHECK_EQ(vd_enc_timing_add(&t, p), VD_ERR_FORMAT);
+		if (!strstr(vd_error_detail(), bad[i].detail))
+			fprintf(stderr, "case %zu: %s\n", i, vd_error_detail());
+		CHECK(strstr(vd_error_detail(), bad[i].detail) != NULL);
+		CHECK(strchr(vd_error_detail(), '\n') == NULL);
+		unlink(p);
+	}
+	CHECK(t.seconds_svo_to_dag == 7 && t.seconds_symmetry_merge < 0);
+	CHECK_EQ(vd_enc_timing_add(&t, "/nonexistent/x.stats.json"), VD_ERR_IO);
+	CHECK(strstr(vd_error_detail(), strerror(ENOENT)) != NULL);
+}
+
 int main(void)
 {
 	RUN(test_chunk_fstat_fails);
 	RUN(test_chunk_not_regular);
+	RUN(test_enc_timing_json);
 	return CHECK_DONE();
 }

@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 
@@ -1649,22 +1650,32 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return err;
 		}
 	}
-	double t1 = vd_seconds();
-	err = vd_dag_save(&out, &tr, job->output, job->provenance);
-	t_save = vd_seconds() - t1;
-	if (err) {
-		vd_dag_release(&out);
-		return reword(err, "cannot write", job->output);
-	}
-	size_t plen = strlen(job->output) + 16;
-	char *sp = malloc(plen);
+	/* the chunk and its statistics replace the previous pair together */
+	size_t plen = strlen(job->output) + 64;
+	char *sp = malloc(3 * plen);
 	if (!sp) {
 		vd_dag_release(&out);
 		return NOMEM();
 	}
+	char *staged = sp + plen, *staged_sp = sp + 2 * plen;
 	snprintf(sp, plen, "%s.stats.json", job->output);
-	err = vd_dag_write_stats(&out, &st, tool, t_load, t_save, sp);
-	if (err) err = reword(err, "cannot write", sp);
+	err = vd_stage_name(job->output, staged, plen);
+	if (!err) err = vd_stage_name(sp, staged_sp, plen);
+	double t1 = vd_seconds();
+	if (!err) err = vd_dag_save(&out, &tr, staged, job->provenance);
+	t_save = vd_seconds() - t1;
+	if (err) {
+		err = reword(err, "cannot write", job->output);
+	} else {
+		err = vd_dag_write_stats(&out, &st, tool, t_load, t_save,
+					 staged_sp);
+		if (!err)
+			err = vd_publish_pair(staged, job->output, staged_sp, sp);
+		if (err) {
+			unlink(staged);
+			err = reword(err, "cannot write", sp);
+		}
+	}
 	free(sp);
 	if (!err && !job->quiet) {
 		uint64_t tn = 0;

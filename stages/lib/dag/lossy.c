@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 #define NONE UINT32_MAX
@@ -1277,20 +1278,26 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
-	double t1 = vd_seconds();
-	err = vd_dag_save(&d, &h.transform, out, provenance);
-	double t_save = vd_seconds() - t1;
-	char *sp = NULL;
-	if (!err) {
-		size_t plen = strlen(out) + 16;
-		if (!(sp = malloc(plen))) err = NOMEM();
-		else snprintf(sp, plen, "%s.stats.json", out);
+	/* the chunk and its statistics replace the previous pair together */
+	size_t plen = strlen(out) + 64;
+	char *sp = malloc(3 * plen);
+	if (!sp) {
+		vd_dag_release(&d);
+		return NOMEM();
 	}
-	if (!err) err = vd_lossy_write_stats(&d, o, &st, t_load, t_save, sp);
+	char *staged = sp + plen, *staged_sp = sp + 2 * plen;
+	snprintf(sp, plen, "%s.stats.json", out);
+	err = vd_stage_name(out, staged, plen);
+	if (!err) err = vd_stage_name(sp, staged_sp, plen);
+	double t1 = vd_seconds();
+	if (!err) err = vd_dag_save(&d, &h.transform, staged, provenance);
+	double t_save = vd_seconds() - t1;
+	if (!err) err = vd_lossy_write_stats(&d, o, &st, t_load, t_save, staged_sp);
+	if (!err) err = vd_publish_pair(staged, out, staged_sp, sp);
 	if (err) {
-		err = vd_fail(err, "cannot write '%s': %s: %s", sp ? sp : out,
+		unlink(staged);
+		err = vd_fail(err, "cannot write '%s': %s: %s", out,
 			      vd_strerror(err), vd_error_detail());
-		remove(out);
 	} else if (!quiet) {
 		fprintf(stderr, "lossy-cluster: wrote '%s': %" PRIu64 " -> %"
 			PRIu64 " nodes (%.1f%%), %" PRIu64 " voxels changed "

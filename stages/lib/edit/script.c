@@ -395,10 +395,17 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		p = e ? e + 1 : p + strlen(p);
 	}
 	free(text);
-	char stats[1100];
+	/* the chunk and its statistics are written under staging names and
+	 * replace the previous pair together, so a failure (a full disk)
+	 * leaves the previous pair as it was */
+	char stats[1100], staged[1200], staged_stats[1200];
 	snprintf(stats, sizeof stats, "%s.stats.json", job->output);
+	if (!err)
+		err = vd_stage_name(job->output, staged, sizeof staged);
+	if (!err)
+		err = vd_stage_name(stats, staged_stats, sizeof staged_stats);
 	struct vd_json *j = NULL;
-	if (!err && (err = vd_json_open(&j, stats)))
+	if (!err && (err = vd_json_open(&j, staged_stats)))
 		err = rewrap(err, 1, "cannot write '%s'", stats);
 	if (!err) {
 		vd_json_str(j, "tool", job->tool);
@@ -425,14 +432,14 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	if (err) {
 		if (j)
 			vd_json_close(j); /* then removed: no statistics of a failed run */
-		unlink(stats);
+		unlink(staged_stats);
 		return err;
 	}
 	vd_json_end_array(j);
 	double t0 = vd_seconds();
 	struct vd_dag dag;
 	if ((err = vd_hashdag_to_dag(h, &dag)) ||
-	    (err = vd_dag_save(&dag, &h->t, job->output, job->provenance)))
+	    (err = vd_dag_save(&dag, &h->t, staged, job->provenance)))
 		err = rewrap(err, 1, "cannot write '%s'", job->output);
 	if (!err) {
 		uint64_t st1[VD_MAX_LEVELS], reach[VD_MAX_LEVELS];
@@ -455,11 +462,15 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	vd_dag_release(&dag);
 	if (err) {
 		vd_json_close(j);
-		unlink(stats);
+		unlink(staged_stats);
+		unlink(staged);
 		return err;
 	}
-	if ((err = vd_json_close(j)))
+	if ((err = vd_json_close(j)) ||
+	    (err = vd_publish_pair(staged, job->output, staged_stats, stats))) {
+		unlink(staged);
 		return rewrap(err, 1, "cannot write '%s'", stats);
+	}
 	return VD_OK;
 }
 

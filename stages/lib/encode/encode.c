@@ -16,6 +16,7 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#include <jansson.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -1060,47 +1061,49 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 
 /* ------------------------------------------------------------- timings */
 
-/* The number after "key": in a flat JSON text, or -1. */
-static double json_number(const char *text, const char *key)
-{
-	char pat[64];
-	snprintf(pat, sizeof pat, "\"%s\"", key);
-	const char *p = strstr(text, pat);
-	if (!p) return -1;
-	p += strlen(pat);
-	while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r' || *p == ':') p++;
-	char *end;
-	double v = strtod(p, &end);
-	return end == p ? -1 : v;
-}
-
+/* The statistics files are read with a JSON parser, not by searching the
+ * text: a key's name inside a string value, reordered or nested keys and
+ * malformed files must not be taken for numbers. */
 int vd_enc_timing_add(struct vd_enc_timing *t, const char *path)
 {
-	FILE *f = fopen(path, "rb");
-	if (!f) return vd_fail(VD_ERR_IO, "%s", strerror(errno));
-	char buf[1 << 16];
-	size_t n = fread(buf, 1, sizeof buf - 1, f);
-	fclose(f);
-	buf[n] = 0;
-	double *dst = NULL;
-	if (strstr(buf, "\"tool\": \"svo-to-dag\"") || strstr(buf, "\"tool\":\"svo-to-dag\""))
+	json_error_t jerr;
+	json_t *root = json_load_file(path, JSON_REJECT_DUPLICATES, &jerr);
+	if (!root) {
+		/* jansson reports an unopenable file as a parse error with
+		 * errno still set; tell the two apart */
+		FILE *f = fopen(path, "rb");
+		if (!f) return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+		fclose(f);
+		return vd_fail(VD_ERR_FORMAT, "not a statistics file (invalid JSON "
+			       "at line %d, column %d: %s)", jerr.line, jerr.column, jerr.text);
+	}
+	int err = VD_OK;
+	double *dst = NULL, s = 0;
+	const char *tool = json_string_value(json_object_get(root, "tool"));
+	if (!json_is_object(root))
+		err = vd_fail(VD_ERR_FORMAT, "not a statistics file (not a "
+			      "JSON object)");
+	else if (tool && !strcmp(tool, "svo-to-dag"))
 		dst = &t->seconds_svo_to_dag;
-	else if (strstr(buf, "\"tool\": \"symmetry-merge\"") ||
-		 strstr(buf, "\"tool\":\"symmetry-merge\""))
+	else if (tool && !strcmp(tool, "symmetry-merge"))
 		dst = &t->seconds_symmetry_merge;
 	else
-		return vd_fail(VD_ERR_FORMAT, "not a statistics file of "
-			       "svo-to-dag or symmetry-merge (no \"tool\" of "
-			       "either)");
-	double s = 0;
+		err = vd_fail(VD_ERR_FORMAT, "not a statistics file of "
+			      "svo-to-dag or symmetry-merge (\"tool\" is %s%s%s)",
+			      tool ? "\"" : "", tool ? tool : "missing",
+			      tool ? "\"" : "");
 	static const char *const keys[] = {"seconds_load", "seconds_build",
 					   "seconds_save"};
-	for (int i = 0; i < 3; i++) {
-		double v = json_number(buf, keys[i]);
-		if (v < 0)
-			return vd_fail(VD_ERR_FORMAT, "no \"%s\" number", keys[i]);
-		s += v;
+	for (int i = 0; i < 3 && !err; i++) {
+		json_t *v = json_object_get(root, keys[i]);
+		double d = json_is_number(v) ? json_number_value(v) : -1;
+		if (!(d >= 0))
+			err = vd_fail(VD_ERR_FORMAT, "no \"%s\" number of "
+				      "seconds", keys[i]);
+		s += d;
 	}
+	json_decref(root);
+	if (err) return err;
 	*dst = (*dst < 0 ? 0 : *dst) + s;
 	return VD_OK;
 }

@@ -423,6 +423,10 @@ int vd_dir_stage(const char *final, int (*ours)(const char *name),
 		if (!S_ISDIR(st.st_mode))
 			return vd_fail(VD_ERR_IO, "'%s' exists and is not a "
 				       "directory", final);
+		/* one we cannot list is not known to be ours to replace */
+		if (faccessat(AT_FDCWD, final, R_OK | X_OK, AT_EACCESS) != 0)
+			return vd_fail(VD_ERR_IO, "cannot read '%s': %s", final,
+				       strerror(errno));
 		if (!replaceable(final, ours, foreign, sizeof foreign))
 			return vd_fail(VD_ERR_IO, "'%s' holds '%s', which this "
 				       "tool did not write; give a new or empty "
@@ -477,7 +481,13 @@ int vd_dir_publish(const char *staging, const char *final)
 	if (renameat2(AT_FDCWD, staging, AT_FDCWD, final, RENAME_EXCHANGE) != 0)
 		return vd_fail(VD_ERR_IO, "cannot swap '%s' into '%s': %s",
 			       staging, final, strerror(errno));
-	return remove_dir_files(staging); /* the old output, now there */
+	/* the old output, now under the staging name. The new one is in
+	 * place whatever happens here: a failure to remove the old (a
+	 * directory made unreadable) is not the run's failure, and the next
+	 * vd_dir_stage removes what is left as a dead run's staging. */
+	if (remove_dir_files(staging) != VD_OK)
+		vd_error_clear();
+	return VD_OK;
 }
 
 void vd_dir_abandon(const char *staging)

@@ -17,6 +17,9 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <fcntl.h>
+#include <streambuf>
+#include <ostream>
 #include <mutex>
 #include <string>
 #include <unistd.h>
@@ -493,6 +496,80 @@ std::string temp_name(const char *path)
 	return std::string(path) + ".tmp." + std::to_string(getpid());
 }
 
+// An output stream onto a file descriptor that keeps the errno of its
+// first failed write: io::File::write writes through an std::ofstream and
+// never checks it, so a full disk gave a cut .vdb and exit 0.
+class fd_buf : public std::streambuf {
+public:
+	explicit fd_buf(int fd) : fd_(fd) { setp(buf_, buf_ + sizeof buf_); }
+	int error() const { return err_; }
+	// Writes what is buffered; false (error() set) on failure.
+	bool drain()
+	{
+		const char *p = pbase();
+		while (!err_ && p < pptr()) {
+			ssize_t n = ::write(fd_, p, size_t(pptr() - p));
+			if (n < 0 && errno == EINTR)
+				continue;
+			if (n <= 0)
+				err_ = n < 0 ? errno : EIO;
+			else
+				p += n;
+		}
+		setp(buf_, buf_ + sizeof buf_);
+		return !err_;
+	}
+
+protected:
+	int_type overflow(int_type c) override
+	{
+		if (!drain())
+			return traits_type::eof();
+		if (!traits_type::eq_int_type(c, traits_type::eof()))
+			sputc(traits_type::to_char_type(c));
+		return traits_type::not_eof(c);
+	}
+	int sync() override { return drain() ? 0 : -1; }
+
+private:
+	int fd_, err_ = 0;
+	char buf_[1 << 16];
+};
+
+// io::File's own write is Archive::write(stream, grids, seekable = true)
+// on an ofstream; the same call on our stream gives the same bytes.
+class checked_file : public openvdb::io::File {
+public:
+	using openvdb::io::File::File;
+	void write_to(std::ostream &os, const openvdb::GridPtrVec &grids) const
+	{
+		openvdb::io::Archive::write(os, grids, /*seekable=*/true);
+	}
+};
+
+// Writes grids to `tmp` (created) with every write, fsync and close
+// checked; VD_ERR_IO naming the cause otherwise. The caller catches.
+int write_vdb_checked(const std::string &tmp, const openvdb::GridPtrVec &grids)
+{
+	int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+	if (fd < 0)
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp.c_str(),
+			       std::strerror(errno));
+	fd_buf buf(fd);
+	std::ostream os(&buf);
+	checked_file(tmp).write_to(os, grids);
+	os.flush();
+	int e = buf.drain() ? 0 : buf.error();
+	if (!e && fsync(fd) != 0)
+		e = errno;
+	if (::close(fd) != 0 && !e)
+		e = errno;
+	if (e)
+		return vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp.c_str(),
+			       std::strerror(e));
+	return VD_OK;
+}
+
 } // namespace
 
 extern "C" int vd_vdb_export(const char *path, const char *grid_name,
@@ -557,10 +634,11 @@ extern "C" int vd_vdb_export(const char *path, const char *grid_name,
 		grid->tree().prune();
 		if (voxels)
 			*voxels = grid->activeVoxelCount();
-		openvdb::io::File file(tmp);
 		openvdb::GridPtrVec grids{grid};
-		file.write(grids);
-		file.close();
+		if (int err = write_vdb_checked(tmp, grids)) {
+			std::remove(tmp.c_str());
+			return err;
+		}
 		if (std::rename(tmp.c_str(), path) != 0) {
 			int e = errno;
 			std::remove(tmp.c_str());

@@ -876,6 +876,22 @@ static void png_warning_fn(png_structp p, png_const_charp msg)
 	(void)msg;
 }
 
+/* libpng's own writer ignores why fwrite failed ("Write Error"); this one
+ * names the cause, e.g. a full disk. */
+static void png_write_fn(png_structp p, png_bytep data, size_t n)
+{
+	FILE *f = png_get_io_ptr(p);
+	if (fwrite(data, 1, n, f) != n)
+		png_error(p, strerror(errno));
+}
+
+static void png_flush_fn(png_structp p)
+{
+	FILE *f = png_get_io_ptr(p);
+	if (fflush(f) != 0)
+		png_error(p, strerror(errno));
+}
+
 static int write_png(FILE *f, void *ctx)
 {
 	struct png_job *j = ctx;
@@ -891,7 +907,7 @@ static int write_png(FILE *f, void *ctx)
 		png_destroy_write_struct(&p, &info);
 		return VD_ERR_IO;
 	}
-	png_init_io(p, f);
+	png_set_write_fn(p, f, png_write_fn, png_flush_fn);
 	png_set_IHDR(p, info, (png_uint_32)j->width, (png_uint_32)j->height,
 		     j->depth16 ? 16 : 8,
 		     j->depth16 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB,
