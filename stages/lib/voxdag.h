@@ -39,7 +39,7 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 2)       /* 2: manifest, stage_version in provenance */ \
+	X("voxelize", 3)       /* 3: .col colour chunks; 2: manifest */      \
 	X("voxelize-vdb", 2)   /* 2: the same */                             \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
@@ -859,6 +859,12 @@ struct vd_voxelize_opts {
 	int quiet;                /* no progress on stderr */
 	const char *provenance;   /* stored in every chunk */
 	const char *tool;         /* prefix for progress lines */
+	/* Mesh input: write each non-empty cell's colour chunk ("col",
+	 * vd_colours_save) when the mesh has colours (vd_mesh_has_colours;
+	 * rule in schemas/colour-rule.md). The SVO chunks are the same
+	 * bytes either way. */
+	int colours;
+	int strict;               /* a missing texture or MTL is an error */
 };
 
 struct vd_voxelize_result {
@@ -875,11 +881,16 @@ struct vd_voxelize_result {
 	uint64_t mem_budget_bytes;
 	int threads;                 /* workers used for the cells */
 	char format[32];             /* input format, vd_mesh_format() */
+	int colours;                 /* colour chunks were written */
+	uint64_t textures_loaded, textures_missing;
+	double seconds_colour;       /* summed over workers */
 };
 
 /* Voxelizes the mesh at `mesh_path` into SVO chunk files
- * OUTDIR/chunk-L<L0>-<morton>.svo, one per non-empty cell. Existing chunk
- * files of an earlier run in `outdir` are removed first. */
+ * OUTDIR/chunk-L<L0>-<morton>.svo, one per non-empty cell, and with
+ * opts->colours, when the mesh has colours, a colour chunk
+ * chunk-L<L0>-<morton>.col beside each. Existing chunk files of an
+ * earlier run in `outdir` are removed first. */
 int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		     const struct vd_voxelize_opts *opts,
 		     struct vd_voxelize_result *res);
