@@ -124,7 +124,6 @@ int main(int argc, char **argv)
 		{"vdb-mode", required_argument, NULL, OPT_VDB_MODE},
 		{"fog-threshold", required_argument, NULL, OPT_FOG_THRESHOLD},
 		{"no-colours", no_argument, NULL, OPT_NO_COLOURS},
-		{"no-colors", no_argument, NULL, OPT_NO_COLOURS},
 		{"strict", no_argument, NULL, OPT_STRICT},
 		{NULL, 0, NULL, 0},
 	};
