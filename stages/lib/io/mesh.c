@@ -2249,9 +2249,10 @@ static int vd_ac_mat(struct vd_mesh *m, const char *p)
 	int e = vd_ac_count(m, p, "mat", &n);
 	if (e)
 		return e;
+	/* a file without MATERIAL lines has no colours: nothing to say */
 	if (n < m->nmats) {
 		m->poly_mat = (int)n;
-	} else if (!m->warned_mat) {
+	} else if (!m->warned_mat && m->nmats > 0) {
 		m->warned_mat = 1;
 		vd_mesh_warn(m, "line %" PRIu64 ": material %" PRIu64 " of %zu "
 			     "defined; the surface is grey (further ones not "
