@@ -779,6 +779,24 @@ static void test_chunked_concat(void)
 		free(s.v);
 	}
 	free(mono.v);
+	/* a real textured model (five JPEG textures) */
+	struct vd_voxelize_result res;
+	CHECK_EQ(run_voxelize("tests/data/spider/spider.obj", 8, 0, 1, 0, &res),
+		 VD_OK);
+	CHECK_EQ(res.textures_loaded, 4); /* Augentex is defined, not used */
+	CHECK_EQ(res.textures_missing, 0);
+	load_scene(&mono);
+	CHECK(mono.n > 50000);
+	for (int L0 = 1; L0 <= 2; L0++) {
+		struct cscene s;
+		CHECK_EQ(run_voxelize("tests/data/spider/spider.obj", 8, L0, 1, 0,
+				      NULL), VD_OK);
+		load_scene(&s);
+		CHECK(s.chunks > 1);
+		CHECK(scene_equal(&s, &mono));
+		free(s.v);
+	}
+	free(mono.v);
 	/* a textured scene too */
 	write_png2("tex2.png");
 	static const char mtl[] = "newmtl tex\nmap_Kd tex2.png\nnewmtl speck\nKd 1 0 1\n";
