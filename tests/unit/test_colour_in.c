@@ -783,7 +783,7 @@ static void test_chunked_concat(void)
 	struct vd_voxelize_result res;
 	CHECK_EQ(run_voxelize("tests/data/spider/spider.obj", 8, 0, 1, 0, &res),
 		 VD_OK);
-	CHECK_EQ(res.textures_loaded, 4); /* Augentex is defined, not used */
+	CHECK_EQ(res.textures_loaded, 4); /* Brusttex is defined, not used */
 	CHECK_EQ(res.textures_missing, 0);
 	load_scene(&mono);
 	CHECK(mono.n > 50000);
