@@ -50,7 +50,8 @@ endif
 # and stb_image for TGA, BMP and the rest).
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
-                slurm-wlm munge clang libjansson-dev libjpeg62-turbo-dev libstb-dev
+                slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
+                libjpeg62-turbo-dev libstb-dev
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)

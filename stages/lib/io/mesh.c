@@ -1418,7 +1418,10 @@ static void vd_rtrim(char *s)
  * error. */
 static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 {
-	FILE *f = fopen(path, "r");
+	struct stat st;
+	FILE *f = stat(path, &st) != 0 ? NULL
+		: !S_ISREG(st.st_mode) ? (errno = EINVAL, NULL)
+		: fopen(path, "r");
 	if (!f) {
 		m->tex_missing++;
 		if (m->col.strict)

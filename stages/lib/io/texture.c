@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include <jpeglib.h>
 #include <png.h>
@@ -176,6 +177,14 @@ static int load_stb(struct vd_texture *t, const char *path, FILE *f)
 int vd_texture_load(struct vd_texture *t, const char *path)
 {
 	memset(t, 0, sizeof *t);
+	/* a name in a mesh may point anywhere: only regular files (a FIFO
+	 * would block, /dev/zero never end) */
+	struct stat st;
+	if (stat(path, &st) != 0)
+		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
+			       strerror(errno));
+	if (!S_ISREG(st.st_mode))
+		return vd_fail(VD_ERR_IO, "'%s' is not a regular file", path);
 	FILE *f = fopen(path, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
