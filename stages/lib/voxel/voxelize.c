@@ -981,6 +981,7 @@ struct colour_ctx {
 	int64_t lo[3];            /* cell corner, voxels */
 	int64_t s;                /* lattice steps per voxel */
 	const struct vd_snapped_tri *st;
+	double tv[3][3];          /* its corners in voxels: st / s, exact */
 	const struct vd_tri_attr *a;
 	const struct vd_texture *tex;
 	uint64_t last_key;        /* block of the last voxel */
@@ -1024,14 +1025,13 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 			(uint64_t)__builtin_popcountll(word & ((1ull << bit) - 1));
 	struct vox_col *v = &w->vox[rank];
 	/* corners relative to the voxel's centre, in voxels: exact (lattice
-	 * integers over a power of two) and the same in every chunking */
-	int64_t ctr[3] = {(2 * x + 1) * c->s / 2, (2 * y + 1) * c->s / 2,
-			  (2 * z + 1) * c->s / 2};
+	 * integers over a power of two, less a half-integer, well inside 53
+	 * bits) and so the same in every chunking */
+	double ctr[3] = {(double)x + 0.5, (double)y + 0.5, (double)z + 0.5};
 	double p[3][3], b[3];
 	for (int k = 0; k < 3; k++)
 		for (int i = 0; i < 3; i++)
-			p[k][i] = (double)(c->st->v[k][i] - ctr[i]) /
-				  (double)c->s;
+			p[k][i] = c->tv[k][i] - ctr[i];
 	float d2 = (float)nearest_bary(p[0], p[1], p[2], b);
 	if (v->set && !(d2 < v->d2))
 		return; /* an earlier triangle is as near: it stays */
@@ -1106,6 +1106,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
 			       strerror(errno));
 	struct colour_ctx cc = {.w = w, .nb = nb, .s = vd_snap_voxel(r->g.L)};
+	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
 	memcpy(cc.lo, lo, sizeof cc.lo);
 	int err = VD_OK;
 	size_t n;
@@ -1122,6 +1123,9 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 			if (err)
 				break;
 			cc.st = &st;
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++)
+					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
 			vd_raster_triangle(&st, r->g.L, lo, hi, colour_voxel,
