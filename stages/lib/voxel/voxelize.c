@@ -51,10 +51,12 @@ enum {
 	TRI_BATCH = 16384,
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
-	 * slots (8 bytes each) and rank tables, planned for 4096 voxels a
-	 * block (a surface crossing a 32^3 block sets about 1000-3000); a
-	 * cell with more is caught exactly after its geometry pass. */
-	COLOUR_BLOCK_COST = 4096 * 8 + 512 * 2 + 16,
+	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
+	 * block (one surface crossing a 32^3 block sets about 1000-2500;
+	 * planning for the worst, 32768, would make cells tiny and runs slow);
+	 * a cell with more is caught exactly after its geometry pass and
+	 * stops with a budget error naming it. */
+	COLOUR_BLOCK_COST = 2048 * 8 + 512 * 2 + 16,
 };
 
 /* ------------------------------------------------------------ progress */
