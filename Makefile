@@ -26,7 +26,7 @@ CPPFLAGS += -D_GNU_SOURCE -Istages/lib
 CFLAGS   += -std=c11 $(WARN) -g
 CXXFLAGS += -std=c++17 -Wall -Wextra -Werror -g
 LDFLAGS  += -Wl,--as-needed
-LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -ljansson -lm -lpthread
+LDLIBS   += -lopenvdb -lImath -ltbb -lzstd -lxxhash -lpng -ljpeg -lstb -ljansson -lm -lpthread
 
 ifeq ($(config),release)
 OUT := $(O)
@@ -46,9 +46,12 @@ endif
 # libboost-dev: OpenVDB 10's headers include Boost, which Debian's
 # libopenvdb-dev does not pull in; libopenvdb-tools: vdb_print for the tests.
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
+# libpng-dev, libjpeg62-turbo-dev, libstb-dev: mesh textures (PNG, JPEG,
+# and stb_image for TGA, BMP and the rest).
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
-                slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy
+                slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
+                libjpeg62-turbo-dev libstb-dev
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)

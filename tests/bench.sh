@@ -4,6 +4,8 @@
 # absent. Numbers come from each run's voxelize.stats.json and GNU time.
 # The side-by-side comparison with the SSVDAG reference code is separate and
 # not run here: tests/bench/vs_symvox.sh /path/to/SVDAG-Compression.
+# Geometry only (--no-colours), comparable with earlier runs; the cost of
+# colours is measured by tests/bench/colour_in.sh.
 set -u
 cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
@@ -19,7 +21,7 @@ run() { # run SCENE LEVELS BUDGET
 	local scene=$1 L=$2 budget=$3 dir=$OUT/$(basename "$1" .ply)-$2
 	if ! /usr/bin/time -f "%M" -o "$OUT/time" \
 		out/bin/voxelize "$DATA/$scene" -o "$dir" --levels "$L" \
-		--mem-budget "$budget" -q; then
+		--mem-budget "$budget" -q --no-colours; then
 		echo "bench: voxelize $scene at 2^$L failed"
 		return
 	fi
@@ -98,7 +100,7 @@ budget_run() { # budget_run MESH LEVELS BUDGET
 	t0=$(date +%s.%N)
 	/usr/bin/time -f %M -o "$OUT/time" timeout "$BUDGET_SECONDS" \
 		out/bin/voxelize "$1" -o "$dir" --levels "$2" --mem-budget "$3" -q \
-		2> "$OUT/err"
+		--no-colours 2> "$OUT/err"
 	rc=$?
 	secs=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
 	kib=$(tail -n 1 "$OUT/time")

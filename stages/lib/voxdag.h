@@ -39,7 +39,7 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 2)       /* 2: manifest, stage_version in provenance */ \
+	X("voxelize", 3)       /* 3: .col colour chunks; 2: manifest */      \
 	X("voxelize-vdb", 2)   /* 2: the same */                             \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
@@ -384,6 +384,105 @@ const char *vd_mesh_format(const struct vd_mesh *m);
 size_t vd_mesh_memory_bytes(const struct vd_mesh *m);
 const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
 void vd_mesh_close(struct vd_mesh *m);
+
+/* ------------------------------------------------------- surface colours
+ * Colour is read only when the caller opens the mesh with `colours` set
+ * (vd_mesh_open_opts); otherwise every reader does exactly what it does
+ * for geometry alone. With colours, vd_mesh_read_attr() hands out, beside
+ * each triangle, a vd_tri_attr: the triangle's own colour data, whole, so
+ * that it can be stored with the triangle (voxelize's bins) and evaluated
+ * later at any point of the triangle without the reader.
+ *
+ * Sources, by format (a triangle takes the first that applies):
+ * - a texture: the material's texture (OBJ map_Kd, AC3D object texture)
+ *   loaded, and every corner has texture coordinates (OBJ vt, AC3D refs);
+ *   the texture replaces the material colour (it is not multiplied);
+ * - vertex colours: PLY red/green/blue (or diffuse_red/...; uchar as is,
+ *   ushort scaled from 0..65535, float/double from 0..1, clamped; alpha
+ *   ignored), OBJ `v x y z r g b` (0..1);
+ * - the material colour: OBJ Kd, AC3D MATERIAL rgb;
+ * - grey (VD_GREY) otherwise (STL, faces without a material).
+ * Colours are sRGB, 8 bits: interpolated linearly in sRGB over the
+ * triangle and rounded to nearest. Texture coordinates wrap (repeat), as
+ * OBJ and AC3D renderers do; v = 0 is the image's bottom row (both formats
+ * follow OpenGL). A non-finite texture coordinate is VD_ERR_RANGE. A
+ * texture that is missing or cannot be decoded (PNG by libpng, JPEG by
+ * libjpeg-turbo, TGA/BMP/others by stb_image) gives one warning naming it
+ * and the material colour is used instead; with `strict` it is an error
+ * (VD_ERR_IO / VD_ERR_FORMAT), and so is a missing MTL file. Spec:
+ * schemas/colour-rule.md. */
+#define VD_GREY 128
+
+/* A decoded texture: RGB8 texels, rows top first. */
+struct vd_texture {
+	uint32_t width, height;
+	uint8_t *rgb;          /* 3 * width * height bytes */
+};
+
+/* Decodes the image at `path` (format from its first bytes). Errors:
+ * VD_ERR_IO (cannot open), VD_ERR_FORMAT (corrupt or undecodable, the
+ * decoder's reason in the detail), VD_ERR_UNSUPPORTED (known but
+ * unsupported format, e.g. SGI .rgb), VD_ERR_RANGE (wider or higher than
+ * 32768 texels). Free with vd_texture_release(). */
+int vd_texture_load(struct vd_texture *t, const char *path);
+void vd_texture_release(struct vd_texture *t);
+
+/* Bilinear sample at (u, v) (finite), wrapping in both directions, v = 0
+ * the bottom row: texel (i, j) (row j from the top) has its centre at
+ * u = (i + 0.5) / width, v = 1 - (j + 0.5) / height. Rounds to nearest. */
+void vd_texture_sample(const struct vd_texture *t, double u, double v,
+		       uint8_t rgb[3]);
+
+/* A triangle's colour data. `texture` >= 0: texels of
+ * vd_mesh_texture(mesh, texture) at the corners' `uv`; otherwise the
+ * corners' `rgb`. Plain data: may be copied and stored as bytes by the
+ * process that read it (texture indices belong to that mesh reader). */
+struct vd_tri_attr {
+	uint8_t rgb[3][3];     /* sRGB colour of each corner */
+	uint8_t pad[3];        /* 0 */
+	int32_t texture;       /* texture index, -1: none */
+	float uv[3][2];        /* texture coordinates of each corner */
+};
+
+/* The colour at barycentric coordinates b (b0 + b1 + b2 = 1, each in
+ * [0, 1]) of a triangle with attributes `a`; `tex` is the texture `a`
+ * names (NULL when a->texture < 0). */
+void vd_tri_attr_colour(const struct vd_tri_attr *a,
+			const struct vd_texture *tex, const double b[3],
+			uint8_t rgb[3]);
+
+struct vd_mesh_open_opts {
+	uint64_t max_vertex_bytes; /* as vd_mesh_open_limited; 0: no limit */
+	int colours;               /* decode colours (vd_mesh_read_attr) */
+	int strict;                /* missing texture or MTL is an error */
+	/* Receives each warning (one line, no newline; e.g. a texture that
+	 * cannot be read); NULL: warnings are dropped. */
+	void (*warn)(void *ctx, const char *line);
+	void *warn_ctx;
+};
+
+/* vd_mesh_open_limited with options. */
+int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
+		      const struct vd_mesh_open_opts *o);
+
+/* As vd_mesh_read, filling attr[0..*n) too. The mesh must have been opened
+ * with `colours` (else VD_ERR_ARG). */
+int vd_mesh_read_attr(struct vd_mesh *m, struct vd_triangle *buf,
+		      struct vd_tri_attr *attr, size_t cap, size_t *n);
+
+/* 1 when the mesh (opened with `colours`) has a colour source: PLY vertex
+ * colours, OBJ vertex colours or a material applied by usemtl, any AC3D
+ * surface. Final after one whole pass (known at open for PLY). */
+int vd_mesh_has_colours(const struct vd_mesh *m);
+
+/* Texture `i` of a vd_tri_attr, NULL if there is none such. Valid until
+ * vd_mesh_close(); safe to call from several threads once reading ended. */
+const struct vd_texture *vd_mesh_texture(const struct vd_mesh *m, int i);
+
+/* Textures the mesh referred to that could not be loaded, so far. */
+uint64_t vd_mesh_textures_missing(const struct vd_mesh *m);
+/* Textures loaded, so far. */
+uint64_t vd_mesh_textures_loaded(const struct vd_mesh *m);
 
 /* ---------------------------------------------------- triangle/box overlap
  * Voxelization decides overlap exactly on snapped coordinates: a vertex is
@@ -773,6 +872,12 @@ struct vd_voxelize_opts {
 	int quiet;                /* no progress on stderr */
 	const char *provenance;   /* stored in every chunk */
 	const char *tool;         /* prefix for progress lines */
+	/* Mesh input: write each non-empty cell's colour chunk ("col",
+	 * vd_colours_save) when the mesh has colours (vd_mesh_has_colours;
+	 * rule in schemas/colour-rule.md). The SVO chunks are the same
+	 * bytes either way. */
+	int colours;
+	int strict;               /* a missing texture or MTL is an error */
 };
 
 struct vd_voxelize_result {
@@ -789,11 +894,16 @@ struct vd_voxelize_result {
 	uint64_t mem_budget_bytes;
 	int threads;                 /* workers used for the cells */
 	char format[32];             /* input format, vd_mesh_format() */
+	int colours;                 /* colour chunks were written */
+	uint64_t textures_loaded, textures_missing;
+	double seconds_colour;       /* summed over workers */
 };
 
 /* Voxelizes the mesh at `mesh_path` into SVO chunk files
- * OUTDIR/chunk-L<L0>-<morton>.svo, one per non-empty cell. Existing chunk
- * files of an earlier run in `outdir` are removed first. */
+ * OUTDIR/chunk-L<L0>-<morton>.svo, one per non-empty cell, and with
+ * opts->colours, when the mesh has colours, a colour chunk
+ * chunk-L<L0>-<morton>.col beside each. Existing chunk files of an
+ * earlier run in `outdir` are removed first. */
 int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		     const struct vd_voxelize_opts *opts,
 		     struct vd_voxelize_result *res);

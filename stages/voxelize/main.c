@@ -41,6 +41,17 @@ static const char usage[] =
 	"  -q, --quiet             no progress lines on stderr\n"
 	"  -h, --help              this text\n"
 	"\n"
+	"Colours (mesh input): when the mesh has colours (PLY vertex colours,\n"
+	"OBJ materials with MTL Kd / map_Kd textures, AC3D materials and\n"
+	"textures) each cell also gets chunk-L<L0>-<cell>.col, the sRGB colour\n"
+	"of every voxel in the cell's Morton order: the colour of the surface\n"
+	"point nearest to the voxel's centre among the triangles overlapping it\n"
+	"(schemas/colour-rule.md). The .svo files are the same either way.\n"
+	"      --no-colours        geometry only: no .col files\n"
+	"      --strict            a missing or unreadable texture or MTL file\n"
+	"                          is an error (default: one warning, and the\n"
+	"                          material colour is used)\n"
+	"\n"
 	"OpenVDB input only:\n"
 	"      --grid NAME         the grid to read (default: the first)\n"
 	"      --vdb-mode MODE     which voxels are set (default: active):\n"
@@ -60,7 +71,8 @@ static int our_file(const char *name)
 {
 	size_t n = strlen(name);
 	return (!strncmp(name, "chunk-L", 7) && n > 4 &&
-		!strcmp(name + n - 4, ".svo")) ||
+		(!strcmp(name + n - 4, ".svo") ||
+		 !strcmp(name + n - 4, ".col"))) ||
 	       !strcmp(name, "voxelize.stats.json") || !strcmp(name, "bins.tmp");
 }
 
@@ -95,7 +107,8 @@ static int is_vdb(const char *path)
 	return n >= 4 && strcasecmp(path + n - 4, ".vdb") == 0;
 }
 
-enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD };
+enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD, OPT_NO_COLOURS,
+       OPT_STRICT };
 
 int main(int argc, char **argv)
 {
@@ -110,11 +123,13 @@ int main(int argc, char **argv)
 		{"grid", required_argument, NULL, OPT_GRID},
 		{"vdb-mode", required_argument, NULL, OPT_VDB_MODE},
 		{"fog-threshold", required_argument, NULL, OPT_FOG_THRESHOLD},
+		{"no-colours", no_argument, NULL, OPT_NO_COLOURS},
+		{"strict", no_argument, NULL, OPT_STRICT},
 		{NULL, 0, NULL, 0},
 	};
 	struct vd_voxelize_opts o = {.levels = 0, .chunk_level = -1,
 				     .mem_budget_bytes = 2ull << 30,
-				     .tool = "voxelize"};
+				     .tool = "voxelize", .colours = 1};
 	const char *outdir = NULL;
 	int c, have_levels = 0, vdb_opts = 0;
 	struct vd_vdb_select sel = {.mode = VD_VDB_ACTIVE};
@@ -171,6 +186,12 @@ int main(int argc, char **argv)
 				return vd_cli_usage(TOOL, "--fog-threshold '%s' is not a "
 						   "number", optarg);
 			vdb_opts = 1;
+			break;
+		case OPT_NO_COLOURS:
+			o.colours = 0;
+			break;
+		case OPT_STRICT:
+			o.strict = 1;
 			break;
 		case 'q':
 			o.quiet = 1;

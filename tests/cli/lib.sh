@@ -35,7 +35,7 @@ expect() {
 # No file in DIR that looks like a finished chunk, nor a temporary.
 expect_no_chunks() {
 	local name=$1 dir=$2
-	if ls "$dir" 2>/dev/null | grep -Eq '\.(svo|dag|ssvdag)$|\.tmp\.|stats\.json'; then
+	if ls "$dir" 2>/dev/null | grep -Eq '\.(svo|dag|ssvdag|col)$|\.tmp\.|stats\.json'; then
 		fail "$name" "files left in $dir:" "$(ls "$dir")"
 	else
 		pass "$name"

@@ -86,6 +86,33 @@ static inline int fuzz_mesh(const uint8_t *data, size_t size, const char *ext)
 	    (sum[0] != sum[1] && sum[0] == sum[0]))
 		abort(); /* a rewind must read the same mesh again */
 	vd_mesh_close(m);
+
+	/* The colour readers: the same triangles when they succeed, and every
+	 * attribute evaluates (textures the input names are opened too). */
+	struct vd_mesh_open_opts o = {.colours = 1};
+	if (vd_mesh_open_opts(&m, path, &o))
+		return 0;
+	static struct vd_tri_attr attr[256];
+	uint64_t ccount = 0;
+	int cerr;
+	for (;;) {
+		size_t n;
+		if ((cerr = vd_mesh_read_attr(m, buf, attr, 256, &n)) || !n)
+			break;
+		ccount += n;
+		for (size_t i = 0; i < n; i++) {
+			static const double b[3] = {0.25, 0.25, 0.5};
+			uint8_t rgb[3];
+			vd_tri_attr_colour(&attr[i],
+					   vd_mesh_texture(m, attr[i].texture),
+					   b, rgb);
+		}
+	}
+	(void)vd_mesh_has_colours(m);
+	(void)vd_mesh_memory_bytes(m);
+	if (!cerr && !err[0] && ccount != count[0])
+		abort(); /* colours never change the geometry */
+	vd_mesh_close(m);
 	return 0;
 }
 

@@ -17,6 +17,13 @@
  *   file order and a rewind reproduces it exactly.
  * - Non-finite coordinates are checked per corner only when the file has
  *   any, so the common clean file pays nothing for the rule.
+ * - Colour (voxdag.h, "surface colours") is decoded only when the mesh is
+ *   opened with it. A vertex record is then 4 floats instead of 3: the
+ *   fourth holds the vertex's R, G, B bytes and a byte saying it has a
+ *   colour, copied in and out as bytes (a record is an opaque blob of
+ *   m->vfloats floats to everything but vd_mesh_push_vertex and the
+ *   triangle assembly). Per-corner texture coordinates travel in
+ *   m->poly_tc beside m->poly, and the polygon's material in m->poly_mat.
  */
 #include "voxdag.h"
 
@@ -30,6 +37,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <libgen.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -40,6 +48,9 @@
 /* Polygons with more corners than this are taken as corruption: no real
  * exporter writes them and the bound keeps a list fully in the buffer. */
 #define MESH_MAX_CORNERS 65535
+
+static const char *vd_kw(const char *p, const char *kw);
+static int vd_tok40(const char *t);
 
 /* ------------------------------------------------------------ read buffer */
 
@@ -417,13 +428,28 @@ struct vd_ac_frame {
 	char name[48];
 };
 
+/* A material: its colour and its texture slot (-1: none). */
+struct vd_material {
+	char *name;
+	uint8_t rgb[3];
+	int tex;
+};
+
+/* A texture named by the mesh, loaded the first time a face uses it. */
+struct vd_tex_slot {
+	char *path;
+	int state;             /* 0 not tried, 1 loaded, -1 failed */
+	struct vd_texture t;
+};
+
 struct vd_mesh {
 	int kind;
 	struct vd_rd r;
 	uint64_t file_bytes;
 	uint64_t body_off, body_lines; /* where rewind restarts */
 
-	float *verts;          /* x y z per vertex */
+	float *verts;          /* x y z [rgb] per vertex: vfloats floats */
+	int vfloats;           /* 3, or 4 when vertices carry colours */
 	uint64_t nverts, verts_cap;
 	uint64_t verts_limit;  /* bytes the vertex array may take; 0: any */
 	int nonfinite;         /* some vertex has a NaN/inf coordinate */
@@ -433,6 +459,30 @@ struct vd_mesh {
 	size_t poly_n, poly_next, poly_cap;
 	uint64_t poly_face;    /* 1-based face number, for messages */
 	uint64_t poly_line;    /* its line in text formats */
+
+	/* Colours (col_on only). */
+	int col_on, col_seen;
+	struct vd_mesh_open_opts col;
+	char *dir;             /* the mesh file's directory, for relative names */
+	float *poly_tc;        /* u v per corner of m->poly; NAN u: none */
+	size_t poly_tc_cap;
+	int poly_mat;          /* material of the polygon, -1: none */
+	int poly_has_tc;       /* poly_tc holds this polygon's corners */
+	struct vd_material *mats;
+	size_t nmats, mats_cap;
+	struct vd_tex_slot *texs;
+	size_t ntexs, texs_cap;
+	uint64_t tex_missing, tex_loaded;
+	int cur_mat;           /* OBJ: the usemtl in force */
+	char **mtllibs;        /* OBJ: MTL files already read */
+	size_t nmtllibs;
+	float *uvs;            /* OBJ: vt u v */
+	uint64_t nuvs, uvs_cap;
+	int warned_mat;        /* one warning for unknown materials */
+	int icol[3];           /* PLY: red green blue property indices */
+	signed char *vslot;    /* PLY: per vertex property, 0-2 xyz, 3-5 rgb */
+	int ac_tex;            /* AC3D: the object's texture slot */
+	double ac_texrep[2], ac_texoff[2];
 
 	/* PLY */
 	struct vd_ply_elem *elems;
@@ -480,8 +530,11 @@ static int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
 	return VD_OK;
 }
 
-static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
+/* Appends a vertex; `rgb` (NULL: none) is kept only in 4-float records. */
+static int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
+				   const uint8_t *rgb)
 {
+	const uint64_t vbytes = 4 * (uint64_t)m->vfloats;
 	if (m->nverts == m->verts_cap) {
 		uint64_t cap = m->verts_cap ? m->verts_cap * 2 : 4096;
 		if (cap > UINT32_MAX)
@@ -490,8 +543,8 @@ static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
 			return vd_fail(VD_ERR_RANGE,
 				       "more than %" PRIu32 " vertices",
 				       UINT32_MAX);
-		if (m->verts_limit && cap * 12 > m->verts_limit) {
-			cap = m->verts_limit / 12;
+		if (m->verts_limit && cap * vbytes > m->verts_limit) {
+			cap = m->verts_limit / vbytes;
 			if (m->nverts >= cap)
 				return vd_fail(VD_ERR_BUDGET, "more than %" PRIu64
 					       " vertices need more than %" PRIu64
@@ -499,20 +552,37 @@ static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
 					       "(half) of the memory budget",
 					       m->nverts, m->verts_limit >> 10);
 		}
-		float *p = realloc(m->verts, (size_t)cap * 12);
+		float *p = realloc(m->verts, (size_t)(cap * vbytes));
 		if (!p)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
 				       cap);
 		m->verts = p;
 		m->verts_cap = cap;
 	}
-	float *d = m->verts + 3 * m->nverts++;
+	float *d = m->verts + (size_t)m->vfloats * m->nverts++;
 	d[0] = v[0];
 	d[1] = v[1];
 	d[2] = v[2];
+	if (m->vfloats == 4) {
+		uint8_t c[4] = {0, 0, 0, 0};
+		if (rgb)
+			c[0] = rgb[0], c[1] = rgb[1], c[2] = rgb[2], c[3] = 1;
+		memcpy(d + 3, c, 4);
+	}
 	if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
 		m->nonfinite = 1;
 	return VD_OK;
+}
+
+static int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
+{
+	return vd_mesh_push_vertex_rgb(m, v, NULL);
+}
+
+/* The position of vertex i. */
+static inline const float *vd_mesh_vert(const struct vd_mesh *m, uint64_t i)
+{
+	return m->verts + (size_t)m->vfloats * i;
 }
 
 /* "line 12: " for text formats, "" otherwise, for details. */
@@ -540,7 +610,7 @@ static int vd_mesh_poly_done(struct vd_mesh *m)
 		m->stats.polygons_split++;
 	if (m->nonfinite) {
 		for (size_t i = 0; i < m->poly_n; i++) {
-			const float *v = m->verts + 3 * (size_t)m->poly[i];
+			const float *v = vd_mesh_vert(m, m->poly[i]);
 			if (isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]))
 				continue;
 			char w[48];
@@ -597,8 +667,10 @@ static int vd_ply_truncated(struct vd_mesh *m, int e, const char *what,
 		       m->r.off + m->r.len);
 }
 
-/* Skips or decodes one binary item of element e. With `vert`, stores the
- * position in v; with `face`, collects the corner list in m->poly. */
+/* Skips or decodes one binary item of element e. With `v` (the vertex
+ * element), stores property i in v[m->vslot[i]] (x y z, then r g b when
+ * colours are read: v has 6 floats); with `face`, collects the corner list
+ * in m->poly. */
 static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 			   float *v, int face)
 {
@@ -610,8 +682,7 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		if (v) {
 			const unsigned char *p = r->buf + r->pos;
 			for (size_t i = 0; i < el->nprops; i++) {
-				int k = (int)i == m->ix ? 0 : (int)i == m->iy ? 1
-					: (int)i == m->iz ? 2 : -1;
+				int k = m->vslot[i];
 				if (k >= 0)
 					v[k] = vd_to_f32(vd_ply_decode(
 						p, el->props[i].type, be));
@@ -627,10 +698,8 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		if (pr->count == PLY_NONE) {
 			if ((e = vd_rd_need(r, size)))
 				return e;
-			if (v && ((int)i == m->ix || (int)i == m->iy ||
-				  (int)i == m->iz))
-				v[(int)i == m->ix ? 0 : (int)i == m->iy ? 1 : 2]
-					= vd_to_f32(vd_ply_decode(
+			if (v && m->vslot[i] >= 0)
+				v[m->vslot[i]] = vd_to_f32(vd_ply_decode(
 						r->buf + r->pos, pr->type, be));
 			r->pos += size;
 			continue;
@@ -701,10 +770,8 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 			double d;
 			if (!(p = vd_parse_double(t, &d)))
 				goto bad;
-			if (v && ((int)i == m->ix || (int)i == m->iy ||
-				  (int)i == m->iz))
-				v[(int)i == m->ix ? 0 : (int)i == m->iy ? 1 : 2]
-					= vd_to_f32(d);
+			if (v && m->vslot[i] >= 0)
+				v[m->vslot[i]] = vd_to_f32(d);
 			continue;
 		}
 		int64_t n;
@@ -940,6 +1007,63 @@ static int vd_ply_header(struct vd_mesh *m)
 	return VD_OK;
 }
 
+/* With colours: finds the vertex colour properties (red green blue, or
+ * diffuse_red ...), refuses ones that are lists, and builds m->vslot, the
+ * property -> float slot table the item readers use (also without
+ * colours: 0-2 for x y z). */
+static int vd_ply_colour_layout(struct vd_mesh *m,
+				const struct vd_ply_elem *v)
+{
+	static const char *const names[2][3] = {
+		{"red", "green", "blue"},
+		{"diffuse_red", "diffuse_green", "diffuse_blue"}};
+	m->vslot = malloc(v->nprops ? v->nprops : 1);
+	if (!m->vslot)
+		return vd_fail(VD_ERR_NOMEM, "PLY header");
+	for (size_t i = 0; i < v->nprops; i++)
+		m->vslot[i] = (int)i == m->ix ? 0 : (int)i == m->iy ? 1
+			: (int)i == m->iz ? 2 : -1;
+	m->icol[0] = m->icol[1] = m->icol[2] = -1;
+	if (!m->col_on)
+		return VD_OK;
+	for (int set = 0; set < 2; set++)
+		for (size_t i = 0; i < v->nprops; i++)
+			for (int c = 0; c < 3; c++) {
+				if (strcmp(v->props[i].name, names[set][c]) ||
+				    m->icol[c] >= 0)
+					continue;
+				if (v->props[i].count != PLY_NONE)
+					return vd_fail(VD_ERR_FORMAT, "PLY "
+						"vertex colour property '%s' is "
+						"a list (a colour is one "
+						"number)", v->props[i].name);
+				m->icol[c] = (int)i;
+			}
+	if (m->icol[0] < 0 || m->icol[1] < 0 || m->icol[2] < 0) {
+		m->icol[0] = m->icol[1] = m->icol[2] = -1;
+		return VD_OK; /* no colours (a lone 'red' is not one) */
+	}
+	for (int c = 0; c < 3; c++)
+		m->vslot[m->icol[c]] = (signed char)(3 + c);
+	m->vfloats = 4;
+	m->col_seen = 1;
+	return VD_OK;
+}
+
+/* A PLY colour value of `type` as an sRGB byte: integers as they are
+ * (ushort scaled from 0..65535), floats from 0..1; clamped, NaN 0. */
+static uint8_t vd_ply_colour_byte(float x, int type)
+{
+	double d = x;
+	if (type == PLY_U16 || type == PLY_I16)
+		d = d * 255.0 / 65535.0;
+	else if (type == PLY_F32 || type == PLY_F64)
+		d *= 255.0;
+	if (!(d > 0))
+		return 0;
+	return d >= 255 ? 255 : (uint8_t)(d + 0.5);
+}
+
 /* Finds the vertex and face elements and refuses what we cannot stream. */
 static int vd_ply_layout(struct vd_mesh *m)
 {
@@ -998,6 +1122,9 @@ static int vd_ply_layout(struct vd_mesh *m)
 			return vd_fail(VD_ERR_FORMAT, "PLY element 'vertex' "
 				       "lacks property %s",
 				       m->ix < 0 ? "x" : m->iy < 0 ? "y" : "z");
+		int e = vd_ply_colour_layout(m, v);
+		if (e)
+			return e;
 		if (v->count > UINT32_MAX)
 			return vd_fail(VD_ERR_RANGE, "PLY file declares %"
 				       PRIu64 " vertices (at most %" PRIu32
@@ -1047,23 +1174,33 @@ static int vd_ply_open(struct vd_mesh *m)
 					return e;
 			continue;
 		}
-		if (m->verts_limit && ve->count * 12 > m->verts_limit)
+		uint64_t vbytes = 4 * (uint64_t)m->vfloats;
+		if (m->verts_limit && ve->count * vbytes > m->verts_limit)
 			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
 				       "%" PRIu64 " KiB in memory, more than the "
 				       "vertex share (%" PRIu64 " KiB, half) of "
 				       "the memory budget", ve->count,
-				       (ve->count * 12 >> 10) + 1,
+				       (ve->count * vbytes >> 10) + 1,
 				       m->verts_limit >> 10);
-		m->verts = malloc(ve->count ? (size_t)ve->count * 12 : 12);
+		m->verts = malloc(ve->count ? (size_t)(ve->count * vbytes)
+				  : 16);
 		if (!m->verts)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
 				       ve->count);
 		m->verts_cap = ve->count;
 		m->stats.vertices = ve->count;
+		int col = m->vfloats == 4;
 		for (uint64_t j = 0; j < ve->count; j++) {
-			float v[3];
-			if ((e = vd_ply_item(m, ve, v, 0, j)) ||
-			    (e = vd_mesh_push_vertex(m, v)))
+			float v[6];
+			uint8_t rgb[3];
+			if ((e = vd_ply_item(m, ve, v, 0, j)))
+				return e;
+			if (col)
+				for (int c = 0; c < 3; c++)
+					rgb[c] = vd_ply_colour_byte(v[3 + c],
+						ve->props[m->icol[c]].type);
+			if ((e = vd_mesh_push_vertex_rgb(m, v,
+							 col ? rgb : NULL)))
 				return e;
 		}
 	}
@@ -1100,7 +1237,371 @@ static int vd_ply_next(struct vd_mesh *m, int *got)
 	return VD_OK;
 }
 
+/* ---------------------------------------------------------------- colours
+ * Materials and textures, shared by OBJ (MTL files) and AC3D. Textures are
+ * registered by path when a material or object names them and decoded the
+ * first time a face uses them, so a library of unused materials costs
+ * nothing. */
+
+static void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
+	__attribute__((format(printf, 2, 3)));
+
+static void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
+{
+	if (!m->col.warn)
+		return;
+	char line[600];
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(line, sizeof line, fmt, ap);
+	va_end(ap);
+	m->col.warn(m->col.warn_ctx, line);
+}
+
+static uint8_t vd_unit_byte(double x)
+{
+	if (!(x > 0))
+		return 0;
+	return x >= 1 ? 255 : (uint8_t)(x * 255.0 + 0.5);
+}
+
+/* `name` relative to the mesh's directory (absolute names as they are);
+ * DOS separators become '/'. Returns a malloc'd path or NULL. */
+static char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
+			  const char *name)
+{
+	size_t n = strlen(name);
+	const char *d = dir ? dir : m->dir;
+	char *p = malloc(strlen(d) + n + 2);
+	if (!p)
+		return NULL;
+	if (name[0] == '/')
+		memcpy(p, name, n + 1);
+	else
+		sprintf(p, "%s/%s", d, name);
+	for (char *q = p; *q; q++)
+		if (*q == '\\')
+			*q = '/';
+	return p;
+}
+
+/* The texture slot of `path` (taken over by the slot), -1 on failure. */
+static int vd_mesh_tex_slot(struct vd_mesh *m, char *path)
+{
+	for (size_t i = 0; i < m->ntexs; i++)
+		if (!strcmp(m->texs[i].path, path)) {
+			free(path);
+			return (int)i;
+		}
+	if (m->ntexs == m->texs_cap) {
+		size_t cap = m->texs_cap ? 2 * m->texs_cap : 8;
+		struct vd_tex_slot *t = realloc(m->texs, cap * sizeof *t);
+		if (!t) {
+			free(path);
+			return -1;
+		}
+		m->texs = t;
+		m->texs_cap = cap;
+	}
+	struct vd_tex_slot *t = &m->texs[m->ntexs];
+	memset(t, 0, sizeof *t);
+	t->path = path;
+	return (int)m->ntexs++;
+}
+
+/* Loads texture slot i if not tried yet. A failure is a warning (the slot
+ * then stays unusable, and faces fall back to their colours), or with
+ * `strict` the error. */
+static int vd_mesh_tex_use(struct vd_mesh *m, int i)
+{
+	if (i < 0 || m->texs[i].state != 0)
+		return VD_OK;
+	struct vd_tex_slot *t = &m->texs[i];
+	int e = vd_texture_load(&t->t, t->path);
+	if (!e) {
+		t->state = 1;
+		m->tex_loaded++;
+		return VD_OK;
+	}
+	t->state = -1;
+	m->tex_missing++;
+	if (e == VD_ERR_NOMEM || m->col.strict)
+		return vd_fail(e, "texture: %s", vd_error_detail());
+	vd_mesh_warn(m, "texture not used (%s): %s; the material's colour "
+		     "is used instead", vd_strerror(e), vd_error_detail());
+	return VD_OK;
+}
+
+static void vd_mesh_free_materials(struct vd_mesh *m)
+{
+	for (size_t i = 0; i < m->nmats; i++)
+		free(m->mats[i].name);
+	m->nmats = 0;
+}
+
+static int vd_mesh_add_material(struct vd_mesh *m, const char *name)
+{
+	if (m->nmats == m->mats_cap) {
+		size_t cap = m->mats_cap ? 2 * m->mats_cap : 16;
+		struct vd_material *p = realloc(m->mats, cap * sizeof *p);
+		if (!p)
+			return vd_fail(VD_ERR_NOMEM, "materials");
+		m->mats = p;
+		m->mats_cap = cap;
+	}
+	struct vd_material *mt = &m->mats[m->nmats];
+	if (!(mt->name = strdup(name)))
+		return vd_fail(VD_ERR_NOMEM, "materials");
+	mt->rgb[0] = mt->rgb[1] = mt->rgb[2] = VD_GREY;
+	mt->tex = -1;
+	m->nmats++;
+	return VD_OK;
+}
+
+/* Grows m->poly_tc to hold `need` corners. */
+static int vd_mesh_grow_tc(struct vd_mesh *m, size_t need)
+{
+	if (need <= m->poly_tc_cap)
+		return VD_OK;
+	size_t cap = m->poly_tc_cap ? m->poly_tc_cap * 2 : 64;
+	while (cap < need)
+		cap *= 2;
+	float *p = realloc(m->poly_tc, cap * 2 * sizeof *p);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "polygon of %zu corners", need);
+	m->poly_tc = p;
+	m->poly_tc_cap = cap;
+	return VD_OK;
+}
+
+/* Parses 3 numbers (a colour in 0..1); returns how many parsed. */
+static int vd_numbers3(const char *p, double d[3])
+{
+	for (int k = 0; k < 3; k++) {
+		p = vd_skip_space(p);
+		if (!*p || !(p = vd_parse_double(p, &d[k])))
+			return k;
+	}
+	return 3;
+}
+
+/* The file name of a map_Kd line: options (-o 1 2 3, -clamp on, ...)
+ * skipped, the rest taken whole (names may hold spaces). */
+static const char *vd_mtl_map_name(const char *p)
+{
+	p = vd_skip_space(p);
+	while (*p == '-') {
+		p = vd_skip_space(vd_token_end(p));
+		for (;;) {
+			double d;
+			const char *e = vd_token_end(p);
+			size_t n = (size_t)(e - p);
+			if (n == 0 || !(vd_parse_double(p, &d) ||
+					(n == 2 && !strncmp(p, "on", 2)) ||
+					(n == 3 && !strncmp(p, "off", 3))))
+				break;
+			p = vd_skip_space(e);
+		}
+	}
+	return p;
+}
+
+static void vd_rtrim(char *s)
+{
+	size_t n = strlen(s);
+	while (n > 0 && (vd_is_space(s[n - 1]) || s[n - 1] == '\n'))
+		s[--n] = 0;
+}
+
+/* Reads the MTL file `path`: newmtl, Kd, map_Kd (relative to the MTL's
+ * own directory). A missing file is a warning, or with `strict` an
+ * error. */
+static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
+{
+	struct stat st;
+	FILE *f = stat(path, &st) != 0 ? NULL
+		: !S_ISREG(st.st_mode) ? (errno = EINVAL, NULL)
+		: fopen(path, "r");
+	if (!f) {
+		m->tex_missing++;
+		if (m->col.strict)
+			return vd_fail(VD_ERR_IO, "cannot open material library "
+				       "'%s': %s", path, strerror(errno));
+		vd_mesh_warn(m, "cannot open material library '%s': %s; its "
+			     "materials are grey", path, strerror(errno));
+		return VD_OK;
+	}
+	char *dir_buf = strdup(path);
+	if (!dir_buf) {
+		fclose(f);
+		return vd_fail(VD_ERR_NOMEM, "material library");
+	}
+	const char *dir = dirname(dir_buf);
+	char *line = NULL;
+	size_t cap = 0;
+	uint64_t ln = 0;
+	int e = VD_OK;
+	struct vd_material *cur = NULL;
+	while (!e && getline(&line, &cap, f) >= 0) {
+		ln++;
+		vd_rtrim(line);
+		const char *p = vd_skip_space(line), *q;
+		if ((q = vd_kw(p, "newmtl"))) {
+			e = vd_mesh_add_material(m, vd_skip_space(q));
+			cur = e ? NULL : &m->mats[m->nmats - 1];
+		} else if (cur && (q = vd_kw(p, "Kd"))) {
+			double d[3];
+			if (vd_numbers3(q, d) == 3)
+				for (int c = 0; c < 3; c++)
+					cur->rgb[c] = vd_unit_byte(d[c]);
+		} else if (cur && (q = vd_kw(p, "map_Kd"))) {
+			const char *name = vd_mtl_map_name(q);
+			if (!*name)
+				continue;
+			char *tp = vd_mesh_path(m, dir, name);
+			if (!tp || (cur->tex = vd_mesh_tex_slot(m, tp)) < 0)
+				e = vd_fail(VD_ERR_NOMEM, "textures");
+		}
+	}
+	if (!e && ferror(f))
+		e = vd_fail(VD_ERR_IO, "cannot read '%s' (line %" PRIu64 ")",
+			    path, ln);
+	free(line);
+	free(dir_buf);
+	fclose(f);
+	return e;
+}
+
+/* "mtllib a.mtl [b.mtl ...]": each file read once per reader (a rewind
+ * keeps the materials). A name with spaces is tried whole first. */
+static int vd_obj_mtllib(struct vd_mesh *m, const char *rest)
+{
+	char *names = strdup(vd_skip_space(rest));
+	if (!names)
+		return vd_fail(VD_ERR_NOMEM, "mtllib");
+	vd_rtrim(names);
+	int e = VD_OK;
+	char *whole = vd_mesh_path(m, NULL, names);
+	struct stat st;
+	int one = whole && stat(whole, &st) == 0;
+	free(whole);
+	char *save = NULL;
+	for (char *t = one ? names : strtok_r(names, " \t", &save); t && !e;
+	     t = one ? NULL : strtok_r(NULL, " \t", &save)) {
+		char *path = vd_mesh_path(m, NULL, t);
+		if (!path) {
+			e = vd_fail(VD_ERR_NOMEM, "mtllib");
+			break;
+		}
+		size_t i = 0;
+		while (i < m->nmtllibs && strcmp(m->mtllibs[i], path))
+			i++;
+		if (i < m->nmtllibs) {
+			free(path);
+			continue;
+		}
+		char **l = realloc(m->mtllibs, (m->nmtllibs + 1) * sizeof *l);
+		if (!l) {
+			free(path);
+			e = vd_fail(VD_ERR_NOMEM, "mtllib");
+			break;
+		}
+		m->mtllibs = l;
+		m->mtllibs[m->nmtllibs++] = path;
+		e = vd_obj_read_mtl(m, path);
+	}
+	free(names);
+	return e;
+}
+
+/* "usemtl NAME": the material in force from here on (unknown: none, with
+ * one warning per file); its texture is loaded now. */
+static int vd_obj_usemtl(struct vd_mesh *m, const char *rest)
+{
+	char name[512];
+	snprintf(name, sizeof name, "%s", vd_skip_space(rest));
+	vd_rtrim(name);
+	m->cur_mat = -1;
+	for (size_t i = 0; i < m->nmats; i++)
+		if (!strcmp(m->mats[i].name, name)) {
+			m->cur_mat = (int)i;
+			m->col_seen = 1;
+			return vd_mesh_tex_use(m, m->mats[i].tex);
+		}
+	if (!m->warned_mat) {
+		m->warned_mat = 1;
+		vd_mesh_warn(m, "line %" PRIu64 ": material '%.80s' is not "
+			     "defined in any mtllib read so far; its faces are "
+			     "grey (further unknown materials not reported)",
+			     m->r.lines, name);
+	}
+	return VD_OK;
+}
+
 /* ------------------------------------------------------------------- OBJ */
+
+/* "vt u [v [w]]" (colours only). A non-finite coordinate is an error:
+ * no wrap gives it a meaning. */
+static int vd_obj_vt(struct vd_mesh *m, uint64_t ln, const char *p)
+{
+	double d[2] = {0, 0};
+	for (int k = 0; k < 2; k++) {
+		const char *t = vd_skip_space(p);
+		if (*t == 0) {
+			if (k == 0)
+				return vd_fail(VD_ERR_FORMAT, "line %" PRIu64
+					       ": vt without coordinates", ln);
+			break;
+		}
+		if (!(p = vd_parse_double(t, &d[k])))
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": "
+				       "malformed texture coordinate '%.*s'",
+				       ln, vd_tok40(t), t);
+		if (!isfinite(d[k]))
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": texture "
+				       "coordinate '%.*s' is not finite", ln,
+				       vd_tok40(t), t);
+	}
+	if (m->nuvs == m->uvs_cap) {
+		uint64_t cap = m->uvs_cap ? 2 * m->uvs_cap : 4096;
+		if (cap > UINT32_MAX)
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": more "
+				       "than %" PRIu32 " texture coordinates",
+				       ln, UINT32_MAX);
+		float *q = realloc(m->uvs, (size_t)cap * 2 * sizeof *q);
+		if (!q)
+			return vd_fail(VD_ERR_NOMEM, "texture coordinates");
+		m->uvs = q;
+		m->uvs_cap = cap;
+	}
+	m->uvs[2 * m->nuvs] = (float)d[0];
+	m->uvs[2 * m->nuvs + 1] = (float)d[1];
+	m->nuvs++;
+	return VD_OK;
+}
+
+/* Stores the texture coordinates of corner m->poly_n: vt index `ti`
+ * (1-based, negative relative, INT64_MIN none). */
+static int vd_obj_corner_uv(struct vd_mesh *m, uint64_t ln, int64_t ti)
+{
+	int e = vd_mesh_grow_tc(m, m->poly_n + 1);
+	if (e)
+		return e;
+	float *tc = m->poly_tc + 2 * m->poly_n;
+	if (ti == INT64_MIN) {
+		tc[0] = tc[1] = NAN;
+		return VD_OK;
+	}
+	int64_t i = ti > 0 ? ti - 1 : (int64_t)m->nuvs + ti;
+	if (ti == 0 || i < 0 || (uint64_t)i >= m->nuvs)
+		return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": face %" PRIu64
+			       ": texture coordinate index %" PRId64 " out of "
+			       "range (%" PRIu64 " defined so far)", ln,
+			       m->poly_face, ti, m->nuvs);
+	tc[0] = m->uvs[2 * i];
+	tc[1] = m->uvs[2 * i + 1];
+	return VD_OK;
+}
 
 static int vd_obj_next(struct vd_mesh *m, int *got)
 {
@@ -1142,8 +1643,29 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 						t);
 				v[k] = vd_to_f32(d);
 			}
-			/* w and vertex colours may follow; not ours. */
-			if ((e = vd_mesh_push_vertex(m, v)))
+			/* w may follow (ignored), or with colours the
+			 * common extension "v x y z r g b" (0..1). */
+			uint8_t rgb[3];
+			int col = 0;
+			if (m->col_on) {
+				double d[3], x;
+				const char *q = p;
+				int k = 0;
+				for (; k < 4; k++) {
+					q = vd_skip_space(q);
+					if (!*q || !(q = vd_parse_double(q, &x)))
+						break;
+					if (k < 3)
+						d[k] = x;
+				}
+				if (k == 3) {
+					for (int c = 0; c < 3; c++)
+						rgb[c] = vd_unit_byte(d[c]);
+					col = m->col_seen = 1;
+				}
+			}
+			if ((e = vd_mesh_push_vertex_rgb(m, v,
+							 col ? rgb : NULL)))
 				return e;
 			m->stats.vertices = m->nverts;
 			continue;
@@ -1159,7 +1681,13 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 				int64_t i;
 				if (!(p = vd_parse_int(t, &i)))
 					goto bad_corner;
-				/* texture and normal indices: not ours */
+				/* texture and normal indices: the texture
+				 * index only with colours */
+				int64_t ti = INT64_MIN; /* none */
+				if (*p == '/' && m->col_on &&
+				    ((p[1] >= '0' && p[1] <= '9') || p[1] == '-')
+				    && !(p = vd_parse_int(p + 1, &ti)))
+					goto bad_corner;
 				if (*p == '/')
 					while ((*p >= '0' && *p <= '9') ||
 					       *p == '/' || *p == '-')
@@ -1186,6 +1714,9 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 						m->poly_face, MESH_MAX_CORNERS);
 				if ((e = vd_mesh_grow_poly(m, m->poly_n + 1)))
 					return e;
+				if (m->col_on &&
+				    (e = vd_obj_corner_uv(m, ln, ti)))
+					return e;
 				m->poly[m->poly_n++] = (uint32_t)idx;
 				continue;
 			bad_corner:
@@ -1195,8 +1726,28 @@ static int vd_obj_next(struct vd_mesh *m, int *got)
 					(int)(vd_token_end(t) - t > 40 ? 40 :
 					      vd_token_end(t) - t), t);
 			}
+			m->poly_mat = m->cur_mat;
+			m->poly_has_tc = m->col_on;
 			*got = 1;
 			return VD_OK;
+		}
+		if (m->col_on) {
+			const char *q;
+			if ((q = vd_kw(p, "vt"))) {
+				if ((e = vd_obj_vt(m, ln, q)))
+					return e;
+				continue;
+			}
+			if ((q = vd_kw(p, "usemtl"))) {
+				if ((e = vd_obj_usemtl(m, q)))
+					return e;
+				continue;
+			}
+			if ((q = vd_kw(p, "mtllib"))) {
+				if ((e = vd_obj_mtllib(m, q)))
+					return e;
+				continue;
+			}
 		}
 		/* vn vt o g s usemtl mtllib l p and the rest of the spec
 		 * describe things we do not voxelize. Only non-words are
@@ -1598,6 +2149,9 @@ static void vd_ac_begin_object(struct vd_mesh *m, const char *type)
 	m->ac_object_line = m->r.lines;
 	memcpy(m->ac_rot, vd_ac_identity, sizeof m->ac_rot);
 	memset(m->ac_loc, 0, sizeof m->ac_loc);
+	m->ac_tex = -1;
+	m->ac_texrep[0] = m->ac_texrep[1] = 1;
+	m->ac_texoff[0] = m->ac_texoff[1] = 0;
 	m->nverts = 0;
 	m->nonfinite = 0;
 	type = vd_skip_space(type);
@@ -1636,6 +2190,105 @@ static int vd_ac_kids(struct vd_mesh *m, uint64_t kids)
 		m->ac_depth--;
 	return VD_OK;
 }
+
+/* ---- AC3D colours */
+
+/* A quoted (or bare) string at p into out; returns the text after it. */
+static const char *vd_ac_string(const char *p, char *out, size_t cap)
+{
+	p = vd_skip_space(p);
+	const char *e;
+	if (*p == '"') {
+		p++;
+		e = strchr(p, '"');
+		if (!e)
+			e = p + strlen(p);
+	} else {
+		e = vd_token_end(p);
+	}
+	size_t n = (size_t)(e - p);
+	snprintf(out, cap, "%.*s", (int)(n < cap ? n : cap - 1), p);
+	return *e == '"' ? e + 1 : e;
+}
+
+/* MATERIAL "name" rgb r g b amb ... : the name and the diffuse colour. */
+static int vd_ac_material(struct vd_mesh *m, const char *p)
+{
+	char name[256];
+	p = vd_ac_string(p, name, sizeof name);
+	int e = vd_mesh_add_material(m, name);
+	if (e)
+		return e;
+	const char *q = vd_kw(vd_skip_space(p), "rgb");
+	double d[3];
+	if (!q || vd_numbers3(q, d) != 3)
+		return vd_ac_fail(m, "line %" PRIu64 ": MATERIAL '%s' has no "
+				  "'rgb r g b'", m->r.lines, name);
+	for (int c = 0; c < 3; c++)
+		m->mats[m->nmats - 1].rgb[c] = vd_unit_byte(d[c]);
+	m->col_seen = 1;
+	return VD_OK;
+}
+
+/* texture "path": relative to the .ac file; loaded now (objects name
+ * textures only when their surfaces use them). */
+static int vd_ac_texture(struct vd_mesh *m, const char *p)
+{
+	char name[1024];
+	vd_ac_string(p, name, sizeof name);
+	if (!name[0])
+		return VD_OK;
+	char *path = vd_mesh_path(m, NULL, name);
+	if (!path || (m->ac_tex = vd_mesh_tex_slot(m, path)) < 0)
+		return vd_fail(VD_ERR_NOMEM, "textures");
+	return vd_mesh_tex_use(m, m->ac_tex);
+}
+
+/* "mat N" of a surface. An index past the MATERIAL lines leaves the
+ * surface grey, with one warning. */
+static int vd_ac_mat(struct vd_mesh *m, const char *p)
+{
+	uint64_t n;
+	int e = vd_ac_count(m, p, "mat", &n);
+	if (e)
+		return e;
+	/* a file without MATERIAL lines has no colours: nothing to say */
+	if (n < m->nmats) {
+		m->poly_mat = (int)n;
+	} else if (!m->warned_mat && m->nmats > 0) {
+		m->warned_mat = 1;
+		vd_mesh_warn(m, "line %" PRIu64 ": material %" PRIu64 " of %zu "
+			     "defined; the surface is grey (further ones not "
+			     "reported)", m->r.lines, n, m->nmats);
+	}
+	return VD_OK;
+}
+
+/* The "u v" after a ref's index, mapped by texrep and texoff (as plib and
+ * OpenSceneGraph: uv * texrep + texoff). Missing: no coordinates. */
+static int vd_ac_ref_uv(struct vd_mesh *m, const char *p, size_t corner)
+{
+	float *tc = m->poly_tc + 2 * corner;
+	double d[2];
+	p = vd_skip_space(p);
+	if (!*p) {
+		tc[0] = tc[1] = NAN;
+		return VD_OK;
+	}
+	int e = vd_ac_numbers(m, p, d, 2, 1, "a ref's texture coordinates");
+	if (e)
+		return e;
+	for (int k = 0; k < 2; k++) {
+		double x = d[k] * m->ac_texrep[k] + m->ac_texoff[k];
+		if (!isfinite(x))
+			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": texture "
+				       "coordinate %g is not finite",
+				       m->r.lines, x);
+		tc[k] = (float)x;
+	}
+	return VD_OK;
+}
+
 
 /* Reads "numvert N"'s N vertex lines into m->verts, in world coordinates. */
 static int vd_ac_vertices(struct vd_mesh *m, uint64_t count)
@@ -1712,13 +2365,17 @@ static int vd_ac_surface(struct vd_mesh *m)
 				  "(1), line (2), triangle strip (4)",
 				  m->r.lines, type, flags);
 	uint64_t refs;
+	m->poly_mat = -1;
 	for (;;) {
 		if ((e = vd_ac_line(m, &s)) < 0)
 			return -e;
 		if (e == 0)
 			goto cut;
-		if (vd_kw(s, "mat"))
+		if ((p = vd_kw(s, "mat"))) {
+			if (m->col_on && (e = vd_ac_mat(m, p)))
+				return e;
 			continue;
+		}
 		if ((p = vd_kw(s, "refs")))
 			break;
 		return vd_ac_fail(m, "line %" PRIu64 ": expected 'mat' or "
@@ -1733,17 +2390,21 @@ static int vd_ac_surface(struct vd_mesh *m)
 			       m->r.lines, refs, MESH_MAX_CORNERS);
 	if ((e = vd_mesh_grow_poly(m, (size_t)refs)))
 		return e;
+	if (m->col_on && (e = vd_mesh_grow_tc(m, (size_t)refs)))
+		return e;
 	for (uint64_t j = 0; j < refs; j++) {
 		int64_t idx;
 		if ((e = vd_ac_line(m, &s)) < 0)
 			return -e;
 		if (e == 0)
 			goto cut;
-		/* The UV pair after the index is not ours. */
+		/* The UV pair after the index: only with colours. */
 		if (!(p = vd_parse_int(s, &idx)) || !vd_is_end(*p))
 			return vd_ac_fail(m, "line %" PRIu64 ": malformed "
 					  "vertex index '%.*s'", m->r.lines,
 					  vd_tok40(s), s);
+		if (m->col_on && (e = vd_ac_ref_uv(m, p, m->poly_n)))
+			return e;
 		if (idx < 0 || (uint64_t)idx >= m->nverts)
 			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": "
 				       "surface %" PRIu64 ": vertex index %"
@@ -1754,6 +2415,7 @@ static int vd_ac_surface(struct vd_mesh *m)
 		m->poly[m->poly_n++] = (uint32_t)idx;
 	}
 	m->poly_strip = type == 4;
+	m->poly_has_tc = m->col_on;
 	if (type == 1 || type == 2)
 		m->poly_n = 0;
 	return VD_OK;
@@ -1816,6 +2478,11 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 					f->name, vd_tok40(s), s);
 			}
 			/* MATERIAL lines and their AC3Dc kin. */
+			if (m->col_on && (p = vd_kw(s, "MATERIAL"))) {
+				if ((e = vd_ac_material(m, p)))
+					return e;
+				continue;
+			}
 			if (vd_is_word_start(*s))
 				continue;
 			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
@@ -1844,6 +2511,17 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 		} else if ((p = vd_kw(s, "numvert"))) {
 			if ((e = vd_ac_count(m, p, "numvert", &n)) ||
 			    (e = vd_ac_vertices(m, n)))
+				return e;
+		} else if (m->col_on && (p = vd_kw(s, "texture"))) {
+			if ((e = vd_ac_texture(m, p)))
+				return e;
+		} else if (m->col_on && (p = vd_kw(s, "texrep"))) {
+			if ((e = vd_ac_numbers(m, p, m->ac_texrep, 2, 0,
+					       "texrep")))
+				return e;
+		} else if (m->col_on && (p = vd_kw(s, "texoff"))) {
+			if ((e = vd_ac_numbers(m, p, m->ac_texoff, 2, 0,
+					       "texoff")))
 				return e;
 		} else if ((p = vd_kw(s, "numsurf"))) {
 			if ((e = vd_ac_count(m, p, "numsurf", &n)))
@@ -2023,16 +2701,37 @@ int vd_mesh_open(struct vd_mesh **out, const char *path)
 int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
 			 uint64_t max_vertex_bytes)
 {
-	if (!out || !path)
+	struct vd_mesh_open_opts o = {.max_vertex_bytes = max_vertex_bytes};
+	return vd_mesh_open_opts(out, path, &o);
+}
+
+int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
+		      const struct vd_mesh_open_opts *o)
+{
+	if (!out || !path || !o)
 		return vd_fail(VD_ERR_ARG, "vd_mesh_open: NULL argument");
 	*out = NULL;
 	struct vd_mesh *m = calloc(1, sizeof *m);
 	if (!m)
 		return vd_fail(VD_ERR_NOMEM, "mesh reader");
+	m->vfloats = 3;
+	m->poly_mat = m->cur_mat = m->ac_tex = -1;
+	if (o->colours) {
+		m->col_on = 1;
+		m->col = *o;
+		char *d = strdup(path);
+		m->dir = d ? strdup(dirname(d)) : NULL;
+		free(d);
+		if (!m->dir) {
+			free(m);
+			return vd_fail(VD_ERR_NOMEM, "mesh reader");
+		}
+	}
 	m->r.fd = open(path, O_RDONLY | O_CLOEXEC);
 	if (m->r.fd < 0) {
 		int e = vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
 				strerror(errno));
+		free(m->dir);
 		free(m);
 		return e;
 	}
@@ -2054,9 +2753,12 @@ int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
 		e = vd_fail(VD_ERR_NOMEM, "read buffer");
 	else {
 		m->r.cap = MESH_BUF_BYTES;
-		m->verts_limit = max_vertex_bytes;
+		m->verts_limit = o->max_vertex_bytes;
 		m->file_bytes = (uint64_t)st.st_size;
 		e = vd_mesh_detect(m, path);
+		/* OBJ may colour any vertex ("v x y z r g b") */
+		if (!e && m->col_on && m->kind == MESH_OBJ)
+			m->vfloats = 4;
 	}
 	if (e) {
 		vd_mesh_close(m);
@@ -2076,8 +2778,41 @@ static int vd_mesh_next(struct vd_mesh *m, int *got)
 	}
 }
 
-int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
-		 size_t *n)
+/* The attributes of the triangle of corners pc[] (positions in m->poly). */
+static void vd_mesh_attr(const struct vd_mesh *m, const size_t pc[3],
+			 struct vd_tri_attr *a)
+{
+	memset(a, 0, sizeof *a);
+	a->texture = -1;
+	const struct vd_material *mt =
+		m->poly_mat >= 0 && (size_t)m->poly_mat < m->nmats
+			? &m->mats[m->poly_mat] : NULL;
+	int tex = m->kind == MESH_AC3D ? m->ac_tex : mt ? mt->tex : -1;
+	if (tex >= 0 && m->texs[tex].state == 1 && m->poly_has_tc) {
+		int ok = 1;
+		for (int j = 0; j < 3; j++) {
+			const float *tc = m->poly_tc + 2 * pc[j];
+			ok &= !isnan(tc[0]) && !isnan(tc[1]);
+			a->uv[j][0] = tc[0];
+			a->uv[j][1] = tc[1];
+		}
+		if (ok)
+			a->texture = tex;
+		else
+			memset(a->uv, 0, sizeof a->uv);
+	}
+	for (int j = 0; j < 3; j++) {
+		uint8_t c[4] = {0, 0, 0, 0};
+		if (m->vfloats == 4)
+			memcpy(c, vd_mesh_vert(m, m->poly[pc[j]]) + 3, 4);
+		const uint8_t *src = c[3] ? c : mt ? mt->rgb : NULL;
+		for (int k = 0; k < 3; k++)
+			a->rgb[j][k] = src ? src[k] : VD_GREY;
+	}
+}
+
+static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
+			     struct vd_tri_attr *attr, size_t cap, size_t *n)
 {
 	if (!n)
 		return vd_fail(VD_ERR_ARG, "vd_mesh_read: NULL count");
@@ -2090,23 +2825,31 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 	int e = VD_OK;
 	if (m->kind == MESH_STL_BIN) {
 		e = vd_stl_bin_read(m, buf, cap, &k);
+		for (size_t i = 0; attr && i < k; i++) {
+			memset(&attr[i], 0, sizeof attr[i]);
+			memset(attr[i].rgb, VD_GREY, sizeof attr[i].rgb);
+			attr[i].texture = -1;
+		}
 	} else {
 		while (k < cap) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
-				struct vd_triangle *t = &buf[k++];
+				struct vd_triangle *t = &buf[k];
 				const uint32_t *q = m->poly;
 				size_t i = m->poly_next;
-				uint32_t c[3] = {q[0], q[i], q[i + 1]};
+				size_t pc[3] = {0, i, i + 1};
 				/* A strip's triangle i-1 is (i-1, i, i+1),
 				 * every other one flipped to keep the
 				 * winding. */
 				if (m->poly_strip) {
-					c[0] = q[i - (i & 1 ? 1 : 0)];
-					c[1] = q[i - (i & 1 ? 0 : 1)];
+					pc[0] = i - (i & 1 ? 1 : 0);
+					pc[1] = i - (i & 1 ? 0 : 1);
 				}
 				for (int j = 0; j < 3; j++)
-					memcpy(t->v[j], m->verts +
-					       3 * (size_t)c[j], 12);
+					memcpy(t->v[j], vd_mesh_vert(m, q[pc[j]]),
+					       12);
+				if (attr)
+					vd_mesh_attr(m, pc, &attr[k]);
+				k++;
 				m->poly_next++;
 				continue;
 			}
@@ -2114,6 +2857,8 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 				break;
 			int got = 0;
 			m->poly_n = m->poly_next = 0;
+			m->poly_mat = -1;
+			m->poly_has_tc = 0;
 			if ((e = vd_mesh_next(m, &got)))
 				break;
 			if (!got) {
@@ -2132,6 +2877,48 @@ int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
 			 vd_error_detail());
 	}
 	return e;
+}
+
+int vd_mesh_read(struct vd_mesh *m, struct vd_triangle *buf, size_t cap,
+		 size_t *n)
+{
+	return vd_mesh_read_impl(m, buf, NULL, cap, n);
+}
+
+int vd_mesh_read_attr(struct vd_mesh *m, struct vd_triangle *buf,
+		      struct vd_tri_attr *attr, size_t cap, size_t *n)
+{
+	if (m && !m->col_on) {
+		if (n)
+			*n = 0;
+		return vd_fail(VD_ERR_ARG, "vd_mesh_read_attr: the mesh was "
+			       "opened without colours");
+	}
+	if (!attr)
+		return vd_fail(VD_ERR_ARG, "vd_mesh_read_attr: NULL attr");
+	return vd_mesh_read_impl(m, buf, attr, cap, n);
+}
+
+int vd_mesh_has_colours(const struct vd_mesh *m)
+{
+	return m && m->col_on && m->col_seen;
+}
+
+const struct vd_texture *vd_mesh_texture(const struct vd_mesh *m, int i)
+{
+	if (!m || i < 0 || (size_t)i >= m->ntexs || m->texs[i].state != 1)
+		return NULL;
+	return &m->texs[i].t;
+}
+
+uint64_t vd_mesh_textures_missing(const struct vd_mesh *m)
+{
+	return m ? m->tex_missing : 0;
+}
+
+uint64_t vd_mesh_textures_loaded(const struct vd_mesh *m)
+{
+	return m ? m->tex_loaded : 0;
 }
 
 int vd_mesh_rewind(struct vd_mesh *m)
@@ -2155,6 +2942,8 @@ int vd_mesh_rewind(struct vd_mesh *m)
 		m->stl_rest = NULL;
 		if (m->kind == MESH_OBJ)
 			m->stats.vertices = 0;
+		m->nuvs = 0;
+		m->cur_mat = -1;
 		return vd_rd_seek(&m->r, 0, 0);
 	case MESH_STL_BIN:
 		return vd_rd_seek(&m->r, m->body_off, 0);
@@ -2166,6 +2955,8 @@ int vd_mesh_rewind(struct vd_mesh *m)
 		m->ac_in_object = m->ac_seen_object = 0;
 		m->ac_surf_left = 0;
 		m->poly_strip = 0;
+		/* the MATERIAL lines are read again */
+		vd_mesh_free_materials(m);
 		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
 	default:
 		if (m->face_elem == m->nelems) {
@@ -2186,8 +2977,15 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 	if (!m)
 		return 0;
 	size_t b = sizeof *m + (m->r.buf ? m->r.cap + 1 : 0) +
-		   (size_t)m->verts_cap * 12 + m->poly_cap * sizeof *m->poly +
-		   m->ac_cap * sizeof *m->ac_stack;
+		   (size_t)m->verts_cap * 4 * (size_t)m->vfloats +
+		   m->poly_cap * sizeof *m->poly +
+		   m->ac_cap * sizeof *m->ac_stack +
+		   m->poly_tc_cap * 2 * sizeof(float) +
+		   (size_t)m->uvs_cap * 2 * sizeof(float) +
+		   m->mats_cap * sizeof *m->mats +
+		   m->texs_cap * sizeof *m->texs;
+	for (size_t i = 0; i < m->ntexs; i++)
+		b += 3 * (size_t)m->texs[i].t.width * m->texs[i].t.height;
 	for (size_t i = 0; i < m->nelems; i++)
 		b += sizeof m->elems[i] +
 		     m->elems[i].cap * sizeof *m->elems[i].props;
@@ -2209,6 +3007,20 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->verts);
 	free(m->poly);
 	free(m->ac_stack);
+	vd_mesh_free_materials(m);
+	free(m->mats);
+	for (size_t i = 0; i < m->ntexs; i++) {
+		free(m->texs[i].path);
+		vd_texture_release(&m->texs[i].t);
+	}
+	free(m->texs);
+	for (size_t i = 0; i < m->nmtllibs; i++)
+		free(m->mtllibs[i]);
+	free(m->mtllibs);
+	free(m->uvs);
+	free(m->poly_tc);
+	free(m->vslot);
+	free(m->dir);
 	for (size_t i = 0; i < m->nelems; i++)
 		free(m->elems[i].props);
 	free(m->elems);

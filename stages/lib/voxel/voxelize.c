@@ -14,6 +14,18 @@
  * triangle first touches them, each 512 bricks in Morton order, so memory
  * follows the surface area, not the cell's volume. Emitting the chunk is a
  * walk over the blocks in key order, which is Morton order of the bricks.
+ *
+ * Colours (only when asked for and the mesh has them; the geometry path
+ * never sees them): triangles are binned with their vd_tri_attr and their
+ * input index, and each flush sorts by (cell, index), so a bin lists its
+ * triangles in input order. Once a cell's voxels are known, the bin is read
+ * a second time: every triangle is rasterized again with the same exact
+ * overlap test, and each voxel it overlaps keeps the colour of the
+ * triangle's point nearest to the voxel's centre if that point is strictly
+ * nearer than the voxel's best so far, so ties go to the earlier triangle
+ * (schemas/colour-rule.md). A voxel's slot is its rank in the cell's Morton
+ * order (prefix popcounts per block), so the colours come out in the order
+ * the colour chunk stores them, 8 bytes per voxel while they are built.
  */
 #include "voxdag.h"
 #include "voxel/voxelize_internal.h"
@@ -27,6 +39,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <math.h>
+#include <xxhash.h>
 
 enum {
 	BLOCK_SHIFT = 5,                  /* blocks of 32^3 voxels */
@@ -36,6 +50,13 @@ enum {
 	MAX_CHUNK_LEVEL = 7,              /* 2M cells: per-cell arrays stay small */
 	TRI_BATCH = 16384,
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
+	/* With colours, a block's share also pays for its voxels' colour
+	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
+	 * block (one surface crossing a 32^3 block sets about 1000-2500;
+	 * planning for the worst, 32768, would make cells tiny and runs slow);
+	 * a cell with more is caught exactly after its geometry pass and
+	 * stops with a budget error naming it. */
+	COLOUR_BLOCK_COST = 2048 * 8 + 512 * 2 + 16,
 };
 
 /* ------------------------------------------------------------ progress */
@@ -68,21 +89,33 @@ static void progress_say(struct progress *p, int force, const char *fmt, ...)
 	pthread_mutex_unlock(&p->lock);
 }
 
+/* A reader's warning: always shown (also with --quiet), one line. */
+static void warn_line(void *ctx, const char *line)
+{
+	struct progress *p = ctx;
+	pthread_mutex_lock(&p->lock);
+	fprintf(stderr, "%s: warning: %s\n", p->tool, line);
+	pthread_mutex_unlock(&p->lock);
+}
+
 /* ------------------------------------------------------- mesh streaming */
 
-/* Reads the mesh once, calling fn for each batch of triangles. */
+/* Reads the mesh once, calling fn for each batch of triangles; with
+ * `attr` (colours), their attributes too. */
 static int for_each_batch(struct vd_mesh *m, struct vd_triangle *buf,
+			  struct vd_tri_attr *attr,
 			  int (*fn)(void *ctx, const struct vd_triangle *t,
-				    size_t n),
+				    const struct vd_tri_attr *a, size_t n),
 			  void *ctx)
 {
 	int err = vd_mesh_rewind(m);
 	while (!err) {
 		size_t n;
-		err = vd_mesh_read(m, buf, TRI_BATCH, &n);
+		err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
+			   : vd_mesh_read(m, buf, TRI_BATCH, &n);
 		if (err || n == 0)
 			break;
-		err = fn(ctx, buf, n);
+		err = fn(ctx, buf, attr, n);
 	}
 	return err;
 }
@@ -92,7 +125,8 @@ struct bounds {
 	uint64_t n;
 };
 
-static int bounds_batch(void *ctx, const struct vd_triangle *t, size_t n)
+static int bounds_batch(void *ctx, const struct vd_triangle *t,
+			const struct vd_tri_attr *attr, size_t n)
 {
 	struct bounds *b = ctx;
 	for (size_t i = 0; i < n; i++)
@@ -243,7 +277,8 @@ static void add_block(void *ctx, int64_t x, int64_t y, int64_t z)
 		e->err = err;
 }
 
-static int estimate_batch(void *ctx, const struct vd_triangle *t, size_t n)
+static int estimate_batch(void *ctx, const struct vd_triangle *t,
+			  const struct vd_tri_attr *attr, size_t n)
 {
 	struct estimate *e = ctx;
 	if (e->g.L <= BLOCK_SHIFT)
@@ -343,21 +378,36 @@ static uint64_t cell_bound(const uint64_t *keys, size_t n, size_t i, int L,
 /* Triangles waiting to be appended to their cell's bin: one arena of
  * records {cell, 9 floats} of a fixed size (the budget's share), sorted by
  * cell when full and written out, so memory does not grow with the number
- * of cells a mesh touches. */
+ * of cells a mesh touches. With colours the records are bin_rec_col, sorted
+ * by (cell, index); what follows `cell` is what the bin file holds. */
 struct bin_rec {
 	uint64_t cell;
 	float v[9];
 };
 
+struct bin_rec_col {
+	uint64_t cell;
+	uint64_t index;        /* the triangle's place in the input */
+	float v[9];
+	struct vd_tri_attr a;
+};
+
+/* Bytes of one triangle in a bin file. */
+#define BIN_BYTES_GEOM (sizeof(float) * 9)
+#define BIN_BYTES_COL (sizeof(struct bin_rec_col) - sizeof(uint64_t))
+
 struct binner {
 	const struct vd_triangle *tri; /* being binned by bin_cell */
+	const struct vd_tri_attr *attr;/* its attributes (colours) */
 	int err;
 	struct grid g;
 	const char *dir;
 	uint64_t *totals;      /* 8^L0: triangles binned to each cell */
 	struct bin_rec *recs;
+	struct bin_rec_col *crecs; /* instead of recs, with colours */
 	size_t buffered, cap;  /* records held in memory */
 	uint64_t pairs;
+	uint64_t index;        /* triangles seen so far */
 };
 
 static void bin_path(char *buf, size_t cap, const char *dir, uint64_t cell)
@@ -370,6 +420,39 @@ static int cmp_rec(const void *a, const void *b)
 	uint64_t x = ((const struct bin_rec *)a)->cell,
 		 y = ((const struct bin_rec *)b)->cell;
 	return (x > y) - (x < y);
+}
+
+static int cmp_rec_col(const void *a, const void *b)
+{
+	const struct bin_rec_col *x = a, *y = b;
+	if (x->cell != y->cell)
+		return x->cell > y->cell ? 1 : -1;
+	return (x->index > y->index) - (x->index < y->index);
+}
+
+/* The colour path's flush_bins: the same files, longer records. */
+static int flush_bins_col(struct binner *b)
+{
+	char path[4096];
+	qsort(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col);
+	for (size_t i = 0; i < b->buffered;) {
+		uint64_t c = b->crecs[i].cell;
+		bin_path(path, sizeof path, b->dir, c);
+		FILE *f = fopen(path, "ab");
+		if (!f)
+			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				       strerror(errno));
+		size_t w = 0, j = i;
+		for (; j < b->buffered && b->crecs[j].cell == c; j++)
+			w += fwrite(&b->crecs[j].index, BIN_BYTES_COL, 1, f);
+		int rc = fclose(f);
+		if (w != j - i || rc != 0)
+			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+				       strerror(errno));
+		i = j;
+	}
+	b->buffered = 0;
+	return VD_OK;
 }
 
 /* Bins are scratch files read back by this same process, so they hold the
@@ -398,8 +481,25 @@ static int flush_bins(struct binner *b)
 	return VD_OK;
 }
 
+static int bin_add_col(struct binner *b, uint64_t cell,
+		       const struct vd_triangle *t, const struct vd_tri_attr *a)
+{
+	struct bin_rec_col *r = &b->crecs[b->buffered++];
+	r->cell = cell;
+	r->index = b->index;
+	memcpy(r->v, t->v, sizeof r->v);
+	r->a = *a;
+	b->totals[cell]++;
+	b->pairs++;
+	if (b->buffered == b->cap)
+		return flush_bins_col(b);
+	return VD_OK;
+}
+
 static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
 {
+	if (b->crecs)
+		return bin_add_col(b, cell, t, b->attr);
 	struct bin_rec *r = &b->recs[b->buffered++];
 	r->cell = cell;
 	memcpy(r->v, t->v, sizeof r->v);
@@ -418,12 +518,15 @@ static void bin_cell(void *ctx, int64_t x, int64_t y, int64_t z)
 				 b->tri);
 }
 
-static int bin_batch(void *ctx, const struct vd_triangle *t, size_t n)
+static int bin_batch(void *ctx, const struct vd_triangle *t,
+		     const struct vd_tri_attr *attr, size_t n)
 {
 	struct binner *b = ctx;
 	int shift = b->g.L - b->g.L0;
-	for (size_t i = 0; i < n; i++) {
+	for (size_t i = 0; i < n; i++, b->index++) {
 		struct vd_snapped_tri st;
+		if (attr)
+			b->attr = &attr[i];
 		int64_t lo[3], hi[3];
 		int err = vd_snap_triangle(&st, &t[i], &b->g.tr);
 		if (err)
@@ -598,11 +701,29 @@ static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 }
 
 
+/* A voxel's colour while the cell's triangles are visited: the squared
+ * distance (in voxels) from its centre to the nearest point so far and
+ * that point's colour. */
+struct vox_col {
+	float d2;
+	uint8_t rgb[3];
+	uint8_t set;
+};
+
 struct worker {
 	struct block_map map;
-	struct vd_triangle *tris;
+	struct vd_triangle *tris;  /* bin read buffer (TRI_BATCH records) */
 	uint64_t *order;
 	size_t order_cap;
+	/* colours: per block in key order its pointer, first rank and per
+	 * word ranks within it; per voxel its colour slot */
+	uint64_t **blk;
+	uint64_t *base;
+	uint16_t *prefix;
+	size_t blk_cap;
+	struct vox_col *vox;
+	size_t vox_cap;
+	double seconds_colour;
 };
 
 struct cell_job {
@@ -614,6 +735,9 @@ struct run {
 	struct grid g;
 	const char *outdir;
 	const struct vd_voxelize_opts *opts;
+	int colours;             /* bins hold bin_rec_col; write .col chunks */
+	struct vd_mesh *mesh;    /* for its textures (read only by now) */
+	uint64_t worker_bytes;   /* each worker's share of the budget */
 	struct cell_job *jobs;
 	size_t njobs;
 	struct worker *workers;
@@ -642,12 +766,10 @@ static void run_fail(struct run *r, int err)
 	pthread_mutex_unlock(&r->lock);
 }
 
-/* Streams the cell's bricks, in Morton order, into an SVO chunk. */
-static int write_cell(struct run *r, struct worker *w, uint64_t cell,
-		      uint64_t *counts, uint64_t *nbricks)
+/* The cell's block keys, sorted (Morton order), into w->order. */
+static int sort_blocks(struct worker *w, size_t *nb_out)
 {
 	struct block_map *m = &w->map;
-	int L = r->g.L, L0 = r->g.L0, k = L - L0;
 	if (m->count > w->order_cap) {
 		uint64_t *o = realloc(w->order, m->count * sizeof *o * 2);
 		if (!o)
@@ -660,6 +782,19 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		if (m->keys[i])
 			w->order[nb++] = m->keys[i] - 1;
 	qsort(w->order, nb, sizeof *w->order, cmp_u64);
+	*nb_out = nb;
+	return VD_OK;
+}
+
+/* Streams the cell's bricks (blocks w->order[0..nb), sorted), in Morton
+ * order, into an SVO chunk. With `hout`, also returns the chunk's header
+ * and the vd_svo_digest() of its bricks, for the colour chunk. */
+static int write_cell(struct run *r, struct worker *w, uint64_t cell,
+		      size_t nb, uint64_t *counts, uint64_t *nbricks,
+		      struct vd_chunk_header *hout, uint64_t *digest)
+{
+	struct block_map *m = &w->map;
+	int L = r->g.L, L0 = r->g.L0, k = L - L0;
 	/* brick key = cell prefix | block key | brick within block */
 	int cell_shift = k >= 2 ? 3 * (k - 2) : 0;
 	uint64_t prefix = cell << cell_shift;
@@ -696,6 +831,14 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 	err = vd_chunk_writer_begin(cw, VD_TAG_BRKS, 0);
 	if (!err)
 		err = vd_chunk_writer_write(cw, buf, 8);
+	/* the digest as vd_svo_digest() computes it, streamed */
+	XXH3_state_t *xs = NULL;
+	if (!err && hout) {
+		if (!(xs = XXH3_createState()))
+			err = vd_fail(VD_ERR_NOMEM, "digest");
+		else
+			XXH3_64bits_reset(xs);
+	}
 	for (int pass = 0; pass < 2 && !err; pass++) {
 		uint64_t prev = 0;
 		int first = 1;
@@ -713,6 +856,14 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 							   prev, key, blk[j]);
 					prev = key;
 					first = 0;
+					if (xs) {
+						uint8_t kv[16];
+						for (int q = 0; q < 8; q++) {
+							kv[q] = (uint8_t)(key >> 8 * q);
+							kv[8 + q] = (uint8_t)(blk[j] >> 8 * q);
+						}
+						XXH3_64bits_update(xs, kv, 16);
+					}
 				} else {
 					v = blk[j];
 				}
@@ -723,6 +874,10 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 			err = vd_chunk_writer_write(cw, buf, 8 * n);
 		}
 	}
+	if (xs) {
+		*digest = XXH3_64bits_digest(xs);
+		XXH3_freeState(xs);
+	}
 	if (!err)
 		err = vd_chunk_writer_end(cw);
 	if (!err)
@@ -731,7 +886,273 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		vd_chunk_writer_abort(cw);
 		return err;
 	}
+	if (hout) {
+		*hout = h;
+		for (int l = 0; l <= k; l++)
+			hout->level_nodes[l] = counts[l];
+	}
 	return vd_chunk_writer_commit(cw);
+}
+
+
+/* --------------------------------------------------------------- colours */
+
+static double dot3(const double a[3], const double b[3])
+{
+	return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Nearest point of segment (a, b) to the origin: t along it. */
+static double seg_t(const double a[3], const double b[3])
+{
+	double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+	double l = dot3(ab, ab);
+	if (!(l > 0))
+		return 0;
+	double t = -dot3(a, ab) / l;
+	return t < 0 ? 0 : t > 1 ? 1 : t;
+}
+
+/* Barycentric coordinates of the point of triangle (a, b, c) nearest to
+ * the origin (Ericson, Real-Time Collision Detection, 5.1.5: Voronoi
+ * regions of the vertices, then the edges, then the face); a degenerate
+ * triangle is the nearest of its three segments. Returns the squared
+ * distance. */
+static double nearest_bary(const double a[3], const double b[3],
+			   const double c[3], double w[3])
+{
+	double ab[3], ac[3], ap[3], bp[3], cp[3];
+	for (int i = 0; i < 3; i++) {
+		ab[i] = b[i] - a[i];
+		ac[i] = c[i] - a[i];
+		ap[i] = -a[i];
+		bp[i] = -b[i];
+		cp[i] = -c[i];
+	}
+	double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+	double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+	double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+	double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
+	       va = d3 * d6 - d5 * d4;
+	if (d1 <= 0 && d2 <= 0) {
+		w[0] = 1, w[1] = 0, w[2] = 0;
+	} else if (d3 >= 0 && d4 <= d3) {
+		w[0] = 0, w[1] = 1, w[2] = 0;
+	} else if (d6 >= 0 && d5 <= d6) {
+		w[0] = 0, w[1] = 0, w[2] = 1;
+	} else if (!(va + vb + vc > 0)) {
+		/* no area: the nearest of the three segments, first wins */
+		const double *p[3] = {a, b, c};
+		double best = INFINITY;
+		for (int e = 0; e < 3; e++) {
+			const double *s0 = p[e], *s1 = p[(e + 1) % 3];
+			double t = seg_t(s0, s1), q[3];
+			for (int i = 0; i < 3; i++)
+				q[i] = s0[i] + t * (s1[i] - s0[i]);
+			double d = dot3(q, q);
+			if (d < best) {
+				best = d;
+				w[0] = w[1] = w[2] = 0;
+				w[e] = 1 - t;
+				w[(e + 1) % 3] = t;
+			}
+		}
+	} else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+		double v = d1 / (d1 - d3);
+		w[0] = 1 - v, w[1] = v, w[2] = 0;
+	} else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+		double t = d2 / (d2 - d6);
+		w[0] = 1 - t, w[1] = 0, w[2] = t;
+	} else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+		double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+		w[0] = 0, w[1] = 1 - t, w[2] = t;
+	} else {
+		double den = 1 / (va + vb + vc);
+		double v = vb * den, t = vc * den;
+		w[0] = 1 - v - t, w[1] = v, w[2] = t;
+	}
+	double q[3];
+	for (int i = 0; i < 3; i++)
+		q[i] = w[0] * a[i] + w[1] * b[i] + w[2] * c[i];
+	return dot3(q, q);
+}
+
+struct colour_ctx {
+	struct worker *w;
+	size_t nb;
+	int64_t lo[3];            /* cell corner, voxels */
+	int64_t s;                /* lattice steps per voxel */
+	const struct vd_snapped_tri *st;
+	double tv[3][3];          /* its corners in voxels: st / s, exact */
+	const struct vd_tri_attr *a;
+	const struct vd_texture *tex;
+	uint64_t last_key;        /* block of the last voxel */
+	size_t last;
+	int have_last;
+};
+
+static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
+{
+	struct colour_ctx *c = vctx;
+	struct worker *w = c->w;
+	uint32_t lx = (uint32_t)(x - c->lo[0]), ly = (uint32_t)(y - c->lo[1]),
+		 lz = (uint32_t)(z - c->lo[2]);
+	uint64_t key = vd_morton3(lx >> BLOCK_SHIFT, ly >> BLOCK_SHIFT,
+				  lz >> BLOCK_SHIFT);
+	if (!c->have_last || key != c->last_key) {
+		size_t lo = 0, hi = c->nb;
+		while (lo < hi) {
+			size_t mid = lo + (hi - lo) / 2;
+			if (w->order[mid] < key)
+				lo = mid + 1;
+			else
+				hi = mid;
+		}
+		if (lo == c->nb || w->order[lo] != key)
+			return; /* cannot be: the geometry pass set it */
+		c->last = lo;
+		c->last_key = key;
+		c->have_last = 1;
+	}
+	size_t bi = c->last;
+	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
+		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
+		      spread3[(lz >> 2) & 7];
+	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
+		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
+	uint64_t word = w->blk[bi][wi];
+	if (!(word >> bit & 1))
+		return; /* likewise */
+	uint64_t rank = w->base[bi] + w->prefix[(size_t)bi * BLOCK_WORDS + wi] +
+			(uint64_t)__builtin_popcountll(word & ((1ull << bit) - 1));
+	struct vox_col *v = &w->vox[rank];
+	/* corners relative to the voxel's centre, in voxels: exact (lattice
+	 * integers over a power of two, less a half-integer, well inside 53
+	 * bits) and so the same in every chunking */
+	double ctr[3] = {(double)x + 0.5, (double)y + 0.5, (double)z + 0.5};
+	double p[3][3], b[3];
+	for (int k = 0; k < 3; k++)
+		for (int i = 0; i < 3; i++)
+			p[k][i] = c->tv[k][i] - ctr[i];
+	float d2 = (float)nearest_bary(p[0], p[1], p[2], b);
+	if (v->set && !(d2 < v->d2))
+		return; /* an earlier triangle is as near: it stays */
+	v->d2 = d2;
+	v->set = 1;
+	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
+}
+
+/* The colour of every voxel of the cell (whose geometry is complete in
+ * w->map; w->order[0..nb) its sorted blocks): reads the bin again and
+ * leaves the colours in w->vox[0..voxels), compacted to RGB8 in place
+ * (the bytes at (uint8_t *)w->vox). */
+static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
+		       size_t nb, const char *bin, const int64_t lo[3],
+		       const int64_t hi[3], uint64_t *voxels_out)
+{
+	double t0 = vd_seconds();
+	if (nb > w->blk_cap) {
+		size_t cap = nb * 2;
+		uint64_t **bp = realloc(w->blk, cap * sizeof *bp);
+		if (bp)
+			w->blk = bp;
+		uint64_t *base = realloc(w->base, cap * sizeof *base);
+		if (base)
+			w->base = base;
+		uint16_t *pre = realloc(w->prefix, cap * BLOCK_WORDS *
+					sizeof *pre);
+		if (pre)
+			w->prefix = pre;
+		if (!bp || !base || !pre)
+			return vd_fail(VD_ERR_NOMEM, "colour rank tables");
+		w->blk_cap = cap;
+	}
+	uint64_t voxels = 0;
+	for (size_t i = 0; i < nb; i++) {
+		uint64_t *blk = map_get(&w->map, w->order[i]);
+		w->blk[i] = blk;
+		w->base[i] = voxels;
+		unsigned in = 0;
+		for (int j = 0; j < BLOCK_WORDS; j++) {
+			w->prefix[i * BLOCK_WORDS + (size_t)j] = (uint16_t)in;
+			in += (unsigned)__builtin_popcountll(blk[j]);
+		}
+		voxels += in;
+	}
+	/* exactly, now that the voxels are known: blocks, rank tables and
+	 * colour slots within the worker's share */
+	uint64_t need = (uint64_t)w->map.count * BLOCK_COST +
+			(uint64_t)w->blk_cap * (16 + BLOCK_WORDS * 2) +
+			voxels * sizeof(struct vox_col);
+	if (need > r->worker_bytes)
+		return vd_fail(VD_ERR_BUDGET, "the colours of cell %llx (%llu "
+			       "voxels) need %llu MiB with its blocks, more "
+			       "than the budget's share per worker (%llu MiB); "
+			       "use a smaller --chunk-level or a larger "
+			       "--mem-budget", (unsigned long long)cell,
+			       (unsigned long long)voxels,
+			       (unsigned long long)(need >> 20) + 1,
+			       (unsigned long long)(r->worker_bytes >> 20));
+	if (voxels > w->vox_cap) {
+		free(w->vox);
+		w->vox_cap = 0;
+		if (!(w->vox = malloc(voxels * sizeof *w->vox)))
+			return vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
+				       (unsigned long long)voxels);
+		w->vox_cap = voxels;
+	}
+	memset(w->vox, 0, voxels * sizeof *w->vox);
+
+	FILE *f = fopen(bin, "rb");
+	if (!f)
+		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
+			       strerror(errno));
+	struct colour_ctx cc = {.w = w, .nb = nb, .s = vd_snap_voxel(r->g.L)};
+	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
+	memcpy(cc.lo, lo, sizeof cc.lo);
+	int err = VD_OK;
+	size_t n;
+	unsigned char *rb = (unsigned char *)w->tris;
+	while (!err && (n = fread(rb, BIN_BYTES_COL, TRI_BATCH, f)) > 0) {
+		for (size_t i = 0; i < n && !err; i++) {
+			struct bin_rec_col rec;
+			memcpy(&rec.index, rb + i * BIN_BYTES_COL,
+			       BIN_BYTES_COL);
+			struct vd_triangle t;
+			struct vd_snapped_tri st;
+			memcpy(t.v, rec.v, sizeof t.v);
+			err = vd_snap_triangle(&st, &t, &r->g.tr);
+			if (err)
+				break;
+			cc.st = &st;
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++)
+					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
+			cc.a = &rec.a;
+			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
+			vd_raster_triangle(&st, r->g.L, lo, hi, colour_voxel,
+					   &cc);
+		}
+	}
+	if (!err && ferror(f))
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", bin);
+	fclose(f);
+	if (err)
+		return err;
+	/* RGB8 in place: byte 3i is written after slot i was read */
+	uint8_t *rgb = (uint8_t *)w->vox;
+	for (uint64_t i = 0; i < voxels; i++) {
+		if (!w->vox[i].set)
+			return vd_fail(VD_ERR_INTERNAL, "cell %llx: voxel %llu "
+				       "got no colour", (unsigned long long)cell,
+				       (unsigned long long)i);
+		uint8_t c[3] = {w->vox[i].rgb[0], w->vox[i].rgb[1],
+				w->vox[i].rgb[2]};
+		memcpy(rgb + 3 * i, c, 3);
+	}
+	*voxels_out = voxels;
+	w->seconds_colour += vd_seconds() - t0;
+	return VD_OK;
 }
 
 static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
@@ -760,12 +1181,16 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			       strerror(errno));
 	int err = VD_OK;
 	size_t n;
-	float *fb = (float *)w->tris;
-	while (!err && (n = fread(fb, 9 * sizeof(float), TRI_BATCH, f)) > 0) {
+	unsigned char *rb = (unsigned char *)w->tris;
+	/* with colours a record is bin_rec_col after its cell: index,
+	 * then the corners */
+	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
+	size_t off = r->colours ? sizeof(uint64_t) : 0;
+	while (!err && (n = fread(rb, rec, TRI_BATCH, f)) > 0) {
 		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
-			memcpy(t.v, fb + 9 * i, sizeof t.v);
+			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
 				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
@@ -790,10 +1215,25 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
 	fclose(f);
-	unlink(path);
-	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0;
+	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
+	size_t nb = 0;
 	if (!err)
-		err = write_cell(r, w, cell, counts, &nbricks);
+		err = sort_blocks(w, &nb);
+	if (!err && r->colours && w->map.count)
+		err = colour_cell(r, w, cell, nb, path, rc.lo, hi, &ncol);
+	unlink(path);
+	struct vd_chunk_header h;
+	uint64_t digest = 0;
+	if (!err)
+		err = write_cell(r, w, cell, nb, counts, &nbricks,
+				 r->colours ? &h : NULL, &digest);
+	if (!err && r->colours && nbricks) {
+		char name[64], cpath[4096];
+		vd_chunk_file_name(name, sizeof name, r->g.L0, cell, "col");
+		snprintf(cpath, sizeof cpath, "%s/%s", r->outdir, name);
+		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
+				      ncol, r->opts->provenance);
+	}
 	if (!err && nbricks) {
 		atomic_fetch_add(&r->bricks, nbricks);
 		atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
@@ -862,7 +1302,9 @@ void vd_remove_chunks(const char *dir)
 		size_t n = strlen(e->d_name);
 		if ((strncmp(e->d_name, "chunk-L", 7) == 0 &&
 		     ((n > 4 && strcmp(e->d_name + n - 4, ".svo") == 0) ||
-		      strstr(e->d_name, ".svo.tmp."))) ||
+		      (n > 4 && strcmp(e->d_name + n - 4, ".col") == 0) ||
+		      strstr(e->d_name, ".svo.tmp.") ||
+		      strstr(e->d_name, ".col.tmp."))) ||
 		    strcmp(e->d_name, "voxelize.stats.json") == 0) {
 			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
 			unlink(path);
@@ -892,6 +1334,7 @@ static int clean_outdir(const char *dir)
 struct plan {
 	int L0, threads;
 	size_t block_limit;
+	uint64_t worker_bytes;  /* each worker's share */
 };
 
 /* Per-cell arrays of the binning and the jobs at chunk level l: allocated
@@ -909,7 +1352,8 @@ static uint64_t cell_arrays_bytes(int l, uint64_t pages)
 /* Memory the workers may use: the budget less what the process holds. */
 static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 		       int max_level, const uint64_t *max_blocks,
-		       const uint64_t *nonempty, int coarse, struct plan *p)
+		       const uint64_t *nonempty, int coarse,
+		       uint64_t block_cost, struct plan *p)
 {
 	int threads = o->threads > 0 ? o->threads : vd_hardware_threads();
 	for (int want = threads; want >= 1; want = want > 1 ? 1 : 0) {
@@ -921,13 +1365,14 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 						 ? o->mem_budget_bytes - held : 0;
 			uint64_t cells = (uint64_t)1 << 3 * l;
 			int t = (uint64_t)want > cells ? (int)cells : want;
-			uint64_t per = max_blocks[l] * BLOCK_COST + WORKER_OVERHEAD;
+			uint64_t per = max_blocks[l] * block_cost + WORKER_OVERHEAD;
 			if ((uint64_t)t * per <= avail) {
 				p->L0 = l;
 				p->threads = t;
 				/* each worker may grow to its share */
 				uint64_t share = avail / (uint64_t)t - WORKER_OVERHEAD;
-				p->block_limit = (size_t)(share / BLOCK_COST);
+				p->block_limit = (size_t)(share / block_cost);
+				p->worker_bytes = share;
 				return VD_OK;
 			}
 		}
@@ -935,7 +1380,7 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 	int l = max_level;
 	while (l > 0 && max_blocks[l] == UINT64_MAX)
 		l--;
-	uint64_t need = max_blocks[l] * BLOCK_COST + WORKER_OVERHEAD + base +
+	uint64_t need = max_blocks[l] * block_cost + WORKER_OVERHEAD + base +
 			cell_arrays_bytes(l, nonempty[l]);
 	return vd_fail(VD_ERR_BUDGET, "--mem-budget %llu MiB cannot hold one "
 		       "cell even at chunk level %d (about %llu MiB needed%s)",
@@ -967,11 +1412,15 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	struct vd_mesh *mesh;
 	/* indexed meshes keep their vertices in memory: at most half the
 	 * budget, refused before it is taken */
-	int err = vd_mesh_open_limited(&mesh, mesh_path,
-				       opts->mem_budget_bytes / 2);
+	struct vd_mesh_open_opts mo = {
+		.max_vertex_bytes = opts->mem_budget_bytes / 2,
+		.colours = opts->colours, .strict = opts->strict,
+		.warn = warn_line, .warn_ctx = &prog};
+	int err = vd_mesh_open_opts(&mesh, mesh_path, &mo);
 	if (err)
 		return err;
 	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
+	struct vd_tri_attr *attrs = NULL;
 	struct run r = {.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct binner b = {0};
 	struct estimate est = {0};
@@ -988,9 +1437,17 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* 1. bounds */
 	struct bounds bd = {0};
 	progress_say(&prog, 1, "reading %s (%s)", mesh_path, vd_mesh_format(mesh));
-	err = for_each_batch(mesh, tris, bounds_batch, &bd);
+	err = for_each_batch(mesh, tris, NULL, bounds_batch, &bd);
 	if (err)
 		goto out;
+	/* the whole file has been seen: its colour sources are known, its
+	 * textures loaded (and so inside `base` below) */
+	r.colours = opts->colours && vd_mesh_has_colours(mesh);
+	r.mesh = mesh;
+	if (r.colours && !(attrs = malloc(TRI_BATCH * sizeof *attrs))) {
+		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
+		goto out;
+	}
 	res->mesh = *vd_mesh_stats(mesh);
 	if (bd.n == 0) {
 		err = vd_fail(VD_ERR_EMPTY, "'%s' has no triangles", mesh_path);
@@ -1013,7 +1470,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
 	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)bd.n);
-	err = for_each_batch(mesh, tris, estimate_batch, &est);
+	err = for_each_batch(mesh, tris, NULL, estimate_batch, &est);
 	if (!err)
 		err = estimate_sorted(&est, &bkeys, &nbkeys);
 	if (err)
@@ -1061,14 +1518,15 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
 	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
 	struct plan plan = {0};
+	uint64_t block_cost = BLOCK_COST + (r.colours ? COLOUR_BLOCK_COST : 0);
 	err = plan_budget(opts, base + bin_bytes, F, max_blocks, cells_hit,
-			  est.coarse, &plan);
+			  est.coarse, block_cost, &plan);
 	if (err && est.coarse) {
 		/* The coarse bound is loose: if the cells of level F may fit
 		 * (the lower bound does), take F and let each cell's block
 		 * limit decide while rasterizing, largest cell first. */
 		err = plan_budget(opts, base + bin_bytes, F, min_blocks,
-				  cells_hit, 0, &plan);
+				  cells_hit, 0, block_cost, &plan);
 		if (err)
 			goto out;
 		progress_say(&prog, 1, "memory estimate coarsened %d times; "
@@ -1088,19 +1546,24 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
-	b.cap = bin_bytes / sizeof *b.recs;
-	b.recs = malloc(b.cap * sizeof *b.recs);
+	if (r.colours) {
+		b.cap = bin_bytes / sizeof *b.crecs;
+		b.crecs = malloc(b.cap * sizeof *b.crecs);
+	} else {
+		b.cap = bin_bytes / sizeof *b.recs;
+		b.recs = malloc(b.cap * sizeof *b.recs);
+	}
 	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
-	if (!b.recs || !b.totals) {
+	if (!(b.recs || b.crecs) || !b.totals) {
 		err = vd_fail(VD_ERR_NOMEM, "bins");
 		goto out;
 	}
 	progress_say(&prog, 1, "binning triangles into cells of level %d "
 		     "(%d threads, budget %llu MiB)", r.g.L0, plan.threads,
 		     (unsigned long long)(opts->mem_budget_bytes >> 20));
-	err = for_each_batch(mesh, tris, bin_batch, &b);
+	err = for_each_batch(mesh, tris, attrs, bin_batch, &b);
 	if (!err)
-		err = flush_bins(&b);
+		err = r.colours ? flush_bins_col(&b) : flush_bins(&b);
 	if (err)
 		goto out;
 	res->triangles_binned = b.pairs;
@@ -1141,8 +1604,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	bkeys = NULL;
 	free(b.totals);
 	free(b.recs);
+	free(b.crecs);
 	b.totals = NULL;
 	b.recs = NULL;
+	b.crecs = NULL;
 	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_jobs);
 	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
 	r.level_nodes = nodes;
@@ -1150,6 +1615,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	r.opts = opts;
 	r.prog = &prog;
 	r.block_limit = plan.block_limit;
+	r.worker_bytes = plan.worker_bytes;
 	r.pairs_total = b.pairs;
 	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
 	if (!r.workers) {
@@ -1157,8 +1623,9 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		goto out;
 	}
 	r.nworkers = plan.threads;
+	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
 	for (int i = 0; i < plan.threads; i++)
-		if (!(r.workers[i].tris = malloc(TRI_BATCH * sizeof(struct vd_triangle)))) {
+		if (!(r.workers[i].tris = malloc(TRI_BATCH * rec_bytes))) {
 			err = vd_fail(VD_ERR_NOMEM, "workers");
 			goto out;
 		}
@@ -1203,6 +1670,11 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	res->voxels = atomic_load(&r.voxels);
 	res->bricks = atomic_load(&r.bricks);
 	res->chunks = nonempty;
+	res->colours = r.colours;
+	res->textures_loaded = vd_mesh_textures_loaded(mesh);
+	res->textures_missing = vd_mesh_textures_missing(mesh);
+	for (int i = 0; i < r.nworkers; i++)
+		res->seconds_colour += r.workers[i].seconds_colour;
 	res->seconds_total = vd_seconds() - t0;
 	res->peak_rss_bytes = vd_peak_rss_bytes();
 	progress_say(&prog, 1, "%llu voxels in %llu chunks, %.2fs",
@@ -1216,11 +1688,17 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 out:
 	free(b.totals);
 	free(b.recs);
+	free(b.crecs);
+	free(attrs);
 	if (r.workers) {
 		for (int i = 0; i < r.nworkers; i++) {
 			map_free(&r.workers[i].map);
 			free(r.workers[i].tris);
 			free(r.workers[i].order);
+			free(r.workers[i].blk);
+			free(r.workers[i].base);
+			free(r.workers[i].prefix);
+			free(r.workers[i].vox);
 		}
 		free(r.workers);
 	}
@@ -1283,6 +1761,10 @@ int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 	vd_json_end_object(j);
 	double t = res->seconds_total > 0 ? res->seconds_total : 1e-9;
 	vd_json_f64(j, "triangles_per_second", (double)res->mesh.triangles_read / t);
+	vd_json_u64(j, "colours", (uint64_t)res->colours);
+	vd_json_u64(j, "textures_loaded", res->textures_loaded);
+	vd_json_u64(j, "textures_missing", res->textures_missing);
+	vd_json_f64(j, "seconds_colour_workers", res->seconds_colour);
 	struct vd_voxelize_totals tot = {
 		res->levels, res->voxels, res->bricks, res->chunks,
 		res->level_nodes, res->seconds_total, res->threads,
