@@ -70,19 +70,16 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 		vd_vbr_interp(c0, c1, (unsigned)k, wb, pal[k]);
 	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
 	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+	/* the rounded projection is only where the search starts (it and
+	 * its neighbours are judged exactly), so a float product will do */
+	float inv = len2 ? (float)m / (float)len2 : 0.f;
 	uint64_t s = 0;
 	for (uint32_t i = 0; i < n; i++) {
 		const uint8_t *x = rgb + 3 * (size_t)i;
-		int k0 = 0;
-		if (len2) {
-			int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
-				  (x[2] - a[2]) * d[2];
-			/* round(dot / len2 * m) in integers */
-			long num = (long)dot * m * 2 + len2;
-			k0 = num <= 0 ? 0 : (int)(num / (2L * len2));
-			if (k0 > m)
-				k0 = m;
-		}
+		int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
+			  (x[2] - a[2]) * d[2];
+		int k0 = (int)((float)dot * inv + 0.5f);
+		k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
 		unsigned best = vd_rgb_dist2(x, pal[k0]);
 		int bk = k0;
 		if (k0 > 0) {
@@ -155,34 +152,89 @@ static int fit_single(const uint8_t *x, unsigned limit, int wb,
 	return found;
 }
 
-int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
-	       int weight_bits, uint16_t *c0, uint16_t *c1, uint8_t *w,
-	       uint64_t *sse)
+/* Sums of a block's colours and of their products, exact integers, so the
+ * moments of a merged block are the sum of its parts' (O(1) per merge)
+ * and every path computes the same fit bit for bit. */
+struct mom {
+	uint64_t n, s[3], q[6]; /* q: rr rg rb gg gb bb */
+};
+
+static void mom_of(struct mom *m, const uint8_t *rgb, uint32_t n)
+{
+	memset(m, 0, sizeof *m);
+	m->n = n;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		unsigned r = x[0], g = x[1], b = x[2];
+		m->s[0] += r;
+		m->s[1] += g;
+		m->s[2] += b;
+		m->q[0] += r * r;
+		m->q[1] += r * g;
+		m->q[2] += r * b;
+		m->q[3] += g * g;
+		m->q[4] += g * b;
+		m->q[5] += b * b;
+	}
+}
+
+static void mom_add(struct mom *a, const struct mom *b)
+{
+	a->n += b->n;
+	for (int k = 0; k < 3; k++)
+		a->s[k] += b->s[k];
+	for (int k = 0; k < 6; k++)
+		a->q[k] += b->q[k];
+}
+
+/* Largest eigenvalue of the symmetric 3x3 matrix c (closed form,
+ * Smith 1961), for the bound below. */
+static double lambda_max(const double c[6])
+{
+	double p1 = c[1] * c[1] + c[2] * c[2] + c[4] * c[4];
+	double tr = c[0] + c[3] + c[5];
+	if (p1 < 1e-30)
+		return fmax(c[0], fmax(c[3], c[5]));
+	double q = tr / 3;
+	double a = c[0] - q, d = c[3] - q, f = c[5] - q;
+	double p2 = a * a + d * d + f * f + 2 * p1;
+	double p = sqrt(p2 / 6);
+	/* det((C - qI) / p) / 2 */
+	double b0 = a / p, b1 = c[1] / p, b2 = c[2] / p, b3 = d / p,
+	       b4 = c[4] / p, b5 = f / p;
+	double det = b0 * (b3 * b5 - b4 * b4) - b1 * (b1 * b5 - b4 * b2) +
+		     b2 * (b1 * b4 - b3 * b2);
+	double r = det / 2;
+	double phi = r <= -1 ? M_PI / 3 : r >= 1 ? 0 : acos(r) / 3;
+	return q + 2 * p * cos(phi);
+}
+
+/* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
+ * doubles. */
+static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
+		 int weight_bits, const struct mom *mo, double *t,
+		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
 {
 	if (n == 0) {
 		*c0 = *c1 = 0;
 		*sse = 0;
 		return 1;
 	}
-	double mu[3] = {0, 0, 0}, cov[6] = {0, 0, 0, 0, 0, 0};
-	for (uint32_t i = 0; i < n; i++)
-		for (int k = 0; k < 3; k++)
-			mu[k] += rgb[3 * (size_t)i + k];
+	double mu[3], cov[6];
 	for (int k = 0; k < 3; k++)
-		mu[k] /= n;
-	for (uint32_t i = 0; i < n; i++) {
-		const uint8_t *x = rgb + 3 * (size_t)i;
-		double d0 = x[0] - mu[0], d1 = x[1] - mu[1], d2 = x[2] - mu[2];
-		cov[0] += d0 * d0;
-		cov[1] += d0 * d1;
-		cov[2] += d0 * d2;
-		cov[3] += d1 * d1;
-		cov[4] += d1 * d2;
-		cov[5] += d2 * d2;
+		mu[k] = (double)mo->s[k] / n;
+	static const int ix[6][2] = {{0, 0}, {0, 1}, {0, 2},
+				     {1, 1}, {1, 2}, {2, 2}};
+	/* n q - s s' is exact in 64 bits (n <= 2^20, s <= 2^28, q <= 2^36) */
+	int64_t num[6];
+	for (int k = 0; k < 6; k++) {
+		num[k] = (int64_t)(n * mo->q[k]) -
+			 (int64_t)(mo->s[ix[k][0]] * mo->s[ix[k][1]]);
+		cov[k] = (double)num[k] / n;
 	}
 	uint64_t s;
 	uint16_t a, b;
-	if (cov[0] + cov[3] + cov[5] < 1e-9) {
+	if (num[0] + num[3] + num[5] == 0) {
 		/* one colour: its nearest RGB565, else the bracket search */
 		a = b = to565(mu);
 		if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
@@ -200,6 +252,18 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 		*sse = s * n;
 		return 1;
 	}
+	/* A bound that rejects without reading the colours: every decoded
+	 * colour lies within sqrt(3)/2 (the rounding) of the line through
+	 * its endpoints, and no line is nearer the colours in the squared
+	 * sum than the principal axis, whose sum is trace - lambda_max. So
+	 * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
+	 * every colour within the limit. The margins keep it sound against
+	 * rounding in the eigenvalue. */
+	double tr = cov[0] + cov[3] + cov[5];
+	double resid = tr - lambda_max(cov);
+	double reach = sqrt((double)limit) + 0.8661;
+	if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
+		return 0;
 	/* principal axis by power iteration from the widest channel */
 	double ax[3] = {0, 0, 0};
 	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
@@ -219,39 +283,30 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 	double tmin = 1e30, tmax = -1e30;
 	for (uint32_t i = 0; i < n; i++) {
 		const uint8_t *x = rgb + 3 * (size_t)i;
-		double t = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
+		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
 			   (x[2] - mu[2]) * ax[2];
-		if (t < tmin)
-			tmin = t;
-		if (t > tmax)
-			tmax = t;
+		t[i] = v;
+		tmin = v < tmin ? v : tmin;
+		tmax = v > tmax ? v : tmax;
 	}
-	double e0[3], e1[3];
+	double e0[3], e1[3], l0[3], l1[3];
 	for (int k = 0; k < 3; k++) {
-		e0[k] = mu[k] + tmin * ax[k];
-		e1[k] = mu[k] + tmax * ax[k];
+		l0[k] = e0[k] = mu[k] + tmin * ax[k];
+		l1[k] = e1[k] = mu[k] + tmax * ax[k];
 	}
-	/* Least squares: weights from the current endpoints, then the two
-	 * endpoints minimising the squared error for those weights (2x2
-	 * normal equations shared by the channels); twice. */
+	/* Least squares: each colour's weight from its place between the
+	 * extremes of the axis, then the two endpoints minimising the squared
+	 * error for those weights (2x2 normal equations shared by the
+	 * channels). */
 	int m = (1 << weight_bits) - 1;
-	double l0[3], l1[3];
-	memcpy(l0, e0, sizeof l0);
-	memcpy(l1, e1, sizeof l1);
-	for (int it = 0; it < 2; it++) {
-		double d[3] = {l1[0] - l0[0], l1[1] - l0[1], l1[2] - l0[2]};
-		double len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-		if (len2 < 1e-12)
-			break;
+	if (tmax - tmin > 1e-9) {
+		double sc = m / (tmax - tmin);
 		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
 		       rb[3] = {0, 0, 0};
 		for (uint32_t i = 0; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
-			double t = ((x[0] - l0[0]) * d[0] + (x[1] - l0[1]) * d[1] +
-				    (x[2] - l0[2]) * d[2]) / len2;
-			double q = floor(t * m + 0.5);
-			q = q < 0 ? 0 : q > m ? m : q;
-			double sb = q / m, sa = 1 - sb;
+			int q = (int)((t[i] - tmin) * sc + 0.5);
+			double sb = (double)(q > m ? m : q) / m, sa = 1 - sb;
 			aa += sa * sa;
 			ab += sa * sb;
 			bb += sb * sb;
@@ -261,12 +316,11 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 			}
 		}
 		double det = aa * bb - ab * ab;
-		if (fabs(det) < 1e-9)
-			break;
-		for (int k = 0; k < 3; k++) {
-			l0[k] = (bb * ra[k] - ab * rb[k]) / det;
-			l1[k] = (aa * rb[k] - ab * ra[k]) / det;
-		}
+		if (fabs(det) > 1e-9)
+			for (int k = 0; k < 3; k++) {
+				l0[k] = (bb * ra[k] - ab * rb[k]) / det;
+				l1[k] = (aa * rb[k] - ab * ra[k]) / det;
+			}
 	}
 	/* the least-squares endpoints first; the extremes of the axis when
 	 * RGB565 rounding pushed a colour outside */
@@ -278,11 +332,11 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 		*sse = s;
 		return 1;
 	}
-	a = to565(e0);
-	b = to565(e1);
-	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
-		*c0 = a;
-		*c1 = b;
+	uint16_t a2 = to565(e0), b2 = to565(e1);
+	if ((a2 != a || b2 != b) &&
+	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s)) {
+		*c0 = a2;
+		*c1 = b2;
 		*sse = s;
 		return 1;
 	}
@@ -299,6 +353,20 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 	return 0;
 }
 
+int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
+	       int weight_bits, uint16_t *c0, uint16_t *c1, uint8_t *w,
+	       uint64_t *sse)
+{
+	struct mom m;
+	mom_of(&m, rgb, n);
+	double *t = malloc(((size_t)n + 1) * sizeof *t);
+	if (!t)
+		return 0;
+	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse);
+	free(t);
+	return ok;
+}
+
 /* Algorithm 1 over one segment. Blocks form a doubly linked list indexed
  * by their first voxel; `stuck[b]` caches "block b cannot merge with its
  * right neighbour", valid until either of the two changes (the paper's
@@ -306,20 +374,26 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 struct blocks {
 	uint32_t *next, *prev, *end;
 	uint8_t *stuck;
+	struct mom *mom;   /* moments of the block starting there */
+	double *t;         /* scratch of the fit */
 };
 
 #define NIL UINT32_MAX
 
-/* MSE of the merged block [s, e) or -1 when a colour would fall outside. */
-static double eval(const uint8_t *rgb, uint32_t s, uint32_t e,
-		   unsigned limit, int wb)
+/* MSE of the merged block [s, e) (blocks at s and l2 = the right part's
+ * head) or -1 when a colour would fall outside. */
+static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
+		   uint32_t l2, unsigned limit, int wb)
 {
 	uint16_t a, b;
 	uint64_t sse;
-	if (!vd_vbr_fit(rgb + 3 * (size_t)s, e - s, limit, wb, &a, &b, NULL,
-			&sse))
+	struct mom m = B->mom[s];
+	mom_add(&m, &B->mom[l2]);
+	uint32_t n = B->end[l2] - s;
+	if (!fit_m(rgb + 3 * (size_t)s, n, limit, wb, &m, B->t, &a, &b, NULL,
+		   &sse))
 		return -1;
-	return (double)sse / (e - s);
+	return (double)sse / n;
 }
 
 int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
@@ -339,10 +413,13 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	B.prev = malloc(((size_t)n + 1) * sizeof *B.prev);
 	B.end = malloc(((size_t)n + 1) * sizeof *B.end);
 	B.stuck = calloc((size_t)n + 1, 1);
+	B.mom = malloc(((size_t)n + 1) * sizeof *B.mom);
+	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
 	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
 	uint8_t *w = malloc((size_t)n + 1);
 	int err = VD_OK;
-	if (!B.next || !B.prev || !B.end || !B.stuck || !seg->weights || !w) {
+	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
+	    !seg->weights || !w) {
 		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
 		goto out;
 	}
@@ -366,6 +443,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		if (last != NIL)
 			B.next[last] = i;
 		B.end[i] = j;
+		mom_of(&B.mom[i], rgb + 3 * (size_t)i, j - i);
 		last = i;
 		i = j;
 	}
@@ -381,12 +459,12 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 			uint32_t l = B.prev[b], r = B.next[b];
 			double lm = -1, rm = -1;
 			if (l != NIL && !B.stuck[l]) {
-				lm = eval(rgb, l, B.end[b], limit, wb);
+				lm = eval(rgb, &B, l, b, limit, wb);
 				if (lm < 0)
 					B.stuck[l] = 1;
 			}
 			if (r != NIL && !B.stuck[b]) {
-				rm = eval(rgb, b, B.end[r], limit, wb);
+				rm = eval(rgb, &B, b, r, limit, wb);
 				if (rm < 0)
 					B.stuck[b] = 1;
 			}
@@ -394,6 +472,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 			if (lm >= 0 && (rm < 0 || lm <= rm)) {
 				/* b joins its left neighbour */
 				B.end[l] = B.end[b];
+				mom_add(&B.mom[l], &B.mom[b]);
 				B.next[l] = r;
 				if (r != NIL)
 					B.prev[r] = l;
@@ -401,6 +480,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 				merged = 1;
 			} else if (rm >= 0) {
 				B.end[b] = B.end[r];
+				mom_add(&B.mom[b], &B.mom[r]);
 				uint32_t rr = B.next[r];
 				B.next[b] = rr;
 				if (rr != NIL)
@@ -433,8 +513,8 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
 		uint64_t sse;
 		uint32_t len = B.end[b] - b;
-		if (!vd_vbr_fit(rgb + 3 * (size_t)b, len, limit, wb, &seg->c0[k],
-				&seg->c1[k], w, &sse)) {
+		if (!fit_m(rgb + 3 * (size_t)b, len, limit, wb, &B.mom[b], B.t,
+			   &seg->c0[k], &seg->c1[k], w, &sse)) {
 			/* only a first block of one colour can get here: merges
 			 * were all checked */
 			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
@@ -466,6 +546,8 @@ out:
 	free(B.prev);
 	free(B.end);
 	free(B.stuck);
+	free(B.mom);
+	free(B.t);
 	free(w);
 	if (err)
 		vd_vbr_segment_release(seg);
