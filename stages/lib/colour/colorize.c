@@ -24,6 +24,15 @@ static int cmp_cell(const void *a, const void *b)
 	return (x->morton > y->morton) - (x->morton < y->morton);
 }
 
+/* Prefixes the calling thread's error detail with the file it concerns
+ * (copied first: the detail is the buffer vd_fail writes). */
+static int about(int err, const char *path)
+{
+	char d[512];
+	snprintf(d, sizeof d, "%s", vd_error_detail());
+	return vd_fail(err, "'%s': %s", path, d);
+}
+
 static int ends_with(const char *s, const char *e)
 {
 	size_t n = strlen(s), m = strlen(e);
@@ -75,7 +84,7 @@ static int list_cells(const char *dir, struct cell **out, size_t *count)
 		struct vd_chunk_header h;
 		snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
 		if ((err = vd_chunk_read_header(path, &h))) {
-			err = vd_fail(err, "'%s': %s", path, vd_error_detail());
+			err = about(err, path);
 			break;
 		}
 		c[n].name = strdup(e->d_name);
@@ -134,17 +143,17 @@ static int load_cell(const char *dir, const struct cell *c,
 	struct vd_chunk_header sh, ch;
 	int err = vd_svo_load(&svo, &sh, svo_path);
 	if (err)
-		return vd_fail(err, "'%s': %s", svo_path, vd_error_detail());
+		return about(err, svo_path);
 	err = vd_colours_load(col, &ch, col_path);
 	if (err) {
 		vd_svo_release(&svo);
-		return vd_fail(err, "'%s': %s", col_path, vd_error_detail());
+		return about(err, col_path);
 	}
 	err = vd_colours_match(&ch, col, &sh, &svo);
 	vd_svo_release(&svo);
 	if (err) {
 		vd_colours_release(col);
-		return vd_fail(err, "'%s': %s", col_path, vd_error_detail());
+		return about(err, col_path);
 	}
 	if (is_first)
 		*first = ch;

@@ -802,7 +802,13 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		for (uint64_t i = 0; i < npal; i++) {
 			c->pal_first[i] = get32(tab + PTAB_SIZE * i);
 			c->pal_count[i] = get32(tab + PTAB_SIZE * i + 4);
-			if (c->pal_count[i] == 0 ||
+			int sorted = 1;
+			if (c->pal_count[i] &&
+			    (uint64_t)c->pal_first[i] + c->pal_count[i] <= c->nent)
+				for (uint32_t q = 1; q < c->pal_count[i]; q++)
+					sorted &= c->ent[c->pal_first[i] + q] >
+						  c->ent[c->pal_first[i] + q - 1];
+			if (c->pal_count[i] == 0 || !sorted ||
 			    (uint64_t)c->pal_first[i] + c->pal_count[i] > c->nent) {
 				free(tab);
 				return vd_fail(VD_ERR_CORRUPT, "block palette %llu: "
