@@ -4,7 +4,14 @@
  * the paper's Algorithm 1: a sweep for single-colour runs, then passes that
  * merge a block with its left or right neighbour while every colour of the
  * merged block stays within the error threshold, preferring the merge of
- * lower mean squared error. */
+ * lower mean squared error.
+ *
+ * Where the paper's pseudo-code and text disagree we follow the text: a
+ * merge is possible when its score (the MSE) is >= 0, not > 0 (a perfect
+ * fit has MSE 0), and of two possible merges the lower MSE wins, ties to
+ * the left (the pseudo-code's "leftmse < rightmse" would merge left when
+ * only the right merge is possible). After a block is handled the pass
+ * moves two blocks right of the (merged) block, as the text says. */
 #include "voxdag.h"
 
 #include <math.h>
