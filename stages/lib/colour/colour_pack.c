@@ -1,0 +1,1017 @@
+/* Packed colours files (chunk kind 6, schemas/colour-formats.md): the
+ * scene's colour array in the VBR, palette or raw form, written segment by
+ * segment as the cells arrive, and read back for random access and full
+ * decoding. */
+#include "voxdag.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define TAG_CPAR VD_TAG('C', 'P', 'A', 'R')
+#define TAG_CSEG VD_TAG('C', 'S', 'E', 'G')
+#define TAG_VBLK VD_TAG('V', 'B', 'L', 'K')
+#define TAG_VWGT VD_TAG('V', 'W', 'G', 'T')
+#define TAG_PGLB VD_TAG('P', 'G', 'L', 'B')
+#define TAG_PTAB VD_TAG('P', 'T', 'A', 'B')
+#define TAG_PENT VD_TAG('P', 'E', 'N', 'T')
+#define TAG_PBLK VD_TAG('P', 'B', 'L', 'K')
+#define TAG_POFS VD_TAG('P', 'O', 'F', 'S')
+#define TAG_RAWC VD_TAG('R', 'A', 'W', 'C')
+
+#define CPAR_SIZE 64
+#define CSEG_SIZE 40
+#define VBLK_SIZE 8
+#define PBLK_SIZE 12
+#define PTAB_SIZE 8
+
+const char *vd_cpack_method_name(int method)
+{
+	switch (method) {
+	case VD_CPACK_VBR: return "vbr";
+	case VD_CPACK_PALETTE: return "palette";
+	case VD_CPACK_RAW: return "raw";
+	}
+	return NULL;
+}
+
+static void put16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
+static void put32(uint8_t *p, uint32_t v) { for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i); }
+static void put64(uint8_t *p, uint64_t v) { for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> 8 * i); }
+static uint16_t get16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
+static uint32_t get32(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
+static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
+
+static unsigned width_of(uint32_t colours)
+{
+	unsigned w = 0;
+	while ((1ull << w) < colours)
+		w++;
+	return w;
+}
+
+/* Reads `width` (0..32) bits at bit `pos` of `b`, LSB first. */
+static uint32_t get_bits(const uint8_t *b, uint64_t pos, unsigned width)
+{
+	if (!width)
+		return 0;
+	uint64_t v = 0;
+	size_t i = pos >> 3;
+	unsigned sh = pos & 7, got = 0;
+	while (got < sh + width) {
+		v |= (uint64_t)b[i++] << got;
+		got += 8;
+	}
+	return (uint32_t)(v >> sh) & (uint32_t)((1ull << width) - 1);
+}
+
+static void put_bits(uint8_t *b, uint64_t pos, unsigned width, uint32_t v)
+{
+	for (unsigned k = 0; k < width; k++, pos++)
+		if (v >> k & 1)
+			b[pos >> 3] |= (uint8_t)(1u << (pos & 7));
+}
+
+/* ------------------------------------------------------------------ writer */
+
+/* A growable byte buffer (the small tables kept in memory to the end). */
+struct buf {
+	uint8_t *p;
+	size_t n, cap;
+};
+
+static int buf_add(struct buf *b, const void *d, size_t n)
+{
+	if (b->n + n > b->cap) {
+		size_t cap = b->cap ? b->cap : 4096;
+		while (cap < b->n + n)
+			cap *= 2;
+		uint8_t *g = realloc(b->p, cap);
+		if (!g)
+			return vd_fail(VD_ERR_NOMEM, "colour tables of %zu bytes",
+				       b->n + n);
+		b->p = g;
+		b->cap = cap;
+	}
+	memcpy(b->p + b->n, d, n);
+	b->n += n;
+	return VD_OK;
+}
+
+/* The block palettes seen so far, by content (open addressing over
+ * palette ids), so blocks with the same set share one. */
+struct palset {
+	uint32_t *slot;  /* palette id + 1, 0 empty */
+	uint64_t cap, count;
+	struct buf tab;  /* PTAB */
+	struct buf ent;  /* PENT */
+	uint64_t entries;
+	unsigned entry_bytes;
+};
+
+static uint32_t ent_at(const struct palset *ps, uint64_t i)
+{
+	const uint8_t *p = ps->ent.p + i * ps->entry_bytes;
+	return ps->entry_bytes == 2 ? get16(p) : get32(p);
+}
+
+static uint64_t pal_hash(const uint32_t *v, uint32_t n)
+{
+	return vd_hash64(v, (size_t)n * sizeof *v, 0x5eed);
+}
+
+static int palset_find(struct palset *ps, const uint32_t *v, uint32_t n,
+		       uint32_t *id)
+{
+	if ((ps->count + 1) * 2 > ps->cap) {
+		uint64_t cap = ps->cap ? 2 * ps->cap : 1024;
+		uint32_t *s = calloc(cap, sizeof *s);
+		if (!s)
+			return vd_fail(VD_ERR_NOMEM, "block palette table");
+		for (uint64_t i = 0; i < ps->cap; i++) {
+			if (!ps->slot[i])
+				continue;
+			uint32_t q = ps->slot[i] - 1;
+			const uint8_t *t = ps->tab.p + (size_t)q * PTAB_SIZE;
+			uint32_t first = get32(t), cnt = get32(t + 4);
+			uint32_t tmp[4096];
+			for (uint32_t k = 0; k < cnt; k++)
+				tmp[k] = ent_at(ps, first + k);
+			uint64_t h = pal_hash(tmp, cnt) & (cap - 1);
+			while (s[h])
+				h = (h + 1) & (cap - 1);
+			s[h] = ps->slot[i];
+		}
+		free(ps->slot);
+		ps->slot = s;
+		ps->cap = cap;
+	}
+	uint64_t h = pal_hash(v, n) & (ps->cap - 1);
+	while (ps->slot[h]) {
+		uint32_t q = ps->slot[h] - 1;
+		const uint8_t *t = ps->tab.p + (size_t)q * PTAB_SIZE;
+		uint32_t first = get32(t), cnt = get32(t + 4), k = 0;
+		if (cnt == n)
+			while (k < n && ent_at(ps, first + k) == v[k])
+				k++;
+		if (cnt == n && k == n) {
+			*id = q;
+			return VD_OK;
+		}
+		h = (h + 1) & (ps->cap - 1);
+	}
+	if (ps->count >= UINT32_MAX || ps->entries + n > UINT32_MAX)
+		return vd_fail(VD_ERR_RANGE, "more than 2^32 block palette "
+			       "entries");
+	uint8_t t[PTAB_SIZE];
+	put32(t, (uint32_t)ps->entries);
+	put32(t + 4, n);
+	int err = buf_add(&ps->tab, t, sizeof t);
+	for (uint32_t k = 0; k < n && !err; k++) {
+		uint8_t e[4];
+		put32(e, v[k]);
+		err = buf_add(&ps->ent, e, ps->entry_bytes);
+	}
+	if (err)
+		return err;
+	ps->entries += n;
+	*id = (uint32_t)ps->count++;
+	ps->slot[h] = *id + 1;
+	return VD_OK;
+}
+
+struct vd_cpack_writer {
+	struct vd_chunk_writer *cw;
+	struct vd_cpack_params p;
+	char *spool_path;
+	FILE *spool;          /* VBLK or PBLK, copied in at commit */
+	struct buf seg;       /* CSEG */
+	struct palset ps;
+	uint64_t voxels, segments, blocks, data_bytes;
+	uint64_t sse;
+	unsigned max_dist2;
+	int has_cell, cell_level;
+	uint64_t cell_morton;
+	double t0;
+	uint8_t *scratch;
+	size_t scratch_cap;
+};
+
+static int spool_open(struct vd_cpack_writer *w, const char *path)
+{
+	size_t n = strlen(path) + 32;
+	w->spool_path = malloc(n);
+	if (!w->spool_path)
+		return vd_fail(VD_ERR_NOMEM, "spool name");
+	snprintf(w->spool_path, n, "%s.spool.XXXXXX", path);
+	int fd = mkstemp(w->spool_path);
+	if (fd < 0)
+		return vd_fail(VD_ERR_IO, "cannot create '%s': %s",
+			       w->spool_path, strerror(errno));
+	/* unlinked at once: a killed run leaves nothing behind */
+	unlink(w->spool_path);
+	w->spool = fdopen(fd, "w+b");
+	if (!w->spool) {
+		close(fd);
+		return vd_fail(VD_ERR_IO, "spool: %s", strerror(errno));
+	}
+	return VD_OK;
+}
+
+int vd_cpack_writer_open(struct vd_cpack_writer **out, const char *path,
+			 const struct vd_cpack_params *p, int levels,
+			 const struct vd_transform *t,
+			 const char *provenance)
+{
+	*out = NULL;
+	if (!vd_cpack_method_name(p->method) ||
+	    (p->method == VD_CPACK_PALETTE && !p->palette))
+		return vd_fail(VD_ERR_ARG, "colour method %d", p->method);
+	if (levels < 1 || levels > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_ARG, "depth %d", levels);
+	struct vd_cpack_writer *w = calloc(1, sizeof *w);
+	if (!w)
+		return vd_fail(VD_ERR_NOMEM, "colour writer");
+	w->p = *p;
+	w->t0 = vd_seconds();
+	w->ps.entry_bytes = p->palette && p->palette->k > 65536 ? 4 : 2;
+	struct vd_chunk_header h = {.kind = VD_KIND_CPACK,
+				    .levels = (uint32_t)levels,
+				    .transform = *t,
+				    .level_count = 1};
+	int err = vd_chunk_writer_open(&w->cw, path, &h, provenance);
+	if (!err && p->method != VD_CPACK_RAW)
+		err = spool_open(w, path);
+	if (!err) {
+		uint32_t tag = p->method == VD_CPACK_VBR ? TAG_VWGT
+			       : p->method == VD_CPACK_PALETTE ? TAG_POFS
+							       : TAG_RAWC;
+		int lvl = p->method == VD_CPACK_RAW
+				  ? (p->zstd_level ? p->zstd_level : 19)
+				  : -1;
+		err = vd_chunk_writer_begin(w->cw, tag, lvl);
+	}
+	if (err) {
+		vd_cpack_writer_abort(w);
+		return err;
+	}
+	*out = w;
+	return VD_OK;
+}
+
+struct seg_job {
+	const struct vd_cpack_params *p;
+	const uint8_t *rgb;
+	uint64_t n;
+	struct vd_vbr_segment *vbr;
+	struct vd_palette_segment *pal;
+	int *errs;
+	char (*details)[256];
+};
+
+static void seg_run(void *ctx, size_t i, int worker)
+{
+	struct seg_job *j = ctx;
+	uint64_t first = (uint64_t)i * VD_CPACK_SEGMENT_MAX;
+	uint32_t n = (uint32_t)(j->n - first < VD_CPACK_SEGMENT_MAX
+					? j->n - first
+					: VD_CPACK_SEGMENT_MAX);
+	const uint8_t *rgb = j->rgb + 3 * first;
+	int err = j->p->method == VD_CPACK_VBR
+			  ? vd_vbr_encode(&j->vbr[i], rgb, n, &j->p->vbr)
+			  : vd_palette_encode(&j->pal[i], rgb, n, j->p->palette);
+	j->errs[i] = err;
+	if (err)
+		snprintf(j->details[i], sizeof j->details[i], "%s",
+			 vd_error_detail());
+}
+
+static int write_seg_entry(struct vd_cpack_writer *w, uint32_t n,
+			   uint64_t first_block)
+{
+	uint8_t e[CSEG_SIZE];
+	put64(e, w->voxels);
+	put64(e + 8, first_block);
+	put64(e + 16, w->data_bytes);
+	put64(e + 24, w->cell_morton);
+	put32(e + 32, (uint32_t)w->cell_level);
+	put32(e + 36, n);
+	return buf_add(&w->seg, e, sizeof e);
+}
+
+static int spool_write(struct vd_cpack_writer *w, const void *d, size_t n)
+{
+	if (fwrite(d, 1, n, w->spool) != n)
+		return vd_fail(VD_ERR_IO, "spool write: %s", strerror(errno));
+	return VD_OK;
+}
+
+/* Appends one encoded VBR segment: its weights to the open section, its
+ * block headers to the spool. */
+static int put_vbr(struct vd_cpack_writer *w, const struct vd_vbr_segment *s)
+{
+	int err = write_seg_entry(w, s->n, w->blocks);
+	size_t wb = ((size_t)s->n * s->weight_bits + 7) / 8;
+	if (!err)
+		err = vd_chunk_writer_write(w->cw, s->weights, wb);
+	uint8_t hb[VBLK_SIZE * 256];
+	size_t k = 0;
+	for (uint32_t b = 0; b < s->count && !err; b++) {
+		put32(hb + VBLK_SIZE * k, s->start[b]);
+		put16(hb + VBLK_SIZE * k + 4, s->c0[b]);
+		put16(hb + VBLK_SIZE * k + 6, s->c1[b]);
+		if (++k == 256) {
+			err = spool_write(w, hb, sizeof hb);
+			k = 0;
+		}
+	}
+	if (!err && k)
+		err = spool_write(w, hb, VBLK_SIZE * k);
+	w->blocks += s->count;
+	w->data_bytes += wb;
+	w->sse += s->sse;
+	if (s->max_dist2 > w->max_dist2)
+		w->max_dist2 = s->max_dist2;
+	return err;
+}
+
+/* Appends one palette segment: its blocks' palettes shared through the
+ * table, their headers to the spool, the offsets packed at the smallest
+ * width to the open section. */
+static int put_pal(struct vd_cpack_writer *w,
+		   const struct vd_palette_segment *s)
+{
+	int err = write_seg_entry(w, s->n, w->blocks);
+	uint64_t bits = 0;
+	for (uint32_t b = 0; b < s->count; b++) {
+		uint32_t end = b + 1 < s->count ? s->start[b + 1] : s->n;
+		bits += (uint64_t)(end - s->start[b]) *
+			width_of(s->pal_first[b + 1] - s->pal_first[b]);
+	}
+	size_t nb = (size_t)((bits + 7) / 8);
+	if (!err && nb + 1 > w->scratch_cap) {
+		free(w->scratch);
+		w->scratch_cap = nb + 1;
+		w->scratch = malloc(w->scratch_cap);
+		if (!w->scratch)
+			err = vd_fail(VD_ERR_NOMEM, "offsets of %zu bytes", nb);
+	}
+	if (err)
+		return err;
+	memset(w->scratch, 0, nb + 1);
+	uint64_t pos = 0;
+	for (uint32_t b = 0; b < s->count && !err; b++) {
+		uint32_t cnt = s->pal_first[b + 1] - s->pal_first[b], id;
+		err = palset_find(&w->ps, s->pal + s->pal_first[b], cnt, &id);
+		if (err)
+			break;
+		uint8_t hb[PBLK_SIZE];
+		put32(hb, s->start[b]);
+		put32(hb + 4, id);
+		put32(hb + 8, (uint32_t)pos);
+		err = spool_write(w, hb, sizeof hb);
+		unsigned width = width_of(cnt);
+		uint32_t end = b + 1 < s->count ? s->start[b + 1] : s->n;
+		for (uint32_t i = s->start[b]; i < end; i++, pos += width)
+			put_bits(w->scratch, pos, width, s->offsets[i]);
+	}
+	if (!err)
+		err = vd_chunk_writer_write(w->cw, w->scratch, nb);
+	w->blocks += s->count;
+	w->data_bytes += nb;
+	w->sse += s->sse;
+	if (s->max_dist2 > w->max_dist2)
+		w->max_dist2 = s->max_dist2;
+	return err;
+}
+
+int vd_cpack_writer_add(struct vd_cpack_writer *w, int chunk_level,
+			uint64_t cell_morton, const uint8_t *rgb, uint64_t n)
+{
+	if (w->has_cell && (chunk_level != w->cell_level ||
+			    cell_morton <= w->cell_morton))
+		return vd_fail(VD_ERR_ARG, "cell %d:%llx after cell %d:%llx: "
+			       "cells must come in increasing order",
+			       chunk_level, (unsigned long long)cell_morton,
+			       w->cell_level,
+			       (unsigned long long)w->cell_morton);
+	w->has_cell = 1;
+	w->cell_level = chunk_level;
+	w->cell_morton = cell_morton;
+	if (n == 0)
+		return VD_OK;
+	if (w->p.method == VD_CPACK_RAW) {
+		/* segments of the raw array only mark the cells */
+		int err = VD_OK;
+		for (uint64_t f = 0; f < n && !err; f += VD_CPACK_SEGMENT_MAX) {
+			uint32_t m = (uint32_t)(n - f < VD_CPACK_SEGMENT_MAX
+							? n - f
+							: VD_CPACK_SEGMENT_MAX);
+			err = write_seg_entry(w, m, 0);
+			w->voxels += m;
+			w->data_bytes += 3 * (uint64_t)m;
+			w->segments++;
+		}
+		if (!err)
+			err = vd_chunk_writer_write(w->cw, rgb, (size_t)(3 * n));
+		return err;
+	}
+	size_t nseg = (size_t)((n + VD_CPACK_SEGMENT_MAX - 1) /
+			       VD_CPACK_SEGMENT_MAX);
+	struct seg_job j = {.p = &w->p, .rgb = rgb, .n = n};
+	j.errs = calloc(nseg, sizeof *j.errs);
+	j.details = calloc(nseg, sizeof *j.details);
+	if (w->p.method == VD_CPACK_VBR)
+		j.vbr = calloc(nseg, sizeof *j.vbr);
+	else
+		j.pal = calloc(nseg, sizeof *j.pal);
+	int err = VD_OK;
+	if (!j.errs || !j.details || (!j.vbr && !j.pal))
+		err = vd_fail(VD_ERR_NOMEM, "%zu segments", nseg);
+	if (!err)
+		err = vd_parallel_for(nseg, w->p.threads, seg_run, &j);
+	for (size_t i = 0; i < nseg && !err; i++)
+		if (j.errs[i])
+			err = vd_fail(j.errs[i], "%s", j.details[i]);
+	for (size_t i = 0; i < nseg && !err; i++) {
+		err = j.vbr ? put_vbr(w, &j.vbr[i]) : put_pal(w, &j.pal[i]);
+		uint32_t m = j.vbr ? j.vbr[i].n : j.pal[i].n;
+		w->voxels += m;
+		w->segments++;
+	}
+	for (size_t i = 0; i < nseg; i++) {
+		if (j.vbr)
+			vd_vbr_segment_release(&j.vbr[i]);
+		if (j.pal)
+			vd_palette_segment_release(&j.pal[i]);
+	}
+	free(j.vbr);
+	free(j.pal);
+	free(j.errs);
+	free(j.details);
+	return err;
+}
+
+/* The tables are stored, not zstd'ed: the file holds the structure a
+ * reader maps, byte for byte (raw's RAWC is the one compressed section). */
+static int stored(struct vd_chunk_writer *cw, uint32_t tag, const void *d,
+		  size_t n)
+{
+	int err = vd_chunk_writer_begin(cw, tag, -1);
+	if (!err)
+		err = vd_chunk_writer_write(cw, d, n);
+	return err ? err : vd_chunk_writer_end(cw);
+}
+
+static int copy_spool(struct vd_cpack_writer *w, uint32_t tag)
+{
+	int err = vd_chunk_writer_begin(w->cw, tag, -1);
+	if (err)
+		return err;
+	if (fflush(w->spool) || fseek(w->spool, 0, SEEK_SET))
+		return vd_fail(VD_ERR_IO, "spool: %s", strerror(errno));
+	uint8_t b[1 << 16];
+	size_t n;
+	while (!err && (n = fread(b, 1, sizeof b, w->spool)) > 0)
+		err = vd_chunk_writer_write(w->cw, b, n);
+	if (!err && ferror(w->spool))
+		err = vd_fail(VD_ERR_IO, "spool read: %s", strerror(errno));
+	return err ? err : vd_chunk_writer_end(w->cw);
+}
+
+int vd_cpack_writer_commit(struct vd_cpack_writer *w,
+			   struct vd_cpack_stats *st)
+{
+	int err = vd_chunk_writer_end(w->cw);
+	uint8_t par[CPAR_SIZE] = {0};
+	put32(par, (uint32_t)w->p.method);
+	put32(par + 4, w->p.method == VD_CPACK_VBR ? (uint32_t)w->p.vbr.weight_bits : 0);
+	put64(par + 8, w->voxels);
+	put64(par + 16, w->segments);
+	put64(par + 24, w->blocks);
+	double et = w->p.method == VD_CPACK_VBR ? w->p.vbr.max_error : 0;
+	uint64_t etb;
+	memcpy(&etb, &et, 8);
+	put64(par + 32, etb);
+	if (w->p.method == VD_CPACK_PALETTE) {
+		put32(par + 40, w->p.palette->k);
+		put32(par + 44, w->p.palette_colours);
+		put32(par + 48, w->p.palette->lossless ? 1 : 0);
+		put32(par + 52, w->ps.entry_bytes);
+		put64(par + 56, w->ps.count);
+	}
+	if (!err)
+		err = stored(w->cw, TAG_CPAR, par, sizeof par);
+	if (!err)
+		err = stored(w->cw, TAG_CSEG, w->seg.p, w->seg.n);
+	uint64_t bytes = w->seg.n;
+	if (!err && w->p.method == VD_CPACK_VBR) {
+		err = copy_spool(w, TAG_VBLK);
+		bytes += w->blocks * VBLK_SIZE + w->data_bytes;
+	}
+	if (!err && w->p.method == VD_CPACK_PALETTE) {
+		const struct vd_palette *pl = w->p.palette;
+		err = stored(w->cw, TAG_PGLB, pl->rgb,
+					      3 * (size_t)pl->k);
+		if (!err)
+			err = stored(w->cw, TAG_PTAB, w->ps.tab.p,
+						      w->ps.tab.n);
+		if (!err)
+			err = stored(w->cw, TAG_PENT, w->ps.ent.p,
+						      w->ps.ent.n);
+		if (!err)
+			err = copy_spool(w, TAG_PBLK);
+		bytes += 3 * (uint64_t)pl->k + w->ps.tab.n + w->ps.ent.n +
+			 w->blocks * PBLK_SIZE + w->data_bytes;
+	}
+	if (!err)
+		err = vd_chunk_writer_set_counts(w->cw, &w->voxels, 1);
+	struct vd_cpack_stats s = {
+		.voxels = w->voxels, .segments = w->segments,
+		.blocks = w->blocks, .palettes = w->ps.count,
+		.palette_entries = w->ps.entries, .sse = w->sse,
+		.max_dist2 = w->max_dist2};
+	if (!err) {
+		err = vd_chunk_writer_commit(w->cw);
+		w->cw = NULL;
+	}
+	s.seconds = vd_seconds() - w->t0;
+	s.bytes = bytes;
+	if (st)
+		*st = s;
+	vd_cpack_writer_abort(w);
+	return err;
+}
+
+void vd_cpack_writer_abort(struct vd_cpack_writer *w)
+{
+	if (!w)
+		return;
+	vd_chunk_writer_abort(w->cw);
+	if (w->spool)
+		fclose(w->spool);
+	free(w->spool_path);
+	free(w->seg.p);
+	free(w->ps.slot);
+	free(w->ps.tab.p);
+	free(w->ps.ent.p);
+	free(w->scratch);
+	free(w);
+}
+
+/* ------------------------------------------------------------------ reader */
+
+struct vd_cpack {
+	int method, weight_bits, lossless;
+	uint64_t voxels, segments, blocks, bytes;
+	double max_error;
+	/* segments */
+	uint64_t *seg_first, *seg_block, *seg_data;
+	uint32_t *seg_n;
+	/* blocks */
+	uint32_t *blk_start;
+	uint16_t *c0, *c1;           /* vbr */
+	uint32_t *blk_pal, *blk_bit; /* palette */
+	uint8_t *data;               /* VWGT, POFS or the raw array */
+	size_t data_size;
+	/* palette */
+	uint32_t k, npal;
+	uint8_t *glb;
+	uint32_t *pal_first, *pal_count, *ent;
+	uint64_t nent;
+};
+
+void vd_cpack_free(struct vd_cpack *c)
+{
+	if (!c)
+		return;
+	free(c->seg_first);
+	free(c->seg_block);
+	free(c->seg_data);
+	free(c->seg_n);
+	free(c->blk_start);
+	free(c->c0);
+	free(c->c1);
+	free(c->blk_pal);
+	free(c->blk_bit);
+	free(c->data);
+	free(c->glb);
+	free(c->pal_first);
+	free(c->pal_count);
+	free(c->ent);
+	free(c);
+}
+
+static int section(const struct vd_chunk *ch, uint32_t tag, uint8_t **d,
+		   size_t *n, size_t unit, const char *name)
+{
+	int err = vd_chunk_read_section(ch, tag, (void **)d, n);
+	if (err)
+		return err;
+	if (unit && *n % unit)
+		return vd_fail(VD_ERR_CORRUPT, "%s section of %zu bytes, not a "
+			       "multiple of %zu", name, *n, unit);
+	return VD_OK;
+}
+
+static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
+{
+	const struct vd_chunk_header *h = vd_chunk_header(ch);
+	uint8_t *par = NULL, *seg = NULL, *blk = NULL, *tab = NULL, *ent = NULL;
+	size_t n;
+	int err;
+	if (h->level_count != 1)
+		return vd_fail(VD_ERR_CORRUPT, "%u counts in the header, "
+			       "expected 1", h->level_count);
+	if ((err = section(ch, TAG_CPAR, &par, &n, 0, "CPAR")))
+		return err;
+	if (n < CPAR_SIZE) {
+		free(par);
+		return vd_fail(VD_ERR_CORRUPT, "CPAR of %zu bytes", n);
+	}
+	c->method = (int)get32(par);
+	c->weight_bits = (int)get32(par + 4);
+	c->voxels = get64(par + 8);
+	c->segments = get64(par + 16);
+	c->blocks = get64(par + 24);
+	uint64_t etb = get64(par + 32);
+	memcpy(&c->max_error, &etb, 8);
+	c->k = get32(par + 40);
+	c->lossless = (int)get32(par + 48);
+	unsigned entry_bytes = get32(par + 52);
+	uint64_t npal = get64(par + 56);
+	free(par);
+	if (!vd_cpack_method_name(c->method))
+		return vd_fail(VD_ERR_UNSUPPORTED, "colour method %d (written by "
+			       "a newer colorize?)", c->method);
+	if (c->voxels != h->level_nodes[0])
+		return vd_fail(VD_ERR_CORRUPT, "%llu colours, header says %llu",
+			       (unsigned long long)c->voxels,
+			       (unsigned long long)h->level_nodes[0]);
+	if (c->method == VD_CPACK_VBR && (c->weight_bits < 1 || c->weight_bits > 8))
+		return vd_fail(VD_ERR_CORRUPT, "%d weight bits", c->weight_bits);
+	/* segments: tile the array in order, each 1..SEGMENT_MAX voxels */
+	if ((err = section(ch, TAG_CSEG, &seg, &n, CSEG_SIZE, "CSEG")))
+		return err;
+	if (n / CSEG_SIZE != c->segments) {
+		free(seg);
+		return vd_fail(VD_ERR_CORRUPT, "%zu segments, CPAR says %llu",
+			       n / CSEG_SIZE, (unsigned long long)c->segments);
+	}
+	size_t S = (size_t)c->segments;
+	c->seg_first = malloc((S + 1) * 8);
+	c->seg_block = malloc((S + 1) * 8);
+	c->seg_data = malloc((S + 1) * 8);
+	c->seg_n = malloc((S + 1) * 4);
+	if (!c->seg_first || !c->seg_block || !c->seg_data || !c->seg_n) {
+		free(seg);
+		return vd_fail(VD_ERR_NOMEM, "%zu segments", S);
+	}
+	uint64_t v = 0, prev_cell = 0;
+	uint32_t cell_level = 0;
+	for (size_t s = 0; s < S; s++) {
+		const uint8_t *e = seg + CSEG_SIZE * s;
+		c->seg_first[s] = get64(e);
+		c->seg_block[s] = get64(e + 8);
+		c->seg_data[s] = get64(e + 16);
+		uint64_t cell = get64(e + 24);
+		uint32_t lvl = get32(e + 32);
+		c->seg_n[s] = get32(e + 36);
+		if (s == 0)
+			cell_level = lvl;
+		if (c->seg_first[s] != v || c->seg_n[s] == 0 ||
+		    c->seg_n[s] > VD_CPACK_SEGMENT_MAX || lvl != cell_level ||
+		    (s && cell < prev_cell)) {
+			free(seg);
+			return vd_fail(VD_ERR_CORRUPT, "segment %zu: first voxel "
+				       "%llu, %u voxels, cell %u:%llx", s,
+				       (unsigned long long)c->seg_first[s],
+				       c->seg_n[s], lvl, (unsigned long long)cell);
+		}
+		prev_cell = cell;
+		v += c->seg_n[s];
+	}
+	free(seg);
+	c->seg_first[S] = v;
+	c->seg_block[S] = c->blocks;
+	if (v != c->voxels)
+		return vd_fail(VD_ERR_CORRUPT, "segments hold %llu voxels, CPAR "
+			       "says %llu", (unsigned long long)v,
+			       (unsigned long long)c->voxels);
+	if (c->method == VD_CPACK_RAW) {
+		if ((err = section(ch, TAG_RAWC, &c->data, &c->data_size, 3, "RAWC")))
+			return err;
+		if (c->data_size != 3 * c->voxels)
+			return vd_fail(VD_ERR_CORRUPT, "%zu raw bytes for %llu "
+				       "colours", c->data_size,
+				       (unsigned long long)c->voxels);
+		for (size_t s = 0; s < S; s++)
+			if (c->seg_data[s] != 3 * c->seg_first[s])
+				return vd_fail(VD_ERR_CORRUPT, "segment %zu: raw "
+					       "offset", s);
+		return VD_OK; /* raw costs its file's size (zstd) */
+	}
+	int vbr = c->method == VD_CPACK_VBR;
+	size_t bsz = vbr ? VBLK_SIZE : PBLK_SIZE;
+	if ((err = section(ch, vbr ? TAG_VBLK : TAG_PBLK, &blk, &n, bsz,
+			   vbr ? "VBLK" : "PBLK")))
+		return err;
+	if (n / bsz != c->blocks) {
+		free(blk);
+		return vd_fail(VD_ERR_CORRUPT, "%zu blocks, CPAR says %llu",
+			       n / bsz, (unsigned long long)c->blocks);
+	}
+	size_t B = (size_t)c->blocks;
+	c->blk_start = malloc((B + 1) * 4);
+	if (vbr) {
+		c->c0 = malloc((B + 1) * 2);
+		c->c1 = malloc((B + 1) * 2);
+	} else {
+		c->blk_pal = malloc((B + 1) * 4);
+		c->blk_bit = malloc((B + 1) * 4);
+	}
+	if (!c->blk_start || (vbr ? !c->c0 || !c->c1 : !c->blk_pal || !c->blk_bit)) {
+		free(blk);
+		return vd_fail(VD_ERR_NOMEM, "%zu blocks", B);
+	}
+	for (size_t b = 0; b < B; b++) {
+		const uint8_t *e = blk + bsz * b;
+		c->blk_start[b] = get32(e);
+		if (vbr) {
+			c->c0[b] = get16(e + 4);
+			c->c1[b] = get16(e + 6);
+		} else {
+			c->blk_pal[b] = get32(e + 4);
+			c->blk_bit[b] = get32(e + 8);
+		}
+	}
+	free(blk);
+	if ((err = section(ch, vbr ? TAG_VWGT : TAG_POFS, &c->data,
+			   &c->data_size, 0, vbr ? "VWGT" : "POFS")))
+		return err;
+	c->bytes = 40 * S + bsz * B + c->data_size;
+	if (!vbr) {
+		/* the global palette and the block palettes */
+		if ((err = section(ch, TAG_PGLB, &c->glb, &n, 3, "PGLB")))
+			return err;
+		if (n / 3 != c->k || c->k == 0)
+			return vd_fail(VD_ERR_CORRUPT, "global palette of %zu "
+				       "colours, CPAR says %u", n / 3, c->k);
+		c->bytes += n;
+		if (entry_bytes != 2 && entry_bytes != 4)
+			return vd_fail(VD_ERR_CORRUPT, "palette entries of %u "
+				       "bytes", entry_bytes);
+		if ((err = section(ch, TAG_PENT, &ent, &n, entry_bytes, "PENT")))
+			return err;
+		c->bytes += n;
+		c->nent = n / entry_bytes;
+		c->ent = malloc((c->nent + 1) * 4);
+		if (!c->ent) {
+			free(ent);
+			return vd_fail(VD_ERR_NOMEM, "palette entries");
+		}
+		for (uint64_t i = 0; i < c->nent; i++) {
+			c->ent[i] = entry_bytes == 2 ? get16(ent + 2 * i)
+						     : get32(ent + 4 * i);
+			if (c->ent[i] >= c->k) {
+				free(ent);
+				return vd_fail(VD_ERR_CORRUPT, "palette entry %llu "
+					       "is colour %u of %u",
+					       (unsigned long long)i, c->ent[i], c->k);
+			}
+		}
+		free(ent);
+		if ((err = section(ch, TAG_PTAB, &tab, &n, PTAB_SIZE, "PTAB")))
+			return err;
+		c->bytes += n;
+		if (n / PTAB_SIZE != npal || npal > UINT32_MAX) {
+			free(tab);
+			return vd_fail(VD_ERR_CORRUPT, "%zu block palettes, CPAR "
+				       "says %llu", n / PTAB_SIZE,
+				       (unsigned long long)npal);
+		}
+		c->npal = (uint32_t)npal;
+		c->pal_first = malloc((npal + 1) * 4);
+		c->pal_count = malloc((npal + 1) * 4);
+		if (!c->pal_first || !c->pal_count) {
+			free(tab);
+			return vd_fail(VD_ERR_NOMEM, "block palettes");
+		}
+		for (uint64_t i = 0; i < npal; i++) {
+			c->pal_first[i] = get32(tab + PTAB_SIZE * i);
+			c->pal_count[i] = get32(tab + PTAB_SIZE * i + 4);
+			int sorted = 1;
+			if (c->pal_count[i] &&
+			    (uint64_t)c->pal_first[i] + c->pal_count[i] <= c->nent)
+				for (uint32_t q = 1; q < c->pal_count[i]; q++)
+					sorted &= c->ent[c->pal_first[i] + q] >
+						  c->ent[c->pal_first[i] + q - 1];
+			if (c->pal_count[i] == 0 || !sorted ||
+			    (uint64_t)c->pal_first[i] + c->pal_count[i] > c->nent) {
+				free(tab);
+				return vd_fail(VD_ERR_CORRUPT, "block palette %llu: "
+					       "entries %u..+%u of %llu",
+					       (unsigned long long)i,
+					       c->pal_first[i], c->pal_count[i],
+					       (unsigned long long)c->nent);
+			}
+		}
+		free(tab);
+	}
+	/* blocks per segment: starts from 0, increasing, inside the segment;
+	 * the data of each segment where its offset says, exactly */
+	uint64_t data = 0;
+	for (size_t s = 0; s < S; s++) {
+		uint64_t b0 = c->seg_block[s], b1 = s + 1 < S ? c->seg_block[s + 1]
+								: c->blocks;
+		if (b1 <= b0 || b1 > c->blocks || c->seg_data[s] != data)
+			return vd_fail(VD_ERR_CORRUPT, "segment %zu: blocks "
+				       "%llu..%llu, data at %llu", s,
+				       (unsigned long long)b0,
+				       (unsigned long long)b1,
+				       (unsigned long long)c->seg_data[s]);
+		uint64_t bits = 0;
+		for (uint64_t b = b0; b < b1; b++) {
+			uint32_t st = c->blk_start[b];
+			uint32_t end = b + 1 < b1 ? c->blk_start[b + 1] : c->seg_n[s];
+			if ((b == b0 && st != 0) || st >= end)
+				return vd_fail(VD_ERR_CORRUPT, "segment %zu, block "
+					       "%llu: voxels %u..%u", s,
+					       (unsigned long long)b, st, end);
+			if (!vbr) {
+				if (c->blk_pal[b] >= c->npal ||
+				    c->blk_bit[b] != bits)
+					return vd_fail(VD_ERR_CORRUPT, "block %llu: "
+						       "palette %u of %u, offsets "
+						       "at bit %u",
+						       (unsigned long long)b,
+						       c->blk_pal[b], c->npal,
+						       c->blk_bit[b]);
+				bits += (uint64_t)(end - st) *
+					width_of(c->pal_count[c->blk_pal[b]]);
+			}
+		}
+		if (vbr)
+			bits = (uint64_t)c->seg_n[s] * c->weight_bits;
+		if (bits > UINT32_MAX)
+			return vd_fail(VD_ERR_CORRUPT, "segment %zu: %llu bits", s,
+				       (unsigned long long)bits);
+		data += (bits + 7) / 8;
+	}
+	if (data != c->data_size)
+		return vd_fail(VD_ERR_CORRUPT, "%zu bytes of %s, the blocks need "
+			       "%llu", c->data_size, vbr ? "weights" : "offsets",
+			       (unsigned long long)data);
+	if (!vbr) /* every offset inside its block palette */
+		for (size_t s = 0; s < S; s++)
+			for (uint64_t b = c->seg_block[s]; b < c->seg_block[s + 1]; b++) {
+				uint32_t cnt = c->pal_count[c->blk_pal[b]];
+				unsigned wd = width_of(cnt);
+				uint32_t end = b + 1 < c->seg_block[s + 1]
+						       ? c->blk_start[b + 1]
+						       : c->seg_n[s];
+				uint64_t pos = 8 * c->seg_data[s] + c->blk_bit[b];
+				if ((1ull << wd) == cnt)
+					continue;
+				for (uint32_t i = c->blk_start[b]; i < end; i++, pos += wd)
+					if (get_bits(c->data, pos, wd) >= cnt)
+						return vd_fail(VD_ERR_CORRUPT,
+							       "voxel %llu: offset "
+							       "outside its block "
+							       "palette",
+							       (unsigned long long)(
+								       c->seg_first[s] + i));
+			}
+	return VD_OK;
+}
+
+static int open_common(struct vd_cpack **out, struct vd_chunk *ch, int err)
+{
+	*out = NULL;
+	if (err)
+		return err;
+	struct vd_cpack *c = calloc(1, sizeof *c);
+	if (!c) {
+		vd_chunk_free(ch);
+		return vd_fail(VD_ERR_NOMEM, "colour reader");
+	}
+	err = from_chunk(c, ch);
+	vd_chunk_free(ch);
+	if (err) {
+		vd_cpack_free(c);
+		return err;
+	}
+	*out = c;
+	return VD_OK;
+}
+
+int vd_cpack_open(struct vd_cpack **out, const char *path)
+{
+	struct vd_chunk *ch = NULL;
+	int err = vd_chunk_open(&ch, path, VD_KIND_CPACK);
+	return open_common(out, ch, err);
+}
+
+int vd_cpack_open_mem(struct vd_cpack **out, const void *data, size_t size)
+{
+	struct vd_chunk *ch = NULL;
+	int err = vd_chunk_open_mem(&ch, data, size, VD_KIND_CPACK);
+	return open_common(out, ch, err);
+}
+
+int vd_cpack_method(const struct vd_cpack *c) { return c->method; }
+uint64_t vd_cpack_voxels(const struct vd_cpack *c) { return c->voxels; }
+uint64_t vd_cpack_bytes(const struct vd_cpack *c) { return c->bytes; }
+uint64_t vd_cpack_blocks(const struct vd_cpack *c) { return c->blocks; }
+
+/* Colour of voxel i of segment s, block b. */
+static void colour_in(const struct vd_cpack *c, size_t s, uint64_t b,
+		      uint32_t i, uint8_t rgb[3])
+{
+	if (c->method == VD_CPACK_VBR) {
+		uint64_t pos = 8 * c->seg_data[s] + (uint64_t)i * c->weight_bits;
+		unsigned w = get_bits(c->data, pos, (unsigned)c->weight_bits);
+		vd_vbr_interp(c->c0[b], c->c1[b], w, c->weight_bits, rgb);
+		return;
+	}
+	uint32_t p = c->blk_pal[b], cnt = c->pal_count[p];
+	unsigned wd = width_of(cnt);
+	uint64_t pos = 8 * c->seg_data[s] + c->blk_bit[b] +
+		       (uint64_t)(i - c->blk_start[b]) * wd;
+	uint32_t g = c->ent[c->pal_first[p] + get_bits(c->data, pos, wd)];
+	memcpy(rgb, c->glb + 3 * (size_t)g, 3);
+}
+
+int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
+{
+	if (i >= c->voxels)
+		return vd_fail(VD_ERR_RANGE, "colour %llu of %llu",
+			       (unsigned long long)i,
+			       (unsigned long long)c->voxels);
+	if (c->method == VD_CPACK_RAW) {
+		memcpy(rgb, c->data + 3 * i, 3);
+		return VD_OK;
+	}
+	size_t lo = 0, hi = (size_t)c->segments; /* last segment first <= i */
+	while (hi - lo > 1) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (c->seg_first[mid] <= i)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	uint32_t k = (uint32_t)(i - c->seg_first[lo]);
+	uint64_t bl = c->seg_block[lo], bh = c->seg_block[lo + 1];
+	while (bh - bl > 1) { /* the paper's binary search over headers */
+		uint64_t mid = bl + (bh - bl) / 2;
+		if (c->blk_start[mid] <= k)
+			bl = mid;
+		else
+			bh = mid;
+	}
+	colour_in(c, lo, bl, k, rgb);
+	return VD_OK;
+}
+
+int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
+		    uint8_t *rgb)
+{
+	if (first > c->voxels || n > c->voxels - first)
+		return vd_fail(VD_ERR_RANGE, "colours %llu..+%llu of %llu",
+			       (unsigned long long)first, (unsigned long long)n,
+			       (unsigned long long)c->voxels);
+	if (!n)
+		return VD_OK;
+	if (c->method == VD_CPACK_RAW) {
+		memcpy(rgb, c->data + 3 * first, 3 * n);
+		return VD_OK;
+	}
+	/* walk blocks sequentially from the first voxel's */
+	size_t s = 0, lo = 0, hi = (size_t)c->segments;
+	while (hi - lo > 1) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (c->seg_first[mid] <= first)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	s = lo;
+	uint64_t done = 0;
+	while (done < n) {
+		uint32_t k = (uint32_t)(first + done - c->seg_first[s]);
+		uint64_t b = c->seg_block[s];
+		while (b + 1 < c->seg_block[s + 1] && c->blk_start[b + 1] <= k)
+			b++;
+		for (; b < c->seg_block[s + 1] && done < n; b++) {
+			uint32_t end = b + 1 < c->seg_block[s + 1]
+					       ? c->blk_start[b + 1]
+					       : c->seg_n[s];
+			for (; k < end && done < n; k++, done++)
+				colour_in(c, s, b, k, rgb + 3 * done);
+		}
+		s++;
+	}
+	return VD_OK;
+}

@@ -1,0 +1,590 @@
+/* Variable-bitrate block encoding of a colour array (Dolonius, Sintorn,
+ * Kämpe, Assarsson 2017, section 4.2): blocks of any length, two RGB565
+ * endpoints each, a fixed-width weight per voxel. The blocks are found by
+ * the paper's Algorithm 1: a sweep for single-colour runs, then passes that
+ * merge a block with its left or right neighbour while every colour of the
+ * merged block stays within the error threshold, preferring the merge of
+ * lower mean squared error.
+ *
+ * Where the paper's pseudo-code and text disagree we follow the text: a
+ * merge is possible when its score (the MSE) is >= 0, not > 0 (a perfect
+ * fit has MSE 0), and of two possible merges the lower MSE wins, ties to
+ * the left (the pseudo-code's "leftmse < rightmse" would merge left when
+ * only the right merge is possible). After a block is handled the pass
+ * moves two blocks right of the (merged) block, as the text says. */
+#include "voxdag.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+unsigned vd_colour_error_limit(double max_error)
+{
+	/* dist2 is an integer, so dist2 <= (et*255)^2 iff dist2 <= floor of
+	 * it; the tiny slack keeps 0.1*255 = 25.5 from rounding below. */
+	if (!(max_error > 0))
+		return 0;
+	double x = max_error * 255.0;
+	x = x * x * (1 + 1e-12);
+	return x >= 3 * 255.0 * 255.0 ? 3 * 255 * 255 : (unsigned)x;
+}
+
+/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]. */
+static unsigned nearest_level(double v, int bits)
+{
+	int top = (1 << bits) - 1;
+	int k = (int)floor(v * top / 255.0 + 0.5);
+	int best = 0;
+	double bd = 1e30;
+	for (int c = k - 1; c <= k + 1; c++) {
+		if (c < 0 || c > top)
+			continue;
+		int e = bits == 5 ? (c << 3 | c >> 2) : (c << 2 | c >> 4);
+		double d = fabs(e - v);
+		if (d < bd) {
+			bd = d;
+			best = c;
+		}
+	}
+	return (unsigned)best;
+}
+
+static uint16_t to565(const double c[3])
+{
+	double v[3];
+	for (int k = 0; k < 3; k++)
+		v[k] = c[k] < 0 ? 0 : c[k] > 255 ? 255 : c[k];
+	return (uint16_t)(nearest_level(v[0], 5) << 11 |
+			  nearest_level(v[1], 6) << 5 |
+			  nearest_level(v[2], 5));
+}
+
+/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
+ * colour (rounded projection and its neighbours, judged by the exact
+ * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 at the
+ * first colour outside. */
+static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
+			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
+			   uint64_t *sse)
+{
+	uint8_t a[3], b[3];
+	vd_rgb565_decode(c0, a);
+	vd_rgb565_decode(c1, b);
+	int m = (1 << wb) - 1;
+	/* the 2^W decoded colours of this block's line */
+	uint8_t pal[256][3];
+	for (int k = 0; k <= m; k++)
+		vd_vbr_interp(c0, c1, (unsigned)k, wb, pal[k]);
+	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+	/* the rounded projection is only where the search starts (it and
+	 * its neighbours are judged exactly), so a float product will do */
+	float inv = len2 ? (float)m / (float)len2 : 0.f;
+	uint64_t s = 0;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
+			  (x[2] - a[2]) * d[2];
+		int k0 = (int)((float)dot * inv + 0.5f);
+		k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
+		unsigned best = vd_rgb_dist2(x, pal[k0]);
+		int bk = k0;
+		if (k0 > 0) {
+			unsigned e = vd_rgb_dist2(x, pal[k0 - 1]);
+			if (e < best || (e == best && k0 - 1 < bk)) {
+				best = e;
+				bk = k0 - 1;
+			}
+		}
+		if (k0 < m) {
+			unsigned e = vd_rgb_dist2(x, pal[k0 + 1]);
+			if (e < best) {
+				best = e;
+				bk = k0 + 1;
+			}
+		}
+		if (best > limit)
+			return 0;
+		s += best;
+		if (w)
+			w[i] = (uint8_t)bk;
+	}
+	*sse = s;
+	return 1;
+}
+
+/* A single colour that the nearest RGB565 misses: the two RGB565 levels
+ * around it per channel, either way round, and every weight between. */
+static int fit_single(const uint8_t *x, unsigned limit, int wb,
+		      uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
+{
+	unsigned lo[3], hi[3];
+	static const int bits[3] = {5, 6, 5};
+	for (int k = 0; k < 3; k++) {
+		unsigned c = nearest_level(x[k], bits[k]);
+		int e = bits[k] == 5 ? (int)(c << 3 | c >> 2)
+				     : (int)(c << 2 | c >> 4);
+		int top = (1 << bits[k]) - 1;
+		lo[k] = hi[k] = c;
+		if (e > x[k] && c > 0)
+			lo[k] = c - 1;
+		else if (e < x[k] && (int)c < top)
+			hi[k] = c + 1;
+	}
+	int found = 0;
+	uint64_t best = 0;
+	for (int combo = 0; combo < 27; combo++) {
+		unsigned p[3], q[3];
+		for (int k = 0, cc = combo; k < 3; k++, cc /= 3) {
+			int o = cc % 3; /* 0: lo-hi, 1: hi-lo, 2: lo-lo */
+			p[k] = o == 1 ? hi[k] : lo[k];
+			q[k] = o == 0 ? hi[k] : lo[k];
+		}
+		uint16_t a = (uint16_t)(p[0] << 11 | p[1] << 5 | p[2]);
+		uint16_t b = (uint16_t)(q[0] << 11 | q[1] << 5 | q[2]);
+		uint8_t ww;
+		uint64_t s;
+		if (check_endpoints(x, 1, limit, wb, a, b, &ww, &s) &&
+		    (!found || s < best)) {
+			found = 1;
+			best = s;
+			*c0 = a;
+			*c1 = b;
+			if (w)
+				*w = ww;
+		}
+	}
+	if (found)
+		*sse = best;
+	return found;
+}
+
+/* Sums of a block's colours and of their products, exact integers, so the
+ * moments of a merged block are the sum of its parts' (O(1) per merge)
+ * and every path computes the same fit bit for bit. */
+struct mom {
+	uint64_t n, s[3], q[6]; /* q: rr rg rb gg gb bb */
+};
+
+static void mom_of(struct mom *m, const uint8_t *rgb, uint32_t n)
+{
+	memset(m, 0, sizeof *m);
+	m->n = n;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		unsigned r = x[0], g = x[1], b = x[2];
+		m->s[0] += r;
+		m->s[1] += g;
+		m->s[2] += b;
+		m->q[0] += r * r;
+		m->q[1] += r * g;
+		m->q[2] += r * b;
+		m->q[3] += g * g;
+		m->q[4] += g * b;
+		m->q[5] += b * b;
+	}
+}
+
+static void mom_add(struct mom *a, const struct mom *b)
+{
+	a->n += b->n;
+	for (int k = 0; k < 3; k++)
+		a->s[k] += b->s[k];
+	for (int k = 0; k < 6; k++)
+		a->q[k] += b->q[k];
+}
+
+/* Largest eigenvalue of the symmetric 3x3 matrix c (closed form,
+ * Smith 1961), for the bound below. */
+static double lambda_max(const double c[6])
+{
+	double p1 = c[1] * c[1] + c[2] * c[2] + c[4] * c[4];
+	double tr = c[0] + c[3] + c[5];
+	if (p1 < 1e-30)
+		return fmax(c[0], fmax(c[3], c[5]));
+	double q = tr / 3;
+	double a = c[0] - q, d = c[3] - q, f = c[5] - q;
+	double p2 = a * a + d * d + f * f + 2 * p1;
+	double p = sqrt(p2 / 6);
+	/* det((C - qI) / p) / 2 */
+	double b0 = a / p, b1 = c[1] / p, b2 = c[2] / p, b3 = d / p,
+	       b4 = c[4] / p, b5 = f / p;
+	double det = b0 * (b3 * b5 - b4 * b4) - b1 * (b1 * b5 - b4 * b2) +
+		     b2 * (b1 * b4 - b3 * b2);
+	double r = det / 2;
+	double phi = r <= -1 ? M_PI / 3 : r >= 1 ? 0 : acos(r) / 3;
+	return q + 2 * p * cos(phi);
+}
+
+/* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
+ * doubles. */
+static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
+		 int weight_bits, const struct mom *mo, double *t,
+		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
+{
+	if (n == 0) {
+		*c0 = *c1 = 0;
+		*sse = 0;
+		return 1;
+	}
+	double mu[3], cov[6];
+	for (int k = 0; k < 3; k++)
+		mu[k] = (double)mo->s[k] / n;
+	static const int ix[6][2] = {{0, 0}, {0, 1}, {0, 2},
+				     {1, 1}, {1, 2}, {2, 2}};
+	/* n q - s s' is exact in 64 bits (n <= 2^20, s <= 2^28, q <= 2^36) */
+	int64_t num[6];
+	for (int k = 0; k < 6; k++) {
+		num[k] = (int64_t)(n * mo->q[k]) -
+			 (int64_t)(mo->s[ix[k][0]] * mo->s[ix[k][1]]);
+		cov[k] = (double)num[k] / n;
+	}
+	uint64_t s;
+	uint16_t a, b;
+	if (num[0] + num[3] + num[5] == 0) {
+		/* one colour: its nearest RGB565, else the bracket search */
+		a = b = to565(mu);
+		if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
+			*c0 = a;
+			*c1 = b;
+			*sse = s;
+			return 1;
+		}
+		if (!fit_single(rgb, limit, weight_bits, &a, &b, w, &s))
+			return 0;
+		for (uint32_t i = 1; w && i < n; i++)
+			w[i] = w[0];
+		*c0 = a;
+		*c1 = b;
+		*sse = s * n;
+		return 1;
+	}
+	/* A bound that rejects without reading the colours: every decoded
+	 * colour lies within sqrt(3)/2 (the rounding) of the line through
+	 * its endpoints, and no line is nearer the colours in the squared
+	 * sum than the principal axis, whose sum is trace - lambda_max. So
+	 * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
+	 * every colour within the limit. The margins keep it sound against
+	 * rounding in the eigenvalue. */
+	double tr = cov[0] + cov[3] + cov[5];
+	double resid = tr - lambda_max(cov);
+	double reach = sqrt((double)limit) + 0.8661;
+	if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
+		return 0;
+	/* principal axis by power iteration from the widest channel */
+	double ax[3] = {0, 0, 0};
+	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
+		   : cov[3] >= cov[5]                    ? 1
+							 : 2;
+	ax[wide] = 1;
+	for (int it = 0; it < 8; it++) {
+		double y[3] = {cov[0] * ax[0] + cov[1] * ax[1] + cov[2] * ax[2],
+			       cov[1] * ax[0] + cov[3] * ax[1] + cov[4] * ax[2],
+			       cov[2] * ax[0] + cov[4] * ax[1] + cov[5] * ax[2]};
+		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+		if (l < 1e-12)
+			break;
+		for (int k = 0; k < 3; k++)
+			ax[k] = y[k] / l;
+	}
+	double tmin = 1e30, tmax = -1e30;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
+			   (x[2] - mu[2]) * ax[2];
+		t[i] = v;
+		tmin = v < tmin ? v : tmin;
+		tmax = v > tmax ? v : tmax;
+	}
+	double e0[3], e1[3], l0[3], l1[3];
+	for (int k = 0; k < 3; k++) {
+		l0[k] = e0[k] = mu[k] + tmin * ax[k];
+		l1[k] = e1[k] = mu[k] + tmax * ax[k];
+	}
+	/* Least squares: each colour's weight from its place between the
+	 * extremes of the axis, then the two endpoints minimising the squared
+	 * error for those weights (2x2 normal equations shared by the
+	 * channels). */
+	int m = (1 << weight_bits) - 1;
+	if (tmax - tmin > 1e-9) {
+		double sc = m / (tmax - tmin);
+		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
+		       rb[3] = {0, 0, 0};
+		for (uint32_t i = 0; i < n; i++) {
+			const uint8_t *x = rgb + 3 * (size_t)i;
+			int q = (int)((t[i] - tmin) * sc + 0.5);
+			double sb = (double)(q > m ? m : q) / m, sa = 1 - sb;
+			aa += sa * sa;
+			ab += sa * sb;
+			bb += sb * sb;
+			for (int k = 0; k < 3; k++) {
+				ra[k] += sa * x[k];
+				rb[k] += sb * x[k];
+			}
+		}
+		double det = aa * bb - ab * ab;
+		if (fabs(det) > 1e-9)
+			for (int k = 0; k < 3; k++) {
+				l0[k] = (bb * ra[k] - ab * rb[k]) / det;
+				l1[k] = (aa * rb[k] - ab * ra[k]) / det;
+			}
+	}
+	/* the least-squares endpoints first; the extremes of the axis when
+	 * RGB565 rounding pushed a colour outside */
+	a = to565(l0);
+	b = to565(l1);
+	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
+		*c0 = a;
+		*c1 = b;
+		*sse = s;
+		return 1;
+	}
+	uint16_t a2 = to565(e0), b2 = to565(e1);
+	if ((a2 != a || b2 != b) &&
+	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s)) {
+		*c0 = a2;
+		*c1 = b2;
+		*sse = s;
+		return 1;
+	}
+	/* last, the first colour's nearest RGB565 for all: the rule the
+	 * first sweep grows its single-colour runs by, so every run it finds
+	 * is a block this fit accepts */
+	double f[3] = {rgb[0], rgb[1], rgb[2]};
+	a = to565(f);
+	if (check_endpoints(rgb, n, limit, weight_bits, a, a, w, &s)) {
+		*c0 = *c1 = a;
+		*sse = s;
+		return 1;
+	}
+	return 0;
+}
+
+int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
+	       int weight_bits, uint16_t *c0, uint16_t *c1, uint8_t *w,
+	       uint64_t *sse)
+{
+	struct mom m;
+	mom_of(&m, rgb, n);
+	double *t = malloc(((size_t)n + 1) * sizeof *t);
+	if (!t)
+		return 0;
+	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse);
+	free(t);
+	return ok;
+}
+
+/* Algorithm 1 over one segment. Blocks form a doubly linked list indexed
+ * by their first voxel; `stuck[b]` caches "block b cannot merge with its
+ * right neighbour", valid until either of the two changes (the paper's
+ * "which blocks were modified in the last pass"). */
+struct blocks {
+	uint32_t *next, *prev, *end;
+	uint8_t *stuck;
+	struct mom *mom;   /* moments of the block starting there */
+	double *t;         /* scratch of the fit */
+};
+
+#define NIL UINT32_MAX
+
+/* MSE of the merged block [s, e) (blocks at s and l2 = the right part's
+ * head) or -1 when a colour would fall outside. */
+static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
+		   uint32_t l2, unsigned limit, int wb)
+{
+	uint16_t a, b;
+	uint64_t sse;
+	struct mom m = B->mom[s];
+	mom_add(&m, &B->mom[l2]);
+	uint32_t n = B->end[l2] - s;
+	if (!fit_m(rgb + 3 * (size_t)s, n, limit, wb, &m, B->t, &a, &b, NULL,
+		   &sse))
+		return -1;
+	return (double)sse / n;
+}
+
+int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
+		  const struct vd_vbr_params *p)
+{
+	memset(seg, 0, sizeof *seg);
+	if (p->weight_bits < 1 || p->weight_bits > 8 || n > VD_CPACK_SEGMENT_MAX ||
+	    !(p->max_error > 0) || !(p->max_error <= 2))
+		return vd_fail(VD_ERR_ARG, "vbr: weight bits %d, max error %g, "
+			       "%u colours", p->weight_bits, p->max_error, n);
+	int wb = p->weight_bits;
+	unsigned limit = vd_colour_error_limit(p->max_error);
+	seg->n = n;
+	seg->weight_bits = wb;
+	struct blocks B = {0};
+	B.next = malloc(((size_t)n + 1) * sizeof *B.next);
+	B.prev = malloc(((size_t)n + 1) * sizeof *B.prev);
+	B.end = malloc(((size_t)n + 1) * sizeof *B.end);
+	B.stuck = calloc((size_t)n + 1, 1);
+	B.mom = malloc(((size_t)n + 1) * sizeof *B.mom);
+	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
+	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
+	uint8_t *w = malloc((size_t)n + 1);
+	int err = VD_OK;
+	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
+	    !seg->weights || !w) {
+		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
+		goto out;
+	}
+	/* the first sweep: greedy runs that one colour (the nearest RGB565
+	 * of the run's first colour) stores within the threshold; every
+	 * other colour its own block */
+	uint32_t head = n ? 0 : NIL, last = NIL;
+	for (uint32_t i = 0; i < n;) {
+		uint32_t j = i + 1;
+		if (!p->no_single_sweep) {
+			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
+				       rgb[3 * (size_t)i + 2]};
+			uint8_t d[3];
+			vd_rgb565_decode(to565(c), d);
+			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
+				while (j < n &&
+				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
+					j++;
+		}
+		B.prev[i] = last;
+		if (last != NIL)
+			B.next[last] = i;
+		B.end[i] = j;
+		mom_of(&B.mom[i], rgb + 3 * (size_t)i, j - i);
+		last = i;
+		i = j;
+	}
+	if (last != NIL)
+		B.next[last] = NIL;
+	/* the merge passes */
+	int merged;
+	do {
+		merged = 0;
+		seg->passes++;
+		uint32_t b = head == NIL ? NIL : B.next[head];
+		while (b != NIL) {
+			uint32_t l = B.prev[b], r = B.next[b];
+			double lm = -1, rm = -1;
+			if (l != NIL && !B.stuck[l]) {
+				lm = eval(rgb, &B, l, b, limit, wb);
+				if (lm < 0)
+					B.stuck[l] = 1;
+			}
+			if (r != NIL && !B.stuck[b]) {
+				rm = eval(rgb, &B, b, r, limit, wb);
+				if (rm < 0)
+					B.stuck[b] = 1;
+			}
+			uint32_t m = b;
+			if (lm >= 0 && (rm < 0 || lm <= rm)) {
+				/* b joins its left neighbour */
+				B.end[l] = B.end[b];
+				mom_add(&B.mom[l], &B.mom[b]);
+				B.next[l] = r;
+				if (r != NIL)
+					B.prev[r] = l;
+				m = l;
+				merged = 1;
+			} else if (rm >= 0) {
+				B.end[b] = B.end[r];
+				mom_add(&B.mom[b], &B.mom[r]);
+				uint32_t rr = B.next[r];
+				B.next[b] = rr;
+				if (rr != NIL)
+					B.prev[rr] = b;
+				B.stuck[b] = B.stuck[r] = 0;
+				merged = 1;
+			}
+			if (m != b || rm >= 0) {
+				B.stuck[m] = 0;
+				if (B.prev[m] != NIL)
+					B.stuck[B.prev[m]] = 0;
+			}
+			uint32_t nx = B.next[m];
+			b = nx == NIL ? NIL : B.next[nx];
+		}
+	} while (merged);
+	/* the final blocks: fit again for their endpoints and weights */
+	uint32_t count = 0;
+	for (uint32_t b = head; b != NIL; b = B.next[b])
+		count++;
+	seg->count = count;
+	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
+	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
+	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
+	if (!seg->start || !seg->c0 || !seg->c1) {
+		err = vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
+		goto out;
+	}
+	uint32_t k = 0;
+	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
+		uint64_t sse;
+		uint32_t len = B.end[b] - b;
+		if (!fit_m(rgb + 3 * (size_t)b, len, limit, wb, &B.mom[b], B.t,
+			   &seg->c0[k], &seg->c1[k], w, &sse)) {
+			/* only a first block of one colour can get here: merges
+			 * were all checked */
+			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
+				      "RGB565 endpoints: colour (%u, %u, %u) cannot "
+				      "be stored within it (0.0236 always works)",
+				      p->max_error, rgb[3 * (size_t)b],
+				      rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
+			goto out;
+		}
+		seg->start[k] = b;
+		seg->sse += sse;
+		for (uint32_t i = 0; i < len; i++) {
+			uint64_t bit = (uint64_t)(b + i) * wb;
+			unsigned v = w[i];
+			/* weights are at most 8 bits: two bytes at most */
+			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
+			if ((bit & 7) + wb > 8)
+				seg->weights[(bit >> 3) + 1] |=
+					(uint8_t)(v >> (8 - (bit & 7)));
+			uint8_t d[3];
+			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
+			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
+			if (e > seg->max_dist2)
+				seg->max_dist2 = e;
+		}
+	}
+out:
+	free(B.next);
+	free(B.prev);
+	free(B.end);
+	free(B.stuck);
+	free(B.mom);
+	free(B.t);
+	free(w);
+	if (err)
+		vd_vbr_segment_release(seg);
+	return err;
+}
+
+void vd_vbr_segment_colour(const struct vd_vbr_segment *s, uint32_t i,
+			   uint8_t rgb[3])
+{
+	uint32_t lo = 0, hi = s->count; /* last block with start <= i */
+	while (hi - lo > 1) {
+		uint32_t mid = lo + (hi - lo) / 2;
+		if (s->start[mid] <= i)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	uint64_t bit = (uint64_t)i * s->weight_bits;
+	unsigned v = s->weights[bit >> 3] >> (bit & 7);
+	if ((bit & 7) + s->weight_bits > 8)
+		v |= (unsigned)s->weights[(bit >> 3) + 1] << (8 - (bit & 7));
+	v &= (1u << s->weight_bits) - 1;
+	vd_vbr_interp(s->c0[lo], s->c1[lo], v, s->weight_bits, rgb);
+}
+
+void vd_vbr_segment_release(struct vd_vbr_segment *s)
+{
+	free(s->start);
+	free(s->c0);
+	free(s->c1);
+	free(s->weights);
+	memset(s, 0, sizeof *s);
+}
