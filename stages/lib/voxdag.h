@@ -1944,7 +1944,9 @@ struct vd_colour_source {
 };
 
 /* Opens `path`: a directory of colour chunks (each checked against the SVO
- * chunk beside it, concatenated in cell order). */
+ * chunk beside it, concatenated in cell order), or a packed colours file of
+ * colorize (colours.vbr, .palette, .raw; checked against the manifest
+ * beside it, decoded voxel by voxel on demand). */
 int vd_colour_source_open(struct vd_colour_source *s, const char *path);
 void vd_colour_source_release(struct vd_colour_source *s);
 

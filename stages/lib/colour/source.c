@@ -162,6 +162,43 @@ int vd_colour_chunks_load(const char *dir, uint8_t **rgb, uint64_t *voxels,
 	return VD_OK;
 }
 
+static void cpack_get(const struct vd_colour_source *s, uint64_t index,
+		      uint8_t rgb[3])
+{
+	/* index < voxels is the interface's promise, so this cannot fail */
+	(void)vd_cpack_colour(s->impl, index, rgb);
+}
+
+static void cpack_release(struct vd_colour_source *s)
+{
+	vd_cpack_free(s->impl);
+}
+
+/* A packed colours file of colorize, checked against the manifest of its
+ * directory first (like the encodings: its checksum is not in doubt when
+ * the manifest agrees, and a stray file is refused). */
+static int open_cpack(struct vd_colour_source *s, const char *path)
+{
+	struct vd_chunk_header h;
+	int err = vd_manifest_check_file(path);
+	if (!err)
+		err = vd_chunk_read_header(path, &h);
+	if (!err && h.kind != VD_KIND_CPACK)
+		err = vd_fail(VD_ERR_WRONG_KIND, "'%s' is a %s chunk, not "
+			      "packed colours", path, vd_chunk_kind_name(h.kind));
+	struct vd_cpack *c = NULL;
+	if (!err)
+		err = vd_cpack_open(&c, path);
+	if (err)
+		return err;
+	s->voxels = vd_cpack_voxels(c);
+	s->levels = (int)h.levels;
+	s->get = cpack_get;
+	s->impl = c;
+	s->release = cpack_release;
+	return VD_OK;
+}
+
 int vd_colour_source_open(struct vd_colour_source *s, const char *path)
 {
 	memset(s, 0, sizeof *s);
@@ -170,8 +207,7 @@ int vd_colour_source_open(struct vd_colour_source *s, const char *path)
 		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
 			       strerror(errno));
 	if (!S_ISDIR(st.st_mode))
-		return vd_fail(VD_ERR_UNSUPPORTED, "'%s' is not a directory of "
-			       "colour chunks", path);
+		return open_cpack(s, path);
 	uint8_t *rgb;
 	uint64_t voxels;
 	struct vd_chunk_header h;
