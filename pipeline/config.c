@@ -20,6 +20,7 @@ static const struct stage_info stages[] = {
 	{"render", STAGE_RENDER, 1, 2},
 	{"lossy-cluster", STAGE_LOSSY, 1, 1},
 	{"edit", STAGE_EDIT, 1, 1},
+	{"colorize", STAGE_COLORIZE, 1, 1},
 };
 
 int stage_makes_root_dag(enum stage_type t)
@@ -412,7 +413,7 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 		return 1;
 	/* parameters of one stage; checked against the stage once it is
 	 * known (it may come after them) */
-	yaml_node_t *lossy_param = NULL, *edit_param = NULL;
+	yaml_node_t *lossy_param = NULL, *edit_param = NULL, *colour_param = NULL;
 	yaml_node_t *k, *v;
 	FOR_PAIRS(x, map, k, v, it) {
 		const char *key = scalar(k);
@@ -459,6 +460,40 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 				return 1;
 			snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
 			lossy_param = k;
+		} else if (!strcmp(key, "method")) {
+			const char *m = scalar(v);
+			if (!m || (strcmp(m, "vbr") && strcmp(m, "palette") &&
+				   strcmp(m, "raw")))
+				return fail_at(x, v, "'method' is vbr, palette or "
+					       "raw");
+			strcpy(d->method, m);
+			colour_param = k;
+		} else if (!strcmp(key, "max_error")) {
+			/* colorize's own range: below 0.0236 a single colour
+			 * may not fit RGB565 endpoints */
+			if (want_number(x, v, key, 0.0236, 1.8, 0, d->max_error,
+					sizeof d->max_error))
+				return 1;
+			colour_param = k;
+		} else if (!strcmp(key, "weight_bits")) {
+			int w;
+			if (want_int(x, v, key, 1, 8, &w))
+				return 1;
+			snprintf(d->weight_bits, sizeof d->weight_bits, "%d", w);
+			colour_param = k;
+		} else if (!strcmp(key, "palette_colours")) {
+			int w;
+			if (want_int(x, v, key, 2, 16777216, &w))
+				return 1;
+			snprintf(d->palette_colours, sizeof d->palette_colours,
+				 "%d", w);
+			colour_param = k;
+		} else if (!strcmp(key, "lossless")) {
+			const char *b = scalar(v);
+			if (!b || (strcmp(b, "true") && strcmp(b, "false")))
+				return fail_at(x, v, "'lossless' is true or false");
+			d->lossless = !strcmp(b, "true");
+			colour_param = k;
 		} else if (!strcmp(key, "script")) {
 			if (parse_script(x, d, v))
 				return 1;
@@ -467,7 +502,9 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			return fail_at(x, k, "unknown key '%s' in job '%s' "
 				       "(known: stage, needs; inflation, "
 				       "diff_factor, max_refs for lossy-cluster; "
-				       "script for edit)", key, n);
+				       "script for edit; method, max_error, "
+				       "weight_bits, palette_colours, lossless for "
+				       "colorize)", key, n);
 		}
 	}
 	if (!d->stage)
@@ -476,6 +513,12 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 		return fail_at(x, lossy_param, "'%s' is a parameter of "
 			       "lossy-cluster jobs, not of '%s' (stage %s)",
 			       scalar(lossy_param), n, d->stage->name);
+	if (colour_param && d->stage->type != STAGE_COLORIZE)
+		return fail_at(x, colour_param, "'%s' is a parameter of colorize "
+			       "jobs, not of '%s' (stage %s)",
+			       scalar(colour_param), n, d->stage->name);
+	if (d->stage->type == STAGE_COLORIZE && !*d->method)
+		strcpy(d->method, "vbr");
 	if (edit_param && d->stage->type != STAGE_EDIT)
 		return fail_at(x, edit_param, "'script' is a parameter of edit "
 			       "jobs, not of '%s' (stage %s)", n, d->stage->name);
@@ -565,7 +608,14 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 				      t[k] != STAGE_SYMMETRY_MERGE;
 				break;
 			case STAGE_RENDER:
-				bad = t[k] != STAGE_ENCODE;
+				/* a second need: an encode job to show the
+				 * differences from, or the colours */
+				bad = k == 0 ? t[k] != STAGE_ENCODE
+					     : t[k] != STAGE_ENCODE &&
+					       t[k] != STAGE_COLORIZE;
+				break;
+			case STAGE_COLORIZE:
+				bad = t[k] != STAGE_VOXELIZE;
 				break;
 			default:
 				bad = 1;
@@ -591,7 +641,9 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 					"job that needs it]",
 				[STAGE_RENDER] = "needs: [an encode job] or [an "
 					"encode job, an encode job to show the "
-					"differences from]",
+					"differences from, or a colorize job for "
+					"the colours]",
+				[STAGE_COLORIZE] = "needs: [a voxelize job]",
 				[STAGE_LOSSY] = "needs: [an svo-to-dag, "
 					"lossy-cluster or edit job]",
 				[STAGE_EDIT] = "needs: [an svo-to-dag, "

@@ -32,6 +32,7 @@ enum stage_type {
 	STAGE_RENDER,         /* an encoding -> a picture for the report */
 	STAGE_LOSSY,          /* root .dag -> lossy root .dag (one process) */
 	STAGE_EDIT,           /* root .dag + edit script -> edited root .dag */
+	STAGE_COLORIZE,       /* voxelize's colour chunks -> packed colours */
 	STAGE_COUNT_
 };
 
@@ -58,6 +59,9 @@ struct job_decl {
 	 * lines joined by newlines; the runner writes them to a file) */
 	char script[1024];
 	char *script_text;
+	/* colorize: one method and its setting, the YAML's text (checked) */
+	char method[16], max_error[32], weight_bits[8], palette_colours[16];
+	int lossless;
 };
 
 /* 1 for the stages whose output is one root DAG chunk (kind dag):

@@ -1001,6 +1001,47 @@ static void plan_encode(struct plan *p, int d)
 	j->mem_estimate = c->job_mem_budget;
 }
 
+/* colorize: the voxelize output's colour chunks into one packed colours
+ * file of the job's method (a directory with its manifest). */
+static void plan_colorize(struct plan *p, int d)
+{
+	const struct config *c = p->cfg;
+	const struct job_decl *dd = decl_of(p, d);
+	int vox = find_job(p, decl_of(p, dd->needs[0])->name);
+	if (vox < 0)
+		return;
+	char out[1100], key[1200], threads[16];
+	path_join(out, sizeof out, p->dir, dd->name);
+	path_join(key, sizeof key, out, ".key");
+	struct job *j = add_job(p, d, dd->name, out, key);
+	if (!j)
+		return;
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	const char *args[24];
+	int na = 0;
+	const char *head[] = {p->jobs[vox].output, "-o", out, "--method",
+			      dd->method, "--threads", threads, "-q"};
+	for (size_t i = 0; i < sizeof head / sizeof *head; i++)
+		args[na++] = head[i];
+	if (*dd->max_error)
+		args[na++] = "--max-error", args[na++] = dd->max_error;
+	if (*dd->weight_bits)
+		args[na++] = "--weight-bits", args[na++] = dd->weight_bits;
+	if (*dd->palette_colours)
+		args[na++] = "--palette-colours", args[na++] = dd->palette_colours;
+	if (dd->lossless)
+		args[na++] = "--lossless";
+	args[na] = NULL;
+	set_argv_list(j, "colorize", args);
+	/* a directory is fingerprinted through its manifest: every file's
+	 * checksum, the colour chunks' too */
+	char manifest[1200];
+	path_join(manifest, sizeof manifest, p->jobs[vox].output, "manifest");
+	add_input(j, manifest);
+	add_dep(p, j, vox);
+	j->mem_estimate = c->job_mem_budget;
+}
+
 /* A picture of the scene for the report, traced through the SSVDAG
  * encoding that encode wrote. */
 static void plan_render(struct plan *p, int d)
@@ -1011,6 +1052,8 @@ static void plan_render(struct plan *p, int d)
 	/* with a second encode job: its scene's differing voxels in red */
 	int other = dd->nneeds > 1 ? find_job(p, decl_of(p, dd->needs[1])->name)
 				   : -1;
+	int colours = other >= 0 &&
+		      decl_of(p, dd->needs[1])->stage->type == STAGE_COLORIZE;
 	if (enc < 0 || (dd->nneeds > 1 && other < 0))
 		return;
 	char out[1100], key[1200], in[1300], threads[16];
@@ -1021,7 +1064,16 @@ static void plan_render(struct plan *p, int d)
 		return;
 	snprintf(in, sizeof in, "%s/%s.ssvdag", p->jobs[enc].output, c->name);
 	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
-	if (other >= 0) {
+	if (colours) {
+		char in2[1300];
+		snprintf(in2, sizeof in2, "%s/colours.%s", p->jobs[other].output,
+			 decl_of(p, dd->needs[1])->method);
+		set_argv(j, "render", in, "-o", out, "--size", "960x720",
+			 "--camera", "iso", "--colours", in2, "--threads", threads,
+			 "-q", NULL);
+		add_input(j, in2);
+		add_dep(p, j, other);
+	} else if (other >= 0) {
 		char in2[1300];
 		snprintf(in2, sizeof in2, "%s/%s.ssvdag", p->jobs[other].output,
 			 c->name);
@@ -1066,6 +1118,9 @@ int plan_expand(struct plan *p)
 				break;
 			case STAGE_EDIT:
 				plan_edit(p, d);
+				break;
+			case STAGE_COLORIZE:
+				plan_colorize(p, d);
 				break;
 			default:
 				break;

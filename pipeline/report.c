@@ -173,11 +173,130 @@ static void write_pictures(FILE *f, const struct plan *p)
 			continue;
 		fprintf(f, "%s `%s`, the scene of `%s`", n++ ? ";" : "", r->name,
 			c->jobs_decl[r->needs[0]].name);
-		if (r->nneeds > 1)
+		if (r->nneeds > 1 &&
+		    c->jobs_decl[r->needs[1]].stage->type == STAGE_COLORIZE)
+			fprintf(f, ", colours of `%s`",
+				c->jobs_decl[r->needs[1]].name);
+		else if (r->nneeds > 1)
 			fprintf(f, ", voxels set in only one of it and `%s`'s "
 				"scene in red", c->jobs_decl[r->needs[1]].name);
 	}
 	fprintf(f, ".\n\n");
+}
+
+static double mb(double bytes);
+
+/* The render job drawing the colours of colorize job `d` (NULL if none). */
+static const struct job_decl *render_of_colours(const struct config *c, int d,
+						int *encode)
+{
+	for (int r = 0; r < c->njobs; r++) {
+		const struct job_decl *rd = &c->jobs_decl[r];
+		if (rd->stage->type == STAGE_RENDER && rd->nneeds > 1 &&
+		    rd->needs[1] == d) {
+			*encode = rd->needs[0];
+			return rd;
+		}
+	}
+	return NULL;
+}
+
+/* The colour paper's Table 3: per colorize job, its method and setting,
+ * the share of the raw colours it stores, GMSE, and, when the scene is
+ * also drawn with lossless colours (a raw or lossless palette job) by a
+ * render job of the same encoding, the image MSE and MS-SSIM of its
+ * picture against that one. */
+static void write_colours(FILE *f, const struct plan *p)
+{
+	const struct config *c = p->cfg;
+	int any = 0;
+	for (int d = 0; d < c->njobs; d++)
+		any |= c->jobs_decl[d].stage->type == STAGE_COLORIZE;
+	if (!any)
+		return;
+	/* the reference picture: lossless colours */
+	const struct job_decl *ref = NULL;
+	int ref_enc = -1;
+	for (int d = 0; d < c->njobs && !ref; d++) {
+		const struct job_decl *cd = &c->jobs_decl[d];
+		if (cd->stage->type == STAGE_COLORIZE &&
+		    (!strcmp(cd->method, "raw") ||
+		     (!strcmp(cd->method, "palette") && cd->lossless)))
+			ref = render_of_colours(c, d, &ref_enc);
+	}
+	fprintf(f, "# Colours (Dolonius et al. 2017, Table 3)\n\n");
+	fprintf(f, "| job | method | setting | %% of raw | MB | GMSE | max error "
+		"| blocks | seconds | Mvoxels/s | image MSE | MS-SSIM |\n");
+	fprintf(f, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	double voxels = 0, raw = 0;
+	for (int d = 0; d < c->njobs; d++) {
+		const struct job_decl *cd = &c->jobs_decl[d];
+		if (cd->stage->type != STAGE_COLORIZE)
+			continue;
+		char path[1300];
+		snprintf(path, sizeof path, "%s/%s/colorize.stats.json", p->dir,
+			 cd->name);
+		char *st = slurp(path);
+		if (!st) {
+			fprintf(f, "| `%s` | %s | | (not built) | | | | | | | | |\n",
+				cd->name, cd->method);
+			continue;
+		}
+		voxels = json_number(st, NULL, "voxels");
+		raw = json_number(st, NULL, "bytes_raw");
+		json_error_t jerr;
+		json_t *root = json_loads(st, 0, &jerr);
+		json_t *m = json_object_get(json_object_get(root, "methods"),
+					    cd->method);
+#define NUM(k) (json_is_number(json_object_get(m, k)) ?                      \
+		json_number_value(json_object_get(m, k)) : 0)
+		char setting[64];
+		if (!strcmp(cd->method, "vbr"))
+			snprintf(setting, sizeof setting, "et %g, %g-bit weights",
+				 NUM("max_error_limit"), NUM("weight_bits"));
+		else if (!strcmp(cd->method, "palette"))
+			snprintf(setting, sizeof setting, cd->lossless ?
+				 "lossless (%.0f colours)" : "%.0f colours",
+				 NUM("palette_colours"));
+		else
+			snprintf(setting, sizeof setting, "zstd");
+		char img[64] = "| |";
+		int enc;
+		const struct job_decl *r = render_of_colours(c, d, &enc);
+		if (ref && r && enc == ref_enc) {
+			char pa[1300], pb[1300];
+			snprintf(pa, sizeof pa, "%s/%s.png", p->dir, ref->name);
+			snprintf(pb, sizeof pb, "%s/%s.png", p->dir, r->name);
+			uint8_t *a = NULL, *b = NULL;
+			int wa, ha, wb, hb;
+			struct vd_image_metrics im;
+			if (vd_png_read_rgb(pa, &a, &wa, &ha) == VD_OK &&
+			    vd_png_read_rgb(pb, &b, &wb, &hb) == VD_OK &&
+			    wa == wb && ha == hb &&
+			    vd_image_metrics(a, b, wa, ha, &im) == VD_OK)
+				snprintf(img, sizeof img, "| %.3f | %.5f |",
+					 im.mse, im.ms_ssim);
+			vd_error_clear();
+			free(a);
+			free(b);
+		}
+		fprintf(f, "| `%s` | %s | %s | %.2f | %.3f | %.3f | %.4f | %.0f | "
+			"%.2f | %.2f %s\n", cd->name, cd->method, setting,
+			NUM("percent_of_raw"), mb(NUM("bytes")), NUM("gmse"),
+			NUM("max_error"), NUM("blocks"), NUM("seconds"),
+			NUM("voxels_per_second") / 1e6, img);
+#undef NUM
+		json_decref(root);
+		free(st);
+	}
+	fprintf(f, "\n%.0f voxels, %.3f MB of raw RGB8 colours. %% of raw is "
+		"the compressed structure's bytes against 3 bytes a voxel; GMSE "
+		"and max error as colorize reports them "
+		"(schemas/colour-formats.md); image MSE and MS-SSIM compare the "
+		"picture with that of lossless colours (`%s`)%s.\n\n", voxels,
+		mb(raw), ref ? ref->name : "none",
+		ref ? "" : ": add a raw or lossless palette colorize job and a "
+		"render of it to get them");
 }
 
 /* The job of declared job d when it is an encode job, or NULL. */
@@ -455,6 +574,7 @@ int report_write(const struct plan *p)
 		if (c->jobs_decl[d].stage->type == STAGE_EDIT)
 			write_edit(f, p, d);
 	}
+	write_colours(f, p);
 	fprintf(f, "## The run\n\n");
 	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
 		"their statistics files); peak memory is the largest job's, "

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# colorize in the job graph on the bundled textured spider: the report's
+# Table 3 rows carry the numbers of colorize's statistics, the pictures
+# use the colours, a rerun starts nothing, a lost packed file is rebuilt;
+# bad colorize jobs in the YAML give one line.
+set -u
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+R=$BIN/voxdag
+NAME=clicolour-$$
+D=out/$NAME
+trap 'rm -rf "$T" out/$NAME' EXIT
+
+cfg() { # the common part, then the jobs given on stdin
+	cat <<EOF
+version: 1
+name: $NAME
+input: {mesh: $PWD/tests/data/spider/spider.obj}
+levels: 8
+chunk_level: 1
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:  {stage: voxelize}
+  dag:  {stage: svo-to-dag, needs: [vox]}
+  sdag: {stage: symmetry-merge, needs: [dag]}
+  enc:  {stage: encode, needs: [dag, sdag]}
+EOF
+	cat
+}
+bad() { # bad NAME PATTERN (jobs on stdin)
+	cfg > "$T/bad.yaml"
+	expect "$1" 1 "$2" $R plan "$T/bad.yaml"
+}
+echo '  c: {stage: colorize, needs: [vox], method: jpeg}' |
+	bad colour_bad_method "'method' is vbr, palette or raw"
+echo '  c: {stage: colorize, needs: [vox], max_error: 0.01}' |
+	bad colour_max_error_range "'max_error' is 0.01, outside 0.0236"
+echo '  c: {stage: colorize, needs: [enc]}' |
+	bad colour_needs_voxelize "takes needs: \[a voxelize job\]"
+echo '  d2: {stage: svo-to-dag, needs: [vox], weight_bits: 3}' |
+	bad colour_param_elsewhere "'weight_bits' is a parameter of colorize"
+
+CFG=$T/c.yaml
+cfg > "$CFG" <<'EOF'
+  raw:  {stage: colorize, needs: [vox], method: raw}
+  vbr:  {stage: colorize, needs: [vox], method: vbr, max_error: 0.05}
+  pal:  {stage: colorize, needs: [vox], method: palette, palette_colours: 256}
+  p0:   {stage: render, needs: [enc, raw]}
+  p1:   {stage: render, needs: [enc, vbr]}
+EOF
+expect colour_run 0 '' $R -q run "$CFG"
+# the raw render equals render by hand with voxelize's own colour chunks
+$BIN/render $D/enc/$NAME.ssvdag -o "$T/hand.png" --size 960x720 --camera iso -q -C $D/vox
+cmp -s "$T/hand.png" $D/p0.png && pass colour_picture_is_the_chunks_colours ||
+	fail colour_picture_is_the_chunks_colours
+# Table 3's rows: the statistics' numbers, read here with python's json
+ok=1
+for j in vbr pal; do
+	read -r m pr gm < <(/usr/bin/python3 -c '
+import json, sys
+d = json.load(open(sys.argv[1]))["methods"]
+m = next(iter(d))
+print(m, "%.2f" % d[m]["percent_of_raw"], "%.3f" % d[m]["gmse"])' $D/$j/colorize.stats.json)
+	grep -E "^\| \`$j\` \| $m \| [^|]* \| $pr \| [0-9.]+ \| $gm \|" $D/report.md >/dev/null ||
+		{ ok=0; fail colour_table3_row_$j "wanted $m, % $pr, GMSE $gm" "$(grep "\`$j\`" $D/report.md)"; }
+done
+[ $ok = 1 ] && pass colour_table3_rows_are_the_stats
+grep -qE '^\| `vbr` .*\| [0-9.]+ \| 0\.9[0-9]* \|$' $D/report.md && pass colour_table3_image_metrics ||
+	fail colour_table3_image_metrics "$(grep '`vbr`' $D/report.md)"
+expect colour_rerun 0 '' $R -q run "$CFG"
+started() { awk '/ run /{buf=""} {buf=buf $0 "\n"} END{printf "%s", buf}' $D/logs/runner.log |
+	grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | sort | tr '\n' ' '; }
+[ -z "$(started)" ] && pass colour_rerun_starts_nothing || fail colour_rerun_starts_nothing "$(started)"
+cp $D/vbr/colours.vbr "$T/saved.vbr"
+rm $D/vbr/colours.vbr
+expect colour_lost 0 '' $R -q run "$CFG"
+# rebuilt to the same bytes, so the picture of it is not redrawn
+[ "$(started)" = "vbr " ] && pass colour_lost_reruns_only_it || fail colour_lost_reruns_only_it "$(started)"
+cmp -s $D/vbr/colours.vbr "$T/saved.vbr" && pass colour_rebuilt_identical || fail colour_rebuilt_identical
