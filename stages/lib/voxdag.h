@@ -1137,7 +1137,7 @@ struct vd_cpack_params {
 	struct vd_vbr_params vbr;
 	const struct vd_palette *palette; /* VD_CPACK_PALETTE: built first */
 	uint32_t palette_colours;   /* the K asked for (recorded) */
-	int zstd_level;             /* VD_CPACK_RAW (0: 19) */
+	int zstd_level;             /* VD_CPACK_RAW (0: 9) */
 	int threads;                /* 0: all cores */
 };
 

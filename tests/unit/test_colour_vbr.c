@@ -303,7 +303,7 @@ static void test_fit_by_hand(void)
 	 * 31 << 3 | 31 >> 2 = 255 */
 	uint8_t rgb[6] = {8, 4, 8, 255, 255, 255};
 	uint16_t a, b;
-	uint8_t w[2];
+	uint8_t w[3];
 	uint64_t sse;
 	CHECK(vd_vbr_fit(rgb, 2, 0, 3, &a, &b, w, &sse));
 	CHECK_EQ(sse, 0);

@@ -9,6 +9,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 struct cell {
 	char *name;           /* the .svo file name (no directory) */
@@ -166,17 +167,26 @@ static int load_cell(const char *dir, const struct cell *c,
 	return VD_OK;
 }
 
+/* CPU seconds of the whole process (all threads): voxels per CPU second
+ * is the per-core rate whatever the load of the machine. */
+static double cpu_seconds(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+	return (double)t.tv_sec + t.tv_nsec * 1e-9;
+}
+
 struct method_run {
 	int method;
 	struct vd_cpack_writer *w;
 	struct vd_cpack_stats st;
-	double seconds;
+	double seconds, cpu_seconds;
 	uint64_t file_bytes;
 };
 
 static void json_method(struct vd_json *j, const struct vd_colorize_job *job,
 			const struct method_run *r, const struct vd_palette *pal,
-			uint64_t voxels, double seconds_palette)
+			uint64_t voxels, double seconds_palette, double cpu_palette)
 {
 	uint64_t raw = 3 * voxels;
 	uint64_t bytes = r->method == VD_CPACK_RAW ? r->file_bytes : r->st.bytes;
@@ -194,6 +204,9 @@ static void json_method(struct vd_json *j, const struct vd_colorize_job *job,
 	double sec = r->seconds + (r->method == VD_CPACK_PALETTE ? seconds_palette : 0);
 	vd_json_f64(j, "seconds", sec);
 	vd_json_f64(j, "voxels_per_second", sec > 0 ? voxels / sec : 0);
+	double cpu = r->cpu_seconds + (r->method == VD_CPACK_PALETTE ? cpu_palette : 0);
+	vd_json_f64(j, "cpu_seconds", cpu);
+	vd_json_f64(j, "voxels_per_cpu_second", cpu > 0 ? voxels / cpu : 0);
 	if (r->method == VD_CPACK_VBR) {
 		vd_json_f64(j, "max_error_limit", job->vbr.max_error);
 		vd_json_u64(j, "weight_bits", (uint64_t)job->vbr.weight_bits);
@@ -213,7 +226,8 @@ static int write_stats(const char *path, const struct vd_colorize_job *job,
 		       const struct method_run *runs, int nruns,
 		       const struct vd_palette *pal, uint64_t voxels,
 		       size_t cells, const struct vd_chunk_header *h,
-		       double seconds_read, double seconds_palette, double t0)
+		       double seconds_read, double seconds_palette,
+		       double cpu_palette, double t0)
 {
 	struct vd_json *j;
 	int err = vd_json_open(&j, path);
@@ -231,7 +245,8 @@ static int write_stats(const char *path, const struct vd_colorize_job *job,
 							   : vd_hardware_threads()));
 	vd_json_object(j, "methods");
 	for (int i = 0; i < nruns; i++)
-		json_method(j, job, &runs[i], pal, voxels, seconds_palette);
+		json_method(j, job, &runs[i], pal, voxels, seconds_palette,
+			    cpu_palette);
 	vd_json_end_object(j);
 	return vd_json_close(j);
 }
@@ -239,6 +254,7 @@ static int write_stats(const char *path, const struct vd_colorize_job *job,
 int vd_colorize_run(const struct vd_colorize_job *job)
 {
 	double t0 = vd_seconds(), seconds_read = 0, seconds_palette = 0;
+	double cpu_palette = 0;
 	struct cell *cells = NULL;
 	size_t ncells = 0;
 	struct vd_palette pal = {0};
@@ -261,16 +277,17 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 	/* the palette's pass: a histogram of every colour, then the global
 	 * palette (Dado et al. quantise the whole scene first) */
 	if (job->methods & 1 << VD_CPACK_PALETTE) {
-		double tp = vd_seconds();
+		double tp = vd_seconds(), cp = cpu_seconds(), cpu_read = 0;
 		if ((err = vd_colour_hist_init(&hist)))
 			goto out;
 		for (size_t i = 0; i < ncells; i++) {
 			struct vd_colours col;
-			double tr = vd_seconds();
+			double tr = vd_seconds(), cr = cpu_seconds();
 			if ((err = load_cell(job->indir, &cells[i], &col, &first,
 					     i == 0)))
 				goto out;
 			seconds_read += vd_seconds() - tr;
+			cpu_read += cpu_seconds() - cr;
 			vd_colour_hist_add(&hist, col.rgb, col.voxels);
 			vd_colours_release(&col);
 		}
@@ -278,6 +295,7 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 					    job->lossless, job->threads)))
 			goto out;
 		seconds_palette = vd_seconds() - tp - seconds_read;
+		cpu_palette = cpu_seconds() - cp - cpu_read;
 	}
 	if ((err = vd_dir_stage(job->outdir, colorize_file, staging,
 				sizeof staging)))
@@ -305,11 +323,12 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 							   job->provenance);
 			}
 		for (int r = 0; r < nruns && !err; r++) {
-			double tm = vd_seconds();
+			double tm = vd_seconds(), cm = cpu_seconds();
 			err = vd_cpack_writer_add(runs[r].w, (int)cells[i].level,
 						  cells[i].morton, col.rgb,
 						  col.voxels);
 			runs[r].seconds += vd_seconds() - tm;
+			runs[r].cpu_seconds += cpu_seconds() - cm;
 		}
 		voxels += col.voxels;
 		vd_colours_release(&col);
@@ -317,10 +336,11 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 			goto out;
 	}
 	for (int r = 0; r < nruns; r++) {
-		double tm = vd_seconds();
+		double tm = vd_seconds(), cm = cpu_seconds();
 		int e = vd_cpack_writer_commit(runs[r].w, &runs[r].st);
 		runs[r].w = NULL;
 		runs[r].seconds += vd_seconds() - tm;
+		runs[r].cpu_seconds += cpu_seconds() - cm;
 		if (e && !err)
 			err = e;
 		char path[4200];
@@ -336,7 +356,8 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 		char path[4200];
 		snprintf(path, sizeof path, "%s/colorize.stats.json", staging);
 		if ((err = write_stats(path, job, runs, nruns, &pal, voxels, ncells,
-				       &first, seconds_read, seconds_palette, t0)))
+				       &first, seconds_read, seconds_palette,
+				       cpu_palette, t0)))
 			goto out;
 	}
 	if ((err = vd_dir_publish(staging, job->outdir)))
@@ -344,7 +365,8 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 	staged = 0;
 	if (job->stats_path &&
 	    (err = write_stats(job->stats_path, job, runs, nruns, &pal, voxels,
-			       ncells, &first, seconds_read, seconds_palette, t0)))
+			       ncells, &first, seconds_read, seconds_palette,
+				       cpu_palette, t0)))
 		goto out;
 	if (!job->quiet) {
 		fprintf(stderr, "colorize: %llu voxels in %zu cells:",

@@ -249,7 +249,7 @@ int vd_cpack_writer_open(struct vd_cpack_writer **out, const char *path,
 			       : p->method == VD_CPACK_PALETTE ? TAG_POFS
 							       : TAG_RAWC;
 		int lvl = p->method == VD_CPACK_RAW
-				  ? (p->zstd_level ? p->zstd_level : 19)
+				  ? (p->zstd_level ? p->zstd_level : 9)
 				  : -1;
 		err = vd_chunk_writer_begin(w->cw, tag, lvl);
 	}
