@@ -48,7 +48,7 @@ endif
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
-                slurm-wlm munge clang libjansson-dev
+                slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
@@ -111,6 +111,12 @@ $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
 
+# benchmark helpers (tests/bench/*.c that use the library)
+$(OUT)/bench/%: tests/bench/%.c $(LIB) $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -c -o $@.o $<
+	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
+
 $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
@@ -152,7 +158,7 @@ test: deps
 	@tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory -j$(JOBS) all
+	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation
 	@tests/bench.sh
 
 # Fuzzing (libFuzzer, Debian's clang): one target per reader,
@@ -204,14 +210,19 @@ $(FUZZ_OUT)/fuzz_%: tests/fuzz/fuzz_%.c $(wildcard tests/fuzz/*.h) $(FUZZ_LIB) $
 fuzz-build: $(FUZZ_BINS)
 
 fuzz: fuzz-build
-	@for t in $(FUZZ_BINS); do \
+	@failed=; for t in $(FUZZ_BINS); do \
 		n=$$(basename $$t); \
+		seeds=tests/fuzz/corpus/$${n#fuzz_}; \
+		test -d $$seeds || { echo "fuzz: no seed corpus $$seeds"; exit 1; }; \
 		mkdir -p $(FUZZ_OUT)/corpus/$$n $(FUZZ_OUT)/crash/$$n; \
 		echo "== $$n for $(FUZZ_SECONDS) s"; \
 		$$t -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 \
 		    -artifact_prefix=$(FUZZ_OUT)/crash/$$n/ -print_final_stats=1 \
-		    $(FUZZ_OUT)/corpus/$$n tests/fuzz/corpus/$$n || exit 1; \
-	done
+		    $(FUZZ_OUT)/corpus/$$n $$seeds || failed="$$failed $$n"; \
+	done; \
+	if [ -n "$$failed" ]; then \
+		echo "fuzz: crashes in$$failed (inputs in $(FUZZ_OUT)/crash/)"; exit 1; \
+	fi
 
 clean:
 	rm -rf out

@@ -123,6 +123,41 @@ fi
 budget_run out/terrain-x16.ply 14 512MiB
 budget_run out/terrain-x16.ply 16 512MiB
 
+# Chunk compression: every section of the dragon's chunks at 2^12 (SVO
+# cells, root DAG and SSVDAG) recompressed at zstd levels 1..19, bytes and
+# speeds; the chunk writer's level is chosen from this
+# (schemas/chunk-format.md, "Compression level").
+zstd_levels() {
+	local d=$OUT/zstd
+	rm -rf "$d" && mkdir -p "$d" || return
+	out/bin/voxelize "$DATA/stanford_dragon.ply" -o "$d/vox" --levels 12 --chunk-level 2 -q &&
+	for f in "$d"/vox/*.svo; do
+		out/bin/svo-to-dag "$f" -o "$d/$(basename "$f" .svo).dag" -q || return
+	done &&
+	out/bin/svo-to-dag --merge "$d"/chunk-*.dag --to-level 0 -o "$d/root.dag" -q &&
+	out/bin/symmetry-merge "$d/root.dag" -o "$d/root.ssvdag" -q &&
+	echo && echo "zstd levels on the dragon's chunks at 2^12 (single thread):" &&
+	out/bench/zstd_levels "$d"/vox/*.svo "$d/root.dag" "$d/root.ssvdag"
+	rm -rf "$d"
+}
+zstd_levels
+
+# Translation (issue 13): how many more SVDAG nodes would merge if subtrees
+# equal up to a shift of 1..3 voxels were merged, on every shared mesh at
+# 2^10 (tests/bench/translation.c says exactly what is counted).
+translation() {
+	local d=$OUT/translation m
+	echo && echo "translation-equal subtrees at 2^10 (bound on the saving over the SVDAG):"
+	for m in "$DATA"/*.ply; do
+		rm -rf "$d" && mkdir -p "$d" &&
+		out/bin/voxelize "$m" -o "$d/vox" --levels 10 --chunk-level 0 -q &&
+		out/bin/svo-to-dag "$d/vox/chunk-L0-0.svo" -o "$d/root.dag" -q &&
+		out/bench/translation "$d/root.dag" | sed "s|$d/root.dag|$(basename "$m" .ply)|"
+	done
+	rm -rf "$d"
+}
+translation
+
 # The runner's own cost at scale: a pipeline of ~100,000 cells (the terrain
 # at 2^13 in cells of 32^3, chunk level 8; a height field fills about two
 # cells per column of 256^2) planned and run, the runner's CPU (getrusage

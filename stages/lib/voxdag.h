@@ -1419,6 +1419,8 @@ int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 		     const char *name, double fov_deg, int width, int height);
 
 /* What to render. */
+struct vd_colour_source;
+
 struct vd_render_opts {
 	int width, height;        /* pixels, 1..VD_RENDER_MAX_SIDE each */
 	struct vd_camera cam;
@@ -1427,6 +1429,10 @@ struct vd_render_opts {
 	double lod_pixels;        /* 0: exact; else stop at nodes whose
 				     projection is at most this many pixels */
 	int threads;              /* 0: all cores */
+	/* Voxel colours (NULL: one grey). A hit voxel takes its colour, an
+	 * LOD cell its first voxel's; the source must cover exactly the
+	 * scene's voxels (VD_ERR_MISMATCH). */
+	const struct vd_colour_source *colours;
 	const struct vd_render_scene *diff; /* NULL, or a second scene on the
 				     same grid (levels, origin, voxel size):
 				     the picture is then of both scenes'
@@ -1477,6 +1483,27 @@ int vd_image_write_depth(const struct vd_image *img, const char *path);
  * Atomic. */
 int vd_image_write_ids(const struct vd_image *img, const char *path);
 
+/* Image comparison (render/metrics.c; conventions there): MSE over the RGB
+ * bytes, PSNR in dB, single-scale SSIM and 5-scale MS-SSIM on luma. */
+struct vd_image_metrics {
+	double mse, psnr, ssim, ms_ssim;
+};
+
+/* Compares two w x h RGB images. mse and psnr are always set; SSIM needs
+ * 11 pixels and MS-SSIM 176 on each side: what cannot be computed is NaN
+ * and the return VD_ERR_ARG. */
+int vd_image_metrics(const uint8_t *a, const uint8_t *b, int w, int h,
+		     struct vd_image_metrics *m);
+
+/* SSIM and mean contrast-structure of two w x h greyscale images (values
+ * in 0..255) at one scale. */
+int vd_ssim_scale(const double *a, const double *b, int w, int h,
+		  double *ssim, double *cs);
+
+/* Reads a PNG of any colour type as 8-bit RGB (*rgb: free with free()). */
+int vd_png_read_rgb(const char *path, uint8_t **rgb, int *width,
+		    int *height);
+
 /* One run of the render stage, as its main() sets it up. */
 struct vd_render_job {
 	const char *tool;          /* "render", for messages */
@@ -1491,6 +1518,7 @@ struct vd_render_job {
 	struct vd_render_opts opts;
 	int quiet;                 /* no summary on stderr */
 	int no_verify;             /* read an encoding without its manifest */
+	const char *colours;       /* vd_colour_source_open() path, or NULL */
 };
 
 /* Loads the input (a chunk file by its magic, else an encoding by its
@@ -1503,6 +1531,70 @@ struct vd_render_job {
 int vd_render_run(const struct vd_render_job *job);
 
 /* ---- end of render block */
+
+/* ---- voxel counts and colour indices (colour/voxcount.c)
+ * The colour paper's §3: each DAG node's voxel count, from which a voxel's
+ * index in the scene's colour array (Morton order of the set voxels, the
+ * order of the colour chunks) is a sum along its path. Works on a DAG or
+ * SSVDAG chunk (reflections: logical child order, counts at the stored
+ * slots) and on every encoding (through the logical view of vd_enc_*). */
+struct vd_voxcount {
+	const struct vd_dag *dag;   /* one of dag, enc */
+	const struct vd_enc *enc;
+	int levels;
+	uint64_t voxels;            /* voxels below the root */
+	/* DAG: count[l][i] for node i of level l (cap = used = nodes).
+	 * Encoding: a hash per level above the brick level, key[l][j] = node
+	 * position + 1 (0 = free slot), count[l][j] its count. */
+	uint64_t *count[VD_MAX_LEVELS];
+	uint64_t *key[VD_MAX_LEVELS];
+	uint64_t cap[VD_MAX_LEVELS], used[VD_MAX_LEVELS];
+};
+
+/* Counts of every node of `d` (any chunk level) or of the encoding `e`,
+ * which must outlive *vc. Release with vd_voxcount_release(). */
+int vd_voxcount_from_dag(struct vd_voxcount *vc, const struct vd_dag *d);
+int vd_voxcount_from_enc(struct vd_voxcount *vc, const struct vd_enc *e);
+
+/* For the cell (x, y, z) of the 2^level grid (level L: a voxel; smaller: a
+ * cell, as a level-of-detail hit): returns 1 and sets *index to the colour
+ * index of the cell's first voxel in Morton order, or 0 when the cell is
+ * empty. For a chunk that is not the root, indices count from the chunk's
+ * first voxel. */
+int vd_voxcount_index(const struct vd_voxcount *vc, int level, uint32_t x,
+		      uint32_t y, uint32_t z, uint64_t *index);
+
+/* Bytes of the counts a renderer would store beside the nodes: levels
+ * above the brick level, each at the smallest of 1/2/4/8 bytes per count
+ * holding its largest one (brick and mask counts are popcounts). */
+uint64_t vd_voxcount_stored_bytes(const struct vd_voxcount *vc);
+
+void vd_voxcount_release(struct vd_voxcount *vc);
+
+/* Colour sources: the colour of voxel i of the scene's colour array, from
+ * the colour chunks voxelize writes (a directory) or a compressed file of
+ * colorize. get() is thread-safe and takes index < voxels. */
+struct vd_colour_source {
+	uint64_t voxels;            /* length of the colour array */
+	int levels;                 /* grid depth the colours were made at */
+	void (*get)(const struct vd_colour_source *s, uint64_t index,
+		    uint8_t rgb[3]);
+	void *impl;
+	void (*release)(struct vd_colour_source *s);
+};
+
+/* Opens `path`: a directory of colour chunks (each checked against the SVO
+ * chunk beside it, concatenated in cell order). */
+int vd_colour_source_open(struct vd_colour_source *s, const char *path);
+void vd_colour_source_release(struct vd_colour_source *s);
+
+/* The whole colour array of the colour chunks in `dir`, in cell order
+ * (3 bytes per voxel, free with free()), each chunk verified against the
+ * SVO chunk beside it. *first gets the first chunk's header (or NULL). */
+int vd_colour_chunks_load(const char *dir, uint8_t **rgb, uint64_t *voxels,
+			  struct vd_chunk_header *first);
+
+/* ---- end of voxel counts block */
 
 /* ---- Cube group (symmetry-merge --group 48)
  *

@@ -10,6 +10,7 @@
 
 static const char usage[] =
 	"usage: render SCENE -o OUT.png [options]\n"
+	"       render --compare A.png B.png\n"
 	"\n"
 	"Casts rays straight through the compressed structure of SCENE (a\n"
 	".svdag, .ussvdag, .esvdag or .ssvdag encoding, or a root DAG or SSVDAG\n"
@@ -41,10 +42,17 @@ static const char usage[] =
 	"                          and those set in only one of them in red, as\n"
 	"                          the lossy SVDAG paper's Fig. 1 (exact only,\n"
 	"                          no --lod); the camera frames SCENE\n"
+	"  -C, --colours SRC       colour the voxels from SRC: voxelize's output\n"
+	"                          directory (its colour chunks) or a colorize\n"
+	"                          file; it must cover exactly the scene's voxels\n"
 	"  -q, --quiet             no summary line on stderr\n"
 	"      --no-verify         read an encoding that has no manifest beside\n"
 	"                          it (a file from the SymVox tools); encode's\n"
 	"                          are checked against theirs by default\n"
+	"      --compare A B       compare two PNG images of one size instead:\n"
+	"                          prints one JSON line with mse and psnr (RGB\n"
+	"                          bytes), ssim and ms_ssim (luma; MS-SSIM needs\n"
+	"                          176 pixels a side, else it is null)\n"
 	"  -h, --help              this text\n"
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O), 2 usage (including\n"
@@ -87,6 +95,42 @@ static int parse_size(const char *s, int *w, int *h)
 	       vd_cli_int(x + 1, 1, VD_RENDER_MAX_SIDE, h) ? -1 : 0;
 }
 
+/* render --compare: the figures of the colour tables for two renders. */
+static int compare_images(const char *a, const char *b)
+{
+	uint8_t *pa = NULL, *pb = NULL;
+	int wa, ha, wb, hb;
+	int err = vd_png_read_rgb(a, &pa, &wa, &ha);
+	if (!err)
+		err = vd_png_read_rgb(b, &pb, &wb, &hb);
+	if (!err && (wa != wb || ha != hb))
+		err = vd_fail(VD_ERR_MISMATCH, "'%s' is %dx%d, '%s' is %dx%d",
+			      a, wa, ha, b, wb, hb);
+	struct vd_image_metrics m;
+	if (!err) {
+		int merr = vd_image_metrics(pa, pb, wa, ha, &m);
+		if (merr && merr != VD_ERR_ARG)
+			err = merr;
+		/* else too small for (MS-)SSIM: those are NaN, printed null */
+	}
+	free(pa);
+	free(pb);
+	if (err) {
+		fprintf(stderr, "render: cannot compare: %s\n", vd_error_detail());
+		return 1;
+	}
+	char ssim[32] = "null", ms[32] = "null", psnr[32] = "null";
+	if (!isnan(m.ssim))
+		snprintf(ssim, sizeof ssim, "%.6f", m.ssim);
+	if (!isnan(m.ms_ssim))
+		snprintf(ms, sizeof ms, "%.6f", m.ms_ssim);
+	if (isfinite(m.psnr))
+		snprintf(psnr, sizeof psnr, "%.4f", m.psnr);
+	printf("{\"mse\": %.6f, \"psnr\": %s, \"ssim\": %s, \"ms_ssim\": %s}\n",
+	       m.mse, psnr, ssim, ms);
+	return 0;
+}
+
 int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
@@ -104,6 +148,8 @@ int main(int argc, char **argv)
 		{"lod", required_argument, NULL, 'L'},
 		{"diff", required_argument, NULL, 'D'},
 		{"quiet", no_argument, NULL, 'q'},
+		{"colours", required_argument, NULL, 'C'},
+		{"compare", no_argument, NULL, 'K'},
 		{"no-verify", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
@@ -113,9 +159,9 @@ int main(int argc, char **argv)
 	job.opts.height = 720;
 	job.opts.cam.fov_deg = 40;
 	job.opts.shadows = 1;
-	int has_target = 0;
+	int has_target = 0, compare = 0;
 	int c;
-	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:D:qh", longopts,
+	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:D:qC:h", longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -186,6 +232,12 @@ int main(int argc, char **argv)
 		case 'V':
 			job.no_verify = 1;
 			break;
+		case 'C':
+			job.colours = optarg;
+			break;
+		case 'K':
+			compare = 1;
+			break;
 		case 'h':
 			fputs(usage, stdout);
 			return 0;
@@ -194,6 +246,10 @@ int main(int argc, char **argv)
 			return 2;
 		}
 	}
+	if (compare)
+		return argc - optind != 2 ?
+		       vd_cli_usage(TOOL, "%s", "--compare needs two images") :
+		       compare_images(argv[optind], argv[optind + 1]);
 	if (argc - optind != 1)
 		return vd_cli_usage(TOOL, "%s", argc - optind < 1 ?
 				   "needs one input: SCENE" :

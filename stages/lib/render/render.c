@@ -533,6 +533,8 @@ struct render_ctx {
 	struct vd_image *img;
 	double lod_k;          /* vd_ray.lod for primary and shadow rays */
 	uint64_t *shadow_rays; /* per row */
+	const struct vd_voxcount *counts; /* with o->colours: voxel indices */
+	float srgb_to_linear[256];
 };
 
 static void primary_row(void *ctx, size_t row, int worker)
@@ -701,8 +703,20 @@ static void shade_row(void *ctx, size_t row, int worker)
 		}
 		double sky = 0.5 + 0.5 * n[1];
 		double light = 0.10 + 0.12 * sky + 0.80 * (lambert > 0 ? lambert : 0) * vis;
-		static const double albedo[3] = {0.82, 0.76, 0.66},
-				    red[3] = {0.90, 0.05, 0.04};
+		static const double grey[3] = {0.82, 0.76, 0.66};
+		double albedo[3] = {grey[0], grey[1], grey[2]};
+		uint64_t index;
+		if (c->counts && vd_voxcount_index(c->counts, h->level, h->cell[0],
+						   h->cell[1], h->cell[2], &index)) {
+			/* a voxel's own colour; an LOD cell's first voxel's */
+			uint8_t rgb[3];
+			c->o->colours->get(c->o->colours, index, rgb);
+			for (int k = 0; k < 3; k++)
+				albedo[k] = c->srgb_to_linear[rgb[k]];
+		}
+		/* a voxel set in one of two scenes only is red, whatever its
+		 * colour (render --diff) */
+		static const double red[3] = {0.90, 0.05, 0.04};
 		const double *a = img->differs && img->differs[i] ? red : albedo;
 		for (int k = 0; k < 3; k++) px[k] = to_srgb8(a[k] * light);
 	}
@@ -767,6 +781,25 @@ int vd_render_image(const struct vd_render_scene *s,
 		return NOMEM();
 	}
 	struct render_ctx c = {.s = s, .o = o, .img = img, .shadow_rays = rows};
+	struct vd_voxcount counts = {0};
+	if (o->colours) {
+		err = s->dag ? vd_voxcount_from_dag(&counts, s->dag)
+			     : vd_voxcount_from_enc(&counts, s->enc);
+		if (!err && counts.voxels != o->colours->voxels)
+			err = vd_fail(VD_ERR_MISMATCH, "%llu colours for a scene "
+				      "of %llu voxels",
+				      (unsigned long long)o->colours->voxels,
+				      (unsigned long long)counts.voxels);
+		if (err) {
+			vd_voxcount_release(&counts);
+			free(rows);
+			return err;
+		}
+		c.counts = &counts;
+		/* the inverse of to_srgb8()'s curve */
+		for (int v = 0; v < 256; v++)
+			c.srgb_to_linear[v] = (float)pow(v / 255.0, 2.2);
+	}
 	camera_frame(&o->cam, o->width, o->height, &c.f);
 	/* a node of side S voxels at distance t spans S * voxel_size /
 	 * (t * pixel angle) pixels */
@@ -783,6 +816,7 @@ int vd_render_image(const struct vd_render_scene *s,
 	img->seconds_primary = t1 - t0;
 	img->seconds_shade = t2 - t1;
 	free(rows);
+	vd_voxcount_release(&counts);
 	return err;
 }
 
@@ -1099,8 +1133,24 @@ int vd_render_run(const struct vd_render_job *job)
 		for (int a = 0; a < 3; a++)
 			o.light[a] = o.cam.target[a] + 2.0 * sqrt(dist) * dir[a];
 	}
+	struct vd_colour_source colours = {0};
+	if (job->colours) {
+		err = vd_colour_source_open(&colours, job->colours);
+		if (!err && colours.levels != s->levels)
+			err = vd_fail(VD_ERR_MISMATCH, "colours made at depth %d, "
+				      "the scene has depth %d", colours.levels,
+				      s->levels);
+		if (err) {
+			vd_colour_source_release(&colours);
+			input_release(&other);
+			input_release(&in);
+			return reword(err, "cannot read colours", job->colours);
+		}
+		o.colours = &colours;
+	}
 	struct vd_image img;
 	err = vd_render_image(s, &o, &img);
+	vd_colour_source_release(&colours);
 	if (err) err = reword(err, "cannot render", job->input);
 	if (!err) {
 		err = vd_image_write_png(&img, job->output);
