@@ -30,18 +30,32 @@ unsigned vd_colour_error_limit(double max_error)
 	return x >= 3 * 255.0 * 255.0 ? 3 * 255 * 255 : (unsigned)x;
 }
 
-/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]. */
-static unsigned nearest_level(double v, int bits)
+/* Decoded 8-bit values of the 5- and 6-bit levels (bit replication). */
+#define E5(c) ((c) << 3 | (c) >> 2)
+#define E6(c) ((c) << 2 | (c) >> 4)
+#define E5x4(c) E5(c), E5((c) + 1), E5((c) + 2), E5((c) + 3)
+#define E6x4(c) E6(c), E6((c) + 1), E6((c) + 2), E6((c) + 3)
+static const uint8_t dec5[32] = {E5x4(0), E5x4(4), E5x4(8), E5x4(12),
+				 E5x4(16), E5x4(20), E5x4(24), E5x4(28)};
+static const uint8_t dec6[64] = {E6x4(0), E6x4(4), E6x4(8), E6x4(12),
+				 E6x4(16), E6x4(20), E6x4(24), E6x4(28),
+				 E6x4(32), E6x4(36), E6x4(40), E6x4(44),
+				 E6x4(48), E6x4(52), E6x4(56), E6x4(60)};
+
+/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]: the
+ * rounded scaled value or a neighbour, ties to the lower level. (v >= 0,
+ * so the cast is the floor.) */
+static inline unsigned nearest_level(double v, int bits)
 {
 	int top = (1 << bits) - 1;
-	int k = (int)floor(v * top / 255.0 + 0.5);
+	const uint8_t *dec = bits == 5 ? dec5 : dec6;
+	int k = (int)(v * top / 255.0 + 0.5);
 	int best = 0;
 	double bd = 1e30;
 	for (int c = k - 1; c <= k + 1; c++) {
 		if (c < 0 || c > top)
 			continue;
-		int e = bits == 5 ? (c << 3 | c >> 2) : (c << 2 | c >> 4);
-		double d = fabs(e - v);
+		double d = fabs(dec[c] - v);
 		if (d < bd) {
 			bd = d;
 			best = c;
@@ -74,8 +88,16 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 	int m = (1 << wb) - 1;
 	/* the 2^W decoded colours of this block's line */
 	uint8_t pal[256][3];
-	for (int k = 0; k <= m; k++)
-		vd_vbr_interp(c0, c1, (unsigned)k, wb, pal[k]);
+	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
+	 * divides by a constant (a multiplication), other widths by m */
+	if (m == 7)
+		for (int k = 0; k <= 7; k++)
+			for (int c = 0; c < 3; c++)
+				pal[k][c] = (uint8_t)((a[c] * (7 - k) + b[c] * k + 3) / 7);
+	else
+		for (int k = 0; k <= m; k++)
+			for (int c = 0; c < 3; c++)
+				pal[k][c] = (uint8_t)((a[c] * (m - k) + b[c] * k + m / 2) / m);
 	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
 	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
 	/* the rounded projection is only where the search starts (it and
@@ -131,8 +153,25 @@ struct near1 {
 static struct near1 near_tab[511][2][256];
 static pthread_once_t near_once = PTHREAD_ONCE_INIT;
 
+/* The least-squares fit's weights q / m and their products, row m + q as
+ * in near_tab: the same doubles the fit would compute per colour, without
+ * a division per colour. */
+struct lsw {
+	double sa, sb, aa, ab, bb;
+};
+static struct lsw ls_tab[511];
+
 static void near_init(void)
 {
+	for (int m = 1; m < 256; m = 2 * m + 1)
+		for (int q = 0; q <= m; q++) {
+			struct lsw *e = &ls_tab[m + q];
+			e->sb = (double)q / m;
+			e->sa = 1 - e->sb;
+			e->aa = e->sa * e->sa;
+			e->ab = e->sa * e->sb;
+			e->bb = e->sb * e->sb;
+		}
 	for (int wb = 1; wb <= 8; wb++) {
 		int m = (1 << wb) - 1;
 		for (int kind = 0; kind < 2; kind++) {
@@ -345,13 +384,16 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		double sc = m / (tmax - tmin);
 		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
 		       rb[3] = {0, 0, 0};
+		pthread_once(&near_once, near_init);
+		const struct lsw *lw = ls_tab + m;
 		for (uint32_t i = 0; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
 			int q = (int)((t[i] - tmin) * sc + 0.5);
-			double sb = (double)(q > m ? m : q) / m, sa = 1 - sb;
-			aa += sa * sa;
-			ab += sa * sb;
-			bb += sb * sb;
+			const struct lsw *e = lw + (q > m ? m : q);
+			double sa = e->sa, sb = e->sb;
+			aa += e->aa;
+			ab += e->ab;
+			bb += e->bb;
 			for (int k = 0; k < 3; k++) {
 				ra[k] += sa * x[k];
 				rb[k] += sb * x[k];
@@ -410,12 +452,18 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 }
 
 /* Algorithm 1 over one segment. Blocks form a doubly linked list indexed
- * by their first voxel; `stuck[b]` caches "block b cannot merge with its
- * right neighbour", valid until either of the two changes (the paper's
- * "which blocks were modified in the last pass"). */
+ * by their first voxel; `stuck[b]` caches the merge of block b with its
+ * right neighbour, valid until either of the two changes (the paper's
+ * "which blocks were modified in the last pass"): STUCK, it cannot merge,
+ * or KNOWN, its MSE is mse[b]. The fit is a function of the block's
+ * colours alone, so a cached MSE is the one eval would compute again: a
+ * merge that was possible but lost to the other side's is not refitted
+ * in the next pass. */
+enum { UNKNOWN = 0, STUCK = 1, KNOWN = 2 };
 struct blocks {
 	uint32_t *next, *prev, *end;
 	uint8_t *stuck;
+	double *mse;
 	struct mom *mom;   /* moments of the block starting there */
 	double *t;         /* scratch of the fit */
 };
@@ -438,6 +486,18 @@ static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
 	return (double)sse / n;
 }
 
+/* eval of block s with its right neighbour l2, through the cache */
+static double merge_mse(const uint8_t *rgb, struct blocks *B, uint32_t s,
+			uint32_t l2, unsigned limit, int wb)
+{
+	if (B->stuck[s] == KNOWN)
+		return B->mse[s];
+	double e = eval(rgb, B, s, l2, limit, wb);
+	B->stuck[s] = e < 0 ? STUCK : KNOWN;
+	B->mse[s] = e;
+	return e;
+}
+
 int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		  const struct vd_vbr_params *p)
 {
@@ -455,12 +515,13 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	B.prev = malloc(((size_t)n + 1) * sizeof *B.prev);
 	B.end = malloc(((size_t)n + 1) * sizeof *B.end);
 	B.stuck = calloc((size_t)n + 1, 1);
+	B.mse = malloc(((size_t)n + 1) * sizeof *B.mse);
 	B.mom = malloc(((size_t)n + 1) * sizeof *B.mom);
 	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
 	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
 	uint8_t *w = malloc((size_t)n + 1);
 	int err = VD_OK;
-	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
+	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mse || !B.mom || !B.t ||
 	    !seg->weights || !w) {
 		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
 		goto out;
@@ -500,16 +561,10 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		while (b != NIL) {
 			uint32_t l = B.prev[b], r = B.next[b];
 			double lm = -1, rm = -1;
-			if (l != NIL && !B.stuck[l]) {
-				lm = eval(rgb, &B, l, b, limit, wb);
-				if (lm < 0)
-					B.stuck[l] = 1;
-			}
-			if (r != NIL && !B.stuck[b]) {
-				rm = eval(rgb, &B, b, r, limit, wb);
-				if (rm < 0)
-					B.stuck[b] = 1;
-			}
+			if (l != NIL && B.stuck[l] != STUCK)
+				lm = merge_mse(rgb, &B, l, b, limit, wb);
+			if (r != NIL && B.stuck[b] != STUCK)
+				rm = merge_mse(rgb, &B, b, r, limit, wb);
 			uint32_t m = b;
 			if (lm >= 0 && (rm < 0 || lm <= rm)) {
 				/* b joins its left neighbour */
@@ -527,13 +582,13 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 				B.next[b] = rr;
 				if (rr != NIL)
 					B.prev[rr] = b;
-				B.stuck[b] = B.stuck[r] = 0;
+				B.stuck[b] = B.stuck[r] = UNKNOWN;
 				merged = 1;
 			}
 			if (m != b || rm >= 0) {
-				B.stuck[m] = 0;
+				B.stuck[m] = UNKNOWN;
 				if (B.prev[m] != NIL)
-					B.stuck[B.prev[m]] = 0;
+					B.stuck[B.prev[m]] = UNKNOWN;
 			}
 			uint32_t nx = B.next[m];
 			b = nx == NIL ? NIL : B.next[nx];
@@ -588,6 +643,7 @@ out:
 	free(B.prev);
 	free(B.end);
 	free(B.stuck);
+	free(B.mse);
 	free(B.mom);
 	free(B.t);
 	free(w);
