@@ -452,18 +452,14 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 }
 
 /* Algorithm 1 over one segment. Blocks form a doubly linked list indexed
- * by their first voxel; `stuck[b]` caches the merge of block b with its
- * right neighbour, valid until either of the two changes (the paper's
- * "which blocks were modified in the last pass"): STUCK, it cannot merge,
- * or KNOWN, its MSE is mse[b]. The fit is a function of the block's
- * colours alone, so a cached MSE is the one eval would compute again: a
- * merge that was possible but lost to the other side's is not refitted
- * in the next pass. */
-enum { UNKNOWN = 0, STUCK = 1, KNOWN = 2 };
+ * by their first voxel; `stuck[b]` caches "block b cannot merge with its
+ * right neighbour", valid until either of the two changes (the paper's
+ * "which blocks were modified in the last pass"). A possible merge needs
+ * no cache: of a block's two possible merges the one not taken involves
+ * the block itself, which the taken one changed. */
 struct blocks {
 	uint32_t *next, *prev, *end;
 	uint8_t *stuck;
-	double *mse;
 	struct mom *mom;   /* moments of the block starting there */
 	double *t;         /* scratch of the fit */
 };
@@ -486,18 +482,6 @@ static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
 	return (double)sse / n;
 }
 
-/* eval of block s with its right neighbour l2, through the cache */
-static double merge_mse(const uint8_t *rgb, struct blocks *B, uint32_t s,
-			uint32_t l2, unsigned limit, int wb)
-{
-	if (B->stuck[s] == KNOWN)
-		return B->mse[s];
-	double e = eval(rgb, B, s, l2, limit, wb);
-	B->stuck[s] = e < 0 ? STUCK : KNOWN;
-	B->mse[s] = e;
-	return e;
-}
-
 int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		  const struct vd_vbr_params *p)
 {
@@ -515,13 +499,12 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	B.prev = malloc(((size_t)n + 1) * sizeof *B.prev);
 	B.end = malloc(((size_t)n + 1) * sizeof *B.end);
 	B.stuck = calloc((size_t)n + 1, 1);
-	B.mse = malloc(((size_t)n + 1) * sizeof *B.mse);
 	B.mom = malloc(((size_t)n + 1) * sizeof *B.mom);
 	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
 	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
 	uint8_t *w = malloc((size_t)n + 1);
 	int err = VD_OK;
-	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mse || !B.mom || !B.t ||
+	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
 	    !seg->weights || !w) {
 		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
 		goto out;
@@ -561,10 +544,16 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		while (b != NIL) {
 			uint32_t l = B.prev[b], r = B.next[b];
 			double lm = -1, rm = -1;
-			if (l != NIL && B.stuck[l] != STUCK)
-				lm = merge_mse(rgb, &B, l, b, limit, wb);
-			if (r != NIL && B.stuck[b] != STUCK)
-				rm = merge_mse(rgb, &B, b, r, limit, wb);
+			if (l != NIL && !B.stuck[l]) {
+				lm = eval(rgb, &B, l, b, limit, wb);
+				if (lm < 0)
+					B.stuck[l] = 1;
+			}
+			if (r != NIL && !B.stuck[b]) {
+				rm = eval(rgb, &B, b, r, limit, wb);
+				if (rm < 0)
+					B.stuck[b] = 1;
+			}
 			uint32_t m = b;
 			if (lm >= 0 && (rm < 0 || lm <= rm)) {
 				/* b joins its left neighbour */
@@ -582,13 +571,13 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 				B.next[b] = rr;
 				if (rr != NIL)
 					B.prev[rr] = b;
-				B.stuck[b] = B.stuck[r] = UNKNOWN;
+				B.stuck[b] = B.stuck[r] = 0;
 				merged = 1;
 			}
 			if (m != b || rm >= 0) {
-				B.stuck[m] = UNKNOWN;
+				B.stuck[m] = 0;
 				if (B.prev[m] != NIL)
-					B.stuck[B.prev[m]] = UNKNOWN;
+					B.stuck[B.prev[m]] = 0;
 			}
 			uint32_t nx = B.next[m];
 			b = nx == NIL ? NIL : B.next[nx];
@@ -643,7 +632,6 @@ out:
 	free(B.prev);
 	free(B.end);
 	free(B.stuck);
-	free(B.mse);
 	free(B.mom);
 	free(B.t);
 	free(w);
