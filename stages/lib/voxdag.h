@@ -1039,10 +1039,13 @@ struct vd_vbr_params {
 };
 
 /* The one fit rule of a block (the greedy and the tests' brute force use it
- * alike): least-squares endpoints along the colours' principal axis,
- * rounded to RGB565, each voxel's weight the one that decodes nearest;
- * failing that the axis' extreme points, then the first colour's nearest
- * RGB565 as one colour (the first sweep's rule, so its runs always fit).
+ * alike): a block of one colour gets the endpoints and weight that decode
+ * nearest it (exact whenever RGB565 endpoints and W-bit weights can
+ * represent it); others least-squares endpoints along the colours'
+ * principal axis, rounded to RGB565, each voxel's weight the one that
+ * decodes nearest; failing that the axis' extreme points, then the first
+ * colour's nearest RGB565 as one colour (the first sweep's rule, so its
+ * runs always fit).
  * Returns 1 when every colour of rgb[0..n) decodes within `limit`
  * (vd_colour_error_limit), 0 otherwise (stopping at the first colour
  * outside). On 1 sets *c0, *c1, *sse (sum of squared 8-bit distances) and,

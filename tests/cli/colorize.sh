@@ -44,6 +44,8 @@ for k, v in m.items():
     assert v["bytes"] <= size and v["bytes"] > 0, (k, v)
     assert abs(v["percent_of_raw"] - 100.0 * v["bytes"] / (3 * n)) < 1e-3 * v["percent_of_raw"]
     assert abs(v["ratio"] * 100 - v["percent_of_raw"]) < 1e-6 * v["percent_of_raw"] + 1e-9
+    # the paper's unit: e in percent, so GMSE x 10^4 / 255^2
+    assert abs(v["gmse_percent2"] - v["gmse"] * 1e4 / 65025) <= 1e-6 * v["gmse"] + 1e-12, (k, v)
 assert m["raw"]["gmse"] == 0 and m["raw"]["bytes"] == m["raw"]["file_bytes"]
 assert 0 < m["vbr"]["max_error"] <= 0.038 and m["vbr"]["blocks"] > 0
 assert m["vbr"]["gmse"] <= (0.038 * 255) ** 2

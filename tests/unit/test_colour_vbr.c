@@ -321,9 +321,81 @@ static void test_fit_by_hand(void)
 	CHECK_EQ(vd_colour_error_limit(0.025), 40); /* 6.375^2 = 40.6 */
 }
 
+/* A block of one colour gets the best its endpoints and weights can do:
+ * the brute-force least error over every weight and every pair of 5- or
+ * 6-bit endpoint levels per channel (with the weight fixed the channels are
+ * independent), so a colour RGB565 endpoints can represent decodes exactly.
+ * The nearest RGB565 alone (what the fit stored before) leaves up to 6/255
+ * on most colours. Random colours and every weight width; the returned
+ * endpoints and weights decode (decoder here) to exactly the reported SSE. */
+static void test_flat_colour_best(void)
+{
+	int exact = 0, total = 0;
+	for (int t = 0; t < 600; t++) {
+		int wb = 1 + t % 8, m = (1 << wb) - 1;
+		uint8_t x[3] = {(uint8_t)next(), (uint8_t)next(), (uint8_t)next()};
+		if (t < 8) /* the corners: 565 levels, exact at any width */
+			x[0] = x[1] = x[2] = t % 2 ? 255 : 0;
+		unsigned best = UINT32_MAX;
+		for (int w = 0; w <= m; w++) {
+			unsigned sum = 0;
+			for (int k = 0; k < 3; k++) {
+				int L = k == 1 ? 64 : 32, bk = 1 << 30;
+				for (int a = 0; a < L; a++)
+					for (int b = 0; b < L; b++) {
+						int ea = k == 1 ? a * 4 + a / 16 : a * 8 + a / 4;
+						int eb = k == 1 ? b * 4 + b / 16 : b * 8 + b / 4;
+						int d = (ea * (m - w) + eb * w + m / 2) / m - x[k];
+						if (d * d < bk)
+							bk = d * d;
+					}
+				sum += (unsigned)bk;
+			}
+			if (sum < best)
+				best = sum;
+		}
+		uint8_t rgb[3 * 5], w[5], d[3];
+		for (int i = 0; i < 5; i++)
+			memcpy(rgb + 3 * i, x, 3);
+		uint16_t c0, c1;
+		uint64_t sse;
+		CHECK(vd_vbr_fit(rgb, 5, 3 * 255 * 255, wb, &c0, &c1, w, &sse));
+		CHECK_EQ(sse, 5 * (uint64_t)best);
+		uint64_t got = 0;
+		for (int i = 0; i < 5; i++) {
+			decode_here(c0, c1, w[i], wb, d);
+			got += (uint64_t)vd_rgb_dist2(x, d);
+		}
+		CHECK_EQ(got, sse);
+		/* and a limit of exactly the best is met, one below is not */
+		CHECK(vd_vbr_fit(rgb, 5, best, wb, &c0, &c1, NULL, &sse));
+		if (best)
+			CHECK(!vd_vbr_fit(rgb, 5, best - 1, wb, &c0, &c1, NULL,
+					  &sse));
+		if (wb == 3) {
+			total++;
+			exact += best == 0;
+		}
+	}
+	/* at W = 3 almost every colour is exact (98.5% of the cube) */
+	printf("  W 3: %d of %d random flat colours exact\n", exact, total);
+	CHECK(exact >= total * 9 / 10);
+	/* a flat run of a colour off the 565 grid encodes exactly */
+	uint8_t flat[3 * 1000];
+	for (int i = 0; i < 1000; i++)
+		flat[3 * i] = 7, flat[3 * i + 1] = 77, flat[3 * i + 2] = 177;
+	struct vd_vbr_params p = {.max_error = 0.025, .weight_bits = 3};
+	struct vd_vbr_segment s;
+	CHECK_EQ(vd_vbr_encode(&s, flat, 1000, &p), VD_OK);
+	CHECK_EQ(s.count, 1);
+	CHECK_EQ(s.sse, 0);
+	vd_vbr_segment_release(&s);
+}
+
 int main(void)
 {
 	RUN(test_fit_by_hand);
+	RUN(test_flat_colour_best);
 	RUN(test_every_colour_within_threshold);
 	RUN(test_threshold_floor);
 	RUN(test_greedy_exact_cases);

@@ -198,6 +198,12 @@ static void json_method(struct vd_json *j, const struct vd_colorize_job *job,
 	vd_json_f64(j, "ratio", raw ? (double)bytes / raw : 0);
 	vd_json_f64(j, "percent_of_raw", raw ? 100.0 * bytes / raw : 0);
 	vd_json_f64(j, "gmse", voxels ? (double)r->st.sse / voxels : 0);
+	/* the same mean with the distance e in percent (channels in [0,1],
+	 * times 100): the unit the colour paper's GMSE figures are in
+	 * (schemas/colour-formats.md) */
+	vd_json_f64(j, "gmse_percent2",
+		    voxels ? (double)r->st.sse / voxels * 1e4 / (255.0 * 255.0)
+			   : 0);
 	vd_json_f64(j, "max_error", sqrt((double)r->st.max_dist2) / 255.0);
 	vd_json_u64(j, "blocks", r->st.blocks);
 	vd_json_u64(j, "segments", r->st.segments);
