@@ -207,7 +207,7 @@ static int load_bricks(const char *path, struct bricks *b, int *levels,
 		return vd_cli_fail(TOOL, err, "cannot read", path);
 	struct vd_dag d;
 	memset(&d, 0, sizeof d);
-	if ((err = vd_dag_load(&d, NULL, path, VD_KIND_ANY)))
+	if ((err = vd_dag_load(&d, NULL, path, VD_KIND_ANY_DAG)))
 		return vd_cli_fail(TOOL, err, "cannot read", path);
 	b->bytes += vd_dag_memory_bytes(&d);
 	*levels = d.levels;
@@ -273,8 +273,8 @@ static int diff_dags(const char *pa, const char *pb, uint64_t budget,
 	/* an encoding or an SSVDAG on either side: through the bricks */
 	if ((err == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pa) >= 0) ||
 	    (errb == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pb) >= 0) ||
-	    (!err && !errb && (ha.kind == VD_KIND_SSVDAG ||
-			       hb.kind == VD_KIND_SSVDAG)))
+	    (!err && !errb && (ha.kind != VD_KIND_DAG ||
+			       hb.kind != VD_KIND_DAG)))
 		return diff_bricks(pa, pb, budget, quiet, check_manifest);
 	if (err) return vd_cli_fail(TOOL, err, "cannot read", pa);
 	if ((err = errb))
@@ -362,7 +362,7 @@ int main(int argc, char **argv)
 	struct vd_dag dag;
 	memset(&dag, 0, sizeof dag);
 	int err = format >= 0 ? VD_OK
-			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY);
+			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY_DAG);
 	if (err) return vd_cli_fail(TOOL, err, "cannot read", dag_path);
 	uint64_t used = format >= 0 ? 0 : vd_dag_memory_bytes(&dag);
 	struct vd_svo *svos = calloc(n, sizeof *svos);

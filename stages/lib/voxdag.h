@@ -182,6 +182,8 @@ enum vd_chunk_kind {
 	VD_KIND_ENCODED = 4, /* compact encodings (encode stage) */
 	VD_KIND_COLOURS = 5, /* voxel colours of one cell (voxelize) */
 	VD_KIND_CPACK = 6,   /* a scene's colours compressed (colorize) */
+	VD_KIND_SSVDAG48 = 7, /* subtrees equal under the 48 cube symmetries
+				 merged (symmetry-merge --group 48) */
 	VD_KIND_COUNT_
 };
 
@@ -1387,10 +1389,13 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 		const char *path, const char *provenance);
 
-/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG or
- * VD_KIND_ANY (either of the two; VD_ERR_WRONG_KIND for other kinds).
+/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG,
+ * VD_KIND_SSVDAG48, VD_KIND_ANY (dag or ssvdag: what the stages after the
+ * symmetry merge read) or VD_KIND_ANY_DAG (any of the three);
+ * VD_ERR_WRONG_KIND for other kinds.
  * Validates as vd_dag_validate() and checks the voxel count. `h` may be
  * NULL. Release with vd_dag_release(). */
+#define VD_KIND_ANY_DAG 0x100u
 int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
 		const char *path, uint32_t kind);
 
@@ -1970,6 +1975,8 @@ int vd_colour_chunks_load(const char *dir, uint8_t **rgb, uint64_t *voxels,
  * 5 ZYX (output axis i takes input axis perm[k][i]). A transformed subtree
  * holds voxel T(p) for each voxel p of the original. */
 #define VD_G48 48
+/* The cube group has 98 subgroups (its invariance sets). */
+#define VD_G48_SUBGROUPS 98
 
 /* perm[k] of transform t: output axis i takes input axis vd_g48_perm(t)[i]. */
 const uint8_t *vd_g48_perm(unsigned t);
@@ -1984,6 +1991,14 @@ uint8_t vd_g48_mask(uint8_t v, unsigned t);
 /* A brick (byte c = child c's mask) transformed by t: local Morton bit
  * c << 3 | c' -> child(t, c) << 3 | child(t, c'). */
 uint64_t vd_g48_brick(uint64_t v, unsigned t);
+
+/* The number of subgroups found (VD_G48_SUBGROUPS; a test checks it). */
+unsigned vd_g48_subgroup_count(void);
+
+/* The 256-entry leaf table under the 48: `canon` the largest of the 48
+ * transforms of the mask, `refl` the transform t with vd_g48_mask(canon, t)
+ * == mask, `inv` the index of its invariance subgroup (not a set). */
+const struct vd_leaf_class *vd_leaf_classes48(void);
 
 /* ---- end of cube group block */
 
