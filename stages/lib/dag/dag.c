@@ -1694,7 +1694,10 @@ int vd_dag_run(const struct vd_dag_job *job)
 			uint32_t want = !sym || !job->merge ? VD_KIND_DAG
 				: job->kind == VD_KIND_SSVDAG48 ? VD_KIND_ANY_DAG
 				: VD_KIND_ANY;
-			if ((err = vd_chunk_open(&c, in, want))) {
+			/* the chunk layer knows one kind or any; the
+			 * DAG reader below checks the three */
+			if ((err = vd_chunk_open(&c, in, want == VD_KIND_ANY_DAG
+						 ? VD_KIND_ANY : want))) {
 				err = reword(err, "cannot read", in);
 				break;
 			}
