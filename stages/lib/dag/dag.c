@@ -1307,8 +1307,9 @@ int vd_dag_validate(const struct vd_dag *d)
 				free(seen);
 				return vd_fail(VD_ERR_CORRUPT, "level %d reference %"
 					       PRIu64 ": child %u of %" PRIu64
-					       ", transform %u", l, r,
+					       ", %s %u", l, r,
 					       lv->child[r], nx->nodes,
+					       nt == 8 ? "reflection" : "transform",
 					       lv->refl ? lv->refl[r] : 0);
 			}
 			seen[lv->child[r]] = 1;
