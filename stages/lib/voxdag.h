@@ -1203,8 +1203,11 @@ int vd_colorize_run(const struct vd_colorize_job *job);
 
 /* ------------------------------------------------- DAG and SSVDAG (dag.c) */
 /* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
- * (VD_KIND_SSVDAG) of one cell at `chunk_level`. Specified on disk in
- * schemas/chunk-format.md, "DAG and SSVDAG chunks".
+ * (VD_KIND_SSVDAG) of one cell at `chunk_level`, or its 48-group version
+ * (VD_KIND_SSVDAG48: `refl` holds cube transforms 0..47, see "Cube group"
+ * below, and minimality is under all 48). Specified on disk in
+ * schemas/chunk-format.md, "DAG and SSVDAG chunks" and "48-group SSVDAG
+ * chunks".
  *
  * Levels are indexed by their absolute level l in the grid and run from
  * chunk_level (the cell's root, one node; none when the cell is empty) to
@@ -1243,11 +1246,12 @@ struct vd_dag_level {
 	uint8_t *mask;    /* nodes child masks; on level L-1 the voxel masks */
 	uint64_t *first;  /* nodes+1 offsets into child/refl; NULL on L-1 */
 	uint32_t *child;  /* refs indices into level l+1; NULL on L-1 */
-	uint8_t *refl;    /* refs reflections (SSVDAG only, else NULL) */
+	uint8_t *refl;    /* refs reflections (SSVDAG), transforms 0..47
+			     (SSVDAG48); NULL in a DAG */
 };
 
 struct vd_dag {
-	uint32_t kind;         /* VD_KIND_DAG or VD_KIND_SSVDAG */
+	uint32_t kind;         /* VD_KIND_DAG, VD_KIND_SSVDAG or _SSVDAG48 */
 	int levels;            /* grid depth L */
 	int chunk_level;       /* level of the cell (its root) */
 	uint64_t cell_morton;  /* Morton code of the cell at chunk_level */
@@ -1323,8 +1327,8 @@ struct vd_leaf_class {
 /* The 256-entry leaf table, indexed by mask. */
 const struct vd_leaf_class *vd_leaf_classes(void);
 
-/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG) or
- * VD_KIND_SSVDAG (symmetry-merged directly). `svo` must hold strictly
+/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG),
+ * VD_KIND_SSVDAG or VD_KIND_SSVDAG48 (symmetry-merged directly). `svo` must hold strictly
  * increasing, non-zero bricks inside its cell (VD_ERR_CORRUPT otherwise); an
  * empty SVO gives an empty DAG. VD_ERR_BUDGET if opts->mem_budget_bytes is
  * too small for the estimate. `stats` may be NULL. Release *dag with
@@ -1339,7 +1343,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
  * `parts` are empty. `kind` VD_KIND_DAG needs DAG parts; VD_KIND_SSVDAG
  * accepts DAG and SSVDAG parts (so one DAG part at its own chunk level is
  * the symmetry merge). chunk_level -1 means one level above the shallowest
- * part. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
+ * part. VD_KIND_SSVDAG48 accepts parts of all three kinds;
+ * VD_KIND_SSVDAG refuses ssvdag48 parts. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
  * overlapping cells, cells not inside one cell at chunk_level),
  * VD_ERR_WRONG_KIND, VD_ERR_BUDGET. Release *out with vd_dag_release(). */
 int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
@@ -1439,7 +1444,8 @@ int vd_dag_write_stats(const struct vd_dag *dag,
  * it up from the command line. */
 struct vd_dag_job {
 	const char *tool;          /* "svo-to-dag": messages and statistics */
-	uint32_t kind;             /* output: VD_KIND_DAG or VD_KIND_SSVDAG */
+	uint32_t kind;             /* output: VD_KIND_DAG, VD_KIND_SSVDAG or
+				      VD_KIND_SSVDAG48 (--group 48) */
 	int merge;                 /* inputs are DAG chunks to merge */
 	int to_level;              /* merge: output chunk level, -1 default */
 	const char *const *inputs; /* input chunk files */
