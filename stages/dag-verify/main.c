@@ -13,7 +13,8 @@ static const char usage[] =
 	"usage: dag-verify DAG SVO... [options]\n"
 	"       dag-verify --diff A.dag B.dag\n"
 	"\n"
-	"Expands a DAG or SSVDAG chunk, applying the reflections, and compares\n"
+	"Expands a DAG, SSVDAG or SSVDAG48 chunk (the 48-group symmetry merge),\n"
+	"applying the reflections or transforms, and compares\n"
 	"its voxels with the union of the SVO chunks, which must lie inside the\n"
 	"DAG's cell and not overlap (cells without a chunk are empty). DAG may\n"
 	"also be an encoded scene (.svdag, .ussvdag, .esvdag, .ssvdag), decoded\n"
@@ -207,7 +208,7 @@ static int load_bricks(const char *path, struct bricks *b, int *levels,
 		return vd_cli_fail(TOOL, err, "cannot read", path);
 	struct vd_dag d;
 	memset(&d, 0, sizeof d);
-	if ((err = vd_dag_load(&d, NULL, path, VD_KIND_ANY)))
+	if ((err = vd_dag_load(&d, NULL, path, VD_KIND_ANY_DAG)))
 		return vd_cli_fail(TOOL, err, "cannot read", path);
 	b->bytes += vd_dag_memory_bytes(&d);
 	*levels = d.levels;
@@ -260,6 +261,11 @@ static int diff_bricks(const char *pa, const char *pb, uint64_t budget,
 	return rc;
 }
 
+static int symmetric(uint32_t kind)
+{
+	return kind == VD_KIND_SSVDAG || kind == VD_KIND_SSVDAG48;
+}
+
 /* --diff: the voxels differing between two SVDAG chunks. */
 static int diff_dags(const char *pa, const char *pb, uint64_t budget,
 		     int quiet, int check_manifest)
@@ -270,11 +276,11 @@ static int diff_dags(const char *pa, const char *pb, uint64_t budget,
 	memset(&b, 0, sizeof b);
 	int err = vd_chunk_read_header(pa, &ha);
 	int errb = vd_chunk_read_header(pb, &hb);
-	/* an encoding or an SSVDAG on either side: through the bricks */
+	/* an encoding or an SSVDAG (8 or 48) on either side: through the
+	 * bricks */
 	if ((err == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pa) >= 0) ||
 	    (errb == VD_ERR_NOT_CHUNK && vd_enc_format_from_path(pb) >= 0) ||
-	    (!err && !errb && (ha.kind == VD_KIND_SSVDAG ||
-			       hb.kind == VD_KIND_SSVDAG)))
+	    (!err && !errb && (symmetric(ha.kind) || symmetric(hb.kind))))
 		return diff_bricks(pa, pb, budget, quiet, check_manifest);
 	if (err) return vd_cli_fail(TOOL, err, "cannot read", pa);
 	if ((err = errb))
@@ -362,7 +368,7 @@ int main(int argc, char **argv)
 	struct vd_dag dag;
 	memset(&dag, 0, sizeof dag);
 	int err = format >= 0 ? VD_OK
-			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY);
+			      : vd_dag_load(&dag, NULL, dag_path, VD_KIND_ANY_DAG);
 	if (err) return vd_cli_fail(TOOL, err, "cannot read", dag_path);
 	uint64_t used = format >= 0 ? 0 : vd_dag_memory_bytes(&dag);
 	struct vd_svo *svos = calloc(n, sizeof *svos);

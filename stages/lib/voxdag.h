@@ -182,6 +182,8 @@ enum vd_chunk_kind {
 	VD_KIND_ENCODED = 4, /* compact encodings (encode stage) */
 	VD_KIND_COLOURS = 5, /* voxel colours of one cell (voxelize) */
 	VD_KIND_CPACK = 6,   /* a scene's colours compressed (colorize) */
+	VD_KIND_SSVDAG48 = 7, /* subtrees equal under the 48 cube symmetries
+				 merged (symmetry-merge --group 48) */
 	VD_KIND_COUNT_
 };
 
@@ -1204,8 +1206,11 @@ int vd_colorize_run(const struct vd_colorize_job *job);
 
 /* ------------------------------------------------- DAG and SSVDAG (dag.c) */
 /* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
- * (VD_KIND_SSVDAG) of one cell at `chunk_level`. Specified on disk in
- * schemas/chunk-format.md, "DAG and SSVDAG chunks".
+ * (VD_KIND_SSVDAG) of one cell at `chunk_level`, or its 48-group version
+ * (VD_KIND_SSVDAG48: `refl` holds cube transforms 0..47, see "Cube group"
+ * below, and minimality is under all 48). Specified on disk in
+ * schemas/chunk-format.md, "DAG and SSVDAG chunks" and "48-group SSVDAG
+ * chunks".
  *
  * Levels are indexed by their absolute level l in the grid and run from
  * chunk_level (the cell's root, one node; none when the cell is empty) to
@@ -1244,11 +1249,12 @@ struct vd_dag_level {
 	uint8_t *mask;    /* nodes child masks; on level L-1 the voxel masks */
 	uint64_t *first;  /* nodes+1 offsets into child/refl; NULL on L-1 */
 	uint32_t *child;  /* refs indices into level l+1; NULL on L-1 */
-	uint8_t *refl;    /* refs reflections (SSVDAG only, else NULL) */
+	uint8_t *refl;    /* refs reflections (SSVDAG), transforms 0..47
+			     (SSVDAG48); NULL in a DAG */
 };
 
 struct vd_dag {
-	uint32_t kind;         /* VD_KIND_DAG or VD_KIND_SSVDAG */
+	uint32_t kind;         /* VD_KIND_DAG, VD_KIND_SSVDAG or _SSVDAG48 */
 	int levels;            /* grid depth L */
 	int chunk_level;       /* level of the cell (its root) */
 	uint64_t cell_morton;  /* Morton code of the cell at chunk_level */
@@ -1324,8 +1330,8 @@ struct vd_leaf_class {
 /* The 256-entry leaf table, indexed by mask. */
 const struct vd_leaf_class *vd_leaf_classes(void);
 
-/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG) or
- * VD_KIND_SSVDAG (symmetry-merged directly). `svo` must hold strictly
+/* Builds the minimal DAG of `svo` into *dag: kind VD_KIND_DAG (SVDAG),
+ * VD_KIND_SSVDAG or VD_KIND_SSVDAG48 (symmetry-merged directly). `svo` must hold strictly
  * increasing, non-zero bricks inside its cell (VD_ERR_CORRUPT otherwise); an
  * empty SVO gives an empty DAG. VD_ERR_BUDGET if opts->mem_budget_bytes is
  * too small for the estimate. `stats` may be NULL. Release *dag with
@@ -1340,7 +1346,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
  * `parts` are empty. `kind` VD_KIND_DAG needs DAG parts; VD_KIND_SSVDAG
  * accepts DAG and SSVDAG parts (so one DAG part at its own chunk level is
  * the symmetry merge). chunk_level -1 means one level above the shallowest
- * part. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
+ * part. VD_KIND_SSVDAG48 accepts parts of all three kinds;
+ * VD_KIND_SSVDAG refuses ssvdag48 parts. Errors: VD_ERR_EMPTY (n == 0), VD_ERR_MISMATCH (different depths,
  * overlapping cells, cells not inside one cell at chunk_level),
  * VD_ERR_WRONG_KIND, VD_ERR_BUDGET. Release *out with vd_dag_release(). */
 int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
@@ -1390,10 +1397,13 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 		const char *path, const char *provenance);
 
-/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG or
- * VD_KIND_ANY (either of the two; VD_ERR_WRONG_KIND for other kinds).
+/* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG,
+ * VD_KIND_SSVDAG48, VD_KIND_ANY (dag or ssvdag: what the stages after the
+ * symmetry merge read) or VD_KIND_ANY_DAG (any of the three);
+ * VD_ERR_WRONG_KIND for other kinds.
  * Validates as vd_dag_validate() and checks the voxel count. `h` may be
  * NULL. Release with vd_dag_release(). */
+#define VD_KIND_ANY_DAG 0x100u
 int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
 		const char *path, uint32_t kind);
 
@@ -1437,7 +1447,8 @@ int vd_dag_write_stats(const struct vd_dag *dag,
  * it up from the command line. */
 struct vd_dag_job {
 	const char *tool;          /* "svo-to-dag": messages and statistics */
-	uint32_t kind;             /* output: VD_KIND_DAG or VD_KIND_SSVDAG */
+	uint32_t kind;             /* output: VD_KIND_DAG, VD_KIND_SSVDAG or
+				      VD_KIND_SSVDAG48 (--group 48) */
 	int merge;                 /* inputs are DAG chunks to merge */
 	int to_level;              /* merge: output chunk level, -1 default */
 	const char *const *inputs; /* input chunk files */
@@ -1973,6 +1984,8 @@ int vd_colour_chunks_load(const char *dir, uint8_t **rgb, uint64_t *voxels,
  * 5 ZYX (output axis i takes input axis perm[k][i]). A transformed subtree
  * holds voxel T(p) for each voxel p of the original. */
 #define VD_G48 48
+/* The cube group has 98 subgroups (its invariance sets). */
+#define VD_G48_SUBGROUPS 98
 
 /* perm[k] of transform t: output axis i takes input axis vd_g48_perm(t)[i]. */
 const uint8_t *vd_g48_perm(unsigned t);
@@ -1987,6 +2000,14 @@ uint8_t vd_g48_mask(uint8_t v, unsigned t);
 /* A brick (byte c = child c's mask) transformed by t: local Morton bit
  * c << 3 | c' -> child(t, c) << 3 | child(t, c'). */
 uint64_t vd_g48_brick(uint64_t v, unsigned t);
+
+/* The number of subgroups found (VD_G48_SUBGROUPS; a test checks it). */
+unsigned vd_g48_subgroup_count(void);
+
+/* The 256-entry leaf table under the 48: `canon` the largest of the 48
+ * transforms of the mask, `refl` the transform t with vd_g48_mask(canon, t)
+ * == mask, `inv` the index of its invariance subgroup (not a set). */
+const struct vd_leaf_class *vd_leaf_classes48(void);
 
 /* ---- end of cube group block */
 

@@ -25,6 +25,8 @@ static const char usage[] =
 	"  -j, --threads N         worker threads (default: all cores); used by\n"
 	"                          the brick pass, the largest; the levels above\n"
 	"                          are serial (memory-bound), as are merges\n"
+	"  -g, --group N           symmetry-merge only (the symmetry group);\n"
+	"                          svo-to-dag refuses it: a plain SVDAG has none\n"
 	"  -q, --quiet             no summary line on stderr\n"
 	"  -h, --help              this text\n"
 	"\n"

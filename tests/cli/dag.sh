@@ -62,6 +62,28 @@ reduce() {
 	done
 }
 
+# reduce_g48 DIR L0: the same tree for ssvdag48 chunks (*.s48).
+reduce_g48() {
+	local dir=$1 l=$2
+	while [ "$l" -gt 0 ]; do
+		local -A groups=()
+		local f
+		for f in "$dir"/chunk-L$l-*.s48; do
+			local p=$(($(cell_of "$f") >> 3))
+			groups[$p]+="$f "
+		done
+		for p in "${!groups[@]}"; do
+			# shellcheck disable=SC2086
+			$BIN/symmetry-merge -q --group 48 --merge ${groups[$p]} \
+				-o "$dir/$(chunk_name $((l - 1)) "$p" s48)" || return 1
+		done
+		unset groups
+		l=$((l - 1))
+	done
+}
+
+SHARED_DATA=${VOXDAG_SHARED_DATA:-../shared/data}
+
 for t in svo-to-dag symmetry-merge dag-verify; do
 	expect "$t-help" 0 'mem-budget' $BIN/$t --help
 	expect "$t-no-args" 2 "Try '$t --help'" $BIN/$t
@@ -132,6 +154,71 @@ for L0 in 1 2 3; do
 		pass "flat-counts-L0-$L0" || fail "flat-counts-L0-$L0"
 	expect "flat-verify-L0-$L0" 0 '' $BIN/dag-verify "$d/root.ssvdag" "$d"/*.svo
 done
+
+# --- symmetry-merge --group 48 (kind ssvdag48): monolithic and chunked,
+# lossless by dag-verify, the reduction tree and the flat merge giving the
+# monolithic counts; --group 8 the default
+expect group-bad 2 "--group '12' is not 8 or 48" $BIN/symmetry-merge --group 12 a.dag -o b.ssvdag
+expect group-svo-to-dag 2 "unknown option --group" $BIN/svo-to-dag --group 48 a.svo -o b.dag
+expect g48-mono 0 '' $BIN/symmetry-merge -q --group 48 "$T/m/chunk-L0-0.dag" -o "$T/m/chunk-L0-0.s48"
+expect g48-mono-verify 0 '' $BIN/dag-verify "$T/m/chunk-L0-0.s48" "$T/m/chunk-L0-0.svo"
+grep -q '"kind": "ssvdag48"' "$T/m/chunk-L0-0.s48.stats.json" && pass g48-kind || fail g48-kind
+s48_counts=$(counts "$T/m/chunk-L0-0.s48.stats.json")
+total() { tr -d '\n ' < "$1" | sed 's/.*"nodes":\([0-9]*\).*/\1/'; }
+[ "$(total "$T/m/chunk-L0-0.s48.stats.json")" -lt "$(total "$T/m/chunk-L0-0.ssvdag.stats.json")" ] &&
+	pass g48-fewer-nodes || fail g48-fewer-nodes "$s48_counts vs $ssv_counts"
+$BIN/symmetry-merge -q --group 8 "$T/m/chunk-L0-0.dag" -o "$T/m/g8.ssvdag"
+grep -q '"kind": "ssvdag"' "$T/m/g8.ssvdag.stats.json" &&
+[ "$(counts "$T/m/g8.ssvdag.stats.json")" = "$ssv_counts" ] &&
+	pass group-8-is-default || fail group-8-is-default
+for L0 in 1 2; do
+	d="$T/c$L0"
+	mkdir -p "$d/t48"
+	ok=1
+	for f in "$d"/chunk-L$L0-*.dag; do
+		b=${f##*/}
+		$BIN/symmetry-merge -q --group 48 "$f" -o "$d/t48/${b%.dag}.s48" || ok=0
+	done
+	[ $ok = 1 ] && pass "g48-chunks-L0-$L0" || fail "g48-chunks-L0-$L0"
+	# the reduction tree: --merge with --group 48 at every step
+	if reduce_g48 "$d/t48" "$L0"; then
+		[ "$(counts "$d/t48/chunk-L0-0.s48.stats.json")" = "$s48_counts" ] &&
+			pass "g48-tree-counts-L0-$L0" ||
+			fail "g48-tree-counts-L0-$L0" "$(counts "$d/t48/chunk-L0-0.s48.stats.json") != $s48_counts"
+		expect "g48-tree-verify-L0-$L0" 0 '' $BIN/dag-verify "$d/t48/chunk-L0-0.s48" "$d"/*.svo
+	else
+		fail "g48-tree-L0-$L0"
+	fi
+	# mixed inputs: dag and ssvdag chunks merge into an ssvdag48
+	expect "g48-flat-mixed-L0-$L0" 0 '' $BIN/symmetry-merge -q --group 48 --merge --to-level 0 \
+		"$d"/chunk-L$L0-*.ssvdag -o "$d/root.s48"
+	[ "$(counts "$d/root.s48.stats.json")" = "$s48_counts" ] &&
+		pass "g48-flat-counts-L0-$L0" || fail "g48-flat-counts-L0-$L0"
+	expect "g48-flat-verify-L0-$L0" 0 '' $BIN/dag-verify "$d/root.s48" "$d"/*.svo
+	expect "g48-diff-vs-ssvdag-L0-$L0" 0 '^differing_voxels=0 ' $BIN/dag-verify --diff "$d/root.s48" "$d/root.ssvdag"
+done
+one48=$(ls "$T"/c2/t48/chunk-L2-*.s48 | head -1)
+expect g48-into-ssvdag-refused 1 "wrong chunk kind: a ssvdag48 chunk, expected dag or ssvdag" \
+	$BIN/symmetry-merge --merge "$one48" -o "$T/x.ssvdag"
+# the next stages do not read it yet: a clear refusal each
+expect g48-encode-refused 1 "wrong chunk kind: a ssvdag48 chunk, expected ssvdag" \
+	$BIN/encode "$T/m/chunk-L0-0.dag" "$T/m/chunk-L0-0.s48" -o "$T/enc"
+expect g48-render-refused 1 "ssvdag48" \
+	$BIN/render "$T/m/chunk-L0-0.s48" -o "$T/x.png"
+# the issue's figure (issue 13): the Stanford bunny at 2^9
+if [ -f "$SHARED_DATA/stanford_bunny.ply" ]; then
+	B="$T/bunny9"
+	$BIN/voxelize "$SHARED_DATA/stanford_bunny.ply" -o "$B" --levels 9 --chunk-level 0 -q &&
+	$BIN/svo-to-dag -q "$B/chunk-L0-0.svo" -o "$B/a.dag" &&
+	$BIN/symmetry-merge -q "$B/a.dag" -o "$B/a.ssvdag" &&
+	$BIN/symmetry-merge -q --group 48 "$B/a.dag" -o "$B/a.s48"
+	got="$(total "$B/a.dag.stats.json") $(total "$B/a.ssvdag.stats.json") $(total "$B/a.s48.stats.json")"
+	[ "$got" = "39969 25540 19288" ] && pass bunny9-issue-figure ||
+		fail bunny9-issue-figure "SVDAG SSVDAG 48-group: $got, expected 39969 25540 19288"
+	expect bunny9-g48-verify 0 '' $BIN/dag-verify "$B/a.s48" "$B/chunk-L0-0.svo"
+else
+	echo "SKIP bunny9-issue-figure (no $SHARED_DATA/stanford_bunny.ply)"
+fi
 
 # --- bad input: one clear line and exit 1 each, nothing left behind
 S="$T/c2"

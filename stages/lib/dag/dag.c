@@ -155,6 +155,7 @@ static void bset_free(struct bset *b)
 
 struct nset {
 	int sym;
+	int shift;       /* reference bits in a key: 3, or 6 for the 48 */
 	uint64_t n, cap, nref, rcap;
 	uint8_t *mask, *inv;
 	uint64_t *first; /* n + 1 entries once finished */
@@ -171,7 +172,8 @@ static inline int nset_equal(const struct nset *b, uint32_t i,
 	if (b->sym) {
 		const uint8_t *r = b->refl + b->first[i];
 		for (int j = 0; j < k; j++)
-			if (VD_REF(c[j], r[j]) != key[j + 1]) return 0;
+			if (((uint64_t)c[j] << b->shift | r[j]) != key[j + 1])
+				return 0;
 	} else {
 		for (int j = 0; j < k; j++)
 			if ((uint64_t)c[j] << 3 != key[j + 1]) return 0;
@@ -219,8 +221,10 @@ static int nset_insert(struct nset *b, const uint64_t *key, int k,
 	b->inv[i] = inv;
 	b->first[i] = b->nref;
 	for (int j = 0; j < k; j++) {
-		b->child[b->nref + (uint64_t)j] = (uint32_t)(key[j + 1] >> 3);
-		if (b->sym) b->refl[b->nref + (uint64_t)j] = key[j + 1] & 7;
+		b->child[b->nref + (uint64_t)j] = (uint32_t)(key[j + 1] >> b->shift);
+		if (b->sym)
+			b->refl[b->nref + (uint64_t)j] =
+				(uint8_t)(key[j + 1] & ((1u << b->shift) - 1));
 	}
 	b->nref += (uint64_t)k;
 	b->first[i + 1] = b->nref;
@@ -300,6 +304,7 @@ struct remap {
 
 struct engine {
 	int sym, L, A;
+	int g48;                           /* sym over the 48, not the 8 */
 	uint64_t cellA;
 	const struct vd_dag *const *parts; /* non-empty, sorted by cell */
 	size_t np;
@@ -358,6 +363,14 @@ static struct remap *remaps_new(struct engine *e, int l)
 	return rm;
 }
 
+/* Leaf mask m as a reference with transform t reaches it in a chunk of
+ * `kind`. */
+static inline uint8_t ref_mask(uint32_t kind, uint8_t m, unsigned t)
+{
+	return kind == VD_KIND_SSVDAG48 ? vd_g48_mask(m, t)
+					: vd_mask_reflect(m, t & 7);
+}
+
 /* The brick value of node i on level L-2 of part d (unreflected). */
 static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
 {
@@ -368,7 +381,7 @@ static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
 	for (unsigned s = 0; s < 8; s++) {
 		if (!(lv->mask[i] >> s & 1)) continue;
 		uint8_t m = d->lv[L - 1].mask[lv->child[j]];
-		if (lv->refl) m = vd_mask_reflect(m, lv->refl[j]);
+		if (lv->refl) m = ref_mask(d->kind, m, lv->refl[j]);
 		v |= (uint64_t)m << (8 * s);
 		j++;
 	}
@@ -380,7 +393,12 @@ static inline int brick_add(struct engine *e, struct bset *b, uint64_t v,
 {
 	uint64_t c = v;
 	uint8_t m = 0, inv = 1;
-	if (e->sym && !asis) vd__brick_canon(v, &c, &m, &inv);
+	if (e->g48) {
+		inv = 0; /* the trivial subgroup, for a root kept as is */
+		if (!asis) vd__brick_canon48(v, &c, &m, &inv);
+	} else if (e->sym && !asis) {
+		vd__brick_canon(v, &c, &m, &inv);
+	}
 	*r = m;
 	return bset_insert(b, c, inv, id);
 }
@@ -499,6 +517,15 @@ static int svo_bricks(struct engine *e, struct bset *b, int asis,
 	return err;
 }
 
+static inline int node_canon(const struct engine *e, int asis, unsigned mk,
+			     const uint32_t id[8], const uint8_t r[8],
+			     const uint8_t g[8], uint64_t key[9], uint8_t *m,
+			     uint8_t *inv)
+{
+	if (e->g48) return vd__node_canon48(asis, mk, id, r, g, key, m, inv);
+	return vd__node_canon(e->sym, asis, mk, id, r, g, key, m, inv);
+}
+
 /* The frontier's groups (new parents) into node set b, their cells into
  * nf, in order. */
 static int frontier_groups(struct engine *e, struct nset *b, int asis,
@@ -521,7 +548,7 @@ static int frontier_groups(struct engine *e, struct nset *b, int asis,
 			r[s] = fe[i].r;
 			g[s] = gb[id[s]];
 		}
-		int k = vd__node_canon(e->sym, asis, mk, id, r, g, key, &m, &inv);
+		int k = node_canon(e, asis, mk, id, r, g, key, &m, &inv);
 		uint32_t nid;
 		if ((err = nset_insert(b, key, k, inv, &nid)) ||
 		    (err = front_push(nf, parent, nid, m)))
@@ -606,7 +633,8 @@ static int level_brick(struct engine *e)
 	/* Levels L-2 and L-1 of the output from the distinct bricks. */
 	{
 		struct vd_dag_level *lb = &e->out->lv[l], *ll = &e->out->lv[L - 1];
-		const struct vd_leaf_class *lt = vd_leaf_classes();
+		const struct vd_leaf_class *lt = e->g48 ? vd_leaf_classes48()
+						       : vd_leaf_classes();
 		uint32_t leaf_id[256];
 		uint8_t leaf_mask[256];
 		uint32_t nleaf = 0;
@@ -667,7 +695,7 @@ out:
 static int level_inner(struct engine *e, int l)
 {
 	int asis = e->A == l, err = VD_OK;
-	struct nset b = {.sym = e->sym};
+	struct nset b = {.sym = e->sym, .shift = e->g48 ? 6 : 3};
 	struct front nf = {0};
 	struct remap *rm = remaps_new(e, l);
 	uint64_t expect = e->fr.n / 4;
@@ -693,11 +721,15 @@ static int level_inner(struct engine *e, int l)
 				if (!(mk >> s & 1)) continue;
 				uint32_t c = lv->child[j];
 				id[s] = below->id[c];
-				r[s] = (uint8_t)(below->r[c] ^ (lv->refl ? lv->refl[j] : 0));
+				/* the part's child is refl[j] applied to
+				 * below->r[c] applied to output node id[s] */
+				uint8_t t = lv->refl ? lv->refl[j] : 0;
+				r[s] = e->g48 ? vd__g48_comp[t][below->r[c]]
+					      : (uint8_t)(below->r[c] ^ t);
 				g[s] = gb[id[s]];
 				j++;
 			}
-			int k = vd__node_canon(e->sym, asis, mk, id, r, g, key, &m, &inv);
+			int k = node_canon(e, asis, mk, id, r, g, key, &m, &inv);
 			if ((err = nset_insert(&b, key, k, inv, &rm[p].id[i])))
 				goto out;
 			rm[p].r[i] = m;
@@ -750,6 +782,7 @@ static int run_engine(struct engine *e)
 {
 	int err = VD_OK;
 	vd__sym_init();
+	vd__g48_init();
 	for (int l = e->L - 1; l >= e->A && !err; l--) {
 		double t0 = vd_seconds();
 		if (l == e->L - 1)
@@ -845,11 +878,17 @@ uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
 	return vd_dag_estimate_merge(nodes, 8 * nodes);
 }
 
+static int is_dag_kind(uint32_t kind)
+{
+	return kind == VD_KIND_DAG || kind == VD_KIND_SSVDAG ||
+	       kind == VD_KIND_SSVDAG48;
+}
+
 static int check_kind_out(uint32_t kind)
 {
-	if (kind != VD_KIND_DAG && kind != VD_KIND_SSVDAG)
-		return vd_fail(VD_ERR_ARG, "output kind %u is not dag or ssvdag",
-			       kind);
+	if (!is_dag_kind(kind))
+		return vd_fail(VD_ERR_ARG, "output kind %u is not dag, ssvdag "
+			       "or ssvdag48", kind);
 	return VD_OK;
 }
 
@@ -921,7 +960,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 	dag->voxels = voxels;
 	if (!svo->count) return VD_OK;
 	double t0 = vd_seconds();
-	struct engine e = {.sym = kind == VD_KIND_SSVDAG, .L = L, .A = L0,
+	struct engine e = {.sym = kind != VD_KIND_DAG,
+			   .g48 = kind == VD_KIND_SSVDAG48, .L = L, .A = L0,
 			   .cellA = svo->cell_morton, .svo = svo, .out = dag,
 			   .st = stats, .threads = opts ? opts->threads : 0};
 	err = run_engine(&e);
@@ -970,9 +1010,16 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 	int L = parts[0]->levels, top = parts[0]->chunk_level;
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_dag *d = parts[i];
-		if (d->kind != VD_KIND_DAG && d->kind != VD_KIND_SSVDAG)
+		if (!is_dag_kind(d->kind))
 			return vd_fail(VD_ERR_WRONG_KIND, "%s is a %s chunk",
 				       PART(i, 0), vd_chunk_kind_name(d->kind));
+		/* the 8 reflections are the 48's first 8 transforms, so
+		 * an ssvdag part merges into an ssvdag48, not back */
+		if (kind == VD_KIND_SSVDAG && d->kind == VD_KIND_SSVDAG48)
+			return vd_fail(VD_ERR_WRONG_KIND, "%s is an ssvdag48 "
+				       "chunk; an ssvdag merge needs dag or "
+				       "ssvdag chunks (use --group 48)",
+				       PART(i, 0));
 		if (kind == VD_KIND_DAG && d->kind != VD_KIND_DAG)
 			return vd_fail(VD_ERR_WRONG_KIND, "%s is an ssvdag "
 				       "chunk; a dag merge needs dag chunks",
@@ -1055,7 +1102,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 	out->voxels = voxels;
 	if (np) {
 		double t0 = vd_seconds();
-		struct engine e = {.sym = kind == VD_KIND_SSVDAG, .L = L,
+		struct engine e = {.sym = kind != VD_KIND_DAG,
+				   .g48 = kind == VD_KIND_SSVDAG48, .L = L,
 				   .A = A, .cellA = cellA, .parts = nonempty,
 				   .np = np, .out = out, .st = stats,
 				   .threads = opts ? opts->threads : 0};
@@ -1101,6 +1149,35 @@ static int expand_node(const struct expander *x, int l, uint64_t node,
 	return 0;
 }
 
+/* The same for an ssvdag48: the node is reached with accumulated
+ * transform a, so logical slot p is stored slot a^-1(p), and its child,
+ * stored as (c, t), is reached with a t. */
+static int expand_node48(const struct expander *x, int l, uint64_t node,
+			 unsigned a, uint64_t morton)
+{
+	const struct vd_dag *d = x->d;
+	const struct vd_dag_level *lv = &d->lv[l];
+	int L = d->levels;
+	unsigned mk = lv->mask[node];
+	uint64_t first = lv->first[node];
+	const uint8_t *back = vd__g48_child[vd__g48_inv[a]];
+	for (unsigned p = 0; p < 8; p++) {
+		unsigned s = back[p];
+		if (!(mk >> s & 1)) continue;
+		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint32_t c = lv->child[j];
+		unsigned ca = vd__g48_comp[a][lv->refl[j]];
+		int err;
+		if (l + 1 == L - 2)
+			err = x->fn(x->ctx, morton << 3 | p,
+				    vd_g48_brick(d->bricks[c], ca));
+		else
+			err = expand_node48(x, l + 1, c, ca, morton << 3 | p);
+		if (err) return err;
+	}
+	return 0;
+}
+
 int vd_dag_expand(const struct vd_dag *dag,
 		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
 		  void *ctx)
@@ -1113,6 +1190,10 @@ int vd_dag_expand(const struct vd_dag *dag,
 	}
 	if (A == L - 2) return fn(ctx, dag->cell_morton, dag->bricks[0]);
 	struct expander x = {dag, fn, ctx};
+	if (dag->kind == VD_KIND_SSVDAG48) {
+		vd__g48_init();
+		return expand_node48(&x, A, 0, 0, dag->cell_morton);
+	}
 	return expand_node(&x, A, 0, 0, dag->cell_morton);
 }
 
@@ -1164,9 +1245,10 @@ int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo)
 int vd_dag_validate(const struct vd_dag *d)
 {
 	int L = d->levels, A = d->chunk_level;
-	if (d->kind != VD_KIND_DAG && d->kind != VD_KIND_SSVDAG)
-		return vd_fail(VD_ERR_CORRUPT, "kind %u is not dag or ssvdag",
-			       d->kind);
+	if (!is_dag_kind(d->kind))
+		return vd_fail(VD_ERR_CORRUPT, "kind %u is not dag, ssvdag or "
+			       "ssvdag48", d->kind);
+	unsigned nt = d->kind == VD_KIND_SSVDAG48 ? VD_G48 : 8;
 	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1)
 		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d", L, A);
 	if (A > 0 && d->cell_morton >> (3 * A))
@@ -1201,7 +1283,7 @@ int vd_dag_validate(const struct vd_dag *d)
 					       i, l);
 		if (l == L - 1) break;
 		const struct vd_dag_level *nx = &d->lv[l + 1];
-		if ((d->kind == VD_KIND_SSVDAG) != (lv->refl != NULL))
+		if ((d->kind != VD_KIND_DAG) != (lv->refl != NULL))
 			return vd_fail(VD_ERR_CORRUPT, "level %d: reflections %s"
 				       " in a %s", l, lv->refl ? "present" :
 				       "missing", vd_chunk_kind_name(d->kind));
@@ -1221,12 +1303,13 @@ int vd_dag_validate(const struct vd_dag *d)
 		uint8_t *seen = calloc(nx->nodes ? nx->nodes : 1, 1);
 		if (!seen) return NOMEM();
 		for (uint64_t r = 0; r < lv->refs; r++) {
-			if (lv->child[r] >= nx->nodes || (lv->refl && lv->refl[r] > 7)) {
+			if (lv->child[r] >= nx->nodes || (lv->refl && lv->refl[r] >= nt)) {
 				free(seen);
 				return vd_fail(VD_ERR_CORRUPT, "level %d reference %"
 					       PRIu64 ": child %u of %" PRIu64
-					       ", reflection %u", l, r,
+					       ", %s %u", l, r,
 					       lv->child[r], nx->nodes,
+					       nt == 8 ? "reflection" : "transform",
 					       lv->refl ? lv->refl[r] : 0);
 			}
 			seen[lv->child[r]] = 1;
@@ -1290,7 +1373,7 @@ int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 	struct vd_chunk_writer *w;
 	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
 	int A = dag->chunk_level, L = dag->levels;
-	int sym = dag->kind == VD_KIND_SSVDAG;
+	int sym = dag->kind != VD_KIND_DAG;
 	/* DAGM: the masks of levels A..L-1, level after level. */
 	err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
 	for (int l = A; l < L && !err; l++)
@@ -1362,12 +1445,19 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 {
 	memset(dag, 0, sizeof *dag);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
-	int ok_kind = h->kind == VD_KIND_DAG || h->kind == VD_KIND_SSVDAG;
-	if (!ok_kind || (kind != VD_KIND_ANY && h->kind != kind))
+	/* VD_KIND_ANY keeps meaning dag or ssvdag: the stages after the
+	 * symmetry merge (encode, render, edit, lossy) do not know the 48
+	 * yet and refuse an ssvdag48 chunk here with a clear line. */
+	int ok_kind = kind == VD_KIND_ANY_DAG ? is_dag_kind(h->kind)
+		      : kind == VD_KIND_ANY ? h->kind == VD_KIND_DAG ||
+					      h->kind == VD_KIND_SSVDAG
+		      : h->kind == kind && is_dag_kind(kind);
+	if (!ok_kind)
 		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
 			       vd_chunk_kind_name(h->kind),
 			       kind == VD_KIND_ANY ? "dag or ssvdag"
-						   : vd_chunk_kind_name(kind));
+			       : kind == VD_KIND_ANY_DAG ? "dag, ssvdag or ssvdag48"
+			       : vd_chunk_kind_name(kind));
 	int L = (int)h->levels, A = (int)h->chunk_level;
 	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1 ||
 	    h->level_count != (uint32_t)(L - A + 1))
@@ -1377,7 +1467,7 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 	dag->levels = L;
 	dag->chunk_level = A;
 	dag->cell_morton = h->cell_morton;
-	int sym = h->kind == VD_KIND_SSVDAG;
+	int sym = h->kind != VD_KIND_DAG;
 	void *m = NULL, *cdata = NULL, *r = NULL;
 	size_t msize, csize, rsize = 0;
 	int err = vd_chunk_read_section(c, VD_TAG_DAGM, &m, &msize);
@@ -1462,7 +1552,7 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 			for (unsigned s = 0; s < 8; s++) {
 				if (!(lb->mask[i] >> s & 1)) continue;
 				uint8_t x = dag->lv[L - 1].mask[lb->child[j]];
-				if (lb->refl) x = vd_mask_reflect(x, lb->refl[j] & 7);
+				if (lb->refl) x = ref_mask(h->kind, x, lb->refl[j] % VD_G48);
 				v |= (uint64_t)x << 8 * s;
 				j++;
 			}
@@ -1562,7 +1652,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 	struct vd_dag_stats st = {0};
 	struct vd_transform tr = {0};
 	struct vd_chunk *c = NULL;
-	int err = VD_OK, sym = job->kind == VD_KIND_SSVDAG;
+	int err = VD_OK, sym = job->kind != VD_KIND_DAG;
 	double t0 = vd_seconds(), t_load = 0, t_save = 0;
 	size_t n = job->n_inputs;
 	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no input chunks");
@@ -1602,8 +1692,13 @@ int vd_dag_run(const struct vd_dag_job *job)
 		uint64_t nodes = 0, refs = 0;
 		for (size_t i = 0; i < n && !err; i++) {
 			const char *in = job->inputs[i];
-			uint32_t want = sym && job->merge ? VD_KIND_ANY : VD_KIND_DAG;
-			if ((err = vd_chunk_open(&c, in, want))) {
+			uint32_t want = !sym || !job->merge ? VD_KIND_DAG
+				: job->kind == VD_KIND_SSVDAG48 ? VD_KIND_ANY_DAG
+				: VD_KIND_ANY;
+			/* the chunk layer knows one kind or any; the
+			 * DAG reader below checks the three */
+			if ((err = vd_chunk_open(&c, in, want == VD_KIND_ANY_DAG
+						 ? VD_KIND_ANY : want))) {
 				err = reword(err, "cannot read", in);
 				break;
 			}

@@ -61,4 +61,43 @@ int vd__node_canon(int sym, int asis, unsigned mask, const uint32_t id[8],
 		   const uint8_t r[8], const uint8_t g[8], uint64_t key[9],
 		   uint8_t *m, uint8_t *inv);
 
+/* ---- the 48-element cube group (ssvdag.c)
+ *
+ * A reference packed for 48-group keys: child index << 6 | transform. */
+#define VD_REF48(id, t) ((uint64_t)(id) << 6 | (uint64_t)(t))
+
+/* Tables filled by vd__g48_init(): comp[a][b] = vd_g48_compose(a, b),
+ * inv[t], child[t][c] = vd_g48_child(t, c), masks[t][v] = vd_g48_mask(v, t);
+ * sub[i] the subgroups as 48-bit sets in increasing order (sub[0] = {0});
+ * norm[i][t] the smallest element of the coset t sub[i] = {t g}: two
+ * references (n, t) and (n, t') to a node invariant under sub[i] denote
+ * the same subtree iff norm[i][t] == norm[i][t']. */
+extern uint8_t vd__g48_comp[VD_G48][VD_G48];
+extern uint8_t vd__g48_inv[VD_G48];
+extern uint8_t vd__g48_child[VD_G48][8];
+extern uint8_t vd__g48_masks[VD_G48][256];
+extern uint8_t vd__g48_norm[VD_G48_SUBGROUPS][VD_G48];
+extern uint64_t vd__g48_sub[VD_G48_SUBGROUPS];
+
+/* Fills the tables once; thread-safe. */
+void vd__g48_init(void);
+
+/* The index i with sub[i] == set; `set` must be a subgroup. */
+unsigned vd__g48_subgroup(uint64_t set);
+
+/* Canonical form of a brick under the 48: *canon the largest of its 48
+ * transforms, *t the transform with vd_g48_brick(*canon, *t) == v, *inv the
+ * subgroup index of *canon's invariance set. */
+void vd__brick_canon48(uint64_t v, uint64_t *canon, uint8_t *t, uint8_t *inv);
+
+/* vd__node_canon for the 48: r[p] the transform of child p (0..47), g[p]
+ * its subgroup index; keys hold VD_REF48(child, normalized transform). The
+ * key is the largest over the 48 transforms u of the node transformed by
+ * u (slot q holds u applied to the child of slot u^-1(q)); the node is
+ * the stored key transformed by *t; *inv its invariance subgroup index.
+ * `asis` keeps u = 0. */
+int vd__node_canon48(int asis, unsigned mask, const uint32_t id[8],
+		     const uint8_t r[8], const uint8_t g[8], uint64_t key[9],
+		     uint8_t *t, uint8_t *inv);
+
 #endif

@@ -4,6 +4,7 @@
 
 #include <getopt.h>
 #include <stdlib.h>
+#include <string.h>
 
 int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,
 		      const char *usage)
@@ -15,13 +16,14 @@ int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,
 		{"mem-budget", required_argument, NULL, 'm'},
 		{"threads", required_argument, NULL, 'j'},
 		{"quiet", no_argument, NULL, 'q'},
+		{"group", required_argument, NULL, 'g'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
 	struct vd_dag_job job = {.tool = tool, .kind = kind, .to_level = -1,
 				 .opts = {.mem_budget_bytes = 2ull << 30}};
 	int c, have_level = 0;
-	while ((c = getopt_long(argc, argv, "o:Mt:m:j:qh", longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, "o:Mt:m:j:qg:h", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
 			job.output = optarg;
@@ -48,6 +50,16 @@ int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,
 			break;
 		case 'q':
 			job.quiet = 1;
+			break;
+		case 'g':
+			/* symmetry-merge only: svo-to-dag builds no symmetry */
+			if (kind != VD_KIND_SSVDAG)
+				return vd_cli_usage(tool, "unknown option --group");
+			if (strcmp(optarg, "8") && strcmp(optarg, "48"))
+				return vd_cli_usage(tool, "--group '%s' is not 8 "
+						    "or 48", optarg);
+			job.kind = strcmp(optarg, "48") ? VD_KIND_SSVDAG
+							: VD_KIND_SSVDAG48;
 			break;
 		case 'h':
 			fputs(usage, stdout);

@@ -60,7 +60,8 @@ static double getf64(const uint8_t *p) { uint64_t v = get64(p); double f; memcpy
 const char *vd_chunk_kind_name(uint32_t kind)
 {
 	static const char *const names[] = {"any", "svo", "dag", "ssvdag",
-					    "encoded", "colours", "cpack"};
+					    "encoded", "colours", "cpack",
+					    "ssvdag48"};
 	return kind < VD_KIND_COUNT_ ? names[kind] : "unknown";
 }
 
