@@ -236,7 +236,7 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 					  ? "'colour R G B' or the end of the "
 					    "line"
 					  : "the end of the line");
-	if (op->kind == VD_EDIT_PAINT && !op->has_rgb)
+	if (op->kind == VD_EDIT_PAINT && !op->has_rgb && h->col)
 		return vd_fail(VD_ERR_FORMAT, "line %d, column %d: paint needs "
 			       "'colour R G B'", lineno, (int)strlen(line) + 1);
 	const struct vd_transform *tr = &h->t;
