@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# Benchmark of edit (the CPU HashDAG) on the shared dragon: fill, carve and
-# copy of about 1K, 100K and 10M voxels (cubes of side 10, 47, 216 at the
-# grid centre) with 1 and 2 threads; memory of the hashed tables against
-# the plain DAG; gc time. Figures come from EDITED.dag.stats.json and GNU
-# time; the machine is shared, so they are noisy.
+# Benchmark of edit (the CPU HashDAG) on the shared dragon: copy, fill,
+# paint and carve of cubes of about 1K, 100K and 10M voxels (sides 10, 47,
+# 216 at the grid centre; the copy first, so its source is the scene's
+# own surface, to a destination clamped inside the grid) with 1 and 2
+# threads, on a coloured scene (colour-make-test colours, cells of level 3:
+# paint and the colours of every edit are measured too); memory of the
+# hashed tables against the plain DAG; gc time. Figures come from
+# EDITED.dag.stats.json and GNU time; the machine is shared, so they are
+# noisy. The scene is built once per depth and kept in out/bench-edit/.
 #   tests/bench_edit.sh [SCENE LEVELS]...   (default: dragon 12, dragon 14)
 set -u
 cd "$(dirname "$0")/.."
@@ -13,30 +17,47 @@ OUT=out/bench-edit
 [ -d "$DATA" ] || { echo "bench_edit: $DATA is absent; nothing to measure"; exit 0; }
 mkdir -p "$OUT"
 get() { tr -d '\n ' < "$2" | grep -o "\"$1\":[^,}]*" | head -1 | cut -d: -f2; }
+clamp() { local v=$1 lo=$2 hi=$3; [ "$v" -lt "$lo" ] && v=$lo; [ "$v" -gt "$hi" ] && v=$hi; echo "$v"; }
+
+prep() { # DIR MESH LEVELS: cells, colours, a DAG per cell, the root DAG
+	local dir=$1 mesh=$2 L=$3 c=3 f
+	[ "$L" -lt 6 ] && c=1
+	[ -f "$dir/root.dag" ] && [ -d "$dir/v" ] && return 0
+	rm -rf "$dir" && mkdir -p "$dir/cells"
+	"$BIN/voxelize" "$mesh" -o "$dir/v" --levels "$L" --chunk-level $c \
+		--mem-budget 3G -q && "$BIN/colour-make-test" "$dir/v" || return 1
+	for f in "$dir"/v/*.svo; do
+		"$BIN/svo-to-dag" "$f" -o "$dir/cells/$(basename "$f" .svo).dag" -q || return 1
+	done
+	"$BIN/svo-to-dag" --merge "$dir"/cells/*.dag -o "$dir/root.dag" --to-level 0 -q || return 1
+	rm -rf "$dir/cells"
+}
 
 bench() { # SCENE LEVELS
 	local scene=$1 L=$2 name dir
 	name=$(basename "$scene" .ply)-$L
 	dir=$OUT/$name
 	[ -f "$DATA/$scene" ] || { echo "bench_edit: $scene absent"; return; }
-	rm -rf "$dir" && mkdir -p "$dir"
-	"$BIN/voxelize" "$DATA/$scene" -o "$dir/v" --levels "$L" --chunk-level 0 \
-		--mem-budget 3G -q || { echo "bench_edit: voxelize failed"; return; }
-	"$BIN/svo-to-dag" "$dir/v/chunk-L0-0.svo" -o "$dir/root.dag" -q \
-		--mem-budget 3G || { echo "bench_edit: svo-to-dag failed"; return; }
-	rm -rf "$dir/v"
-	local c=$((1 << (L - 1))) ops="" s
+	prep "$dir" "$DATA/$scene" "$L" || { echo "bench_edit: building $name failed"; return; }
+	local n=$((1 << L)) c=$((1 << (L - 1))) ops="" s
 	for s in 10 47 216; do
+		[ "$s" -gt $((n / 2)) ] && continue
 		local a=$((c - s / 2)) b=$((c - s / 2 + s - 1))
+		local dx dy dz
+		dx=$(clamp $((a + s + 1)) 0 $((n - s)))
+		dy=$(clamp $((a - s / 2)) 0 $((n - s)))
+		dz=$(clamp $((a + s / 3)) 0 $((n - s)))
+		ops+="copy $a $a $a $b $b $b to $dx $dy $dz"$'\n'
 		ops+="fill box $a $a $a $b $b $b"$'\n'
+		ops+="paint box $dx $dy $dz $((dx + s - 1)) $((dy + s - 1)) $((dz + s - 1)) colour 200 30 30"$'\n'
 		ops+="carve box $a $a $a $b $b $b"$'\n'
-		ops+="copy $a $a $a $b $b $b to $((a + s + 1)) $((a - s / 2)) $((a + s / 3))"$'\n'
 	done
 	ops+="gc"$'\n'
 	printf '%s' "$ops" > "$dir/script.txt"
 	for j in 1 2; do
 		/usr/bin/time -f %M -o "$dir/time" "$BIN/edit" "$dir/root.dag" \
-			-o "$dir/edited-$j.dag" --script "$dir/script.txt" -j "$j" -q ||
+			-o "$dir/edited-$j.dag" --script "$dir/script.txt" -j "$j" -q \
+			--colours "$dir/v" --colours-out "$dir/edited-$j.col" ||
 			{ echo "bench_edit: edit failed"; return; }
 		local st=$dir/edited-$j.dag.stats.json
 		tr -d '\n ' < "$st" | grep -o '{"line":[^}]*}' |
@@ -55,6 +76,7 @@ bench() { # SCENE LEVELS
 			"$(get hash_bytes "$st" | awk '{print $1/1048576}')" \
 			"$(get dag_bytes "$st" | awk '{print $1/1048576}')" \
 			"$(awk '{print $1/1024}' "$dir/time")"
+		rm -rf "$dir/edited-$j.col"
 	done
 }
 
