@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmark of edit (the CPU HashDAG) on the shared dragon: copy, fill,
 # paint and carve of cubes of about 1K, 100K and 10M voxels (sides 10, 47,
-# 216 at the grid centre; the copy first, so its source is the scene's
+# 216 centred on a set voxel near the grid centre (tests/bench/edit_site.c;
+# the dragon is hollow there); the copy first, so its source is the scene's
 # own surface, to a destination clamped inside the grid) with 1 and 2
 # threads, on a coloured scene (colour-make-test colours, cells of level 3:
 # paint and the colours of every edit are measured too); memory of the
@@ -39,18 +40,27 @@ bench() { # SCENE LEVELS
 	dir=$OUT/$name
 	[ -f "$DATA/$scene" ] || { echo "bench_edit: $scene absent"; return; }
 	prep "$dir" "$DATA/$scene" "$L" || { echo "bench_edit: building $name failed"; return; }
-	local n=$((1 << L)) c=$((1 << (L - 1))) ops="" s
+	# the boxes are centred on a set voxel near the grid centre, so the
+	# copies copy surface and the paints meet voxels
+	local n=$((1 << L)) ops="" s site
+	site=$(out/bench/edit_site "$dir/root.dag") ||
+		{ echo "bench_edit: edit_site failed"; return; }
 	for s in 10 47 216; do
 		[ "$s" -gt $((n / 2)) ] && continue
-		local a=$((c - s / 2)) b=$((c - s / 2 + s - 1))
+		local x y z ax ay az
+		read -r x y z <<<"$site"
+		ax=$(clamp $((x - s / 2)) 0 $((n - s)))
+		ay=$(clamp $((y - s / 2)) 0 $((n - s)))
+		az=$(clamp $((z - s / 2)) 0 $((n - s)))
+		local bx=$((ax + s - 1)) by=$((ay + s - 1)) bz=$((az + s - 1))
 		local dx dy dz
-		dx=$(clamp $((a + s + 1)) 0 $((n - s)))
-		dy=$(clamp $((a - s / 2)) 0 $((n - s)))
-		dz=$(clamp $((a + s / 3)) 0 $((n - s)))
-		ops+="copy $a $a $a $b $b $b to $dx $dy $dz"$'\n'
-		ops+="fill box $a $a $a $b $b $b"$'\n'
-		ops+="paint box $dx $dy $dz $((dx + s - 1)) $((dy + s - 1)) $((dz + s - 1)) colour 200 30 30"$'\n'
-		ops+="carve box $a $a $a $b $b $b"$'\n'
+		dx=$(clamp $((ax + s + 1)) 0 $((n - s)))
+		dy=$(clamp $((ay - s / 2)) 0 $((n - s)))
+		dz=$(clamp $((az + s / 3)) 0 $((n - s)))
+		ops+="copy $ax $ay $az $bx $by $bz to $dx $dy $dz"$'\n'
+		ops+="paint box $ax $ay $az $bx $by $bz colour 200 30 30"$'\n'
+		ops+="fill box $ax $ay $az $bx $by $bz"$'\n'
+		ops+="carve box $ax $ay $az $bx $by $bz"$'\n'
 	done
 	ops+="gc"$'\n'
 	printf '%s' "$ops" > "$dir/script.txt"
@@ -62,14 +72,17 @@ bench() { # SCENE LEVELS
 		local st=$dir/edited-$j.dag.stats.json
 		tr -d '\n ' < "$st" | grep -o '{"line":[^}]*}' |
 		while read -r o; do
-			local op line v sec hb
+			local op line v sec cpu cells hb
 			line=$(grep -o '"line":[0-9]*' <<<"$o" | cut -d: -f2)
 			op=$(grep -o '"op":"[a-z]*"' <<<"$o" | cut -d'"' -f4)
 			v=$(grep -o '"voxels_changed":[0-9]*' <<<"$o" | cut -d: -f2)
 			sec=$(grep -o '"seconds":[0-9.e+-]*' <<<"$o" | cut -d: -f2)
+			cpu=$(grep -o '"cpu_seconds":[0-9.e+-]*' <<<"$o" | cut -d: -f2)
+			cells=$(grep -o '"colour_cells_rebuilt":[0-9]*' <<<"$o" | cut -d: -f2)
 			hb=$(grep -o '"hash_bytes":[0-9]*' <<<"$o" | cut -d: -f2)
-			printf '%-18s %2d %3s %5s %10s %10.4f %10.1f\n' "$name" "$j" \
-				"$line" "$op" "$v" "$sec" "$(echo "$hb" | awk '{print $1/1048576}')"
+			printf '%-18s %2d %3s %5s %10s %9.4f %9.4f %5s %9.1f\n' "$name" "$j" \
+				"$line" "$op" "$v" "$sec" "$cpu" "${cells:--}" \
+				"$(echo "$hb" | awk '{print $1/1048576}')"
 		done
 		printf '%-18s %2d  load %.2f s  save %.2f s  hash %.1f MiB  plain DAG %.1f MiB  peak RSS %.0f MiB\n' \
 			"$name" "$j" "$(get seconds_load "$st")" "$(get seconds_save "$st")" \
@@ -80,7 +93,7 @@ bench() { # SCENE LEVELS
 	done
 }
 
-printf '%-18s %2s %3s %5s %10s %10s %10s\n' scene j line op voxels seconds 'hash MiB'
+printf '%-18s %2s %3s %5s %10s %9s %9s %5s %9s\n' scene j line op voxels seconds cpu_s cells 'hash MiB'
 if [ $# -eq 0 ]; then
 	set -- stanford_dragon.ply 12 stanford_dragon.ply 14
 fi

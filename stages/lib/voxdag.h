@@ -2047,6 +2047,11 @@ struct vd_edit_stats {
 	uint64_t nodes_added[VD_MAX_LEVELS];  /* per level 0..L-2 */
 	double seconds;
 	uint64_t hash_bytes;                  /* committed bytes afterwards */
+	double cpu_seconds;                   /* CPU time of the process
+						 (all threads): the machine
+						 may be shared */
+	uint64_t colour_cells_rebuilt;        /* with colours: cells whose
+						 colour array was rebuilt */
 };
 
 /* Loads a root DAG chunk (kind dag, chunk_level 0, L >= 3). `o` may be

@@ -123,6 +123,13 @@ expect colour-from-pack 0 '' "$BIN/edit" "$T/c.dag" --colours "$T/cvp/colours.ra
 	--colours-out "$T/cp" --script "$T/paint.txt" -q
 "$BIN/render" "$T/cp.dag" -o "$T/cp.png" -s 160x120 -c iso -q -C "$T/cp"
 cmp -s "$T/ce.png" "$T/cp.png" && pass colour-pack-same || fail colour-pack-same
+# the shell renders the colours as they are in memory
+printf 'render %s\npaint box 0 0 0 255 255 255 colour 255 0 0\nrender %s\n' \
+	"$T/sh0.png" "$T/sh1.png" >"$T/shc.in"
+expect colour-shell 0 '' sh -c "'$BIN/edit' --shell '$T/c.dag' --colours '$T/cv' <'$T/shc.in'"
+"$BIN/render" "$T/c.dag" -o "$T/shg.png" -s 640x480 -c iso -q
+[ -s "$T/sh1.png" ] && ! cmp -s "$T/sh0.png" "$T/sh1.png" && ! cmp -s "$T/sh0.png" "$T/shg.png" &&
+	pass colour-shell-render || fail colour-shell-render "pictures not coloured"
 expect colour-other-scene 1 'colours' "$BIN/edit" "$T/b.dag" --colours "$T/cv" -o "$T/x.dag" \
 	--colours-out "$T/x" --script "$T/paint.txt"
 echo 'paint box 0 0 0 3 3 3' >"$T/pnc.txt"

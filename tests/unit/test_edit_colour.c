@@ -380,6 +380,8 @@ static void test_reuse_and_refusals(void)
 	CHECK_EQ(vd_hashdag_apply(h, &op, &st), VD_OK);
 	cref_apply(&r, &op);
 	CHECK(st.voxels_changed > 0);
+	/* a 3-cube meets one to eight cells of the 64 */
+	CHECK(st.colour_cells_rebuilt >= 1 && st.colour_cells_rebuilt <= 8);
 	CHECK_EQ(differ_h(h, &r), 0);
 	CHECK_EQ(vd_hashdag_colours_save(h, out, "test"), VD_OK);
 	int shift = L - L0, linked = 0, written = 0, wrong = 0;

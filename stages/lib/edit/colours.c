@@ -461,7 +461,8 @@ static void op_bbox(const struct vd_hashdag *h, const struct vd_edit_op *op,
 
 int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		    uint32_t old_root, uint32_t new_root,
-		    struct hd_cellcol ***out, uint64_t *changed_colours)
+		    struct hd_cellcol ***out, uint64_t *changed_colours,
+		    uint64_t *cells_rebuilt)
 {
 	struct hd_colours *c = h->col;
 	struct cctx x = {.h = h, .op = op, .old_root = old_root,
@@ -486,6 +487,7 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 					      cell_ptr(h, new_root, cells[i]))
 			cells[k++] = cells[i];
 	n = k;
+	*cells_rebuilt = n;
 	if (!err && op->kind == VD_EDIT_COPY && n) {
 		err = cells_of(h, op->lo, op->hi, &scells, &ns);
 		x.src = err ? NULL : calloc(ns ? ns : 1, sizeof *x.src);

@@ -118,6 +118,9 @@ int hd_budget_check(const struct vd_hashdag *h, uint64_t more,
 		    const char *what);
 uint64_t hd_used_bytes(const struct vd_hashdag *h);
 
+/* CPU seconds of the process, all threads. */
+double hd_cpu_seconds(void);
+
 /* Colours (colours.c). */
 void hd_cellcol_unref(struct hd_colours *c, struct hd_cellcol *p);
 void hd_coltab_free(struct hd_colours *c, struct hd_cellcol **tab);
@@ -126,7 +129,8 @@ void hd_colours_free(struct hd_colours *c);
  * (both in h); *changed_colours counts voxels whose colour changed. */
 int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		    uint32_t old_root, uint32_t new_root,
-		    struct hd_cellcol ***out, uint64_t *changed_colours);
+		    struct hd_cellcol ***out, uint64_t *changed_colours,
+		    uint64_t *cells_rebuilt);
 /* Does op's region hold voxel (x, y, z) (copy: its destination)? */
 int hd_op_has(const struct vd_edit_op *op, int64_t x, int64_t y, int64_t z);
 /* Voxels of the subtree of ptr on level l. */

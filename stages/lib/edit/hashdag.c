@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <time.h>
 
 /* The leaves' bit mixer (a 64-bit finaliser in the style of splitmix). */
 static uint64_t mix64(uint64_t v)
@@ -184,6 +185,14 @@ uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
 		p = hd_child(h, k, p, c);
 	}
 	return p;
+}
+
+double hd_cpu_seconds(void)
+{
+	struct timespec t;
+	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t))
+		return 0;
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
 uint64_t hd_used_bytes(const struct vd_hashdag *h)
@@ -638,7 +647,7 @@ static uint32_t remap(const uint32_t *list, const uint32_t *to, size_t n,
 int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		  struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	int L = h->levels, err;
 	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
 	size_t nkeep = keep_history ? h->nroots : 1;
@@ -744,6 +753,7 @@ done:
 	free(fresh);
 	if (st) {
 		st->seconds = vd_seconds() - t0;
+		st->cpu_seconds = hd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

@@ -409,7 +409,7 @@ int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op)
 int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		     struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	int err = vd_edit_op_check(h, op);
 	if (err)
 		return err;
@@ -448,9 +448,10 @@ int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 			       &out);
 	free(c.js.v);
 	struct hd_cellcol **tab = NULL;
-	uint64_t recoloured = 0;
+	uint64_t recoloured = 0, rebuilt = 0;
 	if (!err && h->col)
-		err = hd_colours_edit(h, op, root, out, &tab, &recoloured);
+		err = hd_colours_edit(h, op, root, out, &tab, &recoloured,
+				      &rebuilt);
 	if (op->kind == VD_EDIT_PAINT)
 		changed = recoloured;
 	if (!err)
@@ -460,9 +461,11 @@ int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 	if (st) {
 		memset(st, 0, sizeof *st);
 		st->voxels_changed = err ? 0 : changed;
+		st->colour_cells_rebuilt = err ? 0 : rebuilt;
 		for (int l = 0; l <= h->levels - 2; l++)
 			st->nodes_added[l] = h->lv[l].nodes - before[l];
 		st->seconds = vd_seconds() - t0;
+		st->cpu_seconds = hd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

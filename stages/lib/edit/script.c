@@ -285,6 +285,10 @@ static void json_op(struct vd_json *j, const struct vd_hashdag *h,
 	vd_json_u64_array(j, c->kind == CMD_GC ? "nodes_kept" : "nodes_added",
 			  st->nodes_added, (size_t)h->levels - 1);
 	vd_json_f64(j, "seconds", st->seconds);
+	vd_json_f64(j, "cpu_seconds", st->cpu_seconds);
+	if (h->col && c->kind == CMD_OP)
+		vd_json_u64(j, "colour_cells_rebuilt",
+			    st->colour_cells_rebuilt);
 	vd_json_u64(j, "hash_bytes", st->hash_bytes);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	vd_json_end_object(j);
@@ -306,22 +310,43 @@ static void print_stats(FILE *f, const struct vd_hashdag *h)
 			vd_hashdag_max_bucket(h, l), 1u << h->lv[l].m);
 }
 
+static void mem_get(const struct vd_colour_source *s, uint64_t i,
+		    uint8_t rgb[3])
+{
+	memcpy(rgb, (const uint8_t *)s->impl + 3 * i, 3);
+}
+
 static int render_to(const struct vd_edit_job *job, struct vd_hashdag *h,
 		     const char *png)
 {
+	/* with colours, the picture takes the scene's colour array as it is
+	 * in memory (a source of its own, nothing written) */
+	struct vd_colour_source cs = {.levels = h->levels, .cell_level = -1,
+				      .get = mem_get};
+	uint8_t *rgb = NULL;
+	if (h->col) {
+		int err = vd_hashdag_colour_array(h, &rgb, &cs.voxels);
+		if (err)
+			return rewrap(err, 1, "cannot render '%s'", png);
+		cs.impl = rgb;
+	}
 	char tmp[1100];
 	snprintf(tmp, sizeof tmp, "%s.edit-%d.dag", png, (int)getpid());
 	int err = vd_hashdag_save(h, tmp, NULL);
-	if (err)
+	if (err) {
+		free(rgb);
 		return rewrap(err, 1, "cannot render '%s'", png);
+	}
 	struct vd_render_job r = {.tool = job->tool, .input = tmp,
 				  .output = png, .preset = "iso", .quiet = 1};
 	r.opts.width = 640;
 	r.opts.height = 480;
 	r.opts.cam.fov_deg = 40;
 	r.opts.threads = job->opts.threads;
+	r.opts.colours = h->col ? &cs : NULL;
 	err = vd_render_run(&r);
 	unlink(tmp);
+	free(rgb);
 	return err;
 }
 
