@@ -161,7 +161,7 @@ test: deps
 	@tests/run.sh
 
 bench: deps
-	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation
+	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation $(OUT)/bench/edit_site
 	@tests/bench.sh
 
 # Fuzzing (libFuzzer, Debian's clang): one target per reader,

@@ -197,7 +197,7 @@ YAML
 			name, cells, jobs, r, s, s > 0 ? 100 * r / s : 0 }'
 	rm -rf "out/$name"
 }
-# The HashDAG edit stage (issue 16): fill, carve and copy of 1K, 100K and
+# The HashDAG edit stage (issue 16): copy, fill, paint and carve of 1K, 100K and
 # 10M voxels on the dragon at 2^12 and 2^14 with 1 and 2 threads, hashed
 # memory against the plain DAG, gc (tests/bench_edit.sh, which also runs
 # alone). VOXDAG_BENCH_EDIT=0 skips it.

@@ -10,6 +10,8 @@
 
 static const char usage[] =
 	"usage: edit ROOT.dag -o EDITED.dag --script EDITS.txt [options]\n"
+	"       edit ROOT.dag --colours SRC -o EDITED.dag --colours-out DIR\n"
+	"            --script EDITS.txt [options]\n"
 	"       edit --shell ROOT.dag [-o EDITED.dag] [options]\n"
 	"\n"
 	"Loads a root DAG chunk into a HashDAG (Careil et al. 2020) and applies\n"
@@ -21,6 +23,14 @@ static const char usage[] =
 	"EDITED.dag.stats.json. The shell reads one line at a time from stdin\n"
 	"(also render FILE.png, save [FILE], stats, quit).\n"
 	"\n"
+	"Colours: with --colours SRC (a voxelize output directory with .col\n"
+	"chunks, or a colorize packed file, of the same scene) edits carry the\n"
+	"voxel colours along and `paint` recolours a region; fill takes its\n"
+	"'colour R G B' or the default, carved voxels drop theirs, copies take\n"
+	"their source's. The edited colours go to --colours-out DIR as a\n"
+	"voxelize-style directory (SVO and .col chunk per cell; unchanged cells\n"
+	"linked from SRC), which render --colours and colorize take.\n"
+	"\n"
 	"  -o, --output FILE       edited chunk (written atomically)\n"
 	"  -s, --script FILE       the edits, one per line\n"
 	"  -S, --shell             interactive: lines from stdin\n"
@@ -29,10 +39,19 @@ static const char usage[] =
 	"                          from each level's size, at most half full)\n"
 	"  -M, --bucket-words M    2^M 32-bit words per bucket (default 10;\n"
 	"                          4 <= M, P + M <= 30)\n"
+	"  -c, --colours SRC       the scene's colours (see above)\n"
+	"  -C, --colours-out DIR   where the edited colours go (needed with\n"
+	"                          --colours and --script)\n"
+	"  -F, --fill-colour R,G,B colour of voxels a fill without a colour\n"
+	"                          adds (default 128,128,128)\n"
+	"  -m, --mem-budget SIZE   bound on the bucket tables, their committed\n"
+	"                          pages and the colour arrays (default: none);\n"
+	"                          e.g. 512M, 4GiB\n"
 	"  -q, --quiet             no summary line on stderr\n"
 	"  -h, --help              this text\n"
 	"\n"
-	"A full bucket stops the edit with an error: run gc, or raise -P/-M.\n"
+	"A full bucket stops the edit with an error: run gc, or raise -P/-M;\n"
+	"so does passing --mem-budget: run gc, or raise it.\n"
 	"Exit status: 0 success, 1 failure (bad input, full bucket, I/O), 2 usage.\n";
 
 int main(int argc, char **argv)
@@ -44,12 +63,16 @@ int main(int argc, char **argv)
 		{"threads", required_argument, NULL, 'j'},
 		{"buckets", required_argument, NULL, 'P'},
 		{"bucket-words", required_argument, NULL, 'M'},
+		{"colours", required_argument, NULL, 'c'},
+		{"colours-out", required_argument, NULL, 'C'},
+		{"fill-colour", required_argument, NULL, 'F'},
+		{"mem-budget", required_argument, NULL, 'm'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0}};
 	struct vd_edit_job job = {.tool = TOOL};
 	int shell = 0, c;
-	while ((c = getopt_long(argc, argv, "o:s:Sj:P:M:qh", longs, NULL)) !=
+	while ((c = getopt_long(argc, argv, "o:s:Sj:P:M:c:C:F:m:qh", longs, NULL)) !=
 	       -1) {
 		switch (c) {
 		case 'o': job.output = optarg; break;
@@ -72,6 +95,28 @@ int main(int argc, char **argv)
 						    "--bucket-words '%s' "
 						    "(4..26)", optarg);
 			break;
+		case 'c': job.colours = optarg; break;
+		case 'C': job.colours_out = optarg; break;
+		case 'F': {
+			unsigned r, g, b;
+			char end;
+			if (sscanf(optarg, "%u,%u,%u%c", &r, &g, &b, &end) != 3 ||
+			    r > 255 || g > 255 || b > 255)
+				return vd_cli_usage(TOOL, "bad --fill-colour "
+						    "'%s' (R,G,B, each 0..255)",
+						    optarg);
+			job.fill_rgb[0] = (uint8_t)r;
+			job.fill_rgb[1] = (uint8_t)g;
+			job.fill_rgb[2] = (uint8_t)b;
+			job.has_fill_rgb = 1;
+			break;
+		}
+		case 'm':
+			if (vd_parse_size(optarg, &job.opts.mem_budget_bytes) ||
+			    !job.opts.mem_budget_bytes)
+				return vd_cli_usage(TOOL, "bad --mem-budget "
+						    "'%s'", optarg);
+			break;
 		case 'q': job.quiet = 1; break;
 		case 'h': fputs(usage, stdout); return 0;
 		default: return vd_cli_usage(TOOL, "bad option");
@@ -85,6 +130,13 @@ int main(int argc, char **argv)
 				    "--shell");
 	if (job.script && !job.output)
 		return vd_cli_usage(TOOL, "--script needs -o EDITED.dag");
+	if (job.colours_out && !job.colours)
+		return vd_cli_usage(TOOL, "--colours-out needs --colours SRC");
+	if (job.colours && job.script && !job.colours_out)
+		return vd_cli_usage(TOOL, "--colours with --script needs "
+				    "--colours-out DIR");
+	if (job.has_fill_rgb && !job.colours)
+		return vd_cli_usage(TOOL, "--fill-colour needs --colours SRC");
 	if (job.opts.buckets_log2 && job.opts.bucket_words_log2 &&
 	    job.opts.buckets_log2 + job.opts.bucket_words_log2 > 30)
 		return vd_cli_usage(TOOL, "--buckets + --bucket-words "

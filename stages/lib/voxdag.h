@@ -1188,6 +1188,8 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 /* Bytes of the compressed structure (as vd_cpack_stats.bytes). */
 uint64_t vd_cpack_bytes(const struct vd_cpack *c);
 uint64_t vd_cpack_blocks(const struct vd_cpack *c);
+/* Chunk level of the cells its segments were cut at (-1: no segment). */
+int vd_cpack_cell_level(const struct vd_cpack *c);
 void vd_cpack_free(struct vd_cpack *c);
 
 /* The colorize stage: the colour chunks of a voxelize output directory to
@@ -1951,6 +1953,7 @@ void vd_voxcount_release(struct vd_voxcount *vc);
 struct vd_colour_source {
 	uint64_t voxels;            /* length of the colour array */
 	int levels;                 /* grid depth the colours were made at */
+	int cell_level;             /* chunk level of its cells (-1 unknown) */
 	void (*get)(const struct vd_colour_source *s, uint64_t index,
 		    uint8_t rgb[3]);
 	void *impl;
@@ -2035,6 +2038,13 @@ struct vd_hashdag_opts {
 	int threads;           /* 0: all cores */
 	int split_level;       /* edits run one job per node of this level
 				  (0: 3, clamped to L-2) */
+	uint64_t mem_budget_bytes; /* 0: none. Else the bucket tables, the
+				  committed pages of every level (counted
+				  per 4 KiB page a bucket touches, so an
+				  over-estimate when buckets are smaller than
+				  a page) and the colour arrays stay under it:
+				  loading or an edit that would pass it fails
+				  with VD_ERR_BUDGET naming what it needs */
 };
 
 enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,
@@ -2051,6 +2061,8 @@ struct vd_edit_op {
 	int64_t lo[3], hi[3];  /* box */
 	double c[3], r;        /* sphere */
 	int64_t dst[3];        /* copy destination corner */
+	int has_rgb;           /* fill, paint: rgb given (paint needs it) */
+	uint8_t rgb[3];        /* sRGB colour */
 };
 
 /* What one edit (or gc) did. */
@@ -2059,6 +2071,11 @@ struct vd_edit_stats {
 	uint64_t nodes_added[VD_MAX_LEVELS];  /* per level 0..L-2 */
 	double seconds;
 	uint64_t hash_bytes;                  /* committed bytes afterwards */
+	double cpu_seconds;                   /* CPU time of the process
+						 (all threads): the machine
+						 may be shared */
+	uint64_t colour_cells_rebuilt;        /* with colours: cells whose
+						 colour array was rebuilt */
 };
 
 /* Loads a root DAG chunk (kind dag, chunk_level 0, L >= 3). `o` may be
@@ -2078,9 +2095,16 @@ const struct vd_transform *vd_hashdag_transform(const struct vd_hashdag *h);
 int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op);
 
 /* Applies `op` to the current scene and makes the result current (the redo
- * part of the history is dropped). VD_ERR_UNSUPPORTED for paint (no
- * colours), VD_ERR_BUDGET for a full bucket (nothing changes). `st` may be
- * NULL. */
+ * part of the history is dropped). VD_ERR_UNSUPPORTED for paint or a
+ * colour without colours (vd_hashdag_colours_open), VD_ERR_BUDGET for a
+ * full bucket or the memory budget (nothing changes). `st` may be NULL.
+ * With colours, the scene's colour array follows the edit (colour rules
+ * in schemas/edit-script.md): filled voxels take op->rgb, or the default
+ * colour when the op has none; carved voxels drop theirs; copied voxels
+ * take their source's; paint sets op->rgb on the set voxels of the region
+ * (for paint, voxels_changed counts the voxels whose colour changed). Only
+ * the colour arrays of the cells the region meets are rebuilt; the others
+ * are shared with the previous root of the history. */
 int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		     struct vd_edit_stats *st);
 
@@ -2112,6 +2136,33 @@ int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag);
 int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
 		    const char *provenance);
 
+/* Colours (stages/lib/edit/colours.c). The scene's colour array (the
+ * colour paper's depth-first order) kept per cell of the source's chunk
+ * level (a packed file's cells; min(3, L-2) when unknown), each cell's
+ * array shared between the roots of the history that did not change it,
+ * so undo, redo and gc carry colours along. `src` is what
+ * vd_colour_source_open() takes (a voxelize directory of .col chunks or a
+ * colorize packed file); it must hold exactly the current scene's voxels
+ * at the same depth (VD_ERR_MISMATCH). `fill_rgb` is the colour of voxels
+ * a fill without a colour adds (NULL: VD_EDIT_DEFAULT_RGB). */
+#define VD_EDIT_DEFAULT_RGB {128, 128, 128}
+int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
+			    const uint8_t *fill_rgb);
+/* 1 when the scene has colours. */
+int vd_hashdag_has_colours(const struct vd_hashdag *h);
+/* The current scene's colour array, 3 bytes per voxel in depth-first
+ * order (*rgb: free with free()); VD_ERR_UNSUPPORTED without colours. */
+int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
+			    uint64_t *voxels);
+/* Writes the current scene as a voxelize-style directory `dir`: per
+ * non-empty cell its SVO chunk and colour chunk (chunk-L<C>-<cell>.svo,
+ * .col) and a manifest, staged and published whole (vd_dir_stage). Cells
+ * whose colours and voxels are those loaded from a source directory are
+ * hard links to the source's files (copies when links fail); the others
+ * are written. So render --colours DIR and colorize DIR take it. */
+int vd_hashdag_colours_save(const struct vd_hashdag *h, const char *dir,
+			    const char *provenance);
+
 /* One run of the edit tool (script.c). */
 struct vd_edit_job {
 	const char *tool;         /* "edit" */
@@ -2123,6 +2174,10 @@ struct vd_edit_job {
 	const char *provenance;
 	struct vd_hashdag_opts opts;
 	int quiet;
+	const char *colours;      /* colour source, or NULL */
+	const char *colours_out;  /* colour directory written beside output */
+	int has_fill_rgb;
+	uint8_t fill_rgb[3];      /* default fill colour (has_fill_rgb) */
 };
 
 /* Script mode: parses and checks the whole script first (errors name line

@@ -81,12 +81,67 @@ bad negative 'line 1, column 11: box X -1..3' 'carve box -1 0 0 3 3 3'
 bad copy-outside 'copy destination' 'copy 0 0 0 9 9 9 to 250 0 0'
 bad malformed 'line 3, column 16: expected a whole number' $'# ok\nfill box 1 2 3 4 5 6\nfill box 1 2 3 x 5 6'
 bad missing 'line 1, column .*expected 6 numbers' 'fill box 1 2 3'
-bad trailing 'line 1, column 22: expected the end of the line' 'fill box 1 2 3 4 5 6 7'
+bad trailing 'line 1, column 22: expected .*the end of the line' 'fill box 1 2 3 4 5 6 7'
 bad no-shape 'line 1, column 6: expected box or sphere' 'fill cube 1 2 3 4 5 6'
 bad paint 'no colours' 'paint box 0 0 0 3 3 3'
 bad undo-empty 'nothing to undo' 'undo'
 bad full-bucket 'full.*run gc' 'fill box 0 0 0 3 3 3' --buckets 2 --bucket-words 4
 bad sphere-outside 'sphere centre X' 'fill sphere 999 0 0 3'
+
+# colours: the textured spider in 8 cells; paint, fill with and without a
+# colour, carve, copy; the colour directory renders and colorizes
+M=tests/data/spider/spider.obj
+"$BIN/voxelize" $M -o "$T/cv" --levels 8 --chunk-level 1 -q &&
+	for f in "$T"/cv/*.svo; do "$BIN/svo-to-dag" "$f" -o "$T/cd-$(basename "$f" .svo).dag" -q; done &&
+	"$BIN/svo-to-dag" --merge "$T"/cd-*.dag -o "$T/c.dag" --to-level 0 -q ||
+	fail colour-setup "cannot build the spider"
+cat >"$T/paint.txt" <<'X'
+paint sphere 128 128 128 40 colour 255 0 0
+fill box 0 0 0 9 9 9 colour 0 255 0
+fill box 250 250 250 255 255 255
+carve sphere 100 100 100 10
+copy 100 100 100 139 139 139 to 0 200 0
+paint box 0 0 0 255 255 40 colour 0 0 255   # a slab
+X
+expect colour-edit 0 '' "$BIN/edit" "$T/c.dag" --colours "$T/cv" -o "$T/ce.dag" \
+	--colours-out "$T/ce" --script "$T/paint.txt" -q
+grep -q '"op": *"paint"' "$T/ce.dag.stats.json" 2>/dev/null && pass colour-stats ||
+	fail colour-stats "no paint in the statistics"
+expect colour-render 0 '' "$BIN/render" "$T/ce.dag" -o "$T/ce.png" -s 160x120 -c iso -q -C "$T/ce"
+"$BIN/render" "$T/c.dag" -o "$T/c.png" -s 160x120 -c iso -q -C "$T/cv"
+[ -s "$T/ce.png" ] && ! cmp -s "$T/c.png" "$T/ce.png" && pass colour-render-differs ||
+	fail colour-render-differs "the edited picture is the original's"
+expect colour-colorize 0 '' "$BIN/colorize" "$T/ce" -o "$T/cpk" --method raw -q
+# edits that cancel out give the source's colours back: the same picture
+printf 'paint box 0 0 0 255 255 255 colour 1 2 3\nundo\n' >"$T/noop.txt"
+"$BIN/edit" "$T/c.dag" --colours "$T/cv" -o "$T/cn.dag" --colours-out "$T/cn" --script "$T/noop.txt" -q
+"$BIN/render" "$T/cn.dag" -o "$T/cn.png" -s 160x120 -c iso -q -C "$T/cn"
+cmp -s "$T/c.png" "$T/cn.png" && pass colour-undo-identity || fail colour-undo-identity
+# a packed colorize file as the source
+"$BIN/colorize" "$T/cv" -o "$T/cvp" --method raw -q
+expect colour-from-pack 0 '' "$BIN/edit" "$T/c.dag" --colours "$T/cvp/colours.raw" -o "$T/cp.dag" \
+	--colours-out "$T/cp" --script "$T/paint.txt" -q
+"$BIN/render" "$T/cp.dag" -o "$T/cp.png" -s 160x120 -c iso -q -C "$T/cp"
+cmp -s "$T/ce.png" "$T/cp.png" && pass colour-pack-same || fail colour-pack-same
+# the shell renders the colours as they are in memory
+printf 'render %s\npaint box 0 0 0 255 255 255 colour 255 0 0\nrender %s\n' \
+	"$T/sh0.png" "$T/sh1.png" >"$T/shc.in"
+expect colour-shell 0 '' sh -c "'$BIN/edit' --shell '$T/c.dag' --colours '$T/cv' <'$T/shc.in'"
+"$BIN/render" "$T/c.dag" -o "$T/shg.png" -s 640x480 -c iso -q
+[ -s "$T/sh1.png" ] && ! cmp -s "$T/sh0.png" "$T/sh1.png" && ! cmp -s "$T/sh0.png" "$T/shg.png" &&
+	pass colour-shell-render || fail colour-shell-render "pictures not coloured"
+expect colour-other-scene 1 'colours' "$BIN/edit" "$T/b.dag" --colours "$T/cv" -o "$T/x.dag" \
+	--colours-out "$T/x" --script "$T/paint.txt"
+echo 'paint box 0 0 0 3 3 3' >"$T/pnc.txt"
+expect paint-no-colour 1 "line 1, column .*paint needs 'colour R G B'" "$BIN/edit" "$T/c.dag" \
+	-o "$T/pnc.dag" --script "$T/pnc.txt" --colours "$T/cv" --colours-out "$T/pnc"
+[ -e "$T/pnc.dag" ] || [ -e "$T/pnc" ] && fail paint-no-colour-nothing-written ||
+	pass paint-no-colour-nothing-written
+bad colour-no-colours 'needs a scene with colours' 'fill box 0 0 0 3 3 3 colour 1 2 3'
+bad colour-range "line 1, column 33: expected a number 0..255" 'fill box 0 0 0 3 3 3 colour 1 2 300'
+expect colours-out-alone 2 'needs --colours' "$BIN/edit" "$T/b.dag" -o "$T/x.dag" --script "$T/id.txt" --colours-out "$T/x"
+expect colours-no-out 2 'needs --colours-out' "$BIN/edit" "$T/c.dag" -o "$T/x.dag" --script "$T/id.txt" --colours "$T/cv"
+bad mem-budget 'needs .* bytes \(bucket tables\).*--mem-budget of 65536' 'fill box 0 0 0 3 3 3' --mem-budget 64K
 
 head -c 3000 "$T/b.dag" >"$T/trunc.dag"
 expect truncated 1 "cannot read '.*trunc.dag': truncated" "$BIN/edit" "$T/trunc.dag" -o "$T/t.dag" --script "$T/id.txt"

@@ -469,6 +469,59 @@ static void test_errors(void)
 	free(r.b);
 }
 
+/* The statistics of copies (what bench_edit.sh prints): voxels changed
+ * equal the brute force's count, for boxes of the scene copied onto the
+ * scene at offsets aligned to nothing, to 4, to 64, and an emptied box
+ * copied over the scene (every destination voxel cleared). */
+static void test_copy_stats(void)
+{
+	struct ref r;
+	struct vd_dag d0 = {0};
+	struct vd_hashdag_opts o = {.threads = 2};
+	struct vd_hashdag *h = scene("tests/data/bunny.ply", 8, &r, &d0, &o);
+	if (!h)
+		return;
+	static const int64_t box[][9] = {
+		{100, 100, 100, 139, 139, 139, 10, 150, 77},  /* unaligned */
+		{64, 64, 64, 127, 127, 127, 0, 128, 64},      /* aligned 64 */
+		{80, 40, 120, 131, 91, 171, 84, 44, 124},     /* aligned 4 */
+		{0, 0, 0, 255, 255, 127, 0, 0, 128},          /* half the grid */
+	};
+	uint64_t total = 0;
+	for (size_t i = 0; i < sizeof box / sizeof box[0]; i++) {
+		struct vd_edit_op op = {.kind = VD_EDIT_COPY,
+					.shape = VD_SHAPE_BOX};
+		for (int a = 0; a < 3; a++) {
+			op.lo[a] = box[i][a];
+			op.hi[a] = box[i][3 + a];
+			op.dst[a] = box[i][6 + a];
+		}
+		struct vd_edit_stats st;
+		CHECK_EQ(vd_hashdag_apply(h, &op, &st), VD_OK);
+		uint64_t want = ref_apply(&r, &op);
+		CHECK_EQ(st.voxels_changed, want);
+		total += want;
+	}
+	CHECK(total > 0);
+	/* an emptied source: the copy clears what was at the destination */
+	struct vd_edit_op carve = {.kind = VD_EDIT_CARVE, .shape = VD_SHAPE_BOX,
+				   .lo = {100, 100, 100}, .hi = {150, 150, 150}};
+	CHECK_EQ(vd_hashdag_apply(h, &carve, NULL), VD_OK);
+	ref_apply(&r, &carve);
+	struct vd_edit_op cp = {.kind = VD_EDIT_COPY, .shape = VD_SHAPE_BOX,
+				.lo = {100, 100, 100}, .hi = {150, 150, 150},
+				.dst = {60, 30, 90}};
+	struct vd_edit_stats st;
+	CHECK_EQ(vd_hashdag_apply(h, &cp, &st), VD_OK);
+	uint64_t want = ref_apply(&r, &cp);
+	CHECK_EQ(st.voxels_changed, want);
+	CHECK(want > 0);
+	CHECK(same_voxels(h, &r));
+	vd_hashdag_free(h);
+	vd_dag_release(&d0);
+	free(r.b);
+}
+
 /* An empty scene: fill, carve everything back, undo. */
 static void test_empty_scene(void)
 {
@@ -524,6 +577,7 @@ int main(void)
 	RUN(test_random_bunny_9);
 	RUN(test_threads_independent);
 	RUN(test_errors);
+	RUN(test_copy_stats);
 	RUN(test_random_dragon_10);
 	return CHECK_DONE();
 }

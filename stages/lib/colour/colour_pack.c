@@ -565,6 +565,7 @@ void vd_cpack_writer_abort(struct vd_cpack_writer *w)
 
 struct vd_cpack {
 	int method, weight_bits, lossless;
+	int cell_level;              /* of the segments' cells, -1: none */
 	uint64_t voxels, segments, blocks, bytes;
 	double max_error;
 	/* segments */
@@ -694,6 +695,7 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		v += c->seg_n[s];
 	}
 	free(seg);
+	c->cell_level = S ? (int)cell_level : -1;
 	c->seg_first[S] = v;
 	c->seg_block[S] = c->blocks;
 	if (v != c->voxels)
@@ -922,6 +924,7 @@ int vd_cpack_open_mem(struct vd_cpack **out, const void *data, size_t size)
 }
 
 int vd_cpack_method(const struct vd_cpack *c) { return c->method; }
+int vd_cpack_cell_level(const struct vd_cpack *c) { return c->cell_level; }
 uint64_t vd_cpack_voxels(const struct vd_cpack *c) { return c->voxels; }
 uint64_t vd_cpack_bytes(const struct vd_cpack *c) { return c->bytes; }
 uint64_t vd_cpack_blocks(const struct vd_cpack *c) { return c->blocks; }

@@ -193,6 +193,7 @@ static int open_cpack(struct vd_colour_source *s, const char *path)
 		return err;
 	s->voxels = vd_cpack_voxels(c);
 	s->levels = (int)h.levels;
+	s->cell_level = vd_cpack_cell_level(c);
 	s->get = cpack_get;
 	s->impl = c;
 	s->release = cpack_release;
@@ -216,6 +217,7 @@ int vd_colour_source_open(struct vd_colour_source *s, const char *path)
 		return err;
 	s->voxels = voxels;
 	s->levels = (int)h.levels;
+	s->cell_level = (int)h.chunk_level;
 	s->get = raw_get;
 	s->impl = rgb;
 	s->release = raw_release;

@@ -20,11 +20,32 @@
 
 struct hd_level {
 	uint32_t *words;      /* 2^(P+M) words reserved, committed on touch */
+	uint64_t pages;       /* 4 KiB pages touched (budget accounting) */
 	uint32_t *used;       /* words used in each of the 2^P buckets */
 	int p, m;             /* log2 buckets, log2 words per bucket */
 	uint64_t nodes;       /* nodes stored (atomic adds) */
 	uint32_t full;        /* the full subtree node, HD_EMPTY if not made */
 	pthread_mutex_t lock[HD_LOCKS];
+};
+
+/* One cell's colours (RGB8, depth-first), shared by reference between the
+ * roots of the history that did not change the cell. */
+struct hd_cellcol {
+	uint64_t refs;
+	uint64_t n;           /* voxels */
+	uint8_t rgb[];        /* 3 n bytes */
+};
+
+/* The scene's colours: per root of the history a table of the 8^C cells
+ * of chunk level C (NULL: an empty cell), parallel to vd_hashdag.roots. */
+struct hd_colours {
+	int C;
+	uint64_t ncells;
+	struct hd_cellcol ***tab;    /* [cap_roots] */
+	struct hd_cellcol **input;   /* the cells as loaded (reuse on save) */
+	char *src_dir;               /* the source directory, or NULL */
+	uint8_t fill_rgb[3];
+	uint64_t bytes;              /* of all cell arrays alive */
 };
 
 struct vd_hashdag {
@@ -34,6 +55,9 @@ struct vd_hashdag {
 	struct hd_level lv[VD_MAX_LEVELS]; /* 0 .. L-2 */
 	uint32_t *roots;             /* history of roots, oldest first */
 	size_t nroots, cap_roots, cur; /* roots[cur] is the scene */
+	struct hd_colours *col;      /* NULL: no colours */
+	uint64_t fixed_bytes;        /* bucket tables, bookkeeping */
+	uint64_t committed_bytes;    /* pages of every level (atomic) */
 };
 
 /* Node size in words: leaves 2, inner 1 + children. */
@@ -83,7 +107,33 @@ int hd_make_full(struct vd_hashdag *h);
 uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
 		   uint32_t x, uint32_t y, uint32_t z);
 
-/* Pushes a new scene root (drops the redo part of the history). */
-int hd_push_root(struct vd_hashdag *h, uint32_t root);
+/* Pushes a new scene root (drops the redo part of the history) with its
+ * colour table `tab` (taken over; NULL without colours). */
+int hd_push_root(struct vd_hashdag *h, uint32_t root,
+		 struct hd_cellcol **tab);
+
+/* VD_ERR_BUDGET when `more` bytes would take the structure over the
+ * budget; `what` names them. */
+int hd_budget_check(const struct vd_hashdag *h, uint64_t more,
+		    const char *what);
+uint64_t hd_used_bytes(const struct vd_hashdag *h);
+
+/* CPU seconds of the process, all threads. */
+double hd_cpu_seconds(void);
+
+/* Colours (colours.c). */
+void hd_cellcol_unref(struct hd_colours *c, struct hd_cellcol *p);
+void hd_coltab_free(struct hd_colours *c, struct hd_cellcol **tab);
+void hd_colours_free(struct hd_colours *c);
+/* The colour table of the edit `op` that turned old_root into new_root
+ * (both in h); *changed_colours counts voxels whose colour changed. */
+int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
+		    uint32_t old_root, uint32_t new_root,
+		    struct hd_cellcol ***out, uint64_t *changed_colours,
+		    uint64_t *cells_rebuilt);
+/* Does op's region hold voxel (x, y, z) (copy: its destination)? */
+int hd_op_has(const struct vd_edit_op *op, int64_t x, int64_t y, int64_t z);
+/* Voxels of the subtree of ptr on level l. */
+uint64_t hd_voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr);
 
 #endif

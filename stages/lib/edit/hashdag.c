@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <time.h>
 
 /* The leaves' bit mixer (a 64-bit finaliser in the style of splitmix). */
 static uint64_t mix64(uint64_t v)
@@ -102,6 +103,30 @@ static int insert_words(struct vd_hashdag *h, struct hd_level *lv, int l,
 		pthread_mutex_unlock(lock);
 		return bucket_full(lv, l, b);
 	}
+	/* pages this append touches first (a page a neighbouring bucket
+	 * already touched is counted again: an over-estimate only) */
+	uint64_t w0 = ((uint64_t)b << lv->m) + used;
+	uint64_t first = w0 >> 10, last = (w0 + n - 1) >> 10;
+	if (used && (w0 - 1) >> 10 == first)
+		first++;
+	if (last >= first) {
+		uint64_t more = 4096 * (last - first + 1);
+		if (h->o.mem_budget_bytes &&
+		    __atomic_add_fetch(&h->committed_bytes, more,
+				       __ATOMIC_RELAXED) + h->fixed_bytes +
+				    (h->col ? h->col->bytes : 0) >
+			    h->o.mem_budget_bytes) {
+			__atomic_sub_fetch(&h->committed_bytes, more,
+					   __ATOMIC_RELAXED);
+			pthread_mutex_unlock(lock);
+			return hd_budget_check(h, more, "a page of level");
+		}
+		if (!h->o.mem_budget_bytes)
+			__atomic_add_fetch(&h->committed_bytes, more,
+					   __ATOMIC_RELAXED);
+		__atomic_add_fetch(&lv->pages, last - first + 1,
+				   __ATOMIC_RELAXED);
+	}
 	memcpy(base + used, w, 4 * (size_t)n);
 	lv->used[b] = used + n;
 	pthread_mutex_unlock(lock);
@@ -162,18 +187,65 @@ uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
 	return p;
 }
 
-int hd_push_root(struct vd_hashdag *h, uint32_t root)
+double hd_cpu_seconds(void)
 {
-	if (h->nroots && h->cur + 1 < h->nroots)
+	struct timespec t;
+	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t))
+		return 0;
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+uint64_t hd_used_bytes(const struct vd_hashdag *h)
+{
+	return h->fixed_bytes +
+	       __atomic_load_n(&h->committed_bytes, __ATOMIC_RELAXED) +
+	       (h->col ? h->col->bytes : 0);
+}
+
+int hd_budget_check(const struct vd_hashdag *h, uint64_t more,
+		    const char *what)
+{
+	uint64_t used = hd_used_bytes(h), b = h->o.mem_budget_bytes;
+	if (!b || used + more <= b)
+		return VD_OK;
+	return vd_fail(VD_ERR_BUDGET, "the edit needs %llu bytes (%s) beyond "
+		       "the %llu in use, over the --mem-budget of %llu bytes: "
+		       "raise it, or run gc",
+		       (unsigned long long)more, what,
+		       (unsigned long long)used, (unsigned long long)b);
+}
+
+int hd_push_root(struct vd_hashdag *h, uint32_t root,
+		 struct hd_cellcol **tab)
+{
+	if (h->nroots && h->cur + 1 < h->nroots) {
+		if (h->col)
+			for (size_t i = h->cur + 1; i < h->nroots; i++)
+				hd_coltab_free(h->col, h->col->tab[i]);
 		h->nroots = h->cur + 1;
+	}
 	if (h->nroots == h->cap_roots) {
 		size_t cap = h->cap_roots ? 2 * h->cap_roots : 64;
 		uint32_t *r = realloc(h->roots, cap * sizeof *r);
-		if (!r)
+		if (!r) {
+			if (h->col)
+				hd_coltab_free(h->col, tab);
 			return vd_fail(VD_ERR_NOMEM, "history of roots");
+		}
 		h->roots = r;
+		if (h->col) {
+			struct hd_cellcol ***t = realloc(h->col->tab,
+							 cap * sizeof *t);
+			if (!t) {
+				hd_coltab_free(h->col, tab);
+				return vd_fail(VD_ERR_NOMEM, "history of colours");
+			}
+			h->col->tab = t;
+		}
 		h->cap_roots = cap;
 	}
+	if (h->col)
+		h->col->tab[h->nroots] = tab;
 	h->roots[h->nroots++] = root;
 	h->cur = h->nroots - 1;
 	return VD_OK;
@@ -184,9 +256,17 @@ int hd_push_root(struct vd_hashdag *h, uint32_t root)
 static int tables_init(struct vd_hashdag *h, struct hd_level *lv,
 		       const uint64_t *words)
 {
+	uint64_t fixed = 0;
+	for (int l = 0; l <= h->levels - 2; l++)
+		fixed += (uint64_t)4 << (words ? level_p(&h->o, l, words[l])
+					       : h->lv[l].p);
+	int err = hd_budget_check(h, fixed, "bucket tables");
+	if (err)
+		return err;
+	h->fixed_bytes += fixed;
 	for (int l = 0; l <= h->levels - 2; l++) {
 		int p = words ? level_p(&h->o, l, words[l]) : h->lv[l].p;
-		int err = level_init(&lv[l], p, h->o.bucket_words_log2);
+		err = level_init(&lv[l], p, h->o.bucket_words_log2);
 		if (err)
 			return err;
 	}
@@ -209,6 +289,7 @@ static int hd_new(struct vd_hashdag **out, int L, const struct vd_transform *t,
 		h->o.split_level = L - 2;
 	h->levels = L;
 	h->t = *t;
+	h->fixed_bytes = sizeof *h;
 	*out = h;
 	if (h->o.buckets_log2 < 0 || h->o.bucket_words_log2 < 4 ||
 	    h->o.bucket_words_log2 > 26 ||
@@ -226,6 +307,11 @@ void vd_hashdag_free(struct vd_hashdag *h)
 	for (int l = 0; l < VD_MAX_LEVELS; l++)
 		if (h->lv[l].words || h->lv[l].used)
 			level_free(&h->lv[l]);
+	if (h->col) {
+		for (size_t i = 0; i < h->nroots; i++)
+			hd_coltab_free(h->col, h->col->tab[i]);
+		hd_colours_free(h->col);
+	}
 	free(h->roots);
 	free(h);
 }
@@ -290,7 +376,7 @@ int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
 		if (err)
 			goto fail;
 	}
-	if ((err = hd_make_full(h)) || (err = hd_push_root(h, root)))
+	if ((err = hd_make_full(h)) || (err = hd_push_root(h, root, NULL)))
 		goto fail;
 	return VD_OK;
 fail:
@@ -561,7 +647,7 @@ static uint32_t remap(const uint32_t *list, const uint32_t *to, size_t n,
 int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		  struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	int L = h->levels, err;
 	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
 	size_t nkeep = keep_history ? h->nroots : 1;
@@ -608,6 +694,12 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 	if (err)
 		goto done;
 	if (!keep_history) { /* only the current root was kept */
+		if (h->col) {
+			for (size_t i = 0; i < h->nroots; i++)
+				if (i != h->cur)
+					hd_coltab_free(h->col, h->col->tab[i]);
+			h->col->tab[0] = h->col->tab[h->cur];
+		}
 		h->roots[0] = h->roots[h->cur];
 		h->nroots = 1;
 		h->cur = 0;
@@ -624,14 +716,17 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		struct hd_level *a = &h->lv[l], *b = &fresh[l];
 		uint32_t *w = a->words, *u = a->used;
 		int p = a->p, m = a->m;
+		uint64_t pages = a->pages;
 		a->words = b->words;
 		a->used = b->used;
 		a->nodes = b->nodes;
+		a->pages = b->pages;
 		a->p = b->p;
 		a->m = b->m;
 		a->full = HD_EMPTY;
 		b->words = w;
 		b->used = u;
+		b->pages = pages;
 		b->p = p;
 		b->m = m;
 	}
@@ -641,6 +736,14 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 			st->nodes_added[l] = h->lv[l].nodes; /* kept */
 	}
 done:
+	/* the tables freed here leave the budget (the old ones after a
+	 * collection, the fresh ones after a failure) */
+	for (int l = 0; l <= L - 2; l++) {
+		if (fresh[l].words || fresh[l].used) {
+			h->committed_bytes -= 4096 * fresh[l].pages;
+			h->fixed_bytes -= (uint64_t)4 << fresh[l].p;
+		}
+	}
 	for (int l = 0; l <= L - 2; l++) {
 		if (fresh[l].words || fresh[l].used)
 			level_free(&fresh[l]);
@@ -650,6 +753,7 @@ done:
 	free(fresh);
 	if (st) {
 		st->seconds = vd_seconds() - t0;
+		st->cpu_seconds = hd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

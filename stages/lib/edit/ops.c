@@ -49,6 +49,19 @@ static int sphere_has(const struct vd_edit_op *op, int64_t x, int64_t y,
 	return dx * dx + dy * dy + dz * dz <= op->r * op->r;
 }
 
+int hd_op_has(const struct vd_edit_op *op, int64_t x, int64_t y, int64_t z)
+{
+	if (op->shape == VD_SHAPE_SPHERE && op->kind != VD_EDIT_COPY)
+		return sphere_has(op, x, y, z);
+	int64_t p[3] = {x, y, z};
+	for (int a = 0; a < 3; a++) {
+		int64_t d = op->kind == VD_EDIT_COPY ? op->dst[a] - op->lo[a] : 0;
+		if (p[a] < op->lo[a] + d || p[a] > op->hi[a] + d)
+			return 0;
+	}
+	return 1;
+}
+
 /* Does the shape cover voxel (x, y, z)? */
 static int shape_has(const struct ectx *e, int64_t x, int64_t y, int64_t z)
 {
@@ -186,8 +199,9 @@ static int whole(struct ectx *e, int l, uint32_t ptr, int64_t x, int64_t y,
 	return 1;
 }
 
-/* Voxels in the subtree of `ptr` on level l. */
-static uint64_t voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr)
+#define voxels_of hd_voxels_of
+
+uint64_t hd_voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr)
 {
 	if (ptr == HD_EMPTY)
 		return 0;
@@ -351,9 +365,16 @@ int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op)
 {
 	int64_t n = (int64_t)1 << h->levels;
 	static const char ax[] = "XYZ";
-	if (op->kind == VD_EDIT_PAINT)
+	if (op->kind == VD_EDIT_PAINT && !h->col)
 		return vd_fail(VD_ERR_UNSUPPORTED, "cannot paint: the scene "
-			       "has no colours (run colorize first)");
+			       "has no colours (give edit --colours DIR, a "
+			       "voxelize output with .col chunks, or a "
+			       "colorize file)");
+	if (op->kind == VD_EDIT_PAINT && !op->has_rgb)
+		return vd_fail(VD_ERR_ARG, "paint needs a colour");
+	if (op->has_rgb && !h->col)
+		return vd_fail(VD_ERR_UNSUPPORTED, "a colour needs a scene "
+			       "with colours (edit --colours)");
 	if (op->shape == VD_SHAPE_SPHERE && op->kind != VD_EDIT_COPY) {
 		for (int a = 0; a < 3; a++)
 			if (!isfinite(op->c[a]) || op->c[a] < 0 ||
@@ -388,7 +409,7 @@ int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op)
 int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		     struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	int err = vd_edit_op_check(h, op);
 	if (err)
 		return err;
@@ -412,28 +433,39 @@ int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		c.e.box_hi[a] = op->hi[a] + d;
 	}
 	uint64_t changed = 0;
-	uint32_t root = h->roots[h->cur], out;
-	err = edit_top(&c.e, &c.js, 0, 0, root, 0, 0, 0, &changed, &out);
+	uint32_t root = h->roots[h->cur], out = root;
+	if (op->kind != VD_EDIT_PAINT) /* paint leaves the voxels alone */
+		err = edit_top(&c.e, &c.js, 0, 0, root, 0, 0, 0, &changed,
+			       &out);
 	if (!err && c.js.n &&
 	    vd_parallel_for(c.js.n, h->o.threads, run_job, &c.e))
 		err = vd_fail(VD_ERR_INTERNAL, "thread pool");
 	for (size_t i = 0; i < c.js.n && !err; i++)
 		if (c.js.v[i].err)
 			err = vd_fail(c.js.v[i].err, "%s", c.js.v[i].detail);
-	if (!err)
+	if (!err && op->kind != VD_EDIT_PAINT)
 		err = edit_top(&c.e, &c.js, 1, 0, root, 0, 0, 0, &changed,
 			       &out);
 	free(c.js.v);
+	struct hd_cellcol **tab = NULL;
+	uint64_t recoloured = 0, rebuilt = 0;
+	if (!err && h->col)
+		err = hd_colours_edit(h, op, root, out, &tab, &recoloured,
+				      &rebuilt);
+	if (op->kind == VD_EDIT_PAINT)
+		changed = recoloured;
 	if (!err)
-		err = hd_push_root(h, out);
+		err = hd_push_root(h, out, tab);
 	/* On failure the nodes appended so far stay (unreachable; gc drops
 	 * them) and the scene is unchanged. */
 	if (st) {
 		memset(st, 0, sizeof *st);
 		st->voxels_changed = err ? 0 : changed;
+		st->colour_cells_rebuilt = err ? 0 : rebuilt;
 		for (int l = 0; l <= h->levels - 2; l++)
 			st->nodes_added[l] = h->lv[l].nodes - before[l];
 		st->seconds = vd_seconds() - t0;
+		st->cpu_seconds = hd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

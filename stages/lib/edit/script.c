@@ -212,8 +212,33 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 				return err;
 		}
 	}
+	if (i < n && (op->kind == VD_EDIT_FILL || op->kind == VD_EDIT_PAINT) &&
+	    (is(&t[i], "colour") || is(&t[i], "color"))) {
+		int at = t[i].col + t[i].len;
+		i++;
+		for (int k = 0; k < 3; k++, i++) {
+			if (i >= n)
+				return vd_fail(VD_ERR_FORMAT, "line %d, column "
+					       "%d: expected 3 numbers 0..255 "
+					       "after 'colour'", lineno, at);
+			double x;
+			if ((err = num(lineno, &t[i], 1, &x)))
+				return err;
+			if (x < 0 || x > 255)
+				return bad(lineno, &t[i], "a number 0..255");
+			op->rgb[k] = (uint8_t)x;
+		}
+		op->has_rgb = 1;
+	}
 	if (i < n)
-		return bad(lineno, &t[i], "the end of the line");
+		return bad(lineno, &t[i], op->kind == VD_EDIT_FILL ||
+						  op->kind == VD_EDIT_PAINT
+					  ? "'colour R G B' or the end of the "
+					    "line"
+					  : "the end of the line");
+	if (op->kind == VD_EDIT_PAINT && !op->has_rgb && h->col)
+		return vd_fail(VD_ERR_FORMAT, "line %d, column %d: paint needs "
+			       "'colour R G B'", lineno, (int)strlen(line) + 1);
 	const struct vd_transform *tr = &h->t;
 	if (op->shape == VD_SHAPE_SPHERE) {
 		for (int a = 0; a < 3; a++)
@@ -254,11 +279,16 @@ static void json_op(struct vd_json *j, const struct vd_hashdag *h,
 	vd_json_str(j, "op", c->kind == CMD_GC ? "gc" : c->kind == CMD_UNDO
 			     ? "undo" : c->kind == CMD_REDO ? "redo"
 			     : c->op.kind == VD_EDIT_FILL ? "fill"
-			     : c->op.kind == VD_EDIT_CARVE ? "carve" : "copy");
+			     : c->op.kind == VD_EDIT_CARVE ? "carve"
+			     : c->op.kind == VD_EDIT_PAINT ? "paint" : "copy");
 	vd_json_u64(j, "voxels_changed", st->voxels_changed);
 	vd_json_u64_array(j, c->kind == CMD_GC ? "nodes_kept" : "nodes_added",
 			  st->nodes_added, (size_t)h->levels - 1);
 	vd_json_f64(j, "seconds", st->seconds);
+	vd_json_f64(j, "cpu_seconds", st->cpu_seconds);
+	if (h->col && c->kind == CMD_OP)
+		vd_json_u64(j, "colour_cells_rebuilt",
+			    st->colour_cells_rebuilt);
 	vd_json_u64(j, "hash_bytes", st->hash_bytes);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	vd_json_end_object(j);
@@ -280,22 +310,43 @@ static void print_stats(FILE *f, const struct vd_hashdag *h)
 			vd_hashdag_max_bucket(h, l), 1u << h->lv[l].m);
 }
 
+static void mem_get(const struct vd_colour_source *s, uint64_t i,
+		    uint8_t rgb[3])
+{
+	memcpy(rgb, (const uint8_t *)s->impl + 3 * i, 3);
+}
+
 static int render_to(const struct vd_edit_job *job, struct vd_hashdag *h,
 		     const char *png)
 {
+	/* with colours, the picture takes the scene's colour array as it is
+	 * in memory (a source of its own, nothing written) */
+	struct vd_colour_source cs = {.levels = h->levels, .cell_level = -1,
+				      .get = mem_get};
+	uint8_t *rgb = NULL;
+	if (h->col) {
+		int err = vd_hashdag_colour_array(h, &rgb, &cs.voxels);
+		if (err)
+			return rewrap(err, 1, "cannot render '%s'", png);
+		cs.impl = rgb;
+	}
 	char tmp[1100];
 	snprintf(tmp, sizeof tmp, "%s.edit-%d.dag", png, (int)getpid());
 	int err = vd_hashdag_save(h, tmp, NULL);
-	if (err)
+	if (err) {
+		free(rgb);
 		return rewrap(err, 1, "cannot render '%s'", png);
+	}
 	struct vd_render_job r = {.tool = job->tool, .input = tmp,
 				  .output = png, .preset = "iso", .quiet = 1};
 	r.opts.width = 640;
 	r.opts.height = 480;
 	r.opts.cam.fov_deg = 40;
 	r.opts.threads = job->opts.threads;
+	r.opts.colours = h->col ? &cs : NULL;
 	err = vd_render_run(&r);
 	unlink(tmp);
+	free(rgb);
 	return err;
 }
 
@@ -320,7 +371,14 @@ static int run_cmd(const struct vd_edit_job *job, struct vd_hashdag *h,
 		if (!p)
 			return vd_fail(VD_ERR_ARG, "save needs a FILE (no -o)");
 		int err = vd_hashdag_save(h, p, job->provenance);
-		return err ? rewrap(err, 1, "cannot write '%s'", p) : VD_OK;
+		if (err)
+			return rewrap(err, 1, "cannot write '%s'", p);
+		if (job->colours_out &&
+		    (err = vd_hashdag_colours_save(h, job->colours_out,
+						   job->provenance)))
+			return rewrap(err, 1, "cannot write '%s'",
+				      job->colours_out);
+		return VD_OK;
 	}
 	case CMD_STATS:
 		print_stats(job->out ? job->out : stdout, h);
@@ -471,6 +529,10 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		unlink(staged);
 		return rewrap(err, 1, "cannot write '%s'", stats);
 	}
+	if (job->colours_out &&
+	    (err = vd_hashdag_colours_save(h, job->colours_out,
+					   job->provenance)))
+		return rewrap(err, 1, "cannot write '%s'", job->colours_out);
 	return VD_OK;
 }
 
@@ -518,6 +580,13 @@ int vd_edit_run(const struct vd_edit_job *job)
 	int err = vd_hashdag_load(&h, job->input, &job->opts);
 	if (err)
 		return rewrap(err, 1, "cannot read '%s'", job->input);
+	if (job->colours &&
+	    (err = vd_hashdag_colours_open(h, job->colours,
+					   job->has_fill_rgb ? job->fill_rgb
+							     : NULL))) {
+		vd_hashdag_free(h);
+		return rewrap(err, 1, "cannot read colours '%s'", job->colours);
+	}
 	err = job->script ? run_script(job, h, vd_seconds() - t0)
 			  : run_shell(job, h);
 	vd_hashdag_free(h);
