@@ -9,9 +9,10 @@
  *   SymVox encoding that encode writes)
  *   <encode job>/              the encodings and tables
  *   logs/                      one log per job, runner.log
- * Every output has a key beside it (<output>.key, or <dir>/.key): the
- * stage version, the arguments and the checksums of the inputs. A job whose
- * output exists with the same key is skipped.
+ *   keys                       the key journal (below)
+ * Every output has a key: the stage version, the arguments and the
+ * checksums of the inputs, and the digest of the output. A job whose
+ * output exists with the same key and digest is skipped.
  */
 #include "pipeline.h"
 

@@ -588,9 +588,9 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
-		 "%.3fs, stages cpu %.3fs", failures, blocked,
-		 vd_seconds() - t0, p->n, rusage_seconds(&self),
-		 rusage_seconds(&kids));
+		 "%.3fs, stages cpu %.3fs, runner peak %ld MiB", failures,
+		 blocked, vd_seconds() - t0, p->n, rusage_seconds(&self),
+		 rusage_seconds(&kids), self.ru_maxrss / 1024);
 	if (failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "
