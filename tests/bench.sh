@@ -129,8 +129,10 @@ budget_run out/terrain-x16.ply 16 512MiB
 # from the last line of runner.log. The issue asks for under 5%. Cells are
 # at most 8^7 (chunk level 7), and a height field fills about one cell per
 # column of 128^2 (the terrain, not square: ~8,300), so the terrain is
-# stacked 14 times up the grid (tests/bench/stack.c): ~116,000 cells. Long:
-# some 235,000 short processes (an hour or more on 2 cores).
+# stacked 14 times up the grid (tests/bench/stack.c): 109,933 cells at 2^11.
+# Long: some 223,000 short processes of ~16 ms CPU each (exec and dynamic
+# linking, mostly), an hour of CPU; on 2 cores shared at load 12 it ran at
+# ~15 jobs/s.
 # VOXDAG_BENCH_RUNNER=0 skips it; =small runs only the bunny case.
 runner_scale() { # runner_scale NAME MESH LEVELS CHUNK_LEVEL
 	local name=bench-runner-$1 cfg=$OUT/runner-$1.yaml
