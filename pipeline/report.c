@@ -86,6 +86,12 @@ static double json_sum(const char *text, const char *array, const char *key,
 	}
 	json_decref(root);
 	return sum;
+/* The same in an object already parsed (NULL: 0). */
+static double json_get(const json_t *root, const char *within, const char *key)
+{
+	const json_t *obj = within && root ? json_object_get(root, within) : root;
+	json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
+	return json_is_number(v) ? json_number_value(v) : 0;
 }
 
 /* The statistics file a job's stage wrote beside its output. */
@@ -472,6 +478,9 @@ int report_write(const struct plan *p)
 		char sp[1300];
 		stats_path(p, j, sp, sizeof sp);
 		char *text = slurp(sp);
+		/* parsed once: a report reads one file per job */
+		json_error_t jerr;
+		json_t *root = text ? json_loads(text, 0, &jerr) : NULL;
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
 		double secs = json_number(text, "seconds", "total");
@@ -486,15 +495,17 @@ int report_write(const struct plan *p)
 			secs = json_number(text, NULL, "seconds_load") +
 			       json_sum(text, "operations", "seconds", &nops) +
 			       json_number(text, NULL, "seconds_save");
+		double secs = json_get(root, "seconds", "total");
 		if (secs == 0) /* the DAG stages report their phases */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_number(text, NULL, "seconds_build") +
-			       json_number(text, NULL, "seconds_save");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_get(root, NULL, "seconds_build") +
+			       json_get(root, NULL, "seconds_save");
 		if (secs == 0) /* render writes no statistics: its wall time */
 			secs = j->seconds;
 		r->seconds += secs;
 		r->wall_this_run += j->seconds;
-		uint64_t rss = (uint64_t)json_number(text, NULL, "peak_rss_bytes");
+		uint64_t rss = (uint64_t)json_get(root, NULL, "peak_rss_bytes");
+		json_decref(root);
 		if (j->peak_rss > rss)
 			rss = j->peak_rss;
 		if (rss > r->peak_rss)

@@ -24,9 +24,17 @@ static void log_line(const char *fmt, ...)
 {
 	if (!runner_log)
 		return;
+	/* one stamp a second: localtime() would also stat /etc/localtime on
+	 * every line (localtime_r does not, once tzset ran) */
+	static time_t last;
+	static char ts[32];
 	time_t now = time(NULL);
-	char ts[32];
-	strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", localtime(&now));
+	if (now != last || !*ts) {
+		struct tm tm;
+		localtime_r(&now, &tm);
+		strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", &tm);
+		last = now;
+	}
 	fprintf(runner_log, "%s ", ts);
 	va_list ap;
 	va_start(ap, fmt);
@@ -73,31 +81,6 @@ static int take_lock(const struct plan *p)
 	return fd; /* held until the process exits */
 }
 
-static int write_key(const struct job *j)
-{
-	char text[64], tmp[1300];
-	if (job_key_text(j, text, sizeof text))
-		return -1;
-	snprintf(tmp, sizeof tmp, "%s.tmp", j->key_path);
-	FILE *f = fopen(tmp, "w");
-	if (!f)
-		return -1;
-	fputs(text, f);
-	int bad = fflush(f) != 0 || fsync(fileno(f)) != 0;
-	int e = errno;
-	if (fclose(f) != 0 && !bad) {
-		bad = 1;
-		e = errno;
-	}
-	if (!bad && rename(tmp, j->key_path) == 0)
-		return 0;
-	if (!bad)
-		e = errno;
-	unlink(tmp); /* no half key beside the output */
-	errno = e;
-	return -1;
-}
-
 static void print_tail(const char *path, int lines)
 {
 	FILE *f = fopen(path, "r");
@@ -120,21 +103,29 @@ static void print_command(FILE *f, const struct job *j)
 	fputc('\n', f);
 }
 
-/* Makes the output's directory and drops its key: it is being replaced. */
+/* Makes the output's directory and drops its key: it is being replaced.
+ * Consecutive jobs mostly write into the same directory (the cells): it is
+ * made once, and a key known to be absent is not unlinked. */
 static void prepare_output(struct job *j)
 {
+	static char made[1100];
 	char dir[1100];
 	snprintf(dir, sizeof dir, "%s", j->output);
 	char *slash = strrchr(dir, '/');
 	if (slash && strcmp(j->key_path + strlen(j->key_path) - 5, "/.key") != 0) {
 		*slash = 0;
-		mkdir_p(dir);
+		if (strcmp(dir, made) != 0 && mkdir_p(dir) == 0)
+			snprintf(made, sizeof made, "%s", dir);
 	}
-	unlink(j->key_path);
+	job_key_drop(j);
 }
 
 /* Why start_job last failed. */
 static char start_error[1500];
+
+/* The runner's signal mask before it blocked SIGCHLD (to wait for it
+ * with sigtimedwait); children get it back before they exec. */
+static sigset_t child_mask;
 
 static pid_t start_job(const struct plan *p, struct job *j)
 {
@@ -176,6 +167,7 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	if (pid == 0) {
 		/* die with the runner: a killed runner leaves no orphans */
 		prctl(PR_SET_PDEATHSIG, SIGKILL);
+		sigprocmask(SIG_SETMASK, &child_mask, NULL);
 		dup2(fd, 1); /* the copies lose O_CLOEXEC; fd closes at exec */
 		dup2(fd, 2);
 		int null = open("/dev/null", O_RDONLY);
@@ -350,14 +342,15 @@ static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
 	j->peak_rss = e->peak_rss;
 	int ok = e->exited && e->code == 0 && !*e->reason;
 	char key_error[1500] = "";
-	if (ok && write_key(j) != 0) {
+	if (ok && job_key_write(j) != 0) {
 		ok = 0;
 		snprintf(key_error, sizeof key_error, "cannot write its key "
 			 "'%s': %s", j->key_path, strerror(errno));
 	}
 	if (ok) {
 		job_set_state(p, j, JOB_DONE);
-		j->voxels = job_voxels(j);
+		if (!j->cell) /* a cell's count was read when it was planned */
+			j->voxels = job_voxels(j);
 		log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
 			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
 			 (unsigned long long)(j->mem_estimate >> 20));
@@ -455,7 +448,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			strerror(errno));
 		return 1;
 	}
-	if (take_lock(p) < 0)
+	if (take_lock(p) < 0 || keys_open(p->dir, 1) != 0)
 		return 1;
 	int slurm = c->executor == EXECUTOR_SLURM;
 	if (slurm && slurm_preflight(p) != 0)
@@ -463,6 +456,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
 	runner_log = fopen(rl, "a");
+	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
 	plan_expand(p);
 	int tty = isatty(2) && !o->quiet;
@@ -478,6 +472,13 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		fprintf(stderr, "voxdag: out of memory\n");
 		return 1;
 	}
+	/* locally the runner sleeps until a job ends (SIGCHLD, blocked so it
+	 * stays pending between a look with wait4 and the wait) or progress
+	 * is due, never polling */
+	sigset_t chld;
+	sigemptyset(&chld);
+	sigaddset(&chld, SIGCHLD);
+	sigprocmask(SIG_BLOCK, slurm ? NULL : &chld, &child_mask);
 	for (;;) {
 		/* start what is ready */
 		int all_left = 1;
@@ -523,7 +524,10 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
 			char why[600] = "";
-			int fresh = ds == 0 ? job_is_fresh(j, why, sizeof why) : 0;
+			/* a key found absent when planned is absent still: only
+			 * the runner writes keys, and only of jobs it ran */
+			int fresh = ds == 0 && !j->fresh_checked ?
+				    job_is_fresh(j, why, sizeof why) : 0;
 			if (fresh == 1) {
 				job_set_state(p, j, JOB_SKIPPED);
 				j->logged = 1;
@@ -601,8 +605,18 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		if (done == -2)
 			break;
 		if (done < 0) {
-			struct timespec ts = {0, (slurm ? 200 : 50) * 1000 * 1000};
-			nanosleep(&ts, NULL);
+			if (slurm) {
+				struct timespec ts = {0, 200 * 1000 * 1000};
+				nanosleep(&ts, NULL);
+			} else {
+				double every = o->quiet ? 5.0 : tty ? 0.5 : 10.0,
+				       left = last + every - vd_seconds();
+				if (left < 0.01)
+					left = 0.01;
+				struct timespec ts = {(time_t)left,
+						      (long)((left - (time_t)left) * 1e9)};
+				sigtimedwait(&chld, NULL, &ts);
+			}
 			double now = vd_seconds();
 			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
 				progress(p, t0, tty, 0);
@@ -630,9 +644,9 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
-		 "%.3fs, stages cpu %.3fs", failures, blocked,
-		 vd_seconds() - t0, p->n, rusage_seconds(&self),
-		 rusage_seconds(&kids));
+		 "%.3fs, stages cpu %.3fs, runner peak %ld MiB", failures,
+		 blocked, vd_seconds() - t0, p->n, rusage_seconds(&self),
+		 rusage_seconds(&kids), self.ru_maxrss / 1024);
 	if (failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "
