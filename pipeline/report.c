@@ -30,6 +30,14 @@ static char *slurp(const char *path)
 	return s;
 }
 
+/* The number at obj.key (0 when obj is not an object or holds no number
+ * there): the one lookup every reader below ends in. */
+static double num_at(const json_t *obj, const char *key)
+{
+	json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
+	return json_is_number(v) ? json_number_value(v) : 0;
+}
+
 /* The number at "key" of a statistics file's JSON text, or at
  * "within"."key" when `within` is given; 0 when the text is absent, is not
  * JSON, or has no such number (a report still comes out, with zeros). */
@@ -41,9 +49,7 @@ static double json_number(const char *text, const char *within, const char *key)
 	json_t *root = json_loads(text, 0, &jerr);
 	if (!root)
 		return 0;
-	json_t *obj = within ? json_object_get(root, within) : root;
-	json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
-	double d = json_is_number(v) ? json_number_value(v) : 0;
+	double d = num_at(within ? json_object_get(root, within) : root, key);
 	json_decref(root);
 	return d;
 }
@@ -58,9 +64,8 @@ static double json_row_number(const char *text, const char *array,
 	json_t *root = json_loads(text, 0, &jerr);
 	if (!root)
 		return 0;
-	json_t *row = json_array_get(json_object_get(root, array), index);
-	json_t *v = json_is_object(row) ? json_object_get(row, key) : NULL;
-	double d = json_is_number(v) ? json_number_value(v) : 0;
+	double d = num_at(json_array_get(json_object_get(root, array), index),
+			  key);
 	json_decref(root);
 	return d;
 }
@@ -254,8 +259,7 @@ static void write_colours(FILE *f, const struct plan *p)
 		json_t *root = json_loads(st, 0, &jerr);
 		json_t *m = json_object_get(json_object_get(root, "methods"),
 					    cd->method);
-#define NUM(k) (json_is_number(json_object_get(m, k)) ?                      \
-		json_number_value(json_object_get(m, k)) : 0)
+#define NUM(k) num_at(m, k)
 		char setting[64];
 		if (!strcmp(cd->method, "vbr"))
 			snprintf(setting, sizeof setting, "et %g, %g-bit weights",

@@ -10,7 +10,9 @@ cd "$(dirname "$0")/../.."
 IN=$1 NAME=${2:-$(basename "$1")}
 BIN=${BIN:-out/bin}
 W=$(mktemp -d "${TMPDIR:-/tmp}/colour-table.XXXXXX")
-trap 'rm -rf "$W"' EXIT
+# KEEP=DIR keeps every run's statistics JSON there (for scripts that
+# collect tables over several scenes).
+trap '[ -z "${KEEP:-}" ] || { mkdir -p "$KEEP" && cp "$W"/*.json "$KEEP"/; }; rm -rf "$W"' EXIT
 run() { # run TAG ARGS...: one colorize, its statistics in $W/TAG.json
 	local tag=$1
 	shift

@@ -454,6 +454,46 @@ static void test_ac3d_texrep_texoff(void)
 	free(s.v);
 }
 
+/* TORCS's .acc: four texture lines per object (base, tiled, skids, shad)
+ * and one UV pair per unit on each ref line. The base texture with the
+ * first pair must colour the triangle; the tiled unit (a grey PNG, its
+ * UVs scrambled) and the "empty_texture_no_mapping" units must not
+ * replace it, and under --strict the latter are not missing files. */
+static void test_acc_base_texture(void)
+{
+	write_png2("tex2.png");
+	static const uint8_t grey[12] = {90, 90, 90, 90, 90, 90,
+					 90, 90, 90, 90, 90, 90};
+	png_image img;
+	memset(&img, 0, sizeof img);
+	img.version = PNG_IMAGE_VERSION;
+	img.width = img.height = 2;
+	img.format = PNG_FORMAT_RGB;
+	CHECK(png_image_write_to_file(&img, in("grey.png"), 0, grey, 0, NULL));
+	write_text("big.acc",
+		   "AC3Db\n"
+		   "MATERIAL \"m\" rgb 1 1 1 amb 0 0 0 emis 0 0 0 spec 0 0 0 shi 0 trans 0\n"
+		   "OBJECT world\nkids 2\n"
+		   "OBJECT poly\nname \"track\"\ntexture \"tex2.png\" base\n"
+		   "texture \"grey.png\" tiled\n"
+		   "texture empty_texture_no_mapping skids\n"
+		   "texture empty_texture_no_mapping shad\n"
+		   "numvert 3\n0 0 0.4 0 0 1\n1 0 0.4 0 0 1\n0 1 0.4 0 0 1\n"
+		   "numsurf 1\nSURF 0x10\nmat 0\n"
+		   "refs 3\n0 0 0 0.7 0.3\n1 1 0 0.2 0.9\n2 0 1 0.5 0.5\nkids 0\n"
+		   "OBJECT poly\ntexture empty_texture_no_mapping base\n"
+		   "numvert 6\n0 0 0\n0.001 0 0\n0 0.001 0\n"
+		   "1 1 1\n0.999 1 1\n1 0.999 1\nnumsurf 2\nSURF 0x10\nmat 0\n"
+		   "refs 3\n0 0 0\n1 0 0\n2 0 0\nSURF 0x10\nmat 0\nrefs 3\n"
+		   "3 0 0\n4 0 0\n5 0 0\nkids 0\n");
+	CHECK_EQ(run_voxelize(in("big.acc"), 5, 0, 1, 1, NULL), VD_OK);
+	struct cscene s;
+	load_scene(&s);
+	struct uvmap m = {1, 1, 0, 0};
+	CHECK(check_big(&s, want_tex, &m) > 200);
+	free(s.v);
+}
+
 struct bary_ctx {
 	uint8_t c[3][3];
 };
@@ -1057,6 +1097,7 @@ int main(void)
 	RUN(test_texture_formats);
 	RUN(test_big_triangle_texture);
 	RUN(test_ac3d_texrep_texoff);
+	RUN(test_acc_base_texture);
 	RUN(test_big_triangle_vertex_colours);
 	RUN(test_tie_earlier_wins);
 	RUN(test_nearest_brute_force);

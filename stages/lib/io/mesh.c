@@ -2231,11 +2231,25 @@ static int vd_ac_material(struct vd_mesh *m, const char *p)
 }
 
 /* texture "path": relative to the .ac file; loaded now (objects name
- * textures only when their surfaces use them). */
+ * textures only when their surfaces use them).
+ *
+ * TORCS's .acc variant gives an object up to four texture lines, each
+ * with a unit word after the path: "base" (the colour texture, unit 0,
+ * whose UVs are the first pair on each ref line), then "tiled" (a detail
+ * map), "skids" and "shad" (skid marks and baked shadows, which only
+ * darken the base when TORCS renders). Like TORCS's loader we take the
+ * base (or a line without a unit word) and skip the others, which would
+ * otherwise replace it; "empty_texture_no_mapping" is TORCS's name for
+ * no texture. */
 static int vd_ac_texture(struct vd_mesh *m, const char *p)
 {
-	char name[1024];
-	vd_ac_string(p, name, sizeof name);
+	char name[1024], unit[16];
+	p = vd_ac_string(p, name, sizeof name);
+	vd_ac_string(p, unit, sizeof unit);
+	if (unit[0] && strcmp(unit, "base"))
+		return VD_OK;
+	if (!strcmp(name, "empty_texture_no_mapping"))
+		name[0] = 0;
 	if (!name[0])
 		return VD_OK;
 	char *path = vd_mesh_path(m, NULL, name);

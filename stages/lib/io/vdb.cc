@@ -530,6 +530,21 @@ protected:
 		return traits_type::not_eof(c);
 	}
 	int sync() override { return drain() ? 0 : -1; }
+	// Archive::write seeks back to fill in each grid's offsets
+	pos_type seekoff(off_type off, std::ios_base::seekdir dir,
+			 std::ios_base::openmode) override
+	{
+		if (!drain())
+			return pos_type(off_type(-1));
+		int whence = dir == std::ios_base::beg ? SEEK_SET
+			     : dir == std::ios_base::cur ? SEEK_CUR : SEEK_END;
+		off_t r = ::lseek(fd_, off_t(off), whence);
+		return r < 0 ? pos_type(off_type(-1)) : pos_type(off_type(r));
+	}
+	pos_type seekpos(pos_type p, std::ios_base::openmode m) override
+	{
+		return seekoff(off_type(p), std::ios_base::beg, m);
+	}
 
 private:
 	int fd_, err_ = 0;
