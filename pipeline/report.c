@@ -91,12 +91,30 @@ static double json_sum(const char *text, const char *array, const char *key,
 	}
 	json_decref(root);
 	return sum;
-/* The same in an object already parsed (NULL: 0). */
+}
+
+/* json_number in an object already parsed (NULL: 0): the report parses
+ * each job's statistics once, as it reads one file per job. */
 static double json_get(const json_t *root, const char *within, const char *key)
 {
-	const json_t *obj = within && root ? json_object_get(root, within) : root;
-	json_t *v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
-	return json_is_number(v) ? json_number_value(v) : 0;
+	return num_at(within && root ? json_object_get(root, within) : root,
+		      key);
+}
+
+/* json_sum in an object already parsed. */
+static double json_sum_in(const json_t *root, const char *array,
+			  const char *key, size_t *rows)
+{
+	*rows = 0;
+	json_t *a = json_is_object(root) ? json_object_get(root, array) : NULL,
+	       *row;
+	size_t i;
+	double sum = 0;
+	json_array_foreach(a, i, row) {
+		sum += num_at(row, key);
+		(*rows)++;
+	}
+	return sum;
 }
 
 /* The statistics file a job's stage wrote beside its output. */
@@ -487,19 +505,18 @@ int report_write(const struct plan *p)
 		json_t *root = text ? json_loads(text, 0, &jerr) : NULL;
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
-		double secs = json_number(text, "seconds", "total");
+		double secs = json_get(root, "seconds", "total");
 		enum stage_type t = c->jobs_decl[j->decl].stage->type;
 		size_t nops;
 		if (t == STAGE_LOSSY) /* its phases, the check of its count too */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_number(text, NULL, "seconds_lossy") +
-			       json_number(text, NULL, "seconds_diff") +
-			       json_number(text, NULL, "seconds_save");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_get(root, NULL, "seconds_lossy") +
+			       json_get(root, NULL, "seconds_diff") +
+			       json_get(root, NULL, "seconds_save");
 		else if (t == STAGE_EDIT) /* load, every operation, save */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_sum(text, "operations", "seconds", &nops) +
-			       json_number(text, NULL, "seconds_save");
-		double secs = json_get(root, "seconds", "total");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_sum_in(root, "operations", "seconds", &nops) +
+			       json_get(root, NULL, "seconds_save");
 		if (secs == 0) /* the DAG stages report their phases */
 			secs = json_get(root, NULL, "seconds_load") +
 			       json_get(root, NULL, "seconds_build") +
