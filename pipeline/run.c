@@ -2,9 +2,11 @@
  * limits, skipping what is fresh, one log per job, progress, and the
  * failure report. */
 #include "pipeline.h"
+#include "spawn/spawn.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -127,6 +129,84 @@ static char start_error[1500];
  * with sigtimedwait); children get it back before they exec. */
 static sigset_t child_mask;
 
+/* The trampoline each local job is started through (voxdag-spawn, beside
+ * this program; pipeline/spawn/spawn.c says why), and the pipe it reports
+ * on: the read end non-blocking, both close-on-exec (the write end is made
+ * inheritable in the child only). Without the trampoline (not built or
+ * not installed) jobs are started directly and their peaks include the
+ * runner's memory, which runner.log says once. */
+static char spawn_path[PATH_MAX];
+static int spawn_pipe[2] = {-1, -1};
+
+/* Records read from the pipe whose trampoline is not reaped yet (at most
+ * one per running job, so a short list). */
+static struct vd_spawn_rec *spawn_recs;
+static int nspawn_recs, spawn_cap;
+
+/* CPU the trampolines spent of their own (theirs minus their job's): the
+ * runner's cost, added to its figure in runner.log. */
+static double spawn_cpu;
+
+static double rusage_seconds(const struct rusage *r)
+{
+	return (double)r->ru_utime.tv_sec + r->ru_utime.tv_usec * 1e-6 +
+	       (double)r->ru_stime.tv_sec + r->ru_stime.tv_usec * 1e-6;
+}
+
+static void spawn_setup(void)
+{
+	ssize_t n = readlink("/proc/self/exe", spawn_path, sizeof spawn_path - 1);
+	char *slash = n > 0 ? memrchr(spawn_path, '/', (size_t)n) : NULL;
+	if (!slash || (size_t)(slash - spawn_path) + 14 >= sizeof spawn_path) {
+		spawn_path[0] = 0;
+	} else {
+		strcpy(slash + 1, "voxdag-spawn");
+		if (access(spawn_path, X_OK) != 0 ||
+		    pipe2(spawn_pipe, O_CLOEXEC | O_NONBLOCK) != 0)
+			spawn_path[0] = 0;
+	}
+	if (spawn_path[0]) {
+		/* the write end blocks: a record is never dropped */
+		fcntl(spawn_pipe[1], F_SETFL, 0);
+		return;
+	}
+	log_line("no voxdag-spawn beside the runner: jobs start directly, "
+		 "and their peak memory includes the runner's");
+}
+
+/* Takes every record waiting in the pipe into spawn_recs. */
+static void spawn_drain(void)
+{
+	for (;;) {
+		struct vd_spawn_rec r;
+		ssize_t n = read(spawn_pipe[0], &r, sizeof r);
+		if (n != (ssize_t)sizeof r || r.magic != VD_SPAWN_MAGIC)
+			return; /* empty (EAGAIN), or not ours: nothing to use */
+		if (nspawn_recs == spawn_cap) {
+			int cap = spawn_cap ? 2 * spawn_cap : 16;
+			void *q = realloc(spawn_recs, (size_t)cap * sizeof r);
+			if (!q)
+				return; /* the job is then reported without a peak */
+			spawn_recs = q;
+			spawn_cap = cap;
+		}
+		spawn_recs[nspawn_recs++] = r;
+	}
+}
+
+/* The record of trampoline `pid` (removed from the list), 0 if none. */
+static int spawn_take(pid_t pid, struct vd_spawn_rec *out)
+{
+	spawn_drain();
+	for (int i = 0; i < nspawn_recs; i++)
+		if (spawn_recs[i].pid == (int32_t)pid) {
+			*out = spawn_recs[i];
+			spawn_recs[i] = spawn_recs[--nspawn_recs];
+			return 1;
+		}
+	return 0;
+}
+
 static pid_t start_job(const struct plan *p, struct job *j)
 {
 	char lp[1300];
@@ -136,13 +216,30 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	 * calls (vfork: it shares our memory until it execs, which spares
 	 * copying the runner's page tables for every one of 100,000 jobs) */
 	size_t len = 2;
-	for (int i = 0; j->argv[i]; i++)
+	int argc = 0;
+	for (int i = 0; j->argv[i]; i++, argc++)
 		len += strlen(j->argv[i]) + 1;
-	char *head = malloc(len + 1), failed[1200];
-	if (!head)
+	/* through the trampoline: voxdag-spawn FD PROG ARGS... */
+	char fdarg[16];
+	char **argv = j->argv;
+	char **spawn_argv = NULL;
+	if (spawn_path[0]) {
+		spawn_argv = malloc(((size_t)argc + 3) * sizeof *spawn_argv);
+		if (!spawn_argv)
+			return -1;
+		snprintf(fdarg, sizeof fdarg, "%d", spawn_pipe[1]);
+		spawn_argv[0] = spawn_path;
+		spawn_argv[1] = fdarg;
+		memcpy(spawn_argv + 2, j->argv, ((size_t)argc + 1) * sizeof *argv);
+		argv = spawn_argv;
+	}
+	char *head = malloc(len + 1), failed[PATH_MAX + 64];
+	if (!head) {
+		free(spawn_argv);
 		return -1;
+	}
 	int nfailed = snprintf(failed, sizeof failed, "voxdag: cannot run "
-			       "'%s'\n", j->argv[0]);
+			       "'%s'\n", argv[0]);
 	char *h = head;
 	*h++ = '$';
 	for (int i = 0; j->argv[i]; i++)
@@ -161,6 +258,7 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		if (fd >= 0)
 			close(fd);
 		free(head);
+		free(spawn_argv);
 		return -1;
 	}
 	pid_t pid = vfork();
@@ -173,7 +271,9 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		int null = open("/dev/null", O_RDONLY);
 		if (null >= 0)
 			dup2(null, 0);
-		execv(j->argv[0], j->argv);
+		if (spawn_argv) /* the trampoline's end of the pipe stays open */
+			fcntl(spawn_pipe[1], F_SETFD, 0);
+		execv(argv[0], argv);
 		if (write(2, failed, (size_t)nfailed) < 0) {
 			/* nothing more to say */
 		}
@@ -182,6 +282,7 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	int saved = errno;
 	close(fd);
 	free(head);
+	free(spawn_argv);
 	if (pid < 0)
 		snprintf(start_error, sizeof start_error, "%s", strerror(saved));
 	return pid;
@@ -322,11 +423,24 @@ static int reap_local(const struct plan *p, struct job_end *e)
 			continue;
 		running_local[r] = running_local[--nrunning_local];
 		memset(e, 0, sizeof *e);
+		e->seconds = vd_seconds() - j->start;
+		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
+		struct vd_spawn_rec sr;
+		if (spawn_path[0] && spawn_take(pid, &sr)) {
+			/* the job's own end, seen by its trampoline */
+			status = sr.status;
+			e->peak_rss = sr.peak_rss;
+			double own = rusage_seconds(&ru) -
+				     (double)(sr.utime_us + sr.stime_us) / 1e6;
+			spawn_cpu += own > 0 ? own : 0;
+		} else if (spawn_path[0]) {
+			/* the trampoline died before its job ended (killed):
+			 * its own peak is the runner's, not the job's */
+			e->peak_rss = 0;
+		}
 		e->exited = WIFEXITED(status);
 		e->code = e->exited ? WEXITSTATUS(status) : 0;
 		e->signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-		e->seconds = vd_seconds() - j->start;
-		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
 		return i;
 	}
 	return -1; /* not one of ours */
@@ -432,12 +546,6 @@ static void cancel_dependents(struct plan *p, int *running)
 	}
 }
 
-static double rusage_seconds(const struct rusage *r)
-{
-	return (double)r->ru_utime.tv_sec + r->ru_utime.tv_usec * 1e-6 +
-	       (double)r->ru_stime.tv_sec + r->ru_stime.tv_usec * 1e-6;
-}
-
 int run_pipeline(struct plan *p, const struct run_opts *o)
 {
 	const struct config *c = p->cfg;
@@ -458,6 +566,8 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	runner_log = fopen(rl, "a");
 	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	if (!slurm)
+		spawn_setup();
 	plan_expand(p);
 	int tty = isatty(2) && !o->quiet;
 	double t0 = vd_seconds(), last = 0;
@@ -643,10 +753,13 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
+	/* starting jobs is the runner's work, though the trampolines did it
+	 * as its children */
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
-		 "%.3fs, stages cpu %.3fs, runner peak %ld MiB", failures,
-		 blocked, vd_seconds() - t0, p->n, rusage_seconds(&self),
-		 rusage_seconds(&kids), self.ru_maxrss / 1024);
+		 "%.3fs (%.3fs of it starting jobs), stages cpu %.3fs, runner "
+		 "peak %ld MiB", failures, blocked, vd_seconds() - t0, p->n,
+		 rusage_seconds(&self) + spawn_cpu, spawn_cpu,
+		 rusage_seconds(&kids) - spawn_cpu, self.ru_maxrss / 1024);
 	if (failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "

@@ -160,13 +160,6 @@ translation() {
 }
 translation
 
-# The runner's own cost at scale: a pipeline of ~100,000 cells (the terrain
-# at 2^13 in cells of 32^3, chunk level 8; a height field fills about two
-# cells per column of 256^2) planned and run, the runner's CPU (getrusage
-# of itself) against the stages' (its reaped children), from the last line
-# of runner.log. The issue asks for under 5%. Long: some 300,000 short
-# processes. VOXDAG_BENCH_RUNNER=0 skips it.
-runner_scale() { # runner_scale NAME SCENE LEVELS CHUNK_LEVEL
 # The runner's own cost at scale (issue 10): a pipeline of over 100,000
 # cells planned and run, the runner's CPU (getrusage of itself) against the
 # stages' (its reaped children), its wall time and its own peak memory,
