@@ -181,9 +181,9 @@ int job_key(const struct job *j, char key[17]);
  * output (a file's XXH3, a directory's manifest's), so that a deleted,
  * truncated or corrupted output is noticed on the next run, then the
  * output's stat signature when it may stand for the digest (plan.c,
- * stat_sig). Returns non-zero (and says why on stderr) when the output is
- * not whole or the key cannot be written. */
-int job_key_write(const struct job *j);
+ * stat_sig). Returns non-zero, with why in `why`, when the output is not
+ * whole or the key cannot be written. */
+int job_key_write(const struct job *j, char *why, size_t cap);
 
 /* Forgets j's key (it is about to be rebuilt). */
 void job_key_drop(const struct job *j);

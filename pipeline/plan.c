@@ -632,12 +632,27 @@ static const char *kj_name(const struct job *j)
 	return j->output;
 }
 
+/* 1 after a write that may have left part of a line (a full disk): the
+ * next record starts on a line of its own, so only the torn one is lost. */
+static int kj_torn;
+
 static int kj_append(const struct key_rec *r)
 {
 	char line[1500];
-	int n = kj_line(line, sizeof line, r);
-	if (kj.fd < 0 || write(kj.fd, line, (size_t)n) != n)
+	line[0] = '\n';
+	int n = kj_line(line + 1, sizeof line - 1, r);
+	const char *at = kj_torn ? line : line + 1;
+	size_t len = (size_t)n + (kj_torn ? 1 : 0);
+	if (kj.fd < 0)
 		return -1;
+	ssize_t w = write(kj.fd, at, len);
+	if (w != (ssize_t)len) {
+		if (w >= 0)
+			errno = ENOSPC; /* a short write: the disk is full */
+		kj_torn = w != 0 || kj_torn;
+		return -1;
+	}
+	kj_torn = 0;
 	return 0;
 }
 
@@ -650,17 +665,17 @@ void job_key_drop(const struct job *j)
 	}
 }
 
-int job_key_write(const struct job *j)
+int job_key_write(const struct job *j, char *why, size_t cap)
 {
-	char key[17], why[600];
+	char key[17];
 	uint64_t digest, sig;
 	int sig_ok;
-	if (job_key(j, key))
-		return 1;
-	if (output_digest(j->output, &digest, &sig, &sig_ok, why, sizeof why)) {
-		fprintf(stderr, "voxdag: job %s: %s\n", j->id, why);
+	if (job_key(j, key)) {
+		snprintf(why, cap, "an input is missing or unreadable");
 		return 1;
 	}
+	if (output_digest(j->output, &digest, &sig, &sig_ok, why, cap))
+		return 1;
 	struct key_rec *r = kj_find(kj_name(j), 1);
 	r->op = 'K';
 	r->key = strtoull(key, NULL, 16);
@@ -668,8 +683,8 @@ int job_key_write(const struct job *j)
 	r->sig = sig;
 	r->has_sig = (char)sig_ok;
 	if (kj_append(r) != 0) {
-		fprintf(stderr, "voxdag: cannot write '%s/keys': %s\n", kj.dir,
-			strerror(errno));
+		snprintf(why, cap, "cannot write its key to '%s/keys': %s",
+			 kj.dir, strerror(errno));
 		r->op = 'D';
 		return 1;
 	}

@@ -456,11 +456,8 @@ static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
 	j->peak_rss = e->peak_rss;
 	int ok = e->exited && e->code == 0 && !*e->reason;
 	char key_error[1500] = "";
-	if (ok && job_key_write(j) != 0) {
+	if (ok && job_key_write(j, key_error, sizeof key_error) != 0)
 		ok = 0;
-		snprintf(key_error, sizeof key_error, "cannot write its key "
-			 "'%s': %s", j->key_path, strerror(errno));
-	}
 	if (ok) {
 		job_set_state(p, j, JOB_DONE);
 		if (!j->cell) /* a cell's count was read when it was planned */
