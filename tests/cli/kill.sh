@@ -67,7 +67,9 @@ pick_job() {
 	[ -n "${stages// /}" ] || stages=$kids
 	for v in $(printf '%s\n' $stages | shuf --random-source=<(yes $RANDOM)); do
 		kill -STOP $v 2>/dev/null || continue
-		for n in 1 2 3 4 5 6 7 8 9 10; do # stops at its next return to user mode
+		# it stops when it next runs, which under load can take a
+		# while; it cannot end in between except on its own (Z)
+		for n in $(seq 1 400); do
 			s=$(sed 's/.*) \(.\).*/\1/' /proc/$v/stat 2>/dev/null)
 			[ "$s" = T ] || [ "$s" = t ] || [ "$s" = Z ] || [ -z "$s" ] && break
 			sleep 0.005
