@@ -68,7 +68,7 @@ HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.
 .PHONY: all run pipeline test bench deps clean tests fuzz fuzz-build
 .DEFAULT_GOAL := all
 
-all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxelize-vdb
+all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn $(OUT)/bin/voxelize-vdb
 tests: $(TESTS)
 
 $(OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
@@ -113,6 +113,13 @@ $(OUT)/obj/pipeline/%.o: pipeline/%.c pipeline/pipeline.h $(HEADERS)
 $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
+
+# The runner's per-job trampoline (pipeline/spawn/spawn.c says why):
+# static and libc only, as it is exec'd once per job; no sanitizers, which
+# would make it large and would only watch a fork and a wait.
+$(OUT)/bin/voxdag-spawn: pipeline/spawn/spawn.c pipeline/spawn/spawn.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -std=c11 $(WARN) -O2 -static -o $@ $<
 
 # benchmark helpers (tests/bench/*.c that use the library)
 $(OUT)/bench/%: tests/bench/%.c $(LIB) $(HEADERS)

@@ -115,12 +115,16 @@ enum job_state { JOB_PENDING, JOB_RUNNING, JOB_DONE, JOB_SKIPPED, JOB_FAILED,
 		 JOB_BLOCKED };
 
 struct job {
-	char id[160];              /* "svdag/cell-L2-3f", for logs and status */
+	/* strings on the heap: a plan holds up to millions of jobs, so the
+	 * struct stays small (a few hundred bytes a job) */
+	char *id;                  /* "svdag/cell-L2-3f", for logs and status */
 	long slurm_id;             /* with executor slurm: its Slurm job, or 0 */
 	int decl;                  /* the job_decl it comes from */
 	char **argv;               /* NULL-terminated; argv[0] is the program */
-	char output[1024];         /* the file (or directory) it produces */
-	char key_path[1100];       /* output + ".key" */
+	char *output;              /* the file (or directory) it produces */
+	char *key_path;            /* output + ".key" (or DIR/.key for a
+				    * directory output), where keys were
+				    * kept before the journal (plan.c) */
 	int ndeps;
 	int *deps;                 /* indices of jobs that must finish first */
 	int cell;                  /* a per-cell job of a DAG stage */
@@ -137,6 +141,8 @@ struct job {
 	uint64_t peak_rss;         /* from wait4 */
 	uint64_t voxels;           /* from the stage's stats, for throughput */
 	int logged;                /* its skip is in runner.log */
+	int key_absent;            /* job_is_fresh found no key */
+	int fresh_checked;         /* ...and nothing can have made one since */
 	int adopt_checked;         /* Slurm: looked for an earlier submission */
 };
 
@@ -171,18 +177,29 @@ void plan_free(struct plan *p);
  * inputs. Returns 0 and fills key[17], or non-zero if an input is missing. */
 int job_key(const struct job *j, char key[17]);
 
-/* The text of j's key file once it finished: its key, then the digest of
- * its output (a file's XXH3, a directory's manifest's), so that a deleted,
- * truncated or corrupted output is noticed on the next run. Returns
- * non-zero (and says why on stderr) when the output is not whole. */
-int job_key_text(const struct job *j, char *text, size_t cap);
+/* Writes j's key file once it finished: its key, then the digest of its
+ * output (a file's XXH3, a directory's manifest's), so that a deleted,
+ * truncated or corrupted output is noticed on the next run, then the
+ * output's stat signature when it may stand for the digest (plan.c,
+ * stat_sig). Returns non-zero, with why in `why`, when the output is not
+ * whole or the key cannot be written. */
+int job_key_write(const struct job *j, char *why, size_t cap);
+
+/* Forgets j's key (it is about to be rebuilt). */
+void job_key_drop(const struct job *j);
+
+/* Loads the key journal DIR/keys (plan.c); with `write`, which only the
+ * runner holding DIR/.lock may ask, also opens it for appending. Returns
+ * non-zero with a message when it cannot be written. */
+int keys_open(const char *dir, int write);
 
 /* 1 if j's output exists with a matching key and is still what j wrote
  * (resume). When 0 and the output was there but is damaged, `why` says
  * what is wrong with it ("" otherwise). -1, with `why` set, when the
- * output or its key is there but cannot be read (permissions): rebuilding
- * over it would hide the cause. */
-int job_is_fresh(const struct job *j, char *why, size_t cap);
+ * output is there but cannot be read (permissions): rebuilding over it
+ * would hide the cause. Sets j->key_absent when j has no key at all
+ * (never finished). */
+int job_is_fresh(struct job *j, char *why, size_t cap);
 
 /* ------------------------------------------------------------- running */
 

@@ -11,9 +11,10 @@
  *   <symmetry-merge job>/root.sdag  the same after lossy-cluster or edit
  *   <encode job>/              the encodings and tables
  *   logs/                      one log per job, runner.log
- * Every output has a key beside it (<output>.key, or <dir>/.key): the
- * stage version, the arguments and the checksums of the inputs. A job whose
- * output exists with the same key is skipped.
+ *   keys                       the key journal (below)
+ * Every output has a key: the stage version, the arguments and the
+ * checksums of the inputs, and the digest of the output. A job whose
+ * output exists with the same key and digest is skipped.
  */
 #include "pipeline.h"
 
@@ -24,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #define XXH_INLINE_ALL
@@ -145,9 +147,9 @@ static struct job *add_job(struct plan *p, int decl, const char *id,
 	struct job *j = &p->jobs[p->n++];
 	memset(j, 0, sizeof *j);
 	j->decl = decl;
-	snprintf(j->id, sizeof j->id, "%s", id);
-	snprintf(j->output, sizeof j->output, "%s", output);
-	snprintf(j->key_path, sizeof j->key_path, "%s", key_path);
+	j->id = xstrdup(id);
+	j->output = xstrdup(output);
+	j->key_path = xstrdup(key_path);
 	*index_slot(p, j->id) = p->n;
 	p->unfinished[decl]++;
 	return j;
@@ -245,7 +247,7 @@ static int job_finished(const struct job *j)
  * Returns 0 if the file is missing or cannot be read whole. */
 static int fingerprint(const char *path, uint64_t *out)
 {
-	int fd = open(path, O_RDONLY);
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
 	if (fd < 0)
 		return 0;
 	struct stat st;
@@ -271,16 +273,101 @@ static int fingerprint(const char *path, uint64_t *out)
 	return 1;
 }
 
+/* The stat signature: what the file system says about a file without
+ * reading it. Any write, truncation, rename over it, `touch` (even one that
+ * puts the old mtime back) or chmod changes its ctime, which no user can
+ * set, so (device, inode, size, mtime, ctime, mode) to the nanosecond
+ * stands for its content as long as the file was already "settled" when it
+ * was hashed: its ctime at least one timestamp tick older than the moment
+ * hashing began. A file changed later within the same tick would keep
+ * every field (the "racy git" problem), so a younger file's signature is
+ * not recorded and it is hashed again next time. The tick is taken as 2 s
+ * when the ctime has no fraction of a second (file systems that keep whole
+ * or 2-second stamps), else 20 ms (Linux stamps files from a clock that
+ * advances every 1-10 ms). schemas/pipeline.md, "Resume", has the rule. */
+static int64_t ts_ns(struct timespec t)
+{
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_REALTIME, &t);
+	return ts_ns(t);
+}
+
+static uint64_t stat_hash(const char *name, const struct stat *st)
+{
+	uint64_t f[6] = {(uint64_t)st->st_dev, (uint64_t)st->st_ino,
+			 (uint64_t)st->st_size, (uint64_t)ts_ns(st->st_mtim),
+			 (uint64_t)ts_ns(st->st_ctim), (uint64_t)st->st_mode};
+	return XXH3_64bits_withSeed(f, sizeof f, XXH3_64bits(name, strlen(name)));
+}
+
+static int settled(const struct stat *st, int64_t t0)
+{
+	int64_t tick = st->st_ctim.tv_nsec == 0 ? 2000000000 : 20000000;
+	return ts_ns(st->st_ctim) + tick <= t0 && ts_ns(st->st_mtim) + tick <= t0;
+}
+
+/* The signature of `path` (a file, or a directory output: itself and every
+ * entry in it but the runner's key, in any order). Returns 0 and sets *ok
+ * to whether every part was settled at t0; non-zero if it cannot be read. */
+static int stat_sig(const char *path, int64_t t0, uint64_t *sig, int *ok)
+{
+	struct stat st;
+	if (stat(path, &st) != 0)
+		return -1;
+	*ok = settled(&st, t0);
+	if (!S_ISDIR(st.st_mode)) {
+		*sig = stat_hash("", &st);
+		return 0;
+	}
+	DIR *d = opendir(path);
+	if (!d)
+		return -1;
+	/* an order-free sum over the entries: readdir's order is not stable */
+	uint64_t sum = 0, mix = 0, n = 0;
+	struct dirent *e;
+	while ((e = readdir(d))) {
+		const char *nm = e->d_name;
+		if (!strcmp(nm, ".") || !strcmp(nm, "..") || !strncmp(nm, ".key", 4))
+			continue;
+		struct stat es;
+		if (fstatat(dirfd(d), nm, &es, AT_SYMLINK_NOFOLLOW) != 0) {
+			closedir(d);
+			return -1;
+		}
+		*ok = *ok && settled(&es, t0);
+		uint64_t h = stat_hash(nm, &es);
+		sum += h;
+		mix ^= h * 0x9E3779B97F4A7C15ull;
+		n++;
+	}
+	closedir(d);
+	/* the directory's own times change with its .key: not part of it */
+	uint64_t f[5] = {(uint64_t)st.st_dev, (uint64_t)st.st_ino, n, sum, mix};
+	*sig = XXH3_64bits(f, sizeof f);
+	return 0;
+}
+
 /* What a finished output is, checked before it is trusted again: a
  * directory output (voxelize, encode) through its manifest (every file's
  * size and checksum, no file more), a file through the XXH3 of all its
- * bytes. Returns 0 and the digest, or non-zero with `why` filled. */
-static int output_digest(const char *path, uint64_t *digest, char *why,
-			 size_t cap)
+ * bytes. Returns 0 and the digest, or non-zero with `why` filled. *sig and
+ * *sig_ok: its stat signature, valid (*sig_ok) when it was settled and did
+ * not change while it was read. */
+static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
+			 int *sig_ok, char *why, size_t cap)
 {
 	struct stat st;
 	int err;
-	if (stat(path, &st) != 0) {
+	int64_t t0 = now_ns();
+	uint64_t after;
+	int ok_after;
+	*sig_ok = 0;
+	if (stat_sig(path, t0, sig, sig_ok) != 0 || stat(path, &st) != 0) {
 		snprintf(why, cap, "'%s' is missing", path);
 		return 1;
 	}
@@ -295,6 +382,9 @@ static int output_digest(const char *path, uint64_t *digest, char *why,
 		vd_error_clear();
 		return 1;
 	}
+	if (*sig_ok && (stat_sig(path, t0, &after, &ok_after) != 0 ||
+			after != *sig))
+		*sig_ok = 0;
 	return 0;
 }
 
@@ -342,26 +432,271 @@ int job_key(const struct job *j, char key[17])
 	return 0;
 }
 
-int job_key_text(const struct job *j, char *text, size_t cap)
+/* ------------------------------------------------------- the key journal
+ *
+ * Every finished output's key lives in one file, <outputs>/keys, not in a
+ * file beside each output: creating a file (an inode) per job was most of
+ * the runner's own cost at 100,000 jobs. Each line is one record, appended
+ * with one write():
+ *   CHECK K KEY DIGEST SIG PATH   the job that wrote PATH finished: its
+ *                                 key, its output's digest, and its stat
+ *                                 signature ("-" when it was not settled)
+ *   CHECK D PATH                  PATH is being rebuilt: no key
+ * CHECK is the XXH3-64 of the rest of the line; PATH is relative to the
+ * outputs directory; the last valid record of a PATH counts. A line that
+ * a crash tore, or any damage, fails its check and is ignored (that job
+ * runs again: a damaged journal costs time, never a wrong skip). A run
+ * rewrites the file (to a temporary name, then renamed) when it holds
+ * damage or more than twice the records it needs. */
+struct key_rec {
+	char *path;
+	uint64_t key, digest, sig;
+	char op;        /* 'K' or 'D' */
+	char has_sig;
+};
+
+static struct {
+	int loaded, fd;
+	size_t dirlen;
+	char dir[1100];
+	struct key_rec *r;
+	size_t n, cap;
+	uint32_t *slot;  /* indices + 1, open addressing */
+	size_t nslot;
+} kj = {.fd = -1};
+
+static void kj_rehash(size_t nslot)
 {
-	char key[17], why[600];
-	uint64_t digest;
-	if (job_key(j, key))
-		return 1;
-	if (output_digest(j->output, &digest, why, sizeof why)) {
-		fprintf(stderr, "voxdag: job %s: %s\n", j->id, why);
+	free(kj.slot);
+	kj.nslot = nslot;
+	kj.slot = calloc(kj.nslot, sizeof *kj.slot);
+	if (!kj.slot) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		exit(1);
+	}
+	for (size_t i = 0; i < kj.n; i++) {
+		size_t h = XXH3_64bits(kj.r[i].path, strlen(kj.r[i].path)) &
+			   (kj.nslot - 1);
+		while (kj.slot[h])
+			h = (h + 1) & (kj.nslot - 1);
+		kj.slot[h] = (uint32_t)i + 1;
+	}
+}
+
+/* The record of `path`, made (empty) with `add` when there is none. */
+static struct key_rec *kj_find(const char *path, int add)
+{
+	if (add && 2 * (kj.n + 1) > kj.nslot)
+		kj_rehash(kj.nslot ? 2 * kj.nslot : 1024);
+	if (!kj.nslot)
+		return NULL;
+	size_t h = XXH3_64bits(path, strlen(path)) & (kj.nslot - 1);
+	for (; kj.slot[h]; h = (h + 1) & (kj.nslot - 1))
+		if (!strcmp(kj.r[kj.slot[h] - 1].path, path))
+			return &kj.r[kj.slot[h] - 1];
+	if (!add)
+		return NULL;
+	if (kj.n == kj.cap) {
+		kj.cap = kj.cap ? 2 * kj.cap : 1024;
+		kj.r = xrealloc(kj.r, kj.cap * sizeof *kj.r);
+	}
+	struct key_rec *r = &kj.r[kj.n];
+	memset(r, 0, sizeof *r);
+	r->path = xstrdup(path);
+	kj.slot[h] = (uint32_t)++kj.n;
+	return r;
+}
+
+/* One record's line (without CHECK) into buf; returns its length. */
+static int kj_line(char *buf, size_t cap, const struct key_rec *r)
+{
+	char body[1400];
+	int n;
+	if (r->op == 'K') {
+		char sig[17] = "-";
+		if (r->has_sig)
+			snprintf(sig, sizeof sig, "%016llx", (unsigned long long)r->sig);
+		n = snprintf(body, sizeof body, "K %016llx %016llx %s %s",
+			     (unsigned long long)r->key,
+			     (unsigned long long)r->digest, sig, r->path);
+	} else {
+		n = snprintf(body, sizeof body, "D %s", r->path);
+	}
+	return snprintf(buf, cap, "%016llx %s\n",
+			(unsigned long long)XXH3_64bits(body, (size_t)n), body);
+}
+
+/* Applies one line (without its '\n'); 0 if it is not a valid record. */
+static int kj_parse(char *line, size_t len)
+{
+	unsigned long long check, key, digest, sig = 0;
+	if (len < 19 || line[16] != ' ' ||
+	    sscanf(line, "%16llx", &check) != 1 ||
+	    XXH3_64bits(line + 17, len - 17) != check)
+		return 0;
+	char *body = line + 17;
+	line[len] = 0;
+	if (body[0] == 'D' && body[1] == ' ' && body[2]) {
+		struct key_rec *r = kj_find(body + 2, 1);
+		r->op = 'D';
 		return 1;
 	}
-	snprintf(text, cap, "%s\n%016llx\n", key, (unsigned long long)digest);
+	char sigs[17];
+	int at = 0;
+	if (body[0] != 'K' || sscanf(body + 1, " %16llx %16llx %16s %n", &key,
+				     &digest, sigs, &at) != 3 || !at || !body[1 + at])
+		return 0;
+	int has_sig = strcmp(sigs, "-") != 0;
+	if (has_sig && sscanf(sigs, "%16llx", &sig) != 1)
+		return 0;
+	struct key_rec *r = kj_find(body + 1 + at, 1);
+	r->op = 'K';
+	r->key = key;
+	r->digest = digest;
+	r->sig = sig;
+	r->has_sig = (char)has_sig;
+	return 1;
+}
+
+/* Loads DIR/keys; with `write` (the runner, holding the lock) also opens
+ * it for appending, compacting it first when needed. Returns non-zero
+ * (with a message) when it cannot be written. */
+int keys_open(const char *dir, int write)
+{
+	if (!kj.loaded) {
+		kj.loaded = 1;
+		snprintf(kj.dir, sizeof kj.dir, "%s", dir);
+		kj.dirlen = strlen(dir);
+		char path[1200];
+		snprintf(path, sizeof path, "%s/keys", dir);
+		FILE *f = fopen(path, "rb");
+		size_t lines = 0, bad = 0;
+		if (f) {
+			char *line = NULL;
+			size_t cap = 0;
+			ssize_t len;
+			while ((len = getline(&line, &cap, f)) > 0) {
+				lines++;
+				if (line[len - 1] != '\n' ||
+				    !kj_parse(line, (size_t)len - 1))
+					bad++;
+			}
+			free(line);
+			fclose(f);
+		}
+		size_t live = 0;
+		for (size_t i = 0; i < kj.n; i++)
+			live += kj.r[i].op == 'K';
+		kj.fd = -2; /* compact when opened for writing */
+		if (!bad && lines <= 2 * live + 1024)
+			kj.fd = -1;
+	}
+	if (!write || kj.fd >= 0)
+		return 0;
+	char path[1200], tmp[1300];
+	snprintf(path, sizeof path, "%s/keys", dir);
+	if (kj.fd == -2) {
+		snprintf(tmp, sizeof tmp, "%s/keys.tmp", dir);
+		FILE *f = fopen(tmp, "wb");
+		int err = !f;
+		for (size_t i = 0; f && i < kj.n; i++) {
+			char line[1500];
+			if (kj.r[i].op == 'K') {
+				kj_line(line, sizeof line, &kj.r[i]);
+				fputs(line, f);
+			}
+		}
+		if (f)
+			err |= fclose(f) != 0;
+		if (err || rename(tmp, path) != 0) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", tmp,
+				strerror(errno));
+			unlink(tmp);
+			return 1;
+		}
+	}
+	kj.fd = open(path, O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0666);
+	if (kj.fd < 0) {
+		fprintf(stderr, "voxdag: cannot write '%s': %s\n", path,
+			strerror(errno));
+		return 1;
+	}
 	return 0;
 }
 
-int job_is_fresh(const struct job *j, char *why, size_t cap)
+/* j's output as the journal names it: relative to the outputs. */
+static const char *kj_name(const struct job *j)
 {
-	char want[17], have[64] = {0};
+	if (!strncmp(j->output, kj.dir, kj.dirlen) && j->output[kj.dirlen] == '/')
+		return j->output + kj.dirlen + 1;
+	return j->output;
+}
+
+/* 1 after a write that may have left part of a line (a full disk): the
+ * next record starts on a line of its own, so only the torn one is lost. */
+static int kj_torn;
+
+static int kj_append(const struct key_rec *r)
+{
+	char line[1500];
+	line[0] = '\n';
+	int n = kj_line(line + 1, sizeof line - 1, r);
+	const char *at = kj_torn ? line : line + 1;
+	size_t len = (size_t)n + (kj_torn ? 1 : 0);
+	if (kj.fd < 0)
+		return -1;
+	ssize_t w = write(kj.fd, at, len);
+	if (w != (ssize_t)len) {
+		if (w >= 0)
+			errno = ENOSPC; /* a short write: the disk is full */
+		kj_torn = w != 0 || kj_torn;
+		return -1;
+	}
+	kj_torn = 0;
+	return 0;
+}
+
+void job_key_drop(const struct job *j)
+{
+	struct key_rec *r = kj_find(kj_name(j), 0);
+	if (r && r->op == 'K') {
+		r->op = 'D';
+		kj_append(r);
+	}
+}
+
+int job_key_write(const struct job *j, char *why, size_t cap)
+{
+	char key[17];
+	uint64_t digest, sig;
+	int sig_ok;
+	if (job_key(j, key)) {
+		snprintf(why, cap, "an input is missing or unreadable");
+		return 1;
+	}
+	if (output_digest(j->output, &digest, &sig, &sig_ok, why, cap))
+		return 1;
+	struct key_rec *r = kj_find(kj_name(j), 1);
+	r->op = 'K';
+	r->key = strtoull(key, NULL, 16);
+	r->digest = digest;
+	r->sig = sig;
+	r->has_sig = (char)sig_ok;
+	if (kj_append(r) != 0) {
+		snprintf(why, cap, "cannot write its key to '%s/keys': %s",
+			 kj.dir, strerror(errno));
+		r->op = 'D';
+		return 1;
+	}
+	return 0;
+}
+
+int job_is_fresh(struct job *j, char *why, size_t cap)
+{
+	char want[17];
 	*why = 0;
-	/* an output or key that is there but cannot be read (permissions):
-	 * the user's to fix, not ours to rebuild over */
+	/* an output that is there but cannot be read (permissions): the
+	 * user's to fix, not ours to rebuild over */
 	struct stat st;
 	if (stat(j->output, &st) == 0 &&
 	    faccessat(AT_FDCWD, j->output, S_ISDIR(st.st_mode) ? R_OK | X_OK
@@ -370,31 +705,33 @@ int job_is_fresh(const struct job *j, char *why, size_t cap)
 			 strerror(errno));
 		return -1;
 	}
-	FILE *f = fopen(j->key_path, "r");
-	if (!f && errno != ENOENT) {
-		snprintf(why, cap, "cannot read '%s': %s", j->key_path,
-			 strerror(errno));
-		return -1;
-	}
-	if (!f)
-		return 0; /* never finished */
-	size_t n = fread(have, 1, sizeof have - 1, f);
-	fclose(f);
-	unsigned long long recorded;
-	if (n < 34 || have[16] != '\n' ||
-	    sscanf(have + 17, "%16llx", &recorded) != 1) {
-		snprintf(why, cap, "its key file '%s' is damaged", j->key_path);
-		return 0;
-	}
-	if (job_key(j, want) || memcmp(have, want, 16) != 0)
+	struct key_rec *r = kj_find(kj_name(j), 0);
+	j->key_absent = !r || r->op != 'K';
+	if (j->key_absent)
+		return 0; /* never finished, or being rebuilt */
+	if (job_key(j, want) || strtoull(want, NULL, 16) != r->key)
 		return 0; /* its inputs, arguments or stage version changed */
-	uint64_t digest;
-	if (output_digest(j->output, &digest, why, cap))
+	uint64_t digest, sig;
+	int sig_ok;
+	if (r->has_sig) {
+		/* unchanged since it was hashed, settled: no need to read it */
+		if (stat_sig(j->output, now_ns(), &sig, &sig_ok) == 0 &&
+		    sig == r->sig)
+			return 1;
+	}
+	if (output_digest(j->output, &digest, &sig, &sig_ok, why, cap))
 		return 0;
-	if (digest != recorded) {
+	if (digest != r->digest) {
 		snprintf(why, cap, "'%s' changed after it was written",
 			 j->output);
 		return 0;
+	}
+	if (sig_ok && kj.fd >= 0) {
+		/* hashed once more: remember it settled, so next time a stat
+		 * suffices (best effort: without it the next run hashes) */
+		r->sig = sig;
+		r->has_sig = 1;
+		kj_append(r);
 	}
 	return 1;
 }
@@ -495,7 +832,7 @@ static uint64_t merge_estimate(uint64_t sum, int nparts)
 }
 
 struct part {
-	char path[1100];
+	const char *path;  /* its job's output (heap, stable) */
 	int job;           /* producing job */
 	int level;         /* chunk level of the part */
 	uint64_t cell;
@@ -588,8 +925,8 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			}
 			/* the merged chunk is no larger than its parts */
 			struct part np = {.job = idx, .level = a, .cell = anc,
-					  .share = merge_estimate(sum, k - i)};
-			snprintf(np.path, sizeof np.path, "%s", out);
+					  .share = merge_estimate(sum, k - i),
+					  .path = p->jobs[idx].output};
 			parts[m++] = np;
 			i = k;
 		}
@@ -828,6 +1165,10 @@ static void plan_dag_stage(struct plan *p, int d)
 			/* the stage's own bound for this input */
 			j->mem_estimate = ok ? vd_dag_estimate_header(&h)
 					     : c->job_mem_budget;
+			/* voxels it handles, for the progress line (read
+			 * here once, not again when it ends) */
+			if (ok && h.level_count > 0)
+				j->voxels = h.level_nodes[h.level_count - 1];
 		}
 		free(names[i]);
 	}
@@ -850,8 +1191,7 @@ static void plan_dag_merges(struct plan *p, int d, const char *ext,
 	for (int i = 0; i < p->n; i++)
 		if (p->jobs[i].decl == d && p->jobs[i].cell) {
 			parts[n].job = i;
-			snprintf(parts[n].path, sizeof parts[n].path, "%s",
-				 p->jobs[i].output);
+			parts[n].path = p->jobs[i].output;
 			n++;
 		}
 	/* The reduction tree is planned once the cells are built, from their
@@ -1095,6 +1435,7 @@ int plan_expand(struct plan *p)
 {
 	const struct config *c = p->cfg;
 	snprintf(p->dir, sizeof p->dir, "%s", c->outputs);
+	keys_open(p->dir, 0); /* read only, unless the runner opened it */
 	int before;
 	do {
 		before = p->n;
@@ -1136,6 +1477,8 @@ int plan_expand(struct plan *p)
 			char why[600]; /* the runner says it when it reruns j */
 			if (ready && job_is_fresh(j, why, sizeof why) == 1)
 				job_set_state(p, j, JOB_SKIPPED);
+			else if (ready && j->key_absent)
+				j->fresh_checked = 1; /* no need to look again */
 		}
 	} while (p->n != before);
 	/* the graph is whole when every declared job has its final job */
@@ -1164,6 +1507,9 @@ void plan_free(struct plan *p)
 		free(j->inputs);
 		free(j->deps);
 		free(j->rdeps);
+		free(j->id);
+		free(j->output);
+		free(j->key_path);
 	}
 	free(p->jobs);
 	free(p->index);

@@ -93,6 +93,30 @@ static double json_sum(const char *text, const char *array, const char *key,
 	return sum;
 }
 
+/* json_number in an object already parsed (NULL: 0): the report parses
+ * each job's statistics once, as it reads one file per job. */
+static double json_get(const json_t *root, const char *within, const char *key)
+{
+	return num_at(within && root ? json_object_get(root, within) : root,
+		      key);
+}
+
+/* json_sum in an object already parsed. */
+static double json_sum_in(const json_t *root, const char *array,
+			  const char *key, size_t *rows)
+{
+	*rows = 0;
+	json_t *a = json_is_object(root) ? json_object_get(root, array) : NULL,
+	       *row;
+	size_t i;
+	double sum = 0;
+	json_array_foreach(a, i, row) {
+		sum += num_at(row, key);
+		(*rows)++;
+	}
+	return sum;
+}
+
 /* The statistics file a job's stage wrote beside its output. */
 static void stats_path(const struct plan *p, const struct job *j, char *buf,
 		       size_t cap)
@@ -476,29 +500,33 @@ int report_write(const struct plan *p)
 		char sp[1300];
 		stats_path(p, j, sp, sizeof sp);
 		char *text = slurp(sp);
+		/* parsed once: a report reads one file per job */
+		json_error_t jerr;
+		json_t *root = text ? json_loads(text, 0, &jerr) : NULL;
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
-		double secs = json_number(text, "seconds", "total");
+		double secs = json_get(root, "seconds", "total");
 		enum stage_type t = c->jobs_decl[j->decl].stage->type;
 		size_t nops;
 		if (t == STAGE_LOSSY) /* its phases, the check of its count too */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_number(text, NULL, "seconds_lossy") +
-			       json_number(text, NULL, "seconds_diff") +
-			       json_number(text, NULL, "seconds_save");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_get(root, NULL, "seconds_lossy") +
+			       json_get(root, NULL, "seconds_diff") +
+			       json_get(root, NULL, "seconds_save");
 		else if (t == STAGE_EDIT) /* load, every operation, save */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_sum(text, "operations", "seconds", &nops) +
-			       json_number(text, NULL, "seconds_save");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_sum_in(root, "operations", "seconds", &nops) +
+			       json_get(root, NULL, "seconds_save");
 		if (secs == 0) /* the DAG stages report their phases */
-			secs = json_number(text, NULL, "seconds_load") +
-			       json_number(text, NULL, "seconds_build") +
-			       json_number(text, NULL, "seconds_save");
+			secs = json_get(root, NULL, "seconds_load") +
+			       json_get(root, NULL, "seconds_build") +
+			       json_get(root, NULL, "seconds_save");
 		if (secs == 0) /* render writes no statistics: its wall time */
 			secs = j->seconds;
 		r->seconds += secs;
 		r->wall_this_run += j->seconds;
-		uint64_t rss = (uint64_t)json_number(text, NULL, "peak_rss_bytes");
+		uint64_t rss = (uint64_t)json_get(root, NULL, "peak_rss_bytes");
+		json_decref(root);
 		if (j->peak_rss > rss)
 			rss = j->peak_rss;
 		if (rss > r->peak_rss)

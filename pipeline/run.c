@@ -2,9 +2,11 @@
  * limits, skipping what is fresh, one log per job, progress, and the
  * failure report. */
 #include "pipeline.h"
+#include "spawn/spawn.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -24,9 +26,17 @@ static void log_line(const char *fmt, ...)
 {
 	if (!runner_log)
 		return;
+	/* one stamp a second: localtime() would also stat /etc/localtime on
+	 * every line (localtime_r does not, once tzset ran) */
+	static time_t last;
+	static char ts[32];
 	time_t now = time(NULL);
-	char ts[32];
-	strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", localtime(&now));
+	if (now != last || !*ts) {
+		struct tm tm;
+		localtime_r(&now, &tm);
+		strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", &tm);
+		last = now;
+	}
 	fprintf(runner_log, "%s ", ts);
 	va_list ap;
 	va_start(ap, fmt);
@@ -73,31 +83,6 @@ static int take_lock(const struct plan *p)
 	return fd; /* held until the process exits */
 }
 
-static int write_key(const struct job *j)
-{
-	char text[64], tmp[1300];
-	if (job_key_text(j, text, sizeof text))
-		return -1;
-	snprintf(tmp, sizeof tmp, "%s.tmp", j->key_path);
-	FILE *f = fopen(tmp, "w");
-	if (!f)
-		return -1;
-	fputs(text, f);
-	int bad = fflush(f) != 0 || fsync(fileno(f)) != 0;
-	int e = errno;
-	if (fclose(f) != 0 && !bad) {
-		bad = 1;
-		e = errno;
-	}
-	if (!bad && rename(tmp, j->key_path) == 0)
-		return 0;
-	if (!bad)
-		e = errno;
-	unlink(tmp); /* no half key beside the output */
-	errno = e;
-	return -1;
-}
-
 static void print_tail(const char *path, int lines)
 {
 	FILE *f = fopen(path, "r");
@@ -120,21 +105,107 @@ static void print_command(FILE *f, const struct job *j)
 	fputc('\n', f);
 }
 
-/* Makes the output's directory and drops its key: it is being replaced. */
+/* Makes the output's directory and drops its key: it is being replaced.
+ * Consecutive jobs mostly write into the same directory (the cells): it is
+ * made once, and a key known to be absent is not unlinked. */
 static void prepare_output(struct job *j)
 {
+	static char made[1100];
 	char dir[1100];
 	snprintf(dir, sizeof dir, "%s", j->output);
 	char *slash = strrchr(dir, '/');
 	if (slash && strcmp(j->key_path + strlen(j->key_path) - 5, "/.key") != 0) {
 		*slash = 0;
-		mkdir_p(dir);
+		if (strcmp(dir, made) != 0 && mkdir_p(dir) == 0)
+			snprintf(made, sizeof made, "%s", dir);
 	}
-	unlink(j->key_path);
+	job_key_drop(j);
 }
 
 /* Why start_job last failed. */
 static char start_error[1500];
+
+/* The runner's signal mask before it blocked SIGCHLD (to wait for it
+ * with sigtimedwait); children get it back before they exec. */
+static sigset_t child_mask;
+
+/* The trampoline each local job is started through (voxdag-spawn, beside
+ * this program; pipeline/spawn/spawn.c says why), and the pipe it reports
+ * on: the read end non-blocking, both close-on-exec (the write end is made
+ * inheritable in the child only). Without the trampoline (not built or
+ * not installed) jobs are started directly and their peaks include the
+ * runner's memory, which runner.log says once. */
+static char spawn_path[PATH_MAX];
+static int spawn_pipe[2] = {-1, -1};
+
+/* Records read from the pipe whose trampoline is not reaped yet (at most
+ * one per running job, so a short list). */
+static struct vd_spawn_rec *spawn_recs;
+static int nspawn_recs, spawn_cap;
+
+/* CPU the trampolines spent of their own (theirs minus their job's): the
+ * runner's cost, added to its figure in runner.log. */
+static double spawn_cpu;
+
+static double rusage_seconds(const struct rusage *r)
+{
+	return (double)r->ru_utime.tv_sec + r->ru_utime.tv_usec * 1e-6 +
+	       (double)r->ru_stime.tv_sec + r->ru_stime.tv_usec * 1e-6;
+}
+
+static void spawn_setup(void)
+{
+	ssize_t n = readlink("/proc/self/exe", spawn_path, sizeof spawn_path - 1);
+	char *slash = n > 0 ? memrchr(spawn_path, '/', (size_t)n) : NULL;
+	if (!slash || (size_t)(slash - spawn_path) + 14 >= sizeof spawn_path) {
+		spawn_path[0] = 0;
+	} else {
+		strcpy(slash + 1, "voxdag-spawn");
+		if (access(spawn_path, X_OK) != 0 ||
+		    pipe2(spawn_pipe, O_CLOEXEC | O_NONBLOCK) != 0)
+			spawn_path[0] = 0;
+	}
+	if (spawn_path[0]) {
+		/* the write end blocks: a record is never dropped */
+		fcntl(spawn_pipe[1], F_SETFL, 0);
+		return;
+	}
+	log_line("no voxdag-spawn beside the runner: jobs start directly, "
+		 "and their peak memory includes the runner's");
+}
+
+/* Takes every record waiting in the pipe into spawn_recs. */
+static void spawn_drain(void)
+{
+	for (;;) {
+		struct vd_spawn_rec r;
+		ssize_t n = read(spawn_pipe[0], &r, sizeof r);
+		if (n != (ssize_t)sizeof r || r.magic != VD_SPAWN_MAGIC)
+			return; /* empty (EAGAIN), or not ours: nothing to use */
+		if (nspawn_recs == spawn_cap) {
+			int cap = spawn_cap ? 2 * spawn_cap : 16;
+			void *q = realloc(spawn_recs, (size_t)cap * sizeof r);
+			if (!q)
+				return; /* the job is then reported without a peak */
+			spawn_recs = q;
+			spawn_cap = cap;
+		}
+		spawn_recs[nspawn_recs++] = r;
+	}
+}
+
+/* The record of trampoline `pid` (removed from the list), 0 if none. */
+static int spawn_take(pid_t pid, struct vd_spawn_rec *out)
+{
+	spawn_drain();
+	for (int i = 0; i < nspawn_recs; i++)
+		if (spawn_recs[i].pid == (int32_t)pid) {
+			*out = spawn_recs[i];
+			spawn_recs[i] = spawn_recs[--nspawn_recs];
+			return 1;
+		}
+	return 0;
+}
 
 static pid_t start_job(const struct plan *p, struct job *j)
 {
@@ -145,13 +216,30 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	 * calls (vfork: it shares our memory until it execs, which spares
 	 * copying the runner's page tables for every one of 100,000 jobs) */
 	size_t len = 2;
-	for (int i = 0; j->argv[i]; i++)
+	int argc = 0;
+	for (int i = 0; j->argv[i]; i++, argc++)
 		len += strlen(j->argv[i]) + 1;
-	char *head = malloc(len + 1), failed[1200];
-	if (!head)
+	/* through the trampoline: voxdag-spawn FD PROG ARGS... */
+	char fdarg[16];
+	char **argv = j->argv;
+	char **spawn_argv = NULL;
+	if (spawn_path[0]) {
+		spawn_argv = malloc(((size_t)argc + 3) * sizeof *spawn_argv);
+		if (!spawn_argv)
+			return -1;
+		snprintf(fdarg, sizeof fdarg, "%d", spawn_pipe[1]);
+		spawn_argv[0] = spawn_path;
+		spawn_argv[1] = fdarg;
+		memcpy(spawn_argv + 2, j->argv, ((size_t)argc + 1) * sizeof *argv);
+		argv = spawn_argv;
+	}
+	char *head = malloc(len + 1), failed[PATH_MAX + 64];
+	if (!head) {
+		free(spawn_argv);
 		return -1;
+	}
 	int nfailed = snprintf(failed, sizeof failed, "voxdag: cannot run "
-			       "'%s'\n", j->argv[0]);
+			       "'%s'\n", argv[0]);
 	char *h = head;
 	*h++ = '$';
 	for (int i = 0; j->argv[i]; i++)
@@ -170,18 +258,22 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		if (fd >= 0)
 			close(fd);
 		free(head);
+		free(spawn_argv);
 		return -1;
 	}
 	pid_t pid = vfork();
 	if (pid == 0) {
 		/* die with the runner: a killed runner leaves no orphans */
 		prctl(PR_SET_PDEATHSIG, SIGKILL);
+		sigprocmask(SIG_SETMASK, &child_mask, NULL);
 		dup2(fd, 1); /* the copies lose O_CLOEXEC; fd closes at exec */
 		dup2(fd, 2);
 		int null = open("/dev/null", O_RDONLY);
 		if (null >= 0)
 			dup2(null, 0);
-		execv(j->argv[0], j->argv);
+		if (spawn_argv) /* the trampoline's end of the pipe stays open */
+			fcntl(spawn_pipe[1], F_SETFD, 0);
+		execv(argv[0], argv);
 		if (write(2, failed, (size_t)nfailed) < 0) {
 			/* nothing more to say */
 		}
@@ -190,6 +282,7 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	int saved = errno;
 	close(fd);
 	free(head);
+	free(spawn_argv);
 	if (pid < 0)
 		snprintf(start_error, sizeof start_error, "%s", strerror(saved));
 	return pid;
@@ -330,11 +423,24 @@ static int reap_local(const struct plan *p, struct job_end *e)
 			continue;
 		running_local[r] = running_local[--nrunning_local];
 		memset(e, 0, sizeof *e);
+		e->seconds = vd_seconds() - j->start;
+		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
+		struct vd_spawn_rec sr;
+		if (spawn_path[0] && spawn_take(pid, &sr)) {
+			/* the job's own end, seen by its trampoline */
+			status = sr.status;
+			e->peak_rss = sr.peak_rss;
+			double own = rusage_seconds(&ru) -
+				     (double)(sr.utime_us + sr.stime_us) / 1e6;
+			spawn_cpu += own > 0 ? own : 0;
+		} else if (spawn_path[0]) {
+			/* the trampoline died before its job ended (killed):
+			 * its own peak is the runner's, not the job's */
+			e->peak_rss = 0;
+		}
 		e->exited = WIFEXITED(status);
 		e->code = e->exited ? WEXITSTATUS(status) : 0;
 		e->signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-		e->seconds = vd_seconds() - j->start;
-		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
 		return i;
 	}
 	return -1; /* not one of ours */
@@ -350,14 +456,12 @@ static int finish_job(struct plan *p, struct job *j, const struct job_end *e,
 	j->peak_rss = e->peak_rss;
 	int ok = e->exited && e->code == 0 && !*e->reason;
 	char key_error[1500] = "";
-	if (ok && write_key(j) != 0) {
+	if (ok && job_key_write(j, key_error, sizeof key_error) != 0)
 		ok = 0;
-		snprintf(key_error, sizeof key_error, "cannot write its key "
-			 "'%s': %s", j->key_path, strerror(errno));
-	}
 	if (ok) {
 		job_set_state(p, j, JOB_DONE);
-		j->voxels = job_voxels(j);
+		if (!j->cell) /* a cell's count was read when it was planned */
+			j->voxels = job_voxels(j);
 		log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
 			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
 			 (unsigned long long)(j->mem_estimate >> 20));
@@ -439,12 +543,6 @@ static void cancel_dependents(struct plan *p, int *running)
 	}
 }
 
-static double rusage_seconds(const struct rusage *r)
-{
-	return (double)r->ru_utime.tv_sec + r->ru_utime.tv_usec * 1e-6 +
-	       (double)r->ru_stime.tv_sec + r->ru_stime.tv_usec * 1e-6;
-}
-
 int run_pipeline(struct plan *p, const struct run_opts *o)
 {
 	const struct config *c = p->cfg;
@@ -455,7 +553,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			strerror(errno));
 		return 1;
 	}
-	if (take_lock(p) < 0)
+	if (take_lock(p) < 0 || keys_open(p->dir, 1) != 0)
 		return 1;
 	int slurm = c->executor == EXECUTOR_SLURM;
 	if (slurm && slurm_preflight(p) != 0)
@@ -463,7 +561,10 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
 	runner_log = fopen(rl, "a");
+	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	if (!slurm)
+		spawn_setup();
 	plan_expand(p);
 	int tty = isatty(2) && !o->quiet;
 	double t0 = vd_seconds(), last = 0;
@@ -478,6 +579,13 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		fprintf(stderr, "voxdag: out of memory\n");
 		return 1;
 	}
+	/* locally the runner sleeps until a job ends (SIGCHLD, blocked so it
+	 * stays pending between a look with wait4 and the wait) or progress
+	 * is due, never polling */
+	sigset_t chld;
+	sigemptyset(&chld);
+	sigaddset(&chld, SIGCHLD);
+	sigprocmask(SIG_BLOCK, slurm ? NULL : &chld, &child_mask);
 	for (;;) {
 		/* start what is ready */
 		int all_left = 1;
@@ -523,7 +631,10 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			if (ds == 1 || (ds == 3 && !slurm))
 				continue;
 			char why[600] = "";
-			int fresh = ds == 0 ? job_is_fresh(j, why, sizeof why) : 0;
+			/* a key found absent when planned is absent still: only
+			 * the runner writes keys, and only of jobs it ran */
+			int fresh = ds == 0 && !j->fresh_checked ?
+				    job_is_fresh(j, why, sizeof why) : 0;
 			if (fresh == 1) {
 				job_set_state(p, j, JOB_SKIPPED);
 				j->logged = 1;
@@ -601,8 +712,18 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		if (done == -2)
 			break;
 		if (done < 0) {
-			struct timespec ts = {0, (slurm ? 200 : 50) * 1000 * 1000};
-			nanosleep(&ts, NULL);
+			if (slurm) {
+				struct timespec ts = {0, 200 * 1000 * 1000};
+				nanosleep(&ts, NULL);
+			} else {
+				double every = o->quiet ? 5.0 : tty ? 0.5 : 10.0,
+				       left = last + every - vd_seconds();
+				if (left < 0.01)
+					left = 0.01;
+				struct timespec ts = {(time_t)left,
+						      (long)((left - (time_t)left) * 1e9)};
+				sigtimedwait(&chld, NULL, &ts);
+			}
 			double now = vd_seconds();
 			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
 				progress(p, t0, tty, 0);
@@ -629,10 +750,13 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
+	/* starting jobs is the runner's work, though the trampolines did it
+	 * as its children */
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
-		 "%.3fs, stages cpu %.3fs", failures, blocked,
-		 vd_seconds() - t0, p->n, rusage_seconds(&self),
-		 rusage_seconds(&kids));
+		 "%.3fs (%.3fs of it starting jobs), stages cpu %.3fs, runner "
+		 "peak %ld MiB", failures, blocked, vd_seconds() - t0, p->n,
+		 rusage_seconds(&self) + spawn_cpu, spawn_cpu,
+		 rusage_seconds(&kids) - spawn_cpu, self.ru_maxrss / 1024);
 	if (failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "

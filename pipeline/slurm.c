@@ -144,7 +144,7 @@ static int on_path(const char *prog)
 static void slurm_file(const struct plan *p, const struct job *j,
 		       const char *ext, char *buf, size_t cap)
 {
-	char id[sizeof j->id];
+	char id[256];
 	snprintf(id, sizeof id, "%s", j->id);
 	for (char *c = id; *c; c++)
 		if (*c == '/')
@@ -336,7 +336,7 @@ int slurm_submit(const struct plan *p, struct job *j)
 	self[sl] = 0;
 	slurm_file(p, j, "end", end, sizeof end);
 	slurm_file(p, j, "id", idf, sizeof idf);
-	char id[sizeof j->id];
+	char id[256];
 	snprintf(id, sizeof id, "%s", j->id);
 	for (char *q = id; *q; q++)
 		if (*q == '/')

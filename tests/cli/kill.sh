@@ -1,10 +1,15 @@
 #!/usr/bin/env bash
 # kill -9 at 20 random moments of a multi-hundred-job pipeline (bunny 2^8
-# in cells of 32^3), ten of the runner and ten of a random running job, in
-# two chains: a run is killed, the next run (resuming) is killed again,
-# ten times, then a last run finishes and its outputs must be
-# byte-identical to an uninterrupted run. Each kill must have interrupted
-# something: the killed run had started a job and not finished them all.
+# in cells of 32^3), ten of the runner and ten of a random running job
+# (alternately), each when the run has started a job drawn at random among
+# those left. Kills come in chains: a run is killed, the next run
+# (resuming) is killed again, and so on; when a run ends on its own before
+# its moment, it has resumed every kill of its chain and its outputs must
+# be byte-identical to an uninterrupted run's (the chain is checked and a
+# new one starts from nothing). A last run ends the last chain the same
+# way. Each kill must have interrupted something: a killed runner had
+# started a job and not finished; a killed job was stopped (SIGSTOP)
+# before the kill, so it was running, and the runner reported it killed.
 # VOXDAG_KILL_SEED repeats a sequence of moments.
 cd "$(dirname "$0")/../.."
 . tests/cli/lib.sh
@@ -30,46 +35,88 @@ jobs:
   ssvdag: {stage: symmetry-merge, needs: [dag]}
   enc:    {stage: encode, needs: [dag, ssvdag]}
 YAML
+# The outputs' checksums. A stage killed mid-write may leave its staging
+# directory or file (NAME.tmp.PID) behind; those are not outputs (nothing
+# reads them, a rerun builds anew), so they are left out.
 sums() {
 	(cd $D && find . -type f \( -name '*.svo' -o -name '*.dag' -o -name '*.sdag' \
-		-o -name '*dag' \) | LC_ALL=C sort | xargs sha256sum)
+		-o -name '*dag' \) -not -path '*.tmp.*' | LC_ALL=C sort | xargs sha256sum)
 }
 t0=$(date +%s%N)
 expect kill_setup 0 '' $R -q run "$CFG"
-ms=$((($(date +%s%N) - t0) / 1000000))
-echo "kill.sh: an uninterrupted run takes $ms ms" >&2
+echo "kill.sh: an uninterrupted run takes $((($(date +%s%N) - t0) / 1000000)) ms" >&2
 sums > "$T/ref.sums"
 total=$(grep -c ' done ' $D/logs/runner.log)
 [ "$total" -ge 200 ] && pass kill_setup_hundreds_of_jobs ||
 	fail kill_setup_hundreds_of_jobs "$total jobs"
 
+# children PID: the pids of PID's children.
+children() { cat /proc/$1/task/$1/children 2>/dev/null; }
+
+# pick_job RUNNER: sets victim to one of the runner's jobs, at random,
+# stopped (SIGSTOP) so that it cannot end before the kill: cells take a few
+# milliseconds, and a job that ended and waits to be reaped takes a kill
+# without being interrupted. The runner starts each job through
+# voxdag-spawn, so jobs are its grandchildren (its children when
+# voxdag-spawn is absent). Returns 1 when no job is running.
+pick_job() {
+	local kids stages v s n
+	kids=$(children $1)
+	stages=
+	for v in $kids; do stages="$stages $(children $v)"; done
+	[ -n "${stages// /}" ] || stages=$kids
+	for v in $(printf '%s\n' $stages | shuf --random-source=<(yes $RANDOM)); do
+		kill -STOP $v 2>/dev/null || continue
+		# it stops when it next runs, which under load can take a
+		# while; it cannot end in between except on its own (Z)
+		for n in $(seq 1 400); do
+			s=$(sed 's/.*) \(.\).*/\1/' /proc/$v/stat 2>/dev/null)
+			[ "$s" = T ] || [ "$s" = t ] || [ "$s" = Z ] || [ -z "$s" ] && break
+			sleep 0.005
+		done
+		if [ "$s" = T ] || [ "$s" = t ]; then
+			victim=$v
+			return 0
+		fi
+		kill -CONT $v 2>/dev/null
+	done
+	return 1
+}
+
 # one_kill I WHAT: runs the pipeline (resuming what is there) and kills the
-# runner or one of its running jobs after a random delay. Returns 2 when
-# the kill hit nothing (the run ended first, or the chosen job ended
-# between being listed and the signal): the caller draws another moment.
+# runner or one of its running jobs at a random moment. Returns 2 when the
+# run ended on its own (exit 0) before the moment.
 one_kill() {
-	local i=$1 what=$2 at pid victim rc log before started finished k
+	local i=$1 what=$2 at left pid rc log before started finished k
 	log=$D/logs/runner.log
 	before=$(cat $log 2>/dev/null | wc -l)
-	at=$((RANDOM % (ms / 3) + 50)) # ms into this run
+	# the moment: when this run has started its at-th job, at drawn
+	# among the jobs left (a moment in the work, not in time: the same
+	# under any load, and never after the run's end)
+	left=$((total - $(cat $log 2>/dev/null | grep -c ' done ')))
+	[ $left -lt 1 ] && left=1
+	at=$((RANDOM % left + 1))
 	$R -q run "$CFG" 2>"$T/kill.err" &
 	pid=$!
-	sleep "$(awk -v m=$at 'BEGIN { printf "%.3f", m / 1000 }')"
+	while [ "$(tail -n +$((before + 1)) $log 2>/dev/null | grep -c ' started ')" -lt $at ]; do
+		kill -0 $pid 2>/dev/null || break
+		sleep 0.005
+	done
 	victim=$pid
 	if [ $what = job ]; then
 		victim=
-		for k in $(seq 1 300); do # a running job (not one that ended
-			# and waits to be reaped), at random
-			victim=$(ps -o pid=,stat= --ppid $pid | awk '$2 !~ /Z/ { print $1 }' |
-				shuf -n 1 --random-source=<(yes $RANDOM))
-			[ -n "$victim" ] && kill -9 "$victim" 2>/dev/null && break
-			victim=
+		for k in $(seq 1 300); do
+			pick_job $pid && break
+			kill -0 $pid 2>/dev/null || break # the run ended first
 			sleep 0.01
 		done
 	fi
-	if [ -z "$victim" ] || { [ $what = runner ] && ! kill -9 "$victim" 2>/dev/null; }; then
-		wait $pid
-		return 2
+	if [ -z "$victim" ] || ! kill -9 "$victim" 2>/dev/null; then
+		wait $pid # nothing hit: the run ends on its own
+		rc=$?
+		[ $rc -eq 0 ] && return 2
+		fail "kill_${i}_${what}_run" "a run exit $rc" "$(cat "$T/kill.err")"
+		return 1
 	fi
 	if [ $what = job ]; then
 		# the runner reports the killed job at once; then it is stopped
@@ -83,41 +130,58 @@ one_kill() {
 	fi
 	wait $pid
 	rc=$?
-	[ $what = job ] && ! grep -q 'killed by signal 9' "$T/kill.err" && return 2
+	if [ $what = job ] && ! grep -q 'killed by signal 9' "$T/kill.err"; then
+		fail "kill_${i}_job_reported" "a stopped job was killed; the runner did not say so" "$(cat "$T/kill.err")"
+		return 1
+	fi
 	# this run's lines of runner.log: it started work and did not finish
 	started=$(tail -n +$((before + 1)) $log | grep -c ' started ')
 	finished=$(tail -n +$((before + 1)) $log | grep -c ' finished: ')
 	if [ $rc -eq 0 ] || [ "$started" -eq 0 ] ||
 		{ [ $what = runner ] && [ "$finished" -ne 0 ]; }; then
 		[ $rc -eq 0 ] && return 2 # all done before the moment
-		fail "kill_${i}_${what}_interrupted" "at ${at} ms: exit $rc, $started started, finished $finished"
+		fail "kill_${i}_${what}_interrupted" "at job ${at} of ${left}: exit $rc, $started started, finished $finished"
 		return 1
 	fi
 	pass "kill_${i}_${what}_interrupted"
 }
 
-i=0
-for chain in 1 2; do
-	rm -rf $D
-	for k in $(seq 1 10); do
-		i=$((i + 1))
-		what=runner; [ $((i % 2)) -eq 0 ] && what=job
-		hit=
-		for try in 1 2 3 4 5; do
-			one_kill $i $what
-			[ $? -eq 2 ] || { hit=1; break; }
-			rm -rf $D # too late: start this chain's run afresh
-		done
-		[ -n "$hit" ] || fail "kill_${i}_$what" "five moments in a row interrupted nothing"
-	done
-	$R -q run "$CFG" 2>"$T/err"
-	rc=$?
+# check_chain: the outputs of a run that ended on its own (exit RC, its
+# stderr in $T/err) are an uninterrupted run's.
+chain=0
+check_chain() {
+	chain=$((chain + 1))
 	sums > "$T/got.sums"
-	if [ $rc -ne 0 ]; then
-		fail "kill_chain_${chain}_resumed" "rerun exit $rc" "$(cat "$T/err")"
+	if [ $1 -ne 0 ]; then
+		fail "kill_chain_${chain}_resumed" "rerun exit $1" "$(cat "$T/err")"
 	elif ! cmp -s "$T/ref.sums" "$T/got.sums"; then
 		fail "kill_chain_${chain}_resumed" "$(diff "$T/ref.sums" "$T/got.sums" | head -4)"
 	else
 		pass "kill_chain_${chain}_resumed"
 	fi
+}
+
+rm -rf $D
+i=0 idle=0
+while [ $i -lt 20 ]; do
+	what=runner; [ $((i % 2)) -eq 1 ] && what=job
+	one_kill $((i + 1)) $what
+	rc=$?
+	if [ $rc -eq 2 ]; then
+		# the run resumed its chain's kills to the end
+		idle=$((idle + 1))
+		cp "$T/kill.err" "$T/err"
+		check_chain 0
+		rm -rf $D
+		if [ $idle -ge 5 ]; then
+			fail "kill_$((i + 1))_$what" "five runs in a row ended before their moment"
+			break
+		fi
+		continue
+	fi
+	idle=0
+	i=$((i + 1))
 done
+$R -q run "$CFG" 2>"$T/err"
+check_chain $?
+echo "kill.sh: 20 kills in $chain chains" >&2

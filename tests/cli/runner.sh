@@ -182,6 +182,57 @@ n=$(last_run | grep -c ' started ')
 [ "$n" -gt 10 ] && pass changed_levels_reruns || fail changed_levels_reruns "$n started"
 expect changed_levels_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
 
+# --- the key journal (schemas/pipeline.md, "Resume"): an output whose
+# signature was recorded, changed in place keeping its size and its mtime
+# (ctime moves), is caught; a damaged record reruns only its job; a torn
+# journal is rewritten whole
+rm -rf $D
+write_cfg 8 2
+expect journal_setup 0 '' $R -q run "$CFG"
+jsums() { (cd $D && find . -type f \( -name '*.svo' -o -name '*dag' \) | LC_ALL=C sort | xargs sha256sum); }
+jsums > "$T/journal.ref"
+sleep 0.1 # every output settled: this run records their signatures
+expect journal_all_fresh 0 '' $R -q run "$CFG"
+n=$(last_run | grep -c ' started ')
+[ "$n" -eq 0 ] && pass journal_all_fresh_nothing_run || fail journal_all_fresh_nothing_run "$n started"
+cell=$(ls $D/dag/cells/*.dag | sed -n 3p)
+rel=${cell#$D/}
+sig=$(awk -v p="$rel" '$2 == "K" && $6 == p { s = $5 } END { print s }' $D/keys)
+[ -n "$sig" ] && [ "$sig" != - ] && pass journal_signature_recorded ||
+	fail journal_signature_recorded "record of $rel: '$sig'"
+touch -r "$cell" "$T/stamp"
+size=$(stat -c %s "$cell")
+off=$((size / 2))
+b=$(od -An -tu1 -j $off -N1 "$cell" | tr -d ' ')
+printf "$(printf '\\%03o' $(((b + 1) % 256)))" | dd of="$cell" bs=1 seek=$off conv=notrunc 2>/dev/null
+touch -r "$T/stamp" "$cell"
+if [ "$(stat -c %s "$cell")" = "$size" ] && [ "$(stat -c %Y.%y "$cell")" = "$(stat -c %Y.%y "$T/stamp")" ]; then
+	expect same_size_same_mtime 0 '' $R -q run "$CFG"
+	jsums > "$T/journal.got"
+	started=$(last_run | grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | tr '\n' ' ')
+	[ "$started" = "dag/cells/$(basename "$cell" .dag) " ] && cmp -s "$T/journal.ref" "$T/journal.got" &&
+		pass same_size_same_mtime_rebuilt || fail same_size_same_mtime_rebuilt "started: $started"
+else
+	fail same_size_same_mtime_setup "size or mtime of $cell changed"
+fi
+# every record of one output damaged (its check no longer matches): that
+# job runs again, nothing else (its bytes are the same)
+cell=$(ls $D/ssvdag/cells/*.sdag | sed -n 2p)
+rel=${cell#$D/}
+awk -v p="$rel" '$NF == p { $0 = ($1 ~ /^0/ ? "1" : "0") substr($0, 2) } { print }' $D/keys > "$T/keys" &&
+	cp "$T/keys" $D/keys
+expect damaged_record 0 '' $R -q run "$CFG"
+jsums > "$T/journal.got"
+started=$(last_run | grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | tr '\n' ' ')
+[ "$started" = "ssvdag/cells/$(basename "$cell" .sdag) " ] && cmp -s "$T/journal.ref" "$T/journal.got" &&
+	pass damaged_record_reruns_its_job || fail damaged_record_reruns_its_job "started: $started"
+# a journal torn in the middle of its last line (a crash while appending)
+truncate -s -7 $D/keys
+expect torn_journal 0 '' $R -q run "$CFG"
+jsums > "$T/journal.got"
+[ "$(tail -c 1 $D/keys | od -An -c | tr -d ' ')" = '\n' ] && cmp -s "$T/journal.ref" "$T/journal.got" &&
+	pass torn_journal_rewritten || fail torn_journal_rewritten "$(tail -c 80 $D/keys)"
+
 # --- a parameter of one stage (the report's resolutions: encode's rows)
 # reruns that job only
 write_cfg 8 2
