@@ -2140,6 +2140,9 @@ struct vd_lossy_stats {
 	uint64_t voxels_before, voxels_after, voxels_set, voxels_cleared;
 	double seconds_eff, seconds_graph, seconds_cluster, seconds_reduce,
 	       seconds_diff;
+	/* CPU seconds of the process (all threads) over the four phases
+	 * above: on a shared machine wall time is not the work done */
+	double cpu_seconds_lossy;
 };
 
 /* An edge of a similarity graph: u < v, `diff` voxels apart, similarity
