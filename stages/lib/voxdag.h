@@ -2124,6 +2124,9 @@ struct vd_lossy_opts {
 	double diff_factor;        /* p of m = h^2 * p (default 1.0) */
 	uint64_t max_refs;         /* R: candidates have <= R effective refs */
 	int threads;               /* 0: all cores */
+	uint64_t mem_budget;       /* bytes, 0: none; a similarity graph that
+				    * would pass it fails the run
+				    * (VD_ERR_BUDGET) */
 };
 
 struct vd_lossy_level_stats {

@@ -423,7 +423,7 @@ static void check_stage(const struct scene *s, double p, uint64_t R)
 	struct vd_dag d = {0}, d2 = {0};
 	CHECK_EQ(dag_copy(&d, &s->dag), VD_OK);
 	CHECK_EQ(dag_copy(&d2, &s->dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, p, R, 1};
+	struct vd_lossy_opts o = {2.0, p, R, 1, 0};
 	struct vd_lossy_stats st, st2;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_OK);
 	o.threads = 3;
@@ -498,7 +498,7 @@ static void test_bad_input(void)
 		scene_free(&s);
 		return;
 	}
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 1};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0};
 	struct vd_lossy_stats st;
 	o.inflation = 1.0;
 	CHECK_EQ(vd_lossy_cluster(&s.dag, &o, &st), VD_ERR_ARG);
@@ -513,6 +513,53 @@ static void test_bad_input(void)
 	scene_free(&s);
 }
 
+/* A similarity graph over --mem-budget fails the run with one line that
+ * counts its edges all the same (against the pair search run alone),
+ * leaving the DAG as it was; a large budget changes nothing. */
+static void test_graph_budget(void)
+{
+	struct scene s;
+	scene_load(&s, "tests/data/bunny.ply", 8);
+	if (!s.ok) {
+		scene_free(&s);
+		return;
+	}
+	int L = s.dag.levels;
+	uint64_t *eff[VD_MAX_LEVELS];
+	CHECK_EQ(vd_lossy_effective_refs(&s.dag, L - 2, eff), VD_OK);
+	struct vd_lossy_edge *e;
+	size_t ne;
+	uint64_t nc;
+	CHECK_EQ(vd_lossy_similar_pairs(&s.dag, L - 2, eff[L - 2], 1, 1.0, 1,
+					&e, &ne, &nc), VD_OK);
+	for (int l = 0; l < VD_MAX_LEVELS; l++) free(eff[l]);
+	free(e);
+	CHECK(ne > 1024); /* more than one slice's first array */
+	struct vd_dag d = {0}, d2 = {0}, d3 = {0};
+	CHECK_EQ(dag_copy(&d, &s.dag), VD_OK);
+	CHECK_EQ(dag_copy(&d2, &s.dag), VD_OK);
+	CHECK_EQ(dag_copy(&d3, &s.dag), VD_OK);
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 1}; /* a budget of 1 byte */
+	struct vd_lossy_stats st;
+	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_ERR_BUDGET);
+	char want[200];
+	snprintf(want, sizeof want, "the similarity graph of level %d (%" PRIu64
+		 " candidates, %zu edges) needs about", L - 2, nc, ne);
+	CHECK(strstr(vd_error_detail(), want) != NULL);
+	if (!strstr(vd_error_detail(), want))
+		fprintf(stderr, "  wanted '%s' in '%s'\n", want, vd_error_detail());
+	CHECK(dags_identical(&d, &s.dag));
+	o.mem_budget = 1ull << 40;
+	CHECK_EQ(vd_lossy_cluster(&d2, &o, &st), VD_OK);
+	o.mem_budget = 0;
+	CHECK_EQ(vd_lossy_cluster(&d3, &o, &st), VD_OK);
+	CHECK(dags_identical(&d2, &d3));
+	vd_dag_release(&d);
+	vd_dag_release(&d2);
+	vd_dag_release(&d3);
+	scene_free(&s);
+}
+
 int main(void)
 {
 	RUN(test_effective_refs);
@@ -520,5 +567,6 @@ int main(void)
 	RUN(test_mcl);
 	RUN(test_stage);
 	RUN(test_bad_input);
+	RUN(test_graph_budget);
 	return CHECK_DONE();
 }

@@ -80,16 +80,44 @@ int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
 
 /* ------------------------------------------------------ similarity graph */
 
+/* The memory of a similarity graph, per edge: two copies at every step
+ * (the search's slices and their concatenation; the edges and the radix
+ * sort's copy; the edges and the clustering's adjacency, both directions
+ * at 12 bytes). */
+#define EDGE_BYTES (2 * sizeof(struct vd_lossy_edge))
+
+/* The budget of a pair search shared by its slices: once the slices'
+ * arrays would pass `limit` bytes, they stop storing edges and only count
+ * them, for the error line to say what the whole graph needs. Capacities
+ * only grow, so whether that happens does not depend on the threads. */
+struct edge_budget {
+	uint64_t limit; /* 0: none */
+	uint64_t held;  /* bytes of the slices' arrays (atomic) */
+	int over;       /* atomic */
+};
+
 struct edges {
 	struct vd_lossy_edge *e;
 	size_t n, cap;
+	struct edge_budget *b;
 };
 
 static int edge_add(struct edges *g, uint32_t u, uint32_t v, uint32_t diff,
 		    double s)
 {
+	if (g->b && __atomic_load_n(&g->b->over, __ATOMIC_RELAXED)) {
+		g->n++; /* counted, not stored */
+		return 0;
+	}
 	if (g->n == g->cap) {
 		size_t c = g->cap ? g->cap * 2 : 1024;
+		if (g->b && g->b->limit &&
+		    __atomic_add_fetch(&g->b->held, (c - g->cap) * sizeof *g->e,
+				       __ATOMIC_RELAXED) > g->b->limit) {
+			__atomic_store_n(&g->b->over, 1, __ATOMIC_RELAXED);
+			g->n++;
+			return 0;
+		}
 		void *p = realloc(g->e, c * sizeof *g->e);
 		if (!p) return NOMEM();
 		g->e = p;
@@ -291,10 +319,15 @@ static void pair_slice(void *ctx, size_t k, int worker)
 
 static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 			size_t nc, int64_t m, const uint64_t *brick,
-			int threads, struct edges *g)
+			int threads, uint64_t budget, struct edges *g)
 {
 	struct pair_job *J = calloc(1, sizeof *J);
 	if (!J) return NOMEM();
+	/* what the process holds now, and what is left of the budget */
+	struct edge_budget eb = {0, 0, 0};
+	uint64_t base = budget ? vd_current_rss_bytes() : 0;
+	if (budget) eb.limit = base < budget ? budget - base : 1;
+	for (int k = 0; k < PAIR_SLICES; k++) J->part[k].b = &eb;
 	J->d = d;
 	J->l = l;
 	J->h2 = d->levels - l == 2;
@@ -327,6 +360,13 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		if (!err && J->err[k]) err = J->err[k];
 		total += J->part[k].n;
 	}
+	if (!err && budget && (eb.over || base + total * EDGE_BYTES > budget))
+		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
+			      "(%zu candidates, %zu edges) needs about %" PRIu64
+			      " MiB beside the %" PRIu64 " MiB in use, over the "
+			      "budget of %" PRIu64 " MiB (--mem-budget)", l, nc,
+			      total, (uint64_t)(total * EDGE_BYTES) >> 20,
+			      base >> 20, budget >> 20);
 	if (!err && total) {
 		g->e = malloc(total * sizeof *g->e);
 		if (!g->e) err = NOMEM();
@@ -344,10 +384,10 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	return err;
 }
 
-int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
-			   uint64_t max_refs, double diff_factor, int threads,
-			   struct vd_lossy_edge **out, size_t *n_out,
-			   uint64_t *candidates)
+static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
+			 uint64_t max_refs, double diff_factor, int threads,
+			 uint64_t budget, struct vd_lossy_edge **out,
+			 size_t *n_out, uint64_t *candidates)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
@@ -369,7 +409,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			if (eff[i] <= max_refs)
 				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
-		err = search_pairs(d, l, c, nc, 1, NULL, threads, &g);
+		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget, &g);
 		goto done;
 	}
 	/* taller: the bricks of level L-2, topology hashes (masks of levels
@@ -412,7 +452,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	err = search_pairs(d, l, c, nc, m, brick, threads, &g);
+	err = search_pairs(d, l, c, nc, m, brick, threads, budget, &g);
 done:
 	for (int k = 0; k < VD_MAX_LEVELS; k++) {
 		free(topo[k]);
@@ -428,6 +468,15 @@ done:
 	*out = g.e;
 	*n_out = g.n;
 	return 0;
+}
+
+int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
+			   uint64_t max_refs, double diff_factor, int threads,
+			   struct vd_lossy_edge **out, size_t *n_out,
+			   uint64_t *candidates)
+{
+	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
+			     out, n_out, candidates);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -1223,9 +1272,9 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		st->seconds_eff += t1 - t0;
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
-		err = vd_lossy_similar_pairs(d, l, eff[l], o->max_refs,
-					     o->diff_factor, o->threads, &e, &ne,
-					     &ls->candidates);
+		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
+				    o->threads, o->mem_budget, &e, &ne,
+				    &ls->candidates);
 		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 		if (err) break;
 		double t2 = vd_seconds();
@@ -1539,6 +1588,19 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	return vd_json_close(j);
 }
 
+/* The memory of a clustering run besides its similarity graphs (checked
+ * as they are built) and its clustering: the DAG twice (the working copy
+ * and the original, for the final difference: a mask byte and an offset
+ * per node, 4 bytes per reference), the per-level arrays (effective
+ * counts, topology hashes, voxel counts, candidates, renumbering: up to
+ * 64 bytes per node), the final difference (voxel counts of both DAGs and
+ * its table of pairs: about 48 bytes per node) and the libraries. */
+static uint64_t lossy_need(uint64_t nodes, uint64_t refs)
+{
+	return 2 * (9 * nodes + 4 * refs) + 112 * nodes +
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
+}
+
 int vd_lossy_run(const char *in, const char *out,
 		 const struct vd_lossy_opts *o, uint64_t mem_budget,
 		 const char *provenance, int quiet)
@@ -1558,14 +1620,19 @@ int vd_lossy_run(const char *in, const char *out,
 			       vd_strerror(err), vd_error_detail());
 	}
 	h = *vd_chunk_header(c);
-	/* the input twice (working copy and original) plus the per-level
-	 * arrays: about 5x the loaded DAG, bounded by 8 refs per node */
-	uint64_t est = 5 * vd_dag_estimate_header(&h);
+	/* before loading, with the fewest references the node counts allow
+	 * (every node below the root has a parent) */
+	uint64_t hn = 0, hr = 0;
+	for (uint32_t i = 0; i + 1 < h.level_count; i++) {
+		hn += h.level_nodes[i];
+		if (i > 0) hr += h.level_nodes[i];
+	}
+	uint64_t est = lossy_need(hn, hr);
 	if (mem_budget && est > mem_budget) {
 		vd_chunk_free(c);
-		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
+		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs at least "
 			       "%" PRIu64 " MiB, over the budget of %" PRIu64
-			       " MiB", in, est >> 20, mem_budget >> 20);
+			       " MiB (--mem-budget)", in, est >> 20, mem_budget >> 20);
 	}
 	err = vd_dag_from_chunk(&d, c, VD_KIND_DAG);
 	vd_chunk_free(c);
@@ -1574,9 +1641,20 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot read '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	uint64_t refs = 0;
+	for (int l = d.chunk_level; l < d.levels - 1; l++) refs += d.lv[l].refs;
+	est = lossy_need(dag_nodes(&d), refs);
+	if (mem_budget && est > mem_budget) {
+		vd_dag_release(&d);
+		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
+			       "%" PRIu64 " MiB, over the budget of %" PRIu64
+			       " MiB (--mem-budget)", in, est >> 20, mem_budget >> 20);
+	}
 	double t_load = vd_seconds() - t0;
 	struct vd_lossy_stats st;
-	if ((err = vd_lossy_cluster(&d, o, &st))) {
+	struct vd_lossy_opts ob = *o;
+	if (!ob.mem_budget) ob.mem_budget = mem_budget;
+	if ((err = vd_lossy_cluster(&d, &ob, &st))) {
 		vd_dag_release(&d);
 		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
