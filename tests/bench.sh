@@ -219,6 +219,16 @@ if [ "${VOXDAG_BENCH_EDIT:-1}" != 0 ]; then
 	tests/bench_edit.sh
 fi
 
+# Lossy SVDAGs (issue 15): every shared mesh at 2^10 and 2^12, lossless
+# against lossy nodes and MB (SVDAG, ESVDAG, SSVDAG), error, lossy-phase
+# seconds and peak memory, beside the reference figures
+# (tests/bench/lossy_table.sh, which also runs alone). VOXDAG_BENCH_LOSSY=0
+# skips it.
+if [ "${VOXDAG_BENCH_LOSSY:-1}" != 0 ]; then
+	echo
+	tests/bench/lossy_table.sh
+fi
+
 if [ "${VOXDAG_BENCH_RUNNER:-1}" != 0 ]; then
 	echo
 	runner_scale bunny-9-L4 tests/data/bunny.ply 9 4

@@ -2203,6 +2203,9 @@ struct vd_lossy_opts {
 	double diff_factor;        /* p of m = h^2 * p (default 1.0) */
 	uint64_t max_refs;         /* R: candidates have <= R effective refs */
 	int threads;               /* 0: all cores */
+	uint64_t mem_budget;       /* bytes, 0: none; a similarity graph that
+				    * would pass it fails the run
+				    * (VD_ERR_BUDGET) */
 };
 
 struct vd_lossy_level_stats {
@@ -2219,6 +2222,9 @@ struct vd_lossy_stats {
 	uint64_t voxels_before, voxels_after, voxels_set, voxels_cleared;
 	double seconds_eff, seconds_graph, seconds_cluster, seconds_reduce,
 	       seconds_diff;
+	/* CPU seconds of the process (all threads) over the four phases
+	 * above: on a shared machine wall time is not the work done */
+	double cpu_seconds_lossy;
 };
 
 /* An edge of a similarity graph: u < v, `diff` voxels apart, similarity

@@ -3,6 +3,7 @@
 #include "voxdag.h"
 
 #include <getopt.h>
+#include <malloc.h>
 #include <math.h>
 #include <stdlib.h>
 
@@ -117,6 +118,14 @@ int main(int argc, char **argv)
 		return vd_cli_usage(TOOL, "more than one input chunk");
 	if (!output)
 		return vd_cli_usage(TOOL, "no output file (-o OUT) given");
+	/* The clustering allocates and frees arrays of a few MB per level
+	 * and per graph component; glibc returned them to the kernel each
+	 * time (mmap, heap trimming), and the page faults of getting them
+	 * back were a quarter of the lossy phase on the dragon at 2^12. Freed
+	 * memory stays in the heap instead (the peak grew by a tenth there,
+	 * 146 to 161 MB, for 0.5 s less CPU). */
+	mallopt(M_MMAP_THRESHOLD, 256 << 20);
+	mallopt(M_TRIM_THRESHOLD, 1 << 30);
 	char *prov = vd_provenance_new(TOOL, argc, argv);
 	int err = vd_lossy_run(argv[optind], output, &o, budget, prov, quiet);
 	free(prov);

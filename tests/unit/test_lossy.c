@@ -423,7 +423,7 @@ static void check_stage(const struct scene *s, double p, uint64_t R)
 	struct vd_dag d = {0}, d2 = {0};
 	CHECK_EQ(dag_copy(&d, &s->dag), VD_OK);
 	CHECK_EQ(dag_copy(&d2, &s->dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, p, R, 1};
+	struct vd_lossy_opts o = {2.0, p, R, 1, 0};
 	struct vd_lossy_stats st, st2;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_OK);
 	o.threads = 3;
@@ -498,7 +498,7 @@ static void test_bad_input(void)
 		scene_free(&s);
 		return;
 	}
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 1};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0};
 	struct vd_lossy_stats st;
 	o.inflation = 1.0;
 	CHECK_EQ(vd_lossy_cluster(&s.dag, &o, &st), VD_ERR_ARG);
@@ -513,12 +513,142 @@ static void test_bad_input(void)
 	scene_free(&s);
 }
 
+/* One connected component of more than one block of matrix columns (4096):
+ * a 90x90 grid with weights from a fixed generator, no ties. Its blocks
+ * are expanded in parallel: the clusters equal mcl's, and the same for 1
+ * and 2 threads. */
+static void test_mcl_big(void)
+{
+	if (!have_mcl()) {
+		printf("SKIP test_mcl_big (no mcl)\n");
+		return;
+	}
+	enum { W = 90, N = W * W };
+	struct vd_lossy_edge *e = malloc(2 * N * sizeof *e);
+	size_t ne = 0;
+	uint64_t x = 88172645463325252ull;
+	for (uint32_t i = 0; i < N; i++)
+		for (int k = 0; k < 2; k++) {
+			uint32_t j = k ? i + W : i + 1;
+			if ((k && j >= N) || (!k && (i + 1) % W == 0)) continue;
+			x ^= x << 13;
+			x ^= x >> 7;
+			x ^= x << 17;
+			double w = 0.5 + (double)(x >> 11) / 9007199254740992.0 / 2;
+			e[ne++] = (struct vd_lossy_edge){i, j, 1, w};
+		}
+	/* sorted by (u, v) as the stage gives them */
+	qsort(e, ne, sizeof *e, edge_cmp);
+	const char *dir = test_tmpdir("test_lossy_mcl_big");
+	char in[800], out[800], cmd[2000];
+	snprintf(in, sizeof in, "%s/grid.abc", dir);
+	snprintf(out, sizeof out, "%s/clusters.txt", dir);
+	FILE *f = fopen(in, "w");
+	CHECK(f != NULL);
+	if (!f) {
+		free(e);
+		return;
+	}
+	for (size_t i = 0; i < ne; i++)
+		fprintf(f, "%u\t%u\t%.17g\n", e[i].u, e[i].v, e[i].s);
+	fclose(f);
+	snprintf(cmd, sizeof cmd, "mcl '%s' --abc -I 2 -o '%s' 2>/dev/null", in, out);
+	CHECK_EQ(system(cmd), 0);
+	uint32_t *c1 = malloc(N * 4), *c2 = malloc(N * 4), *seen = calloc(N, 4);
+	CHECK_EQ(vd_lossy_mcl(N, e, ne, 2.0, 1, c1), VD_OK);
+	CHECK_EQ(vd_lossy_mcl(N, e, ne, 2.0, 2, c2), VD_OK);
+	CHECK(!memcmp(c1, c2, N * 4));
+	/* every mcl line is exactly one of our clusters, each node once */
+	uint32_t *size = calloc(N, 4);
+	for (uint32_t i = 0; i < N; i++) size[c1[i]]++;
+	f = fopen(out, "r");
+	CHECK(f != NULL);
+	uint64_t bad = 0, members = 0, lines = 0;
+	char line[1 << 16];
+	while (f && fgets(line, sizeof line, f)) {
+		char *p = line, *end;
+		uint32_t first = UINT32_MAX, cnt = 0;
+		for (;;) {
+			unsigned long v = strtoul(p, &end, 10);
+			if (end == p) break;
+			p = end;
+			if (first == UINT32_MAX) first = (uint32_t)v;
+			if (v >= N || c1[v] != c1[first] || seen[v]++) bad++;
+			cnt++;
+		}
+		if (first != UINT32_MAX && size[c1[first]] != cnt) bad++;
+		members += cnt;
+		lines++;
+	}
+	if (f) fclose(f);
+	CHECK_EQ(members, N);
+	CHECK_EQ(bad, 0);
+	CHECK(lines > 100); /* clusters, not one blob */
+	if (bad)
+		fprintf(stderr, "  grid: %" PRIu64 " mismatches in %" PRIu64
+			" mcl clusters\n", bad, lines);
+	free(size);
+	free(seen);
+	free(c1);
+	free(c2);
+	free(e);
+}
+
+/* A similarity graph over --mem-budget fails the run with one line that
+ * counts its edges all the same (against the pair search run alone),
+ * leaving the DAG as it was; a large budget changes nothing. */
+static void test_graph_budget(void)
+{
+	struct scene s;
+	scene_load(&s, "tests/data/bunny.ply", 8);
+	if (!s.ok) {
+		scene_free(&s);
+		return;
+	}
+	int L = s.dag.levels;
+	uint64_t *eff[VD_MAX_LEVELS];
+	CHECK_EQ(vd_lossy_effective_refs(&s.dag, L - 2, eff), VD_OK);
+	struct vd_lossy_edge *e;
+	size_t ne;
+	uint64_t nc;
+	CHECK_EQ(vd_lossy_similar_pairs(&s.dag, L - 2, eff[L - 2], 1, 1.0, 1,
+					&e, &ne, &nc), VD_OK);
+	for (int l = 0; l < VD_MAX_LEVELS; l++) free(eff[l]);
+	free(e);
+	CHECK(ne > 1024); /* more than one slice's first array */
+	struct vd_dag d = {0}, d2 = {0}, d3 = {0};
+	CHECK_EQ(dag_copy(&d, &s.dag), VD_OK);
+	CHECK_EQ(dag_copy(&d2, &s.dag), VD_OK);
+	CHECK_EQ(dag_copy(&d3, &s.dag), VD_OK);
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 1}; /* a budget of 1 byte */
+	struct vd_lossy_stats st;
+	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_ERR_BUDGET);
+	char want[200];
+	snprintf(want, sizeof want, "the similarity graph of level %d (%" PRIu64
+		 " candidates, %zu edges) needs about", L - 2, nc, ne);
+	CHECK(strstr(vd_error_detail(), want) != NULL);
+	if (!strstr(vd_error_detail(), want))
+		fprintf(stderr, "  wanted '%s' in '%s'\n", want, vd_error_detail());
+	CHECK(dags_identical(&d, &s.dag));
+	o.mem_budget = 1ull << 40;
+	CHECK_EQ(vd_lossy_cluster(&d2, &o, &st), VD_OK);
+	o.mem_budget = 0;
+	CHECK_EQ(vd_lossy_cluster(&d3, &o, &st), VD_OK);
+	CHECK(dags_identical(&d2, &d3));
+	vd_dag_release(&d);
+	vd_dag_release(&d2);
+	vd_dag_release(&d3);
+	scene_free(&s);
+}
+
 int main(void)
 {
 	RUN(test_effective_refs);
 	RUN(test_similar_pairs);
 	RUN(test_mcl);
+	RUN(test_mcl_big);
 	RUN(test_stage);
 	RUN(test_bad_input);
+	RUN(test_graph_budget);
 	return CHECK_DONE();
 }

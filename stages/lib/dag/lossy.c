@@ -14,10 +14,18 @@
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 #define NONE UINT32_MAX
+
+static double cpu_seconds(void)
+{
+	struct timespec t;
+	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t)) return 0;
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
 
 static inline uint64_t mix64(uint64_t x)
 {
@@ -72,16 +80,44 @@ int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
 
 /* ------------------------------------------------------ similarity graph */
 
+/* The memory of a similarity graph, per edge: two copies at every step
+ * (the search's slices and their concatenation; the edges and the radix
+ * sort's copy; the edges and the clustering's adjacency, both directions
+ * at 12 bytes). */
+#define EDGE_BYTES (2 * sizeof(struct vd_lossy_edge))
+
+/* The budget of a pair search shared by its slices: once the slices'
+ * arrays would pass `limit` bytes, they stop storing edges and only count
+ * them, for the error line to say what the whole graph needs. Capacities
+ * only grow, so whether that happens does not depend on the threads. */
+struct edge_budget {
+	uint64_t limit; /* 0: none */
+	uint64_t held;  /* bytes of the slices' arrays (atomic) */
+	int over;       /* atomic */
+};
+
 struct edges {
 	struct vd_lossy_edge *e;
 	size_t n, cap;
+	struct edge_budget *b;
 };
 
 static int edge_add(struct edges *g, uint32_t u, uint32_t v, uint32_t diff,
 		    double s)
 {
+	if (g->b && __atomic_load_n(&g->b->over, __ATOMIC_RELAXED)) {
+		g->n++; /* counted, not stored */
+		return 0;
+	}
 	if (g->n == g->cap) {
 		size_t c = g->cap ? g->cap * 2 : 1024;
+		if (g->b && g->b->limit &&
+		    __atomic_add_fetch(&g->b->held, (c - g->cap) * sizeof *g->e,
+				       __ATOMIC_RELAXED) > g->b->limit) {
+			__atomic_store_n(&g->b->over, 1, __ATOMIC_RELAXED);
+			g->n++;
+			return 0;
+		}
 		void *p = realloc(g->e, c * sizeof *g->e);
 		if (!p) return NOMEM();
 		g->e = p;
@@ -91,11 +127,86 @@ static int edge_add(struct edges *g, uint32_t u, uint32_t v, uint32_t diff,
 	return 0;
 }
 
-static int edge_cmp(const void *a, const void *b)
+/* Sorts a[0..n-1] (the rows of one column: mostly a few dozen) without
+ * qsort's indirect calls, which took a tenth of the clustering. */
+static void u32_sort(uint32_t *a, size_t n)
 {
-	const struct vd_lossy_edge *x = a, *y = b;
-	if (x->u != y->u) return x->u < y->u ? -1 : 1;
-	if (x->v != y->v) return x->v < y->v ? -1 : 1;
+	while (n > 24) {
+		uint32_t x = a[0], y = a[n / 2], z = a[n - 1];
+		uint32_t p = x < y ? (y < z ? y : (x < z ? z : x))
+				   : (x < z ? x : (y < z ? z : y));
+		size_t i = 0, j = n - 1;
+		for (;;) {
+			while (a[i] < p) i++;
+			while (a[j] > p) j--;
+			if (i >= j) break;
+			uint32_t t = a[i];
+			a[i++] = a[j];
+			a[j--] = t;
+		}
+		/* a[0..j] <= p <= a[j+1..n-1]: recurse into the smaller part */
+		size_t ln = j + 1, rn = n - ln;
+		if (ln < rn) {
+			u32_sort(a, ln);
+			a += ln;
+			n = rn;
+		} else {
+			u32_sort(a + ln, rn);
+			n = ln;
+		}
+	}
+	for (size_t i = 1; i < n; i++) {
+		uint32_t v = a[i];
+		size_t k = i;
+		for (; k > 0 && a[k - 1] > v; k--) a[k] = a[k - 1];
+		a[k] = v;
+	}
+}
+
+/* Population count without the libgcc call that __builtin_popcountll
+ * becomes on a plain x86-64 build. */
+static inline unsigned pop64(uint64_t x)
+{
+	x = x - ((x >> 1) & 0x5555555555555555ULL);
+	x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
+	x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+	return (unsigned)((x * 0x0101010101010101ULL) >> 56);
+}
+
+/* Sorts the edges by (u, v), u and v below n: LSD radix sort on the key
+ * u * 2^b + v in 11-bit digits (qsort of the 1.5 million edges of the
+ * dragon at 2^12 took longer than finding them). Already sorted input
+ * (height 2) is left as it is. */
+static int edges_sort(struct vd_lossy_edge *e, size_t ne, uint64_t n)
+{
+	size_t i = 1;
+	while (i < ne && (e[i - 1].u < e[i].u ||
+			  (e[i - 1].u == e[i].u && e[i - 1].v < e[i].v)))
+		i++;
+	if (ne < 2 || i == ne) return 0;
+	int b = 1;
+	while (b < 32 && (1ull << b) < n) b++;
+	struct vd_lossy_edge *t = malloc(ne * sizeof *t);
+	if (!t) return NOMEM();
+	struct vd_lossy_edge *src = e, *dst = t;
+	for (int shift = 0; shift < 2 * b; shift += 11) {
+		size_t cnt[2048] = {0};
+		for (i = 0; i < ne; i++)
+			cnt[((uint64_t)src[i].u << b | src[i].v) >> shift & 2047]++;
+		size_t at = 0;
+		for (int k = 0; k < 2048; k++) {
+			size_t c = cnt[k];
+			cnt[k] = at;
+			at += c;
+		}
+		for (i = 0; i < ne; i++)
+			dst[cnt[((uint64_t)src[i].u << b | src[i].v) >> shift & 2047]++] = src[i];
+		struct vd_lossy_edge *x = src;
+		src = dst;
+		dst = x;
+	}
+	if (src != e) memcpy(e, src, ne * sizeof *e);
+	free(t);
 	return 0;
 }
 
@@ -114,36 +225,42 @@ static int enc_cmp(const void *a, const void *b)
 }
 
 /* Voxel difference of nodes a and b on level l (>= L-2) of equal topology
- * down to level L-2, stopping once over `m`. Returns -1 if the topologies
- * differ (a topology hash collision). */
-static int64_t pair_diff(const struct vd_dag *d, int l, uint32_t a,
-			 uint32_t b, int64_t acc, int64_t m)
+ * down to level L-2, stopping once over `m`: at level L-2 the popcount of
+ * the XORed bricks (the 64 voxels under the node). Returns -1 if the
+ * topologies differ (a topology hash collision). */
+static int64_t pair_diff(const struct vd_dag *d, const uint64_t *brick, int l,
+			 uint32_t a, uint32_t b, int64_t acc, int64_t m)
 {
 	int L = d->levels;
 	const struct vd_dag_level *lv = &d->lv[l];
 	if (lv->mask[a] != lv->mask[b]) return -1;
+	if (l == L - 2) return acc + pop64(brick[a] ^ brick[b]);
 	uint64_t ja = lv->first[a], jb = lv->first[b], k = lv->first[a + 1] - ja;
 	for (uint64_t t = 0; t < k; t++) {
 		uint32_t ca = lv->child[ja + t], cb = lv->child[jb + t];
-		if (l == L - 2) {
-			acc += __builtin_popcount(d->lv[L - 1].mask[ca] ^
-						  d->lv[L - 1].mask[cb]);
-		} else if (ca != cb) {
-			acc = pair_diff(d, l + 1, ca, cb, acc, m);
+		if (ca != cb) {
+			acc = pair_diff(d, brick, l + 1, ca, cb, acc, m);
 			if (acc < 0) return -1;
+			if (acc > m) return acc;
 		}
-		if (acc > m) return acc;
 	}
 	return acc;
 }
 
-/* The pair search over the sorted candidates c[0..nc-1], in fixed slices
- * of the first member (independent of the thread count; the edges are
- * sorted afterwards). Height 2 (m == 1 and keys are bricks): the 64
- * one-bit flips of each encoding looked up in the sorted array. Taller:
- * within a group of equal topology hash, sorted by voxel count, only the
- * window of counts within m (|pop a - pop b| <= d) is compared. */
+/* The pair search over the candidates c[0..nc-1], in fixed slices of the
+ * first member (independent of the thread count; the edges are sorted
+ * afterwards). Height 2 (keys are bricks, m = 1; c in node order): the
+ * 64 one-bit flips of each encoding looked up in a hash table of all
+ * candidates' encodings (the encodings are distinct: the DAG is reduced),
+ * which gives the edges already sorted. Taller (c sorted by topology hash
+ * and voxel count): within a group of equal topology hash only the window
+ * of counts within m (|pop a - pop b| <= d) is compared. */
 #define PAIR_SLICES 64
+
+struct hslot {
+	uint64_t key;
+	uint32_t node; /* NONE: empty */
+};
 
 struct pair_job {
 	const struct vd_dag *d;
@@ -151,6 +268,9 @@ struct pair_job {
 	const struct enc *c;
 	size_t nc;
 	int64_t m;
+	const struct hslot *slot; /* height 2: hash table of the candidates */
+	uint64_t mask;          /* its size - 1 */
+	const uint64_t *brick;  /* taller: the bricks of level L-2 */
 	struct edges part[PAIR_SLICES];
 	int err[PAIR_SLICES];
 };
@@ -166,23 +286,35 @@ static void pair_slice(void *ctx, size_t k, int worker)
 	int err = 0;
 	for (size_t a = a0; a < a1 && !err; a++) {
 		if (J->h2) {
-			for (unsigned b = 0; b < 64 && !err; b++) {
-				uint64_t x = c[a].key ^ (1ull << b);
-				size_t lo = 0, hi = nc;
-				while (lo < hi) {
-					size_t mid = lo + (hi - lo) / 2;
-					if (c[mid].key < x) lo = mid + 1;
-					else hi = mid;
-				}
-				if (lo < nc && c[lo].key == x && c[lo].node > c[a].node)
-					err = edge_add(g, c[a].node, c[lo].node, 1, 0.5);
+			/* the 64 slots fetched together: the lookups are cache
+			 * misses, two thirds of the search when taken one by one */
+			uint32_t nb[64], nn = 0;
+			uint64_t at[64];
+			for (unsigned b = 0; b < 64; b++) {
+				at[b] = mix64(c[a].key ^ (1ull << b)) & J->mask;
+				__builtin_prefetch(&J->slot[at[b]]);
 			}
+			for (unsigned b = 0; b < 64; b++) {
+				uint64_t x = c[a].key ^ (1ull << b);
+				for (uint64_t s = at[b];; s = (s + 1) & J->mask) {
+					const struct hslot *o = &J->slot[s];
+					if (o->node == NONE) break;
+					if (o->key == x) {
+						if (o->node > c[a].node) nb[nn++] = o->node;
+						break;
+					}
+				}
+			}
+			u32_sort(nb, nn);
+			for (uint32_t t = 0; t < nn && !err; t++)
+				err = edge_add(g, c[a].node, nb[t], 1, 0.5);
 			continue;
 		}
 		for (size_t b = a + 1; b < nc && !err; b++) {
 			if (c[b].key != c[a].key || c[b].pop - c[a].pop > (uint64_t)m)
 				break;
-			int64_t dd = pair_diff(J->d, J->l, c[a].node, c[b].node, 0, m);
+			int64_t dd = pair_diff(J->d, J->brick, J->l, c[a].node,
+					       c[b].node, 0, m);
 			if (dd < 0 || dd > m) continue;
 			uint32_t u = c[a].node, v = c[b].node;
 			if (u > v) {
@@ -198,22 +330,55 @@ static void pair_slice(void *ctx, size_t k, int worker)
 }
 
 static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
-			size_t nc, int64_t m, int threads, struct edges *g)
+			size_t nc, int64_t m, const uint64_t *brick,
+			int threads, uint64_t budget, struct edges *g)
 {
 	struct pair_job *J = calloc(1, sizeof *J);
 	if (!J) return NOMEM();
+	/* what the process holds now, and what is left of the budget */
+	struct edge_budget eb = {0, 0, 0};
+	uint64_t base = budget ? vd_current_rss_bytes() : 0;
+	if (budget) eb.limit = base < budget ? budget - base : 1;
+	for (int k = 0; k < PAIR_SLICES; k++) J->part[k].b = &eb;
 	J->d = d;
 	J->l = l;
 	J->h2 = d->levels - l == 2;
 	J->c = c;
 	J->nc = nc;
 	J->m = m;
-	int err = vd_parallel_for(PAIR_SLICES, threads, pair_slice, J);
+	J->brick = brick;
+	struct hslot *slot = NULL;
+	int err = 0;
+	if (J->h2) {
+		uint64_t cap = 16;
+		while (cap < 2 * nc) cap *= 2;
+		slot = malloc(cap * sizeof *slot);
+		if (!slot) {
+			free(J);
+			return NOMEM();
+		}
+		for (uint64_t s = 0; s < cap; s++) slot[s].node = NONE;
+		for (size_t a = 0; a < nc; a++) {
+			uint64_t s = mix64(c[a].key) & (cap - 1);
+			while (slot[s].node != NONE) s = (s + 1) & (cap - 1);
+			slot[s] = (struct hslot){c[a].key, c[a].node};
+		}
+		J->slot = slot;
+		J->mask = cap - 1;
+	}
+	err = vd_parallel_for(PAIR_SLICES, threads, pair_slice, J);
 	size_t total = 0;
 	for (int k = 0; k < PAIR_SLICES; k++) {
 		if (!err && J->err[k]) err = J->err[k];
 		total += J->part[k].n;
 	}
+	if (!err && budget && (eb.over || base + total * EDGE_BYTES > budget))
+		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
+			      "(%zu candidates, %zu edges) needs about %" PRIu64
+			      " MiB beside the %" PRIu64 " MiB in use, over the "
+			      "budget of %" PRIu64 " MiB (--mem-budget)", l, nc,
+			      total, (uint64_t)(total * EDGE_BYTES) >> 20,
+			      base >> 20, budget >> 20);
 	if (!err && total) {
 		g->e = malloc(total * sizeof *g->e);
 		if (!g->e) err = NOMEM();
@@ -226,19 +391,21 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		g->cap = g->n;
 	}
 	for (int k = 0; k < PAIR_SLICES; k++) free(J->part[k].e);
+	free(slot);
 	free(J);
 	return err;
 }
 
-int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
-			   uint64_t max_refs, double diff_factor, int threads,
-			   struct vd_lossy_edge **out, size_t *n_out,
-			   uint64_t *candidates)
+static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
+			 uint64_t max_refs, double diff_factor, int threads,
+			 uint64_t budget, struct vd_lossy_edge **out,
+			 size_t *n_out, uint64_t *candidates)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
 	struct enc *c = NULL;
 	uint64_t *topo[VD_MAX_LEVELS] = {0}, *vox[VD_MAX_LEVELS] = {0};
+	uint64_t *brick = NULL;
 	int err = 0;
 	*out = NULL;
 	*n_out = 0;
@@ -254,12 +421,19 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			if (eff[i] <= max_refs)
 				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
-		qsort(c, nc, sizeof *c, enc_cmp);
-		err = search_pairs(d, l, c, nc, 1, threads, &g);
+		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget, &g);
 		goto done;
 	}
-	/* taller: topology hashes (masks of levels l..L-2) and voxel counts
-	 * bottom-up for every node of levels L-2..l */
+	/* taller: the bricks of level L-2, topology hashes (masks of levels
+	 * l..L-2) and voxel counts bottom-up for every node of levels
+	 * L-2..l */
+	const struct vd_dag_level *bv = &d->lv[L - 2];
+	brick = malloc((bv->nodes ? bv->nodes : 1) * 8);
+	if (!brick) {
+		err = NOMEM();
+		goto done;
+	}
+	for (uint64_t i = 0; i < bv->nodes; i++) brick[i] = node_brick(d, i);
 	for (int k = L - 2; k >= l && !err; k--) {
 		const struct vd_dag_level *kv = &d->lv[k];
 		topo[k] = malloc((kv->nodes ? kv->nodes : 1) * 8);
@@ -270,11 +444,11 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 		}
 		for (uint64_t i = 0; i < kv->nodes; i++) {
 			uint64_t hsh = mix64(kv->mask[i] + 0x9e3779b97f4a7c15ULL), v = 0;
-			for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++) {
-				uint32_t ch = kv->child[j];
-				if (k == L - 2) {
-					v += (uint64_t)__builtin_popcount(d->lv[L - 1].mask[ch]);
-				} else {
+			if (k == L - 2) {
+				v = pop64(brick[i]);
+			} else {
+				for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++) {
+					uint32_t ch = kv->child[j];
 					hsh = mix64(hsh ^ topo[k + 1][ch]) + j - kv->first[i];
 					v += vox[k + 1][ch];
 				}
@@ -290,21 +464,31 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	err = search_pairs(d, l, c, nc, m, threads, &g);
+	err = search_pairs(d, l, c, nc, m, brick, threads, budget, &g);
 done:
 	for (int k = 0; k < VD_MAX_LEVELS; k++) {
 		free(topo[k]);
 		free(vox[k]);
 	}
+	free(brick);
 	free(c);
+	if (!err) err = edges_sort(g.e, g.n, lv->nodes);
 	if (err) {
 		free(g.e);
 		return err;
 	}
-	if (g.n) qsort(g.e, g.n, sizeof *g.e, edge_cmp);
 	*out = g.e;
 	*n_out = g.n;
 	return 0;
+}
+
+int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
+			   uint64_t max_refs, double diff_factor, int threads,
+			   struct vd_lossy_edge **out, size_t *n_out,
+			   uint64_t *candidates)
+{
+	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
+			     out, n_out, candidates);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -326,26 +510,57 @@ static void uf_union(uint32_t *p, uint32_t a, uint32_t b)
 	else if (b < a) p[a] = b;
 }
 
-/* A sparse column-stochastic matrix, column j's entries at off[j]..off[j+1]
- * sorted by row. */
-struct smat {
-	uint32_t n;
-	uint64_t *off;
+/* A sparse column-stochastic matrix in blocks of MCL_BLOCK columns:
+ * column j's entries are blk[j / MCL_BLOCK].row/val[beg[j]..end[j]),
+ * sorted by row. Blocks let the columns of one expansion be computed in
+ * parallel, each block into its own arrays, with nothing to concatenate;
+ * the fixed block size keeps the layout (and so every number) independent
+ * of the thread count. */
+#define MCL_BLOCK 4096
+
+struct sblk {
 	uint32_t *row;
 	double *val;
 	uint64_t cap;
 };
 
+struct smat {
+	uint32_t n, nb;
+	uint32_t *beg, *end;
+	struct sblk *blk;
+};
+
+#define COL_ROW(M, j) ((M)->blk[(j) / MCL_BLOCK].row)
+#define COL_VAL(M, j) ((M)->blk[(j) / MCL_BLOCK].val)
+
 static void smat_free(struct smat *s)
 {
-	free(s->off);
-	free(s->row);
-	free(s->val);
+	if (s->blk)
+		for (uint32_t b = 0; b < s->nb; b++) {
+			free(s->blk[b].row);
+			free(s->blk[b].val);
+		}
+	free(s->blk);
+	free(s->beg);
+	free(s->end);
 }
 
-static int smat_reserve(struct smat *s, uint64_t need)
+static int smat_init(struct smat *s, uint32_t n)
+{
+	s->n = n;
+	s->nb = (n + MCL_BLOCK - 1) / MCL_BLOCK;
+	s->beg = malloc((n + 1ull) * 4);
+	s->end = malloc((n + 1ull) * 4);
+	s->blk = calloc(s->nb + 1ull, sizeof *s->blk);
+	return s->beg && s->end && s->blk ? 0 : NOMEM();
+}
+
+static int sblk_reserve(struct sblk *s, uint64_t need)
 {
 	if (need <= s->cap) return 0;
+	/* a block's entries are indexed by 32 bits: at most MCL_BLOCK
+	 * columns of MCL_SELECT (plus pruning leftovers) entries each */
+	if (need > UINT32_MAX) return NOMEM();
 	uint64_t c = s->cap ? s->cap : 64;
 	while (c < need) c *= 2;
 	uint32_t *r = realloc(s->row, c * sizeof *r);
@@ -389,16 +604,20 @@ static int mcl_interpret(const struct smat *M, uint32_t *cluster,
 	uint32_t n = M->n;
 	for (uint32_t j = 0; j < n; j++) sys[j] = j;
 	for (uint32_t j = 0; j < n; j++) {
+		const uint32_t *rr = COL_ROW(M, j);
+		const double *vv = COL_VAL(M, j);
 		int att = 0;
-		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++)
-			if (M->row[e] == j && M->val[e] > MCL_EPS) att = 1;
+		for (uint64_t e = M->beg[j]; e < M->end[j]; e++)
+			if (rr[e] == j && vv[e] > MCL_EPS) att = 1;
 		if (!att) continue;
-		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
-			uint32_t i = M->row[e];
-			if (M->val[e] <= MCL_EPS || i == j) continue;
+		for (uint64_t e = M->beg[j]; e < M->end[j]; e++) {
+			uint32_t i = rr[e];
+			if (vv[e] <= MCL_EPS || i == j) continue;
 			/* i is an attractor too when its own column keeps it */
-			for (uint64_t f = M->off[i]; f < M->off[i + 1]; f++)
-				if (M->row[f] == i && M->val[f] > MCL_EPS)
+			const uint32_t *ri = COL_ROW(M, i);
+			const double *vi = COL_VAL(M, i);
+			for (uint64_t f = M->beg[i]; f < M->end[i]; f++)
+				if (ri[f] == i && vi[f] > MCL_EPS)
 					uf_union(sys, i, j);
 		}
 	}
@@ -407,7 +626,7 @@ static int mcl_interpret(const struct smat *M, uint32_t *cluster,
 	uint32_t *list = NULL;
 	uint64_t cnt = 0;
 	for (uint32_t j = 0; j < n; j++)
-		cnt += M->off[j + 1] - M->off[j];
+		cnt += M->end[j] - M->beg[j];
 	list = malloc((cnt + 1) * 4);
 	if (!off || !list) {
 		free(off);
@@ -416,10 +635,12 @@ static int mcl_interpret(const struct smat *M, uint32_t *cluster,
 	}
 	uint64_t k = 0;
 	for (uint32_t j = 0; j < n; j++) {
+		const uint32_t *rr = COL_ROW(M, j);
+		const double *vv = COL_VAL(M, j);
 		off[j] = k;
-		for (uint64_t e = M->off[j]; e < M->off[j + 1]; e++) {
-			if (M->val[e] <= MCL_EPS) continue;
-			list[k++] = uf_find(sys, M->row[e]);
+		for (uint64_t e = M->beg[j]; e < M->end[j]; e++) {
+			if (vv[e] <= MCL_EPS) continue;
+			list[k++] = uf_find(sys, rr[e]);
 		}
 		qsort(list + off[j], k - off[j], 4, u32_cmp);
 		uint64_t w = off[j];
@@ -461,126 +682,259 @@ static int mcl_interpret(const struct smat *M, uint32_t *cluster,
 	return 0;
 }
 
+/* Per-worker scratch of an expansion: a dense accumulator (all zero
+ * between columns) and marks (bytes, and bits) over the component's rows,
+ * the touched rows, the values for pruning. */
+struct mcl_scratch {
+	double *acc, *tmp;
+	uint32_t *touched;
+	uint8_t *mark;
+	uint64_t *bits;
+};
+
+static void scratch_free(struct mcl_scratch *s)
+{
+	free(s->acc);
+	free(s->tmp);
+	free(s->touched);
+	free(s->mark);
+	free(s->bits);
+	memset(s, 0, sizeof *s);
+}
+
+static int scratch_alloc(struct mcl_scratch *s, uint32_t n)
+{
+	s->acc = calloc(n + 1ull, sizeof *s->acc);
+	s->tmp = malloc((n + 1ull) * sizeof *s->tmp);
+	s->touched = malloc((n + 1ull) * sizeof *s->touched);
+	s->mark = calloc(n + 1ull, 1);
+	s->bits = calloc(n / 64 + 1ull, 8);
+	if (s->acc && s->tmp && s->touched && s->mark && s->bits) return 0;
+	scratch_free(s);
+	return NOMEM();
+}
+
+/* Block b of the next matrix N: its columns' expansion (M * M), pruning,
+ * inflation and normalization. Every column is computed alone, in the
+ * same order of operations whoever computes it. Returns the largest
+ * chaos (max - sum of squares) of its columns, -1 when out of memory. */
+static double mcl_block(const struct smat *M, uint32_t b, double inflation,
+			struct mcl_scratch *s, struct smat *N)
+{
+	double chaos = 0, *acc = s->acc, *tmp = s->tmp;
+	uint32_t *touched = s->touched;
+	uint8_t *mark = s->mark;
+	uint64_t *bits = s->bits;
+	struct sblk *o = &N->blk[b];
+	uint32_t j0 = b * MCL_BLOCK, j1 = M->n - j0 > MCL_BLOCK ? j0 + MCL_BLOCK : M->n;
+	uint64_t nk = 0;
+	for (uint32_t j = j0; j < j1; j++) {
+		const uint32_t *rj = COL_ROW(M, j);
+		const double *vj = COL_VAL(M, j);
+		/* the rows column j can reach: at most `most`, words w0..w1 of
+		 * the bitmap */
+		uint64_t most = 0;
+		uint32_t lo = UINT32_MAX, hi = 0, nt = 0;
+		for (uint64_t e = M->beg[j]; e < M->end[j]; e++) {
+			uint32_t kk = rj[e];
+			const uint32_t *rk = COL_ROW(M, kk);
+			most += M->end[kk] - M->beg[kk];
+			if (rk[M->beg[kk]] < lo) lo = rk[M->beg[kk]];
+			if (rk[M->end[kk] - 1] > hi) hi = rk[M->end[kk] - 1];
+		}
+		uint32_t w0 = lo >> 6, w1 = hi >> 6;
+		int sorted = (uint64_t)(w1 - w0) + 1 <= 2 * most;
+		if (sorted) {
+			/* dense rows: no branch per entry, and the bitmap gives
+			 * them in order without a sort (acc is all zero
+			 * between columns, and 0 + x is x) */
+			for (uint64_t e = M->beg[j]; e < M->end[j]; e++) {
+				uint32_t kk = rj[e];
+				double w = vj[e];
+				const uint32_t *rk = COL_ROW(M, kk);
+				const double *vk = COL_VAL(M, kk);
+				for (uint64_t f = M->beg[kk]; f < M->end[kk]; f++) {
+					uint32_t r = rk[f];
+					acc[r] += w * vk[f];
+					bits[r >> 6] |= 1ull << (r & 63);
+				}
+			}
+			for (uint32_t wd = w0; wd <= w1; wd++) {
+				uint64_t x = bits[wd];
+				bits[wd] = 0;
+				for (; x; x &= x - 1)
+					touched[nt++] = wd << 6 | (uint32_t)__builtin_ctzll(x);
+			}
+		} else {
+			for (uint64_t e = M->beg[j]; e < M->end[j]; e++) {
+				uint32_t kk = rj[e];
+				double w = vj[e];
+				const uint32_t *rk = COL_ROW(M, kk);
+				const double *vk = COL_VAL(M, kk);
+				for (uint64_t f = M->beg[kk]; f < M->end[kk]; f++) {
+					uint32_t r = rk[f];
+					if (!mark[r]) {
+						mark[r] = 1;
+						touched[nt++] = r;
+					}
+					acc[r] += w * vk[f];
+				}
+			}
+		}
+		/* prune entries below 1/P, then keep the S largest */
+		uint32_t kept = 0;
+		for (uint32_t t = 0; t < nt; t++)
+			if (acc[touched[t]] >= MCL_PRUNE) tmp[kept++] = acc[touched[t]];
+		double cut = MCL_PRUNE;
+		if (kept == 0) {
+			/* keep the largest entry: a column never empties */
+			double mx = 0;
+			for (uint32_t t = 0; t < nt; t++)
+				if (acc[touched[t]] > mx) mx = acc[touched[t]];
+			cut = mx;
+		} else if (kept > MCL_SELECT) {
+			qsort(tmp, kept, sizeof *tmp, dbl_desc);
+			cut = tmp[MCL_SELECT - 1];
+		}
+		if (sblk_reserve(o, nk + nt)) {
+			for (uint32_t t = 0; t < nt; t++) {
+				mark[touched[t]] = 0;
+				acc[touched[t]] = 0;
+			}
+			return -1;
+		}
+		/* rows in increasing order */
+		if (!sorted) u32_sort(touched, nt);
+		N->beg[j] = (uint32_t)nk;
+		double sum = 0, mx = 0, sq = 0;
+		for (uint32_t t = 0; t < nt; t++) {
+			uint32_t r = touched[t];
+			double a = acc[r];
+			mark[r] = 0;
+			acc[r] = 0;
+			if (a < cut) continue;
+			double v = inflation == 2.0 ? a * a : pow(a, inflation);
+			o->row[nk] = r;
+			o->val[nk++] = v;
+			sum += v;
+		}
+		for (uint64_t e = N->beg[j]; e < nk; e++) {
+			o->val[e] /= sum;
+			if (o->val[e] > mx) mx = o->val[e];
+			sq += o->val[e] * o->val[e];
+		}
+		N->end[j] = (uint32_t)nk;
+		/* chaos: max - sum of squares, 0 when every entry of the
+		 * column is equal (a doubly idempotent limit) */
+		if (mx - sq > chaos) chaos = mx - sq;
+	}
+	return chaos;
+}
+
+/* One expansion of a component of several blocks, blocks in parallel. */
+struct mcl_par {
+	const struct smat *M;
+	struct smat *N;
+	double inflation;
+	double *chaos;            /* per block */
+	struct mcl_scratch *scr;  /* per worker */
+};
+
+static void mcl_par_block(void *ctx, size_t b, int worker)
+{
+	struct mcl_par *P = ctx;
+	P->chaos[b] = mcl_block(P->M, (uint32_t)b, P->inflation,
+				&P->scr[worker], P->N);
+}
+
 /* One MCL run on a connected component of n nodes (local indices), given
- * its symmetric adjacency (CSR: adj_off/adj_to/adj_w, no loops). Writes
- * the cluster of each node as the smallest local index in it. */
+ * its symmetric adjacency (CSR: adj_off/adj_to/adj_w, no loops), the
+ * blocks of an expansion on up to `threads` threads. Writes the cluster
+ * of each node as the smallest local index in it. */
 static int mcl_component(uint32_t n, const uint64_t *adj_off,
 			 const uint32_t *adj_to, const double *adj_w,
-			 double inflation, uint32_t *cluster)
+			 double inflation, int threads, uint32_t *cluster)
 {
-	struct smat M = {n, NULL, NULL, NULL, 0}, N = {n, NULL, NULL, NULL, 0};
-	double *acc = calloc(n, sizeof *acc), *tmp = NULL;
-	uint32_t *touched = malloc(n * sizeof *touched), *mark = calloc(n, 4);
-	int err = 0;
-	M.off = malloc((n + 1ull) * 8);
-	N.off = malloc((n + 1ull) * 8);
-	if (!acc || !touched || !mark || !M.off || !N.off ||
-	    (err = smat_reserve(&M, adj_off[n] + n))) {
-		err = err ? err : NOMEM();
+	struct smat M = {0}, N = {0};
+	struct mcl_scratch *scr = NULL;
+	double *chaos = NULL;
+	int nw = 1, err = 0;
+	if ((err = smat_init(&M, n)) || (err = smat_init(&N, n))) goto out;
+	if (M.nb > 1) {
+		nw = threads > 0 ? threads : vd_hardware_threads();
+		if ((uint32_t)nw > M.nb) nw = (int)M.nb;
+	}
+	scr = calloc((size_t)nw, sizeof *scr);
+	chaos = malloc(M.nb * sizeof *chaos);
+	if (!scr || !chaos) {
+		err = NOMEM();
 		goto out;
 	}
+	for (int w = 0; w < nw && !err; w++) err = scratch_alloc(&scr[w], n);
+	if (err) goto out;
 	/* the start matrix: the weights, a loop on every node weighing the
 	 * largest of its edge weights (mcl's default), columns normalized */
 	uint64_t k = 0;
 	for (uint32_t j = 0; j < n; j++) {
-		M.off[j] = k;
+		struct sblk *o = &M.blk[j / MCL_BLOCK];
+		if (j % MCL_BLOCK == 0) k = 0;
+		uint64_t deg = adj_off[j + 1] - adj_off[j];
+		if ((err = sblk_reserve(o, k + deg + 1))) goto out;
+		M.beg[j] = (uint32_t)k;
 		double mx = 0, sum = 0;
 		for (uint64_t e = adj_off[j]; e < adj_off[j + 1]; e++)
 			if (adj_w[e] > mx) mx = adj_w[e];
 		int placed = 0;
 		for (uint64_t e = adj_off[j]; e <= adj_off[j + 1]; e++) {
 			if (!placed && (e == adj_off[j + 1] || adj_to[e] > j)) {
-				M.row[k] = j;
-				M.val[k++] = mx;
+				o->row[k] = j;
+				o->val[k++] = mx;
 				sum += mx;
 				placed = 1;
 			}
 			if (e < adj_off[j + 1]) {
-				M.row[k] = adj_to[e];
-				M.val[k++] = adj_w[e];
+				o->row[k] = adj_to[e];
+				o->val[k++] = adj_w[e];
 				sum += adj_w[e];
 			}
 		}
-		for (uint64_t e = M.off[j]; e < k; e++) M.val[e] /= sum;
+		for (uint64_t e = M.beg[j]; e < k; e++) o->val[e] /= sum;
+		M.end[j] = (uint32_t)k;
 	}
-	M.off[n] = k;
-	tmp = malloc((size_t)n * sizeof *tmp);
-	if (!tmp) {
-		err = NOMEM();
-		goto out;
-	}
+	struct mcl_par P = {&M, &N, inflation, chaos, scr};
 	for (int it = 0; it < MCL_MAX_ITER; it++) {
-		/* expansion N = M * M, pruning, inflation, normalization */
-		uint64_t nk = 0;
-		double chaos = 0;
-		for (uint32_t j = 0; j < n; j++) {
-			uint32_t nt = 0;
-			for (uint64_t e = M.off[j]; e < M.off[j + 1]; e++) {
-				uint32_t kk = M.row[e];
-				double w = M.val[e];
-				for (uint64_t f = M.off[kk]; f < M.off[kk + 1]; f++) {
-					uint32_t r = M.row[f];
-					if (!mark[r]) {
-						mark[r] = 1;
-						touched[nt++] = r;
-						acc[r] = 0;
-					}
-					acc[r] += w * M.val[f];
-				}
-			}
-			/* prune entries below 1/P, then keep the S largest */
-			uint32_t kept = 0;
-			for (uint32_t t = 0; t < nt; t++)
-				if (acc[touched[t]] >= MCL_PRUNE) tmp[kept++] = acc[touched[t]];
-			double cut = MCL_PRUNE;
-			if (kept == 0) {
-				/* keep the largest entry: a column never empties */
-				double mx = 0;
-				for (uint32_t t = 0; t < nt; t++)
-					if (acc[touched[t]] > mx) mx = acc[touched[t]];
-				cut = mx;
-			} else if (kept > MCL_SELECT) {
-				qsort(tmp, kept, sizeof *tmp, dbl_desc);
-				cut = tmp[MCL_SELECT - 1];
-			}
-			/* rows in increasing order */
-			if ((err = smat_reserve(&N, nk + nt))) goto out;
-			N.off[j] = nk;
-			qsort(touched, nt, sizeof *touched, u32_cmp);
-			double sum = 0, mx = 0, sq = 0;
-			for (uint32_t t = 0; t < nt; t++) {
-				uint32_t r = touched[t];
-				mark[r] = 0;
-				if (acc[r] < cut) continue;
-				double v = inflation == 2.0 ? acc[r] * acc[r]
-						       : pow(acc[r], inflation);
-				N.row[nk] = r;
-				N.val[nk++] = v;
-				sum += v;
-			}
-			for (uint64_t e = N.off[j]; e < nk; e++) {
-				N.val[e] /= sum;
-				if (N.val[e] > mx) mx = N.val[e];
-				sq += N.val[e] * N.val[e];
-			}
-			/* chaos: max - sum of squares, 0 when every entry of the
-			 * column is equal (a doubly idempotent limit) */
-			if (mx - sq > chaos) chaos = mx - sq;
+		P.M = &M;
+		P.N = &N;
+		if (nw > 1) {
+			if ((err = vd_parallel_for(M.nb, nw, mcl_par_block, &P)))
+				goto out;
+		} else {
+			for (uint32_t b = 0; b < M.nb; b++)
+				mcl_par_block(&P, b, 0);
 		}
-		N.off[n] = nk;
+		double c = 0;
+		for (uint32_t b = 0; b < M.nb; b++) {
+			if (chaos[b] < 0) {
+				err = NOMEM();
+				goto out;
+			}
+			if (chaos[b] > c) c = chaos[b];
+		}
 		struct smat t = M;
 		M = N;
 		N = t;
-		if (chaos < 1e-9) break;
+		if (c < 1e-9) break;
 	}
-	err = mcl_interpret(&M, cluster, touched, mark);
+	uint32_t *sys = malloc((n + 1ull) * 4);
+	err = sys ? mcl_interpret(&M, cluster, scr[0].touched, sys) : NOMEM();
+	free(sys);
 out:
 	smat_free(&M);
 	smat_free(&N);
-	free(acc);
-	free(tmp);
-	free(touched);
-	free(mark);
+	if (scr)
+		for (int w = 0; w < nw; w++) scratch_free(&scr[w]);
+	free(scr);
+	free(chaos);
 	return err;
 }
 
@@ -681,8 +1035,9 @@ struct mcl_job {
 	const struct graph *g;
 	double inflation;
 	uint32_t *cluster; /* out: per node, the smallest node of its cluster */
-	int err;           /* first error (by component order) */
-	uint64_t err_comp;
+	int err;           /* an error of any component */
+	int big;           /* this pass: components of several blocks only */
+	int threads;       /* for the blocks of one big component */
 };
 
 static void mcl_run_comp(void *ctx, size_t k, int worker)
@@ -693,6 +1048,7 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 	uint64_t a = g->comp_off[k];
 	uint32_t n = (uint32_t)(g->comp_off[k + 1] - a);
 	const uint32_t *nodes = g->order + a;
+	if ((n > MCL_BLOCK) != J->big) return;
 	if (n <= 2) {
 		/* decided directly: a pair is one cluster (with mcl's loops the
 		 * 2x2 matrix is already idempotent) */
@@ -718,7 +1074,8 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 			}
 		}
 		off[n] = p;
-		err = mcl_component(n, off, to, w, J->inflation, cl);
+		err = mcl_component(n, off, to, w, J->inflation,
+				    J->big ? J->threads : 1, cl);
 		if (!err)
 			for (uint32_t i = 0; i < n; i++)
 				J->cluster[nodes[i]] = nodes[cl[i]];
@@ -727,10 +1084,7 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 	free(to);
 	free(cl);
 	free(w);
-	if (err) {
-		/* keep the error of the first failing component */
-		__atomic_store_n(&J->err, err, __ATOMIC_RELAXED);
-	}
+	if (err) __atomic_store_n(&J->err, err, __ATOMIC_RELAXED);
 }
 
 int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
@@ -739,8 +1093,15 @@ int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
 	struct graph g;
 	int err = graph_build(&g, n, e, ne);
 	if (!err) {
-		struct mcl_job J = {&g, inflation, cluster, 0, 0};
-		err = vd_parallel_for(g.ncomp, threads, mcl_run_comp, &J);
+		/* the components of several blocks one after another, each
+		 * on all threads (a scene's graph often has one giant
+		 * component); then the rest, components in parallel */
+		struct mcl_job J = {&g, inflation, cluster, 0, 1, threads};
+		for (uint64_t k = 0; k < g.ncomp && !J.err; k++)
+			mcl_run_comp(&J, k, 0);
+		J.big = 0;
+		if (!J.err)
+			err = vd_parallel_for(g.ncomp, threads, mcl_run_comp, &J);
 		if (!err && J.err)
 			err = vd_fail(VD_ERR_NOMEM, "out of memory clustering");
 	}
@@ -909,6 +1270,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	}
 	st->nodes_before = dag_nodes(d);
 	st->voxels_before = d->voxels;
+	double cpu0 = cpu_seconds();
 	for (int l = L - 2; l >= A && !err; l--) {
 		struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
 		ls->level = l;
@@ -922,9 +1284,9 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		st->seconds_eff += t1 - t0;
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
-		err = vd_lossy_similar_pairs(d, l, eff[l], o->max_refs,
-					     o->diff_factor, o->threads, &e, &ne,
-					     &ls->candidates);
+		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
+				    o->threads, o->mem_budget, &e, &ne,
+				    &ls->candidates);
 		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 		if (err) break;
 		double t2 = vd_seconds();
@@ -1014,6 +1376,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		ls->nodes_after = dag_nodes(d);
 		ls->level_nodes_after = d->lv[l].nodes;
 	}
+	st->cpu_seconds_lossy = cpu_seconds() - cpu0;
 	if (!err) err = rebuild_bricks(d);
 	if (!err) {
 		double t0 = vd_seconds();
@@ -1231,9 +1594,23 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	vd_json_f64(j, "seconds_diff", st->seconds_diff);
 	vd_json_f64(j, "seconds_lossy", st->seconds_eff + st->seconds_graph +
 		    st->seconds_cluster + st->seconds_reduce);
+	vd_json_f64(j, "cpu_seconds_lossy", st->cpu_seconds_lossy);
 	vd_json_f64(j, "seconds_save", seconds_save);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	return vd_json_close(j);
+}
+
+/* The memory of a clustering run besides its similarity graphs (checked
+ * as they are built) and its clustering: the DAG twice (the working copy
+ * and the original, for the final difference: a mask byte and an offset
+ * per node, 4 bytes per reference), the per-level arrays (effective
+ * counts, topology hashes, voxel counts, candidates, renumbering: up to
+ * 64 bytes per node), the final difference (voxel counts of both DAGs and
+ * its table of pairs: about 48 bytes per node) and the libraries. */
+static uint64_t lossy_need(uint64_t nodes, uint64_t refs)
+{
+	return 2 * (9 * nodes + 4 * refs) + 112 * nodes +
+	       VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
 int vd_lossy_run(const char *in, const char *out,
@@ -1255,14 +1632,19 @@ int vd_lossy_run(const char *in, const char *out,
 			       vd_strerror(err), vd_error_detail());
 	}
 	h = *vd_chunk_header(c);
-	/* the input twice (working copy and original) plus the per-level
-	 * arrays: about 5x the loaded DAG, bounded by 8 refs per node */
-	uint64_t est = 5 * vd_dag_estimate_header(&h);
+	/* before loading, with the fewest references the node counts allow
+	 * (every node below the root has a parent) */
+	uint64_t hn = 0, hr = 0;
+	for (uint32_t i = 0; i + 1 < h.level_count; i++) {
+		hn += h.level_nodes[i];
+		if (i > 0) hr += h.level_nodes[i];
+	}
+	uint64_t est = lossy_need(hn, hr);
 	if (mem_budget && est > mem_budget) {
 		vd_chunk_free(c);
-		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
+		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs at least "
 			       "%" PRIu64 " MiB, over the budget of %" PRIu64
-			       " MiB", in, est >> 20, mem_budget >> 20);
+			       " MiB (--mem-budget)", in, est >> 20, mem_budget >> 20);
 	}
 	err = vd_dag_from_chunk(&d, c, VD_KIND_DAG);
 	vd_chunk_free(c);
@@ -1271,9 +1653,20 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot read '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	uint64_t refs = 0;
+	for (int l = d.chunk_level; l < d.levels - 1; l++) refs += d.lv[l].refs;
+	est = lossy_need(dag_nodes(&d), refs);
+	if (mem_budget && est > mem_budget) {
+		vd_dag_release(&d);
+		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
+			       "%" PRIu64 " MiB, over the budget of %" PRIu64
+			       " MiB (--mem-budget)", in, est >> 20, mem_budget >> 20);
+	}
 	double t_load = vd_seconds() - t0;
 	struct vd_lossy_stats st;
-	if ((err = vd_lossy_cluster(&d, o, &st))) {
+	struct vd_lossy_opts ob = *o;
+	if (!ob.mem_budget) ob.mem_budget = mem_budget;
+	if ((err = vd_lossy_cluster(&d, &ob, &st))) {
 		vd_dag_release(&d);
 		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
