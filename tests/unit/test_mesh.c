@@ -1303,10 +1303,185 @@ static void test_boeing(void)
 	check_real(boeing_path, 6830, 3954);
 }
 
+/* ------------------------------------------------------- vertex spill */
+
+/* Reads `path` twice in lockstep, without a limit and with a vertex limit
+ * of `cap` bytes spilling to `dir` (read in batches of `batch`), then
+ * rewinds the spilled reader and compares a second pass: the same
+ * triangles in the same order, the same statistics. Returns the number of
+ * triangles, or -1 after a failed CHECK. */
+static long long spill_compare(const char *path, uint64_t cap, size_t batch)
+{
+	struct vd_mesh *a = NULL, *b = NULL;
+	int e1 = vd_mesh_open(&a, path);
+	int e2 = vd_mesh_open_spill(&b, path, cap, dir);
+	CHECK_EQ(e1, VD_OK);
+	CHECK_EQ(e2, VD_OK);
+	if (e1 || e2) {
+		vd_mesh_close(a);
+		vd_mesh_close(b);
+		return -1;
+	}
+	static struct vd_triangle ta[4096], tb[4096];
+	long long total = 0, bad = 0;
+	for (int pass = 0; pass < 2 && !bad; pass++) {
+		CHECK_EQ(vd_mesh_rewind(a), VD_OK);
+		if (pass)
+			CHECK_EQ(vd_mesh_rewind(b), VD_OK);
+		size_t na = 0, ia = 0;
+		total = 0;
+		for (;;) {
+			/* a reads in big batches, b in `batch`es: they meet
+			 * triangle by triangle */
+			size_t nb = 0;
+			int eb = vd_mesh_read(b, tb, batch, &nb);
+			CHECK_EQ(eb, VD_OK);
+			if (eb) {
+				fprintf(stderr, "%s: %s\n", path, vd_error_detail());
+				bad = 1;
+				break;
+			}
+			for (size_t i = 0; i < nb; i++) {
+				if (ia == na) {
+					ia = 0;
+					CHECK_EQ(vd_mesh_read(a, ta, 4096, &na), VD_OK);
+					if (na == 0) {
+						bad = 1;
+						break;
+					}
+				}
+				if (memcmp(&ta[ia++], &tb[i], sizeof tb[i]) != 0)
+					bad = 1;
+				total++;
+			}
+			if (nb == 0 || bad)
+				break;
+		}
+		if (!bad && ia == na)
+			CHECK_EQ(vd_mesh_read(a, ta, 4096, &na), VD_OK);
+		CHECK(!bad && (ia < na ? 0 : na == 0));
+		if (bad)
+			fprintf(stderr, "%s: spilled triangles differ near %lld "
+				"(pass %d)\n", path, total, pass);
+		const struct vd_mesh_stats *sa = vd_mesh_stats(a),
+					   *sb = vd_mesh_stats(b);
+		CHECK_EQ(sa->triangles_read, sb->triangles_read);
+		CHECK_EQ(sa->vertices, sb->vertices);
+		CHECK_EQ(sa->faces_dropped_short, sb->faces_dropped_short);
+		CHECK_EQ(sa->polygons_split, sb->polygons_split);
+	}
+	/* the spill is bounded: at most its 1 MiB floor and the buffers */
+	CHECK(vd_mesh_memory_bytes(b) < (cap > (1u << 20) ? cap : 1u << 20) +
+	      (2u << 20));
+	vd_mesh_close(a);
+	vd_mesh_close(b);
+	return bad ? -1 : total;
+}
+
+/* An OBJ with each triangle's vertices just before it (so a limit is
+ * passed mid-file, after triangles were handed out), negative and
+ * positive indices, quads, a degenerate face, a nan vertex when asked. */
+static const char *write_interleaved_obj(const char *name, int n, int nan_at)
+{
+	const char *p = fixture_path(name);
+	FILE *f = fopen(p, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return p;
+	for (int i = 0; i < n; i++) {
+		double x = (i * 7919 % 1000) / 10.0, y = (i * 104729 % 997) / 9.0;
+		if (i == nan_at)
+			fprintf(f, "v nan 0 0\n");
+		else
+			fprintf(f, "v %.4f %.4f %.4f\n", x, y, i * 0.01);
+		fprintf(f, "v %.4f %.4f %.4f\nv %.4f %.4f %.4f\n", y, x, 1.0,
+			x + 1, y - 1, -i * 0.02);
+		if (i % 5 == 0)
+			fprintf(f, "v 1 2 3\nf -4 -3 -2 -1\n");
+		else if (i % 7 == 0)
+			fprintf(f, "f %d %d\n", 3 * i + i / 5 + 1, 3 * i + i / 5 + 2);
+		else if (i > 3)
+			fprintf(f, "f -3 -2 -1 %d\n", (i * 31) % (3 * i) + 1);
+		else
+			fprintf(f, "f -3 -2 -1\n");
+	}
+	CHECK(fclose(f) == 0);
+	return p;
+}
+
+static void test_spill_bundled(void)
+{
+	/* 34,834 vertices: a limit of one vertex, seven runs per sort */
+	long long n = spill_compare("tests/data/bunny.ply", 12, 1000);
+	CHECK_EQ(n, 69451);
+	/* OBJ passing its limit after a few hundred triangles, read in
+	 * batches that straddle the switch */
+	const char *obj = write_interleaved_obj("spill.obj", 20000, -1);
+	CHECK(spill_compare(obj, 12 * 1000, 77) > 20000);
+	CHECK(spill_compare(obj, 12 * 1000, 4096) > 20000);
+	/* an ASCII PLY */
+	const char *ply = write_text("spill-ascii.ply",
+		"ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\n"
+		"property float y\nproperty float z\nelement face 3\n"
+		"property list uchar int vertex_indices\nend_header\n"
+		"0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n"
+		"4 0 1 2 3\n3 4 3 0\n3 2 4 1\n");
+	CHECK_EQ(spill_compare(ply, 12, 1), 4);
+}
+
+/* A non-finite vertex: the same error from the join as from memory. */
+static void test_spill_nonfinite(void)
+{
+	const char *obj = write_interleaved_obj("spill-nan.obj", 3000, 2500);
+	char want[512] = "", got[512] = "";
+	for (int k = 0; k < 2; k++) {
+		struct vd_mesh *m;
+		CHECK_EQ(k ? vd_mesh_open_spill(&m, obj, 1200, dir)
+			   : vd_mesh_open(&m, obj), VD_OK);
+		struct vd_triangle t[256];
+		size_t n;
+		int e;
+		while ((e = vd_mesh_read(m, t, 256, &n)) == VD_OK && n)
+			;
+		CHECK_EQ(e, VD_ERR_RANGE);
+		snprintf(k ? got : want, 512, "%s", vd_error_detail());
+		vd_mesh_close(m);
+	}
+	CHECK(strstr(want, "whose position is not finite") != NULL);
+	if (strcmp(want, got))
+		fprintf(stderr, "memory: %s\nspill:  %s\n", want, got);
+	CHECK(strcmp(want, got) == 0);
+}
+
+/* The shared scenes, when present, spilled with a limit of 64 KiB. */
+static void test_spill_shared(void)
+{
+	static const char *const names[] = {"stanford_bunny.ply",
+					    "cgal_fandisk.ply",
+					    "oa_am_underworks2.ply",
+					    "stanford_dragon_res2.ply"};
+	int found = 0;
+	for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
+		char path[1024];
+		snprintf(path, sizeof path, "%s/%s", test_shared_data(), names[i]);
+		struct stat st;
+		if (stat(path, &st) != 0)
+			continue;
+		found++;
+		CHECK(spill_compare(path, 64 << 10, 4096) > 0);
+	}
+	if (!found)
+		printf("SKIP test_spill_shared: no meshes in %s\n",
+		       test_shared_data());
+}
+
 int main(void)
 {
 	dir = test_tmpdir("mesh");
 	RUN(test_ply_binary_le);
+	RUN(test_spill_bundled);
+	RUN(test_spill_nonfinite);
+	RUN(test_spill_shared);
 	RUN(test_ply_binary_be);
 	RUN(test_ply_ascii);
 	RUN(test_obj);
