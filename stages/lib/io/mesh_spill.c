@@ -20,6 +20,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <malloc.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -484,7 +485,9 @@ int vd_spill_finish(struct vd_spill *s)
 	s->vfd = -1;
 	if (!err)
 		err = xs_finish(&s->b);
-	/* reading: B's merge half the memory */
+	/* reading: B's merge an eighth of the memory, since it stays for
+	 * every pass of the caller over the mesh (runs are read
+	 * sequentially: small buffers are enough) */
 	if (!err) {
 		s->meta_buf = malloc(1 << 16);
 		s->tri = malloc(3 * s->b.R);
@@ -492,12 +495,16 @@ int vd_spill_finish(struct vd_spill *s)
 			err = vd_fail(VD_ERR_NOMEM, "vertex spill reader");
 	}
 	if (!err)
-		err = xs_merge_start(&s->b, (size_t)(s->mem / 2));
+		err = xs_merge_start(&s->b, (size_t)(s->mem / 8));
 	if (!err) {
 		rd_init(&s->meta, s->mfd, s->mr, 0, s->mr * s->ntris,
 			s->meta_buf, 1 << 16);
 		s->finished = 1;
 	}
+	/* the sort buffers are freed, but glibc keeps freed heap pages of
+	 * their size (its mmap threshold rises after the first): give them
+	 * back, the caller's budget counts resident memory */
+	malloc_trim(0);
 	return err;
 }
 
@@ -546,7 +553,7 @@ int vd_spill_rewind(struct vd_spill *s)
 	s->next_tri = 0;
 	rd_init(&s->meta, s->mfd, s->mr, 0, s->mr * s->ntris, s->meta_buf,
 		1 << 16);
-	return xs_merge_start(&s->b, (size_t)(s->mem / 2));
+	return xs_merge_start(&s->b, (size_t)(s->mem / 8));
 }
 
 size_t vd_spill_memory_bytes(const struct vd_spill *s)
