@@ -618,8 +618,11 @@ int vd_manifest_check_file(const char *path);
 
 /* Starts a directory output: checks that `final` is absent, empty, a
  * voxdag output (has a manifest) or holds only files `ours` (may be NULL)
- * accepts, removes staging directories of dead runs, and creates the
- * staging directory "<final>.tmp.<pid>" into `staging` (cap bytes). The
+ * accepts, creates final's missing parent directories, removes staging
+ * directories of dead runs (exactly "<final>.tmp.<digits>" whose process
+ * no longer exists: kill(pid, 0) fails with ESRCH), and creates the
+ * staging directory "<final>.tmp.<pid>" into `staging` (cap bytes); a
+ * trailing '/' of `final` is ignored. The
  * caller writes its files there, then calls vd_dir_publish(), or
  * vd_dir_abandon() on failure. */
 int vd_dir_stage(const char *final, int (*ours)(const char *name),
