@@ -364,6 +364,18 @@ int vd_mesh_open(struct vd_mesh **out, const char *path);
  * before the memory is taken. */
 int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
 			 uint64_t max_vertex_bytes);
+/* As vd_mesh_open_limited, but PLY and OBJ vertices over the limit are
+ * not refused: the faces are resolved against them by an external join in
+ * unlinked temporary files of `spill_dir` (which must exist when the
+ * reading starts), so memory stays within `max_vertex_bytes` (at least
+ * 1 MiB) whatever the mesh. The triangles and their order are those of
+ * the in-memory reader; a spilled mesh is read whole on its first
+ * vd_mesh_read() (OBJ: again from the start when the limit is passed
+ * mid-file) and rewinds without reading the file again. Errors besides
+ * vd_mesh_open_limited's: VD_ERR_IO naming the spill directory (a full
+ * disk). AC3D keeps the limit (its vertices are per object). */
+int vd_mesh_open_spill(struct vd_mesh **out, const char *path,
+		       uint64_t max_vertex_bytes, const char *spill_dir);
 
 /* Reads up to `cap` triangles into `buf` and sets *n; *n == 0 means the
  * end of the mesh. Errors: VD_ERR_FORMAT (syntax, with the line or byte
@@ -463,6 +475,10 @@ struct vd_mesh_open_opts {
 	 * cannot be read); NULL: warnings are dropped. */
 	void (*warn)(void *ctx, const char *line);
 	void *warn_ctx;
+	/* As vd_mesh_open_spill's: vertices over max_vertex_bytes are
+	 * joined with the faces on disk in this directory; NULL: refused. A
+	 * spilled mesh hands out the same triangles and attributes. */
+	const char *spill_dir;
 };
 
 /* vd_mesh_open_limited with options. */
@@ -604,8 +620,11 @@ int vd_manifest_check_file(const char *path);
 
 /* Starts a directory output: checks that `final` is absent, empty, a
  * voxdag output (has a manifest) or holds only files `ours` (may be NULL)
- * accepts, removes staging directories of dead runs, and creates the
- * staging directory "<final>.tmp.<pid>" into `staging` (cap bytes). The
+ * accepts, creates final's missing parent directories, removes staging
+ * directories of dead runs (exactly "<final>.tmp.<digits>" whose process
+ * no longer exists: kill(pid, 0) fails with ESRCH), and creates the
+ * staging directory "<final>.tmp.<pid>" into `staging` (cap bytes); a
+ * trailing '/' of `final` is ignored. The
  * caller writes its files there, then calls vd_dir_publish(), or
  * vd_dir_abandon() on failure. */
 int vd_dir_stage(const char *final, int (*ours)(const char *name),

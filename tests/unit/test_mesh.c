@@ -1303,10 +1303,317 @@ static void test_boeing(void)
 	check_real(boeing_path, 6830, 3954);
 }
 
+/* ------------------------------------------------------- vertex spill */
+
+/* What the coloured comparison saw of the reference's attributes, so a
+ * test can require that the colour paths were exercised at all. */
+struct spill_seen {
+	long long textured;   /* triangles with a texture */
+	long long vcol;       /* corners coloured but not grey or a texture */
+};
+
+/* Reads `path` twice in lockstep, without a limit and with a vertex limit
+ * of `cap` bytes spilling to `dir` (read in batches of `batch`), then
+ * rewinds the spilled reader and compares a second pass: the same
+ * triangles in the same order, the same statistics. With `colours` both
+ * are opened with colours and read with vd_mesh_read_attr: the same
+ * attributes too (every byte), and `seen` (may be NULL) counts what the
+ * reference's attributes hold. Returns the number of triangles, or -1
+ * after a failed CHECK. */
+static long long spill_compare_opts(const char *path, uint64_t cap,
+				    size_t batch, int colours,
+				    struct spill_seen *seen)
+{
+	struct vd_mesh *a = NULL, *b = NULL;
+	struct vd_mesh_open_opts oa = {.colours = colours};
+	struct vd_mesh_open_opts ob = {.colours = colours,
+				       .max_vertex_bytes = cap,
+				       .spill_dir = dir};
+	int e1 = vd_mesh_open_opts(&a, path, &oa);
+	int e2 = vd_mesh_open_opts(&b, path, &ob);
+	CHECK_EQ(e1, VD_OK);
+	CHECK_EQ(e2, VD_OK);
+	if (e1 || e2) {
+		fprintf(stderr, "%s: %s\n", path, vd_error_detail());
+		vd_mesh_close(a);
+		vd_mesh_close(b);
+		return -1;
+	}
+	static struct vd_triangle ta[4096], tb[4096];
+	static struct vd_tri_attr aa[4096], ab[4096];
+	long long total = 0, bad = 0;
+	if (seen)
+		memset(seen, 0, sizeof *seen);
+	for (int pass = 0; pass < 2 && !bad; pass++) {
+		CHECK_EQ(vd_mesh_rewind(a), VD_OK);
+		if (pass)
+			CHECK_EQ(vd_mesh_rewind(b), VD_OK);
+		size_t na = 0, ia = 0;
+		total = 0;
+		for (;;) {
+			/* a reads in big batches, b in `batch`es: they meet
+			 * triangle by triangle */
+			size_t nb = 0;
+			int eb = colours ? vd_mesh_read_attr(b, tb, ab, batch, &nb)
+					 : vd_mesh_read(b, tb, batch, &nb);
+			CHECK_EQ(eb, VD_OK);
+			if (eb) {
+				fprintf(stderr, "%s: %s\n", path, vd_error_detail());
+				bad = 1;
+				break;
+			}
+			for (size_t i = 0; i < nb; i++) {
+				if (ia == na) {
+					ia = 0;
+					CHECK_EQ(colours
+						 ? vd_mesh_read_attr(a, ta, aa, 4096, &na)
+						 : vd_mesh_read(a, ta, 4096, &na),
+						 VD_OK);
+					if (na == 0) {
+						bad = 1;
+						break;
+					}
+				}
+				if (memcmp(&ta[ia], &tb[i], sizeof tb[i]) != 0)
+					bad = 1;
+				if (colours && memcmp(&aa[ia], &ab[i],
+						      sizeof ab[i]) != 0)
+					bad = 1;
+				if (colours && seen && pass == 0) {
+					seen->textured += aa[ia].texture >= 0;
+					for (int j = 0; j < 3; j++)
+						seen->vcol += aa[ia].texture < 0 &&
+							(aa[ia].rgb[j][0] != VD_GREY ||
+							 aa[ia].rgb[j][1] != VD_GREY ||
+							 aa[ia].rgb[j][2] != VD_GREY);
+				}
+				ia++;
+				total++;
+			}
+			if (nb == 0 || bad)
+				break;
+		}
+		if (!bad && ia == na)
+			CHECK_EQ(colours ? vd_mesh_read_attr(a, ta, aa, 4096, &na)
+				 : vd_mesh_read(a, ta, 4096, &na), VD_OK);
+		CHECK(!bad && (ia < na ? 0 : na == 0));
+		if (bad)
+			fprintf(stderr, "%s: spilled triangles differ near %lld "
+				"(pass %d)\n", path, total, pass);
+		const struct vd_mesh_stats *sa = vd_mesh_stats(a),
+					   *sb = vd_mesh_stats(b);
+		CHECK_EQ(sa->triangles_read, sb->triangles_read);
+		CHECK_EQ(sa->vertices, sb->vertices);
+		CHECK_EQ(sa->faces_dropped_short, sb->faces_dropped_short);
+		CHECK_EQ(sa->polygons_split, sb->polygons_split);
+		CHECK_EQ(vd_mesh_has_colours(a), vd_mesh_has_colours(b));
+		CHECK_EQ(vd_mesh_textures_loaded(a), vd_mesh_textures_loaded(b));
+	}
+	/* the spill is bounded: at most its 1 MiB floor and the buffers,
+	 * besides the decoded textures both readers hold */
+	size_t texels = 0;
+	for (int i = 0; i < 256; i++) {
+		const struct vd_texture *t = vd_mesh_texture(b, i);
+		if (t)
+			texels += 3 * (size_t)t->width * t->height;
+	}
+	CHECK(vd_mesh_memory_bytes(b) < (cap > (1u << 20) ? cap : 1u << 20) +
+	      (2u << 20) + texels);
+	vd_mesh_close(a);
+	vd_mesh_close(b);
+	return bad ? -1 : total;
+}
+
+static long long spill_compare(const char *path, uint64_t cap, size_t batch)
+{
+	return spill_compare_opts(path, cap, batch, 0, NULL);
+}
+
+/* An OBJ with each triangle's vertices just before it (so a limit is
+ * passed mid-file, after triangles were handed out), negative and
+ * positive indices, quads, a degenerate face, a nan vertex when asked. */
+static const char *write_interleaved_obj(const char *name, int n, int nan_at)
+{
+	const char *p = fixture_path(name);
+	FILE *f = fopen(p, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return p;
+	for (int i = 0; i < n; i++) {
+		double x = (i * 7919 % 1000) / 10.0, y = (i * 104729 % 997) / 9.0;
+		if (i == nan_at)
+			fprintf(f, "v nan 0 0\n");
+		else
+			fprintf(f, "v %.4f %.4f %.4f\n", x, y, i * 0.01);
+		fprintf(f, "v %.4f %.4f %.4f\nv %.4f %.4f %.4f\n", y, x, 1.0,
+			x + 1, y - 1, -i * 0.02);
+		if (i % 5 == 0)
+			fprintf(f, "v 1 2 3\nf -4 -3 -2 -1\n");
+		else if (i % 7 == 0)
+			fprintf(f, "f %d %d\n", 3 * i + i / 5 + 1, 3 * i + i / 5 + 2);
+		else if (i > 3)
+			fprintf(f, "f -3 -2 -1 %d\n", (i * 31) % (3 * i) + 1);
+		else
+			fprintf(f, "f -3 -2 -1\n");
+	}
+	CHECK(fclose(f) == 0);
+	return p;
+}
+
+static void test_spill_bundled(void)
+{
+	/* 34,834 vertices: a limit of one vertex, seven runs per sort */
+	long long n = spill_compare("tests/data/bunny.ply", 12, 1000);
+	CHECK_EQ(n, 69451);
+	/* OBJ passing its limit after a few hundred triangles, read in
+	 * batches that straddle the switch */
+	const char *obj = write_interleaved_obj("spill.obj", 20000, -1);
+	CHECK(spill_compare(obj, 12 * 1000, 77) > 20000);
+	CHECK(spill_compare(obj, 12 * 1000, 4096) > 20000);
+	/* an ASCII PLY */
+	const char *ply = write_text("spill-ascii.ply",
+		"ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\n"
+		"property float y\nproperty float z\nelement face 3\n"
+		"property list uchar int vertex_indices\nend_header\n"
+		"0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n"
+		"4 0 1 2 3\n3 4 3 0\n3 2 4 1\n");
+	CHECK_EQ(spill_compare(ply, 12, 1), 4);
+}
+
+/* An OBJ like write_interleaved_obj's, with colours: two materials of
+ * their own colour (an MTL beside it), every third vertex coloured
+ * ("v x y z r g b"), corners with texture coordinates or without, faces
+ * with no material before the first usemtl and after an unknown one. */
+static const char *write_coloured_obj(const char *name, int n)
+{
+	char mtl[64];
+	snprintf(mtl, sizeof mtl, "%s.mtl", name);
+	const char *mp = fixture_path(mtl);
+	FILE *f = fopen(mp, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return mp;
+	fprintf(f, "newmtl red\nKd 0.9 0.1 0.1\nnewmtl sea\nKd 0.1 0.4 0.8\n");
+	CHECK(fclose(f) == 0);
+	const char *p = fixture_path(name);
+	f = fopen(p, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return p;
+	fprintf(f, "mtllib %s\n", mtl);
+	int vt = 0;
+	for (int i = 0; i < n; i++) {
+		double x = (i * 7919 % 1000) / 10.0, y = (i * 104729 % 997) / 9.0;
+		if (i % 97 == 10)
+			fprintf(f, "usemtl %s\n", i % 3 ? "red" : i % 2 ? "sea"
+				: "none");
+		fprintf(f, "v %.4f %.4f %.4f %.3f %.3f %.3f\n", x, y, i * 0.01,
+			(i % 10) / 9.0, (i % 7) / 6.0, (i % 3) / 2.0);
+		fprintf(f, "v %.4f %.4f %.4f\nv %.4f %.4f %.4f\n", y, x, 1.0,
+			x + 1, y - 1, -i * 0.02);
+		fprintf(f, "vt %.3f %.3f\nvt %.3f %.3f\n", (i % 13) / 12.0,
+			(i % 11) / 10.0, (i % 5) / 4.0, 0.5);
+		vt += 2;
+		if (i % 5 == 0)
+			fprintf(f, "v 1 2 3\nf -4/-1 -3/-2 -2/-1 -1/%d\n", vt);
+		else if (i % 3 == 0)
+			fprintf(f, "f -3//1 -2//1 -1//1\n");
+		else if (i > 3)
+			fprintf(f, "f -3/-2 -2/-1 -1/-2 %d/%d\n",
+				(i * 31) % (3 * i) + 1, 1 + i % vt);
+		else
+			fprintf(f, "f -3 -2 -1\n");
+	}
+	CHECK(fclose(f) == 0);
+	return p;
+}
+
+/* Colours through the spill: vertex colours (PLY at open, OBJ switching
+ * mid-file), materials, per-corner texture coordinates and textures give
+ * the same vd_tri_attr, byte for byte, as the in-memory reader. */
+static void test_spill_colours(void)
+{
+	struct spill_seen seen;
+	/* PLY vertex colours: a limit of one 16-byte record */
+	CHECK_EQ(spill_compare_opts("tests/data/textured/vcol.ply", 16, 1, 1,
+				    &seen), 4);
+	CHECK(seen.vcol == 12);
+	/* OBJ with vt, MTL and textures (five JPEGs), switching to the
+	 * spill after about 100 of its 762 vertices */
+	long long n = spill_compare_opts("tests/data/spider/spider.obj",
+					 16 * 100, 100, 1, &seen);
+	CHECK(n > 1000);
+	CHECK(seen.textured == n);
+	/* the small textured scene: spilled from its first vertex */
+	CHECK(spill_compare_opts("tests/data/textured/scene.obj", 16, 3, 1,
+				 &seen) > 0);
+	CHECK(seen.textured > 0);
+	/* coloured vertices and materials, switching mid-file in batches
+	 * that straddle the switch */
+	const char *obj = write_coloured_obj("spill-col.obj", 6000);
+	CHECK(spill_compare_opts(obj, 16 * 1000, 77, 1, &seen) > 6000);
+	CHECK(seen.vcol > 1000);
+	CHECK(spill_compare_opts(obj, 16 * 1000, 4096, 1, &seen) > 6000);
+	/* and the bunny, opened with colours but having none */
+	CHECK_EQ(spill_compare_opts("tests/data/bunny.ply", 12, 1000, 1,
+				    &seen), 69451);
+	CHECK(seen.vcol == 0 && seen.textured == 0);
+}
+
+/* A non-finite vertex: the same error from the join as from memory. */
+static void test_spill_nonfinite(void)
+{
+	const char *obj = write_interleaved_obj("spill-nan.obj", 3000, 2500);
+	char want[512] = "", got[512] = "";
+	for (int k = 0; k < 2; k++) {
+		struct vd_mesh *m;
+		CHECK_EQ(k ? vd_mesh_open_spill(&m, obj, 1200, dir)
+			   : vd_mesh_open(&m, obj), VD_OK);
+		struct vd_triangle t[256];
+		size_t n;
+		int e;
+		while ((e = vd_mesh_read(m, t, 256, &n)) == VD_OK && n)
+			;
+		CHECK_EQ(e, VD_ERR_RANGE);
+		snprintf(k ? got : want, 512, "%s", vd_error_detail());
+		vd_mesh_close(m);
+	}
+	CHECK(strstr(want, "whose position is not finite") != NULL);
+	if (strcmp(want, got))
+		fprintf(stderr, "memory: %s\nspill:  %s\n", want, got);
+	CHECK(strcmp(want, got) == 0);
+}
+
+/* The shared scenes, when present, spilled with a limit of 64 KiB. */
+static void test_spill_shared(void)
+{
+	static const char *const names[] = {"stanford_bunny.ply",
+					    "cgal_fandisk.ply",
+					    "oa_am_underworks2.ply",
+					    "stanford_dragon_res2.ply"};
+	int found = 0;
+	for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
+		char path[1024];
+		snprintf(path, sizeof path, "%s/%s", test_shared_data(), names[i]);
+		struct stat st;
+		if (stat(path, &st) != 0)
+			continue;
+		found++;
+		CHECK(spill_compare(path, 64 << 10, 4096) > 0);
+	}
+	if (!found)
+		printf("SKIP test_spill_shared: no meshes in %s\n",
+		       test_shared_data());
+}
+
 int main(void)
 {
 	dir = test_tmpdir("mesh");
 	RUN(test_ply_binary_le);
+	RUN(test_spill_bundled);
+	RUN(test_spill_nonfinite);
+	RUN(test_spill_colours);
+	RUN(test_spill_shared);
 	RUN(test_ply_binary_be);
 	RUN(test_ply_ascii);
 	RUN(test_obj);

@@ -414,9 +414,56 @@ static int replaceable(const char *dir, int (*ours)(const char *name),
 	return ok;
 }
 
-int vd_dir_stage(const char *final, int (*ours)(const char *name),
+/* Creates the directories of `path` that are missing, parents first
+ * (mkdir -p); a path too long for the buffer is an error, never a
+ * shorter directory. */
+static int mkdir_parents(const char *path)
+{
+	char tmp[PATH_MAX];
+	if ((size_t)snprintf(tmp, sizeof tmp, "%s", path) >= sizeof tmp)
+		return vd_fail(VD_ERR_RANGE, "output path '%s' is too long", path);
+	for (char *p = tmp + 1;; p++) {
+		if (*p && *p != '/')
+			continue;
+		char c = *p;
+		*p = 0;
+		if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+			return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
+				       strerror(errno));
+		if (!c)
+			return VD_OK;
+		*p = c;
+	}
+}
+
+/* The pid of a staging directory name "<base>.tmp.<digits>", or 0 when
+ * `name` is not exactly that (no sign, no space, nothing after). */
+static long staging_pid(const char *name, const char *base)
+{
+	size_t bl = strlen(base);
+	if (strncmp(name, base, bl) != 0 || strncmp(name + bl, ".tmp.", 5) != 0)
+		return 0;
+	const char *d = name + bl + 5;
+	long pid = 0;
+	if (!*d)
+		return 0;
+	for (; *d; d++) {
+		if (*d < '0' || *d > '9' || pid > INT_MAX / 10)
+			return 0;
+		pid = pid * 10 + (*d - '0');
+	}
+	return pid;
+}
+
+int vd_dir_stage(const char *given, int (*ours)(const char *name),
 		 char *staging, size_t cap)
 {
+	/* "out/" stages as "out.tmp.<pid>" beside it, not inside it */
+	char final[PATH_MAX];
+	if ((size_t)snprintf(final, sizeof final, "%s", given) >= sizeof final)
+		return vd_fail(VD_ERR_RANGE, "output path '%s' is too long", given);
+	for (size_t n = strlen(final); n > 1 && final[n - 1] == '/';)
+		final[--n] = 0;
 	struct stat st;
 	if (stat(final, &st) == 0) {
 		char foreign[256];
@@ -432,23 +479,27 @@ int vd_dir_stage(const char *final, int (*ours)(const char *name),
 				       "tool did not write; give a new or empty "
 				       "output directory", final, foreign);
 	}
-	/* staging directories of runs that died: <final>.tmp.<pid> */
 	char parent[PATH_MAX];
 	const char *base = split_path(final, parent, sizeof parent);
+	/* the tools promise OUTDIR "created if missing": its parents too */
+	int err = mkdir_parents(parent);
+	if (err)
+		return err;
+	/* staging directories of runs that died (kill -9, a power cut):
+	 * exactly <final>.tmp.<pid> whose process no longer exists. A live
+	 * run's, one we may not signal (EPERM: another user's, alive) and
+	 * any other name are left alone. A leftover under our own pid is
+	 * an earlier process's: ours is created below. */
 	DIR *d = opendir(parent);
 	if (d) {
 		struct dirent *e;
-		size_t bl = strlen(base);
 		while ((e = readdir(d))) {
-			if (strncmp(e->d_name, base, bl) != 0 ||
-			    strncmp(e->d_name + bl, ".tmp.", 5) != 0)
+			long pid = staging_pid(e->d_name, base);
+			if (pid <= 0)
 				continue;
-			char *end;
-			long pid = strtol(e->d_name + bl + 5, &end, 10);
-			if (*end || pid <= 0 || (kill((pid_t)pid, 0) == 0 &&
-						 pid != (long)getpid()) ||
-			    errno == EPERM)
-				continue; /* a live run's, or not ours */
+			if (pid != (long)getpid() &&
+			    (kill((pid_t)pid, 0) == 0 || errno != ESRCH))
+				continue;
 			char stale[PATH_MAX + 512];
 			snprintf(stale, sizeof stale, "%s/%s", parent, e->d_name);
 			remove_dir_files(stale);

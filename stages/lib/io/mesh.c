@@ -24,8 +24,14 @@
  *   m->vfloats floats to everything but vd_mesh_push_vertex and the
  *   triangle assembly). Per-corner texture coordinates travel in
  *   m->poly_tc beside m->poly, and the polygon's material in m->poly_mat.
+ * - PLY and OBJ vertices over the limit, given a spill directory, are not
+ *   refused but joined with the faces on disk (mesh_spill.c). A spilled
+ *   vertex record is the in-memory record, and each triangle carries what
+ *   its polygon decides of its attributes (texture, uv, material colour),
+ *   so spilled reading hands out the same triangles and attributes.
  */
 #include "voxdag.h"
+#include "io/mesh_spill.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -40,6 +46,12 @@
 #include <libgen.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+/* What a spilled mesh keeps per triangle beside its vertex records when
+ * colours are on: the part of its vd_tri_attr its polygon decides
+ * (vd_mesh_attr_pack), so that the join gives back the attributes the
+ * in-memory reader computes. */
+#define MESH_SPILL_ATTR_BYTES 32
 
 /* Large enough that read() calls are rare, small enough to never matter
  * against a memory budget; also the longest text line we accept. */
@@ -509,6 +521,17 @@ struct vd_mesh {
 	char ac_name[48];      /* the object's name, for messages */
 	int poly_strip;        /* m->poly is a triangle strip, not a fan */
 
+	/* Vertices over verts_limit with a spill directory: the faces are
+	 * resolved by an external join on disk (mesh_spill.c). PLY knows it
+	 * at open; OBJ when a vertex would pass the limit (spill_wanted),
+	 * then the file is read again from the start into the spill and the
+	 * triangles already handed out are skipped (spill_skip). */
+	char *spill_dir;
+	struct vd_spill *spill;
+	size_t spill_tri_bytes; /* MESH_SPILL_ATTR_BYTES with colours, else 0 */
+	int spill_wanted, spill_ready;
+	uint64_t spill_skip;
+
 	struct vd_mesh_stats stats;
 	int done;
 	int err;               /* sticky: reads after a failure repeat it */
@@ -530,11 +553,54 @@ static int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
 	return VD_OK;
 }
 
+/* A spilled vertex record is the in-memory one (m->vfloats floats: the
+ * position, and with colours the packed colour), so the join hands back
+ * exactly what vd_mesh_vert() would. */
+static int vd_mesh_can_spill(const struct vd_mesh *m)
+{
+	return m->spill_dir && m->kind != MESH_AC3D;
+}
+
+/* Fills the record of a vertex: the position, and in 4-float records the
+ * colour bytes R G B and 1 (0 0 0 0 when `rgb` is NULL). */
+static void vd_mesh_vrec(const struct vd_mesh *m, const float v[3],
+			 const uint8_t *rgb, float *d)
+{
+	d[0] = v[0];
+	d[1] = v[1];
+	d[2] = v[2];
+	if (m->vfloats == 4) {
+		uint8_t c[4] = {0, 0, 0, 0};
+		if (rgb)
+			c[0] = rgb[0], c[1] = rgb[1], c[2] = rgb[2], c[3] = 1;
+		memcpy(d + 3, c, 4);
+	}
+}
+
 /* Appends a vertex; `rgb` (NULL: none) is kept only in 4-float records. */
 static int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 				   const uint8_t *rgb)
 {
 	const uint64_t vbytes = 4 * (uint64_t)m->vfloats;
+	if (m->spill || m->spill_wanted) {
+		if (m->nverts >= UINT32_MAX)
+			return vd_fail(VD_ERR_RANGE, "more than %" PRIu32
+				       " vertices", UINT32_MAX);
+		m->nverts++;
+		if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
+			m->nonfinite = 1;
+		/* wanted: this pass is dropped and read again into a spill */
+		if (!m->spill)
+			return VD_OK;
+		float d[4];
+		vd_mesh_vrec(m, v, rgb, d);
+		return vd_spill_vertex(m->spill, d);
+	}
+	if (m->verts_limit && (m->nverts + 1) * vbytes > m->verts_limit &&
+	    vd_mesh_can_spill(m)) {
+		m->spill_wanted = 1;
+		return vd_mesh_push_vertex_rgb(m, v, rgb);
+	}
 	if (m->nverts == m->verts_cap) {
 		uint64_t cap = m->verts_cap ? m->verts_cap * 2 : 4096;
 		if (cap > UINT32_MAX)
@@ -559,16 +625,7 @@ static int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 		m->verts = p;
 		m->verts_cap = cap;
 	}
-	float *d = m->verts + (size_t)m->vfloats * m->nverts++;
-	d[0] = v[0];
-	d[1] = v[1];
-	d[2] = v[2];
-	if (m->vfloats == 4) {
-		uint8_t c[4] = {0, 0, 0, 0};
-		if (rgb)
-			c[0] = rgb[0], c[1] = rgb[1], c[2] = rgb[2], c[3] = 1;
-		memcpy(d + 3, c, 4);
-	}
+	vd_mesh_vrec(m, v, rgb, m->verts + (size_t)m->vfloats * m->nverts++);
 	if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
 		m->nonfinite = 1;
 	return VD_OK;
@@ -597,6 +654,24 @@ static const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
 	return buf;
 }
 
+/* The error for vertex vi of face m->poly_face whose position v is not
+ * finite. */
+static int vd_mesh_nonfinite(const struct vd_mesh *m, uint32_t vi,
+			     const float *v)
+{
+	char w[48];
+	vd_mesh_where(m, w, sizeof w);
+	if (m->kind == MESH_STL_ASCII)
+		return vd_fail(VD_ERR_RANGE, "%sfacet %" PRIu64 " has a "
+			       "non-finite vertex (%g %g %g)", w, m->poly_face,
+			       v[0], v[1], v[2]);
+	return vd_fail(VD_ERR_RANGE, "%sface %" PRIu64 " uses vertex %" PRIu32
+		       "%s whose position is not finite (%g %g %g)", w,
+		       m->poly_face, vi + (m->kind == MESH_OBJ),
+		       m->kind == MESH_OBJ ? " (1-based)" : "", v[0], v[1],
+		       v[2]);
+}
+
 /* Called once a polygon is complete: applies the corner-count rules and the
  * non-finite rule. Sets poly_n to 0 for a dropped face. */
 static int vd_mesh_poly_done(struct vd_mesh *m)
@@ -608,25 +683,12 @@ static int vd_mesh_poly_done(struct vd_mesh *m)
 	}
 	if (m->poly_n > 3)
 		m->stats.polygons_split++;
-	if (m->nonfinite) {
+	/* spilled: checked as the joined triangles come back */
+	if (m->nonfinite && !m->spill && !m->spill_wanted) {
 		for (size_t i = 0; i < m->poly_n; i++) {
 			const float *v = vd_mesh_vert(m, m->poly[i]);
-			if (isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]))
-				continue;
-			char w[48];
-			vd_mesh_where(m, w, sizeof w);
-			if (m->kind == MESH_STL_ASCII)
-				return vd_fail(VD_ERR_RANGE,
-					"%sfacet %" PRIu64 " has a non-finite "
-					"vertex (%g %g %g)", w, m->poly_face,
-					v[0], v[1], v[2]);
-			return vd_fail(VD_ERR_RANGE,
-				"%sface %" PRIu64 " uses vertex %" PRIu32
-				"%s whose position is not finite (%g %g %g)",
-				w, m->poly_face,
-				m->poly[i] + (m->kind == MESH_OBJ),
-				m->kind == MESH_OBJ ? " (1-based)" : "",
-				v[0], v[1], v[2]);
+			if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
+				return vd_mesh_nonfinite(m, m->poly[i], v);
 		}
 	}
 	m->poly_next = 1;
@@ -1175,19 +1237,28 @@ static int vd_ply_open(struct vd_mesh *m)
 			continue;
 		}
 		uint64_t vbytes = 4 * (uint64_t)m->vfloats;
-		if (m->verts_limit && ve->count * vbytes > m->verts_limit)
+		int spill = m->verts_limit && ve->count * vbytes > m->verts_limit;
+		if (spill && vd_mesh_can_spill(m)) {
+			/* the records go to the spill (vd_mesh_push_vertex_rgb) */
+			if ((e = vd_spill_open(&m->spill, m->spill_dir,
+					       (size_t)vbytes, m->spill_tri_bytes,
+					       m->verts_limit)))
+				return e;
+		} else if (spill)
 			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
 				       "%" PRIu64 " KiB in memory, more than the "
 				       "vertex share (%" PRIu64 " KiB, half) of "
 				       "the memory budget", ve->count,
 				       (ve->count * vbytes >> 10) + 1,
 				       m->verts_limit >> 10);
-		m->verts = malloc(ve->count ? (size_t)(ve->count * vbytes)
-				  : 16);
-		if (!m->verts)
-			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
-				       ve->count);
-		m->verts_cap = ve->count;
+		else {
+			m->verts = malloc(ve->count
+					  ? (size_t)(ve->count * vbytes) : 16);
+			if (!m->verts)
+				return vd_fail(VD_ERR_NOMEM, "%" PRIu64
+					       " vertices", ve->count);
+			m->verts_cap = ve->count;
+		}
 		m->stats.vertices = ve->count;
 		int col = m->vfloats == 4;
 		for (uint64_t j = 0; j < ve->count; j++) {
@@ -2719,6 +2790,14 @@ int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
 	return vd_mesh_open_opts(out, path, &o);
 }
 
+int vd_mesh_open_spill(struct vd_mesh **out, const char *path,
+		       uint64_t max_vertex_bytes, const char *spill_dir)
+{
+	struct vd_mesh_open_opts o = {.max_vertex_bytes = max_vertex_bytes,
+				      .spill_dir = spill_dir};
+	return vd_mesh_open_opts(out, path, &o);
+}
+
 int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		      const struct vd_mesh_open_opts *o)
 {
@@ -2730,13 +2809,21 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		return vd_fail(VD_ERR_NOMEM, "mesh reader");
 	m->vfloats = 3;
 	m->poly_mat = m->cur_mat = m->ac_tex = -1;
+	if (o->spill_dir && o->max_vertex_bytes &&
+	    !(m->spill_dir = strdup(o->spill_dir))) {
+		free(m);
+		return vd_fail(VD_ERR_NOMEM, "mesh reader");
+	}
 	if (o->colours) {
 		m->col_on = 1;
 		m->col = *o;
+		m->col.spill_dir = NULL; /* m->spill_dir is the copy */
+		m->spill_tri_bytes = MESH_SPILL_ATTR_BYTES;
 		char *d = strdup(path);
 		m->dir = d ? strdup(dirname(d)) : NULL;
 		free(d);
 		if (!m->dir) {
+			free(m->spill_dir);
 			free(m);
 			return vd_fail(VD_ERR_NOMEM, "mesh reader");
 		}
@@ -2746,6 +2833,7 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		int e = vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
 				strerror(errno));
 		free(m->dir);
+		free(m->spill_dir);
 		free(m);
 		return e;
 	}
@@ -2782,19 +2870,29 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 	return VD_OK;
 }
 
-static int vd_mesh_next(struct vd_mesh *m, int *got)
+/* The positions in m->poly of the corners of the next triangle of the
+ * polygon. */
+static void vd_mesh_fan(const struct vd_mesh *m, size_t pc[3])
 {
-	switch (m->kind) {
-	case MESH_OBJ: return vd_obj_next(m, got);
-	case MESH_STL_ASCII: return vd_stl_ascii_next(m, got);
-	case MESH_AC3D: return vd_ac_next(m, got);
-	default: return vd_ply_next(m, got);
+	size_t i = m->poly_next;
+	pc[0] = 0;
+	pc[1] = i;
+	pc[2] = i + 1;
+	/* A strip's triangle i-1 is (i-1, i, i+1), every other one flipped
+	 * to keep the winding. */
+	if (m->poly_strip) {
+		pc[0] = i - (i & 1 ? 1 : 0);
+		pc[1] = i - (i & 1 ? 0 : 1);
 	}
 }
 
-/* The attributes of the triangle of corners pc[] (positions in m->poly). */
-static void vd_mesh_attr(const struct vd_mesh *m, const size_t pc[3],
-			 struct vd_tri_attr *a)
+/* What the polygon decides of the attributes of its triangle of corners
+ * pc[] (positions in m->poly): the texture and the corners' uv, and in
+ * `base` the colour of a corner whose vertex has none (the material's, or
+ * grey). The corners' own colours come from their vertex records
+ * (vd_mesh_attr_corners), which a spilled mesh only has after the join. */
+static void vd_mesh_attr_face(const struct vd_mesh *m, const size_t pc[3],
+			      struct vd_tri_attr *a, uint8_t base[3])
 {
 	memset(a, 0, sizeof *a);
 	a->texture = -1;
@@ -2815,13 +2913,170 @@ static void vd_mesh_attr(const struct vd_mesh *m, const size_t pc[3],
 		else
 			memset(a->uv, 0, sizeof a->uv);
 	}
+	for (int k = 0; k < 3; k++)
+		base[k] = mt ? mt->rgb[k] : VD_GREY;
+}
+
+/* The corners' colours: the vertex's own when its record (rec[j], as
+ * bytes: it may be unaligned in the spill) has one, else `base`. */
+static void vd_mesh_attr_corners(const struct vd_mesh *m,
+				 const uint8_t *const rec[3],
+				 const uint8_t base[3], struct vd_tri_attr *a)
+{
 	for (int j = 0; j < 3; j++) {
 		uint8_t c[4] = {0, 0, 0, 0};
 		if (m->vfloats == 4)
-			memcpy(c, vd_mesh_vert(m, m->poly[pc[j]]) + 3, 4);
-		const uint8_t *src = c[3] ? c : mt ? mt->rgb : NULL;
+			memcpy(c, rec[j] + 12, 4);
+		const uint8_t *src = c[3] ? c : base;
 		for (int k = 0; k < 3; k++)
-			a->rgb[j][k] = src ? src[k] : VD_GREY;
+			a->rgb[j][k] = src[k];
+	}
+}
+
+/* vd_mesh_attr_face's result as the spill's per-triangle record
+ * (MESH_SPILL_ATTR_BYTES): texture (int32), base (3 bytes and a 0), uv
+ * (6 floats); native byte order, it never leaves the process. */
+static void vd_mesh_attr_pack(const struct vd_tri_attr *a,
+			      const uint8_t base[3], uint8_t *p)
+{
+	memcpy(p, &a->texture, 4);
+	memcpy(p + 4, base, 3);
+	p[7] = 0;
+	memcpy(p + 8, a->uv, 24);
+}
+
+static void vd_mesh_attr_unpack(const uint8_t *p, struct vd_tri_attr *a,
+				uint8_t base[3])
+{
+	memset(a, 0, sizeof *a);
+	memcpy(&a->texture, p, 4);
+	memcpy(base, p + 4, 3);
+	memcpy(a->uv, p + 8, 24);
+}
+
+static int vd_mesh_next(struct vd_mesh *m, int *got);
+
+/* Spill mode: the first call reads the whole mesh into the spill (OBJ:
+ * again from the start, `delivered` triangles having been handed out
+ * from memory already) and joins; every call then hands out triangles
+ * from the join, with their attributes into attr[] when it is not NULL. */
+static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
+			      struct vd_tri_attr *attr, size_t cap, size_t *n,
+			      uint64_t delivered)
+{
+	int e = VD_OK;
+	*n = 0;
+	if (!m->spill_ready) {
+		if (m->spill_wanted) {
+			/* only OBJ gets here: PLY knows at open */
+			if ((e = vd_spill_open(&m->spill, m->spill_dir,
+					       4 * (size_t)m->vfloats,
+					       m->spill_tri_bytes,
+					       m->verts_limit)) ||
+			    (e = vd_rd_seek(&m->r, 0, 0)))
+				return e;
+			/* as vd_mesh_rewind does for OBJ; the materials,
+			 * textures and MTL files read stay */
+			m->spill_wanted = 0;
+			m->spill_skip = delivered;
+			free(m->verts);
+			m->verts = NULL;
+			m->nverts = m->verts_cap = 0;
+			m->nonfinite = 0;
+			m->done = 0;
+			m->poly_n = m->poly_next = 0;
+			m->poly_face = 0;
+			m->nuvs = 0;
+			m->cur_mat = -1;
+			m->stats.vertices = 0;
+			m->stats.faces_dropped_short = 0;
+			m->stats.polygons_split = 0;
+		}
+		for (;;) {
+			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
+				size_t pc[3];
+				uint32_t c[3];
+				uint8_t extra[MESH_SPILL_ATTR_BYTES];
+				vd_mesh_fan(m, pc);
+				for (int j = 0; j < 3; j++)
+					c[j] = m->poly[pc[j]];
+				if (m->spill_tri_bytes) {
+					struct vd_tri_attr a;
+					uint8_t base[3];
+					vd_mesh_attr_face(m, pc, &a, base);
+					vd_mesh_attr_pack(&a, base, extra);
+				}
+				if ((e = vd_spill_triangle(m->spill, c,
+							   m->poly_face,
+							   m->poly_line,
+							   extra)))
+					return e;
+				m->poly_next++;
+				continue;
+			}
+			if (m->done)
+				break;
+			int got = 0;
+			m->poly_n = m->poly_next = 0;
+			m->poly_mat = -1;
+			m->poly_has_tc = 0;
+			if ((e = vd_mesh_next(m, &got)))
+				return e;
+			if (!got) {
+				m->done = 1;
+				break;
+			}
+			if ((e = vd_mesh_poly_done(m)))
+				return e;
+		}
+		if (m->kind == MESH_OBJ)
+			m->stats.vertices = m->nverts;
+		if ((e = vd_spill_finish(m->spill)))
+			return e;
+		m->spill_ready = 1;
+	}
+	while (*n < cap) {
+		const uint8_t *rec[3], *extra;
+		uint32_t v[3];
+		uint64_t face, line;
+		int got;
+		if ((e = vd_spill_next(m->spill, rec, v, &face, &line, &extra,
+				       &got)))
+			return e;
+		if (!got)
+			break;
+		if (m->spill_skip) {
+			m->spill_skip--;
+			continue;
+		}
+		struct vd_triangle *t = &buf[*n];
+		for (int j = 0; j < 3; j++)
+			memcpy(t->v[j], rec[j], 12);
+		if (m->nonfinite)
+			for (int j = 0; j < 3; j++)
+				if (!isfinite(t->v[j][0]) || !isfinite(t->v[j][1]) ||
+				    !isfinite(t->v[j][2])) {
+					m->poly_face = face;
+					m->poly_line = line;
+					return vd_mesh_nonfinite(m, v[j], t->v[j]);
+				}
+		if (attr) {
+			uint8_t base[3];
+			vd_mesh_attr_unpack(extra, &attr[*n], base);
+			vd_mesh_attr_corners(m, rec, base, &attr[*n]);
+		}
+		(*n)++;
+	}
+	return VD_OK;
+}
+
+static int vd_mesh_next(struct vd_mesh *m, int *got)
+{
+	switch (m->kind) {
+	case MESH_OBJ: return vd_obj_next(m, got);
+	case MESH_STL_ASCII: return vd_stl_ascii_next(m, got);
+	case MESH_AC3D: return vd_ac_next(m, got);
+	default: return vd_ply_next(m, got);
 	}
 }
 
@@ -2845,24 +3100,23 @@ static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 			attr[i].texture = -1;
 		}
 	} else {
-		while (k < cap) {
+		while (k < cap && !m->spill) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
 				struct vd_triangle *t = &buf[k];
-				const uint32_t *q = m->poly;
-				size_t i = m->poly_next;
-				size_t pc[3] = {0, i, i + 1};
-				/* A strip's triangle i-1 is (i-1, i, i+1),
-				 * every other one flipped to keep the
-				 * winding. */
-				if (m->poly_strip) {
-					pc[0] = i - (i & 1 ? 1 : 0);
-					pc[1] = i - (i & 1 ? 0 : 1);
+				size_t pc[3];
+				const uint8_t *rec[3];
+				vd_mesh_fan(m, pc);
+				for (int j = 0; j < 3; j++) {
+					rec[j] = (const uint8_t *)vd_mesh_vert(
+						m, m->poly[pc[j]]);
+					memcpy(t->v[j], rec[j], 12);
 				}
-				for (int j = 0; j < 3; j++)
-					memcpy(t->v[j], vd_mesh_vert(m, q[pc[j]]),
-					       12);
-				if (attr)
-					vd_mesh_attr(m, pc, &attr[k]);
+				if (attr) {
+					uint8_t base[3];
+					vd_mesh_attr_face(m, pc, &attr[k], base);
+					vd_mesh_attr_corners(m, rec, base,
+							     &attr[k]);
+				}
 				k++;
 				m->poly_next++;
 				continue;
@@ -2881,6 +3135,15 @@ static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 			}
 			if ((e = vd_mesh_poly_done(m)))
 				break;
+			if (m->spill_wanted)
+				break; /* the vertices passed the limit */
+		}
+		if (!e && (m->spill || m->spill_wanted)) {
+			size_t more = 0;
+			e = vd_mesh_spill_read(m, buf + k, attr ? attr + k : NULL,
+					       cap - k, &more,
+					       m->stats.triangles_read + k);
+			k += more;
 		}
 	}
 	m->stats.triangles_read += k;
@@ -2940,6 +3203,12 @@ int vd_mesh_rewind(struct vd_mesh *m)
 	if (!m)
 		return vd_fail(VD_ERR_ARG, "vd_mesh_rewind: NULL mesh");
 	m->err = 0;
+	if (m->spill_ready) {
+		/* the join is the whole mesh: no file to read again */
+		m->stats.triangles_read = 0;
+		m->spill_skip = 0;
+		return vd_spill_rewind(m->spill);
+	}
 	m->done = 0;
 	m->poly_n = m->poly_next = 0;
 	m->poly_face = 0;
@@ -2997,7 +3266,8 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 		   m->poly_tc_cap * 2 * sizeof(float) +
 		   (size_t)m->uvs_cap * 2 * sizeof(float) +
 		   m->mats_cap * sizeof *m->mats +
-		   m->texs_cap * sizeof *m->texs;
+		   m->texs_cap * sizeof *m->texs +
+		   vd_spill_memory_bytes(m->spill);
 	for (size_t i = 0; i < m->ntexs; i++)
 		b += 3 * (size_t)m->texs[i].t.width * m->texs[i].t.height;
 	for (size_t i = 0; i < m->nelems; i++)
@@ -3035,6 +3305,8 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->poly_tc);
 	free(m->vslot);
 	free(m->dir);
+	vd_spill_close(m->spill);
+	free(m->spill_dir);
 	for (size_t i = 0; i < m->nelems; i++)
 		free(m->elems[i].props);
 	free(m->elems);

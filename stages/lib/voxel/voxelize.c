@@ -1410,12 +1410,14 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 				.start = t0,
 				.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct vd_mesh *mesh;
-	/* indexed meshes keep their vertices in memory: at most half the
-	 * budget, refused before it is taken */
+	/* indexed meshes keep their vertices in memory up to half the
+	 * budget; beyond it their faces are joined with them on disk, in
+	 * unlinked files of the output (staging) directory (mesh_spill.c) */
 	struct vd_mesh_open_opts mo = {
 		.max_vertex_bytes = opts->mem_budget_bytes / 2,
 		.colours = opts->colours, .strict = opts->strict,
-		.warn = warn_line, .warn_ctx = &prog};
+		.warn = warn_line, .warn_ctx = &prog,
+		.spill_dir = outdir};
 	int err = vd_mesh_open_opts(&mesh, mesh_path, &mo);
 	if (err)
 		return err;
