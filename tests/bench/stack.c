@@ -4,11 +4,11 @@
  * mesh's larger horizontal extent, so that K layers of a terrain fill the
  * grid's cube and a height field of ~4^L0 cells becomes ~K 4^L0 of them.
  * usage: stack K IN.ply OUT.ply */
+#include "bench_ply.h"
+
 #include <float.h>
 #include <stdint.h>
 #include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 int main(int argc, char **argv)
 {
@@ -17,44 +17,17 @@ int main(int argc, char **argv)
 		fprintf(stderr, "usage: stack K IN.ply OUT.ply\n");
 		return 2;
 	}
-	FILE *in = fopen(argv[2], "rb");
-	if (!in) {
-		perror(argv[2]);
-		return 1;
-	}
-	char line[256];
-	uint64_t nv = 0, nf = 0;
-	int extra = 0, in_vertex = 0;
-	while (fgets(line, sizeof line, in) && strcmp(line, "end_header\n")) {
-		if (sscanf(line, "element vertex %lu", &nv) == 1)
-			in_vertex = 1;
-		else if (sscanf(line, "element face %lu", &nf) == 1)
-			in_vertex = 0;
-		else if (in_vertex && !strncmp(line, "property uchar", 14))
-			extra++;
-	}
-	float *v = malloc(nv * 12 + 1);
-	uint32_t *f = malloc(nf * 12 + 1);
-	if (!v || !f)
+	float *v;
+	uint32_t *f;
+	uint64_t nv, nf;
+	if (bench_ply_read(argv[2], &v, &nv, &f, &nf))
 		return 1;
 	float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-	for (uint64_t i = 0; i < nv; i++) {
-		unsigned char rec[12 + 16];
-		if (fread(rec, 12 + extra, 1, in) != 1)
-			return fprintf(stderr, "truncated\n"), 1;
-		memcpy(v + 3 * i, rec, 12);
+	for (uint64_t i = 0; i < nv; i++)
 		for (int a = 0; a < 3; a++) {
 			lo[a] = v[3 * i + a] < lo[a] ? v[3 * i + a] : lo[a];
 			hi[a] = v[3 * i + a] > hi[a] ? v[3 * i + a] : hi[a];
 		}
-	}
-	for (uint64_t i = 0; i < nf; i++) {
-		unsigned char n;
-		if (fread(&n, 1, 1, in) != 1 || n != 3 ||
-		    fread(f + 3 * i, 4, 3, in) != 3)
-			return fprintf(stderr, "not a triangle mesh\n"), 1;
-	}
-	fclose(in);
 	/* the up axis: the one of least extent */
 	int up = 0;
 	for (int a = 1; a < 3; a++)

@@ -4,10 +4,11 @@
  * split into 16 (a 4x4 grid on each triangle). Edge points are shared
  * between neighbours, so the mesh stays indexed like a real one.
  * usage: subdivide IN.ply OUT.ply */
+#include "bench_ply.h"
+
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 
 struct edge { uint32_t lo, hi; uint64_t base; };
 
@@ -54,39 +55,11 @@ int main(int argc, char **argv)
 		fprintf(stderr, "usage: subdivide IN.ply OUT.ply\n");
 		return 2;
 	}
-	FILE *in = fopen(argv[1], "rb");
-	if (!in) {
-		perror(argv[1]);
+	float *v;
+	uint32_t *f;
+	uint64_t nv, nf;
+	if (bench_ply_read(argv[1], &v, &nv, &f, &nf))
 		return 1;
-	}
-	char line[256];
-	uint64_t nv = 0, nf = 0;
-	int extra = 0, in_vertex = 0;
-	while (fgets(line, sizeof line, in) && strcmp(line, "end_header\n")) {
-		if (sscanf(line, "element vertex %lu", &nv) == 1)
-			in_vertex = 1;
-		else if (sscanf(line, "element face %lu", &nf) == 1)
-			in_vertex = 0;
-		else if (in_vertex && !strncmp(line, "property uchar", 14))
-			extra++;
-	}
-	float *v = malloc(nv * 12);
-	uint32_t *f = malloc(nf * 12);
-	if (!v || !f)
-		return 1;
-	for (uint64_t i = 0; i < nv; i++) {
-		unsigned char rec[12 + 16];
-		if (fread(rec, 12 + extra, 1, in) != 1)
-			return fprintf(stderr, "truncated\n"), 1;
-		memcpy(v + 3 * i, rec, 12);
-	}
-	for (uint64_t i = 0; i < nf; i++) {
-		unsigned char n;
-		if (fread(&n, 1, 1, in) != 1 || n != 3 ||
-		    fread(f + 3 * i, 4, 3, in) != 3)
-			return fprintf(stderr, "not a triangle mesh\n"), 1;
-	}
-	fclose(in);
 	for (nslots = 1; nslots < 4 * nf; nslots *= 2)
 		;
 	slots = calloc(nslots, sizeof *slots);
