@@ -45,9 +45,9 @@ extern "C" {
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
 	X("render", 1)                                                      \
-	X("lossy-cluster", 1)                                                \
-	X("edit", 1)                                                        \
-	X("colorize", 1)
+	X("lossy-cluster", 2)  /* 2: cpu_seconds_lossy in its statistics */\
+	X("edit", 2)           /* 2: paint, colours, cpu_seconds per op */ \
+	X("colorize", 2)       /* 2: exact single-colour VBR blocks */
 
 /* The version of the stage named `tool` (as in out/bin/), 0 if unknown. */
 int vd_stage_version(const char *tool);
