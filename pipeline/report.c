@@ -254,9 +254,9 @@ static void write_colours(FILE *f, const struct plan *p)
 			ref = render_of_colours(c, d, &ref_enc);
 	}
 	fprintf(f, "# Colours (Dolonius et al. 2017, Table 3)\n\n");
-	fprintf(f, "| job | method | setting | %% of raw | MB | GMSE | max error "
-		"| blocks | seconds | Mvoxels/s | image MSE | MS-SSIM |\n");
-	fprintf(f, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	fprintf(f, "| job | method | setting | %% of raw | MB | GMSE | GMSE (%%²) "
+		"| max error | blocks | seconds | Mvoxels/s | image MSE | MS-SSIM |\n");
+	fprintf(f, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
 	double voxels = 0, raw = 0;
 	for (int d = 0; d < c->njobs; d++) {
 		const struct job_decl *cd = &c->jobs_decl[d];
@@ -267,7 +267,7 @@ static void write_colours(FILE *f, const struct plan *p)
 			 cd->name);
 		char *st = slurp(path);
 		if (!st) {
-			fprintf(f, "| `%s` | %s | | (not built) | | | | | | | | |\n",
+			fprintf(f, "| `%s` | %s | | (not built) | | | | | | | | | |\n",
 				cd->name, cd->method);
 			continue;
 		}
@@ -308,10 +308,10 @@ static void write_colours(FILE *f, const struct plan *p)
 			free(a);
 			free(b);
 		}
-		fprintf(f, "| `%s` | %s | %s | %.2f | %.3f | %.3f | %.4f | %.0f | "
-			"%.2f | %.2f %s\n", cd->name, cd->method, setting,
+		fprintf(f, "| `%s` | %s | %s | %.2f | %.3f | %.3f | %.3f | %.4f | "
+			"%.0f | %.2f | %.2f %s\n", cd->name, cd->method, setting,
 			NUM("percent_of_raw"), mb(NUM("bytes")), NUM("gmse"),
-			NUM("max_error"), NUM("blocks"), NUM("seconds"),
+			NUM("gmse_percent2"), NUM("max_error"), NUM("blocks"), NUM("seconds"),
 			NUM("voxels_per_second") / 1e6, img);
 #undef NUM
 		json_decref(root);
@@ -319,7 +319,8 @@ static void write_colours(FILE *f, const struct plan *p)
 	}
 	fprintf(f, "\n%.0f voxels, %.3f MB of raw RGB8 colours. %% of raw is "
 		"the compressed structure's bytes against 3 bytes a voxel; GMSE "
-		"and max error as colorize reports them "
+		"(in 8-bit units, and in percent squared: the unit of the "
+		"paper's figures) and max error as colorize reports them "
 		"(schemas/colour-formats.md); image MSE and MS-SSIM compare the "
 		"picture with that of lossless colours (`%s`)%s.\n\n", voxels,
 		mb(raw), ref ? ref->name : "none",
