@@ -1044,7 +1044,8 @@ static void plan_edit(struct plan *p, int d)
 	struct job *j = add_root_job(p, d, dd->needs[0], "dag", &in);
 	if (!j)
 		return;
-	char threads[16], script[1200];
+	char budget[32], threads[16], script[1200];
+	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	if (dd->script_text) {
 		/* inline lines: written beside the output, where the edit
@@ -1063,7 +1064,7 @@ static void plan_edit(struct plan *p, int d)
 	}
 	const char *src = p->jobs[in].output;
 	set_argv(j, "edit", src, "-o", j->output, "--script", script,
-		 "--threads", threads, "-q", NULL);
+		 "--mem-budget", budget, "--threads", threads, "-q", NULL);
 	add_input(j, src);
 	add_input(j, script);
 	add_dep(p, j, in);

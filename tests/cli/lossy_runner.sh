@@ -178,6 +178,10 @@ head_cfg > "$CFG" <<'EOF'
   enc:    {stage: encode, needs: [ed, ssvdag]}
 EOF
 expect edit_run 0 '' $R -q run "$CFG"
+# the edit job runs within the per-job budget (512M), as every stage does
+head -1 $D/logs/ed*.log | grep -q -- '--mem-budget 536870912 ' &&
+	pass edit_gets_the_job_budget ||
+	fail edit_gets_the_job_budget "$(head -1 $D/logs/ed*.log)"
 H=$T/hand
 mkdir -p $H
 $BIN/edit $D/dag/root.dag -o $H/e.dag --script "$T/edits.txt" -q &&
