@@ -2228,6 +2228,11 @@ struct vd_lossy_opts {
 				    * components at a time, with the same
 				    * result; a single component over it
 				    * fails the run (VD_ERR_BUDGET) */
+	uint64_t graph_budget;     /* bytes for a level's similarity graph in
+				    * memory, 0: what is left of mem_budget
+				    * beside the process's RSS when the
+				    * search starts (a fixed figure for
+				    * tests: the RSS varies, under ASan much) */
 };
 
 struct vd_lossy_level_stats {

@@ -421,27 +421,30 @@ static void pair_slice(void *ctx, size_t k, int worker)
  * the process held before the search. */
 struct spill {
 	int fd;
-	uint64_t n, base;
+	uint64_t n, base, avail; /* avail: bytes for the graph */
 };
 
 static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 			size_t nc, int64_t m, const uint64_t *brick,
-			int threads, uint64_t budget, struct edges *g,
-			struct spill *sp)
+			int threads, uint64_t budget, uint64_t graph_budget,
+			struct edges *g, struct spill *sp)
 {
 	struct pair_job *J = calloc(1, sizeof *J);
 	if (!J) return NOMEM();
 	/* what the process holds now, and what is left of the budget */
 	struct edge_budget eb = {0, 0, 0, -1, 0};
 	uint64_t base = budget ? vd_current_rss_bytes() : 0;
-	if (budget) {
-		eb.limit = base < budget ? budget - base : 1;
+	uint64_t avail = graph_budget ? graph_budget
+			 : budget ? (base < budget ? budget - base : 1) : 0;
+	if (avail) {
+		eb.limit = avail;
 		/* opened before the threads start, used only if needed */
 		eb.fd = spill_open();
 	}
 	sp->fd = -1;
 	sp->n = 0;
 	sp->base = base;
+	sp->avail = avail;
 	for (int k = 0; k < PAIR_SLICES; k++) J->part[k].b = &eb;
 	J->d = d;
 	J->l = l;
@@ -478,7 +481,7 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	}
 	/* the graph in memory needs its edges twice at every step: when that
 	 * passes the budget the whole graph goes to the file */
-	if (!err && budget && (eb.over || base + total * EDGE_BYTES > budget)) {
+	if (!err && avail && (eb.over || total * EDGE_BYTES > avail)) {
 		for (int k = 0; k < PAIR_SLICES && !err; k++)
 			err = edge_flush(&J->part[k]);
 		if (!err) {
@@ -507,7 +510,8 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			 uint64_t max_refs, double diff_factor, int threads,
 			 uint64_t budget, struct vd_lossy_edge **out,
-			 size_t *n_out, uint64_t *candidates, struct spill *sp)
+			 size_t *n_out, uint64_t *candidates, uint64_t graph_budget,
+			 struct spill *sp)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
@@ -531,7 +535,8 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			if (eff[i] <= max_refs)
 				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
-		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget, &g, sp);
+		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget,
+				   graph_budget, &g, sp);
 		goto done;
 	}
 	/* taller: the bricks of level L-2, topology hashes (masks of levels
@@ -574,7 +579,8 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	err = search_pairs(d, l, c, nc, m, brick, threads, budget, &g, sp);
+	err = search_pairs(d, l, c, nc, m, brick, threads, budget,
+			   graph_budget, &g, sp);
 done:
 	for (int k = 0; k < VD_MAX_LEVELS; k++) {
 		free(topo[k]);
@@ -599,7 +605,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 {
 	struct spill sp;
 	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
-			     out, n_out, candidates, &sp);
+			     out, n_out, candidates, 0, &sp);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -1443,19 +1449,19 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			for (uint64_t i = 0; i < nl; i++) root[i] = uf_find(root, i);
 	}
 	if (err) goto out;
-	uint64_t cap = o->mem_budget > sp->base ?
-		(o->mem_budget - sp->base) / EDGE_BYTES : 0, big = 0;
+	uint64_t cap = sp->avail / EDGE_BYTES, big = 0;
 	for (uint64_t i = 0; i < nl; i++)
 		if (cnt[i] > big) big = cnt[i];
 	if (big > cap) {
 		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
 			      "(%" PRIu64 " candidates, %" PRIu64 " edges) needs "
 			      "about %" PRIu64 " MiB for its largest component "
-			      "(%" PRIu64 " edges) beside the %" PRIu64 " MiB in "
-			      "use, over the budget of %" PRIu64 " MiB "
-			      "(--mem-budget)", l, ls->candidates, sp->n,
-			      (big * EDGE_BYTES) >> 20, big, sp->base >> 20,
-			      o->mem_budget >> 20);
+			      "(%" PRIu64 " edges), over the %" PRIu64 " MiB "
+			      "left of the budget of %" PRIu64 " MiB beside the %"
+			      PRIu64 " MiB in use (--mem-budget)", l,
+			      ls->candidates, sp->n, (big * EDGE_BYTES) >> 20,
+			      big, sp->avail >> 20, o->mem_budget >> 20,
+			      sp->base >> 20);
 		goto out;
 	}
 	/* cnt[root] becomes the component's group */
@@ -1565,7 +1571,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		struct spill sp;
 		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
 				    o->threads, o->mem_budget, &e, &ne,
-				    &ls->candidates, &sp);
+				    &ls->candidates, o->graph_budget, &sp);
 		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 		if (err) break;
 		double t2 = vd_seconds();
