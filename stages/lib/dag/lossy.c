@@ -10,6 +10,7 @@
 #include "voxdag.h"
 
 #include <inttypes.h>
+#include <malloc.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
@@ -433,6 +434,9 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	if (!J) return NOMEM();
 	/* what the process holds now, and what is left of the budget */
 	struct edge_budget eb = {0, 0, 0, -1, 0};
+	/* freed memory that malloc keeps counts in the RSS: the last level's
+	 * graph would otherwise take the budget of this one */
+	if (budget) malloc_trim(0);
 	uint64_t base = budget ? vd_current_rss_bytes() : 0;
 	uint64_t avail = graph_budget ? graph_budget
 			 : budget ? (base < budget ? budget - base : 1) : 0;
