@@ -2223,8 +2223,16 @@ struct vd_lossy_opts {
 	uint64_t max_refs;         /* R: candidates have <= R effective refs */
 	int threads;               /* 0: all cores */
 	uint64_t mem_budget;       /* bytes, 0: none; a similarity graph that
-				    * would pass it fails the run
-				    * (VD_ERR_BUDGET) */
+				    * would pass it is spilled to a file in
+				    * $TMPDIR (or /tmp) and clustered a few
+				    * components at a time, with the same
+				    * result; a single component over it
+				    * fails the run (VD_ERR_BUDGET) */
+	uint64_t graph_budget;     /* bytes for a level's similarity graph in
+				    * memory, 0: what is left of mem_budget
+				    * beside the process's RSS when the
+				    * search starts (a fixed figure for
+				    * tests: the RSS varies, under ASan much) */
 };
 
 struct vd_lossy_level_stats {
@@ -2232,6 +2240,8 @@ struct vd_lossy_level_stats {
 	uint64_t candidates, graph_nodes, edges, clusters, merged;
 	uint64_t level_nodes_before, level_nodes_after; /* on this level */
 	uint64_t nodes_before, nodes_after;             /* all levels */
+	int graph_spilled;       /* the graph went to disk (--mem-budget) */
+	uint64_t spill_buckets;  /* then: the groups of components loaded */
 };
 
 struct vd_lossy_stats {

@@ -423,7 +423,7 @@ static void check_stage(const struct scene *s, double p, uint64_t R)
 	struct vd_dag d = {0}, d2 = {0};
 	CHECK_EQ(dag_copy(&d, &s->dag), VD_OK);
 	CHECK_EQ(dag_copy(&d2, &s->dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, p, R, 1, 0};
+	struct vd_lossy_opts o = {2.0, p, R, 1, 0, 0};
 	struct vd_lossy_stats st, st2;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_OK);
 	o.threads = 3;
@@ -498,7 +498,7 @@ static void test_bad_input(void)
 		scene_free(&s);
 		return;
 	}
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0};
 	struct vd_lossy_stats st;
 	o.inflation = 1.0;
 	CHECK_EQ(vd_lossy_cluster(&s.dag, &o, &st), VD_ERR_ARG);
@@ -620,7 +620,7 @@ static void test_graph_budget(void)
 	CHECK_EQ(dag_copy(&d, &s.dag), VD_OK);
 	CHECK_EQ(dag_copy(&d2, &s.dag), VD_OK);
 	CHECK_EQ(dag_copy(&d3, &s.dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 1}; /* a budget of 1 byte */
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 1, 0}; /* a budget of 1 byte */
 	struct vd_lossy_stats st;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_ERR_BUDGET);
 	char want[200];
@@ -641,6 +641,112 @@ static void test_graph_budget(void)
 	scene_free(&s);
 }
 
+/* The bytes of a DAG saved as a chunk (the same transform and provenance
+ * for all), in a new buffer. */
+static unsigned char *dag_bytes(const struct vd_dag *d, const char *path,
+				long *len)
+{
+	struct vd_transform tr;
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+	*len = 0;
+	if (vd_transform_init(&tr, lo, hi, d->levels)) return NULL;
+	if (vd_dag_save(d, &tr, path, "test")) return NULL;
+	FILE *f = fopen(path, "rb");
+	if (!f) return NULL;
+	fseek(f, 0, SEEK_END);
+	*len = ftell(f);
+	rewind(f);
+	unsigned char *b = malloc((size_t)*len + 1);
+	if (b && fread(b, 1, (size_t)*len, f) != (size_t)*len) {
+		free(b);
+		b = NULL;
+	}
+	fclose(f);
+	return b;
+}
+
+/* A similarity graph over its budget is spilled to $TMPDIR and clustered
+ * a few components at a time: the chunk is byte for byte the one of the
+ * unlimited run, for 1 and 2 threads, and no file is left. The graph's
+ * budget is fixed (graph_budget; --mem-budget leaves it what the RSS
+ * leaves, which varies) and steps up to the largest graph: each run
+ * either fits its components into groups (and must then match) or names
+ * the component that does not; some must have spilled into several
+ * groups, and the smallest budget cannot hold any component. */
+static void test_graph_spill(void)
+{
+	struct scene s;
+	scene_load(&s, "tests/data/bunny.ply", 8);
+	if (!s.ok) {
+		scene_free(&s);
+		return;
+	}
+	char tmp[600], path[800];
+	snprintf(tmp, sizeof tmp, "%s", test_tmpdir("test_lossy_spill"));
+	const char *old = getenv("TMPDIR");
+	char *saved = old ? strdup(old) : NULL;
+	setenv("TMPDIR", tmp, 1);
+	struct vd_dag ref = {0};
+	CHECK_EQ(dag_copy(&ref, &s.dag), VD_OK);
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0};
+	struct vd_lossy_stats st;
+	CHECK_EQ(vd_lossy_cluster(&ref, &o, &st), VD_OK);
+	uint64_t most = 0;
+	for (int i = 0; i < st.n_levels; i++) {
+		CHECK_EQ(st.level[i].graph_spilled, 0);
+		if (st.level[i].edges > most) most = st.level[i].edges;
+	}
+	CHECK(most > 1000);
+	snprintf(path, sizeof path, "%s/../test_lossy_spill_ref.dag", tmp);
+	long rlen, len;
+	unsigned char *rb = dag_bytes(&ref, path, &rlen);
+	CHECK(rb != NULL && rlen > 0);
+	int spilled[3] = {0, 0, 0}, ok[3] = {0, 0, 0};
+	for (int threads = 1; threads <= 2; threads++) {
+		for (int k = 0; k <= 16; k++) {
+			struct vd_dag d = {0};
+			CHECK_EQ(dag_copy(&d, &s.dag), VD_OK);
+			o.threads = threads;
+			o.graph_budget = k ? (uint64_t)k * most * 48 / 16 : 1;
+			int err = vd_lossy_cluster(&d, &o, &st);
+			CHECK(err == VD_OK || err == VD_ERR_BUDGET);
+			if (k == 0) CHECK_EQ(err, VD_ERR_BUDGET);
+			if (err == VD_ERR_BUDGET)
+				CHECK(strstr(vd_error_detail(), "largest component") != NULL);
+			if (err == VD_OK) {
+				ok[threads]++;
+				int sp = 0;
+				for (int i = 0; i < st.n_levels; i++)
+					if (st.level[i].graph_spilled &&
+					    st.level[i].spill_buckets > 1)
+						sp = 1;
+				spilled[threads] += sp;
+				unsigned char *b = dag_bytes(&d, path, &len);
+				CHECK(b && rb && len == rlen && !memcmp(b, rb, (size_t)len));
+				if (!(b && rb && len == rlen && !memcmp(b, rb, (size_t)len)))
+					fprintf(stderr, "  threads %d budget %" PRIu64
+						": chunk differs\n", threads, o.graph_budget);
+				free(b);
+			}
+			vd_dag_release(&d);
+		}
+	}
+	printf("  spill: %d/%d runs split the graph (1 thread), %d/%d (2)\n",
+	       spilled[1], ok[1], spilled[2], ok[2]);
+	CHECK(spilled[1] > 0);
+	CHECK(spilled[2] > 0);
+	/* nothing left in $TMPDIR */
+	char cmd[900];
+	snprintf(cmd, sizeof cmd, "test -z \"$(ls -A '%s')\"", tmp);
+	CHECK_EQ(system(cmd), 0);
+	if (saved) setenv("TMPDIR", saved, 1);
+	else unsetenv("TMPDIR");
+	free(saved);
+	free(rb);
+	vd_dag_release(&ref);
+	scene_free(&s);
+}
+
 int main(void)
 {
 	RUN(test_effective_refs);
@@ -650,5 +756,6 @@ int main(void)
 	RUN(test_stage);
 	RUN(test_bad_input);
 	RUN(test_graph_budget);
+	RUN(test_graph_spill);
 	return CHECK_DONE();
 }

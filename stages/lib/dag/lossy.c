@@ -10,12 +10,15 @@
 #include "voxdag.h"
 
 #include <inttypes.h>
+#include <malloc.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#include <errno.h>
+#include <fcntl.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 #define NONE UINT32_MAX
@@ -87,41 +90,126 @@ int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
 #define EDGE_BYTES (2 * sizeof(struct vd_lossy_edge))
 
 /* The budget of a pair search shared by its slices: once the slices'
- * arrays would pass `limit` bytes, they stop storing edges and only count
- * them, for the error line to say what the whole graph needs. Capacities
- * only grow, so whether that happens does not depend on the threads. */
+ * arrays would pass `limit` bytes, the graph goes to the spill file `fd`
+ * instead: each slice keeps the array it has (or takes a small one) and
+ * writes it out whenever it is full, at offsets reserved atomically. The
+ * file's order of edges depends on the threads, but its set does not, and
+ * the edges are sorted before they are used. Capacities only grow, so
+ * whether the graph spills does not depend on the threads either. */
 struct edge_budget {
 	uint64_t limit; /* 0: none */
 	uint64_t held;  /* bytes of the slices' arrays (atomic) */
 	int over;       /* atomic */
+	int fd;         /* the spill file, -1: none (yet) */
+	uint64_t end;   /* bytes written or reserved in it (atomic) */
 };
+
+/* edges a slice takes once over the budget, when it holds none yet */
+#define SPILL_EDGES 4096
 
 struct edges {
 	struct vd_lossy_edge *e;
 	size_t n, cap;
+	size_t spilled; /* edges already written to the spill file */
 	struct edge_budget *b;
 };
+
+static int spill_fail(const char *what)
+{
+	return vd_fail(VD_ERR_IO, "cannot %s the similarity graph's spill file "
+		       "in '%s': %s", what, getenv("TMPDIR") ? getenv("TMPDIR")
+		       : "/tmp", strerror(errno));
+}
+
+/* An anonymous file in $TMPDIR (or /tmp): it has no name, or loses it at
+ * once, so nothing is left behind on any exit. */
+static int spill_open(void)
+{
+	const char *dir = getenv("TMPDIR");
+	if (!dir || !*dir) dir = "/tmp";
+	int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+	if (fd >= 0 || (errno != EOPNOTSUPP && errno != EISDIR &&
+			errno != EINVAL))
+		return fd;
+	char path[4200];
+	snprintf(path, sizeof path, "%s/lossy-graph.tmp.XXXXXX", dir);
+	fd = mkstemp(path);
+	if (fd >= 0) unlink(path);
+	return fd;
+}
+
+static int pwrite_all(int fd, const void *p, size_t n, uint64_t off)
+{
+	const uint8_t *b = p;
+	while (n) {
+		ssize_t w = pwrite(fd, b, n, (off_t)off);
+		if (w < 0 && errno == EINTR) continue;
+		if (w <= 0) {
+			if (w == 0) errno = ENOSPC;
+			return spill_fail("write");
+		}
+		b += w;
+		n -= (size_t)w;
+		off += (uint64_t)w;
+	}
+	return 0;
+}
+
+static int pread_all(int fd, void *p, size_t n, uint64_t off)
+{
+	uint8_t *b = p;
+	while (n) {
+		ssize_t r = pread(fd, b, n, (off_t)off);
+		if (r < 0 && errno == EINTR) continue;
+		if (r <= 0) {
+			if (r == 0) errno = EIO;
+			return spill_fail("read");
+		}
+		b += r;
+		n -= (size_t)r;
+		off += (uint64_t)r;
+	}
+	return 0;
+}
+
+static int edge_flush(struct edges *g)
+{
+	if (!g->n) return 0;
+	if (g->b->fd < 0) {
+		errno = EBADF;
+		return spill_fail("create");
+	}
+	size_t bytes = g->n * sizeof *g->e;
+	uint64_t at = __atomic_fetch_add(&g->b->end, bytes, __ATOMIC_RELAXED);
+	int err = pwrite_all(g->b->fd, g->e, bytes, at);
+	if (err) return err;
+	g->spilled += g->n;
+	g->n = 0;
+	return 0;
+}
 
 static int edge_add(struct edges *g, uint32_t u, uint32_t v, uint32_t diff,
 		    double s)
 {
-	if (g->b && __atomic_load_n(&g->b->over, __ATOMIC_RELAXED)) {
-		g->n++; /* counted, not stored */
-		return 0;
-	}
 	if (g->n == g->cap) {
+		int over = g->b && __atomic_load_n(&g->b->over, __ATOMIC_RELAXED);
 		size_t c = g->cap ? g->cap * 2 : 1024;
-		if (g->b && g->b->limit &&
+		if (!over && g->b && g->b->limit &&
 		    __atomic_add_fetch(&g->b->held, (c - g->cap) * sizeof *g->e,
 				       __ATOMIC_RELAXED) > g->b->limit) {
 			__atomic_store_n(&g->b->over, 1, __ATOMIC_RELAXED);
-			g->n++;
-			return 0;
+			over = 1;
 		}
-		void *p = realloc(g->e, c * sizeof *g->e);
-		if (!p) return NOMEM();
-		g->e = p;
-		g->cap = c;
+		if (over && g->cap) {
+			int err = edge_flush(g);
+			if (err) return err;
+		} else {
+			if (over) c = SPILL_EDGES;
+			void *p = realloc(g->e, c * sizeof *g->e);
+			if (!p) return NOMEM();
+			g->e = p;
+			g->cap = c;
+		}
 	}
 	g->e[g->n++] = (struct vd_lossy_edge){u, v, diff, s};
 	return 0;
@@ -329,16 +417,38 @@ static void pair_slice(void *ctx, size_t k, int worker)
 	J->err[k] = err;
 }
 
+/* The spill of a similarity graph: `n` edges, in no particular order, in
+ * the anonymous file `fd` (-1: the graph is in memory); `base` is what
+ * the process held before the search. */
+struct spill {
+	int fd;
+	uint64_t n, base, avail; /* avail: bytes for the graph */
+};
+
 static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 			size_t nc, int64_t m, const uint64_t *brick,
-			int threads, uint64_t budget, struct edges *g)
+			int threads, uint64_t budget, uint64_t graph_budget,
+			struct edges *g, struct spill *sp)
 {
 	struct pair_job *J = calloc(1, sizeof *J);
 	if (!J) return NOMEM();
 	/* what the process holds now, and what is left of the budget */
-	struct edge_budget eb = {0, 0, 0};
+	struct edge_budget eb = {0, 0, 0, -1, 0};
+	/* freed memory that malloc keeps counts in the RSS: the last level's
+	 * graph would otherwise take the budget of this one */
+	if (budget) malloc_trim(0);
 	uint64_t base = budget ? vd_current_rss_bytes() : 0;
-	if (budget) eb.limit = base < budget ? budget - base : 1;
+	uint64_t avail = graph_budget ? graph_budget
+			 : budget ? (base < budget ? budget - base : 1) : 0;
+	if (avail) {
+		eb.limit = avail;
+		/* opened before the threads start, used only if needed */
+		eb.fd = spill_open();
+	}
+	sp->fd = -1;
+	sp->n = 0;
+	sp->base = base;
+	sp->avail = avail;
 	for (int k = 0; k < PAIR_SLICES; k++) J->part[k].b = &eb;
 	J->d = d;
 	J->l = l;
@@ -355,6 +465,7 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		slot = malloc(cap * sizeof *slot);
 		if (!slot) {
 			free(J);
+			if (eb.fd >= 0) close(eb.fd);
 			return NOMEM();
 		}
 		for (uint64_t s = 0; s < cap; s++) slot[s].node = NONE;
@@ -370,16 +481,19 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	size_t total = 0;
 	for (int k = 0; k < PAIR_SLICES; k++) {
 		if (!err && J->err[k]) err = J->err[k];
-		total += J->part[k].n;
+		total += J->part[k].n + J->part[k].spilled;
 	}
-	if (!err && budget && (eb.over || base + total * EDGE_BYTES > budget))
-		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
-			      "(%zu candidates, %zu edges) needs about %" PRIu64
-			      " MiB beside the %" PRIu64 " MiB in use, over the "
-			      "budget of %" PRIu64 " MiB (--mem-budget)", l, nc,
-			      total, (uint64_t)(total * EDGE_BYTES) >> 20,
-			      base >> 20, budget >> 20);
-	if (!err && total) {
+	/* the graph in memory needs its edges twice at every step: when that
+	 * passes the budget the whole graph goes to the file */
+	if (!err && avail && (eb.over || total * EDGE_BYTES > avail)) {
+		for (int k = 0; k < PAIR_SLICES && !err; k++)
+			err = edge_flush(&J->part[k]);
+		if (!err) {
+			sp->fd = eb.fd;
+			sp->n = total;
+			eb.fd = -1;
+		}
+	} else if (!err && total) {
 		g->e = malloc(total * sizeof *g->e);
 		if (!g->e) err = NOMEM();
 		for (int k = 0; k < PAIR_SLICES && !err; k++) {
@@ -390,6 +504,7 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		}
 		g->cap = g->n;
 	}
+	if (eb.fd >= 0) close(eb.fd);
 	for (int k = 0; k < PAIR_SLICES; k++) free(J->part[k].e);
 	free(slot);
 	free(J);
@@ -399,7 +514,8 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			 uint64_t max_refs, double diff_factor, int threads,
 			 uint64_t budget, struct vd_lossy_edge **out,
-			 size_t *n_out, uint64_t *candidates)
+			 size_t *n_out, uint64_t *candidates, uint64_t graph_budget,
+			 struct spill *sp)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
@@ -410,6 +526,8 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*out = NULL;
 	*n_out = 0;
 	*candidates = 0;
+	sp->fd = -1;
+	sp->n = 0;
 	if (l < A || l > L - 2) return 0;
 	const struct vd_dag_level *lv = &d->lv[l];
 	size_t nc = 0;
@@ -421,7 +539,8 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			if (eff[i] <= max_refs)
 				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
-		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget, &g);
+		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget,
+				   graph_budget, &g, sp);
 		goto done;
 	}
 	/* taller: the bricks of level L-2, topology hashes (masks of levels
@@ -464,7 +583,8 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	err = search_pairs(d, l, c, nc, m, brick, threads, budget, &g);
+	err = search_pairs(d, l, c, nc, m, brick, threads, budget,
+			   graph_budget, &g, sp);
 done:
 	for (int k = 0; k < VD_MAX_LEVELS; k++) {
 		free(topo[k]);
@@ -487,8 +607,9 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			   struct vd_lossy_edge **out, size_t *n_out,
 			   uint64_t *candidates)
 {
+	struct spill sp;
 	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
-			     out, n_out, candidates);
+			     out, n_out, candidates, 0, &sp);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -1234,6 +1355,173 @@ static int rebuild_bricks(struct vd_dag *d)
 	return 0;
 }
 
+/* Clusters the graph e[0..ne-1] (edges of level nodes below nl, sorted
+ * by (u, v)) and points map[] of each merged node at its cluster's
+ * representative. Also called on a few whole components at a time of a
+ * spilled graph: each component is clustered alone, its nodes numbered
+ * in the same order and its edges met in the same order as in the whole
+ * graph, so the result is the same. gid: nl entries of NONE, left so. */
+static int cluster_edges(struct vd_lossy_edge *e, size_t ne, uint64_t nl,
+			 const struct vd_lossy_opts *o,
+			 struct vd_lossy_level_stats *ls, uint32_t *gid,
+			 uint32_t *map)
+{
+	/* graph nodes: the candidates with an edge, renumbered */
+	for (size_t k = 0; k < ne; k++) gid[e[k].u] = gid[e[k].v] = 0;
+	uint32_t gn = 0;
+	for (uint64_t i = 0; i < nl; i++)
+		if (gid[i] != NONE) gid[i] = gn++;
+	uint32_t *gnode = malloc((gn + 1ull) * 4), *cl = malloc((gn + 1ull) * 4);
+	uint32_t *best = malloc((gn + 1ull) * 4);
+	double *simsum = calloc(gn + 1ull, 8);
+	int err = 0;
+	if (!gnode || !cl || !simsum || !best) {
+		err = NOMEM();
+		for (uint64_t i = 0; i < nl; i++) gid[i] = NONE;
+		goto out;
+	}
+	for (uint64_t i = 0; i < nl; i++)
+		if (gid[i] != NONE) gnode[gid[i]] = (uint32_t)i;
+	for (size_t k = 0; k < ne; k++) {
+		e[k].u = gid[e[k].u];
+		e[k].v = gid[e[k].v];
+	}
+	for (uint32_t i = 0; i < gn; i++) gid[gnode[i]] = NONE;
+	ls->graph_nodes += gn;
+	if ((err = vd_lossy_mcl(gn, e, ne, o->inflation, o->threads, cl)))
+		goto out;
+	/* representative: the largest sum of similarities to the other
+	 * members, ties to the smallest node */
+	for (size_t k = 0; k < ne; k++)
+		if (cl[e[k].u] == cl[e[k].v]) {
+			simsum[e[k].u] += e[k].s;
+			simsum[e[k].v] += e[k].s;
+		}
+	for (uint32_t i = 0; i < gn; i++) best[i] = NONE;
+	for (uint32_t i = 0; i < gn; i++) {
+		uint32_t c = cl[i];
+		if (best[c] == NONE || simsum[i] > simsum[best[c]]) best[c] = i;
+	}
+	for (uint32_t i = 0; i < gn; i++) {
+		if (cl[i] == i) ls->clusters++;
+		uint32_t r = best[cl[i]];
+		map[gnode[i]] = gnode[r];
+		if (r != i) ls->merged++;
+	}
+out:
+	free(gnode);
+	free(cl);
+	free(best);
+	free(simsum);
+	return err;
+}
+
+/* edges read from a spill file at a time */
+#define SPILL_READ 65536
+
+/* Clusters the spilled graph of level l: its connected components by
+ * union-find over the level's nodes (memory per node, not per edge), then
+ * groups of consecutive components (by smallest node), each group's edges
+ * within what is left of the budget, read from the file one group at a
+ * time, sorted and clustered as in memory. */
+static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
+			   const struct vd_lossy_opts *o,
+			   struct vd_lossy_level_stats *ls, uint32_t *gid,
+			   uint32_t *map)
+{
+	uint32_t *root = malloc((nl + 1) * 4);
+	uint64_t *cnt = calloc(nl + 1, 8), *bsz = NULL, nb = 0, bcap = 0;
+	struct vd_lossy_edge *buf = malloc(SPILL_READ * sizeof *buf), *e = NULL;
+	int err = 0;
+	if (!root || !cnt || !buf) {
+		err = NOMEM();
+		goto out;
+	}
+	for (uint64_t i = 0; i < nl; i++) root[i] = (uint32_t)i;
+	for (int pass = 0; pass < 2 && !err; pass++) {
+		for (uint64_t at = 0; at < sp->n && !err; at += SPILL_READ) {
+			size_t k = sp->n - at < SPILL_READ ? (size_t)(sp->n - at) : SPILL_READ;
+			if ((err = pread_all(sp->fd, buf, k * sizeof *buf,
+					     at * sizeof *buf)))
+				break;
+			for (size_t t = 0; t < k; t++) {
+				if (pass == 0) uf_union(root, buf[t].u, buf[t].v);
+				else cnt[root[buf[t].u]]++;
+			}
+		}
+		if (pass == 0)
+			for (uint64_t i = 0; i < nl; i++) root[i] = uf_find(root, i);
+	}
+	if (err) goto out;
+	uint64_t cap = sp->avail / EDGE_BYTES, big = 0;
+	for (uint64_t i = 0; i < nl; i++)
+		if (cnt[i] > big) big = cnt[i];
+	if (big > cap) {
+		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
+			      "(%" PRIu64 " candidates, %" PRIu64 " edges) needs "
+			      "about %" PRIu64 " MiB for its largest component "
+			      "(%" PRIu64 " edges), over the %" PRIu64 " MiB "
+			      "left of the budget of %" PRIu64 " MiB beside the %"
+			      PRIu64 " MiB in use (--mem-budget)", l,
+			      ls->candidates, sp->n, (big * EDGE_BYTES) >> 20,
+			      big, sp->avail >> 20, o->mem_budget >> 20,
+			      sp->base >> 20);
+		goto out;
+	}
+	/* cnt[root] becomes the component's group */
+	uint64_t acc = 0;
+	for (uint64_t r = 0; r < nl; r++) {
+		if (!cnt[r]) continue;
+		if (!nb || acc + cnt[r] > cap) {
+			if (nb == bcap) {
+				bcap = bcap ? 2 * bcap : 16;
+				void *p = realloc(bsz, bcap * 8);
+				if (!p) {
+					err = NOMEM();
+					goto out;
+				}
+				bsz = p;
+			}
+			bsz[nb++] = 0;
+			acc = 0;
+		}
+		acc += cnt[r];
+		bsz[nb - 1] += cnt[r];
+		cnt[r] = nb - 1;
+	}
+	ls->spill_buckets = nb;
+	for (uint64_t b = 0; b < nb && !err; b++) {
+		e = malloc(bsz[b] * sizeof *e);
+		if (!e) {
+			err = NOMEM();
+			break;
+		}
+		size_t ne = 0;
+		for (uint64_t at = 0; at < sp->n && !err; at += SPILL_READ) {
+			size_t k = sp->n - at < SPILL_READ ? (size_t)(sp->n - at) : SPILL_READ;
+			if ((err = pread_all(sp->fd, buf, k * sizeof *buf,
+					     at * sizeof *buf)))
+				break;
+			for (size_t t = 0; t < k; t++)
+				if (cnt[root[buf[t].u]] == b && ne < bsz[b])
+					e[ne++] = buf[t];
+		}
+		if (!err && ne != bsz[b])
+			err = vd_fail(VD_ERR_INTERNAL, "the spill file of level "
+				      "%d changed under the clustering", l);
+		if (!err) err = edges_sort(e, ne, nl);
+		if (!err) err = cluster_edges(e, ne, nl, o, ls, gid, map);
+		free(e);
+		e = NULL;
+	}
+out:
+	free(root);
+	free(cnt);
+	free(bsz);
+	free(buf);
+	return err;
+}
+
 int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		     struct vd_lossy_stats *st)
 {
@@ -1284,95 +1572,50 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		st->seconds_eff += t1 - t0;
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
+		struct spill sp;
 		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
 				    o->threads, o->mem_budget, &e, &ne,
-				    &ls->candidates);
+				    &ls->candidates, o->graph_budget, &sp);
 		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
 		if (err) break;
 		double t2 = vd_seconds();
 		st->seconds_graph += t2 - t1;
-		ls->edges = ne;
-		if (!ne) {
+		ls->edges = sp.fd >= 0 ? sp.n : ne;
+		if (!ls->edges) {
 			free(e);
 			ls->nodes_after = ls->nodes_before;
 			ls->level_nodes_after = d->lv[l].nodes;
 			continue;
 		}
-		/* graph nodes: the candidates with an edge, renumbered */
 		uint64_t nl = d->lv[l].nodes;
-		uint32_t *gid = malloc(nl * 4), *gnode = NULL, *cl = NULL,
-			 *map = NULL;
-		double *simsum = NULL;
-		if (!gid) {
-			free(e);
-			err = NOMEM();
-			break;
-		}
-		for (uint64_t i = 0; i < nl; i++) gid[i] = NONE;
-		for (size_t k = 0; k < ne; k++) gid[e[k].u] = gid[e[k].v] = 0;
-		uint32_t gn = 0;
-		for (uint64_t i = 0; i < nl; i++)
-			if (gid[i] != NONE) gid[i] = gn++;
-		gnode = malloc((gn + 1ull) * 4);
-		cl = malloc((gn + 1ull) * 4);
-		simsum = calloc(gn + 1ull, 8);
-		map = malloc(nl * 4);
-		if (!gnode || !cl || !simsum || !map) {
+		uint32_t *gid = malloc(nl * 4), *map = malloc(nl * 4);
+		if (!gid || !map) {
 			err = NOMEM();
 		} else {
 			for (uint64_t i = 0; i < nl; i++) {
 				map[i] = (uint32_t)i;
-				if (gid[i] != NONE) gnode[gid[i]] = (uint32_t)i;
+				gid[i] = NONE;
 			}
-			for (size_t k = 0; k < ne; k++) {
-				e[k].u = gid[e[k].u];
-				e[k].v = gid[e[k].v];
+			if (sp.fd >= 0) {
+				ls->graph_spilled = 1;
+				err = cluster_spilled(l, nl, &sp, o, ls, gid, map);
+			} else {
+				err = cluster_edges(e, ne, nl, o, ls, gid, map);
 			}
-			ls->graph_nodes = gn;
-			err = vd_lossy_mcl(gn, e, ne, o->inflation, o->threads, cl);
 		}
+		if (sp.fd >= 0) close(sp.fd);
+		free(e);
+		free(gid);
 		double t3 = vd_seconds();
 		st->seconds_cluster += t3 - t2;
-		if (!err) {
-			/* representative: the largest sum of similarities to
-			 * the other members, ties to the smallest node */
-			for (size_t k = 0; k < ne; k++)
-				if (cl[e[k].u] == cl[e[k].v]) {
-					simsum[e[k].u] += e[k].s;
-					simsum[e[k].v] += e[k].s;
-				}
-			uint32_t *best = malloc((gn + 1ull) * 4);
-			if (!best) {
-				err = NOMEM();
-			} else {
-				for (uint32_t i = 0; i < gn; i++) best[i] = NONE;
-				for (uint32_t i = 0; i < gn; i++) {
-					uint32_t c = cl[i];
-					if (best[c] == NONE || simsum[i] > simsum[best[c]])
-						best[c] = i;
-				}
-				for (uint32_t i = 0; i < gn; i++) {
-					if (cl[i] == i) ls->clusters++;
-					uint32_t r = best[cl[i]];
-					map[gnode[i]] = gnode[r];
-					if (r != i) ls->merged++;
-				}
-				free(best);
-				if (l > A) {
-					struct vd_dag_level *pv = &d->lv[l - 1];
-					for (uint64_t j = 0; j < pv->refs; j++)
-						pv->child[j] = map[pv->child[j]];
-				}
-				err = l > A ? dag_dedupe_up(d, l - 1) : 0;
-			}
+		if (!err && l > A) {
+			struct vd_dag_level *pv = &d->lv[l - 1];
+			for (uint64_t j = 0; j < pv->refs; j++)
+				pv->child[j] = map[pv->child[j]];
+			err = dag_dedupe_up(d, l - 1);
 		}
 		st->seconds_reduce += vd_seconds() - t3;
-		free(gid);
-		free(gnode);
-		free(cl);
-		free(simsum);
 		free(map);
-		free(e);
 		ls->nodes_after = dag_nodes(d);
 		ls->level_nodes_after = d->lv[l].nodes;
 	}
@@ -1577,6 +1820,8 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 		vd_json_u64(j, "candidates", l->candidates);
 		vd_json_u64(j, "graph_nodes", l->graph_nodes);
 		vd_json_u64(j, "edges", l->edges);
+		vd_json_u64(j, "graph_spilled", (uint64_t)l->graph_spilled);
+		vd_json_u64(j, "spill_buckets", l->spill_buckets);
 		vd_json_u64(j, "clusters", l->clusters);
 		vd_json_u64(j, "merged", l->merged);
 		vd_json_u64(j, "level_nodes_before", l->level_nodes_before);
