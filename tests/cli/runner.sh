@@ -139,7 +139,10 @@ $R -q run "$CFG" 2>"$T/kill.err" &
 pid=$!
 child=
 for i in $(seq 1 500); do
-	child=$(pgrep -P $pid -f 'svo-to-dag|voxelize' | head -n 1)
+	# jobs are the children of the runner's launcher (voxdag-spawn), or
+	# the runner's own when it has none
+	kids=$(pgrep -d, -P $pid)
+	child=$(pgrep -P "$pid${kids:+,$kids}" -f 'svo-to-dag|voxelize' | head -n 1)
 	[ -n "$child" ] && break
 	sleep 0.01
 done
