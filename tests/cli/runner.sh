@@ -158,6 +158,35 @@ fi
 expect job_killed_then_rerun 0 '' $R -q run "$CFG"
 expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
 
+# --- the job launcher (voxdag-spawn --serve, the runner's child) killed in
+# the middle: the runner says so, fails the jobs it ran (killed with it:
+# no orphans), exits 1 without hanging, and a rerun completes
+rm -rf $D
+write_cfg 11 2
+timeout 120 $R -q run "$CFG" 2>"$T/launcher.err" &
+pid=$!
+launcher= job=
+for i in $(seq 1 500); do
+	launcher=$(pgrep -P $(pgrep -P $pid | head -n 1) -f 'voxdag-spawn --serve' 2>/dev/null)
+	[ -n "$launcher" ] && job=$(pgrep -P $launcher | head -n 1)
+	[ -n "$job" ] && break
+	sleep 0.01
+done
+[ -n "$job" ] && kill -9 "$launcher"
+wait $pid
+rc=$?
+sleep 0.2
+state=$(sed 's/.*) \(.\).*/\1/' /proc/$job/stat 2>/dev/null)
+if [ -n "$job" ] && [ $rc -eq 1 ] && { [ -z "$state" ] || [ "$state" = Z ]; } &&
+   [ "$(grep -c 'job launcher voxdag-spawn died' "$T/launcher.err")" -eq 1 ] &&
+   grep -q 'did not finish: the job launcher' "$T/launcher.err"; then
+	pass launcher_killed_reported
+else
+	fail launcher_killed_reported "rc=$rc launcher=$launcher job=$job ($state)" "$(cat "$T/launcher.err")"
+fi
+expect launcher_killed_then_rerun 0 '' $R -q run "$CFG"
+expect launcher_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+
 # --- a second runner on the same directory refuses
 rm -rf $D
 $R -q run "$CFG" &
