@@ -8,8 +8,9 @@
  *
  *   voxdag-spawn FD PROG [ARGS...]
  *
- * (a trampoline per job, as the runner used before the launcher) forks PROG, waits for it and writes one struct vd_spawn_rec (its wait
- * status, peak RSS and CPU times) to the pipe FD, then exits as PROG did.
+ * (a trampoline per job, as the runner used before the launcher) forks
+ * PROG, waits for it and writes one struct vd_spawn_rec (its wait status,
+ * peak RSS and CPU times) to the pipe FD, then exits as PROG did.
  *
  * Why it exists: a process's peak RSS (wait4's ru_maxrss) starts at that of
  * the memory it had before its exec, and a job the runner starts with
@@ -18,13 +19,14 @@
  * at the runner's 119 MiB, and the report's per-stage peaks were the
  * runner's. This program is exec'd first (so it is small), and the job is
  * forked from it, so the job's peak is its own plus this program's few
- * hundred KiB. It is linked statically and uses libc only: it runs once
- * per job, so its exec must cost little.
+ * hundred KiB. It is linked statically and uses libc only. One launcher
+ * per run rather than a trampoline per job: an exec per job cost ~1.7 ms,
+ * over 10% of a cell's CPU on large plans.
  *
- * It dies with the runner (PR_SET_PDEATHSIG, set before its exec and kept
- * across it), and the job dies with it, so a killed runner still leaves no
- * orphans. If it dies before writing its record the runner sees its own
- * exit and takes the job as failed with that cause (no peak). */
+ * The launcher dies with the runner (PR_SET_PDEATHSIG, set before its exec
+ * and kept across it), and its jobs die with it, so a killed runner still
+ * leaves no orphans. If it dies, its socket closes: the runner says so and
+ * takes the jobs it ran as failed. */
 #include "spawn.h"
 
 #include <errno.h>
