@@ -160,6 +160,9 @@ static void start(int sock, char *buf, size_t n, char **argv, int log,
 static int serve(int sock)
 {
 	pid_t self = getpid();
+	/* inherited without close-on-exec; the jobs must not hold it, or a
+	 * dead launcher's socket would stay open while an orphan lives */
+	fcntl(sock, F_SETFD, FD_CLOEXEC);
 	sigset_t job_mask, blocked, waiting;
 	sigprocmask(SIG_SETMASK, NULL, &job_mask);
 	/* Ctrl-C and a hang-up reach the jobs and the runner themselves (one

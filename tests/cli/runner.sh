@@ -172,11 +172,14 @@ for i in $(seq 1 500); do
 	[ -n "$job" ] && break
 	sleep 0.01
 done
-[ -n "$job" ] && kill -9 "$launcher"
+# the job is stopped first, so it cannot end on its own meanwhile: only the
+# launcher's death (PR_SET_PDEATHSIG) ends it
+[ -n "$job" ] && kill -STOP "$job" && kill -9 "$launcher"
 wait $pid
 rc=$?
 sleep 0.2
 state=$(sed 's/.*) \(.\).*/\1/' /proc/$job/stat 2>/dev/null)
+[ -n "$job" ] && kill -9 "$job" 2>/dev/null # an orphan (the check fails)
 if [ -n "$job" ] && [ $rc -eq 1 ] && { [ -z "$state" ] || [ "$state" = Z ]; } &&
    [ "$(grep -c 'job launcher voxdag-spawn died' "$T/launcher.err")" -eq 1 ] &&
    grep -q 'did not finish: the job launcher' "$T/launcher.err"; then
