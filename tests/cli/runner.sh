@@ -163,7 +163,9 @@ expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox
 # no orphans), exits 1 without hanging, and a rerun completes
 rm -rf $D
 write_cfg 11 2
-timeout 120 $R -q run "$CFG" 2>"$T/launcher.err" &
+# (--foreground: in its own process group, timeout would leave a stopped
+# orphan to SIGHUP when it exits, and the check below could not fail)
+timeout --foreground 120 $R -q run "$CFG" 2>"$T/launcher.err" &
 pid=$!
 launcher= job=
 for i in $(seq 1 500); do
