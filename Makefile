@@ -114,9 +114,9 @@ $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
 
-# The runner's per-job trampoline (pipeline/spawn/spawn.c says why):
-# static and libc only, as it is exec'd once per job; no sanitizers, which
-# would make it large and would only watch a fork and a wait.
+# The runner's job launcher (pipeline/spawn/spawn.c says why): static and
+# libc only, so it is small; no sanitizers, which would make it large and
+# would only watch forks and waits.
 $(OUT)/bin/voxdag-spawn: pipeline/spawn/spawn.c pipeline/spawn/spawn.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -std=c11 $(WARN) -O2 -static -o $@ $<

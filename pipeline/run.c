@@ -11,9 +11,11 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <poll.h>
 #include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -125,27 +127,38 @@ static void prepare_output(struct job *j)
 /* Why start_job last failed. */
 static char start_error[1500];
 
-/* The runner's signal mask before it blocked SIGCHLD (to wait for it
- * with sigtimedwait); children get it back before they exec. */
-static sigset_t child_mask;
-
-/* The trampoline each local job is started through (voxdag-spawn, beside
- * this program; pipeline/spawn/spawn.c says why), and the pipe it reports
- * on: the read end non-blocking, both close-on-exec (the write end is made
- * inheritable in the child only). Without the trampoline (not built or
- * not installed) jobs are started directly and their peaks include the
- * runner's memory, which runner.log says once. */
+/* The launcher every local job is started through (voxdag-spawn --serve,
+ * beside this program; pipeline/spawn/spawn.c says why): one process,
+ * exec'd at the run's start, that vforks each job, so the job's peak
+ * memory is its own and not the runner's, for the cost of a message
+ * rather than of a process per job. launch_fd is the runner's end of
+ * their socket (-1 without a launcher). Without it (not built or not
+ * installed, or dead) jobs are started directly and their peaks include
+ * the runner's memory, which runner.log says once. */
 static char spawn_path[PATH_MAX];
-static int spawn_pipe[2] = {-1, -1};
+static int launch_fd = -1;
+static int launch_used;  /* a launcher was started (it may be gone) */
+static pid_t launch_pid; /* its pid while not reaped, else 0 */
 
-/* Records read from the pipe whose trampoline is not reaped yet (at most
- * one per running job, so a short list). */
+/* Jobs' ends read from the socket and not taken yet (at most one per
+ * running job, so a short list). */
 static struct vd_spawn_rec *spawn_recs;
 static int nspawn_recs, spawn_cap;
 
-/* CPU the trampolines spent of their own (theirs minus their job's): the
- * runner's cost, added to its figure in runner.log. */
-static double spawn_cpu;
+/* The CPU of the jobs the launcher reported, to tell its own cost (its
+ * total, seen when it is reaped, minus theirs) from theirs; and that cost:
+ * the runner's, added to its figure in runner.log. */
+static double launched_cpu, spawn_cpu;
+
+/* Pids of the local jobs started directly while a launcher runs (a
+ * request too large for it): reaped with wait4. */
+static pid_t *direct_pids;
+static int ndirect;
+
+/* The runner's signal mask before it blocked SIGCHLD (to wait for it
+ * with sigtimedwait): the launcher's, and children get it back before
+ * they exec. */
+static sigset_t child_mask;
 
 static double rusage_seconds(const struct rusage *r)
 {
@@ -155,6 +168,7 @@ static double rusage_seconds(const struct rusage *r)
 
 static void spawn_setup(void)
 {
+	int sv[2] = {-1, -1};
 	ssize_t n = readlink("/proc/self/exe", spawn_path, sizeof spawn_path - 1);
 	char *slash = n > 0 ? memrchr(spawn_path, '/', (size_t)n) : NULL;
 	if (!slash || (size_t)(slash - spawn_path) + 14 >= sizeof spawn_path) {
@@ -162,49 +176,170 @@ static void spawn_setup(void)
 	} else {
 		strcpy(slash + 1, "voxdag-spawn");
 		if (access(spawn_path, X_OK) != 0 ||
-		    pipe2(spawn_pipe, O_CLOEXEC | O_NONBLOCK) != 0)
+		    socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) != 0)
 			spawn_path[0] = 0;
 	}
 	if (spawn_path[0]) {
-		/* the write end blocks: a record is never dropped */
-		fcntl(spawn_pipe[1], F_SETFL, 0);
-		return;
+		char fdarg[16];
+		snprintf(fdarg, sizeof fdarg, "%d", sv[1]);
+		char *argv[] = {spawn_path, "--serve", fdarg, NULL};
+		pid_t self = getpid();
+		pid_t pid = vfork();
+		if (pid == 0) {
+			/* it dies with the runner, and its jobs with it */
+			prctl(PR_SET_PDEATHSIG, SIGKILL);
+			if (getppid() != self)
+				_exit(127);
+			fcntl(sv[1], F_SETFD, 0);
+			execv(argv[0], argv);
+			_exit(127);
+		}
+		close(sv[1]);
+		if (pid > 0) {
+			launch_fd = sv[0];
+			launch_pid = pid;
+			launch_used = 1;
+			return;
+		}
+		close(sv[0]);
+		spawn_path[0] = 0;
 	}
 	log_line("no voxdag-spawn beside the runner: jobs start directly, "
 		 "and their peak memory includes the runner's");
 }
 
-/* Takes every record waiting in the pipe into spawn_recs. */
-static void spawn_drain(void)
+/* The launcher is gone (EOF on its socket, or reaped): one line, and its
+ * running jobs (killed with it) are taken as failed by reap_local. */
+static void launcher_lost(int status, int reaped)
 {
-	for (;;) {
+	pid_t pid = launch_pid;
+	if (!reaped)
+		while (waitpid(pid, &status, 0) < 0 && errno == EINTR)
+			;
+	launch_pid = 0;
+	close(launch_fd);
+	launch_fd = -1;
+	char how[64];
+	if (WIFSIGNALED(status))
+		snprintf(how, sizeof how, "killed by signal %d", WTERMSIG(status));
+	else
+		snprintf(how, sizeof how, "exit %d", WEXITSTATUS(status));
+	log_line("the job launcher (pid %ld) died (%s): its running jobs "
+		 "failed, later ones start directly", (long)pid, how);
+	fprintf(stderr, "voxdag: the job launcher voxdag-spawn died (%s); "
+		"the jobs it was running failed with it\n", how);
+}
+
+/* Takes every record waiting on the socket into spawn_recs (blocking
+ * until one comes when `wait`). Returns -1 when the launcher is gone. */
+static int spawn_drain(int wait)
+{
+	while (launch_fd >= 0) {
 		struct vd_spawn_rec r;
-		ssize_t n = read(spawn_pipe[0], &r, sizeof r);
+		ssize_t n = recv(launch_fd, &r, sizeof r, wait ? 0 : MSG_DONTWAIT);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+			return 0;
+		if (n <= 0) {
+			launcher_lost(0, 0);
+			return -1;
+		}
 		if (n != (ssize_t)sizeof r || r.magic != VD_SPAWN_MAGIC)
-			return; /* empty (EAGAIN), or not ours: nothing to use */
+			continue; /* not ours: nothing to use */
 		if (nspawn_recs == spawn_cap) {
 			int cap = spawn_cap ? 2 * spawn_cap : 16;
 			void *q = realloc(spawn_recs, (size_t)cap * sizeof r);
 			if (!q)
-				return; /* the job is then reported without a peak */
+				continue; /* the job is then reported without a peak */
 			spawn_recs = q;
 			spawn_cap = cap;
 		}
 		spawn_recs[nspawn_recs++] = r;
+		if (wait)
+			return 0;
+	}
+	return -1;
+}
+
+/* Asks the launcher to start argv with log fd. Returns the pid, -1 with
+ * start_error set, or -2 when the request cannot go to the launcher (too
+ * large, or the launcher is gone): the caller starts the job itself. */
+static pid_t launch(char **argv, int fd, char *start_err, size_t cap)
+{
+	size_t len = 0;
+	for (int i = 0; argv[i]; i++)
+		len += strlen(argv[i]) + 1;
+	if (len > VD_LAUNCH_MAX_REQ)
+		return -2;
+	char *buf = malloc(len);
+	if (!buf)
+		return -2;
+	char *b = buf;
+	for (int i = 0; argv[i]; i++) {
+		size_t l = strlen(argv[i]) + 1;
+		memcpy(b, argv[i], l);
+		b += l;
+	}
+	union {
+		struct cmsghdr h;
+		char space[CMSG_SPACE(sizeof(int))];
+	} ctl;
+	memset(&ctl, 0, sizeof ctl);
+	struct iovec iov = {buf, len};
+	struct msghdr m;
+	memset(&m, 0, sizeof m);
+	m.msg_iov = &iov;
+	m.msg_iovlen = 1;
+	m.msg_control = ctl.space;
+	m.msg_controllen = sizeof ctl.space;
+	struct cmsghdr *c = CMSG_FIRSTHDR(&m);
+	c->cmsg_level = SOL_SOCKET;
+	c->cmsg_type = SCM_RIGHTS;
+	c->cmsg_len = CMSG_LEN(sizeof(int));
+	memcpy(CMSG_DATA(c), &fd, sizeof fd);
+	ssize_t n;
+	while ((n = sendmsg(launch_fd, &m, MSG_NOSIGNAL)) < 0 && errno == EINTR)
+		;
+	free(buf);
+	if (n < 0) {
+		if (errno == EMSGSIZE || errno == ENOBUFS)
+			return -2;
+		launcher_lost(0, 0);
+		return -2;
+	}
+	/* its reply comes next, after any job ends it reported first */
+	for (;;) {
+		for (int i = 0; i < nspawn_recs; i++) {
+			struct vd_spawn_rec r = spawn_recs[i];
+			if (r.type != VD_LAUNCH_STARTED && r.type != VD_LAUNCH_FAILED)
+				continue;
+			spawn_recs[i] = spawn_recs[--nspawn_recs];
+			if (r.type == VD_LAUNCH_STARTED)
+				return (pid_t)r.pid;
+			snprintf(start_err, cap, "%s", strerror(r.status));
+			return -1;
+		}
+		if (spawn_drain(1) != 0)
+			return -2; /* gone: said once; started directly */
 	}
 }
 
-/* The record of trampoline `pid` (removed from the list), 0 if none. */
-static int spawn_take(pid_t pid, struct vd_spawn_rec *out)
+/* Ends the launcher at the end of the run (it exits when its socket
+ * closes) and counts its own CPU. */
+static void launcher_stop(void)
 {
-	spawn_drain();
-	for (int i = 0; i < nspawn_recs; i++)
-		if (spawn_recs[i].pid == (int32_t)pid) {
-			*out = spawn_recs[i];
-			spawn_recs[i] = spawn_recs[--nspawn_recs];
-			return 1;
-		}
-	return 0;
+	if (launch_fd < 0)
+		return;
+	close(launch_fd);
+	launch_fd = -1;
+	int status;
+	struct rusage ru;
+	while (wait4(launch_pid, &status, 0, &ru) < 0 && errno == EINTR)
+		;
+	launch_pid = 0;
+	double own = rusage_seconds(&ru) - launched_cpu;
+	spawn_cpu += own > 0 ? own : 0;
 }
 
 static pid_t start_job(const struct plan *p, struct job *j)
@@ -216,28 +351,12 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	 * calls (vfork: it shares our memory until it execs, which spares
 	 * copying the runner's page tables for every one of 100,000 jobs) */
 	size_t len = 2;
-	int argc = 0;
-	for (int i = 0; j->argv[i]; i++, argc++)
+	for (int i = 0; j->argv[i]; i++)
 		len += strlen(j->argv[i]) + 1;
-	/* through the trampoline: voxdag-spawn FD PROG ARGS... */
-	char fdarg[16];
 	char **argv = j->argv;
-	char **spawn_argv = NULL;
-	if (spawn_path[0]) {
-		spawn_argv = malloc(((size_t)argc + 3) * sizeof *spawn_argv);
-		if (!spawn_argv)
-			return -1;
-		snprintf(fdarg, sizeof fdarg, "%d", spawn_pipe[1]);
-		spawn_argv[0] = spawn_path;
-		spawn_argv[1] = fdarg;
-		memcpy(spawn_argv + 2, j->argv, ((size_t)argc + 1) * sizeof *argv);
-		argv = spawn_argv;
-	}
 	char *head = malloc(len + 1), failed[PATH_MAX + 64];
-	if (!head) {
-		free(spawn_argv);
+	if (!head)
 		return -1;
-	}
 	int nfailed = snprintf(failed, sizeof failed, "voxdag: cannot run "
 			       "'%s'\n", argv[0]);
 	char *h = head;
@@ -249,17 +368,24 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	 * log cannot be written (a full disk) is not started, as its error
 	 * would be lost with the log */
 	int fd = open(lp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-	ssize_t wrote = fd >= 0 ? write(fd, head, (size_t)(h - head)) : -1;
-	if (wrote != (ssize_t)(h - head)) {
+	size_t hlen = (size_t)(h - head);
+	ssize_t wrote = fd >= 0 ? write(fd, head, hlen) : -1;
+	free(head);
+	if (wrote != (ssize_t)hlen) {
 		int e = wrote < 0 ? errno : ENOSPC;
 		snprintf(start_error, sizeof start_error, "cannot %s its log "
 			 "'%s': %s", fd < 0 ? "create" : "write", lp,
 			 strerror(e));
 		if (fd >= 0)
 			close(fd);
-		free(head);
-		free(spawn_argv);
 		return -1;
+	}
+	if (launch_fd >= 0) {
+		pid_t pid = launch(argv, fd, start_error, sizeof start_error);
+		if (pid != -2) {
+			close(fd);
+			return pid;
+		}
 	}
 	pid_t pid = vfork();
 	if (pid == 0) {
@@ -271,8 +397,6 @@ static pid_t start_job(const struct plan *p, struct job *j)
 		int null = open("/dev/null", O_RDONLY);
 		if (null >= 0)
 			dup2(null, 0);
-		if (spawn_argv) /* the trampoline's end of the pipe stays open */
-			fcntl(spawn_pipe[1], F_SETFD, 0);
 		execv(argv[0], argv);
 		if (write(2, failed, (size_t)nfailed) < 0) {
 			/* nothing more to say */
@@ -281,10 +405,10 @@ static pid_t start_job(const struct plan *p, struct job *j)
 	}
 	int saved = errno;
 	close(fd);
-	free(head);
-	free(spawn_argv);
 	if (pid < 0)
 		snprintf(start_error, sizeof start_error, "%s", strerror(saved));
+	else if (launch_used)
+		direct_pids[ndirect++] = pid; /* beside the launcher's jobs */
 	return pid;
 }
 
@@ -405,42 +529,103 @@ static void progress(const struct plan *p, double t0, int tty, int final)
  * a walk over every job. */
 static int *running_local, nrunning_local;
 
+/* Takes running job r (an index in running_local) off the list, filling
+ * in *e what is known of every end. */
+static int take_running(const struct plan *p, int r, struct job_end *e)
+{
+	int i = running_local[r];
+	running_local[r] = running_local[--nrunning_local];
+	memset(e, 0, sizeof *e);
+	e->seconds = vd_seconds() - p->jobs[i].start;
+	return i;
+}
+
+static void set_status(struct job_end *e, int status)
+{
+	e->exited = WIFEXITED(status);
+	e->code = e->exited ? WEXITSTATUS(status) : 0;
+	e->signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+}
+
+static int is_direct(pid_t pid, int drop)
+{
+	for (int k = 0; k < ndirect; k++)
+		if (direct_pids[k] == pid) {
+			if (drop)
+				direct_pids[k] = direct_pids[--ndirect];
+			return 1;
+		}
+	return 0;
+}
+
+/* An end the launcher reported, or a launched job failed with a dead
+ * launcher: its index (filling *e), else -1. */
+static int reap_launched(const struct plan *p, struct job_end *e)
+{
+	if (launch_fd >= 0)
+		spawn_drain(0);
+	while (nspawn_recs > 0) {
+		struct vd_spawn_rec sr = spawn_recs[--nspawn_recs];
+		if (sr.type != VD_LAUNCH_ENDED)
+			continue; /* a reply to no request: nothing to use */
+		launched_cpu += (double)(sr.utime_us + sr.stime_us) / 1e6;
+		for (int r = 0; r < nrunning_local; r++) {
+			const struct job *j = &p->jobs[running_local[r]];
+			if (j->state != JOB_RUNNING || j->pid != sr.pid)
+				continue;
+			int i = take_running(p, r, e);
+			e->peak_rss = sr.peak_rss;
+			set_status(e, sr.status);
+			return i;
+		}
+	}
+	if (launch_fd >= 0)
+		return -1;
+	/* the launcher is gone, and its jobs with it (PR_SET_PDEATHSIG) */
+	for (int r = 0; r < nrunning_local; r++) {
+		const struct job *j = &p->jobs[running_local[r]];
+		if (j->state != JOB_RUNNING || is_direct(j->pid, 0))
+			continue;
+		int i = take_running(p, r, e);
+		snprintf(e->reason, sizeof e->reason, "the job launcher "
+			 "(voxdag-spawn) died while it ran");
+		return i;
+	}
+	return -1;
+}
+
 /* The index of a local job that ended (filling *e), -1 when none has yet,
  * -2 when there is no child left to wait for. */
 static int reap_local(const struct plan *p, struct job_end *e)
 {
+	if (launch_used) {
+		int i = reap_launched(p, e);
+		if (i >= 0 || ndirect == 0)
+			return i;
+	}
 	int status;
 	struct rusage ru;
 	pid_t pid = wait4(-1, &status, WNOHANG, &ru);
 	if (pid == 0 || (pid < 0 && errno == EINTR))
 		return -1;
 	if (pid < 0)
-		return -2;
+		return launch_fd >= 0 ? -1 : -2;
+	if (launch_pid > 0 && pid == launch_pid) {
+		if (launch_fd >= 0)
+			launcher_lost(status, 1);
+		launch_pid = 0;
+		return -1;
+	}
+	if (launch_used)
+		is_direct(pid, 1);
 	for (int r = 0; r < nrunning_local; r++) {
-		int i = running_local[r];
-		const struct job *j = &p->jobs[i];
+		const struct job *j = &p->jobs[running_local[r]];
 		if (j->state != JOB_RUNNING || j->pid != pid)
 			continue;
-		running_local[r] = running_local[--nrunning_local];
-		memset(e, 0, sizeof *e);
-		e->seconds = vd_seconds() - j->start;
+		int i = take_running(p, r, e);
+		/* started directly: its peak includes the runner's memory */
 		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
-		struct vd_spawn_rec sr;
-		if (spawn_path[0] && spawn_take(pid, &sr)) {
-			/* the job's own end, seen by its trampoline */
-			status = sr.status;
-			e->peak_rss = sr.peak_rss;
-			double own = rusage_seconds(&ru) -
-				     (double)(sr.utime_us + sr.stime_us) / 1e6;
-			spawn_cpu += own > 0 ? own : 0;
-		} else if (spawn_path[0]) {
-			/* the trampoline died before its job ended (killed):
-			 * its own peak is the runner's, not the job's */
-			e->peak_rss = 0;
-		}
-		e->exited = WIFEXITED(status);
-		e->code = e->exited ? WEXITSTATUS(status) : 0;
-		e->signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+		set_status(e, status);
 		return i;
 	}
 	return -1; /* not one of ours */
@@ -575,7 +760,8 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	 * every slot is taken: the runner's cost stays near-linear in jobs */
 	int scan_from = 0;
 	running_local = calloc((size_t)c->jobs + 1, sizeof *running_local);
-	if (!running_local) {
+	direct_pids = calloc((size_t)c->jobs + 1, sizeof *direct_pids);
+	if (!running_local || !direct_pids) {
 		fprintf(stderr, "voxdag: out of memory\n");
 		return 1;
 	}
@@ -722,7 +908,17 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 					left = 0.01;
 				struct timespec ts = {(time_t)left,
 						      (long)((left - (time_t)left) * 1e9)};
-				sigtimedwait(&chld, NULL, &ts);
+				if (launch_fd >= 0) {
+					/* ends come from the launcher; a job
+					 * started directly beside it is
+					 * looked for every 20 ms */
+					if (ndirect && left > 0.02)
+						ts = (struct timespec){0, 20000000};
+					struct pollfd pfd = {launch_fd, POLLIN, 0};
+					ppoll(&pfd, 1, &ts, NULL);
+				} else {
+					sigtimedwait(&chld, NULL, &ts);
+				}
 			}
 			double now = vd_seconds();
 			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
@@ -746,12 +942,13 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	int blocked = 0;
 	for (int i = 0; i < p->n; i++)
 		blocked += p->jobs[i].state == JOB_BLOCKED;
+	launcher_stop();
 	/* the runner's own cost against the stages' (children reaped) */
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
-	/* starting jobs is the runner's work, though the trampolines did it
-	 * as its children */
+	/* starting jobs is the runner's work, though the launcher did it as
+	 * its child */
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
 		 "%.3fs (%.3fs of it starting jobs), stages cpu %.3fs, runner "
 		 "peak %ld MiB", failures, blocked, vd_seconds() - t0, p->n,

@@ -56,8 +56,8 @@ children() { cat /proc/$1/task/$1/children 2>/dev/null; }
 # pick_job RUNNER: sets victim to one of the runner's jobs, at random,
 # stopped (SIGSTOP) so that it cannot end before the kill: cells take a few
 # milliseconds, and a job that ended and waits to be reaped takes a kill
-# without being interrupted. The runner starts each job through
-# voxdag-spawn, so jobs are its grandchildren (its children when
+# without being interrupted. The runner starts each job through its
+# launcher, voxdag-spawn, so jobs are its grandchildren (its children when
 # voxdag-spawn is absent). Returns 1 when no job is running.
 pick_job() {
 	local kids stages v s n

@@ -139,7 +139,10 @@ $R -q run "$CFG" 2>"$T/kill.err" &
 pid=$!
 child=
 for i in $(seq 1 500); do
-	child=$(pgrep -P $pid -f 'svo-to-dag|voxelize' | head -n 1)
+	# jobs are the children of the runner's launcher (voxdag-spawn), or
+	# the runner's own when it has none
+	kids=$(pgrep -d, -P $pid)
+	child=$(pgrep -P "$pid${kids:+,$kids}" -f 'svo-to-dag|voxelize' | head -n 1)
 	[ -n "$child" ] && break
 	sleep 0.01
 done
@@ -154,6 +157,40 @@ else
 fi
 expect job_killed_then_rerun 0 '' $R -q run "$CFG"
 expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+
+# --- the job launcher (voxdag-spawn --serve, the runner's child) killed in
+# the middle: the runner says so, fails the jobs it ran (killed with it:
+# no orphans), exits 1 without hanging, and a rerun completes
+rm -rf $D
+write_cfg 11 2
+# (--foreground: in its own process group, timeout would leave a stopped
+# orphan to SIGHUP when it exits, and the check below could not fail)
+timeout --foreground 120 $R -q run "$CFG" 2>"$T/launcher.err" &
+pid=$!
+launcher= job=
+for i in $(seq 1 500); do
+	launcher=$(pgrep -P $(pgrep -P $pid | head -n 1) -f 'voxdag-spawn --serve' 2>/dev/null)
+	[ -n "$launcher" ] && job=$(pgrep -P $launcher | head -n 1)
+	[ -n "$job" ] && break
+	sleep 0.01
+done
+# the job is stopped first, so it cannot end on its own meanwhile: only the
+# launcher's death (PR_SET_PDEATHSIG) ends it
+[ -n "$job" ] && kill -STOP "$job" && kill -9 "$launcher"
+wait $pid
+rc=$?
+sleep 0.2
+state=$(sed 's/.*) \(.\).*/\1/' /proc/$job/stat 2>/dev/null)
+[ -n "$job" ] && kill -9 "$job" 2>/dev/null # an orphan (the check fails)
+if [ -n "$job" ] && [ $rc -eq 1 ] && { [ -z "$state" ] || [ "$state" = Z ]; } &&
+   [ "$(grep -c 'job launcher voxdag-spawn died' "$T/launcher.err")" -eq 1 ] &&
+   grep -q 'did not finish: the job launcher' "$T/launcher.err"; then
+	pass launcher_killed_reported
+else
+	fail launcher_killed_reported "rc=$rc launcher=$launcher job=$job ($state)" "$(cat "$T/launcher.err")"
+fi
+expect launcher_killed_then_rerun 0 '' $R -q run "$CFG"
+expect launcher_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
 
 # --- a second runner on the same directory refuses
 rm -rf $D
