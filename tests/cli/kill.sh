@@ -137,6 +137,13 @@ one_kill() {
 	# this run's lines of runner.log: it started work and did not finish
 	started=$(tail -n +$((before + 1)) $log | grep -c ' started ')
 	finished=$(tail -n +$((before + 1)) $log | grep -c ' finished: ')
+	if [ $what = runner ] && [ $rc -ne 0 ] && [ "$finished" -ne 0 ]; then
+		# the run had written its last line when the kill came: it hit
+		# nothing. Resume it to the end, as a run that ended on its own.
+		$R -q run "$CFG" 2>"$T/kill.err" && return 2
+		fail "kill_${i}_runner_late" "the resume after a late kill failed" "$(cat "$T/kill.err")"
+		return 1
+	fi
 	if [ $rc -eq 0 ] || [ "$started" -eq 0 ] ||
 		{ [ $what = runner ] && [ "$finished" -ne 0 ]; }; then
 		[ $rc -eq 0 ] && return 2 # all done before the moment
