@@ -637,6 +637,17 @@ int vd_dir_publish(const char *staging, const char *final);
 /* Removes a staging directory after a failure; keeps the error detail. */
 void vd_dir_abandon(const char *staging);
 
+/* Spill files (tmpfile.c). vd_tmpfile opens an anonymous file in `dir`
+ * (O_TMPFILE; where the file system lacks it, "<dir>/<stem>.tmp.XXXXXX"
+ * unlinked at once), so nothing is left behind on any exit: the fd, or -1
+ * with errno. vd_pwrite_full / vd_pread_full move all n bytes at `off`
+ * (retrying short transfers and EINTR): 0, or -1 with errno (ENOSPC for a
+ * write that makes no progress, EIO for a read past the end). Callers say
+ * what failed, in their own words. */
+int vd_tmpfile(const char *dir, const char *stem);
+int vd_pwrite_full(int fd, const void *p, size_t n, uint64_t off);
+int vd_pread_full(int fd, void *p, size_t n, uint64_t off);
+
 /* Command-line helpers for the tools' main()s (cli.c). vd_cli_usage prints
  * "TOOL: message" and "Try 'TOOL --help'." to stderr and returns 2, the
  * usage exit status. vd_cli_int parses a whole number in [lo, hi] (0, or

@@ -121,55 +121,17 @@ static int spill_fail(const char *what)
 		       : "/tmp", strerror(errno));
 }
 
-/* An anonymous file in $TMPDIR (or /tmp): it has no name, or loses it at
- * once, so nothing is left behind on any exit. */
+static int spill_read(int fd, void *p, size_t n, uint64_t off)
+{
+	return vd_pread_full(fd, p, n, off) ? spill_fail("read") : 0;
+}
+
+/* The spill file: anonymous, in $TMPDIR (or /tmp). */
 static int spill_open(void)
 {
 	const char *dir = getenv("TMPDIR");
 	if (!dir || !*dir) dir = "/tmp";
-	int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-	if (fd >= 0 || (errno != EOPNOTSUPP && errno != EISDIR &&
-			errno != EINVAL))
-		return fd;
-	char path[4200];
-	snprintf(path, sizeof path, "%s/lossy-graph.tmp.XXXXXX", dir);
-	fd = mkstemp(path);
-	if (fd >= 0) unlink(path);
-	return fd;
-}
-
-static int pwrite_all(int fd, const void *p, size_t n, uint64_t off)
-{
-	const uint8_t *b = p;
-	while (n) {
-		ssize_t w = pwrite(fd, b, n, (off_t)off);
-		if (w < 0 && errno == EINTR) continue;
-		if (w <= 0) {
-			if (w == 0) errno = ENOSPC;
-			return spill_fail("write");
-		}
-		b += w;
-		n -= (size_t)w;
-		off += (uint64_t)w;
-	}
-	return 0;
-}
-
-static int pread_all(int fd, void *p, size_t n, uint64_t off)
-{
-	uint8_t *b = p;
-	while (n) {
-		ssize_t r = pread(fd, b, n, (off_t)off);
-		if (r < 0 && errno == EINTR) continue;
-		if (r <= 0) {
-			if (r == 0) errno = EIO;
-			return spill_fail("read");
-		}
-		b += r;
-		n -= (size_t)r;
-		off += (uint64_t)r;
-	}
-	return 0;
+	return vd_tmpfile(dir, "lossy-graph");
 }
 
 static int edge_flush(struct edges *g)
@@ -181,7 +143,7 @@ static int edge_flush(struct edges *g)
 	}
 	size_t bytes = g->n * sizeof *g->e;
 	uint64_t at = __atomic_fetch_add(&g->b->end, bytes, __ATOMIC_RELAXED);
-	int err = pwrite_all(g->b->fd, g->e, bytes, at);
+	int err = vd_pwrite_full(g->b->fd, g->e, bytes, at) ? spill_fail("write") : 0;
 	if (err) return err;
 	g->spilled += g->n;
 	g->n = 0;
@@ -1441,7 +1403,7 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 	for (int pass = 0; pass < 2 && !err; pass++) {
 		for (uint64_t at = 0; at < sp->n && !err; at += SPILL_READ) {
 			size_t k = sp->n - at < SPILL_READ ? (size_t)(sp->n - at) : SPILL_READ;
-			if ((err = pread_all(sp->fd, buf, k * sizeof *buf,
+			if ((err = spill_read(sp->fd, buf, k * sizeof *buf,
 					     at * sizeof *buf)))
 				break;
 			for (size_t t = 0; t < k; t++) {
@@ -1499,7 +1461,7 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 		size_t ne = 0;
 		for (uint64_t at = 0; at < sp->n && !err; at += SPILL_READ) {
 			size_t k = sp->n - at < SPILL_READ ? (size_t)(sp->n - at) : SPILL_READ;
-			if ((err = pread_all(sp->fd, buf, k * sizeof *buf,
+			if ((err = spill_read(sp->fd, buf, k * sizeof *buf,
 					     at * sizeof *buf)))
 				break;
 			for (size_t t = 0; t < k; t++)

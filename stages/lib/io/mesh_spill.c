@@ -35,40 +35,6 @@ static int io_fail(const char *what)
 		       what, spill_dir_name, strerror(errno));
 }
 
-static int tmp_file(const char *dir)
-{
-	int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-	if (fd >= 0 || (errno != EOPNOTSUPP && errno != EISDIR &&
-			errno != EINVAL))
-		return fd;
-	/* a file system without O_TMPFILE: a named file, unlinked at once */
-	char path[4200];
-	snprintf(path, sizeof path, "%s/mesh-spill.tmp.XXXXXX", dir);
-	fd = mkstemp(path);
-	if (fd >= 0)
-		unlink(path);
-	return fd;
-}
-
-static int pwrite_all(int fd, const void *p, size_t n, uint64_t off)
-{
-	const uint8_t *b = p;
-	while (n) {
-		ssize_t w = pwrite(fd, b, n, (off_t)off);
-		if (w < 0 && errno == EINTR)
-			continue;
-		if (w <= 0) {
-			if (w == 0)
-				errno = EIO;
-			return io_fail("write");
-		}
-		b += w;
-		n -= (size_t)w;
-		off += (uint64_t)w;
-	}
-	return VD_OK;
-}
-
 /* ------------------------------------------------ buffered file access */
 
 /* Appends to a file at `end`. */
@@ -81,7 +47,8 @@ struct wr {
 
 static int wr_flush(struct wr *w)
 {
-	int err = pwrite_all(w->fd, w->b, w->n, w->end);
+	int err = vd_pwrite_full(w->fd, w->b, w->n, w->end) ? io_fail("write")
+							    : VD_OK;
 	if (!err) {
 		w->end += w->n;
 		w->n = 0;
@@ -131,23 +98,13 @@ static const uint8_t *rd_next(struct rd *r, int *err)
 		if (left == 0)
 			return NULL;
 		size_t want = left < r->cap ? (size_t)left : r->cap;
-		size_t got = 0;
-		while (got < want) {
-			ssize_t n = pread(r->fd, r->b + got, want - got,
-					  (off_t)(r->off + got));
-			if (n < 0 && errno == EINTR)
-				continue;
-			if (n <= 0) {
-				if (n == 0)
-					errno = EIO;
-				*err = io_fail("read");
-				return NULL;
-			}
-			got += (size_t)n;
+		if (vd_pread_full(r->fd, r->b, want, r->off)) {
+			*err = io_fail("read");
+			return NULL;
 		}
-		r->off += got;
+		r->off += want;
 		r->pos = 0;
-		r->len = got;
+		r->len = want;
 	}
 	const uint8_t *p = r->b + r->pos;
 	r->pos += r->R;
@@ -189,7 +146,7 @@ static int xs_init(struct xsort *x, const char *dir, size_t R)
 {
 	memset(x, 0, sizeof *x);
 	x->R = R;
-	x->fd = tmp_file(dir);
+	x->fd = vd_tmpfile(dir, "mesh-spill");
 	return x->fd < 0 ? io_fail("create") : VD_OK;
 }
 
@@ -215,7 +172,8 @@ static int xs_flush_run(struct xsort *x)
 		x->runs = g;
 		x->runs_cap = c;
 	}
-	int err = pwrite_all(x->fd, x->buf, x->n * x->R, x->end);
+	int err = vd_pwrite_full(x->fd, x->buf, x->n * x->R, x->end) ?
+		  io_fail("write") : VD_OK;
 	if (err)
 		return err;
 	x->runs[x->nruns++] = x->end;
@@ -383,7 +341,7 @@ int vd_spill_open(struct vd_spill **out, const char *dir, size_t rec_bytes,
 	int err = VD_OK;
 	if (!(s->dir = strdup(dir)))
 		err = vd_fail(VD_ERR_NOMEM, "vertex spill");
-	if (!err && ((s->vfd = tmp_file(dir)) < 0 || (s->mfd = tmp_file(dir)) < 0))
+	if (!err && ((s->vfd = vd_tmpfile(dir, "mesh-spill")) < 0 || (s->mfd = vd_tmpfile(dir, "mesh-spill")) < 0))
 		err = io_fail("create");
 	if (!err)
 		err = xs_init(&s->a, dir, 16);
