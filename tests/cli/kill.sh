@@ -21,20 +21,7 @@ trap 'rm -rf "$T" "$D"' EXIT
 SEED=${VOXDAG_KILL_SEED:-$$}
 RANDOM=$SEED
 echo "kill.sh: seed $SEED (VOXDAG_KILL_SEED=$SEED repeats it)" >&2
-cat > "$CFG" <<YAML
-version: 1
-name: $NAME
-input:
-  mesh: tests/data/bunny.ply
-levels: 8
-chunk_level: 3
-resources: {jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [dag]}
-  enc:    {stage: encode, needs: [dag, ssvdag]}
-YAML
+bunny_pipeline $NAME 8 3 > "$CFG"
 # The outputs' checksums. A stage killed mid-write may leave its staging
 # directory or file (NAME.tmp.PID) behind; those are not outputs (nothing
 # reads them, a rerun builds anew), so they are left out.

@@ -35,20 +35,7 @@ if ! cc -shared -fPIC -O1 -o "$T/ballast.so" "$T/ballast.c"; then
 	fail peak_setup "cannot build the ballast library"
 	exit 0
 fi
-cat > "$CFG" <<YAML
-version: 1
-name: $NAME
-input:
-  mesh: tests/data/bunny.ply
-levels: 6
-chunk_level: 1
-resources: {jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [dag]}
-  enc:    {stage: encode, needs: [dag, ssvdag]}
-YAML
+bunny_pipeline $NAME 6 1 > "$CFG"
 expect peak_run 0 '' env LD_PRELOAD="$T/ballast.so" $R -q run "$CFG"
 log=$D/logs/runner.log
 # the test means something only if the runner really held the ballast
