@@ -1,4 +1,5 @@
-/* encode - root DAG and SSVDAG chunks to the SymVox encodings and the SSVDAG paper's tables. */
+/* encode - root DAG and SSVDAG chunks to the SymVox encodings (and an
+ * ssvdag48 chunk to .ssvdag48) and the SSVDAG paper's tables. */
 #include "voxdag.h"
 
 #include <errno.h>
@@ -9,15 +10,17 @@
 #define TOOL "encode"
 
 static const char usage[] =
-	"usage: encode ROOT.dag ROOT.ssvdag -o DIR [options]\n"
+	"usage: encode ROOT.dag ROOT.ssvdag [ROOT.ssvdag48] -o DIR [options]\n"
 	"\n"
 	"Writes the compact encodings of the SSVDAG paper (section 4.3) of a\n"
 	"scene, byte-compatible with the SymVox files (schemas/encodings.md):\n"
 	"DIR/NAME.svdag and DIR/NAME.esvdag from the root DAG chunk,\n"
 	"DIR/NAME.ussvdag and DIR/NAME.ssvdag from the root SSVDAG chunk (both\n"
-	"at chunk level 0, as svo-to-dag and symmetry-merge leave them). Grids of\n"
-	"fewer than 3 levels get no .esvdag/.ssvdag (they need 4^3 bricks below\n"
-	"an inner level).\n"
+	"at chunk level 0, as svo-to-dag and symmetry-merge leave them), and\n"
+	"DIR/NAME.ssvdag48 from a root chunk of the 48-group symmetry merge (voxdag's\n"
+	"own format). The symmetric inputs are told apart by their chunk kind: an\n"
+	"ssvdag, an ssvdag48 or one of each. Grids of fewer than 3 levels get no\n"
+	".esvdag/.ssvdag/.ssvdag48 (they need 4^3 bricks below an inner level).\n"
 	"Also writes the paper's Table 1 and Table 2 for every resolution from\n"
 	"the full one down to 2^MIN (the lower ones are the same DAG cut at a\n"
 	"shallower depth and reduced again) as DIR/NAME.tables.json,\n"
@@ -164,10 +167,11 @@ int main(int argc, char **argv)
 			goto done;
 		}
 	}
-	if (argc - optind != 2) {
+	if (argc - optind < 2 || argc - optind > 3) {
 		rc = vd_cli_usage(TOOL, "%s", argc - optind < 2 ?
 				 "needs two inputs: ROOT.dag ROOT.ssvdag" :
-				 "more than two inputs (ROOT.dag ROOT.ssvdag)");
+				 "more than three inputs (ROOT.dag ROOT.ssvdag "
+				 "ROOT.ssvdag48)");
 		goto done;
 	}
 	if (!job.outdir) {
@@ -175,7 +179,22 @@ int main(int argc, char **argv)
 		goto done;
 	}
 	job.dag_path = argv[optind];
-	job.ssvdag_path = argv[optind + 1];
+	for (int i = optind + 1; i < argc; i++) {
+		/* by kind; an unreadable file goes on as the ssvdag, whose
+		 * loading then names the problem */
+		struct vd_chunk_header h;
+		int is48 = vd_chunk_read_header(argv[i], &h) == VD_OK &&
+			   h.kind == VD_KIND_SSVDAG48;
+		vd_error_clear();
+		const char **slot = is48 ? &job.ssvdag48_path : &job.ssvdag_path;
+		if (*slot) {
+			rc = vd_cli_usage(TOOL, "'%s' and '%s' are both %s chunks: "
+					 "give one ssvdag and/or one ssvdag48",
+					 *slot, argv[i], is48 ? "ssvdag48" : "ssvdag");
+			goto done;
+		}
+		*slot = argv[i];
+	}
 	/* the --stats-list files' lines, after the --stats options */
 	for (size_t i = 0; i < lists_len; i += strlen(lists + i) + 1) {
 		if (!lists[i])

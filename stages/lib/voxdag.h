@@ -1530,7 +1530,12 @@ enum vd_enc_format {
 	VD_ENC_USSVDAG = 1,
 	VD_ENC_ESVDAG = 2,
 	VD_ENC_SSVDAG = 3,
-	VD_ENC_COUNT_
+	VD_ENC_COUNT_,  /* the four SymVox formats: 0 .. VD_ENC_COUNT_-1 */
+	/* voxdag's own: the .ssvdag layout over an ssvdag48 chunk, with a
+	 * 6-bit cube transform per pointer (schemas/encodings.md). Outside
+	 * VD_ENC_COUNT_ so loops over the paper's four stay as they are. */
+	VD_ENC_SSVDAG48 = VD_ENC_COUNT_,
+	VD_ENC_ALL_
 };
 
 /* Bytes of a file that its counted size leaves out: the fixed fields before
@@ -1539,8 +1544,8 @@ enum vd_enc_format {
 #define VD_ENC_HEADER_BYTES_WORDS 44   /* .svdag, .ussvdag */
 #define VD_ENC_HEADER_BYTES_COMPACT 48 /* .esvdag, .ssvdag */
 
-/* "svdag", "ussvdag", "esvdag", "ssvdag" (also the file extensions), or
- * "unknown". */
+/* "svdag", "ussvdag", "esvdag", "ssvdag", "ssvdag48" (also the file
+ * extensions), or "unknown". */
 const char *vd_enc_format_name(int format);
 
 /* The format named by the extension of `path`, or -1. */
@@ -1552,10 +1557,19 @@ static inline int vd_enc_format_symmetric(int format)
 	return format == VD_ENC_USSVDAG || format == VD_ENC_SSVDAG;
 }
 
-/* 1 for the compact formats (ESVDAG, SSVDAG). */
+/* 1 for the compact formats (ESVDAG, SSVDAG, SSVDAG48). */
 static inline int vd_enc_format_compact(int format)
 {
-	return format == VD_ENC_ESVDAG || format == VD_ENC_SSVDAG;
+	return format == VD_ENC_ESVDAG || format == VD_ENC_SSVDAG ||
+	       format == VD_ENC_SSVDAG48;
+}
+
+/* The chunk kind a format is built from: VD_KIND_DAG, VD_KIND_SSVDAG or
+ * VD_KIND_SSVDAG48. */
+static inline uint32_t vd_enc_format_kind(int format)
+{
+	return format == VD_ENC_SSVDAG48 ? VD_KIND_SSVDAG48
+	       : vd_enc_format_symmetric(format) ? VD_KIND_SSVDAG : VD_KIND_DAG;
 }
 
 /* One file. Unused arrays are NULL and their counts 0. */
@@ -1620,7 +1634,8 @@ struct vd_enc_node {
 	uint64_t at;    /* words: index of the node's first word; compact:
 			   index in inner[] (levels < L-2) or byte offset in
 			   leaves[] (level L-2) */
-	unsigned refl;  /* accumulated reflection, 0..7 */
+	unsigned refl;  /* accumulated reflection, 0..7; for .ssvdag48 the
+			   accumulated cube transform, 0..47 ("Cube group") */
 };
 
 /* The root (level 0, unreflected). */
@@ -1671,17 +1686,22 @@ struct vd_enc_row {
 	uint64_t voxels;
 	uint64_t svo_nodes;             /* SVO nodes, levels 0..levels-1 */
 	uint64_t dag_nodes;             /* SVDAG = ESVDAG */
-	uint64_t ssvdag_nodes;          /* SSVDAG = USSVDAG */
+	uint64_t ssvdag_nodes;          /* SSVDAG = USSVDAG (0 without one) */
+	uint64_t ssvdag48_nodes;        /* SSVDAG48 (0 without one) */
+	int has_ssvdag, has_ssvdag48;   /* which symmetric DAGs were given */
 	uint64_t svo_bytes;             /* one byte per SVO node */
-	uint64_t bytes[VD_ENC_COUNT_];  /* vd_enc_size_bytes() per format */
-	int has[VD_ENC_COUNT_];         /* 0: not encodable (compact, L < 3) */
+	uint64_t bytes[VD_ENC_ALL_];    /* vd_enc_size_bytes() per format */
+	int has[VD_ENC_ALL_];           /* 0: not encodable (compact, L < 3)
+					   or its DAG not given */
 };
 
-/* Computes the row of resolution 2^levels from the root DAG and SSVDAG of
- * one scene (same depth and voxels, else VD_ERR_MISMATCH), cutting both at
- * `levels` and encoding the cuts in memory. */
+/* Computes the row of resolution 2^levels from the root DAG and the
+ * SSVDAG and/or 48-group SSVDAG of one scene (same depth and voxels, else
+ * VD_ERR_MISMATCH; `ssvdag` or `ssvdag48` may be NULL, not both), cutting
+ * each at `levels` and encoding the cuts in memory. */
 int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
-		     int levels, struct vd_enc_row *row);
+		     const struct vd_dag *ssvdag48, int levels,
+		     struct vd_enc_row *row);
 
 /* Build times for Table 1, summed over the statistics files of the DAG
  * stages (load + build + save of each); negative when not given. */
@@ -1706,7 +1726,8 @@ int vd_enc_write_tables(const char *dir, const char *name,
 struct vd_enc_job {
 	const char *tool;          /* "encode", for messages */
 	const char *dag_path;      /* root DAG chunk */
-	const char *ssvdag_path;   /* root SSVDAG chunk */
+	const char *ssvdag_path;   /* root SSVDAG chunk, or NULL */
+	const char *ssvdag48_path; /* root ssvdag48 chunk, or NULL (not both) */
 	const char *outdir;        /* created if missing */
 	const char *name;          /* output base name ("scene") */
 	const char *const *stats_paths; /* DAG stage statistics, or NULL */
@@ -1717,7 +1738,8 @@ struct vd_enc_job {
 	int quiet;                 /* no summary on stderr */
 };
 
-/* Loads both root chunks, writes DIR/NAME.{svdag,ussvdag,esvdag,ssvdag},
+/* Loads the root chunks, writes DIR/NAME.{svdag,esvdag}, with an SSVDAG
+ * DIR/NAME.{ussvdag,ssvdag}, with an ssvdag48 DIR/NAME.ssvdag48,
  * the tables and DIR/NAME.encode.stats.json. On failure the detail is the
  * whole message after the tool name ("cannot read 'x.dag': truncated file:
  * ..."). */

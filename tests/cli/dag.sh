@@ -200,9 +200,10 @@ done
 one48=$(ls "$T"/c2/t48/chunk-L2-*.s48 | head -1)
 expect g48-into-ssvdag-refused 1 "wrong chunk kind: a ssvdag48 chunk, expected dag or ssvdag" \
 	$BIN/symmetry-merge --merge "$one48" -o "$T/x.ssvdag"
-# the next stages do not read it yet: a clear refusal each
-expect g48-encode-refused 1 "wrong chunk kind: a ssvdag48 chunk, expected ssvdag" \
-	$BIN/encode "$T/m/chunk-L0-0.dag" "$T/m/chunk-L0-0.s48" -o "$T/enc"
+# encode writes it as .ssvdag48 (tests/cli/encode.sh); render reads that
+# encoding, not the chunk: a clear refusal
+expect g48-encode 0 '' \
+	$BIN/encode -q "$T/m/chunk-L0-0.dag" "$T/m/chunk-L0-0.s48" -o "$T/enc"
 expect g48-render-refused 1 "ssvdag48" \
 	$BIN/render "$T/m/chunk-L0-0.s48" -o "$T/x.png"
 # the issue's figure (issue 13): the Stanford bunny at 2^9

@@ -10,7 +10,7 @@ BUNNY=tests/data/bunny.ply
 # --- usage errors: exit 2
 expect usage_no_args 2 'needs two inputs' $E
 expect usage_one_input 2 'needs two inputs' $E a.dag -o "$T/o"
-expect usage_three_inputs 2 'more than two inputs' $E a.dag b.ssvdag c -o "$T/o"
+expect usage_four_inputs 2 'more than three inputs' $E a.dag b.ssvdag c d -o "$T/o"
 expect usage_no_output 2 'no output directory' $E a.dag b.ssvdag
 expect usage_min_level 2 "min-level '0'" $E a.dag b.ssvdag -o "$T/o" --min-level 0
 expect usage_threads 2 "threads 'x'" $E a.dag b.ssvdag -o "$T/o" -j x
@@ -58,9 +58,60 @@ expect chunked_run 0 '' $E -q "$C/root.dag" "$C/root.ssvdag" -o "$T/c-out" --nam
 cmp -s "$T/enc/bunny.table2.csv" "$T/c-out/bunny.table2.csv" &&
 	pass chunked_same_table2 || fail chunked_same_table2 "$(diff "$T/enc/bunny.table2.csv" "$T/c-out/bunny.table2.csv")"
 
+# --- the 48-group (symmetry-merge --group 48): .ssvdag48 beside the others,
+# or alone with the plain DAG's; sizes match the files; lossless by
+# dag-verify (through the manifest); chunked + merged gives the same rows
+$BIN/symmetry-merge -q --group 48 "$M/root.dag" -o "$M/root.s48" &&
+$BIN/symmetry-merge -q --group 48 --merge "$C"/chunk-L1-*.dag -o "$C/root.s48" || fail inputs48
+expect g48_run 0 "ssvdag48 [0-9]+ B" \
+	$E "$M/root.dag" "$M/root.s48" "$M/root.ssvdag" -o "$T/e48" --name bunny --min-level 5
+ok=1
+for f in svdag ussvdag esvdag ssvdag ssvdag48; do
+	size=$(stat -c %s "$T/e48/bunny.$f" 2>/dev/null || echo 0)
+	case $f in svdag|ussvdag) head=44 ;; *) head=48 ;; esac
+	grep -q "\"bytes_$f\": $((size - head))," "$T/e48/bunny.encode.stats.json" || ok=0
+	grep -q "\"bytes_$f\": $((size - head))," "$T/e48/bunny.tables.json" || ok=0
+	grep -q "bunny.$f\b" "$T/e48/manifest" || ok=0
+done
+[ $ok = 1 ] && pass g48_sizes_match_files || fail g48_sizes_match_files "$(cat "$T/e48/bunny.encode.stats.json")"
+n48=$(tr -d '\n ' < "$M/root.s48.stats.json" | sed 's/.*"nodes":\([0-9]*\).*/\1/')
+grep -q "\"nodes_ssvdag48\": $n48," "$T/e48/bunny.encode.stats.json" &&
+grep -q '| nodes SSVDAG48 |' "$T/e48/bunny.tables.md" &&
+head -1 "$T/e48/bunny.table2.csv" | grep -q ',nodes_ssvdag48,bytes_ssvdag48,bpv_ssvdag48$' &&
+	pass g48_tables || fail g48_tables "$(cat "$T/e48/bunny.tables.md")"
+# the paper's columns are unchanged by the 48-group's
+cut -d, -f1-16 "$T/e48/bunny.table2.csv" | cmp -s - "$T/enc/bunny.table2.csv" &&
+	pass g48_paper_columns_unchanged || fail g48_paper_columns_unchanged
+expect g48_verify 0 '' $BIN/dag-verify "$T/e48/bunny.ssvdag48" "$M/chunk-L0-0.svo"
+expect g48_verify_chunks 0 '' $BIN/dag-verify "$T/e48/bunny.ssvdag48" "$C"/chunk-L1-*.svo
+expect g48_diff_vs_ssvdag 0 '^differing_voxels=0 ' \
+	$BIN/dag-verify --diff "$T/e48/bunny.ssvdag48" "$T/e48/bunny.ssvdag"
+expect g48_only 0 '' $E -q "$C/root.dag" "$C/root.s48" -o "$T/e48c" --name bunny --min-level 5
+ls "$T/e48c" | grep -Eq '\.(ussvdag|ssvdag)$' && fail g48_only_files "$(ls "$T/e48c")" ||
+	pass g48_only_files
+grep -q '"skipped_ssvdag": "no ssvdag input"' "$T/e48c/bunny.encode.stats.json" &&
+	pass g48_only_skipped || fail g48_only_skipped
+cmp -s "$T/e48/bunny.ssvdag48" "$T/e48c/bunny.ssvdag48" &&
+	pass g48_chunked_same_bytes || fail g48_chunked_same_bytes
+expect g48_chunked_verify 0 '' $BIN/dag-verify "$T/e48c/bunny.ssvdag48" "$M/chunk-L0-0.svo"
+expect g48_two_48 2 "both ssvdag48 chunks" $E "$M/root.dag" "$M/root.s48" "$C/root.s48" -o "$T/o"
+# damaged .ssvdag48: the manifest catches a changed byte; without it the
+# decoder names a transform of 48 or more, or the truncation
+cp "$T/e48/bunny.ssvdag48" "$T/bad.ssvdag48"
+printf '\xff' | dd of="$T/bad.ssvdag48" bs=1 seek=43 conv=notrunc 2>/dev/null
+expect g48_bad_transform 1 "^dag-verify: cannot read '.*bad.ssvdag48': .*transform (6[0-3]|5[0-9]|4[89]) \(not below 48\)$" \
+	$BIN/dag-verify --no-verify "$T/bad.ssvdag48" "$M/chunk-L0-0.svo"
+head -c 100 "$T/e48/bunny.ssvdag48" > "$T/cut.ssvdag48"
+expect g48_truncated 1 "^dag-verify: cannot read '.*cut.ssvdag48': truncated file" \
+	$BIN/dag-verify --no-verify "$T/cut.ssvdag48" "$M/chunk-L0-0.svo"
+cp "$T/e48/bunny.ssvdag48" "$T/e48/copy.ssvdag48"
+printf '\x01' | dd of="$T/e48/bunny.ssvdag48" bs=1 seek=60 conv=notrunc 2>/dev/null
+expect g48_manifest 1 "^dag-verify: cannot read '.*bunny.ssvdag48': " \
+	$BIN/dag-verify "$T/e48/bunny.ssvdag48" "$M/chunk-L0-0.svo"
+
 # --- bad inputs: exit 1, one line, nothing written
 no_outputs() {
-	if ls "$1" 2>/dev/null | grep -Eq '\.(svdag|ussvdag|esvdag|ssvdag|json|csv|md)$|\.tmp\.'; then
+	if ls "$1" 2>/dev/null | grep -Eq '\.(svdag|ussvdag|esvdag|ssvdag|ssvdag48|json|csv|md)$|\.tmp\.'; then
 		fail "$2" "files left in $1: $(ls "$1")"
 	else
 		pass "$2"

@@ -11,7 +11,7 @@ T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 rm -rf "$C"
 mkdir -p $C/ply $C/obj $C/stl $C/ac3d $C/chunk $C/svdag $C/ussvdag \
-	$C/esvdag $C/ssvdag $C/config $C/vdb
+	$C/esvdag $C/ssvdag $C/ssvdag48 $C/config $C/vdb
 
 python3 - "$C" <<'PY'
 import struct, sys
@@ -126,8 +126,10 @@ for L in 5 6; do
 	$BIN/svo-to-dag -q "$T/r$L/chunk-L0-0.svo" -o "$T/root$L.dag"
 	$BIN/symmetry-merge -q "$T/root$L.dag" -o "$T/root$L.ssvdag"
 	cp "$T/root$L.ssvdag" $C/chunk/root-L$L.ssvdag
-	$BIN/encode -q "$T/root$L.dag" "$T/root$L.ssvdag" -o "$T/e$L" -n b -l 3
-	for f in svdag ussvdag esvdag ssvdag; do
+	$BIN/symmetry-merge -q --group 48 "$T/root$L.dag" -o "$T/root$L.s48"
+	$BIN/encode -q "$T/root$L.dag" "$T/root$L.ssvdag" "$T/root$L.s48" \
+		-o "$T/e$L" -n b -l 3
+	for f in svdag ussvdag esvdag ssvdag ssvdag48; do
 		cp "$T/e$L/b.$f" $C/$f/bunny-L$L.$f
 	done
 done

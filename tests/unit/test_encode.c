@@ -530,7 +530,7 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 	struct vd_dag d[2];
 	build_both(&svo, d);
 	struct vd_enc_row row;
-	CHECK_EQ(vd_enc_table_row(&d[0], &d[1], L, &row), VD_OK);
+	CHECK_EQ(vd_enc_table_row(&d[0], &d[1], NULL, L, &row), VD_OK);
 	CHECK_EQ(row.voxels, d[0].voxels);
 	CHECK_EQ(row.dag_nodes, total_nodes(&d[0]));
 	CHECK_EQ(row.ssvdag_nodes, total_nodes(&d[1]));
@@ -563,7 +563,7 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 			struct vd_dag dl[2];
 			build_both(&low, dl);
 			struct vd_enc_row r1;
-			CHECK_EQ(vd_enc_table_row(&d[0], &d[1], L - 1, &r1), VD_OK);
+			CHECK_EQ(vd_enc_table_row(&d[0], &d[1], NULL, L - 1, &r1), VD_OK);
 			CHECK_EQ(r1.voxels, dl[0].voxels);
 			CHECK_EQ(r1.dag_nodes, total_nodes(&dl[0]));
 			CHECK_EQ(r1.ssvdag_nodes, total_nodes(&dl[1]));

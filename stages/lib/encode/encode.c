@@ -13,6 +13,7 @@
  */
 #include "voxdag.h"
 #include "encode/encode_internal.h"
+#include "dag/dag_internal.h" /* the cube group's tables (.ssvdag48) */
 
 #include <errno.h>
 #include <inttypes.h>
@@ -30,12 +31,12 @@ uint64_t vd__enc_max_address = 1ull << 30;
 uint64_t vd__enc_max_bricks = (1ull << 29) - 1;
 uint64_t vd__enc_max_words = 0xffffffffull;
 
-static const char *const format_names[VD_ENC_COUNT_] = {
-	"svdag", "ussvdag", "esvdag", "ssvdag"};
+static const char *const format_names[VD_ENC_ALL_] = {
+	"svdag", "ussvdag", "esvdag", "ssvdag", "ssvdag48"};
 
 const char *vd_enc_format_name(int format)
 {
-	return format >= 0 && format < VD_ENC_COUNT_ ? format_names[format]
+	return format >= 0 && format < VD_ENC_ALL_ ? format_names[format]
 						      : "unknown";
 }
 
@@ -43,7 +44,7 @@ int vd_enc_format_from_path(const char *path)
 {
 	const char *dot = strrchr(path, '.');
 	if (!dot || strchr(dot, '/')) return -1;
-	for (int f = 0; f < VD_ENC_COUNT_; f++)
+	for (int f = 0; f < VD_ENC_ALL_; f++)
 		if (!strcmp(dot + 1, format_names[f])) return f;
 	return -1;
 }
@@ -252,8 +253,30 @@ static int sort_by_refs(const struct vd_dag *d, int l, uint32_t **out)
 	return VD_OK;
 }
 
+/* The compact formats differ only in their pointers: .ssvdag48 gives 6
+ * bits to a transform where the others give 3 to a reflection. */
+static uint64_t max_address(int format)
+{
+	return format == VD_ENC_SSVDAG48 && vd__enc_max_address > VD__ENC48_MAX_ADDRESS
+	       ? VD__ENC48_MAX_ADDRESS : vd__enc_max_address;
+}
+
+static unsigned pack_ptr(int format, uint32_t addr, unsigned m, uint16_t w[2])
+{
+	return format == VD_ENC_SSVDAG48 ? vd__enc_pack_ptr48(addr, m, w)
+					 : vd__enc_pack_ptr(addr, m, w);
+}
+
+static uint32_t unpack_ptr(int format, unsigned tag, const uint16_t *w,
+			   unsigned *m)
+{
+	return format == VD_ENC_SSVDAG48 ? vd__enc_unpack_ptr48(tag, w, m)
+					 : vd__enc_unpack_ptr(tag, w, m);
+}
+
 static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 {
+	const uint64_t max_addr = max_address(e->format);
 	int L = d->levels, err = VD_OK;
 	e->level_count = (uint32_t)(L - 2);
 	e->level_offsets = calloc((size_t)L - 2, 4);
@@ -280,13 +303,13 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 			goto out;
 		}
 		if (l == L - 2) {
-			if (n > vd__enc_max_bricks || (l > 0 && n > vd__enc_max_address)) {
+			if (n > vd__enc_max_bricks || (l > 0 && n > max_addr)) {
 				err = vd_fail(VD_ERR_RANGE, "level %d has %" PRIu64
 					      " bricks; the %s addresses at most "
 					      "%" PRIu64, l, n,
 					      vd_enc_format_name(e->format),
-					      vd__enc_max_bricks < vd__enc_max_address ?
-					      vd__enc_max_bricks : vd__enc_max_address);
+					      vd__enc_max_bricks < max_addr ?
+					      vd__enc_max_bricks : max_addr);
 				goto out;
 			}
 			e->leaves = malloc(n * 8);
@@ -314,13 +337,13 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 			uint64_t at = 0;
 			for (uint64_t k = 0; k < n; k++) {
 				uint32_t i = order[k];
-				if (l > 0 && at >= vd__enc_max_address) {
+				if (l > 0 && at >= max_addr) {
 					err = vd_fail(VD_ERR_RANGE, "level %d needs "
 						      "addresses up to %" PRIu64
 						      " (uint16 units); the %s "
 						      "addresses below %" PRIu64,
 						      l, at, vd_enc_format_name(e->format),
-						      vd__enc_max_address);
+						      max_addr);
 					goto out;
 				}
 				addr[i] = (uint32_t)at;
@@ -332,7 +355,8 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					j--;
 					uint16_t w[2];
 					unsigned m = lv->refl ? lv->refl[j] : 0;
-					unsigned tag = vd__enc_pack_ptr(addr_below[lv->child[j]], m, w);
+					unsigned tag = pack_ptr(e->format,
+								addr_below[lv->child[j]], m, w);
 					head |= tag << 2 * s;
 					b[at++] = w[0];
 					if (tag > 1) b[at++] = w[1];
@@ -380,10 +404,10 @@ int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
 		 const struct vd_transform *t)
 {
 	memset(e, 0, sizeof *e);
-	if (format < 0 || format >= VD_ENC_COUNT_)
+	if (format < 0 || format >= VD_ENC_ALL_)
 		return vd_fail(VD_ERR_ARG, "unknown encoding %d", format);
-	int sym = vd_enc_format_symmetric(format);
-	uint32_t want = sym ? VD_KIND_SSVDAG : VD_KIND_DAG;
+	uint32_t want = vd_enc_format_kind(format);
+	if (format == VD_ENC_SSVDAG48) vd__g48_init();
 	if (dag->kind != want)
 		return vd_fail(VD_ERR_WRONG_KIND, "the %s encoding needs a %s "
 			       "chunk, got %s", format_names[format],
@@ -614,8 +638,12 @@ static int check_compact_node(struct checker *k, uint64_t at, int l)
 				       "node of level %d runs past its level's "
 				       "end %" PRIu64, at, l, end);
 		unsigned m;
-		uint32_t a = vd__enc_unpack_ptr(tag, e->inner + p, &m);
+		uint32_t a = unpack_ptr(e->format, tag, e->inner + p, &m);
 		p += nw;
+		if (m >= VD_G48) /* only .ssvdag48 has room for more */
+			return vd_fail(VD_ERR_CORRUPT, "inner word %" PRIu64
+				       ": child %d has transform %u (not "
+				       "below 48)", at, s, m);
 		int err;
 		if (l + 1 < L - 2) {
 			uint64_t c = (uint64_t)e->level_offsets[l + 1] + a;
@@ -693,8 +721,9 @@ static int validate(struct vd_enc *e)
 int vd_enc_parse(struct vd_enc *e, const void *data, size_t size, int format)
 {
 	memset(e, 0, sizeof *e);
-	if (format < 0 || format >= VD_ENC_COUNT_)
+	if (format < 0 || format >= VD_ENC_ALL_)
 		return vd_fail(VD_ERR_ARG, "unknown encoding %d", format);
+	if (format == VD_ENC_SSVDAG48) vd__g48_init();
 	struct cursor c = {data, size, NULL};
 	const uint8_t *p = NULL;
 	int err;
@@ -769,7 +798,7 @@ int vd_enc_load(struct vd_enc *e, const char *path, int format)
 	if (format < 0) format = vd_enc_format_from_path(path);
 	if (format < 0)
 		return vd_fail(VD_ERR_ARG, "'%s' has none of the extensions "
-			       ".svdag, .ussvdag, .esvdag, .ssvdag", path);
+			       ".svdag, .ussvdag, .esvdag, .ssvdag, .ssvdag48", path);
 	FILE *f = fopen(path, "rb");
 	if (!f) return vd_fail(VD_ERR_IO, "%s", strerror(errno));
 	uint8_t *buf = NULL;
@@ -835,13 +864,18 @@ unsigned vd_enc_node_mask(const struct vd_enc *e, const struct vd_enc_node *n)
 			if (b >> 8 * p & 0xff) m |= 1u << p;
 		return m;
 	}
+	if (e->format == VD_ENC_SSVDAG48)
+		return vd__g48_masks[n->refl][stored_mask(e, n)];
 	return vd_mask_reflect((uint8_t)stored_mask(e, n), n->refl);
 }
 
 int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
 		 unsigned p, struct vd_enc_node *child)
 {
-	unsigned s = (p ^ n->refl) & 7;
+	int g48 = e->format == VD_ENC_SSVDAG48;
+	/* the stored slot seen as logical slot p: p itself moved back */
+	unsigned s = g48 ? vd__g48_child[vd__g48_inv[n->refl]][p & 7]
+			 : (p ^ n->refl) & 7;
 	int L = (int)e->levels;
 	if (vd_enc_format_compact(e->format)) {
 		unsigned h = e->inner[n->at], tag = h >> 2 * s & 3;
@@ -852,9 +886,9 @@ int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
 			off += t == 0 ? 0 : t == 1 ? 1 : 2;
 		}
 		unsigned m;
-		uint32_t a = vd__enc_unpack_ptr(tag, e->inner + off, &m);
+		uint32_t a = unpack_ptr(e->format, tag, e->inner + off, &m);
 		child->level = n->level + 1;
-		child->refl = n->refl ^ m;
+		child->refl = g48 ? vd__g48_comp[n->refl][m] : n->refl ^ m;
 		child->at = child->level < L - 2 ?
 			    (uint64_t)e->level_offsets[child->level] + a :
 			    (uint64_t)a * 8;
@@ -877,7 +911,9 @@ uint64_t vd_enc_brick(const struct vd_enc *e, const struct vd_enc_node *n)
 		uint64_t v = 0;
 		for (int b = 0; b < 8; b++)
 			v |= (uint64_t)e->leaves[n->at + b] << 8 * b;
-		return vd_brick_reflect(vd__enc_brick_from_symvox(v), n->refl);
+		v = vd__enc_brick_from_symvox(v);
+		return e->format == VD_ENC_SSVDAG48 ? vd_g48_brick(v, n->refl)
+						    : vd_brick_reflect(v, n->refl);
 	}
 	uint64_t v = 0;
 	struct vd_enc_node c;
@@ -1008,31 +1044,50 @@ int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
 	return err;
 }
 
+/* src[] / use[] index of a format's DAG: 0 dag, 1 ssvdag, 2 ssvdag48. */
+static int source_of(int format)
+{
+	return format == VD_ENC_SSVDAG48 ? 2 : vd_enc_format_symmetric(format);
+}
+
 int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
-		     int levels, struct vd_enc_row *row)
+		     const struct vd_dag *ssvdag48, int levels,
+		     struct vd_enc_row *row)
 {
 	memset(row, 0, sizeof *row);
 	row->levels = levels;
-	if (dag->kind != VD_KIND_DAG || ssvdag->kind != VD_KIND_SSVDAG)
-		return vd_fail(VD_ERR_WRONG_KIND, "tables need a dag and an "
-			       "ssvdag chunk, got %s and %s",
-			       vd_chunk_kind_name(dag->kind),
-			       vd_chunk_kind_name(ssvdag->kind));
-	if (dag->levels != ssvdag->levels || dag->voxels != ssvdag->voxels)
-		return vd_fail(VD_ERR_MISMATCH, "the dag (%d levels, %" PRIu64
-			       " voxels) and the ssvdag (%d levels, %" PRIu64
-			       " voxels) are not of one scene", dag->levels,
-			       dag->voxels, ssvdag->levels, ssvdag->voxels);
+	const struct vd_dag *src[3] = {dag, ssvdag, ssvdag48}, *use[3] = {0};
+	static const uint32_t kinds[3] = {VD_KIND_DAG, VD_KIND_SSVDAG,
+					  VD_KIND_SSVDAG48};
+	if (!ssvdag && !ssvdag48)
+		return vd_fail(VD_ERR_ARG, "tables need an ssvdag or an "
+			       "ssvdag48 beside the dag");
+	for (int k = 0; k < 3; k++) {
+		if (!src[k]) continue;
+		if (src[k]->kind != kinds[k])
+			return vd_fail(VD_ERR_WRONG_KIND, "tables need a %s chunk "
+				       "there, got %s", vd_chunk_kind_name(kinds[k]),
+				       vd_chunk_kind_name(src[k]->kind));
+		if (src[k]->levels != dag->levels || src[k]->voxels != dag->voxels)
+			return vd_fail(VD_ERR_MISMATCH, "the dag (%d levels, %"
+				       PRIu64 " voxels) and the %s (%d levels, %"
+				       PRIu64 " voxels) are not of one scene",
+				       dag->levels, dag->voxels,
+				       vd_chunk_kind_name(kinds[k]),
+				       src[k]->levels, src[k]->voxels);
+	}
+	row->has_ssvdag = ssvdag != NULL;
+	row->has_ssvdag48 = ssvdag48 != NULL;
 	uint64_t counts[VD_MAX_LEVELS + 1];
 	int err = vd_enc_svo_counts(dag, counts);
 	if (err) return err;
 	row->voxels = counts[levels];
 	for (int l = 0; l < levels; l++) row->svo_nodes += counts[l];
 	row->svo_bytes = row->svo_nodes;
-	struct vd_dag cut[2];
+	struct vd_dag cut[3];
 	memset(cut, 0, sizeof cut);
-	const struct vd_dag *src[2] = {dag, ssvdag}, *use[2];
-	for (int k = 0; k < 2 && !err; k++) {
+	for (int k = 0; k < 3 && !err; k++) {
+		if (!src[k]) continue;
 		if (levels == dag->levels) {
 			use[k] = src[k];
 		} else {
@@ -1042,20 +1097,21 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	}
 	if (!err) {
 		row->dag_nodes = dag_total_nodes(use[0]);
-		row->ssvdag_nodes = dag_total_nodes(use[1]);
+		row->ssvdag_nodes = use[1] ? dag_total_nodes(use[1]) : 0;
+		row->ssvdag48_nodes = use[2] ? dag_total_nodes(use[2]) : 0;
 	}
-	for (int f = 0; f < VD_ENC_COUNT_ && !err; f++) {
+	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
 		if (vd_enc_format_compact(f) && levels < 3) continue;
+		if (!use[source_of(f)]) continue;
 		struct vd_enc e;
-		err = vd_enc_build(&e, f, use[vd_enc_format_symmetric(f)], NULL);
+		err = vd_enc_build(&e, f, use[source_of(f)], NULL);
 		if (!err) {
 			row->bytes[f] = vd_enc_size_bytes(&e);
 			row->has[f] = 1;
 		}
 		vd_enc_release(&e);
 	}
-	vd_dag_release(&cut[0]);
-	vd_dag_release(&cut[1]);
+	for (int k = 0; k < 3; k++) vd_dag_release(&cut[k]);
 	return err;
 }
 
@@ -1169,9 +1225,12 @@ static double bpv(uint64_t bytes, uint64_t voxels)
 	return voxels ? 8.0 * (double)bytes / (double)voxels : 0;
 }
 
-/* The order of the paper's columns. */
-static const int table_order[VD_ENC_COUNT_] = {VD_ENC_SSVDAG, VD_ENC_USSVDAG,
-					       VD_ENC_ESVDAG, VD_ENC_SVDAG};
+/* The order of the paper's columns; the 48-group's own, when given, goes
+ * first in JSON and Markdown and after the paper's columns in the CSV (so
+ * readers of the old columns keep their positions). */
+static const int table_order[VD_ENC_ALL_] = {VD_ENC_SSVDAG48, VD_ENC_SSVDAG,
+					     VD_ENC_USSVDAG, VD_ENC_ESVDAG,
+					     VD_ENC_SVDAG};
 
 int vd_enc_write_tables(const char *dir, const char *name,
 			const struct vd_enc_row *rows, size_t n,
@@ -1214,10 +1273,12 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		vd_json_u64(j, "voxels", r->voxels);
 		vd_json_u64(j, "nodes_svo", r->svo_nodes);
 		vd_json_u64(j, "nodes_svdag", r->dag_nodes);
-		vd_json_u64(j, "nodes_ssvdag", r->ssvdag_nodes);
+		if (r->has_ssvdag) vd_json_u64(j, "nodes_ssvdag", r->ssvdag_nodes);
+		if (r->has_ssvdag48)
+			vd_json_u64(j, "nodes_ssvdag48", r->ssvdag48_nodes);
 		vd_json_u64(j, "bytes_svo", r->svo_bytes);
 		vd_json_f64(j, "bits_per_voxel_svo", bpv(r->svo_bytes, r->voxels));
-		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+		for (int k = 0; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (!r->has[f]) continue;
 			char key[64];
@@ -1255,28 +1316,42 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		free(c.s);
 		return err;
 	}
+	int g48 = n && rows[0].has_ssvdag48;
 	tprintf(&c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
 		"nodes_svo,bytes_ssvdag,bytes_ussvdag,bytes_esvdag,bytes_svdag,"
-		"bytes_svo,bpv_ssvdag,bpv_ussvdag,bpv_esvdag,bpv_svdag,bpv_svo\n");
+		"bytes_svo,bpv_ssvdag,bpv_ussvdag,bpv_esvdag,bpv_svdag,bpv_svo%s\n",
+		g48 ? ",nodes_ssvdag48,bytes_ssvdag48,bpv_ssvdag48" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "%d,%llu,%llu,%llu,%llu,%llu", r->levels,
-			1ull << r->levels, (unsigned long long)r->voxels,
-			(unsigned long long)r->ssvdag_nodes,
-			(unsigned long long)r->dag_nodes,
+		tprintf(&c, "%d,%llu,%llu,", r->levels, 1ull << r->levels,
+			(unsigned long long)r->voxels);
+		if (r->has_ssvdag)
+			tprintf(&c, "%llu", (unsigned long long)r->ssvdag_nodes);
+		tprintf(&c, ",%llu,%llu", (unsigned long long)r->dag_nodes,
 			(unsigned long long)r->svo_nodes);
-		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+		/* k from 1: the paper's four */
+		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f]) tprintf(&c, ",%llu", (unsigned long long)r->bytes[f]);
 			else tprintf(&c, ",");
 		}
 		tprintf(&c, ",%llu", (unsigned long long)r->svo_bytes);
-		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f]) tprintf(&c, ",%.4f", bpv(r->bytes[f], r->voxels));
 			else tprintf(&c, ",");
 		}
-		tprintf(&c, ",%.4f\n", bpv(r->svo_bytes, r->voxels));
+		tprintf(&c, ",%.4f", bpv(r->svo_bytes, r->voxels));
+		if (g48) {
+			tprintf(&c, ",%llu,", (unsigned long long)r->ssvdag48_nodes);
+			if (r->has[VD_ENC_SSVDAG48])
+				tprintf(&c, "%llu,%.4f", (unsigned long long)
+					r->bytes[VD_ENC_SSVDAG48],
+					bpv(r->bytes[VD_ENC_SSVDAG48], r->voxels));
+			else
+				tprintf(&c, ",");
+		}
+		tprintf(&c, "\n");
 	}
 	if (c.nomem) {
 		free(c.s);
@@ -1309,15 +1384,22 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		"resolutions are cuts of the same DAG); encode took %.2f s.\n",
 		seconds_encode);
 	tprintf(&c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
-		"| resolution | nodes SSVDAG | nodes SVDAG | nodes SVO | "
+		"| resolution |%s nodes SSVDAG | nodes SVDAG | nodes SVO |%s "
 		"MB SSVDAG | MB USSVDAG | MB ESVDAG | MB SVDAG | MB SVO |\n"
-		"|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+		"|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n",
+		g48 ? " nodes SSVDAG48 |" : "", g48 ? " MB SSVDAG48 |" : "",
+		g48 ? "---:|---:|" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "| %llu^3 | %.3f | %.3f | %.3f", 1ull << r->levels,
-			(double)r->ssvdag_nodes / 1e6, (double)r->dag_nodes / 1e6,
+		tprintf(&c, "| %llu^3", 1ull << r->levels);
+		if (g48) tprintf(&c, " | %.3f", (double)r->ssvdag48_nodes / 1e6);
+		if (r->has_ssvdag)
+			tprintf(&c, " | %.3f", (double)r->ssvdag_nodes / 1e6);
+		else
+			tprintf(&c, " | -");
+		tprintf(&c, " | %.3f | %.3f", (double)r->dag_nodes / 1e6,
 			(double)r->svo_nodes / 1e6);
-		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+		for (int k = g48 ? 0 : 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f]) tprintf(&c, " | %.3f", MB(r->bytes[f]));
 			else tprintf(&c, " | -");
@@ -1328,7 +1410,7 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		const struct vd_enc_row *r = &rows[0];
 		tprintf(&c, "\nBits per voxel at %llu^3 (%llu voxels):",
 			1ull << r->levels, (unsigned long long)r->voxels);
-		for (int k = 0; k < VD_ENC_COUNT_; k++) {
+		for (int k = 0; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f])
 				tprintf(&c, " %s %.3f,", format_names[f],
@@ -1339,6 +1421,10 @@ int vd_enc_write_tables(const char *dir, const char *name,
 			tprintf(&c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
 				100.0 * (double)r->bytes[VD_ENC_SSVDAG] / (double)r->bytes[VD_ENC_SVDAG],
 				100.0 * (double)r->bytes[VD_ENC_ESVDAG] / (double)r->bytes[VD_ENC_SVDAG]);
+		if (r->has[VD_ENC_SSVDAG48] && r->bytes[VD_ENC_SVDAG])
+			tprintf(&c, "SSVDAG48/SVDAG = %.1f%%.\n",
+				100.0 * (double)r->bytes[VD_ENC_SSVDAG48] /
+				(double)r->bytes[VD_ENC_SVDAG]);
 	}
 	if (c.nomem) {
 		free(c.s);
@@ -1400,7 +1486,7 @@ static int load_root(struct vd_dag *d, struct vd_transform *t,
 }
 
 struct row_job {
-	const struct vd_dag *dag, *ssvdag;
+	const struct vd_dag *dag, *ssvdag, *ssvdag48;
 	struct vd_enc_row *rows;
 	int *errs;
 	char (*details)[512];
@@ -1410,8 +1496,8 @@ static void row_worker(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct row_job *r = ctx;
-	int err = vd_enc_table_row(r->dag, r->ssvdag, r->dag->levels - (int)i,
-				   &r->rows[i]);
+	int err = vd_enc_table_row(r->dag, r->ssvdag, r->ssvdag48,
+				   r->dag->levels - (int)i, &r->rows[i]);
 	r->errs[i] = err;
 	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
 			  vd_error_detail());
@@ -1423,7 +1509,7 @@ static void row_worker(void *ctx, size_t i, int worker)
 static int encode_file(const char *name)
 {
 	static const char *const ends[] = {".svdag", ".ussvdag", ".esvdag",
-					   ".ssvdag", ".tables.json",
+					   ".ssvdag", ".ssvdag48", ".tables.json",
 					   ".table1.csv", ".table2.csv",
 					   ".tables.md", ".encode.stats.json"};
 	size_t n = strlen(name);
@@ -1437,8 +1523,8 @@ static int encode_file(const char *name)
 
 int vd_enc_run(const struct vd_enc_job *job)
 {
-	struct vd_dag dag = {0}, ss = {0};
-	struct vd_transform t1, t2;
+	struct vd_dag dag = {0}, ss = {0}, s48 = {0};
+	struct vd_transform t1, t2, t3;
 	struct vd_enc_row *rows = NULL;
 	int *errs = NULL;
 	char (*details)[512] = NULL;
@@ -1447,24 +1533,36 @@ int vd_enc_run(const struct vd_enc_job *job)
 	uint64_t used = 0;
 	double t0 = vd_seconds();
 	const char *name = job->name ? job->name : "scene";
-	if (!job->dag_path || !job->ssvdag_path || !job->outdir)
-		return vd_fail(VD_ERR_ARG, "the dag and ssvdag chunks and the "
-			       "output directory are needed");
+	if (!job->dag_path || (!job->ssvdag_path && !job->ssvdag48_path) ||
+	    !job->outdir)
+		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
+			       "chunk and the output directory are needed");
 	if ((err = load_root(&dag, &t1, job->dag_path, VD_KIND_DAG, &used,
 			     job->mem_budget_bytes)))
 		return err;
-	if ((err = load_root(&ss, &t2, job->ssvdag_path, VD_KIND_SSVDAG, &used,
-			     job->mem_budget_bytes)))
-		goto out;
-	if (dag.levels != ss.levels || dag.voxels != ss.voxels ||
-	    !vd_transform_equal(&t1, &t2)) {
-		err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with '%s': "
-			      "not the same scene (%d and %d levels, %" PRIu64
-			      " and %" PRIu64 " voxels, or another bounding box)",
-			      job->dag_path, job->ssvdag_path, dag.levels,
-			      ss.levels, dag.voxels, ss.voxels);
-		goto out;
+	/* the symmetric DAGs given: [0] the ssvdag, [1] the ssvdag48 */
+	struct vd_dag *sym[2] = {&ss, &s48};
+	struct vd_transform *st[2] = {&t2, &t3};
+	const char *sp[2] = {job->ssvdag_path, job->ssvdag48_path};
+	static const uint32_t sk[2] = {VD_KIND_SSVDAG, VD_KIND_SSVDAG48};
+	for (int k = 0; k < 2; k++) {
+		if (!sp[k]) continue;
+		if ((err = load_root(sym[k], st[k], sp[k], sk[k], &used,
+				     job->mem_budget_bytes)))
+			goto out;
+		if (dag.levels != sym[k]->levels || dag.voxels != sym[k]->voxels ||
+		    !vd_transform_equal(&t1, st[k])) {
+			err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with "
+				      "'%s': not the same scene (%d and %d levels, %"
+				      PRIu64 " and %" PRIu64 " voxels, or another "
+				      "bounding box)", job->dag_path, sp[k],
+				      dag.levels, sym[k]->levels, dag.voxels,
+				      sym[k]->voxels);
+			goto out;
+		}
 	}
+	const struct vd_dag *src[3] = {&dag, job->ssvdag_path ? &ss : NULL,
+				       job->ssvdag48_path ? &s48 : NULL};
 	if (dag.voxels == 0) {
 		err = vd_fail(VD_ERR_EMPTY, "cannot encode '%s': the scene has "
 			      "no voxels", job->dag_path);
@@ -1483,16 +1581,16 @@ int vd_enc_run(const struct vd_enc_job *job)
 		goto out;
 	staged = 1;
 	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
-	uint64_t bytes[VD_ENC_COUNT_] = {0};
-	int written[VD_ENC_COUNT_] = {0};
+	uint64_t bytes[VD_ENC_ALL_] = {0};
+	int written[VD_ENC_ALL_] = {0};
 	char path[4096 + 512];
-	for (int f = 0; f < VD_ENC_COUNT_ && !err; f++) {
+	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
 		if (vd_enc_format_compact(f) && dag.levels < 3) continue;
+		if (!src[source_of(f)]) continue;
 		struct vd_enc e;
 		snprintf(path, sizeof path, "%s/%s.%s", dir, name,
 			 format_names[f]);
-		err = vd_enc_build(&e, f, vd_enc_format_symmetric(f) ? &ss : &dag,
-				   &t1);
+		err = vd_enc_build(&e, f, src[source_of(f)], &t1);
 		if (err) err = reword(err, "cannot encode", path);
 		else if ((err = vd_enc_save(&e, path)))
 			err = reword(err, "cannot write", path);
@@ -1512,7 +1610,7 @@ int vd_enc_run(const struct vd_enc_job *job)
 		err = NOMEM();
 		goto out;
 	}
-	struct row_job rj = {&dag, &ss, rows, errs, details};
+	struct row_job rj = {&dag, src[1], src[2], rows, errs, details};
 	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
 		goto out;
 	for (size_t i = 0; i < nrows; i++)
@@ -1540,12 +1638,16 @@ int vd_enc_run(const struct vd_enc_job *job)
 	vd_json_u64(j, "levels", (uint64_t)dag.levels);
 	vd_json_u64(j, "voxels", dag.voxels);
 	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&dag));
-	vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&ss));
-	for (int f = 0; f < VD_ENC_COUNT_; f++) {
+	if (src[1]) vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&ss));
+	if (src[2]) vd_json_u64(j, "nodes_ssvdag48", dag_total_nodes(&s48));
+	for (int f = 0; f < VD_ENC_ALL_; f++) {
 		char key[64];
 		if (!written[f]) {
 			snprintf(key, sizeof key, "skipped_%s", format_names[f]);
-			vd_json_str(j, key, "fewer than 3 levels");
+			vd_json_str(j, key, !src[source_of(f)] ?
+				    (f == VD_ENC_SSVDAG48 ? "no ssvdag48 input"
+							  : "no ssvdag input")
+				    : "fewer than 3 levels");
 			continue;
 		}
 		snprintf(key, sizeof key, "bytes_%s", format_names[f]);
@@ -1565,16 +1667,23 @@ int vd_enc_run(const struct vd_enc_job *job)
 	}
 	if (!job->quiet) {
 		fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
-			" B, ussvdag %" PRIu64 " B", job->tool ? job->tool : "encode",
-			1ull << dag.levels, dag.voxels, bytes[VD_ENC_SVDAG],
-			bytes[VD_ENC_USSVDAG]);
-		if (written[VD_ENC_SSVDAG])
-			fprintf(stderr, ", esvdag %" PRIu64 " B, ssvdag %" PRIu64
-				" B (%.1f%% of svdag)", bytes[VD_ENC_ESVDAG],
-				bytes[VD_ENC_SSVDAG], 100.0 * (double)bytes[VD_ENC_SSVDAG] /
-				(double)bytes[VD_ENC_SVDAG]);
-		else
-			fprintf(stderr, ", no esvdag/ssvdag (fewer than 3 levels)");
+			" B", job->tool ? job->tool : "encode",
+			1ull << dag.levels, dag.voxels, bytes[VD_ENC_SVDAG]);
+		if (written[VD_ENC_USSVDAG])
+			fprintf(stderr, ", ussvdag %" PRIu64 " B",
+				bytes[VD_ENC_USSVDAG]);
+		if (dag.levels < 3)
+			fprintf(stderr, ", no compact encodings (fewer than 3 "
+				"levels)");
+		if (written[VD_ENC_ESVDAG])
+			fprintf(stderr, ", esvdag %" PRIu64 " B",
+				bytes[VD_ENC_ESVDAG]);
+		for (int f = VD_ENC_SSVDAG; f <= VD_ENC_SSVDAG48; f++)
+			if (written[f])
+				fprintf(stderr, ", %s %" PRIu64 " B (%.1f%% of "
+					"svdag)", format_names[f], bytes[f],
+					100.0 * (double)bytes[f] /
+					(double)bytes[VD_ENC_SVDAG]);
 		fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
 			t_enc, t_tab, job->outdir);
 	}
@@ -1588,5 +1697,6 @@ out:
 	free(details);
 	vd_dag_release(&dag);
 	vd_dag_release(&ss);
+	vd_dag_release(&s48);
 	return err;
 }

@@ -55,6 +55,39 @@ static inline uint32_t vd__enc_unpack_ptr(unsigned tag, const uint16_t *w,
 	return (v & ((1u << 29) - 1)) | (uint32_t)(tag & 1) << 29;
 }
 
+/* .ssvdag48 pointers (schemas/encodings.md): the transform t (0..47, the
+ * numbering of voxdag.h's "Cube group") takes 6 bits, so a 16-bit pointer
+ * keeps 10 address bits and a 32-bit one 26, plus the tag bit: addresses
+ * below 2^27. Same tags as vd__enc_pack_ptr. */
+#define VD__ENC48_MAX_ADDRESS (1ull << 27)
+
+static inline unsigned vd__enc_pack_ptr48(uint32_t addr, unsigned t,
+					  uint16_t out[2])
+{
+	if (addr < (1u << 10)) {
+		out[0] = (uint16_t)(addr | t << 10);
+		return 1;
+	}
+	uint32_t v = (addr & ((1u << 26) - 1)) | (uint32_t)t << 26;
+	out[0] = (uint16_t)(v >> 16);
+	out[1] = (uint16_t)v;
+	return 2 | (addr >> 26 & 1);
+}
+
+/* Inverse of vd__enc_pack_ptr48: the address and the transform (0..63:
+ * the reader refuses 48..63). */
+static inline uint32_t vd__enc_unpack_ptr48(unsigned tag, const uint16_t *w,
+					    unsigned *t)
+{
+	if (tag == 1) {
+		*t = w[0] >> 10;
+		return w[0] & ((1u << 10) - 1);
+	}
+	uint32_t v = (uint32_t)w[0] << 16 | w[1];
+	*t = v >> 26;
+	return (v & ((1u << 26) - 1)) | (uint32_t)(tag & 1) << 26;
+}
+
 /* A brick in our Morton layout (bit morton3(x, y, z)) as the SymVox leaf
  * (bit 16x + 4y + z), and back. */
 uint64_t vd__enc_brick_to_symvox(uint64_t morton_brick);

@@ -22,8 +22,17 @@
  * compact nodes sum pointer sizes from the 2-bit tags with two popcounts;
  * a compact brick is converted from the SymVox bit order (16x + 4y + z) to
  * our Morton order by three bit-index swaps and reflected once when the
- * traversal enters it, after which its two levels are plain masks. */
+ * traversal enters it, after which its two levels are plain masks.
+ *
+ * .ssvdag48. The path carries a cube transform (0..47) instead of a
+ * reflection: logical slot p of a node reached with transform a is stored
+ * slot a^-1(p), its child stored with t is reached with a t (the group's
+ * composition), a mask is moved by a table and the brick once on entry,
+ * as above. The ray itself is never transformed: the transform maps the
+ * stored nodes onto the ray's own frame, so every plane time stays the one
+ * formula tp() and the result stays exactly the DDA's. */
 #include "voxdag.h"
+#include "dag/dag_internal.h" /* the cube group's tables */
 
 #include <errno.h>
 #include <inttypes.h>
@@ -53,6 +62,7 @@ int vd_render_scene_from_enc(struct vd_render_scene *s, const struct vd_enc *e)
 		s->bbox_min[a] = e->bbox_min[a];
 		s->bbox_max[a] = e->bbox_max[a];
 	}
+	if (e->format == VD_ENC_SSVDAG48) vd__g48_init();
 	s->enc = e;
 	s->levels = (int)e->levels;
 	s->voxel_size = (double)side / (double)(1u << e->levels);
@@ -87,6 +97,7 @@ enum source { SRC_WORDS, SRC_COMPACT, SRC_DAG };
 struct tracer {
 	enum source src;
 	int L;
+	int g48;            /* .ssvdag48: pnode.refl is a cube transform */
 	const uint32_t *words;
 	const uint16_t *inner;
 	const uint8_t *leaves;
@@ -94,7 +105,8 @@ struct tracer {
 	const struct vd_dag *dag;
 };
 
-/* A node on the path: where it is stored and its accumulated reflection.
+/* A node on the path: where it is stored and its accumulated reflection
+ * (a cube transform when T->g48).
  * Compact formats: `at` is an index in inner[] above level L-2; on level
  * L-2 the brick itself is held by the tracer (at is unused); on level L-1
  * `at` is the logical child slot of the brick, i.e. its byte. */
@@ -148,7 +160,15 @@ static inline uint64_t load_brick(const struct tracer *T, uint64_t at,
 	const uint8_t *b = T->leaves + at;
 	uint64_t v = 0;
 	for (int i = 7; i >= 0; i--) v = v << 8 | b[i];
-	return vd_brick_reflect(brick_from_symvox(v), refl);
+	v = brick_from_symvox(v);
+	return T->g48 ? vd_g48_brick(v, refl) : vd_brick_reflect(v, refl);
+}
+
+/* A stored child mask seen through the accumulated reflection/transform. */
+static inline unsigned seen_mask(const struct tracer *T, unsigned v,
+				 unsigned refl)
+{
+	return T->g48 ? vd__g48_masks[refl][v] : vd_mask_reflect((uint8_t)v, refl);
 }
 
 /* Logical child mask of node n on `level`. */
@@ -162,8 +182,7 @@ static inline unsigned node_mask(const struct tracer *T, int level,
 		return vd_mask_reflect(T->dag->lv[level].mask[n->at], n->refl);
 	case SRC_COMPACT:
 		if (level < T->L - 2)
-			return vd_mask_reflect((uint8_t)compact_mask(T->inner[n->at]),
-					       n->refl);
+			return seen_mask(T, compact_mask(T->inner[n->at]), n->refl);
 		if (level == T->L - 2) return nonzero_bytes(brick);
 		return (unsigned)(brick >> 8 * n->at) & 0xff;
 	}
@@ -176,7 +195,8 @@ static inline void node_child(const struct tracer *T, int level,
 			      const struct pnode *n, unsigned p,
 			      struct pnode *c, uint64_t *brick)
 {
-	unsigned s = (p ^ n->refl) & 7;
+	unsigned s = T->g48 ? vd__g48_child[vd__g48_inv[n->refl]][p]
+			    : (p ^ n->refl) & 7;
 	switch (T->src) {
 	case SRC_WORDS: {
 		uint32_t h = T->words[n->at];
@@ -212,17 +232,29 @@ static inline void node_child(const struct tracer *T, int level,
 		const uint16_t *w = T->inner + off;
 		uint32_t addr;
 		unsigned mir;
-		if (tag == 1) {
-			addr = w[0] & 0x1fff;
-			mir = w[0] >> 13;
+		if (T->g48) { /* 10 + 6 or 26 + 6 bits, our transform numbers */
+			if (tag == 1) {
+				addr = w[0] & 0x3ff;
+				mir = w[0] >> 10;
+			} else {
+				uint32_t v = (uint32_t)w[0] << 16 | w[1];
+				addr = (v & 0x3ffffff) | (uint32_t)(tag & 1) << 26;
+				mir = v >> 26;
+			}
+			c->refl = vd__g48_comp[n->refl][mir];
 		} else {
-			uint32_t v = (uint32_t)w[0] << 16 | w[1];
-			addr = (v & 0x1fffffff) | (uint32_t)(tag & 1) << 29;
-			mir = v >> 29;
+			if (tag == 1) {
+				addr = w[0] & 0x1fff;
+				mir = w[0] >> 13;
+			} else {
+				uint32_t v = (uint32_t)w[0] << 16 | w[1];
+				addr = (v & 0x1fffffff) | (uint32_t)(tag & 1) << 29;
+				mir = v >> 29;
+			}
+			/* SymVox mirror bits X, Y, Z = bits 0, 1, 2; ours 2, 1, 0 */
+			unsigned m = (mir >> 2 & 1) | (mir & 2) | (mir & 1) << 2;
+			c->refl = n->refl ^ m;
 		}
-		/* SymVox mirror bits X, Y, Z = bits 0, 1, 2; ours 2, 1, 0 */
-		unsigned m = (mir >> 2 & 1) | (mir & 2) | (mir & 1) << 2;
-		c->refl = n->refl ^ m;
 		if (level + 1 < T->L - 2) {
 			c->at = (uint64_t)T->level_offsets[level + 1] + addr;
 		} else {
@@ -279,6 +311,7 @@ int vd_render_trace(const struct vd_render_scene *s, const struct vd_ray *r,
 		T.dag = s->dag;
 	} else if (vd_enc_format_compact(s->enc->format)) {
 		T.src = SRC_COMPACT;
+		T.g48 = s->enc->format == VD_ENC_SSVDAG48;
 		T.inner = s->enc->inner;
 		T.leaves = s->enc->leaves;
 		T.level_offsets = s->enc->level_offsets;
@@ -1058,13 +1091,13 @@ static int load_input(struct input *in, const char *path, int check_manifest)
 	struct vd_chunk_header h;
 	int err = vd_chunk_read_header(path, &h);
 	if (err == VD_ERR_NOT_CHUNK) {
-		/* not a chunk file: one of the four encodings, by extension */
+		/* not a chunk file: one of the encodings, by extension */
 		int format = vd_enc_format_from_path(path);
 		if (format < 0)
 			return vd_fail(VD_ERR_UNSUPPORTED, "cannot read '%s': "
 				       "unknown format: neither a chunk file nor "
 				       "an encoding (.svdag, .ussvdag, .esvdag, "
-				       ".ssvdag)", path);
+				       ".ssvdag, .ssvdag48)", path);
 		/* the bytes are SymVox's: their checksum is in the manifest
 		 * beside them, checked before a picture is made of them */
 		err = check_manifest ? vd_manifest_check_file(path) : VD_OK;
