@@ -31,23 +31,25 @@ expect usage_unknown_option 2 'Try' $R a.ssvdag -o "$T/o.png" --frobnicate
 expect help 0 'usage: render' $R --help
 help_lists_options help_matches_code render stages/render/main.c
 
-# --- inputs: the bunny at 2^6, its chunks and its four encodings
+# --- inputs: the bunny at 2^6, its chunks and its five encodings
 M="$T/m"
 $BIN/voxelize $BUNNY -o "$M" --levels 6 --chunk-level 0 -q &&
 $BIN/svo-to-dag -q "$M/chunk-L0-0.svo" -o "$M/root.dag" &&
 $BIN/symmetry-merge -q "$M/root.dag" -o "$M/root.ssvdag" &&
-$BIN/encode -q "$M/root.dag" "$M/root.ssvdag" -o "$M/enc" --name bunny || fail inputs
+$BIN/symmetry-merge -q --group 48 "$M/root.dag" -o "$M/root.s48" &&
+$BIN/encode -q "$M/root.dag" "$M/root.ssvdag" "$M/root.s48" -o "$M/enc" \
+	--name bunny || fail inputs
 
 # --- good runs: every encoding and both chunks give the same image
 for f in "$M"/enc/bunny.svdag "$M"/enc/bunny.ussvdag "$M"/enc/bunny.esvdag \
-	"$M"/enc/bunny.ssvdag "$M"/root.dag "$M"/root.ssvdag; do
+	"$M"/enc/bunny.ssvdag "$M"/enc/bunny.ssvdag48 "$M"/root.dag "$M"/root.ssvdag; do
 	n=$(basename "$f" | tr . _)
 	expect "good_$n" 0 "render: 160x90 of the .* \(2\^6\)" \
 		$R "$f" -o "$T/$n.png" --size 160x90 --camera iso -j 2 \
 		--depth "$T/$n.pfm" --voxel-id "$T/$n.bin"
 done
 same=1
-for n in bunny_ussvdag bunny_esvdag bunny_ssvdag root_dag root_ssvdag; do
+for n in bunny_ussvdag bunny_esvdag bunny_ssvdag bunny_ssvdag48 root_dag root_ssvdag; do
 	cmp -s "$T/bunny_svdag.png" "$T/$n.png" || same=0
 	cmp -s "$T/bunny_svdag.bin" "$T/$n.bin" || same=0
 	cmp -s "$T/bunny_svdag.pfm" "$T/$n.pfm" || same=0
@@ -69,7 +71,7 @@ echo "hello" > "$T/scene.txt"
 expect unknown_format 1 "cannot read '$T/scene.txt': unknown format" \
 	$R "$T/scene.txt" -o "$T/bad.png"
 # the decoders themselves (files without a manifest, as SymVox writes them)
-for f in ssvdag esvdag svdag; do
+for f in ssvdag esvdag svdag ssvdag48; do
 	head -c 100 "$M/enc/bunny.$f" > "$T/cut.$f"
 	expect "truncated_$f" 1 "cannot read '$T/cut.$f': truncated file" \
 		$R "$T/cut.$f" -o "$T/bad.png" --no-verify

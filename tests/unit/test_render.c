@@ -1,8 +1,8 @@
 /* test_render.c - the ray caster against a brute-force reference: every
- * ray's hit (cell, time, face) through each of the four encodings and the
- * two DAGs equals the hit of a plain voxel DDA (Amanatides-Woo) through the
+ * ray's hit (cell, time, face) through each of the five encodings (the
+ * SymVox four and .ssvdag48) and the two DAGs equals the hit of a plain voxel DDA (Amanatides-Woo) through the
  * dense grid decoded by vd_enc_expand(), on the bunny at 2^6 and 2^7 and on
- * synthetic grids full of reflected copies; axis-parallel, grazing (in face
+ * synthetic grids full of reflected and permuted copies; axis-parallel, grazing (in face
  * planes, along edges, through corners), inside-starting, clipped and
  * missing rays. Then: identical images from every source, LOD hits against
  * the grid at their level, and PNG / depth / id files read back.
@@ -156,16 +156,17 @@ static int ref_trace(const struct dense *g, const struct vd_ray *r,
 
 /* --------------------------------------------------------- sources */
 
-/* A scene in all six forms: the four encodings and the two DAGs. */
+/* A scene in all its forms: the five encodings and the two DAGs render
+ * reads (dag[2], the ssvdag48, is rendered through its encoding). */
 struct scene6 {
 	int L;
 	struct vd_transform t;
-	struct vd_dag dag[2];
-	struct vd_enc enc[VD_ENC_COUNT_];
-	int has_enc[VD_ENC_COUNT_];
-	struct vd_render_scene rs[VD_ENC_COUNT_ + 2];
+	struct vd_dag dag[3];
+	struct vd_enc enc[VD_ENC_ALL_];
+	int has_enc[VD_ENC_ALL_];
+	struct vd_render_scene rs[VD_ENC_ALL_ + 2];
 	int n_rs;
-	const char *name[VD_ENC_COUNT_ + 2];
+	const char *name[VD_ENC_ALL_ + 2];
 	struct dense ref;  /* decoded from the SSVDAG (or the SVDAG for L < 3) */
 };
 
@@ -177,9 +178,12 @@ static void scene6_build(struct scene6 *s, const struct vd_svo *svo,
 	s->t = *t;
 	CHECK_EQ(vd_dag_from_svo(&s->dag[0], svo, VD_KIND_DAG, &opts, NULL), VD_OK);
 	CHECK_EQ(vd_dag_from_svo(&s->dag[1], svo, VD_KIND_SSVDAG, &opts, NULL), VD_OK);
-	for (int f = 0; f < VD_ENC_COUNT_; f++) {
+	CHECK_EQ(vd_dag_from_svo(&s->dag[2], svo, VD_KIND_SSVDAG48, &opts, NULL),
+		 VD_OK);
+	for (int f = 0; f < VD_ENC_ALL_; f++) {
 		if (vd_enc_format_compact(f) && s->L < 3) continue;
-		const struct vd_dag *d = &s->dag[vd_enc_format_symmetric(f)];
+		const struct vd_dag *d = &s->dag[f == VD_ENC_SSVDAG48 ? 2 :
+						 vd_enc_format_symmetric(f)];
 		CHECK_EQ(vd_enc_build(&s->enc[f], f, d, t), VD_OK);
 		s->has_enc[f] = 1;
 		CHECK_EQ(vd_render_scene_from_enc(&s->rs[s->n_rs], &s->enc[f]), VD_OK);
@@ -191,7 +195,7 @@ static void scene6_build(struct scene6 *s, const struct vd_svo *svo,
 	}
 	dense_from_enc(&s->ref, &s->enc[s->L >= 3 ? VD_ENC_SSVDAG : VD_ENC_SVDAG]);
 	/* every encoding decodes to the same grid */
-	for (int f = 0; f < VD_ENC_COUNT_; f++) {
+	for (int f = 0; f < VD_ENC_ALL_; f++) {
 		if (!s->has_enc[f]) continue;
 		struct dense g;
 		dense_from_enc(&g, &s->enc[f]);
@@ -203,9 +207,8 @@ static void scene6_build(struct scene6 *s, const struct vd_svo *svo,
 
 static void scene6_free(struct scene6 *s)
 {
-	for (int f = 0; f < VD_ENC_COUNT_; f++) vd_enc_release(&s->enc[f]);
-	vd_dag_release(&s->dag[0]);
-	vd_dag_release(&s->dag[1]);
+	for (int f = 0; f < VD_ENC_ALL_; f++) vd_enc_release(&s->enc[f]);
+	for (int k = 0; k < 3; k++) vd_dag_release(&s->dag[k]);
 	free(s->ref.bits);
 }
 
@@ -421,8 +424,9 @@ static int bunny(int L, struct scene6 *s)
 }
 
 /* A 2^L grid tiled with 8^3 blocks, each empty or one of three random
- * patterns under a random reflection, so the SSVDAG is full of mirrored
- * references at several levels. */
+ * patterns under a random reflection and axis permutation, so the SSVDAG
+ * is full of mirrored references and the ssvdag48 of permuted ones at
+ * several levels. */
 static void synthetic(int L, struct scene6 *s)
 {
 	struct grid g;
@@ -441,12 +445,23 @@ static void synthetic(int L, struct scene6 *s)
 				if (bx + by + bz == 0) pick = 0;
 				if (pick >= 3) continue;
 				unsigned m = (unsigned)(rnd() % 8);
+				unsigned k = (unsigned)(rnd() % 6);
 				for (uint32_t x = 0; x < 8; x++)
 					for (uint32_t y = 0; y < 8; y++)
 						for (uint32_t z = 0; z < 8; z++) {
-							uint32_t px = m & 4 ? 7 - x : x,
-								 py = m & 2 ? 7 - y : y,
-								 pz = m & 1 ? 7 - z : z;
+							/* axes rotated k % 3 times, then
+							 * Y and Z swapped when k >= 3 */
+							uint32_t q[3] = {x, y, z}, r[3];
+							for (int a = 0; a < 3; a++)
+								r[a] = q[(a + k) % 3];
+							if (k >= 3) {
+								uint32_t tmp = r[1];
+								r[1] = r[2];
+								r[2] = tmp;
+							}
+							uint32_t px = m & 4 ? 7 - r[0] : r[0],
+								 py = m & 2 ? 7 - r[1] : r[1],
+								 pz = m & 1 ? 7 - r[2] : r[2];
 							if (pat[pick][px][py][pz])
 								*gv(&g, 8 * bx + x, 8 * by + y,
 								    8 * bz + z) = 1;
@@ -485,6 +500,12 @@ static void test_synthetic_rays(void)
 			for (uint64_t k = 0; k < s.dag[1].lv[l].refs; k++)
 				mirrored |= s.dag[1].lv[l].refl[k] != 0;
 		if (L >= 5) CHECK(mirrored);
+		/* and the ssvdag48 permutations */
+		int permuted = 0;
+		for (int l = 0; l + 1 < s.dag[2].levels; l++)
+			for (uint64_t k = 0; k < s.dag[2].lv[l].refs; k++)
+				permuted |= s.dag[2].lv[l].refl[k] >= 8;
+		if (L >= 5) CHECK(permuted);
 		ray_battery(&s, 1500);
 		scene6_free(&s);
 	}
