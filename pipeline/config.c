@@ -16,7 +16,7 @@ static const struct stage_info stages[] = {
 	{"voxelize", STAGE_VOXELIZE, 0, 0},
 	{"svo-to-dag", STAGE_SVO_TO_DAG, 1, 1},
 	{"symmetry-merge", STAGE_SYMMETRY_MERGE, 1, 1},
-	{"encode", STAGE_ENCODE, 2, 2},
+	{"encode", STAGE_ENCODE, 2, 3},
 	{"render", STAGE_RENDER, 1, 2},
 	{"lossy-cluster", STAGE_LOSSY, 1, 1},
 	{"edit", STAGE_EDIT, 1, 1},
@@ -414,6 +414,7 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 	/* parameters of one stage; checked against the stage once it is
 	 * known (it may come after them) */
 	yaml_node_t *lossy_param = NULL, *edit_param = NULL, *colour_param = NULL;
+	yaml_node_t *group_param = NULL;
 	yaml_node_t *k, *v;
 	FOR_PAIRS(x, map, k, v, it) {
 		const char *key = scalar(k);
@@ -460,6 +461,14 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 				return 1;
 			snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
 			lossy_param = k;
+		} else if (!strcmp(key, "group")) {
+			if (want_int(x, v, key, 8, 48, &d->group))
+				return 1;
+			if (d->group != 8 && d->group != 48)
+				return fail_at(x, v, "'group' is 8 (reflections, "
+					       "the SSVDAG) or 48 (the cube's "
+					       "symmetries), not %d", d->group);
+			group_param = k;
 		} else if (!strcmp(key, "method")) {
 			const char *m = scalar(v);
 			if (!m || (strcmp(m, "vbr") && strcmp(m, "palette") &&
@@ -500,7 +509,8 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			edit_param = k;
 		} else {
 			return fail_at(x, k, "unknown key '%s' in job '%s' "
-				       "(known: stage, needs; inflation, "
+				       "(known: stage, needs; group for "
+				       "symmetry-merge; inflation, "
 				       "diff_factor, max_refs for lossy-cluster; "
 				       "script for edit; method, max_error, "
 				       "weight_bits, palette_colours, lossless for "
@@ -509,6 +519,12 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 	}
 	if (!d->stage)
 		return fail_at(x, map, "job '%s' has no 'stage'", n);
+	if (group_param && d->stage->type != STAGE_SYMMETRY_MERGE)
+		return fail_at(x, group_param, "'group' is a parameter of "
+			       "symmetry-merge jobs, not of '%s' (stage %s)", n,
+			       d->stage->name);
+	if (!d->group)
+		d->group = 8;
 	if (lossy_param && d->stage->type != STAGE_LOSSY)
 		return fail_at(x, lossy_param, "'%s' is a parameter of "
 			       "lossy-cluster jobs, not of '%s' (stage %s)",
@@ -622,13 +638,23 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 			}
 		}
 		if (s->type == STAGE_ENCODE && !bad) {
-			/* one DAG job and the symmetry-merge job built from
-			 * it: else the encodings are of two scenes */
-			int dk = stage_makes_root_dag(t[0]) ? 0 : 1;
-			const struct job_decl *sm = &c->jobs_decl[d->needs[1 - dk]];
-			bad = !stage_makes_root_dag(t[dk]) ||
-			      t[1 - dk] != STAGE_SYMMETRY_MERGE ||
-			      sm->needs[0] != d->needs[dk];
+			/* one DAG job and the symmetry-merge jobs built from
+			 * it (one, or one of each group): else the encodings
+			 * are of two scenes */
+			int dk = -1, groups = 0;
+			for (int k = 0; k < d->nneeds; k++)
+				if (stage_makes_root_dag(t[k]))
+					bad |= dk >= 0, dk = k;
+			for (int k = 0; k < d->nneeds && !bad && dk >= 0; k++) {
+				if (k == dk)
+					continue;
+				const struct job_decl *sm = &c->jobs_decl[d->needs[k]];
+				int g = sm->group == 48 ? 2 : 1;
+				bad = t[k] != STAGE_SYMMETRY_MERGE ||
+				      sm->needs[0] != d->needs[dk] || (groups & g);
+				groups |= g;
+			}
+			bad |= dk < 0;
 		}
 		if (bad) {
 			static const char *const shape[STAGE_COUNT_] = {
@@ -638,7 +664,8 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 					"lossy-cluster or edit job]",
 				[STAGE_ENCODE] = "needs: [a DAG job (svo-to-dag, "
 					"lossy-cluster or edit), the symmetry-merge "
-					"job that needs it]",
+					"job that needs it (and a second one of the "
+					"other group)]",
 				[STAGE_RENDER] = "needs: [an encode job] or [an "
 					"encode job, an encode job to show the "
 					"differences from, or a colorize job for "

@@ -62,6 +62,9 @@ struct job_decl {
 	/* colorize: one method and its setting, the YAML's text (checked) */
 	char method[16], max_error[32], weight_bits[8], palette_colours[16];
 	int lossless;
+	/* symmetry-merge: the symmetry group, 8 (the SSVDAG, default) or 48
+	 * (--group 48, an ssvdag48 root that encode writes as .ssvdag48) */
+	int group;
 };
 
 /* 1 for the stages whose output is one root DAG chunk (kind dag):

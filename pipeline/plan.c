@@ -211,6 +211,21 @@ static void set_argv_list(struct job *j, const char *prog, const char *const *ar
 	j->argv[n + 1] = NULL;
 }
 
+/* A symmetry-merge job of a `group: 48` declaration: --group 48 appended
+ * (so the key, which hashes the command line, tells the groups apart). */
+static void add_group_arg(const struct job_decl *dd, struct job *j)
+{
+	if (dd->stage->type != STAGE_SYMMETRY_MERGE || dd->group != 48)
+		return;
+	int n = 0;
+	while (j->argv[n])
+		n++;
+	j->argv = xrealloc(j->argv, ((size_t)n + 3) * sizeof *j->argv);
+	j->argv[n] = xstrdup("--group");
+	j->argv[n + 1] = xstrdup("48");
+	j->argv[n + 2] = NULL;
+}
+
 /* Adds inputs (files whose content the key covers). */
 static void add_input(struct job *j, const char *path)
 {
@@ -915,6 +930,7 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 				for (size_t q = 0; q < nt; q++)
 					j->argv[z++] = xstrdup(tail[q]);
 				j->argv[z] = NULL;
+				add_group_arg(decl_of(p, d), j);
 				for (int q = i; q < k; q++) {
 					add_input(j, parts[q].path);
 					if (parts[q].job >= 0)
@@ -984,6 +1000,7 @@ static void plan_root_ssvdag(struct plan *p, int d)
 	const char *src = p->jobs[in].output;
 	set_argv(j, "symmetry-merge", src, "-o", j->output, "--mem-budget",
 		 budget, "--threads", threads, "-q", NULL);
+	add_group_arg(decl_of(p, d), j);
 	add_input(j, src);
 	add_dep(p, j, in);
 	p->merges_planned[d] = 1;
@@ -1080,7 +1097,8 @@ static void plan_dag_stage(struct plan *p, int d)
 	/* .sdag, not .ssvdag: that is the SymVox encoding's extension */
 	const char *ext = is_dag ? "dag" : "sdag";
 	const char *src_ext = is_dag ? ".svo" : ".dag";
-	uint32_t kind = is_dag ? VD_KIND_DAG : VD_KIND_SSVDAG;
+	uint32_t kind = is_dag ? VD_KIND_DAG : dd->group == 48 ? VD_KIND_SSVDAG48
+							    : VD_KIND_SSVDAG;
 	if (p->merges_planned[d])
 		return; /* planned whole: nothing more becomes known */
 	if (!is_dag && decl_of(p, src)->stage->type != STAGE_SVO_TO_DAG) {
@@ -1152,6 +1170,7 @@ static void plan_dag_stage(struct plan *p, int d)
 			set_argv(j, is_dag ? "svo-to-dag" : "symmetry-merge", in, "-o",
 				 out, "--mem-budget", budget, "--threads", threads,
 				 "-q", NULL);
+			add_group_arg(dd, j);
 			add_input(j, in);
 			if (is_dag) {
 				add_dep(p, j, src_job);
@@ -1259,15 +1278,23 @@ static void plan_encode(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
-	int dag = -1, ssv = -1;
+	int dag = -1, ssv = -1, s48 = -1, want48 = 0;
 	for (int k = 0; k < dd->nneeds; k++) {
 		int n = dd->needs[k];
 		if (stage_makes_root_dag(decl_of(p, n)->stage->type))
 			dag = stage_root_job(p, n);
+		else if (decl_of(p, n)->group == 48)
+			want48 = 1, s48 = stage_root_job(p, n);
 		else
 			ssv = stage_root_job(p, n);
 	}
-	if (dag < 0 || ssv < 0)
+	/* the first symmetric input is either; encode tells them by kind */
+	if (ssv < 0) {
+		ssv = s48;
+		s48 = -1;
+		want48 = 0;
+	}
+	if (dag < 0 || ssv < 0 || (want48 && s48 < 0))
 		return;
 	char out[1100], key[1200], budget[32], minl[16], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
@@ -1304,6 +1331,11 @@ static void plan_encode(struct plan *p, int d)
 		enum stage_type t = decl_of(p, p->jobs[i].decl)->stage->type;
 		/* only this scene's: a lossy or edited scene's own
 		 * symmetry-merge is not the lossless one's work */
+		/* beside the SSVDAG, the 48-group's merge is not Table 1's
+		 * symmetry-merge time */
+		if (s48 >= 0 && t == STAGE_SYMMETRY_MERGE &&
+		    decl_of(p, p->jobs[i].decl)->group == 48)
+			continue;
 		if ((t == STAGE_SVO_TO_DAG || t == STAGE_SYMMETRY_MERGE) &&
 		    decl_needs(p->cfg, d, p->jobs[i].decl))
 			fprintf(m, "%s.stats.json\n", p->jobs[i].output);
@@ -1327,11 +1359,14 @@ static void plan_encode(struct plan *p, int d)
 	free(text);
 	char path[1100];
 	snprintf(path, sizeof path, "%s/encode", bin_dir());
-	j->argv = xrealloc(NULL, (nh + 4) * sizeof *j->argv);
+	j->argv = xrealloc(NULL, (nh + 5) * sizeof *j->argv);
 	int z = 0;
 	j->argv[z++] = xstrdup(path);
-	for (size_t q = 0; q < nh; q++)
+	for (size_t q = 0; q < nh; q++) {
 		j->argv[z++] = xstrdup(head[q]);
+		if (q == 1 && s48 >= 0) /* the third input */
+			j->argv[z++] = xstrdup(p->jobs[s48].output);
+	}
 	j->argv[z++] = xstrdup("--stats-list");
 	j->argv[z++] = xstrdup(list);
 	j->argv[z] = NULL;
@@ -1339,6 +1374,10 @@ static void plan_encode(struct plan *p, int d)
 	add_input(j, js->output);
 	add_dep(p, j, dag);
 	add_dep(p, j, ssv);
+	if (s48 >= 0) {
+		add_input(j, p->jobs[s48].output);
+		add_dep(p, j, s48);
+	}
 	j->mem_estimate = c->job_mem_budget;
 }
 
@@ -1383,8 +1422,22 @@ static void plan_colorize(struct plan *p, int d)
 	j->mem_estimate = c->job_mem_budget;
 }
 
+/* The symmetric encoding render reads from an encode declaration's
+ * output: "ssvdag" when it has a group 8 symmetry-merge need, else
+ * "ssvdag48". */
+static const char *enc_sym_ext(const struct plan *p, int enc_decl)
+{
+	const struct job_decl *e = decl_of(p, enc_decl);
+	for (int k = 0; k < e->nneeds; k++) {
+		const struct job_decl *n = decl_of(p, e->needs[k]);
+		if (n->stage->type == STAGE_SYMMETRY_MERGE && n->group != 48)
+			return "ssvdag";
+	}
+	return "ssvdag48";
+}
+
 /* A picture of the scene for the report, traced through the SSVDAG
- * encoding that encode wrote. */
+ * encoding that encode wrote (.ssvdag48 for the 48-group's). */
 static void plan_render(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -1403,7 +1456,8 @@ static void plan_render(struct plan *p, int d)
 	struct job *j = add_job(p, d, dd->name, out, key);
 	if (!j)
 		return;
-	snprintf(in, sizeof in, "%s/%s.ssvdag", p->jobs[enc].output, c->name);
+	snprintf(in, sizeof in, "%s/%s.%s", p->jobs[enc].output, c->name,
+		 enc_sym_ext(p, dd->needs[0]));
 	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
 	if (colours) {
 		char in2[1300];
@@ -1416,8 +1470,8 @@ static void plan_render(struct plan *p, int d)
 		add_dep(p, j, other);
 	} else if (other >= 0) {
 		char in2[1300];
-		snprintf(in2, sizeof in2, "%s/%s.ssvdag", p->jobs[other].output,
-			 c->name);
+		snprintf(in2, sizeof in2, "%s/%s.%s", p->jobs[other].output,
+			 c->name, enc_sym_ext(p, dd->needs[1]));
 		set_argv(j, "render", in, "-o", out, "--size", "960x720",
 			 "--camera", "iso", "--diff", in2, "--threads", threads,
 			 "-q", NULL);

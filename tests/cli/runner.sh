@@ -328,6 +328,53 @@ printf 'version: 1\nname: x\ninput: {vdb: %s/grids/sphere.vdb, mode: melted}\nle
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  r: {stage: render, needs: [v]}\n' |
 	bad_cfg config_render_needs_encode 'takes needs: \[an encode job\]'
 
+# --- the 48-group (issue 13): group: 48 on a symmetry-merge job, per cell
+# and through the merge tree; encode beside the SSVDAG gives Table 2 its
+# SSVDAG48 columns, alone it gives .ssvdag48, which render traces; the
+# root equals symmetry-merge --group 48 of the root DAG; lossless; a rerun
+# starts nothing
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v]}\n  s: {stage: symmetry-merge, needs: [d], group: 12}\n' |
+	bad_cfg config_group_bad "bad.yaml:8:49: 'group' is 8 .* or 48"
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v], group: 48}\n' |
+	bad_cfg config_group_not_symmetry_merge "bad.yaml:7:38: 'group' is a parameter of symmetry-merge jobs"
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v]}\n  s: {stage: symmetry-merge, needs: [d]}\n  t: {stage: symmetry-merge, needs: [d]}\n  e: {stage: encode, needs: [d, s, t]}\n' |
+	bad_cfg config_encode_two_group8 "job 'e' \(stage encode\) takes needs: .*other group"
+G=out/$NAME-g48
+cat > "$T/g48.yaml" <<EOF
+version: 1
+name: $NAME-g48
+input: {mesh: tests/data/bunny.ply}
+levels: 8
+chunk_level: 2
+resolutions: [8, 7]
+resources: {jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:   {stage: voxelize}
+  dag:   {stage: svo-to-dag, needs: [vox]}
+  ssv:   {stage: symmetry-merge, needs: [dag]}
+  s48:   {stage: symmetry-merge, needs: [dag], group: 48}
+  enc:   {stage: encode, needs: [dag, ssv, s48]}
+  enc48: {stage: encode, needs: [s48, dag]}
+  pic:   {stage: render, needs: [enc48]}
+EOF
+expect g48_pipeline 0 '' $R -q run "$T/g48.yaml"
+expect g48_pipeline_lossless 0 '' $BIN/dag-verify $G/enc/$NAME-g48.ssvdag48 $G/vox/*.svo
+expect g48_pipeline_root_lossless 0 '' $BIN/dag-verify $G/s48/root.sdag $G/vox/*.svo
+$BIN/symmetry-merge -q --group 48 $G/dag/root.dag -o "$T/direct.s48"
+direct=$(tr -d '\n ' < "$T/direct.s48.stats.json" | sed 's/.*"nodes":\([0-9]*\).*/\1/')
+grep -q "\"nodes_ssvdag48\": $direct," $G/enc/$NAME-g48.encode.stats.json &&
+	pass g48_pipeline_same_as_direct || fail g48_pipeline_same_as_direct "direct $direct"
+grep -q '| nodes SSVDAG48 | nodes SSVDAG | nodes SVDAG |' $G/report.md &&
+	grep -q 'SSVDAG48/SVDAG = ' $G/report.md && pass g48_report_table2 ||
+	fail g48_report_table2 "$(sed -n '/Table 2/,/^$/p' $G/report.md)"
+[ -f $G/enc48/$NAME-g48.ssvdag48 ] && [ ! -f $G/enc48/$NAME-g48.ssvdag ] && [ -s $G/pic.png ] &&
+	pass g48_render_from_ssvdag48 || fail g48_render_from_ssvdag48 "$(ls $G $G/enc48)"
+started_before=$(grep -c ' started ' $G/logs/runner.log)
+expect g48_rerun 0 '' $R -q run "$T/g48.yaml"
+[ "$(grep -c ' started ' $G/logs/runner.log)" = "$started_before" ] &&
+	pass g48_rerun_starts_nothing || fail g48_rerun_starts_nothing
+rm -rf $G
+
 # --- status and clean
 expect status_done 0 'done +[1-9]' $R status "$CFG"
 expect clean 0 '' $R clean "$CFG"
