@@ -160,6 +160,12 @@ translation() {
 }
 translation
 
+# The 48-group (issue 13): SVDAG, SSVDAG and 48-group node counts and the
+# .esvdag/.ssvdag/.ssvdag48 bytes of every shared mesh at 2^10 and 2^12,
+# each .ssvdag48 checked lossless (tests/bench/g48_table.sh).
+echo && echo "48-group table:"
+bash tests/bench/g48_table.sh
+
 # The runner's own cost at scale (issue 10): a pipeline of over 100,000
 # cells planned and run, the runner's CPU (getrusage of itself) against the
 # stages' (its reaped children), its wall time and its own peak memory,
