@@ -33,6 +33,7 @@
  * formula tp() and the result stays exactly the DDA's. */
 #include "voxdag.h"
 #include "dag/dag_internal.h" /* the cube group's tables */
+#include "encode/encode_internal.h" /* the compact pointers */
 
 #include <errno.h>
 #include <inttypes.h>
@@ -230,29 +231,13 @@ static inline void node_child(const struct tracer *T, int level,
 			       (unsigned)__builtin_popcount(hi & above);
 		unsigned tag = h >> 2 * s & 3;
 		const uint16_t *w = T->inner + off;
+		unsigned m;
 		uint32_t addr;
-		unsigned mir;
-		if (T->g48) { /* 10 + 6 or 26 + 6 bits, our transform numbers */
-			if (tag == 1) {
-				addr = w[0] & 0x3ff;
-				mir = w[0] >> 10;
-			} else {
-				uint32_t v = (uint32_t)w[0] << 16 | w[1];
-				addr = (v & 0x3ffffff) | (uint32_t)(tag & 1) << 26;
-				mir = v >> 26;
-			}
-			c->refl = vd__g48_comp[n->refl][mir];
+		if (T->g48) {
+			addr = vd__enc_unpack_ptr48(tag, w, &m);
+			c->refl = vd__g48_comp[n->refl][m];
 		} else {
-			if (tag == 1) {
-				addr = w[0] & 0x1fff;
-				mir = w[0] >> 13;
-			} else {
-				uint32_t v = (uint32_t)w[0] << 16 | w[1];
-				addr = (v & 0x1fffffff) | (uint32_t)(tag & 1) << 29;
-				mir = v >> 29;
-			}
-			/* SymVox mirror bits X, Y, Z = bits 0, 1, 2; ours 2, 1, 0 */
-			unsigned m = (mir >> 2 & 1) | (mir & 2) | (mir & 1) << 2;
+			addr = vd__enc_unpack_ptr(tag, w, &m);
 			c->refl = n->refl ^ m;
 		}
 		if (level + 1 < T->L - 2) {
