@@ -824,6 +824,8 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	plan_expand(p);
 	int tty = isatty(2) && !o->quiet;
 	double t0 = vd_seconds(), last = 0;
+	/* how often progress is shown (quiet: how long a wait may last) */
+	const double every = o->quiet ? 5.0 : tty ? 0.5 : 10.0;
 	uint64_t mem_used = 0;
 	int running = 0, failures = 0;
 	/* jobs before `scan_from` have all left JOB_PENDING (states only move
@@ -974,8 +976,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				struct timespec ts = {0, 200 * 1000 * 1000};
 				nanosleep(&ts, NULL);
 			} else {
-				double every = o->quiet ? 5.0 : tty ? 0.5 : 10.0,
-				       left = last + every - vd_seconds();
+				double left = last + every - vd_seconds();
 				if (left < 0.01)
 					left = 0.01;
 				struct timespec ts = {(time_t)left,
@@ -992,9 +993,12 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 					sigtimedwait(&chld, NULL, &ts);
 				}
 			}
+			/* quiet, the clock still moves on: else every
+			 * wait after the first 5 s would end at once */
 			double now = vd_seconds();
-			if (!o->quiet && now - last >= (tty ? 0.5 : 10.0)) {
-				progress(p, t0, tty, 0);
+			if (now - last >= every) {
+				if (!o->quiet)
+					progress(p, t0, tty, 0);
 				last = now;
 			}
 			continue;
