@@ -707,7 +707,7 @@ int report_write(const struct plan *p)
 }
 
 /* Sets started[i] for the jobs whose last word in runner.log is
- * "started": running now, or interrupted or failed. Jobs keep their logs
+ * "started" or "failed": running now, or interrupted or failed. Jobs keep their logs
  * only when they fail or say something (run.c), so the runner's log is
  * where a start is written down. */
 static void mark_started(const struct plan *p, char *started)
@@ -727,7 +727,7 @@ static void mark_started(const struct plan *p, char *started)
 			continue;
 		int i = plan_find(p, id);
 		if (i >= 0)
-			started[i] = !strcmp(what, "started");
+			started[i] = strcmp(what, "done") != 0;
 	}
 	fclose(f);
 }
