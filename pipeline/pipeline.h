@@ -140,6 +140,9 @@ struct job {
 	uint64_t mem_estimate;
 	enum job_state state;
 	pid_t pid;
+	int log_fd;                /* a running local job's log, in memory
+				    * (run.c, start_job); -1 otherwise */
+	off_t log_head;            /* its first line: the command */
 	double start, seconds;
 	uint64_t peak_rss;         /* from wait4 */
 	uint64_t voxels;           /* from the stage's stats, for throughput */
@@ -174,6 +177,8 @@ void job_set_state(struct plan *p, struct job *j, enum job_state s);
  * only moment something new becomes known): each stage's cells and merges
  * are planned once, so the runner's cost stays linear in the jobs. */
 int plan_expand(struct plan *p);
+/* The index of the job named id, or -1. */
+int plan_find(const struct plan *p, const char *id);
 void plan_free(struct plan *p);
 
 /* The hex key of job j: stage version, arguments and the checksums of its

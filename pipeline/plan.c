@@ -10,7 +10,8 @@
  *   <lossy or edit job>/root.dag   one process on the root DAG chunk
  *   <symmetry-merge job>/root.sdag  the same after lossy-cluster or edit
  *   <encode job>/              the encodings and tables
- *   logs/                      one log per job, runner.log
+ *   logs/                      runner.log; <job>.log for a job that
+ *                              failed or said something
  *   keys                       the key journal (below)
  * Every output has a key: the stage version, the arguments and the
  * checksums of the inputs, and the digest of the output. A job whose
@@ -111,7 +112,7 @@ static int *index_slot(const struct plan *p, const char *id)
 	}
 }
 
-static int find_job(const struct plan *p, const char *id)
+int plan_find(const struct plan *p, const char *id)
 {
 	if (!p->index_cap)
 		return -1;
@@ -136,7 +137,7 @@ static void index_grow(struct plan *p)
 static struct job *add_job(struct plan *p, int decl, const char *id,
 			   const char *output, const char *key_path)
 {
-	if (find_job(p, id) >= 0)
+	if (plan_find(p, id) >= 0)
 		return NULL; /* already planned */
 	if (2 * (p->n + 1) > p->index_cap)
 		index_grow(p);
@@ -146,6 +147,7 @@ static struct job *add_job(struct plan *p, int decl, const char *id,
 	}
 	struct job *j = &p->jobs[p->n++];
 	memset(j, 0, sizeof *j);
+	j->log_fd = -1;
 	j->decl = decl;
 	j->id = xstrdup(id);
 	j->output = xstrdup(output);
@@ -911,7 +913,7 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			snprintf(budget, sizeof budget, "%llu",
 				 (unsigned long long)c->job_mem_budget);
 			snprintf(threads, sizeof threads, "%d", c->threads);
-			int idx = find_job(p, id);
+			int idx = plan_find(p, id);
 			struct job *j = idx < 0 ? add_job(p, d, id, out, key) : NULL;
 			if (j) {
 				char path[1100];
@@ -1119,7 +1121,7 @@ static void plan_dag_stage(struct plan *p, int d)
 	 * source stage's cell jobs did (they are planned together) */
 	int src_job = -1;
 	if (is_dag) {
-		src_job = find_job(p, src_name);
+		src_job = plan_find(p, src_name);
 		if (src_job < 0 || !job_finished(&p->jobs[src_job]))
 			return;
 	} else if (!p->cells_planned[src] || p->cells_left[src] > 0) {
@@ -1178,7 +1180,7 @@ static void plan_dag_stage(struct plan *p, int d)
 				char sid[400];
 				snprintf(sid, sizeof sid, "%s/cells/%.*s", decl_of(p, src)->name,
 					 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
-				int si = find_job(p, sid);
+				int si = plan_find(p, sid);
 				if (si >= 0)
 					add_dep(p, j, si);
 			}
@@ -1242,7 +1244,7 @@ static int stage_root_job(const struct plan *p, int d)
 {
 	char id[200];
 	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
-	return find_job(p, id);
+	return plan_find(p, id);
 }
 
 /* 1 when declared job `a` is `d` or one it needs, directly or not. */
@@ -1387,7 +1389,7 @@ static void plan_colorize(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
-	int vox = find_job(p, decl_of(p, dd->needs[0])->name);
+	int vox = plan_find(p, decl_of(p, dd->needs[0])->name);
 	if (vox < 0)
 		return;
 	char out[1100], key[1200], threads[16];
@@ -1442,9 +1444,9 @@ static void plan_render(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
-	int enc = find_job(p, decl_of(p, dd->needs[0])->name);
+	int enc = plan_find(p, decl_of(p, dd->needs[0])->name);
 	/* with a second encode job: its scene's differing voxels in red */
-	int other = dd->nneeds > 1 ? find_job(p, decl_of(p, dd->needs[1])->name)
+	int other = dd->nneeds > 1 ? plan_find(p, decl_of(p, dd->needs[1])->name)
 				   : -1;
 	int colours = other >= 0 &&
 		      decl_of(p, dd->needs[1])->stage->type == STAGE_COLORIZE;
@@ -1544,7 +1546,7 @@ int plan_expand(struct plan *p)
 			 stage_makes_root_dag(c->jobs_decl[d].stage->type) ||
 			 c->jobs_decl[d].stage->type == STAGE_SYMMETRY_MERGE
 				 ? "/root" : "");
-		if (find_job(p, id) < 0)
+		if (plan_find(p, id) < 0)
 			p->expanded = 0;
 	}
 	return 0;

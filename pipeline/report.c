@@ -706,6 +706,32 @@ int report_write(const struct plan *p)
 	return err;
 }
 
+/* Sets started[i] for the jobs whose last word in runner.log is
+ * "started" or "failed": running now, or interrupted or failed. Jobs keep their logs
+ * only when they fail or say something (run.c), so the runner's log is
+ * where a start is written down. */
+static void mark_started(const struct plan *p, char *started)
+{
+	char path[1300], line[1600], id[1024];
+	snprintf(path, sizeof path, "%s/logs/runner.log", p->dir);
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return;
+	while (fgets(line, sizeof line, f)) {
+		char what[16];
+		/* "DATE TIME started ID (...)", "DATE TIME done ID in ..." */
+		if (sscanf(line, "%*s %*s %15s %1023s", what, id) != 2)
+			continue;
+		if (strcmp(what, "started") && strcmp(what, "done") &&
+		    strcmp(what, "failed"))
+			continue;
+		int i = plan_find(p, id);
+		if (i >= 0)
+			started[i] = strcmp(what, "done") != 0;
+	}
+	fclose(f);
+}
+
 int status_print(struct plan *p)
 {
 	plan_expand(p);
@@ -713,6 +739,12 @@ int status_print(struct plan *p)
 	char lock[1200];
 	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
 	int in_slurm = 0;
+	char *started = calloc((size_t)p->n + 1, 1);
+	if (!started) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		return 1;
+	}
+	mark_started(p, started);
 	for (int i = 0; i < p->n; i++) {
 		struct job *j = &p->jobs[i];
 		char st[256];
@@ -721,26 +753,14 @@ int status_print(struct plan *p)
 			in_slurm++;
 			continue;
 		}
-		if (j->state == JOB_PENDING) {
-			/* a log without a key: it ran and did not finish */
-			char lp[1300], id[200];
-			snprintf(id, sizeof id, "%s", j->id);
-			for (char *q = id; *q; q++)
-				if (*q == '/')
-					*q = '.';
-			snprintf(lp, sizeof lp, "%s/logs/%s.log", p->dir, id);
-			FILE *f = fopen(lp, "r");
-			if (f) {
-				j->state = JOB_FAILED;
-				fclose(f);
-			}
-		}
+		if (j->state == JOB_PENDING && started[i])
+			j->state = JOB_FAILED; /* started (runner.log), no key */
 		counts[j->state]++;
 	}
 	printf("%s: %d jobs planned%s\n", p->cfg->name, p->n,
 	       p->expanded ? "" : " so far (more once the cells are known)");
 	printf("  done     %d\n  started  %d (running now, or interrupted or "
-	       "failed: see %s/logs/)\n  pending  %d\n", counts[JOB_SKIPPED],
+	       "failed: see %s/logs/runner.log)\n  pending  %d\n", counts[JOB_SKIPPED],
 	       counts[JOB_FAILED], p->dir, counts[JOB_PENDING]);
 	if (in_slurm)
 		printf("  in Slurm %d (submitted by a driver):\n", in_slurm);
@@ -753,5 +773,6 @@ int status_print(struct plan *p)
 	for (int i = 0; i < p->n; i++)
 		if (p->jobs[i].state == JOB_FAILED)
 			printf("  started, not finished: %s\n", p->jobs[i].id);
+	free(started);
 	return 0;
 }

@@ -179,9 +179,9 @@ head_cfg > "$CFG" <<'EOF'
 EOF
 expect edit_run 0 '' $R -q run "$CFG"
 # the edit job runs within the per-job budget (512M), as every stage does
-head -1 $D/logs/ed*.log | grep -q -- '--mem-budget 536870912 ' &&
+$R plan "$CFG" | grep -q -- '^done ed/root: .* --mem-budget 536870912 ' &&
 	pass edit_gets_the_job_budget ||
-	fail edit_gets_the_job_budget "$(head -1 $D/logs/ed*.log)"
+	fail edit_gets_the_job_budget "$($R plan "$CFG" | grep '^done ed/')"
 H=$T/hand
 mkdir -p $H
 $BIN/edit $D/dag/root.dag -o $H/e.dag --script "$T/edits.txt" -q &&

@@ -155,8 +155,24 @@ if [ -n "$child" ] && [ $rc -eq 1 ] && grep -q 'killed by signal 9' "$T/kill.err
 else
 	fail job_killed_reported "rc=$rc child=$child" "$(cat "$T/kill.err")"
 fi
+# the killed job's log holds its command line; status names it (from
+# runner.log: jobs that succeed quietly get no log of their own)
+killed_id=$(awk '/ failed /{print $4}' $D/logs/runner.log | head -n 1)
+killed_log=$D/logs/$(echo "$killed_id" | tr / .).log
+if [ -n "$killed_id" ] && head -n 1 "$killed_log" 2>/dev/null | grep -q '^\$ .*out/bin/' &&
+   $R status "$CFG" | grep -qx "  started, not finished: $killed_id"; then
+	pass job_killed_log_and_status
+else
+	fail job_killed_log_and_status "id '$killed_id'" "$(head -n 2 "$killed_log" 2>&1)" \
+		"$($R status "$CFG" 2>&1)"
+fi
 expect job_killed_then_rerun 0 '' $R -q run "$CFG"
 expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+# after a clean rerun: the per-cell jobs said nothing and left no log,
+# and the killed job's old log is gone with its failure
+quiet_logs=$(ls $D/logs | grep -c '^dag\.\|^ssvdag\.')
+[ "$quiet_logs" -eq 0 ] && pass quiet_jobs_leave_no_log ||
+	fail quiet_jobs_leave_no_log "$(ls $D/logs | head)"
 
 # --- the job launcher (voxdag-spawn --serve, the runner's child) killed in
 # the middle: the runner says so, fails the jobs it ran (killed with it:

@@ -755,6 +755,23 @@ struct run {
 	char detail[512];
 };
 
+/* What a user can do about a cell too large for a worker's share: a
+ * deeper chunk level has smaller cells (while there is one), fewer
+ * threads give each worker more of the budget. */
+static const char *budget_advice(const struct run *r)
+{
+	int max_level = r->g.L - 2 < MAX_CHUNK_LEVEL ? r->g.L - 2 :
+		MAX_CHUNK_LEVEL;
+	if (r->g.L0 < max_level)
+		return "use a larger --mem-budget, fewer --threads or a larger "
+		       "--chunk-level (smaller cells)";
+	if (r->nworkers > 1)
+		return "use a larger --mem-budget or fewer --threads (the "
+		       "cells are already the smallest)";
+	return "use a larger --mem-budget (the cells are already the "
+	       "smallest)";
+}
+
 static void run_fail(struct run *r, int err)
 {
 	pthread_mutex_lock(&r->lock);
@@ -1088,11 +1105,11 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 		return vd_fail(VD_ERR_BUDGET, "the colours of cell %llx (%llu "
 			       "voxels) need %llu MiB with its blocks, more "
 			       "than the budget's share per worker (%llu MiB); "
-			       "use a smaller --chunk-level or a larger "
-			       "--mem-budget", (unsigned long long)cell,
+			       "%s", (unsigned long long)cell,
 			       (unsigned long long)voxels,
 			       (unsigned long long)(need >> 20) + 1,
-			       (unsigned long long)(r->worker_bytes >> 20));
+			       (unsigned long long)(r->worker_bytes >> 20),
+			       budget_advice(r));
 	if (voxels > w->vox_cap) {
 		free(w->vox);
 		w->vox_cap = 0;
@@ -1206,11 +1223,11 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
 		if (w->map.over)
 			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
-				      "%zu blocks of %d KiB (the budget's share "
-				      "per worker); use a smaller --chunk-level "
-				      "or a larger --mem-budget",
-				      (unsigned long long)cell, w->map.limit,
-				      BLOCK_BYTES >> 10);
+				      "%llu MiB, the budget's share per worker "
+				      "(%zu blocks of 32^3 voxels); %s",
+				      (unsigned long long)cell,
+				      (unsigned long long)(r->worker_bytes >> 20),
+				      w->map.limit, budget_advice(r));
 	}
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
