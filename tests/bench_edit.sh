@@ -13,7 +13,7 @@
 set -u
 cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
-BIN=out/bin
+BIN=${VOXDAG_BENCH_BIN:-out/bin}
 OUT=out/bench-edit
 [ -d "$DATA" ] || { echo "bench_edit: $DATA is absent; nothing to measure"; exit 0; }
 mkdir -p "$OUT"

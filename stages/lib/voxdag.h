@@ -2075,6 +2075,11 @@ struct vd_hashdag_opts {
 				  a page) and the colour arrays stay under it:
 				  loading or an edit that would pass it fails
 				  with VD_ERR_BUDGET naming what it needs */
+	int colour_segment_log2; /* with colours: each cell's colour array is
+				  kept in segments, the subtrees of side
+				  2^this, so an edit rebuilds the segments
+				  it meets only (0: 6; clamped to the cell
+				  and brick sides) */
 };
 
 enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,
