@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <stdio.h>
 #include <time.h>
 
 /* The leaves' bit mixer (a 64-bit finaliser in the style of splitmix). */
@@ -627,6 +628,69 @@ uint32_t vd_hashdag_max_bucket(const struct vd_hashdag *h, int l)
 
 /* ------------------------------------------------------------------ gc */
 
+#define GC_BLOCKS 4096 /* bitmap blocks (of 64 words) per gc job */
+
+struct gc_err {
+	int err;
+	char detail[240];
+};
+
+struct gc_move {
+	struct vd_hashdag *h;
+	struct hd_level *fresh;
+	const struct live *live;
+	uint32_t **to;
+	int l;
+	struct gc_err *err;
+};
+
+/* Moves the live nodes of bitmap blocks [i GC_BLOCKS, (i+1) GC_BLOCKS) of
+ * level m->l into the fresh tables. */
+static void gc_move_range(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct gc_move *m = ctx;
+	struct vd_hashdag *h = m->h;
+	int l = m->l, L = h->levels;
+	const struct live *v = &m->live[l], *below = &m->live[l + 1];
+	uint64_t b0 = (uint64_t)i * GC_BLOCKS, b1 = b0 + GC_BLOCKS;
+	if (b1 > v->blocks)
+		b1 = v->blocks;
+	if (b0 >= b1)
+		return;
+	uint32_t *to = m->to[l], *to_below = m->to[l + 1];
+	uint64_t r = v->before[b0];
+	int err = VD_OK;
+	for (uint64_t b = b0; b < b1 && !err; b++)
+		for (uint64_t bw = v->bits[b]; bw && !err; bw &= bw - 1) {
+			uint32_t p = (uint32_t)(b << 6 |
+						(uint64_t)__builtin_ctzll(bw));
+			const uint32_t *nd = hd_node(h, l, p);
+			uint32_t w[9], n = 1;
+			uint64_t hash;
+			if (l == L - 2) {
+				w[0] = nd[0];
+				w[1] = nd[1];
+				n = 2;
+				hash = mix64((uint64_t)nd[0] |
+					     (uint64_t)nd[1] << 32);
+			} else {
+				uint32_t k = hd_node_words(h, l, nd);
+				w[0] = nd[0];
+				for (; n < k; n++)
+					w[n] = to_below[live_rank(below, nd[n])];
+				hash = vd_hash64(w, 4 * (size_t)n, (uint64_t)l);
+			}
+			err = insert_words(h, &m->fresh[l], l, w, n, hash, 0,
+					   &to[r++]);
+		}
+	if (err) {
+		m->err[i].err = err;
+		snprintf(m->err[i].detail, sizeof m->err[i].detail, "%s",
+			 vd_error_detail());
+	}
+}
+
 int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		  struct vd_edit_stats *st)
 {
@@ -648,7 +712,10 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 	 * one of rank i), are rewritten through the remap of the level below
 	 * and appended to the fresh tables without a search: the nodes of a
 	 * level are distinct (every insertion finds before it appends) and
-	 * the remap is one-to-one, so the rewritten nodes are distinct too. */
+	 * the remap is one-to-one, so the rewritten nodes are distinct too.
+	 * Ranges of the bitmap are jobs on the thread pool (bucket locks:
+	 * only the order inside a bucket depends on the threads). */
+	struct gc_move mv = {.h = h, .fresh = fresh, .live = live, .to = to};
 	for (int l = L - 2; l >= 0 && !err; l--) {
 		const struct live *v = &live[l];
 		to[l] = malloc((v->n ? v->n : 1) * sizeof *to[l]);
@@ -656,32 +723,19 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 			err = vd_fail(VD_ERR_NOMEM, "gc remap");
 			break;
 		}
-		uint64_t i = 0;
-		for (uint64_t b = 0; b < v->blocks && !err; b++)
-			for (uint64_t bw = v->bits[b]; bw && !err; bw &= bw - 1) {
-				uint32_t p = (uint32_t)(b << 6 |
-							(uint64_t)__builtin_ctzll(bw));
-				const uint32_t *nd = hd_node(h, l, p);
-				uint32_t w[9], n = 1;
-				uint64_t hash;
-				if (l == L - 2) {
-					w[0] = nd[0];
-					w[1] = nd[1];
-					n = 2;
-					hash = mix64((uint64_t)nd[0] |
-						     (uint64_t)nd[1] << 32);
-				} else {
-					uint32_t k = hd_node_words(h, l, nd);
-					w[0] = nd[0];
-					for (; n < k; n++)
-						w[n] = to[l + 1][live_rank(
-							&live[l + 1], nd[n])];
-					hash = vd_hash64(w, 4 * (size_t)n,
-							 (uint64_t)l);
-				}
-				err = insert_words(h, &fresh[l], l, w, n, hash,
-						   0, &to[l][i++]);
-			}
+		mv.l = l;
+		size_t jobs = (size_t)((v->blocks + GC_BLOCKS - 1) / GC_BLOCKS);
+		mv.err = calloc(jobs, sizeof *mv.err);
+		if (!mv.err) {
+			err = vd_fail(VD_ERR_NOMEM, "gc jobs");
+			break;
+		}
+		if (vd_parallel_for(jobs, h->o.threads, gc_move_range, &mv))
+			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+		for (size_t i = 0; i < jobs && !err; i++)
+			if (mv.err[i].err)
+				err = vd_fail(mv.err[i].err, "%s", mv.err[i].detail);
+		free(mv.err);
 		if (l + 1 <= L - 2) { /* the level below is done with */
 			live_free(&live[l + 1]);
 			free(to[l + 1]);
