@@ -14,12 +14,13 @@
 # scene is built once per depth and kept in out/bench-edit/.
 #   tests/bench_edit.sh [SCENE LEVELS]...   (default: dragon 12, dragon 14)
 #   VOXDAG_BENCH_BIN=DIR takes the tools from DIR (default out/bin), to
-#   measure another build on the same scenes.
+#   measure another build on the same scenes; VOXDAG_BENCH_OUT=DIR keeps
+#   the scenes and results there (default out/bench-edit).
 set -u
 cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
 BIN=${VOXDAG_BENCH_BIN:-out/bin}
-OUT=out/bench-edit
+OUT=${VOXDAG_BENCH_OUT:-out/bench-edit}
 [ -d "$DATA" ] || { echo "bench_edit: $DATA is absent; nothing to measure"; exit 0; }
 mkdir -p "$OUT"
 get() { tr -d '\n ' < "$2" | grep -o "\"$1\":[^,}]*" | head -1 | cut -d: -f2; }
