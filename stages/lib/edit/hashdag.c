@@ -634,7 +634,9 @@ uint32_t vd_hashdag_max_bucket(const struct vd_hashdag *h, int l)
 
 /* ------------------------------------------------------------------ gc */
 
-#define GC_BLOCKS 4096 /* bitmap blocks (of 64 words) per gc job */
+/* Bitmap blocks (of 64 words) per gc job: small enough that the tests'
+ * scenes make several jobs per level. */
+#define GC_BLOCKS 256
 
 struct gc_err {
 	int err;
