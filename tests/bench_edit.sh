@@ -5,16 +5,22 @@
 # the dragon is hollow there); the copy first, so its source is the scene's
 # own surface, to a destination clamped inside the grid) with 1 and 2
 # threads, on a coloured scene (colour-make-test colours, cells of level 3:
-# paint and the colours of every edit are measured too); memory of the
-# hashed tables against the plain DAG; gc time. Figures come from
-# EDITED.dag.stats.json and GNU time; the machine is shared, so they are
-# noisy. The scene is built once per depth and kept in out/bench-edit/.
+# paint and the colours of every edit are measured too) and on the same
+# scene without colours (no paint); memory of the hashed tables against
+# the plain DAG; gc time. Every edit of a run is applied in one process
+# (the interactive case: loading and saving are reported apart), and its
+# seconds and CPU seconds (all threads) come from EDITED.dag.stats.json;
+# peak RSS from GNU time; the machine is shared, so they are noisy. The
+# scene is built once per depth and kept in out/bench-edit/.
 #   tests/bench_edit.sh [SCENE LEVELS]...   (default: dragon 12, dragon 14)
+#   VOXDAG_BENCH_BIN=DIR takes the tools from DIR (default out/bin), to
+#   measure another build on the same scenes; VOXDAG_BENCH_OUT=DIR keeps
+#   the scenes and results there (default out/bench-edit).
 set -u
 cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
-BIN=out/bin
-OUT=out/bench-edit
+BIN=${VOXDAG_BENCH_BIN:-out/bin}
+OUT=${VOXDAG_BENCH_OUT:-out/bench-edit}
 [ -d "$DATA" ] || { echo "bench_edit: $DATA is absent; nothing to measure"; exit 0; }
 mkdir -p "$OUT"
 get() { tr -d '\n ' < "$2" | grep -o "\"$1\":[^,}]*" | head -1 | cut -d: -f2; }
@@ -64,10 +70,16 @@ bench() { # SCENE LEVELS
 	done
 	ops+="gc"$'\n'
 	printf '%s' "$ops" > "$dir/script.txt"
+	grep -v '^paint' "$dir/script.txt" > "$dir/script-plain.txt"
+	local mode j col script
+	for mode in col plain; do
 	for j in 1 2; do
+		col=() script=$dir/script-plain.txt
+		[ "$mode" = col ] && col=(--colours "$dir/v" --colours-out "$dir/edited-$j.col") &&
+			script=$dir/script.txt
 		/usr/bin/time -f %M -o "$dir/time" "$BIN/edit" "$dir/root.dag" \
-			-o "$dir/edited-$j.dag" --script "$dir/script.txt" -j "$j" -q \
-			--colours "$dir/v" --colours-out "$dir/edited-$j.col" ||
+			-o "$dir/edited-$j.dag" --script "$script" -j "$j" -q \
+			"${col[@]}" ||
 			{ echo "bench_edit: edit failed"; return; }
 		local st=$dir/edited-$j.dag.stats.json
 		tr -d '\n ' < "$st" | grep -o '{"line":[^}]*}' |
@@ -80,20 +92,21 @@ bench() { # SCENE LEVELS
 			cpu=$(grep -o '"cpu_seconds":[0-9.e+-]*' <<<"$o" | cut -d: -f2)
 			cells=$(grep -o '"colour_cells_rebuilt":[0-9]*' <<<"$o" | cut -d: -f2)
 			hb=$(grep -o '"hash_bytes":[0-9]*' <<<"$o" | cut -d: -f2)
-			printf '%-18s %2d %3s %5s %10s %9.4f %9.4f %5s %9.1f\n' "$name" "$j" \
+			printf '%-18s %-5s %2d %3s %5s %10s %9.4f %9.4f %5s %9.1f\n' "$name" "$mode" "$j" \
 				"$line" "$op" "$v" "$sec" "$cpu" "${cells:--}" \
 				"$(echo "$hb" | awk '{print $1/1048576}')"
 		done
-		printf '%-18s %2d  load %.2f s  save %.2f s  hash %.1f MiB  plain DAG %.1f MiB  peak RSS %.0f MiB\n' \
-			"$name" "$j" "$(get seconds_load "$st")" "$(get seconds_save "$st")" \
+		printf '%-18s %-5s %2d  load %.2f s  save %.2f s  hash %.1f MiB  plain DAG %.1f MiB  peak RSS %.0f MiB  load average %s\n' \
+			"$name" "$mode" "$j" "$(get seconds_load "$st")" "$(get seconds_save "$st")" \
 			"$(get hash_bytes "$st" | awk '{print $1/1048576}')" \
 			"$(get dag_bytes "$st" | awk '{print $1/1048576}')" \
-			"$(awk '{print $1/1024}' "$dir/time")"
+			"$(awk '{print $1/1024}' "$dir/time")" "$(cut -d' ' -f1 /proc/loadavg)"
 		rm -rf "$dir/edited-$j.col"
+	done
 	done
 }
 
-printf '%-18s %2s %3s %5s %10s %9s %9s %5s %9s\n' scene j line op voxels seconds cpu_s cells 'hash MiB'
+printf '%-18s %-5s %2s %3s %5s %10s %9s %9s %5s %9s\n' scene mode j line op voxels seconds cpu_s cells 'hash MiB'
 if [ $# -eq 0 ]; then
 	set -- stanford_dragon.ply 12 stanford_dragon.ply 14
 fi

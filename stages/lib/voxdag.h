@@ -2097,6 +2097,11 @@ struct vd_hashdag_opts {
 				  a page) and the colour arrays stay under it:
 				  loading or an edit that would pass it fails
 				  with VD_ERR_BUDGET naming what it needs */
+	int colour_segment_log2; /* with colours: each cell's colour array is
+				  kept in segments, the subtrees of side
+				  2^this, so an edit rebuilds the segments
+				  it meets only (0: 6; clamped to the cell
+				  and brick sides) */
 };
 
 enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,
@@ -2155,8 +2160,10 @@ int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op);
  * colour when the op has none; carved voxels drop theirs; copied voxels
  * take their source's; paint sets op->rgb on the set voxels of the region
  * (for paint, voxels_changed counts the voxels whose colour changed). Only
- * the colour arrays of the cells the region meets are rebuilt; the others
- * are shared with the previous root of the history. */
+ * the colours of the segments (opts.colour_segment_log2) the region meets
+ * are rebuilt; the others are shared with the previous root of the
+ * history, so an edit costs what its region holds, not what its cells
+ * hold. */
 int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		     struct vd_edit_stats *st);
 
@@ -2190,8 +2197,9 @@ int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
 
 /* Colours (stages/lib/edit/colours.c). The scene's colour array (the
  * colour paper's depth-first order) kept per cell of the source's chunk
- * level (a packed file's cells; min(3, L-2) when unknown), each cell's
- * array shared between the roots of the history that did not change it,
+ * level (a packed file's cells; min(3, L-2) when unknown) in segments,
+ * each cell's table of segments and each segment shared between the roots
+ * of the history that did not change it,
  * so undo, redo and gc carry colours along. `src` is what
  * vd_colour_source_open() takes (a voxelize directory of .col chunks or a
  * colorize packed file); it must hold exactly the current scene's voxels

@@ -253,7 +253,7 @@ static void random_op(struct vd_edit_op *op, int L)
 }
 
 static void random_colours(const char *mesh, int L, int L0, int nops,
-			   uint64_t seed, int threads)
+			   uint64_t seed, int threads, int seg_log2)
 {
 	char dir[512], out[600];
 	snprintf(dir, sizeof dir, "%s/src", test_tmpdir("test_edit_colour"));
@@ -266,7 +266,8 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 	r0 = r;
 	r0.v = malloc((size_t)(r.n * r.n * r.n) * 4);
 	memcpy(r0.v, r.v, (size_t)(r.n * r.n * r.n) * 4);
-	struct vd_hashdag_opts o = {.threads = threads};
+	struct vd_hashdag_opts o = {.threads = threads,
+				    .colour_segment_log2 = seg_log2};
 	struct vd_hashdag *h = NULL;
 	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, &o), VD_OK);
 	if (!h)
@@ -335,12 +336,21 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 
 static void test_spider_random(void)
 {
-	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2);
+	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2, 0);
+}
+
+/* Cells cut into many segments (bricks, then 8-cubes): edits meet a few
+ * segments of a cell and must splice their rebuilt colours between the
+ * kept ones, drop segments they empty and insert the ones they fill. */
+static void test_segments_random(void)
+{
+	random_colours("tests/data/spider/spider.obj", 7, 1, 150, 4242, 2, 2);
+	random_colours("tests/data/textured/scene.obj", 7, 2, 120, 77, 1, 3);
 }
 
 static void test_textured_random(void)
 {
-	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1);
+	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0);
 }
 
 /* One small paint: only its cell is written, the others are links to the
@@ -473,6 +483,7 @@ int main(void)
 	RUN(test_reuse_and_refusals);
 	RUN(test_spider_random);
 	RUN(test_textured_random);
+	RUN(test_segments_random);
 	RUN(test_budget);
 	return CHECK_DONE();
 }

@@ -1,8 +1,9 @@
 /* colours.c - the HashDAG's voxel colours: the scene's colour array in
  * depth-first order (colour paper section 3), cut into the cells of one
- * chunk level as voxelize and colorize cut it, so an edit rebuilds only
- * the arrays of the cells its region meets and every other cell's array
- * is shared, by reference, with the previous root of the history. Undo
+ * chunk level as voxelize and colorize cut it, and each cell's array cut
+ * again into segments (the subtrees of a deeper level), so an edit
+ * rebuilds only the segments its region meets and every other segment and
+ * cell is shared, by reference, with the previous root of the history. Undo
  * and redo switch tables; gc drops the tables of the roots it drops. The
  * colours are saved as a voxelize-style directory (SVO and colour chunk
  * per cell) whose unchanged cells are links to the source's files. */
@@ -16,38 +17,81 @@
 
 /* ------------------------------------------------------------ cells */
 
-static int cell_new(struct vd_hashdag *h, uint64_t n, struct hd_cellcol **out)
+/* Counts `more` bytes of colours against the budget (VD_ERR_BUDGET). */
+static int col_charge(struct vd_hashdag *h, uint64_t more, const char *what)
 {
 	struct hd_colours *c = h->col;
-	uint64_t more = sizeof **out + 3 * n;
-	if (h->o.mem_budget_bytes) {
-		uint64_t now = __atomic_add_fetch(&c->bytes, more,
-						  __ATOMIC_RELAXED);
-		if (now + h->fixed_bytes + h->committed_bytes >
-		    h->o.mem_budget_bytes) {
-			__atomic_sub_fetch(&c->bytes, more, __ATOMIC_RELAXED);
-			return hd_budget_check(h, more, "colours of a cell");
-		}
+	uint64_t now = __atomic_add_fetch(&c->bytes, more, __ATOMIC_RELAXED);
+	if (h->o.mem_budget_bytes &&
+	    now + h->fixed_bytes + h->committed_bytes > h->o.mem_budget_bytes) {
+		__atomic_sub_fetch(&c->bytes, more, __ATOMIC_RELAXED);
+		return hd_budget_check(h, more, what);
 	}
-	struct hd_cellcol *p = malloc(more + 1);
+	return VD_OK;
+}
+
+static int seg_new(struct vd_hashdag *h, uint64_t n, struct hd_seg **out)
+{
+	uint64_t more = sizeof **out + 3 * n;
+	int err = col_charge(h, more, "colours of a segment");
+	if (err)
+		return err;
+	struct hd_seg *p = malloc(more + 1);
 	if (!p) {
-		if (h->o.mem_budget_bytes)
-			__atomic_sub_fetch(&c->bytes, more, __ATOMIC_RELAXED);
+		__atomic_sub_fetch(&h->col->bytes, more, __ATOMIC_RELAXED);
 		return vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
 			       (unsigned long long)n);
 	}
-	if (!h->o.mem_budget_bytes)
-		__atomic_add_fetch(&c->bytes, more, __ATOMIC_RELAXED);
 	p->refs = 1;
 	p->n = n;
 	*out = p;
 	return VD_OK;
 }
 
-void hd_cellcol_unref(struct hd_colours *c, struct hd_cellcol *p)
+static void seg_unref(struct hd_colours *c, struct hd_seg *p)
 {
 	if (p && __atomic_sub_fetch(&p->refs, 1, __ATOMIC_RELAXED) == 0) {
 		__atomic_sub_fetch(&c->bytes, sizeof *p + 3 * p->n,
+				   __ATOMIC_RELAXED);
+		free(p);
+	}
+}
+
+static void seg_ref(struct hd_seg *p)
+{
+	__atomic_add_fetch(&p->refs, 1, __ATOMIC_RELAXED);
+}
+
+/* A cell table of room for `nseg` segments (nseg and n left 0). */
+static int cell_new(struct vd_hashdag *h, uint64_t nseg,
+		    struct hd_cellcol **out)
+{
+	uint64_t more = sizeof **out + nseg * sizeof (*out)->s[0];
+	int err = col_charge(h, more, "colour table of a cell");
+	if (err)
+		return err;
+	struct hd_cellcol *p = malloc(more);
+	if (!p) {
+		__atomic_sub_fetch(&h->col->bytes, more, __ATOMIC_RELAXED);
+		return vd_fail(VD_ERR_NOMEM, "colour table of %llu segments",
+			       (unsigned long long)nseg);
+	}
+	p->refs = 1;
+	p->n = 0;
+	p->nseg = 0;
+	*out = p;
+	return VD_OK;
+}
+
+/* The table's bytes as charged: its room is its count (tables are made
+ * to size, see cell_new's callers). */
+void hd_cellcol_unref(struct hd_colours *c, struct hd_cellcol *p)
+{
+	if (p && __atomic_sub_fetch(&p->refs, 1, __ATOMIC_RELAXED) == 0) {
+		for (uint64_t i = 0; i < p->nseg; i++)
+			seg_unref(c, p->s[i].seg);
+		__atomic_sub_fetch(&c->bytes,
+				   sizeof *p + p->nseg * sizeof p->s[0],
 				   __ATOMIC_RELAXED);
 		free(p);
 	}
@@ -70,6 +114,31 @@ void hd_colours_free(struct hd_colours *c)
 	free(c->tab);
 	free(c->src_dir);
 	free(c);
+}
+
+/* The segment of `code` (level S) in cell table t, or NULL. */
+static struct hd_seg *seg_find(const struct hd_cellcol *t, uint64_t code)
+{
+	if (!t)
+		return NULL;
+	uint64_t lo = 0, hi = t->nseg;
+	while (lo < hi) {
+		uint64_t mid = (lo + hi) / 2;
+		if (t->s[mid].code < code)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return lo < t->nseg && t->s[lo].code == code ? t->s[lo].seg : NULL;
+}
+
+/* The cell's colours end to end into rgb (3 n bytes). */
+static void cell_gather(const struct hd_cellcol *t, uint8_t *rgb)
+{
+	for (uint64_t i = 0; i < t->nseg; i++) {
+		memcpy(rgb, t->s[i].seg->rgb, 3 * t->s[i].seg->n);
+		rgb += 3 * t->s[i].seg->n;
+	}
 }
 
 int vd_hashdag_has_colours(const struct vd_hashdag *h)
@@ -158,6 +227,73 @@ static void vl_free(struct vlist *v)
 	memset(v, 0, sizeof *v);
 }
 
+/* Nodes of the segment level S: code (Morton at level S) and the node in
+ * the scene before (p) and after (q) an edit. */
+struct plist {
+	uint64_t *code;
+	uint32_t *p, *q;
+	uint64_t n, cap;
+};
+
+static void pl_free(struct plist *v)
+{
+	free(v->code);
+	free(v->p);
+	free(v->q);
+	memset(v, 0, sizeof *v);
+}
+
+static int pl_push(struct plist *v, uint64_t code, uint32_t p, uint32_t q)
+{
+	if (v->n == v->cap) {
+		uint64_t cap = v->cap ? 2 * v->cap : 64;
+		uint64_t *c = realloc(v->code, cap * sizeof *c);
+		if (c)
+			v->code = c;
+		uint32_t *a = c ? realloc(v->p, cap * sizeof *a) : NULL;
+		if (a)
+			v->p = a;
+		uint32_t *b = a ? realloc(v->q, cap * sizeof *b) : NULL;
+		if (!b)
+			return vd_fail(VD_ERR_NOMEM, "segment list");
+		v->q = b;
+		v->cap = cap;
+	}
+	v->code[v->n] = code;
+	v->p[v->n] = p;
+	v->q[v->n++] = q;
+	return VD_OK;
+}
+
+/* The nodes of level S under the nodes p (before) and q (after) of level
+ * l at (x, y, z) whose cube meets the box lo..hi and which are non-empty
+ * in either scene; with `changed` only those where p != q. In Morton
+ * order. */
+static int segs_in(const struct vd_hashdag *h, int l, uint32_t p, uint32_t q,
+		   const int64_t *xyz, uint64_t code, const int64_t *lo,
+		   const int64_t *hi, int changed, struct plist *out)
+{
+	if ((p == HD_EMPTY && q == HD_EMPTY) || (changed && p == q))
+		return VD_OK;
+	int64_t s = (int64_t)1 << (h->levels - l);
+	for (int a = 0; a < 3; a++)
+		if (xyz[a] + s - 1 < lo[a] || xyz[a] > hi[a])
+			return VD_OK;
+	if (l == h->col->S)
+		return pl_push(out, code, p, q);
+	int64_t hs = s / 2;
+	for (int c = 0; c < 8; c++) {
+		int64_t cx[3] = {xyz[0] + (c >> 2 & 1) * hs,
+				 xyz[1] + (c >> 1 & 1) * hs, xyz[2] + (c & 1) * hs};
+		int err = segs_in(h, l + 1, hd_child(h, l, p, c),
+				  hd_child(h, l, q, c), cx, code << 3 | (uint64_t)c,
+				  lo, hi, changed, out);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
 /* ----------------------------------------------------------- loading */
 
 int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
@@ -196,27 +332,52 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	if (!err && (!c->tab || !tab || !c->input))
 		err = vd_fail(VD_ERR_NOMEM, "colour tables");
 	h->col = c;
+	int sl = h->o.colour_segment_log2 ? h->o.colour_segment_log2 : 6;
+	c->S = L - sl;
+	if (c->S > L - 2)
+		c->S = L - 2;
+	if (c->S < c->C)
+		c->S = c->C;
 	uint64_t at = 0;
 	uint32_t root = h->roots[h->cur];
+	const int64_t all_lo[3] = {0, 0, 0};
+	const int64_t all_hi[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
+	struct plist segs = {0};
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
 			continue;
-		uint64_t n = hd_voxels_of(h, c->C, p);
-		if (at + n > s.voxels) {
-			err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours, "
-				      "fewer than the scene's voxels", src,
-				      (unsigned long long)s.voxels);
+		uint32_t cx, cy, cz;
+		cell_corner(h, ci, &cx, &cy, &cz);
+		int64_t xyz[3] = {cx, cy, cz};
+		segs.n = 0;
+		if ((err = segs_in(h, c->C, p, HD_EMPTY, xyz, ci, all_lo, all_hi,
+				   0, &segs)) ||
+		    (err = cell_new(h, segs.n, &tab[ci])))
 			break;
+		for (uint64_t i = 0; i < segs.n && !err; i++) {
+			uint64_t n = hd_voxels_of(h, c->S, segs.p[i]);
+			if (at + n > s.voxels) {
+				err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu "
+					      "colours, fewer than the scene's "
+					      "voxels", src,
+					      (unsigned long long)s.voxels);
+				break;
+			}
+			struct hd_seg *g;
+			if ((err = seg_new(h, n, &g)))
+				break;
+			for (uint64_t k = 0; k < n; k++)
+				s.get(&s, at + k, g->rgb + 3 * k);
+			at += n;
+			tab[ci]->s[tab[ci]->nseg].code = segs.code[i];
+			tab[ci]->s[tab[ci]->nseg++].seg = g;
+			tab[ci]->n += n;
 		}
-		if ((err = cell_new(h, n, &tab[ci])))
-			break;
-		for (uint64_t k = 0; k < n; k++)
-			s.get(&s, at + k, tab[ci]->rgb + 3 * k);
-		at += n;
 		tab[ci]->refs++;
 		c->input[ci] = tab[ci];
 	}
+	pl_free(&segs);
 	if (!err && at != s.voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
@@ -248,7 +409,7 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 	n = 0;
 	for (uint64_t ci = 0; ci < h->col->ncells; ci++)
 		if (tab[ci]) {
-			memcpy(a + 3 * n, tab[ci]->rgb, 3 * tab[ci]->n);
+			cell_gather(tab[ci], a + 3 * n);
 			n += tab[ci]->n;
 		}
 	*rgb = a;
@@ -258,16 +419,19 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 
 /* ----------------------------------------------------------- editing */
 
-/* A copy's source cells, decoded in the scene before the edit. */
-struct srccell {
-	uint64_t ci;
+/* A copy's source segments, decoded in the scene before the edit. */
+struct srcseg {
+	uint64_t code;
 	struct vlist v;
-	const struct hd_cellcol *col;
+	const struct hd_seg *col;
 };
 
-struct cjob {
-	uint64_t ci;
-	struct hd_cellcol *out;
+/* One segment to rebuild. */
+struct sjob {
+	uint64_t code;
+	uint32_t op, np;          /* its node before and after the edit */
+	size_t cell;              /* index in the list of cells */
+	struct hd_seg *old, *out; /* out NULL: empty after the edit */
 	uint64_t changed;
 	int err;
 	char detail[240];
@@ -276,26 +440,24 @@ struct cjob {
 struct cctx {
 	struct vd_hashdag *h;
 	const struct vd_edit_op *op;
-	uint32_t old_root, new_root;
-	struct hd_cellcol **old;
-	struct srccell *src;
+	struct srcseg *src;
 	size_t nsrc;
-	struct cjob *jobs;
+	struct sjob *jobs;
 };
 
 static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 {
 	const struct vd_hashdag *h = x->h;
-	uint64_t ci = m >> 3 * (h->levels - h->col->C);
+	uint64_t code = m >> 3 * (h->levels - h->col->S);
 	size_t lo = 0, hi = x->nsrc;
 	while (lo < hi) {
 		size_t mid = (lo + hi) / 2;
-		if (x->src[mid].ci < ci)
+		if (x->src[mid].code < code)
 			lo = mid + 1;
 		else
 			hi = mid;
 	}
-	if (lo == x->nsrc || x->src[lo].ci != ci)
+	if (lo == x->nsrc || x->src[lo].code != code || !x->src[lo].col)
 		return 0;
 	const struct vlist *v = &x->src[lo].v;
 	uint64_t a = 0, b = v->n;
@@ -312,29 +474,29 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	return 1;
 }
 
-static int rebuild(struct cctx *x, uint64_t ci, struct hd_cellcol **out,
-		   uint64_t *changed)
+/* The colours of one segment after the edit, from its voxels before and
+ * after (the same rules as a whole cell: see vd_hashdag_apply). */
+static int rebuild(struct cctx *x, struct sjob *jb)
 {
 	struct vd_hashdag *h = x->h;
 	const struct vd_edit_op *op = x->op;
-	const struct hd_cellcol *old = x->old[ci];
-	uint32_t np = cell_ptr(h, x->new_root, ci),
-		 op_ = cell_ptr(h, x->old_root, ci);
-	*out = NULL;
-	if (np == HD_EMPTY)
+	const struct hd_seg *old = jb->old;
+	jb->out = NULL;
+	jb->changed = 0;
+	if (jb->np == HD_EMPTY)
 		return VD_OK;
 	struct vlist ov = {0}, nv = {0};
-	int err = walk(h, h->col->C, op_, ci, &ov);
+	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
 	if (!err)
-		err = walk(h, h->col->C, np, ci, &nv);
+		err = walk(h, h->col->S, jb->np, jb->code, &nv);
 	if (!err && ov.n != (old ? old->n : 0))
-		err = vd_fail(VD_ERR_INTERNAL, "cell %llx: %llu voxels, %llu "
-			      "colours", (unsigned long long)ci,
+		err = vd_fail(VD_ERR_INTERNAL, "segment %llx: %llu voxels, %llu "
+			      "colours", (unsigned long long)jb->code,
 			      (unsigned long long)ov.n,
 			      (unsigned long long)(old ? old->n : 0));
-	struct hd_cellcol *c = NULL;
+	struct hd_seg *c = NULL;
 	if (!err)
-		err = cell_new(h, nv.n, &c);
+		err = seg_new(h, nv.n, &c);
 	int64_t d[3] = {0, 0, 0};
 	if (op->kind == VD_EDIT_COPY)
 		for (int a = 0; a < 3; a++)
@@ -374,35 +536,82 @@ static int rebuild(struct cctx *x, uint64_t ci, struct hd_cellcol **out,
 		else if (had && memcmp(to, was, 3))
 			ch++;
 	}
-	/* an unchanged cell (voxels and colours) keeps sharing its array,
-	 * and so its source files */
+	/* an unchanged segment (voxels and colours) keeps being shared */
 	int same = !err && old && ov.n == nv.n &&
 		   !memcmp(ov.m, nv.m, 8 * nv.n) &&
 		   !memcmp(old->rgb, c->rgb, 3 * c->n);
 	vl_free(&ov);
 	vl_free(&nv);
 	if (err) {
-		hd_cellcol_unref(h->col, c);
+		seg_unref(h->col, c);
 		return err;
 	}
 	if (same) {
-		hd_cellcol_unref(h->col, c);
-		c = x->old[ci];
-		__atomic_add_fetch(&c->refs, 1, __ATOMIC_RELAXED);
+		seg_unref(h->col, c);
+		c = jb->old;
+		seg_ref(c);
 	}
-	*out = c;
-	*changed = ch;
+	jb->out = c;
+	jb->changed = ch;
 	return VD_OK;
 }
 
-static void run_cjob(void *ctx, size_t i, int worker)
+static void run_sjob(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct cctx *x = ctx;
-	struct cjob *j = &x->jobs[i];
-	j->err = rebuild(x, j->ci, &j->out, &j->changed);
+	struct sjob *j = &x->jobs[i];
+	j->err = rebuild(x, j);
 	if (j->err)
 		snprintf(j->detail, sizeof j->detail, "%s", vd_error_detail());
+}
+
+/* The table of cell `old` with the segments jobs[0..n) (increasing codes)
+ * rebuilt: *out is `old` itself (one more reference) when none changed,
+ * NULL when the cell is empty now. */
+static int cell_merge(struct vd_hashdag *h, struct hd_cellcol *old,
+		      struct sjob *jobs, size_t n, struct hd_cellcol **out)
+{
+	int same = 1;
+	uint64_t oi = 0, nseg = old ? old->nseg : 0;
+	for (size_t i = 0; i < n; i++) {
+		if (jobs[i].out != jobs[i].old)
+			same = 0;
+		nseg += (jobs[i].out != NULL) - (jobs[i].old != NULL);
+	}
+	*out = NULL;
+	if (same) {
+		if (old)
+			__atomic_add_fetch(&old->refs, 1, __ATOMIC_RELAXED);
+		*out = old;
+		return VD_OK;
+	}
+	if (!nseg)
+		return VD_OK;
+	struct hd_cellcol *t;
+	int err = cell_new(h, nseg, &t);
+	if (err)
+		return err;
+	for (size_t i = 0; i <= n; i++) {
+		uint64_t end = i < n ? jobs[i].code : UINT64_MAX;
+		for (; old && oi < old->nseg && old->s[oi].code < end; oi++) {
+			t->s[t->nseg++] = old->s[oi];
+			seg_ref(old->s[oi].seg);
+			t->n += old->s[oi].seg->n;
+		}
+		if (i == n)
+			break;
+		if (old && oi < old->nseg && old->s[oi].code == end)
+			oi++; /* replaced */
+		if (jobs[i].out) {
+			t->s[t->nseg].code = jobs[i].code;
+			t->s[t->nseg++].seg = jobs[i].out;
+			seg_ref(jobs[i].out);
+			t->n += jobs[i].out->n;
+		}
+	}
+	*out = t;
+	return VD_OK;
 }
 
 /* The cells (codes at level C) the box lo..hi meets, in increasing order. */
@@ -465,20 +674,21 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		    uint64_t *cells_rebuilt)
 {
 	struct hd_colours *c = h->col;
-	struct cctx x = {.h = h, .op = op, .old_root = old_root,
-			 .new_root = new_root, .old = c->tab[h->cur]};
+	struct hd_cellcol **old = c->tab[h->cur];
+	struct cctx x = {.h = h, .op = op};
 	int64_t lo[3], hi[3];
 	uint64_t *cells = NULL, *scells = NULL;
 	size_t n = 0, ns = 0;
+	struct plist segs = {0};
 	*changed_colours = 0;
 	struct hd_cellcol **tab = malloc(c->ncells * sizeof *tab);
 	if (!tab)
 		return vd_fail(VD_ERR_NOMEM, "colour table");
-	memcpy(tab, x.old, c->ncells * sizeof *tab);
+	memcpy(tab, old, c->ncells * sizeof *tab);
 	op_bbox(h, op, lo, hi);
 	int err = cells_of(h, lo, hi, &cells, &n);
 	/* a fill without a colour or a carve changes the colours of the
-	 * cells whose voxels it changes only */
+	 * segments whose voxels it changes only */
 	int geometry_only = (op->kind == VD_EDIT_FILL && !op->has_rgb) ||
 			    op->kind == VD_EDIT_CARVE;
 	size_t k = 0;
@@ -488,44 +698,93 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 			cells[k++] = cells[i];
 	n = k;
 	*cells_rebuilt = n;
-	if (!err && op->kind == VD_EDIT_COPY && n) {
+	/* the segments of those cells the region meets, in order */
+	size_t *first = err ? NULL : malloc((n + 1) * sizeof *first);
+	if (!err && !first)
+		err = vd_fail(VD_ERR_NOMEM, "segment list");
+	for (size_t i = 0; i < n && !err; i++) {
+		uint32_t cx, cy, cz;
+		cell_corner(h, cells[i], &cx, &cy, &cz);
+		int64_t xyz[3] = {cx, cy, cz};
+		first[i] = segs.n;
+		err = segs_in(h, c->C, cell_ptr(h, old_root, cells[i]),
+			      cell_ptr(h, new_root, cells[i]), xyz, cells[i],
+			      lo, hi, geometry_only, &segs);
+	}
+	if (first)
+		first[n] = segs.n;
+	if (!err && op->kind == VD_EDIT_COPY && segs.n) {
+		struct plist ss = {0};
 		err = cells_of(h, op->lo, op->hi, &scells, &ns);
-		x.src = err ? NULL : calloc(ns ? ns : 1, sizeof *x.src);
+		for (size_t i = 0; i < ns && !err; i++) {
+			uint32_t cx, cy, cz;
+			cell_corner(h, scells[i], &cx, &cy, &cz);
+			int64_t xyz[3] = {cx, cy, cz};
+			uint32_t p = cell_ptr(h, old_root, scells[i]);
+			err = segs_in(h, c->C, p, p, xyz, scells[i], op->lo,
+				      op->hi, 0, &ss);
+		}
+		x.src = err ? NULL : calloc(ss.n ? ss.n : 1, sizeof *x.src);
 		if (!err && !x.src)
 			err = vd_fail(VD_ERR_NOMEM, "copy sources");
-		for (size_t i = 0; i < ns && !err; i++) {
-			x.src[x.nsrc].ci = scells[i];
-			x.src[x.nsrc].col = x.old[scells[i]];
-			err = walk(h, c->C, cell_ptr(h, old_root, scells[i]),
-				   scells[i], &x.src[x.nsrc].v);
+		for (uint64_t i = 0; i < ss.n && !err; i++) {
+			uint64_t cell = ss.code[i] >> 3 * (c->S - c->C);
+			x.src[x.nsrc].code = ss.code[i];
+			x.src[x.nsrc].col = seg_find(old[cell], ss.code[i]);
+			err = walk(h, c->S, ss.p[i], ss.code[i],
+				   &x.src[x.nsrc].v);
 			x.nsrc++;
 		}
+		pl_free(&ss);
 	}
-	x.jobs = err ? NULL : calloc(n ? n : 1, sizeof *x.jobs);
+	x.jobs = err ? NULL : calloc(segs.n ? segs.n : 1, sizeof *x.jobs);
 	if (!err && !x.jobs)
 		err = vd_fail(VD_ERR_NOMEM, "colour jobs");
 	for (size_t i = 0; i < n && !err; i++)
-		x.jobs[i].ci = cells[i];
-	if (!err && n && vd_parallel_for(n, h->o.threads, run_cjob, &x))
+		for (size_t s = first[i]; s < first[i + 1]; s++) {
+			struct sjob *j = &x.jobs[s];
+			j->code = segs.code[s];
+			j->op = segs.p[s];
+			j->np = segs.q[s];
+			j->cell = i;
+			j->old = seg_find(old[cells[i]], j->code);
+		}
+	if (!err && segs.n &&
+	    vd_parallel_for(segs.n, h->o.threads, run_sjob, &x))
 		err = vd_fail(VD_ERR_INTERNAL, "thread pool");
-	for (size_t i = 0; i < n && !err; i++)
+	for (size_t i = 0; i < segs.n && !err; i++)
 		if (x.jobs[i].err)
 			err = vd_fail(x.jobs[i].err, "%s", x.jobs[i].detail);
-	/* every other cell is shared with the previous root */
+	/* the cells met get new tables (made first, so a failure leaves
+	 * every old one as it was); every other cell is shared */
+	struct hd_cellcol **fresh = err ? NULL : calloc(n ? n : 1,
+							sizeof *fresh);
+	if (!err && !fresh)
+		err = vd_fail(VD_ERR_NOMEM, "colour tables");
+	for (size_t i = 0; i < n && !err; i++)
+		err = cell_merge(h, old[cells[i]], x.jobs + first[i],
+				 first[i + 1] - first[i], &fresh[i]);
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++)
 		if (tab[ci])
-			tab[ci]->refs++;
+			__atomic_add_fetch(&tab[ci]->refs, 1, __ATOMIC_RELAXED);
 	for (size_t i = 0; i < n && !err; i++) {
 		uint64_t ci = cells[i];
 		hd_cellcol_unref(c, tab[ci]);
-		tab[ci] = x.jobs[i].out;
-		x.jobs[i].out = NULL;
-		*changed_colours += x.jobs[i].changed;
+		tab[ci] = fresh[i];
+		fresh[i] = NULL;
 	}
-	for (size_t i = 0; x.jobs && i < n; i++)
-		hd_cellcol_unref(c, x.jobs[i].out);
+	for (size_t i = 0; x.jobs && i < segs.n; i++) {
+		if (!err)
+			*changed_colours += x.jobs[i].changed;
+		seg_unref(c, x.jobs[i].out);
+	}
+	for (size_t i = 0; fresh && i < n; i++)
+		hd_cellcol_unref(c, fresh[i]);
 	for (size_t i = 0; i < x.nsrc; i++)
 		vl_free(&x.src[i].v);
+	free(fresh);
+	free(first);
+	pl_free(&segs);
 	free(x.src);
 	free(x.jobs);
 	free(cells);
@@ -570,6 +829,10 @@ static int write_cell(const struct vd_hashdag *h, uint64_t ci,
 {
 	struct vlist v = {.bricks = 1};
 	char path[4096];
+	uint8_t *rgb = malloc(3 * cell->n + 1);
+	if (!rgb)
+		return vd_fail(VD_ERR_NOMEM, "colours of a cell");
+	cell_gather(cell, rgb);
 	int err = walk(h, h->col->C, cell_ptr(h, h->roots[h->cur], ci), ci, &v);
 	struct vd_svo s = {.levels = h->levels, .chunk_level = h->col->C,
 			   .cell_morton = ci, .count = v.n, .keys = v.m,
@@ -585,8 +848,9 @@ static int write_cell(const struct vd_hashdag *h, uint64_t ci,
 		err = vd_fail(VD_ERR_ARG, "directory name too long");
 	if (!err)
 		err = vd_colours_save(path, &sh, vd_svo_digest(v.m, v.mask, v.n),
-				      cell->rgb, cell->n, provenance);
+				      rgb, cell->n, provenance);
 	vl_free(&v);
+	free(rgb);
 	return err;
 }
 

@@ -28,24 +28,43 @@ struct hd_level {
 	pthread_mutex_t lock[HD_LOCKS];
 };
 
-/* One cell's colours (RGB8, depth-first), shared by reference between the
- * roots of the history that did not change the cell. */
-struct hd_cellcol {
+/* The colours (RGB8, depth-first) of one segment: the subtree of a node
+ * on the segment level S below the cell level C. Shared by reference
+ * between the cells' tables that did not change it. */
+struct hd_seg {
 	uint64_t refs;
 	uint64_t n;           /* voxels */
 	uint8_t rgb[];        /* 3 n bytes */
 };
 
+struct hd_cellseg {
+	uint64_t code;        /* the segment's node: Morton code at level S */
+	struct hd_seg *seg;
+};
+
+/* One cell's colours: its non-empty segments in Morton (so depth-first)
+ * order, whose arrays put end to end are the cell's colour array. An edit
+ * copies the table (a pointer per segment) and rebuilds only the segments
+ * its region meets, so its cost follows its size rather than the cell's.
+ * The table is shared by reference between the roots of the history that
+ * did not change the cell. */
+struct hd_cellcol {
+	uint64_t refs;
+	uint64_t n;           /* voxels */
+	uint64_t nseg;
+	struct hd_cellseg s[];
+};
+
 /* The scene's colours: per root of the history a table of the 8^C cells
  * of chunk level C (NULL: an empty cell), parallel to vd_hashdag.roots. */
 struct hd_colours {
-	int C;
+	int C, S;                    /* cell and segment levels, C <= S */
 	uint64_t ncells;
 	struct hd_cellcol ***tab;    /* [cap_roots] */
 	struct hd_cellcol **input;   /* the cells as loaded (reuse on save) */
 	char *src_dir;               /* the source directory, or NULL */
 	uint8_t fill_rgb[3];
-	uint64_t bytes;              /* of all cell arrays alive */
+	uint64_t bytes;              /* of all tables and segments alive */
 };
 
 struct vd_hashdag {

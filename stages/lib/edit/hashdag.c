@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <stdio.h>
 #include <time.h>
 
 /* The leaves' bit mixer (a 64-bit finaliser in the style of splitmix). */
@@ -43,6 +44,12 @@ static int level_init(struct hd_level *lv, int p, int m)
 	if (w == MAP_FAILED)
 		return vd_fail(VD_ERR_NOMEM, "cannot reserve %zu bytes: %s",
 			       bytes, strerror(errno));
+	/* huge pages where the level spans many of them: buckets are filled
+	 * by hash, so a large level touches every small page of its range
+	 * anyway, and one fault per 2 MiB instead of 512 is much of the cost
+	 * of loading and of gc (a hint: ignored where unsupported) */
+	if (bytes >= (size_t)8 << 20)
+		(void)madvise(w, bytes, MADV_HUGEPAGE);
 	lv->words = w;
 	lv->used = calloc((size_t)1 << p, sizeof *lv->used);
 	if (!lv->used) {
@@ -80,17 +87,19 @@ static int bucket_full(const struct hd_level *lv, int l, uint32_t b)
 		       b, l, 1u << lv->m, l, lv->p, lv->m);
 }
 
-/* Finds the node w[0..n) in its bucket or appends it. */
+/* Finds the node w[0..n) in its bucket or appends it; with `search` 0 the
+ * caller knows the node is absent (gc moving distinct nodes) and it is
+ * appended at once, so the bucket's linear scan is skipped. */
 static int insert_words(struct vd_hashdag *h, struct hd_level *lv, int l,
 			const uint32_t *w, uint32_t n, uint64_t hash,
-			uint32_t *out)
+			int search, uint32_t *out)
 {
 	uint32_t b = (uint32_t)(hash & (((uint64_t)1 << lv->p) - 1));
 	uint32_t *base = lv->words + ((size_t)b << lv->m);
 	pthread_mutex_t *lock = &lv->lock[b % HD_LOCKS];
 	pthread_mutex_lock(lock);
 	uint32_t used = lv->used[b], off = 0;
-	while (off < used) {
+	while (search && off < used) {
 		uint32_t sz = hd_node_words(h, l, base + off);
 		if (sz == n && !memcmp(base + off, w, 4 * (size_t)n)) {
 			pthread_mutex_unlock(lock);
@@ -145,14 +154,14 @@ int hd_insert_inner(struct vd_hashdag *h, int l, uint8_t mask,
 		if (mask >> c & 1)
 			w[n++] = child[c];
 	return insert_words(h, &h->lv[l], l, w, n,
-			    vd_hash64(w, 4 * (size_t)n, (uint64_t)l), out);
+			    vd_hash64(w, 4 * (size_t)n, (uint64_t)l), 1, out);
 }
 
 int hd_insert_leaf(struct vd_hashdag *h, uint64_t brick, uint32_t *out)
 {
 	uint32_t w[2] = {(uint32_t)brick, (uint32_t)(brick >> 32)};
 	return insert_words(h, &h->lv[h->levels - 2], h->levels - 2, w, 2,
-			    mix64(brick), out);
+			    mix64(brick), 1, out);
 }
 
 int hd_make_full(struct vd_hashdag *h)
@@ -507,94 +516,89 @@ int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
 
 /* -------------------------------------------------------- measurements */
 
-static uint64_t count_reach(const struct vd_hashdag *h, int l,
-			    const uint32_t *ptrs, size_t n, uint64_t *reach);
+/* The live nodes of one level: a bit per word of the level's address
+ * space, set at each live node's first word, and the count of live nodes
+ * before each block of 64 words. A node's index among the live ones in
+ * address order (its rank) then costs one popcount, so gc's remap table is
+ * a plain array indexed by rank and the whole collection is linear in the
+ * live nodes (plus a scan of 1 bit per reserved word). */
+struct live {
+	uint64_t *bits;
+	uint32_t *before;
+	uint64_t blocks, n;
+};
 
-static int cmp_u32(const void *a, const void *b)
+static void live_free(struct live *v)
 {
-	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-	return (x > y) - (x < y);
+	free(v->bits);
+	free(v->before);
+	memset(v, 0, sizeof *v);
 }
 
-static size_t sort_unique(uint32_t *v, size_t n)
+static inline uint64_t live_rank(const struct live *v, uint32_t p)
 {
-	if (!n)
-		return 0;
-	qsort(v, n, sizeof *v, cmp_u32);
-	size_t m = 1;
-	for (size_t i = 1; i < n; i++)
-		if (v[i] != v[m - 1])
-			v[m++] = v[i];
-	return m;
+	return v->before[p >> 6] +
+	       (uint64_t)__builtin_popcountll(v->bits[p >> 6] &
+					      ((1ull << (p & 63)) - 1));
 }
 
-/* The distinct nodes reachable per level from ptrs[0..n) on level l:
- * reach[k] for k >= l (sorted lists in *lists when lists is non-NULL). */
+/* The nodes reachable from ptrs[0..n) (on level 0), per level. */
 static int reachable(const struct vd_hashdag *h, const uint32_t *roots,
-		     size_t n, uint32_t **lists, size_t *counts)
+		     size_t n, struct live *live)
 {
 	int L = h->levels;
-	uint32_t *cur = malloc((n ? n : 1) * sizeof *cur);
-	if (!cur)
-		return vd_fail(VD_ERR_NOMEM, "gc lists");
-	size_t m = 0;
+	for (int l = 0; l <= L - 2; l++) {
+		const struct hd_level *lv = &h->lv[l];
+		struct live *v = &live[l];
+		v->blocks = (((uint64_t)1 << (lv->p + lv->m)) + 63) >> 6;
+		v->bits = calloc(v->blocks, sizeof *v->bits);
+		v->before = malloc(v->blocks * sizeof *v->before);
+		if (!v->bits || !v->before) {
+			for (int k = 0; k <= l; k++)
+				live_free(&live[k]);
+			return vd_fail(VD_ERR_NOMEM, "gc bitmaps");
+		}
+	}
 	for (size_t i = 0; i < n; i++)
 		if (roots[i] != HD_EMPTY)
-			cur[m++] = roots[i];
-	m = sort_unique(cur, m);
+			live[0].bits[roots[i] >> 6] |= 1ull << (roots[i] & 63);
 	for (int l = 0; l <= L - 2; l++) {
-		lists[l] = cur;
-		counts[l] = m;
+		struct live *v = &live[l];
+		uint64_t k = 0;
+		for (uint64_t b = 0; b < v->blocks; b++) {
+			v->before[b] = (uint32_t)k;
+			k += (uint64_t)__builtin_popcountll(v->bits[b]);
+		}
+		v->n = k;
 		if (l == L - 2)
 			break;
-		size_t k = 0;
-		for (size_t i = 0; i < m; i++)
-			k += hd_node_words(h, l, hd_node(h, l, cur[i])) - 1;
-		uint32_t *next = malloc((k ? k : 1) * sizeof *next);
-		if (!next) {
-			for (int j = 0; j <= l; j++)
-				free(lists[j]), lists[j] = NULL;
-			return vd_fail(VD_ERR_NOMEM, "gc lists");
-		}
-		k = 0;
-		for (size_t i = 0; i < m; i++) {
-			const uint32_t *nd = hd_node(h, l, cur[i]);
-			uint32_t w = hd_node_words(h, l, nd);
-			for (uint32_t j = 1; j < w; j++)
-				next[k++] = nd[j];
-		}
-		cur = next;
-		m = sort_unique(cur, k);
+		uint64_t *next = live[l + 1].bits;
+		for (uint64_t b = 0; b < v->blocks; b++)
+			for (uint64_t w = v->bits[b]; w; w &= w - 1) {
+				uint32_t p = (uint32_t)(b << 6 |
+							(uint64_t)__builtin_ctzll(w));
+				const uint32_t *nd = hd_node(h, l, p);
+				uint32_t sz = hd_node_words(h, l, nd);
+				for (uint32_t j = 1; j < sz; j++)
+					next[nd[j] >> 6] |= 1ull << (nd[j] & 63);
+			}
 	}
 	return VD_OK;
-}
-
-static uint64_t count_reach(const struct vd_hashdag *h, int l,
-			    const uint32_t *ptrs, size_t n, uint64_t *reach)
-{
-	(void)l;
-	uint32_t *lists[VD_MAX_LEVELS] = {0};
-	size_t counts[VD_MAX_LEVELS] = {0};
-	if (reachable(h, ptrs, n, lists, counts))
-		return 0;
-	for (int k = 0; k <= h->levels - 2; k++) {
-		reach[k] = counts[k];
-		free(lists[k]);
-	}
-	return 1;
 }
 
 void vd_hashdag_counts(const struct vd_hashdag *h, uint64_t *stored,
 		       uint64_t *reach)
 {
+	struct live live[VD_MAX_LEVELS];
+	memset(live, 0, sizeof live);
+	int ok = reach && !reachable(h, &h->roots[h->cur], 1, live);
 	for (int l = 0; l <= h->levels - 2; l++) {
 		if (stored)
 			stored[l] = h->lv[l].nodes;
 		if (reach)
-			reach[l] = 0;
+			reach[l] = ok ? live[l].n : 0;
+		live_free(&live[l]);
 	}
-	if (reach)
-		count_reach(h, 0, &h->roots[h->cur], 1, reach);
 }
 
 uint64_t vd_hashdag_memory_bytes(const struct vd_hashdag *h)
@@ -630,46 +634,46 @@ uint32_t vd_hashdag_max_bucket(const struct vd_hashdag *h, int l)
 
 /* ------------------------------------------------------------------ gc */
 
-static uint32_t remap(const uint32_t *list, const uint32_t *to, size_t n,
-		      uint32_t p)
-{
-	size_t lo = 0, hi = n;
-	while (lo < hi) {
-		size_t mid = (lo + hi) / 2;
-		if (list[mid] < p)
-			lo = mid + 1;
-		else
-			hi = mid;
-	}
-	return to[lo]; /* p is always in the list */
-}
+/* Bitmap blocks (of 64 words) per gc job: small enough that the tests'
+ * scenes make several jobs per level. */
+#define GC_BLOCKS 256
 
-int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
-		  struct vd_edit_stats *st)
+struct gc_err {
+	int err;
+	char detail[240];
+};
+
+struct gc_move {
+	struct vd_hashdag *h;
+	struct hd_level *fresh;
+	const struct live *live;
+	uint32_t **to;
+	int l;
+	struct gc_err *err;
+};
+
+/* Moves the live nodes of bitmap blocks [i GC_BLOCKS, (i+1) GC_BLOCKS) of
+ * level m->l into the fresh tables. */
+static void gc_move_range(void *ctx, size_t i, int worker)
 {
-	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
-	int L = h->levels, err;
-	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
-	size_t nkeep = keep_history ? h->nroots : 1;
-	uint32_t *lists[VD_MAX_LEVELS] = {0}, *to[VD_MAX_LEVELS] = {0};
-	size_t counts[VD_MAX_LEVELS] = {0};
-	struct hd_level *fresh = calloc(VD_MAX_LEVELS, sizeof *fresh);
-	if (!fresh)
-		return vd_fail(VD_ERR_NOMEM, "gc tables");
-	if ((err = reachable(h, keep, nkeep, lists, counts)))
-		goto done;
-	if ((err = tables_init(h, fresh, NULL)))
-		goto done;
-	/* Bottom-up: a level's nodes are rewritten through the remap of the
-	 * level below, then found or appended in the fresh tables. */
-	for (int l = L - 2; l >= 0 && !err; l--) {
-		to[l] = malloc((counts[l] ? counts[l] : 1) * sizeof *to[l]);
-		if (!to[l]) {
-			err = vd_fail(VD_ERR_NOMEM, "gc remap");
-			break;
-		}
-		for (size_t i = 0; i < counts[l] && !err; i++) {
-			const uint32_t *nd = hd_node(h, l, lists[l][i]);
+	(void)worker;
+	struct gc_move *m = ctx;
+	struct vd_hashdag *h = m->h;
+	int l = m->l, L = h->levels;
+	const struct live *v = &m->live[l], *below = &m->live[l + 1];
+	uint64_t b0 = (uint64_t)i * GC_BLOCKS, b1 = b0 + GC_BLOCKS;
+	if (b1 > v->blocks)
+		b1 = v->blocks;
+	if (b0 >= b1)
+		return;
+	uint32_t *to = m->to[l], *to_below = m->to[l + 1];
+	uint64_t r = v->before[b0];
+	int err = VD_OK;
+	for (uint64_t b = b0; b < b1 && !err; b++)
+		for (uint64_t bw = v->bits[b]; bw && !err; bw &= bw - 1) {
+			uint32_t p = (uint32_t)(b << 6 |
+						(uint64_t)__builtin_ctzll(bw));
+			const uint32_t *nd = hd_node(h, l, p);
 			uint32_t w[9], n = 1;
 			uint64_t hash;
 			if (l == L - 2) {
@@ -682,13 +686,68 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 				uint32_t k = hd_node_words(h, l, nd);
 				w[0] = nd[0];
 				for (; n < k; n++)
-					w[n] = remap(lists[l + 1], to[l + 1],
-						     counts[l + 1], nd[n]);
-				hash = vd_hash64(w, 4 * (size_t)n,
-						 (uint64_t)l);
+					w[n] = to_below[live_rank(below, nd[n])];
+				hash = vd_hash64(w, 4 * (size_t)n, (uint64_t)l);
 			}
-			err = insert_words(h, &fresh[l], l, w, n, hash,
-					   &to[l][i]);
+			err = insert_words(h, &m->fresh[l], l, w, n, hash, 0,
+					   &to[r++]);
+		}
+	if (err) {
+		m->err[i].err = err;
+		snprintf(m->err[i].detail, sizeof m->err[i].detail, "%s",
+			 vd_error_detail());
+	}
+}
+
+int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
+		  struct vd_edit_stats *st)
+{
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
+	int L = h->levels, err;
+	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
+	size_t nkeep = keep_history ? h->nroots : 1;
+	uint32_t *to[VD_MAX_LEVELS] = {0};
+	struct live live[VD_MAX_LEVELS];
+	memset(live, 0, sizeof live);
+	struct hd_level *fresh = calloc(VD_MAX_LEVELS, sizeof *fresh);
+	if (!fresh)
+		return vd_fail(VD_ERR_NOMEM, "gc tables");
+	if ((err = reachable(h, keep, nkeep, live)))
+		goto done;
+	if ((err = tables_init(h, fresh, NULL)))
+		goto done;
+	/* Bottom-up: a level's nodes, in address order (so the i-th is the
+	 * one of rank i), are rewritten through the remap of the level below
+	 * and appended to the fresh tables without a search: the nodes of a
+	 * level are distinct (every insertion finds before it appends) and
+	 * the remap is one-to-one, so the rewritten nodes are distinct too.
+	 * Ranges of the bitmap are jobs on the thread pool (bucket locks:
+	 * only the order inside a bucket depends on the threads). */
+	struct gc_move mv = {.h = h, .fresh = fresh, .live = live, .to = to};
+	for (int l = L - 2; l >= 0 && !err; l--) {
+		const struct live *v = &live[l];
+		to[l] = malloc((v->n ? v->n : 1) * sizeof *to[l]);
+		if (!to[l]) {
+			err = vd_fail(VD_ERR_NOMEM, "gc remap");
+			break;
+		}
+		mv.l = l;
+		size_t jobs = (size_t)((v->blocks + GC_BLOCKS - 1) / GC_BLOCKS);
+		mv.err = calloc(jobs, sizeof *mv.err);
+		if (!mv.err) {
+			err = vd_fail(VD_ERR_NOMEM, "gc jobs");
+			break;
+		}
+		if (vd_parallel_for(jobs, h->o.threads, gc_move_range, &mv))
+			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+		for (size_t i = 0; i < jobs && !err; i++)
+			if (mv.err[i].err)
+				err = vd_fail(mv.err[i].err, "%s", mv.err[i].detail);
+		free(mv.err);
+		if (l + 1 <= L - 2) { /* the level below is done with */
+			live_free(&live[l + 1]);
+			free(to[l + 1]);
+			to[l + 1] = NULL;
 		}
 	}
 	if (err)
@@ -707,7 +766,7 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 	for (size_t i = 0; i < h->nroots; i++) {
 		uint32_t r = h->roots[i];
 		if (r != HD_EMPTY)
-			r = remap(lists[0], to[0], counts[0], r);
+			r = to[0][live_rank(&live[0], r)];
 		h->roots[i] = r;
 	}
 	/* Swap the tables in (the full nodes are made again on the next
@@ -747,7 +806,7 @@ done:
 	for (int l = 0; l <= L - 2; l++) {
 		if (fresh[l].words || fresh[l].used)
 			level_free(&fresh[l]);
-		free(lists[l]);
+		live_free(&live[l]);
 		free(to[l]);
 	}
 	free(fresh);
