@@ -2233,12 +2233,19 @@ struct vd_lossy_opts {
 	double diff_factor;        /* p of m = h^2 * p (default 1.0) */
 	uint64_t max_refs;         /* R: candidates have <= R effective refs */
 	int threads;               /* 0: all cores */
-	uint64_t mem_budget;       /* bytes, 0: none; a similarity graph that
-				    * would pass it is spilled to a file in
-				    * $TMPDIR (or /tmp) and clustered a few
-				    * components at a time, with the same
-				    * result; a single component over it
-				    * fails the run (VD_ERR_BUDGET) */
+	uint64_t mem_budget;       /* bytes, 0: none. Every phase stays
+				    * under it: a level's arrays that do not
+				    * fit fail the run (VD_ERR_BUDGET); a
+				    * similarity graph that would pass it is
+				    * spilled to a file in $TMPDIR (or /tmp)
+				    * and clustered a few components at a
+				    * time, the Markov clustering's matrices
+				    * counted as they grow, with the same
+				    * result; a single component over what is
+				    * left fails the run (VD_ERR_BUDGET); the
+				    * final difference remembers pairs of
+				    * subtrees only within what is left,
+				    * walking the others again */
 	uint64_t graph_budget;     /* bytes for a level's similarity graph in
 				    * memory, 0: what is left of mem_budget
 				    * beside the process's RSS when the
