@@ -45,7 +45,7 @@ extern "C" {
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
 	X("render", 1)                                                      \
-	X("lossy-cluster", 2)  /* 2: cpu_seconds_lossy in its statistics */\
+	X("lossy-cluster", 3)  /* 3: representatives balance voxel counts */\
 	X("edit", 2)           /* 2: paint, colours, cpu_seconds per op */ \
 	X("colorize", 2)       /* 2: exact single-colour VBR blocks */
 

@@ -544,7 +544,7 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			 uint64_t max_refs, double diff_factor, int threads,
 			 uint64_t budget, struct vd_lossy_edge **out,
 			 size_t *n_out, uint64_t *candidates, uint64_t graph_budget,
-			 struct spill *sp)
+			 struct spill *sp, uint64_t **vox_out)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
@@ -557,6 +557,7 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = 0;
 	sp->fd = -1;
 	sp->n = 0;
+	if (vox_out) *vox_out = NULL;
 	if (l < A || l > L - 2) return 0;
 	const struct vd_dag_level *lv = &d->lv[l];
 	size_t nc = 0;
@@ -564,9 +565,21 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	if (!c) return NOMEM();
 	int h = L - l;
 	if (h == 2) {
-		for (uint64_t i = 0; i < lv->nodes; i++)
+		if (vox_out) {
+			/* the voxels under each node, for the representatives;
+			 * made before the graph's budget is measured */
+			*vox_out = malloc((lv->nodes ? lv->nodes : 1) * 8);
+			if (!*vox_out) {
+				free(c);
+				return NOMEM();
+			}
+		}
+		for (uint64_t i = 0; i < lv->nodes; i++) {
+			uint64_t b = node_brick(d, i);
+			if (vox_out) (*vox_out)[i] = pop64(b);
 			if (eff[i] <= max_refs)
-				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
+				c[nc++] = (struct enc){b, 0, (uint32_t)i};
+		}
 		*candidates = nc;
 		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget,
 				   graph_budget, &g, sp);
@@ -612,6 +625,10 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
+	if (vox_out) {
+		*vox_out = vox[l];
+		vox[l] = NULL;
+	}
 	err = search_pairs(d, l, c, nc, m, brick, threads, budget,
 			   graph_budget, &g, sp);
 done:
@@ -624,6 +641,10 @@ done:
 	if (!err) err = edges_sort(g.e, g.n, lv->nodes);
 	if (err) {
 		free(g.e);
+		if (vox_out) {
+			free(*vox_out);
+			*vox_out = NULL;
+		}
 		return err;
 	}
 	*out = g.e;
@@ -638,7 +659,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 {
 	struct spill sp;
 	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
-			     out, n_out, candidates, 0, &sp);
+			     out, n_out, candidates, 0, &sp, NULL);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -1444,7 +1465,7 @@ static uint64_t dag_nodes(const struct vd_dag *d)
 /* The arrays of the pair search of level l before its graph: effective
  * counts of levels A..l (8 bytes per node), candidates (24 per node of
  * l), and at height 2 the hash table of their bricks (at most 32 per
- * node), else the bricks of level L-2 (8 per node) and the topology
+ * node) and their voxel counts (8), else the bricks of level L-2 (8 per node) and the topology
  * hashes and voxel counts of levels l..L-2 (16 per node). */
 static uint64_t level_need(const struct vd_dag *d, int l)
 {
@@ -1452,7 +1473,7 @@ static uint64_t level_need(const struct vd_dag *d, int l)
 	uint64_t n = 0;
 	for (int k = d->chunk_level; k <= l; k++) n += 8 * d->lv[k].nodes;
 	n += 24 * d->lv[l].nodes;
-	if (L - l == 2) return n + 32 * d->lv[l].nodes + 256;
+	if (L - l == 2) return n + 40 * d->lv[l].nodes + 256;
 	n += 8 * d->lv[L - 2].nodes;
 	for (int k = l; k <= L - 2; k++) n += 16 * d->lv[k].nodes;
 	return n + 256;
@@ -1472,6 +1493,96 @@ static int rebuild_bricks(struct vd_dag *d)
 	return 0;
 }
 
+static int u64_cmp(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return x < y ? -1 : x > y;
+}
+
+/* The representative of each cluster (graph nodes 0..gn-1, cl[i] the
+ * smallest node of i's cluster) into best[cluster]: the member with the
+ * largest sum of similarities to the others (the paper's rule); among
+ * members whose sums are equal (within rounding), the one that changes
+ * the cluster's voxel count least (every member's subtree counted as
+ * often as it occurs: effective count times the voxels gained or lost),
+ * then the one that brings the run's net change *net closest to zero,
+ * then the smallest node. The second rule keeps a cluster's members
+ * that have more voxels and those that have fewer from all following one
+ * of them; the third decides pairs (whose two members have equal sums
+ * and opposite changes), which otherwise went to the smaller node and so
+ * leant one way over the whole scene. The clusters are taken in the
+ * order of their components' smallest nodes, then their own smallest
+ * node: the order a spilled graph's groups keep. */
+static int pick_representatives(const struct vd_lossy_edge *e, size_t ne,
+				uint32_t gn, const uint32_t *cl,
+				const double *simsum, const uint32_t *gnode,
+				const uint64_t *eff, const uint64_t *vox,
+				int64_t *net, uint32_t *best)
+{
+	uint32_t *root = malloc((gn + 1ull) * 4), *moff = calloc(gn + 2ull, 4);
+	uint32_t *mem = malloc((gn + 1ull) * 4);
+	uint64_t *key = malloc((gn + 1ull) * 8);
+	if (!root || !moff || !mem || !key) {
+		free(root);
+		free(moff);
+		free(mem);
+		free(key);
+		return NOMEM();
+	}
+	for (uint32_t i = 0; i < gn; i++) root[i] = i;
+	for (size_t k = 0; k < ne; k++) uf_union(root, e[k].u, e[k].v);
+	/* members grouped by cluster */
+	for (uint32_t i = 0; i < gn; i++) moff[cl[i] + 1]++;
+	for (uint32_t i = 0; i < gn; i++) moff[i + 1] += moff[i];
+	for (uint32_t i = 0; i < gn; i++) best[i] = moff[i];
+	for (uint32_t i = 0; i < gn; i++) mem[best[cl[i]]++] = i;
+	uint64_t nk = 0;
+	for (uint32_t i = 0; i < gn; i++)
+		if (cl[i] == i) key[nk++] = (uint64_t)uf_find(root, i) << 32 | i;
+	qsort(key, nk, 8, u64_cmp);
+	for (uint64_t k = 0; k < nk; k++) {
+		uint32_t c = (uint32_t)key[k], a = moff[c], z = moff[c + 1];
+		double most = simsum[mem[a]];
+		__int128 occ = 0, sum = 0;
+		for (uint32_t t = a; t < z; t++) {
+			uint32_t i = mem[t];
+			if (simsum[i] > most) most = simsum[i];
+			occ += eff[gnode[i]];
+			sum += (__int128)eff[gnode[i]] * vox[gnode[i]];
+		}
+		double tie = most - 1e-9 * (most > 1 ? most : 1);
+		uint32_t r = NONE;
+		__int128 rd = 0;
+		for (uint32_t t = a; t < z; t++) {
+			uint32_t i = mem[t];
+			if (simsum[i] < tie) continue;
+			/* the change if i represents the cluster */
+			__int128 d = occ * vox[gnode[i]] - sum;
+			if (r == NONE) {
+				r = i;
+				rd = d;
+				continue;
+			}
+			__int128 ad = d < 0 ? -d : d, ar = rd < 0 ? -rd : rd;
+			__int128 bd = *net + d, br = *net + rd;
+			if (bd < 0) bd = -bd;
+			if (br < 0) br = -br;
+			/* members in increasing order: i > r */
+			if (ad < ar || (ad == ar && bd < br)) {
+				r = i;
+				rd = d;
+			}
+		}
+		best[c] = r;
+		*net += (int64_t)rd;
+	}
+	free(root);
+	free(moff);
+	free(mem);
+	free(key);
+	return 0;
+}
+
 /* Clusters the graph e[0..ne-1] (edges of level nodes below nl, sorted
  * by (u, v)) and points map[] of each merged node at its cluster's
  * representative. Also called on a few whole components at a time of a
@@ -1479,11 +1590,14 @@ static int rebuild_bricks(struct vd_dag *d)
  * in the same order and its edges met in the same order as in the whole
  * graph, so the result is the same. gid: nl entries of NONE, left so.
  * avail: the bytes this may take (its arrays, the graph's adjacency, the
- * Markov clustering), 0: no limit. */
+ * Markov clustering), 0: no limit. eff, vox: per node of the level, its
+ * effective reference count and voxels; *net: the voxel count change of
+ * the run so far, updated. */
 static int cluster_edges(struct vd_lossy_edge *e, size_t ne, uint64_t nl,
 			 const struct vd_lossy_opts *o,
 			 struct vd_lossy_level_stats *ls, uint32_t *gid,
-			 uint32_t *map, uint64_t avail)
+			 uint32_t *map, uint64_t avail, const uint64_t *eff,
+			 const uint64_t *vox, int64_t *net)
 {
 	/* graph nodes: the candidates with an edge, renumbered */
 	for (size_t k = 0; k < ne; k++) gid[e[k].u] = gid[e[k].v] = 0;
@@ -1521,18 +1635,14 @@ static int cluster_edges(struct vd_lossy_edge *e, size_t ne, uint64_t nl,
 			      lg.need >> 20, ne, gn, own >> 20, avail >> 20,
 			      o->mem_budget >> 20);
 	if (err) goto out;
-	/* representative: the largest sum of similarities to the other
-	 * members, ties to the smallest node */
 	for (size_t k = 0; k < ne; k++)
 		if (cl[e[k].u] == cl[e[k].v]) {
 			simsum[e[k].u] += e[k].s;
 			simsum[e[k].v] += e[k].s;
 		}
-	for (uint32_t i = 0; i < gn; i++) best[i] = NONE;
-	for (uint32_t i = 0; i < gn; i++) {
-		uint32_t c = cl[i];
-		if (best[c] == NONE || simsum[i] > simsum[best[c]]) best[c] = i;
-	}
+	err = pick_representatives(e, ne, gn, cl, simsum, gnode, eff, vox,
+				   net, best);
+	if (err) goto out;
 	for (uint32_t i = 0; i < gn; i++) {
 		if (cl[i] == i) ls->clusters++;
 		uint32_t r = best[cl[i]];
@@ -1558,7 +1668,8 @@ out:
 static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			   const struct vd_lossy_opts *o,
 			   struct vd_lossy_level_stats *ls, uint32_t *gid,
-			   uint32_t *map)
+			   uint32_t *map, const uint64_t *eff,
+			   const uint64_t *vox, int64_t *net)
 {
 	uint32_t *root = malloc((nl + 1) * 4), *ncnt = calloc(nl + 1, 4);
 	uint64_t *cnt = calloc(nl + 1, 8), *bsz = NULL, nb = 0, bcap = 0;
@@ -1663,7 +1774,7 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 		if (!err) {
 			uint64_t eb = ne * sizeof *e;
 			err = cluster_edges(e, ne, nl, o, ls, gid, map,
-					    left > eb ? left - eb : 1);
+					    left > eb ? left - eb : 1, eff, vox, net);
 		}
 		free(e);
 		e = NULL;
@@ -1715,6 +1826,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	st->nodes_before = dag_nodes(d);
 	st->voxels_before = d->voxels;
 	double cpu0 = cpu_seconds();
+	int64_t net = 0; /* the voxel count change so far */
 	for (int l = L - 2; l >= A && !err; l--) {
 		struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
 		ls->level = l;
@@ -1744,15 +1856,23 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
 		struct spill sp;
+		uint64_t *vox = NULL;
 		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
 				    o->threads, o->mem_budget, &e, &ne,
-				    &ls->candidates, o->graph_budget, &sp);
-		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
-		if (err) break;
+				    &ls->candidates, o->graph_budget, &sp, &vox);
+		/* eff[l] and vox stay for the representatives */
+		for (int k = 0; k < VD_MAX_LEVELS; k++)
+			if (k != l) free(eff[k]);
+		if (err) {
+			free(eff[l]);
+			break;
+		}
 		double t2 = vd_seconds();
 		st->seconds_graph += t2 - t1;
 		ls->edges = sp.fd >= 0 ? sp.n : ne;
 		if (!ls->edges) {
+			free(eff[l]);
+			free(vox);
 			free(e);
 			ls->nodes_after = ls->nodes_before;
 			ls->level_nodes_after = d->lv[l].nodes;
@@ -1769,19 +1889,22 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 			}
 			if (sp.fd >= 0) {
 				ls->graph_spilled = 1;
-				err = cluster_spilled(l, nl, &sp, o, ls, gid, map);
+				err = cluster_spilled(l, nl, &sp, o, ls, gid, map,
+						      eff[l], vox, &net);
 			} else {
 				/* what is left beside the edges and the
 				 * two arrays above */
 				uint64_t hold = ne * sizeof *e + nl * 8;
 				err = cluster_edges(e, ne, nl, o, ls, gid, map,
 						    sp.avail > hold ? sp.avail - hold :
-						    sp.avail ? 1 : 0);
+						    sp.avail ? 1 : 0, eff[l], vox, &net);
 			}
 		}
 		if (sp.fd >= 0) close(sp.fd);
 		free(e);
 		free(gid);
+		free(eff[l]);
+		free(vox);
 		double t3 = vd_seconds();
 		st->seconds_cluster += t3 - t2;
 		if (!err && l > A) {
