@@ -45,7 +45,7 @@ extern "C" {
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
 	X("render", 1)                                                      \
-	X("lossy-cluster", 3)  /* 3: representatives balance voxel counts */\
+	X("lossy-cluster", 3)  /* 3: balanced representatives; seconds_cut */\
 	X("edit", 2)           /* 2: paint, colours, cpu_seconds per op */ \
 	X("colorize", 2)       /* 2: exact single-colour VBR blocks */
 
@@ -2246,6 +2246,9 @@ struct vd_lossy_opts {
 				    * final difference remembers pairs of
 				    * subtrees only within what is left,
 				    * walking the others again */
+	int levels;                /* vd_lossy_run: cut the input at this
+				    * depth first (vd_enc_cut), a 2^levels
+				    * grid; 0: the input's own */
 	uint64_t graph_budget;     /* bytes for a level's similarity graph in
 				    * memory, 0: what is left of mem_budget
 				    * beside the process's RSS when the
@@ -2272,6 +2275,8 @@ struct vd_lossy_stats {
 	/* CPU seconds of the process (all threads) over the four phases
 	 * above: on a shared machine wall time is not the work done */
 	double cpu_seconds_lossy;
+	/* vd_lossy_run with levels: seconds of cutting the input */
+	double seconds_cut;
 };
 
 /* An edge of a similarity graph: u < v, `diff` voxels apart, similarity

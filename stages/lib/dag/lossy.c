@@ -2185,6 +2185,7 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	}
 	vd_json_end_array(j);
 	vd_json_f64(j, "seconds_load", seconds_load);
+	vd_json_f64(j, "seconds_cut", st->seconds_cut);
 	vd_json_f64(j, "seconds_effective_refs", st->seconds_eff);
 	vd_json_f64(j, "seconds_graph", st->seconds_graph);
 	vd_json_f64(j, "seconds_clustering", st->seconds_cluster);
@@ -2255,6 +2256,29 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot read '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	double t_cut = 0;
+	if (!err && o->levels && o->levels != d.levels) {
+		/* a lower resolution of the same scene (the paper's tables
+		 * per resolution): the DAG cut at that depth, reduced */
+		double tc = vd_seconds();
+		struct vd_dag cut;
+		if (d.chunk_level != 0 || o->levels > d.levels)
+			err = d.chunk_level ?
+			      vd_fail(VD_ERR_ARG, "it is not a root chunk") :
+			      vd_fail(VD_ERR_ARG, "it has only %d levels", d.levels);
+		else
+			err = vd_enc_cut(&d, o->levels, &cut);
+		if (err) {
+			vd_dag_release(&d);
+			return vd_fail(err, "cannot cut '%s' at %d levels: %s",
+				       in, o->levels, vd_error_detail());
+		}
+		vd_dag_release(&d);
+		d = cut;
+		/* the same cube, coarser voxels */
+		h.transform.voxel_size *= (double)(1ull << (h.levels - o->levels));
+		t_cut = vd_seconds() - tc;
+	}
 	uint64_t refs = 0;
 	for (int l = d.chunk_level; l < d.levels - 1; l++) refs += d.lv[l].refs;
 	est = lossy_need(dag_nodes(&d), refs, &d);
@@ -2273,6 +2297,7 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	st.seconds_cut = t_cut;
 	/* the chunk and its statistics replace the previous pair together */
 	size_t plen = strlen(out) + 64;
 	char *sp = malloc(3 * plen);
