@@ -2246,14 +2246,14 @@ struct vd_lossy_opts {
 				    * final difference remembers pairs of
 				    * subtrees only within what is left,
 				    * walking the others again */
-	int levels;                /* vd_lossy_run: cut the input at this
-				    * depth first (vd_enc_cut), a 2^levels
-				    * grid; 0: the input's own */
 	uint64_t graph_budget;     /* bytes for a level's similarity graph in
 				    * memory, 0: what is left of mem_budget
 				    * beside the process's RSS when the
 				    * search starts (a fixed figure for
 				    * tests: the RSS varies, under ASan much) */
+	int levels;                /* vd_lossy_run: cut the input at this
+				    * depth first (vd_enc_cut), a 2^levels
+				    * grid; 0: the input's own */
 };
 
 struct vd_lossy_level_stats {

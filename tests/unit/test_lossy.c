@@ -423,7 +423,7 @@ static void check_stage(const struct scene *s, double p, uint64_t R)
 	struct vd_dag d = {0}, d2 = {0};
 	CHECK_EQ(dag_copy(&d, &s->dag), VD_OK);
 	CHECK_EQ(dag_copy(&d2, &s->dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, p, R, 1, 0, 0};
+	struct vd_lossy_opts o = {2.0, p, R, 1, 0, 0, 0};
 	struct vd_lossy_stats st, st2;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_OK);
 	o.threads = 3;
@@ -498,7 +498,7 @@ static void test_bad_input(void)
 		scene_free(&s);
 		return;
 	}
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0, 0};
 	struct vd_lossy_stats st;
 	o.inflation = 1.0;
 	CHECK_EQ(vd_lossy_cluster(&s.dag, &o, &st), VD_ERR_ARG);
@@ -623,7 +623,7 @@ static void test_graph_budget(void)
 	CHECK_EQ(dag_copy(&d2, &s.dag), VD_OK);
 	CHECK_EQ(dag_copy(&d3, &s.dag), VD_OK);
 	/* a graph budget of 1 byte */
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 0, 1};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 2, 0, 1, 0};
 	struct vd_lossy_stats st;
 	CHECK_EQ(vd_lossy_cluster(&d, &o, &st), VD_ERR_BUDGET);
 	char want[200];
@@ -698,7 +698,7 @@ static void test_graph_spill(void)
 	setenv("TMPDIR", tmp, 1);
 	struct vd_dag ref = {0};
 	CHECK_EQ(dag_copy(&ref, &s.dag), VD_OK);
-	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0};
+	struct vd_lossy_opts o = {2.0, 1.0, 1, 1, 0, 0, 0};
 	struct vd_lossy_stats st;
 	CHECK_EQ(vd_lossy_cluster(&ref, &o, &st), VD_OK);
 	uint64_t most = 0;
@@ -868,7 +868,7 @@ static void check_representatives(int L, int threads)
 	CHECK(pairs > 10); /* the third rule is used */
 	struct vd_dag out = {0};
 	CHECK_EQ(dag_copy(&out, d), VD_OK);
-	struct vd_lossy_opts o = {2.0, 0.0, 1, threads, 0, 0};
+	struct vd_lossy_opts o = {2.0, 0.0, 1, threads, 0, 0, 0};
 	struct vd_lossy_stats st;
 	CHECK_EQ(vd_lossy_cluster(&out, &o, &st), VD_OK);
 	CHECK_EQ((int64_t)(st.voxels_after - st.voxels_before), net);

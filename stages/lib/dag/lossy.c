@@ -98,10 +98,11 @@ int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
 #define GNODE_BYTES 76
 
 /* ... and per node of the level (graph node or not): the renumbering and
- * the map to representatives (8 bytes), and for a spilled graph the
+ * the map to representatives (8 bytes), the voxel counts for choosing
+ * them (8), and for a spilled graph the
  * union-find roots, per-component counts of edges and nodes and a bit
  * per node (16 1/8). */
-#define LNODE_BYTES 25
+#define LNODE_BYTES 33
 
 /* The memory of clustering a graph of ne edges and gn nodes on a level of
  * nl nodes in memory, the Markov clustering's own aside. */
@@ -544,7 +545,7 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			 uint64_t max_refs, double diff_factor, int threads,
 			 uint64_t budget, struct vd_lossy_edge **out,
 			 size_t *n_out, uint64_t *candidates, uint64_t graph_budget,
-			 struct spill *sp, uint64_t **vox_out)
+			 struct spill *sp)
 {
 	int L = d->levels, A = d->chunk_level;
 	struct edges g = {0};
@@ -557,7 +558,6 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = 0;
 	sp->fd = -1;
 	sp->n = 0;
-	if (vox_out) *vox_out = NULL;
 	if (l < A || l > L - 2) return 0;
 	const struct vd_dag_level *lv = &d->lv[l];
 	size_t nc = 0;
@@ -565,21 +565,9 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	if (!c) return NOMEM();
 	int h = L - l;
 	if (h == 2) {
-		if (vox_out) {
-			/* the voxels under each node, for the representatives;
-			 * made before the graph's budget is measured */
-			*vox_out = malloc((lv->nodes ? lv->nodes : 1) * 8);
-			if (!*vox_out) {
-				free(c);
-				return NOMEM();
-			}
-		}
-		for (uint64_t i = 0; i < lv->nodes; i++) {
-			uint64_t b = node_brick(d, i);
-			if (vox_out) (*vox_out)[i] = pop64(b);
+		for (uint64_t i = 0; i < lv->nodes; i++)
 			if (eff[i] <= max_refs)
-				c[nc++] = (struct enc){b, 0, (uint32_t)i};
-		}
+				c[nc++] = (struct enc){node_brick(d, i), 0, (uint32_t)i};
 		*candidates = nc;
 		err = search_pairs(d, l, c, nc, 1, NULL, threads, budget,
 				   graph_budget, &g, sp);
@@ -625,10 +613,6 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 	*candidates = nc;
 	qsort(c, nc, sizeof *c, enc_cmp);
 	int64_t m = (int64_t)floor((double)h * h * diff_factor);
-	if (vox_out) {
-		*vox_out = vox[l];
-		vox[l] = NULL;
-	}
 	err = search_pairs(d, l, c, nc, m, brick, threads, budget,
 			   graph_budget, &g, sp);
 done:
@@ -641,10 +625,6 @@ done:
 	if (!err) err = edges_sort(g.e, g.n, lv->nodes);
 	if (err) {
 		free(g.e);
-		if (vox_out) {
-			free(*vox_out);
-			*vox_out = NULL;
-		}
 		return err;
 	}
 	*out = g.e;
@@ -659,7 +639,7 @@ int vd_lossy_similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 {
 	struct spill sp;
 	return similar_pairs(d, l, eff, max_refs, diff_factor, threads, 0,
-			     out, n_out, candidates, 0, &sp, NULL);
+			     out, n_out, candidates, 0, &sp);
 }
 
 /* ------------------------------------------------------ Markov clustering */
@@ -1465,7 +1445,7 @@ static uint64_t dag_nodes(const struct vd_dag *d)
 /* The arrays of the pair search of level l before its graph: effective
  * counts of levels A..l (8 bytes per node), candidates (24 per node of
  * l), and at height 2 the hash table of their bricks (at most 32 per
- * node) and their voxel counts (8), else the bricks of level L-2 (8 per node) and the topology
+ * node), else the bricks of level L-2 (8 per node) and the topology
  * hashes and voxel counts of levels l..L-2 (16 per node). */
 static uint64_t level_need(const struct vd_dag *d, int l)
 {
@@ -1473,7 +1453,7 @@ static uint64_t level_need(const struct vd_dag *d, int l)
 	uint64_t n = 0;
 	for (int k = d->chunk_level; k <= l; k++) n += 8 * d->lv[k].nodes;
 	n += 24 * d->lv[l].nodes;
-	if (L - l == 2) return n + 40 * d->lv[l].nodes + 256;
+	if (L - l == 2) return n + 32 * d->lv[l].nodes + 256;
 	n += 8 * d->lv[L - 2].nodes;
 	for (int k = l; k <= L - 2; k++) n += 16 * d->lv[k].nodes;
 	return n + 256;
@@ -1655,6 +1635,34 @@ out:
 	free(best);
 	free(simsum);
 	return err;
+}
+
+/* The voxels under each node of level l (>= L-2) into a new array:
+ * bottom-up from the bricks, two levels held at a time. */
+static int level_voxels(const struct vd_dag *d, int l, uint64_t **out)
+{
+	int L = d->levels;
+	const struct vd_dag_level *bv = &d->lv[L - 2];
+	uint64_t *v = malloc((bv->nodes ? bv->nodes : 1) * 8);
+	if (!v) return NOMEM();
+	for (uint64_t i = 0; i < bv->nodes; i++) v[i] = pop64(node_brick(d, i));
+	for (int k = L - 3; k >= l; k--) {
+		const struct vd_dag_level *kv = &d->lv[k];
+		uint64_t *u = malloc((kv->nodes ? kv->nodes : 1) * 8);
+		if (!u) {
+			free(v);
+			return NOMEM();
+		}
+		for (uint64_t i = 0; i < kv->nodes; i++) {
+			u[i] = 0;
+			for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++)
+				u[i] += v[kv->child[j]];
+		}
+		free(v);
+		v = u;
+	}
+	*out = v;
+	return 0;
 }
 
 /* edges read from a spill file at a time */
@@ -1859,12 +1867,20 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		uint64_t *vox = NULL;
 		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
 				    o->threads, o->mem_budget, &e, &ne,
-				    &ls->candidates, o->graph_budget, &sp, &vox);
-		/* eff[l] and vox stay for the representatives */
+				    &ls->candidates, o->graph_budget, &sp);
+		/* eff[l] stays for the representatives, and their voxel
+		 * counts come now: made during the search, they stayed
+		 * between the heap's freed arrays, and the graph's sort
+		 * then took new memory (the dragon at 2^12 peaked 25 MiB
+		 * higher) */
 		for (int k = 0; k < VD_MAX_LEVELS; k++)
 			if (k != l) free(eff[k]);
+		if (!err && (sp.fd >= 0 ? sp.n : ne))
+			err = level_voxels(d, l, &vox);
 		if (err) {
 			free(eff[l]);
+			free(e);
+			if (sp.fd >= 0) close(sp.fd);
 			break;
 		}
 		double t2 = vd_seconds();
@@ -1892,9 +1908,9 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 				err = cluster_spilled(l, nl, &sp, o, ls, gid, map,
 						      eff[l], vox, &net);
 			} else {
-				/* what is left beside the edges and the
-				 * two arrays above */
-				uint64_t hold = ne * sizeof *e + nl * 8;
+				/* what is left beside the edges, the two
+				 * arrays above and the voxel counts */
+				uint64_t hold = ne * sizeof *e + nl * 16;
 				err = cluster_edges(e, ne, nl, o, ls, gid, map,
 						    sp.avail > hold ? sp.avail - hold :
 						    sp.avail ? 1 : 0, eff[l], vox, &net);
