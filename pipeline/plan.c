@@ -1027,6 +1027,30 @@ static void plan_lossy(struct plan *p, int d)
 		 NULL);
 	add_input(j, src);
 	add_dep(p, j, in);
+	/* the report's Table 1 has a row per resolution, as the paper's:
+	 * the scene at each lower resolution of the report (the root DAG
+	 * cut at that depth) clustered too, for its statistics; nothing
+	 * else takes these DAGs */
+	for (int i = 0; i < c->nres; i++) {
+		int r = c->resolutions[i];
+		if (r >= c->levels)
+			continue;
+		char out[1200], key[1300], id[200], lv[16];
+		snprintf(out, sizeof out, "%s/%s/r%d.dag", p->dir, dd->name, r);
+		snprintf(key, sizeof key, "%s.key", out);
+		snprintf(id, sizeof id, "%s/r%d", dd->name, r);
+		snprintf(lv, sizeof lv, "%d", r);
+		struct job *rj = add_job(p, d, id, out, key);
+		if (!rj)
+			continue;
+		rj->mem_estimate = c->job_mem_budget;
+		set_argv(rj, "lossy-cluster", src, "-o", rj->output, "--levels",
+			 lv, "--inflation", dd->inflation, "--diff-factor",
+			 dd->diff_factor, "--max-refs", dd->max_refs,
+			 "--mem-budget", budget, "--threads", threads, "-q", NULL);
+		add_input(rj, src);
+		add_dep(p, rj, in);
+	}
 }
 
 /* Writes `text` to `path` unless it holds exactly that already (atomic). */

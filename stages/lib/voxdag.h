@@ -45,7 +45,7 @@ extern "C" {
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 2)         /* 2: manifest beside the encodings */        \
 	X("render", 1)                                                      \
-	X("lossy-cluster", 2)  /* 2: cpu_seconds_lossy in its statistics */\
+	X("lossy-cluster", 3)  /* 3: balanced representatives; seconds_cut */\
 	X("edit", 2)           /* 2: paint, colours, cpu_seconds per op */ \
 	X("colorize", 2)       /* 2: exact single-colour VBR blocks */
 
@@ -2263,17 +2263,27 @@ struct vd_lossy_opts {
 	double diff_factor;        /* p of m = h^2 * p (default 1.0) */
 	uint64_t max_refs;         /* R: candidates have <= R effective refs */
 	int threads;               /* 0: all cores */
-	uint64_t mem_budget;       /* bytes, 0: none; a similarity graph that
-				    * would pass it is spilled to a file in
-				    * $TMPDIR (or /tmp) and clustered a few
-				    * components at a time, with the same
-				    * result; a single component over it
-				    * fails the run (VD_ERR_BUDGET) */
+	uint64_t mem_budget;       /* bytes, 0: none. Every phase stays
+				    * under it: a level's arrays that do not
+				    * fit fail the run (VD_ERR_BUDGET); a
+				    * similarity graph that would pass it is
+				    * spilled to a file in $TMPDIR (or /tmp)
+				    * and clustered a few components at a
+				    * time, the Markov clustering's matrices
+				    * counted as they grow, with the same
+				    * result; a single component over what is
+				    * left fails the run (VD_ERR_BUDGET); the
+				    * final difference remembers pairs of
+				    * subtrees only within what is left,
+				    * walking the others again */
 	uint64_t graph_budget;     /* bytes for a level's similarity graph in
 				    * memory, 0: what is left of mem_budget
 				    * beside the process's RSS when the
 				    * search starts (a fixed figure for
 				    * tests: the RSS varies, under ASan much) */
+	int levels;                /* vd_lossy_run: cut the input at this
+				    * depth first (vd_enc_cut), a 2^levels
+				    * grid; 0: the input's own */
 };
 
 struct vd_lossy_level_stats {
@@ -2295,6 +2305,8 @@ struct vd_lossy_stats {
 	/* CPU seconds of the process (all threads) over the four phases
 	 * above: on a shared machine wall time is not the work done */
 	double cpu_seconds_lossy;
+	/* vd_lossy_run with levels: seconds of cutting the input */
+	double seconds_cut;
 };
 
 /* An edge of a similarity graph: u < v, `diff` voxels apart, similarity

@@ -32,6 +32,9 @@ static const char usage[] =
 	"                          1000000 (default 1)\n"
 	"  -m, --mem-budget SIZE   peak memory of the process (default 2GiB);\n"
 	"                          e.g. 512M, 4GiB\n"
+	"  -L, --levels N          cluster the scene at 2^N voxels a side: the\n"
+	"                          input (a root chunk of at least N levels)\n"
+	"                          cut at depth N first (default: its own)\n"
 	"  -j, --threads N         worker threads for the clustering of the\n"
 	"                          components (default: all cores); the output\n"
 	"                          is the same for any N\n"
@@ -61,6 +64,7 @@ int main(int argc, char **argv)
 		{"max-refs", required_argument, NULL, 'r'},
 		{"mem-budget", required_argument, NULL, 'm'},
 		{"threads", required_argument, NULL, 'j'},
+		{"levels", required_argument, NULL, 'L'},
 		{"quiet", no_argument, NULL, 'q'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
@@ -70,7 +74,7 @@ int main(int argc, char **argv)
 	uint64_t budget = 2ull << 30;
 	const char *output = NULL;
 	int c, quiet = 0, r;
-	while ((c = getopt_long(argc, argv, "o:I:p:r:m:j:qh", longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, "o:I:p:r:m:j:L:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
 			output = optarg;
@@ -100,6 +104,12 @@ int main(int argc, char **argv)
 			if (vd_cli_int(optarg, 1, 1024, &o.threads))
 				return vd_cli_usage(TOOL, "--threads '%s' is not a "
 						    "number from 1 to 1024", optarg);
+			break;
+		case 'L':
+			if (vd_cli_int(optarg, 1, VD_MAX_LEVELS, &o.levels))
+				return vd_cli_usage(TOOL, "--levels '%s' is not a "
+						    "number from 1 to %d", optarg,
+						    VD_MAX_LEVELS);
 			break;
 		case 'q':
 			quiet = 1;

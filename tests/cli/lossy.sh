@@ -43,7 +43,25 @@ else
 	fail lossy_refs0_nodes
 fi
 
+# --levels 7: the scene at 2^7, the root DAG cut there, is the one the
+# voxelizer makes at 2^7 directly: the same lossy DAG as clustering that
+expect lossy_levels 0 '' "$BIN/lossy-cluster" "$T/root.dag" -o "$T/cut7.dag" -q --levels 7
+"$BIN/voxelize" tests/data/bunny.ply -o "$T/vox7" --levels 7 --chunk-level 0 -q
+"$BIN/svo-to-dag" "$T/vox7/chunk-L0-0.svo" -o "$T/root7.dag" -q
+expect lossy_direct7 0 '' "$BIN/lossy-cluster" "$T/root7.dag" -o "$T/direct7.dag" -q
+expect lossy_levels_equals_direct 0 '^differing_voxels=0 ' "$BIN/dag-verify" --diff "$T/cut7.dag" "$T/direct7.dag"
+if [ "$(jq -c '[.levels, .voxels_before, .nodes_before, .nodes_after, .voxels_changed]' "$T/cut7.dag.stats.json")" = \
+     "$(jq -c '[.levels, .voxels_before, .nodes_before, .nodes_after, .voxels_changed]' "$T/direct7.dag.stats.json")" ] &&
+   [ "$(jq .levels "$T/cut7.dag.stats.json")" = 7 ]; then
+	pass lossy_levels_stats_equal_direct
+else
+	fail lossy_levels_stats_equal_direct "$(jq -c '[.levels, .voxels_before, .nodes_before, .nodes_after]' "$T/cut7.dag.stats.json" "$T/direct7.dag.stats.json")"
+fi
+
 mkdir -p "$T/bad"
+expect bad_levels_deeper 1 "lossy-cluster: cannot cut .* at 9 levels: it has only 8 levels" \
+	"$BIN/lossy-cluster" "$T/root.dag" -o "$T/bad/x.dag" --levels 9
+expect bad_levels_zero 2 'levels' "$BIN/lossy-cluster" "$T/root.dag" -o "$T/bad/x.dag" --levels 0
 expect bad_svo 1 'lossy-cluster: cannot read' "$BIN/lossy-cluster" "$T/vox/chunk-L0-0.svo" -o "$T/bad/x.dag"
 expect bad_ssvdag 1 'lossy-cluster: cannot read.*ssvdag' "$BIN/lossy-cluster" "$T/root.ssvdag" -o "$T/bad/x.dag"
 head -c 300 "$T/root.dag" > "$T/trunc.dag"

@@ -19,6 +19,7 @@
 #include <unistd.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <sys/mman.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 #define NONE UINT32_MAX
@@ -83,11 +84,74 @@ int vd_lossy_effective_refs(const struct vd_dag *d, int to_level,
 
 /* ------------------------------------------------------ similarity graph */
 
-/* The memory of a similarity graph, per edge: two copies at every step
- * (the search's slices and their concatenation; the edges and the radix
- * sort's copy; the edges and the clustering's adjacency, both directions
- * at 12 bytes). */
-#define EDGE_BYTES (2 * sizeof(struct vd_lossy_edge))
+/* The memory of a similarity graph, per edge: three copies at the worst
+ * step (the search's slices, up to twice their edges as they double, and
+ * their concatenation; the edges and the radix sort's copy; the edges,
+ * the clustering's adjacency, both directions at 12 bytes, and a
+ * component's copy of it). */
+#define EDGE_BYTES (3 * sizeof(struct vd_lossy_edge))
+
+/* ... and per graph node: the renumbering, clusters, representatives and
+ * similarity sums of cluster_edges (20 bytes), the CSR offsets, component
+ * arrays and counting sorts of graph_build (44), a component's offsets
+ * and clusters (12). */
+#define GNODE_BYTES 76
+
+/* ... and per node of the level (graph node or not): the renumbering and
+ * the map to representatives (8 bytes), the voxel counts for choosing
+ * them (8), and for a spilled graph the
+ * union-find roots, per-component counts of edges and nodes and a bit
+ * per node (16 1/8). */
+#define LNODE_BYTES 33
+
+/* The memory of clustering a graph of ne edges and gn nodes on a level of
+ * nl nodes in memory, the Markov clustering's own aside. */
+static uint64_t graph_need(uint64_t ne, uint64_t gn, uint64_t nl)
+{
+	return ne * EDGE_BYTES + gn * GNODE_BYTES + nl * LNODE_BYTES;
+}
+
+/* The Markov clustering's own memory (matrices, per-worker scratch, a
+ * component's copy of its adjacency) is counted as it is taken, against
+ * what the graph leaves of the budget: `limit` 0 is none. A component
+ * that would pass it stops with VD_ERR_BUDGET; components clustered in
+ * parallel are then clustered again one at a time (the result of each is
+ * the same), and only a component alone over the limit fails the run,
+ * naming `need`, the most it asked for. */
+struct mcl_ledger {
+	uint64_t limit;
+	uint64_t held; /* atomic */
+	uint64_t need; /* atomic max */
+};
+
+/* Takes `bytes` (plus `transient` bytes held only while they are taken,
+ * as by a realloc) from the ledger; VD_ERR_BUDGET when over its limit. */
+static int led_take(struct mcl_ledger *lg, uint64_t *mine, uint64_t bytes,
+		    uint64_t transient)
+{
+	if (!lg || !lg->limit) return 0;
+	uint64_t h = __atomic_add_fetch(&lg->held, bytes, __ATOMIC_RELAXED);
+	if (h + transient > lg->limit) {
+		__atomic_sub_fetch(&lg->held, bytes, __ATOMIC_RELAXED);
+		uint64_t want = __atomic_load_n(mine, __ATOMIC_RELAXED) + bytes +
+				transient, old = __atomic_load_n(&lg->need,
+								 __ATOMIC_RELAXED);
+		while (want > old &&
+		       !__atomic_compare_exchange_n(&lg->need, &old, want, 0,
+						    __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+			;
+		return VD_ERR_BUDGET;
+	}
+	__atomic_add_fetch(mine, bytes, __ATOMIC_RELAXED);
+	return 0;
+}
+
+static void led_give(struct mcl_ledger *lg, uint64_t *mine)
+{
+	if (!lg || !lg->limit) return;
+	__atomic_sub_fetch(&lg->held, *mine, __ATOMIC_RELAXED);
+	*mine = 0;
+}
 
 /* The budget of a pair search shared by its slices: once the slices'
  * arrays would pass `limit` bytes, the graph goes to the spill file `fd`
@@ -403,7 +467,8 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	uint64_t avail = graph_budget ? graph_budget
 			 : budget ? (base < budget ? budget - base : 1) : 0;
 	if (avail) {
-		eb.limit = avail;
+		/* the slices' arrays and then their concatenation */
+		eb.limit = avail / 2;
 		/* opened before the threads start, used only if needed */
 		eb.fd = spill_open();
 	}
@@ -445,9 +510,12 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		if (!err && J->err[k]) err = J->err[k];
 		total += J->part[k].n + J->part[k].spilled;
 	}
-	/* the graph in memory needs its edges twice at every step: when that
-	 * passes the budget the whole graph goes to the file */
-	if (!err && avail && (eb.over || total * EDGE_BYTES > avail)) {
+	/* the graph in memory, clustered whole: when that passes the budget
+	 * (an eighth of it left to the Markov clustering's matrices) the
+	 * whole graph goes to the file */
+	uint64_t gn = 2 * (uint64_t)total < nc ? 2 * (uint64_t)total : nc;
+	if (!err && avail && (eb.over || graph_need(total, gn, d->lv[l].nodes) >
+					    avail / 8 * 7)) {
 		for (int k = 0; k < PAIR_SLICES && !err; k++)
 			err = edge_flush(&J->part[k]);
 		if (!err) {
@@ -611,6 +679,8 @@ struct smat {
 	uint32_t n, nb;
 	uint32_t *beg, *end;
 	struct sblk *blk;
+	struct mcl_ledger *lg; /* NULL: not counted */
+	uint64_t *mine;        /* the component's bytes taken from it */
 };
 
 #define COL_ROW(M, j) ((M)->blk[(j) / MCL_BLOCK].row)
@@ -628,17 +698,25 @@ static void smat_free(struct smat *s)
 	free(s->end);
 }
 
-static int smat_init(struct smat *s, uint32_t n)
+static int smat_init(struct smat *s, uint32_t n, struct mcl_ledger *lg,
+		     uint64_t *mine)
 {
 	s->n = n;
 	s->nb = (n + MCL_BLOCK - 1) / MCL_BLOCK;
+	s->lg = lg;
+	s->mine = mine;
+	int err = led_take(lg, mine, 8 * (n + 1ull) + (s->nb + 1ull) * sizeof *s->blk, 0);
+	if (err) return err;
 	s->beg = malloc((n + 1ull) * 4);
 	s->end = malloc((n + 1ull) * 4);
 	s->blk = calloc(s->nb + 1ull, sizeof *s->blk);
 	return s->beg && s->end && s->blk ? 0 : NOMEM();
 }
 
-static int sblk_reserve(struct sblk *s, uint64_t need)
+/* bytes per matrix entry: a row and a value */
+#define ENTRY_BYTES (sizeof(uint32_t) + sizeof(double))
+
+static int sblk_reserve(const struct smat *M, struct sblk *s, uint64_t need)
 {
 	if (need <= s->cap) return 0;
 	/* a block's entries are indexed by 32 bits: at most MCL_BLOCK
@@ -646,6 +724,10 @@ static int sblk_reserve(struct sblk *s, uint64_t need)
 	if (need > UINT32_MAX) return NOMEM();
 	uint64_t c = s->cap ? s->cap : 64;
 	while (c < need) c *= 2;
+	/* realloc may hold the old and the new array at once */
+	int err = led_take(M->lg, M->mine, (c - s->cap) * ENTRY_BYTES,
+			   s->cap * ENTRY_BYTES);
+	if (err) return err;
 	uint32_t *r = realloc(s->row, c * sizeof *r);
 	if (!r) return NOMEM();
 	s->row = r;
@@ -800,7 +882,8 @@ static int scratch_alloc(struct mcl_scratch *s, uint32_t n)
 /* Block b of the next matrix N: its columns' expansion (M * M), pruning,
  * inflation and normalization. Every column is computed alone, in the
  * same order of operations whoever computes it. Returns the largest
- * chaos (max - sum of squares) of its columns, -1 when out of memory. */
+ * chaos (max - sum of squares) of its columns, -1 when out of memory, -2
+ * over the ledger's limit. */
 static double mcl_block(const struct smat *M, uint32_t b, double inflation,
 			struct mcl_scratch *s, struct smat *N)
 {
@@ -879,12 +962,13 @@ static double mcl_block(const struct smat *M, uint32_t b, double inflation,
 			qsort(tmp, kept, sizeof *tmp, dbl_desc);
 			cut = tmp[MCL_SELECT - 1];
 		}
-		if (sblk_reserve(o, nk + nt)) {
+		int rerr = sblk_reserve(N, o, nk + nt);
+		if (rerr) {
 			for (uint32_t t = 0; t < nt; t++) {
 				mark[touched[t]] = 0;
 				acc[touched[t]] = 0;
 			}
-			return -1;
+			return rerr == VD_ERR_BUDGET ? -2 : -1;
 		}
 		/* rows in increasing order */
 		if (!sorted) u32_sort(touched, nt);
@@ -936,17 +1020,24 @@ static void mcl_par_block(void *ctx, size_t b, int worker)
  * of each node as the smallest local index in it. */
 static int mcl_component(uint32_t n, const uint64_t *adj_off,
 			 const uint32_t *adj_to, const double *adj_w,
-			 double inflation, int threads, uint32_t *cluster)
+			 double inflation, int threads, uint32_t *cluster,
+			 struct mcl_ledger *lg, uint64_t *mine)
 {
 	struct smat M = {0}, N = {0};
 	struct mcl_scratch *scr = NULL;
 	double *chaos = NULL;
 	int nw = 1, err = 0;
-	if ((err = smat_init(&M, n)) || (err = smat_init(&N, n))) goto out;
+	if ((err = smat_init(&M, n, lg, mine)) || (err = smat_init(&N, n, lg, mine)))
+		goto out;
 	if (M.nb > 1) {
 		nw = threads > 0 ? threads : vd_hardware_threads();
 		if ((uint32_t)nw > M.nb) nw = (int)M.nb;
 	}
+	/* the scratch of each worker, the chaos per block, and the
+	 * interpretation's arrays (systems, lists of up to the entries) */
+	if ((err = led_take(lg, mine, (uint64_t)nw * (n + 1ull) * 22 +
+			    M.nb * 8ull + (n + 1ull) * 32, 0)))
+		goto out;
 	scr = calloc((size_t)nw, sizeof *scr);
 	chaos = malloc(M.nb * sizeof *chaos);
 	if (!scr || !chaos) {
@@ -962,7 +1053,7 @@ static int mcl_component(uint32_t n, const uint64_t *adj_off,
 		struct sblk *o = &M.blk[j / MCL_BLOCK];
 		if (j % MCL_BLOCK == 0) k = 0;
 		uint64_t deg = adj_off[j + 1] - adj_off[j];
-		if ((err = sblk_reserve(o, k + deg + 1))) goto out;
+		if ((err = sblk_reserve(&M, o, k + deg + 1))) goto out;
 		M.beg[j] = (uint32_t)k;
 		double mx = 0, sum = 0;
 		for (uint64_t e = adj_off[j]; e < adj_off[j + 1]; e++)
@@ -998,7 +1089,7 @@ static int mcl_component(uint32_t n, const uint64_t *adj_off,
 		double c = 0;
 		for (uint32_t b = 0; b < M.nb; b++) {
 			if (chaos[b] < 0) {
-				err = NOMEM();
+				err = chaos[b] < -1.5 ? VD_ERR_BUDGET : NOMEM();
 				goto out;
 			}
 			if (chaos[b] > c) c = chaos[b];
@@ -1119,8 +1210,12 @@ struct mcl_job {
 	double inflation;
 	uint32_t *cluster; /* out: per node, the smallest node of its cluster */
 	int err;           /* an error of any component */
-	int big;           /* this pass: components of several blocks only */
+	int big;           /* this pass: components of several blocks only;
+			    * 2: the components marked in `again` */
 	int threads;       /* for the blocks of one big component */
+	struct mcl_ledger *lg;
+	uint8_t *again;    /* per component: over the ledger in parallel */
+	uint64_t again_n;  /* atomic */
 };
 
 static void mcl_run_comp(void *ctx, size_t k, int worker)
@@ -1131,7 +1226,7 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 	uint64_t a = g->comp_off[k];
 	uint32_t n = (uint32_t)(g->comp_off[k + 1] - a);
 	const uint32_t *nodes = g->order + a;
-	if ((n > MCL_BLOCK) != J->big) return;
+	if (J->big == 2 ? !J->again[k] : (n > MCL_BLOCK) != J->big) return;
 	if (n <= 2) {
 		/* decided directly: a pair is one cluster (with mcl's loops the
 		 * 2x2 matrix is already idempotent) */
@@ -1141,10 +1236,21 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 	uint64_t m = 0;
 	for (uint32_t i = 0; i < n; i++)
 		m += g->off[nodes[i] + 1] - g->off[nodes[i]];
+	uint64_t mine = 0;
+	int err = led_take(J->lg, &mine, (n + 1ull) * 12 + (m + 1) * 12, 0);
+	if (err == VD_ERR_BUDGET && J->big == 0 && J->threads != 1) {
+		/* with the other workers' components: again, alone */
+		J->again[k] = 1;
+		__atomic_add_fetch(&J->again_n, 1, __ATOMIC_RELAXED);
+		return;
+	}
+	if (err) {
+		__atomic_store_n(&J->err, err, __ATOMIC_RELAXED);
+		return;
+	}
 	uint64_t *off = malloc((n + 1ull) * 8);
 	uint32_t *to = malloc((m + 1) * 4), *cl = malloc(n * 4ull);
 	double *w = malloc((m + 1) * 8);
-	int err = 0;
 	if (!off || !to || !cl || !w) {
 		err = NOMEM();
 	} else {
@@ -1158,8 +1264,12 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 		}
 		off[n] = p;
 		err = mcl_component(n, off, to, w, J->inflation,
-				    J->big ? J->threads : 1, cl);
-		if (!err)
+				    J->big ? J->threads : 1, cl, J->lg, &mine);
+		if (err == VD_ERR_BUDGET && J->big == 0 && J->threads != 1) {
+			J->again[k] = 1;
+			__atomic_add_fetch(&J->again_n, 1, __ATOMIC_RELAXED);
+			err = 0;
+		} else if (!err)
 			for (uint32_t i = 0; i < n; i++)
 				J->cluster[nodes[i]] = nodes[cl[i]];
 	}
@@ -1167,29 +1277,54 @@ static void mcl_run_comp(void *ctx, size_t k, int worker)
 	free(to);
 	free(cl);
 	free(w);
+	led_give(J->lg, &mine);
 	if (err) __atomic_store_n(&J->err, err, __ATOMIC_RELAXED);
 }
 
-int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
-		 double inflation, int threads, uint32_t *cluster)
+/* vd_lossy_mcl() with the clustering's memory counted in `lg` (NULL:
+ * not counted); VD_ERR_BUDGET with no message when a component alone
+ * passes its limit. */
+static int mcl_run(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
+		   double inflation, int threads, uint32_t *cluster,
+		   struct mcl_ledger *lg)
 {
 	struct graph g;
 	int err = graph_build(&g, n, e, ne);
+	uint8_t *again = NULL;
+	if (!err && !(again = calloc(g.ncomp + 1, 1))) err = NOMEM();
 	if (!err) {
 		/* the components of several blocks one after another, each
 		 * on all threads (a scene's graph often has one giant
-		 * component); then the rest, components in parallel */
-		struct mcl_job J = {&g, inflation, cluster, 0, 1, threads};
+		 * component); then the rest, components in parallel, and
+		 * those that found the ledger full beside the others again,
+		 * alone */
+		struct mcl_job J = {&g, inflation, cluster, 0, 1, threads, lg,
+				    again, 0};
 		for (uint64_t k = 0; k < g.ncomp && !J.err; k++)
 			mcl_run_comp(&J, k, 0);
 		J.big = 0;
 		if (!J.err)
 			err = vd_parallel_for(g.ncomp, threads, mcl_run_comp, &J);
-		if (!err && J.err)
+		if (!err && !J.err && J.again_n) {
+			J.big = 2;
+			J.threads = 1;
+			for (uint64_t k = 0; k < g.ncomp && !J.err; k++)
+				mcl_run_comp(&J, k, 0);
+		}
+		if (!err && J.err == VD_ERR_BUDGET)
+			err = VD_ERR_BUDGET;
+		else if (!err && J.err)
 			err = vd_fail(VD_ERR_NOMEM, "out of memory clustering");
 	}
+	free(again);
 	graph_free(&g);
 	return err;
+}
+
+int vd_lossy_mcl(uint32_t n, const struct vd_lossy_edge *e, size_t ne,
+		 double inflation, int threads, uint32_t *cluster)
+{
+	return mcl_run(n, e, ne, inflation, threads, cluster, NULL);
 }
 
 /* --------------------------------------------------- lossless reduction */
@@ -1296,11 +1431,32 @@ static int dag_dedupe_up(struct vd_dag *d, int from)
 
 /* ------------------------------------------------------------ the stage */
 
+static int dag_diff(const struct vd_dag *a, const struct vd_dag *b,
+		    uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b,
+		    uint64_t memo_limit);
+
 static uint64_t dag_nodes(const struct vd_dag *d)
 {
 	uint64_t n = 0;
 	for (int l = d->chunk_level; l < d->levels; l++) n += d->lv[l].nodes;
 	return n;
+}
+
+/* The arrays of the pair search of level l before its graph: effective
+ * counts of levels A..l (8 bytes per node), candidates (24 per node of
+ * l), and at height 2 the hash table of their bricks (at most 32 per
+ * node), else the bricks of level L-2 (8 per node) and the topology
+ * hashes and voxel counts of levels l..L-2 (16 per node). */
+static uint64_t level_need(const struct vd_dag *d, int l)
+{
+	int L = d->levels;
+	uint64_t n = 0;
+	for (int k = d->chunk_level; k <= l; k++) n += 8 * d->lv[k].nodes;
+	n += 24 * d->lv[l].nodes;
+	if (L - l == 2) return n + 32 * d->lv[l].nodes + 256;
+	n += 8 * d->lv[L - 2].nodes;
+	for (int k = l; k <= L - 2; k++) n += 16 * d->lv[k].nodes;
+	return n + 256;
 }
 
 static int rebuild_bricks(struct vd_dag *d)
@@ -1317,16 +1473,111 @@ static int rebuild_bricks(struct vd_dag *d)
 	return 0;
 }
 
+static int u64_cmp(const void *a, const void *b)
+{
+	uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+	return x < y ? -1 : x > y;
+}
+
+/* The representative of each cluster (graph nodes 0..gn-1, cl[i] the
+ * smallest node of i's cluster) into best[cluster]: the member with the
+ * largest sum of similarities to the others (the paper's rule); among
+ * members whose sums are equal (within rounding), the one that changes
+ * the cluster's voxel count least (every member's subtree counted as
+ * often as it occurs: effective count times the voxels gained or lost),
+ * then the one that brings the run's net change *net closest to zero,
+ * then the smallest node. The second rule keeps a cluster's members
+ * that have more voxels and those that have fewer from all following one
+ * of them; the third decides pairs (whose two members have equal sums
+ * and opposite changes), which otherwise went to the smaller node and so
+ * leant one way over the whole scene. The clusters are taken in the
+ * order of their components' smallest nodes, then their own smallest
+ * node: the order a spilled graph's groups keep. */
+static int pick_representatives(const struct vd_lossy_edge *e, size_t ne,
+				uint32_t gn, const uint32_t *cl,
+				const double *simsum, const uint32_t *gnode,
+				const uint64_t *eff, const uint64_t *vox,
+				int64_t *net, uint32_t *best)
+{
+	uint32_t *root = malloc((gn + 1ull) * 4), *moff = calloc(gn + 2ull, 4);
+	uint32_t *mem = malloc((gn + 1ull) * 4);
+	uint64_t *key = malloc((gn + 1ull) * 8);
+	if (!root || !moff || !mem || !key) {
+		free(root);
+		free(moff);
+		free(mem);
+		free(key);
+		return NOMEM();
+	}
+	for (uint32_t i = 0; i < gn; i++) root[i] = i;
+	for (size_t k = 0; k < ne; k++) uf_union(root, e[k].u, e[k].v);
+	/* members grouped by cluster */
+	for (uint32_t i = 0; i < gn; i++) moff[cl[i] + 1]++;
+	for (uint32_t i = 0; i < gn; i++) moff[i + 1] += moff[i];
+	for (uint32_t i = 0; i < gn; i++) best[i] = moff[i];
+	for (uint32_t i = 0; i < gn; i++) mem[best[cl[i]]++] = i;
+	uint64_t nk = 0;
+	for (uint32_t i = 0; i < gn; i++)
+		if (cl[i] == i) key[nk++] = (uint64_t)uf_find(root, i) << 32 | i;
+	qsort(key, nk, 8, u64_cmp);
+	for (uint64_t k = 0; k < nk; k++) {
+		uint32_t c = (uint32_t)key[k], a = moff[c], z = moff[c + 1];
+		double most = simsum[mem[a]];
+		__int128 occ = 0, sum = 0;
+		for (uint32_t t = a; t < z; t++) {
+			uint32_t i = mem[t];
+			if (simsum[i] > most) most = simsum[i];
+			occ += eff[gnode[i]];
+			sum += (__int128)eff[gnode[i]] * vox[gnode[i]];
+		}
+		double tie = most - 1e-9 * (most > 1 ? most : 1);
+		uint32_t r = NONE;
+		__int128 rd = 0;
+		for (uint32_t t = a; t < z; t++) {
+			uint32_t i = mem[t];
+			if (simsum[i] < tie) continue;
+			/* the change if i represents the cluster */
+			__int128 d = occ * vox[gnode[i]] - sum;
+			if (r == NONE) {
+				r = i;
+				rd = d;
+				continue;
+			}
+			__int128 ad = d < 0 ? -d : d, ar = rd < 0 ? -rd : rd;
+			__int128 bd = *net + d, br = *net + rd;
+			if (bd < 0) bd = -bd;
+			if (br < 0) br = -br;
+			/* members in increasing order: i > r */
+			if (ad < ar || (ad == ar && bd < br)) {
+				r = i;
+				rd = d;
+			}
+		}
+		best[c] = r;
+		*net += (int64_t)rd;
+	}
+	free(root);
+	free(moff);
+	free(mem);
+	free(key);
+	return 0;
+}
+
 /* Clusters the graph e[0..ne-1] (edges of level nodes below nl, sorted
  * by (u, v)) and points map[] of each merged node at its cluster's
  * representative. Also called on a few whole components at a time of a
  * spilled graph: each component is clustered alone, its nodes numbered
  * in the same order and its edges met in the same order as in the whole
- * graph, so the result is the same. gid: nl entries of NONE, left so. */
+ * graph, so the result is the same. gid: nl entries of NONE, left so.
+ * avail: the bytes this may take (its arrays, the graph's adjacency, the
+ * Markov clustering), 0: no limit. eff, vox: per node of the level, its
+ * effective reference count and voxels; *net: the voxel count change of
+ * the run so far, updated. */
 static int cluster_edges(struct vd_lossy_edge *e, size_t ne, uint64_t nl,
 			 const struct vd_lossy_opts *o,
 			 struct vd_lossy_level_stats *ls, uint32_t *gid,
-			 uint32_t *map)
+			 uint32_t *map, uint64_t avail, const uint64_t *eff,
+			 const uint64_t *vox, int64_t *net)
 {
 	/* graph nodes: the candidates with an edge, renumbered */
 	for (size_t k = 0; k < ne; k++) gid[e[k].u] = gid[e[k].v] = 0;
@@ -1350,20 +1601,28 @@ static int cluster_edges(struct vd_lossy_edge *e, size_t ne, uint64_t nl,
 	}
 	for (uint32_t i = 0; i < gn; i++) gid[gnode[i]] = NONE;
 	ls->graph_nodes += gn;
-	if ((err = vd_lossy_mcl(gn, e, ne, o->inflation, o->threads, cl)))
-		goto out;
-	/* representative: the largest sum of similarities to the other
-	 * members, ties to the smallest node */
+	/* the arrays here (20 bytes per node) and graph_build's (the
+	 * adjacency, 24 bytes per edge, and 44 per node) */
+	uint64_t own = 24 * (uint64_t)ne + 64 * (uint64_t)gn;
+	struct mcl_ledger lg = {avail ? (avail > own ? avail - own : 1) : 0, 0, 0};
+	err = mcl_run(gn, e, ne, o->inflation, o->threads, cl, &lg);
+	if (err == VD_ERR_BUDGET)
+		err = vd_fail(VD_ERR_BUDGET, "the Markov clustering of level %d "
+			      "needs more than %" PRIu64 " MiB for a component "
+			      "beside its graph (%zu edges, %" PRIu32 " nodes, %"
+			      PRIu64 " MiB), over the %" PRIu64 " MiB left of the "
+			      "budget of %" PRIu64 " MiB (--mem-budget)", ls->level,
+			      lg.need >> 20, ne, gn, own >> 20, avail >> 20,
+			      o->mem_budget >> 20);
+	if (err) goto out;
 	for (size_t k = 0; k < ne; k++)
 		if (cl[e[k].u] == cl[e[k].v]) {
 			simsum[e[k].u] += e[k].s;
 			simsum[e[k].v] += e[k].s;
 		}
-	for (uint32_t i = 0; i < gn; i++) best[i] = NONE;
-	for (uint32_t i = 0; i < gn; i++) {
-		uint32_t c = cl[i];
-		if (best[c] == NONE || simsum[i] > simsum[best[c]]) best[c] = i;
-	}
+	err = pick_representatives(e, ne, gn, cl, simsum, gnode, eff, vox,
+				   net, best);
+	if (err) goto out;
 	for (uint32_t i = 0; i < gn; i++) {
 		if (cl[i] == i) ls->clusters++;
 		uint32_t r = best[cl[i]];
@@ -1378,6 +1637,34 @@ out:
 	return err;
 }
 
+/* The voxels under each node of level l (>= L-2) into a new array:
+ * bottom-up from the bricks, two levels held at a time. */
+static int level_voxels(const struct vd_dag *d, int l, uint64_t **out)
+{
+	int L = d->levels;
+	const struct vd_dag_level *bv = &d->lv[L - 2];
+	uint64_t *v = malloc((bv->nodes ? bv->nodes : 1) * 8);
+	if (!v) return NOMEM();
+	for (uint64_t i = 0; i < bv->nodes; i++) v[i] = pop64(node_brick(d, i));
+	for (int k = L - 3; k >= l; k--) {
+		const struct vd_dag_level *kv = &d->lv[k];
+		uint64_t *u = malloc((kv->nodes ? kv->nodes : 1) * 8);
+		if (!u) {
+			free(v);
+			return NOMEM();
+		}
+		for (uint64_t i = 0; i < kv->nodes; i++) {
+			u[i] = 0;
+			for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++)
+				u[i] += v[kv->child[j]];
+		}
+		free(v);
+		v = u;
+	}
+	*out = v;
+	return 0;
+}
+
 /* edges read from a spill file at a time */
 #define SPILL_READ 65536
 
@@ -1389,13 +1676,16 @@ out:
 static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			   const struct vd_lossy_opts *o,
 			   struct vd_lossy_level_stats *ls, uint32_t *gid,
-			   uint32_t *map)
+			   uint32_t *map, const uint64_t *eff,
+			   const uint64_t *vox, int64_t *net)
 {
-	uint32_t *root = malloc((nl + 1) * 4);
+	uint32_t *root = malloc((nl + 1) * 4), *ncnt = calloc(nl + 1, 4);
 	uint64_t *cnt = calloc(nl + 1, 8), *bsz = NULL, nb = 0, bcap = 0;
-	struct vd_lossy_edge *buf = malloc(SPILL_READ * sizeof *buf), *e = NULL;
+	uint64_t *seen = calloc(nl / 64 + 1, 8);
+	size_t nbuf = sp->n < SPILL_READ ? (size_t)sp->n + 1 : SPILL_READ;
+	struct vd_lossy_edge *buf = malloc(nbuf * sizeof *buf), *e = NULL;
 	int err = 0;
-	if (!root || !cnt || !buf) {
+	if (!root || !ncnt || !cnt || !seen || !buf) {
 		err = NOMEM();
 		goto out;
 	}
@@ -1407,17 +1697,33 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 					     at * sizeof *buf)))
 				break;
 			for (size_t t = 0; t < k; t++) {
-				if (pass == 0) uf_union(root, buf[t].u, buf[t].v);
-				else cnt[root[buf[t].u]]++;
+				if (pass == 0) {
+					uf_union(root, buf[t].u, buf[t].v);
+					continue;
+				}
+				cnt[root[buf[t].u]]++;
+				seen[buf[t].u >> 6] |= 1ull << (buf[t].u & 63);
+				seen[buf[t].v >> 6] |= 1ull << (buf[t].v & 63);
 			}
 		}
 		if (pass == 0)
 			for (uint64_t i = 0; i < nl; i++) root[i] = uf_find(root, i);
 	}
 	if (err) goto out;
-	uint64_t cap = sp->avail / EDGE_BYTES, big = 0;
 	for (uint64_t i = 0; i < nl; i++)
-		if (cnt[i] > big) big = cnt[i];
+		if (seen[i >> 6] >> (i & 63) & 1) ncnt[root[i]]++;
+	/* what is left beside this function's arrays and the caller's
+	 * (LNODE_BYTES per node), a group's graph within half of it, the
+	 * rest for the Markov clustering of its components (a budget this
+	 * tight is one where several groups are read anyway) */
+	uint64_t fixed = nl * LNODE_BYTES + nbuf * sizeof *buf,
+		 left = sp->avail > fixed ? sp->avail - fixed : 0,
+		 cap = left / 2, big = 0, bige = 0;
+	for (uint64_t i = 0; i < nl; i++)
+		if (cnt[i] && graph_need(cnt[i], ncnt[i], 0) > big) {
+			big = graph_need(cnt[i], ncnt[i], 0);
+			bige = cnt[i];
+		}
 	if (big > cap) {
 		err = vd_fail(VD_ERR_BUDGET, "the similarity graph of level %d "
 			      "(%" PRIu64 " candidates, %" PRIu64 " edges) needs "
@@ -1425,8 +1731,8 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			      "(%" PRIu64 " edges), over the %" PRIu64 " MiB "
 			      "left of the budget of %" PRIu64 " MiB beside the %"
 			      PRIu64 " MiB in use (--mem-budget)", l,
-			      ls->candidates, sp->n, (big * EDGE_BYTES) >> 20,
-			      big, sp->avail >> 20, o->mem_budget >> 20,
+			      ls->candidates, sp->n, (big + fixed) >> 20,
+			      bige, sp->avail >> 20, o->mem_budget >> 20,
 			      sp->base >> 20);
 		goto out;
 	}
@@ -1434,7 +1740,8 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 	uint64_t acc = 0;
 	for (uint64_t r = 0; r < nl; r++) {
 		if (!cnt[r]) continue;
-		if (!nb || acc + cnt[r] > cap) {
+		uint64_t need = graph_need(cnt[r], ncnt[r], 0);
+		if (!nb || acc + need > cap) {
 			if (nb == bcap) {
 				bcap = bcap ? 2 * bcap : 16;
 				void *p = realloc(bsz, bcap * 8);
@@ -1447,7 +1754,7 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			bsz[nb++] = 0;
 			acc = 0;
 		}
-		acc += cnt[r];
+		acc += need;
 		bsz[nb - 1] += cnt[r];
 		cnt[r] = nb - 1;
 	}
@@ -1472,12 +1779,18 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 			err = vd_fail(VD_ERR_INTERNAL, "the spill file of level "
 				      "%d changed under the clustering", l);
 		if (!err) err = edges_sort(e, ne, nl);
-		if (!err) err = cluster_edges(e, ne, nl, o, ls, gid, map);
+		if (!err) {
+			uint64_t eb = ne * sizeof *e;
+			err = cluster_edges(e, ne, nl, o, ls, gid, map,
+					    left > eb ? left - eb : 1, eff, vox, net);
+		}
 		free(e);
 		e = NULL;
 	}
 out:
 	free(root);
+	free(ncnt);
+	free(seen);
 	free(cnt);
 	free(bsz);
 	free(buf);
@@ -1521,6 +1834,7 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	st->nodes_before = dag_nodes(d);
 	st->voxels_before = d->voxels;
 	double cpu0 = cpu_seconds();
+	int64_t net = 0; /* the voxel count change so far */
 	for (int l = L - 2; l >= A && !err; l--) {
 		struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
 		ls->level = l;
@@ -1529,21 +1843,52 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		ls->level_nodes_before = d->lv[l].nodes;
 		double t0 = vd_seconds();
 		uint64_t *eff[VD_MAX_LEVELS];
+		if (o->mem_budget) {
+			/* the level's arrays come before its graph's budget
+			 * is measured: they must fit beside what is held */
+			malloc_trim(0);
+			uint64_t rss = vd_current_rss_bytes(), need = level_need(d, l);
+			if (rss + need > o->mem_budget) {
+				err = vd_fail(VD_ERR_BUDGET, "the arrays of level %d "
+					      "(%" PRIu64 " nodes) need about %" PRIu64
+					      " MiB beside the %" PRIu64 " MiB in use, "
+					      "over the budget of %" PRIu64 " MiB "
+					      "(--mem-budget)", l, d->lv[l].nodes,
+					      need >> 20, rss >> 20, o->mem_budget >> 20);
+				break;
+			}
+		}
 		if ((err = vd_lossy_effective_refs(d, l, eff))) break;
 		double t1 = vd_seconds();
 		st->seconds_eff += t1 - t0;
 		struct vd_lossy_edge *e = NULL;
 		size_t ne = 0;
 		struct spill sp;
+		uint64_t *vox = NULL;
 		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
 				    o->threads, o->mem_budget, &e, &ne,
 				    &ls->candidates, o->graph_budget, &sp);
-		for (int k = 0; k < VD_MAX_LEVELS; k++) free(eff[k]);
-		if (err) break;
+		/* eff[l] stays for the representatives, and their voxel
+		 * counts come now: made during the search, they stayed
+		 * between the heap's freed arrays, and the graph's sort
+		 * then took new memory (the dragon at 2^12 peaked 25 MiB
+		 * higher) */
+		for (int k = 0; k < VD_MAX_LEVELS; k++)
+			if (k != l) free(eff[k]);
+		if (!err && (sp.fd >= 0 ? sp.n : ne))
+			err = level_voxels(d, l, &vox);
+		if (err) {
+			free(eff[l]);
+			free(e);
+			if (sp.fd >= 0) close(sp.fd);
+			break;
+		}
 		double t2 = vd_seconds();
 		st->seconds_graph += t2 - t1;
 		ls->edges = sp.fd >= 0 ? sp.n : ne;
 		if (!ls->edges) {
+			free(eff[l]);
+			free(vox);
 			free(e);
 			ls->nodes_after = ls->nodes_before;
 			ls->level_nodes_after = d->lv[l].nodes;
@@ -1560,14 +1905,22 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 			}
 			if (sp.fd >= 0) {
 				ls->graph_spilled = 1;
-				err = cluster_spilled(l, nl, &sp, o, ls, gid, map);
+				err = cluster_spilled(l, nl, &sp, o, ls, gid, map,
+						      eff[l], vox, &net);
 			} else {
-				err = cluster_edges(e, ne, nl, o, ls, gid, map);
+				/* what is left beside the edges, the two
+				 * arrays above and the voxel counts */
+				uint64_t hold = ne * sizeof *e + nl * 16;
+				err = cluster_edges(e, ne, nl, o, ls, gid, map,
+						    sp.avail > hold ? sp.avail - hold :
+						    sp.avail ? 1 : 0, eff[l], vox, &net);
 			}
 		}
 		if (sp.fd >= 0) close(sp.fd);
 		free(e);
 		free(gid);
+		free(eff[l]);
+		free(vox);
 		double t3 = vd_seconds();
 		st->seconds_cluster += t3 - t2;
 		if (!err && l > A) {
@@ -1585,8 +1938,19 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	if (!err) err = rebuild_bricks(d);
 	if (!err) {
 		double t0 = vd_seconds();
-		err = vd_dag_diff(&orig, d, &st->voxels_cleared, &st->voxels_set,
-				  &st->voxels_after);
+		/* the difference's tables of pairs get what the budget leaves
+		 * beside the process and the voxel counts of both DAGs */
+		uint64_t memo_limit = 0;
+		if (o->mem_budget) {
+			malloc_trim(0);
+			uint64_t hold = vd_current_rss_bytes() +
+					8 * (st->nodes_before + dag_nodes(d) + 2 * VD_MAX_LEVELS);
+			/* and a margin for the heap's own overhead */
+			hold += (2u << 20) + o->mem_budget / 64;
+			memo_limit = o->mem_budget > hold ? o->mem_budget - hold : 1;
+		}
+		err = dag_diff(&orig, d, &st->voxels_cleared, &st->voxels_set,
+			       &st->voxels_after, memo_limit);
 		d->voxels = st->voxels_after;
 		st->seconds_diff = vd_seconds() - t0;
 	}
@@ -1613,15 +1977,40 @@ struct differ {
 	uint64_t *vox[2][VD_MAX_LEVELS]; /* voxels under each node */
 	struct pmemo memo[VD_MAX_LEVELS];
 	int err;
+	/* the tables' bytes, and their limit (0: none): the tables only
+	 * save walking a pair of subtrees twice, so a full table stops
+	 * growing and later pairs are walked each time they occur */
+	uint64_t memo_bytes, memo_limit;
 };
 
-static int memo_grow(struct pmemo *m)
+#define MEMO_SLOT_BYTES 24
+
+/* 0: grown; -1: at its limit (left as it is); else an error */
+/* The tables are mapped, not taken from the heap: the heap kept the
+ * holes of the outgrown tables of the levels, growing in turn, and the
+ * RSS passed the tables' bytes by half. */
+static void *memo_map(uint64_t bytes)
+{
+	void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE,
+		       MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+	return p == MAP_FAILED ? NULL : p;
+}
+
+static void memo_unmap(void *p, uint64_t bytes)
+{
+	if (p) munmap(p, bytes);
+}
+
+static int memo_grow(struct differ *x, struct pmemo *m)
 {
 	uint64_t nc = m->cap ? m->cap * 2 : 1024;
-	uint64_t *k = malloc(nc * 8), *o = malloc(nc * 16);
+	/* the old table and the new one at once */
+	if (x->memo_limit && x->memo_bytes + nc * MEMO_SLOT_BYTES > x->memo_limit)
+		return -1;
+	uint64_t *k = memo_map(nc * 8), *o = memo_map(nc * 16);
 	if (!k || !o) {
-		free(k);
-		free(o);
+		memo_unmap(k, nc * 8);
+		memo_unmap(o, nc * 16);
 		return NOMEM();
 	}
 	memset(k, 0xff, nc * 8);
@@ -1633,8 +2022,9 @@ static int memo_grow(struct pmemo *m)
 		o[2 * s] = m->only[2 * i];
 		o[2 * s + 1] = m->only[2 * i + 1];
 	}
-	free(m->key);
-	free(m->only);
+	memo_unmap(m->key, m->cap * 8);
+	memo_unmap(m->only, m->cap * 16);
+	x->memo_bytes += (nc - m->cap) * MEMO_SLOT_BYTES;
 	m->key = k;
 	m->only = o;
 	m->cap = nc;
@@ -1683,7 +2073,14 @@ static void diff_node(struct differ *x, int l, uint32_t na, uint32_t nb,
 		}
 	}
 	if (x->err) return;
-	if (2 * (m->n + 1) > m->cap && (x->err = memo_grow(m))) return;
+	if (2 * (m->n + 1) > m->cap) {
+		int g = memo_grow(x, m);
+		if (g < 0) return; /* full: not remembered */
+		if (g) {
+			x->err = g;
+			return;
+		}
+	}
 	uint64_t s = mix64(key) & (m->cap - 1);
 	while (m->key[s] != UINT64_MAX) s = (s + 1) & (m->cap - 1);
 	m->key[s] = key;
@@ -1692,8 +2089,12 @@ static void diff_node(struct differ *x, int l, uint32_t na, uint32_t nb,
 	m->n++;
 }
 
-int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
-		uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b)
+/* vd_dag_diff() with its tables of pairs within memo_limit bytes (0: no
+ * limit); the voxel counts per node (8 bytes per node of each) come
+ * first. */
+static int dag_diff(const struct vd_dag *a, const struct vd_dag *b,
+		    uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b,
+		    uint64_t memo_limit)
 {
 	int L = a->levels, A = a->chunk_level;
 	if (a->kind != VD_KIND_DAG || b->kind != VD_KIND_DAG)
@@ -1703,7 +2104,7 @@ int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
 	    b->cell_morton != a->cell_morton)
 		return vd_fail(VD_ERR_MISMATCH, "the chunks are of different "
 			       "cells or depths");
-	struct differ x = {a, b, {{0}}, {{0}}, 0};
+	struct differ x = {a, b, {{0}}, {{0}}, 0, 0, memo_limit};
 	int err = 0;
 	const struct vd_dag *ds[2] = {a, b};
 	for (int s = 0; s < 2 && !err; s++)
@@ -1739,10 +2140,16 @@ int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
 	for (int s = 0; s < 2; s++)
 		for (int l = 0; l < VD_MAX_LEVELS; l++) free(x.vox[s][l]);
 	for (int l = 0; l < VD_MAX_LEVELS; l++) {
-		free(x.memo[l].key);
-		free(x.memo[l].only);
+		memo_unmap(x.memo[l].key, x.memo[l].cap * 8);
+		memo_unmap(x.memo[l].only, x.memo[l].cap * 16);
 	}
 	return err;
+}
+
+int vd_dag_diff(const struct vd_dag *a, const struct vd_dag *b,
+		uint64_t *only_a, uint64_t *only_b, uint64_t *voxels_b)
+{
+	return dag_diff(a, b, only_a, only_b, voxels_b, 0);
 }
 
 /* ------------------------------------------------------------ stage run */
@@ -1794,6 +2201,7 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	}
 	vd_json_end_array(j);
 	vd_json_f64(j, "seconds_load", seconds_load);
+	vd_json_f64(j, "seconds_cut", st->seconds_cut);
 	vd_json_f64(j, "seconds_effective_refs", st->seconds_eff);
 	vd_json_f64(j, "seconds_graph", st->seconds_graph);
 	vd_json_f64(j, "seconds_clustering", st->seconds_cluster);
@@ -1807,17 +2215,21 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	return vd_json_close(j);
 }
 
-/* The memory of a clustering run besides its similarity graphs (checked
- * as they are built) and its clustering: the DAG twice (the working copy
- * and the original, for the final difference: a mask byte and an offset
- * per node, 4 bytes per reference), the per-level arrays (effective
- * counts, topology hashes, voxel counts, candidates, renumbering: up to
- * 64 bytes per node), the final difference (voxel counts of both DAGs and
- * its table of pairs: about 48 bytes per node) and the libraries. */
-static uint64_t lossy_need(uint64_t nodes, uint64_t refs)
+/* The least memory of a clustering run, its similarity graphs and their
+ * clustering aside (each level's graph gets what is left and spills or
+ * names what it needs; the final difference's tables of pairs are
+ * optional): the DAG twice (the working copy and the original, for the
+ * final difference: a mask byte and an offset per node, 4 bytes per
+ * reference) and the libraries; once loaded (d not NULL) also the
+ * largest level's arrays (level_need) and the final difference's voxel
+ * counts (8 bytes per node of each DAG). */
+static uint64_t lossy_need(uint64_t nodes, uint64_t refs, const struct vd_dag *d)
 {
-	return 2 * (9 * nodes + 4 * refs) + 112 * nodes +
-	       VD_DAG_ESTIMATE_FIXED_BYTES;
+	uint64_t n = 2 * (9 * nodes + 4 * refs) + VD_DAG_ESTIMATE_FIXED_BYTES, most = 0;
+	if (!d) return n;
+	for (int l = d->chunk_level; l <= d->levels - 2; l++)
+		if (level_need(d, l) > most) most = level_need(d, l);
+	return n + most + 16 * nodes;
 }
 
 int vd_lossy_run(const char *in, const char *out,
@@ -1846,7 +2258,7 @@ int vd_lossy_run(const char *in, const char *out,
 		hn += h.level_nodes[i];
 		if (i > 0) hr += h.level_nodes[i];
 	}
-	uint64_t est = lossy_need(hn, hr);
+	uint64_t est = lossy_need(hn, hr, NULL);
 	if (mem_budget && est > mem_budget) {
 		vd_chunk_free(c);
 		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs at least "
@@ -1860,9 +2272,32 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot read '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	double t_cut = 0;
+	if (!err && o->levels && o->levels != d.levels) {
+		/* a lower resolution of the same scene (the paper's tables
+		 * per resolution): the DAG cut at that depth, reduced */
+		double tc = vd_seconds();
+		struct vd_dag cut;
+		if (d.chunk_level != 0 || o->levels > d.levels)
+			err = d.chunk_level ?
+			      vd_fail(VD_ERR_ARG, "it is not a root chunk") :
+			      vd_fail(VD_ERR_ARG, "it has only %d levels", d.levels);
+		else
+			err = vd_enc_cut(&d, o->levels, &cut);
+		if (err) {
+			vd_dag_release(&d);
+			return vd_fail(err, "cannot cut '%s' at %d levels: %s",
+				       in, o->levels, vd_error_detail());
+		}
+		vd_dag_release(&d);
+		d = cut;
+		/* the same cube, coarser voxels */
+		h.transform.voxel_size *= (double)(1ull << (h.levels - o->levels));
+		t_cut = vd_seconds() - tc;
+	}
 	uint64_t refs = 0;
 	for (int l = d.chunk_level; l < d.levels - 1; l++) refs += d.lv[l].refs;
-	est = lossy_need(dag_nodes(&d), refs);
+	est = lossy_need(dag_nodes(&d), refs, &d);
 	if (mem_budget && est > mem_budget) {
 		vd_dag_release(&d);
 		return vd_fail(VD_ERR_BUDGET, "cannot cluster '%s': needs about "
@@ -1878,6 +2313,7 @@ int vd_lossy_run(const char *in, const char *out,
 		return vd_fail(err, "cannot cluster '%s': %s: %s", in,
 			       vd_strerror(err), vd_error_detail());
 	}
+	st.seconds_cut = t_cut;
 	/* the chunk and its statistics replace the previous pair together */
 	size_t plen = strlen(out) + 64;
 	char *sp = malloc(3 * plen);
