@@ -43,7 +43,7 @@ extern "C" {
 	X("voxelize-vdb", 2)   /* 2: the same */                             \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
-	X("encode", 2)         /* 2: manifest beside the encodings */        \
+	X("encode", 3)         /* 3: ssvdag48 columns; 2: manifest */        \
 	X("render", 1)                                                      \
 	X("lossy-cluster", 3)  /* 3: balanced representatives; seconds_cut */\
 	X("edit", 2)           /* 2: paint, colours, cpu_seconds per op */ \
