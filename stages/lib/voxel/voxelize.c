@@ -678,28 +678,42 @@ struct raster_ctx {
 	uint64_t *blk;
 };
 
-static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
+/* Sets a run of n voxels along `axis`: per block, the two fixed
+ * coordinates' parts of the word index and bit are computed once. */
+static void set_span(void *vctx, int axis, int64_t x, int64_t y, int64_t z,
+		     int64_t n)
 {
 	struct raster_ctx *r = vctx;
-	uint32_t lx = (uint32_t)(x - r->lo[0]), ly = (uint32_t)(y - r->lo[1]),
-		 lz = (uint32_t)(z - r->lo[2]);
-	uint32_t bx = lx >> BLOCK_SHIFT, by = ly >> BLOCK_SHIFT,
-		 bz = lz >> BLOCK_SHIFT;
-	uint64_t *blk = r->blk;
-	if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
-		blk = map_get(r->map, vd_morton3(bx, by, bz));
-		if (!blk)
-			return;
-		r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
+	uint32_t l[3] = {(uint32_t)(x - r->lo[0]), (uint32_t)(y - r->lo[1]),
+			 (uint32_t)(z - r->lo[2])};
+	/* Morton order: x is the high bit of each triple, z the low */
+	const int sh = 2 - axis;
+	while (n > 0) {
+		uint32_t bx = l[0] >> BLOCK_SHIFT, by = l[1] >> BLOCK_SHIFT,
+			 bz = l[2] >> BLOCK_SHIFT;
+		uint64_t *blk = r->blk;
+		if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
+			blk = map_get(r->map, vd_morton3(bx, by, bz));
+			if (!blk)
+				return;
+			r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
+		}
+		unsigned wi = 0, bit = 0;
+		for (int a = 0; a < 3; a++)
+			if (a != axis) {
+				wi |= (unsigned)spread3[(l[a] >> 2) & 7] << (2 - a);
+				bit |= (unsigned)spread3[l[a] & 3] << (2 - a);
+			}
+		uint32_t lw = l[axis], end = (lw | 31) + 1;
+		if ((int64_t)(end - lw) > n)
+			end = lw + (uint32_t)n;
+		n -= end - lw;
+		for (; lw < end; lw++)
+			blk[wi | (unsigned)spread3[(lw >> 2) & 7] << sh] |=
+				1ull << (bit | (unsigned)spread3[lw & 3] << sh);
+		l[axis] = lw;
 	}
-	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
-		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
-		      spread3[(lz >> 2) & 7];
-	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
-		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
-	blk[wi] |= 1ull << bit;
 }
-
 
 /* A voxel's colour while the cell's triangles are visited: the squared
  * distance (in voxels) from its centre to the nearest point so far and
@@ -1193,7 +1207,8 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
+				vd_raster_triangle_spans(&st, r->g.L, rc.lo, hi,
+							 set_span, &rc);
 		}
 		/* progress inside a cell: large cells take minutes */
 		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
