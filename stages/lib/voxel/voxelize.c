@@ -49,6 +49,11 @@ enum {
 	BLOCK_COST = BLOCK_BYTES + 48,    /* with malloc and map overhead */
 	MAX_CHUNK_LEVEL = 7,              /* 2M cells: per-cell arrays stay small */
 	TRI_BATCH = 16384,
+	/* Blocks are allocated in slabs: one calloc per 64 blocks, not one
+	 * per block (a block allocation cost as much as rasterizing it);
+	 * pages of a slab not yet used stay unmapped, so memory still
+	 * follows the blocks in use. */
+	SLAB_BLOCKS = 64,
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
 	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
@@ -560,6 +565,9 @@ struct block_map {
 	size_t cap, count;
 	uint64_t **spare;    /* zeroed blocks kept from earlier cells */
 	size_t nspare, spare_cap;
+	uint64_t **slabs;    /* blocks come SLAB_BLOCKS at a time */
+	size_t nslabs, slabs_cap;
+	size_t slab_used;    /* blocks taken from the last slab */
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
 	size_t limit;        /* blocks allowed by the budget */
@@ -593,6 +601,30 @@ static int map_grow(struct block_map *m)
 	return VD_OK;
 }
 
+/* A zeroed block: a spare one, or the next of the current slab. */
+static uint64_t *map_new_block(struct block_map *m)
+{
+	if (m->nspare)
+		return m->spare[--m->nspare];
+	if (!m->nslabs || m->slab_used == SLAB_BLOCKS) {
+		if (m->nslabs == m->slabs_cap) {
+			size_t cap = m->slabs_cap ? 2 * m->slabs_cap : 16;
+			uint64_t **sl = realloc(m->slabs, cap * sizeof *sl);
+			if (!sl)
+				return NULL;
+			m->slabs = sl;
+			m->slabs_cap = cap;
+		}
+		uint64_t *slab = calloc((size_t)SLAB_BLOCKS * BLOCK_WORDS,
+					sizeof *slab);
+		if (!slab)
+			return NULL;
+		m->slabs[m->nslabs++] = slab;
+		m->slab_used = 0;
+	}
+	return m->slabs[m->nslabs - 1] + (size_t)BLOCK_WORDS * m->slab_used++;
+}
+
 static uint64_t *map_get(struct block_map *m, uint64_t key)
 {
 	if (m->last_val && m->last_key == key)
@@ -621,8 +653,7 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 		while (m->keys[j])
 			j = (j + 1) & (m->cap - 1);
 	}
-	uint64_t *blk = m->nspare ? m->spare[--m->nspare]
-				  : calloc(BLOCK_WORDS, sizeof(uint64_t));
+	uint64_t *blk = map_new_block(m);
 	if (!blk) {
 		m->over = 1;
 		return NULL;
@@ -660,8 +691,9 @@ static int map_reset(struct block_map *m)
 static void map_free(struct block_map *m)
 {
 	map_reset(m);
-	for (size_t i = 0; i < m->nspare; i++)
-		free(m->spare[i]);
+	for (size_t i = 0; i < m->nslabs; i++)
+		free(m->slabs[i]);
+	free(m->slabs);
 	free(m->spare);
 	free(m->keys);
 	free(m->vals);
