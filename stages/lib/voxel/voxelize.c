@@ -761,6 +761,8 @@ struct worker {
 	struct vd_triangle *tris;  /* bin read buffer (TRI_BATCH records) */
 	uint64_t *order;
 	size_t order_cap;
+	uint64_t *nz;              /* write_cell: non-empty bricks per block */
+	size_t nz_cap;
 	/* colours: per block in key order its pointer, first rank and per
 	 * word ranks within it; per voxel its colour slot */
 	uint64_t **blk;
@@ -848,10 +850,25 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 	uint64_t count = 0;
 	for (int l = 0; l <= k; l++)
 		counts[l] = 0;
+	/* per block, which of its 512 bricks are non-empty (8 words): the
+	 * passes below visit those only */
+	if (nb > w->nz_cap) {
+		free(w->nz);
+		w->nz_cap = 0;
+		if (!(w->nz = malloc(nb * 2 * 8 * sizeof *w->nz)))
+			return vd_fail(VD_ERR_NOMEM, "brick masks");
+		w->nz_cap = nb * 2;
+	}
 	for (size_t i = 0; i < nb; i++) {
 		const uint64_t *blk = map_get(m, w->order[i]);
-		for (int j = 0; j < BLOCK_WORDS; j++)
-			count += blk[j] != 0;
+		uint64_t *nz = w->nz + 8 * i;
+		for (int q = 0; q < 8; q++) {
+			uint64_t bits = 0;
+			for (int j = 0; j < 64; j++)
+				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			nz[q] = bits;
+			count += (uint64_t)__builtin_popcountll(bits);
+		}
 	}
 	*nbricks = count;
 	if (count == 0)
@@ -891,10 +908,11 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		for (size_t i = 0; i < nb && !err; i++) {
 			const uint64_t *blk = map_get(m, w->order[i]);
 			uint64_t base = prefix | w->order[i] << 9;
+			const uint64_t *nz = w->nz + 8 * i;
 			size_t n = 0;
-			for (int j = 0; j < BLOCK_WORDS; j++) {
-				if (!blk[j])
-					continue;
+			for (int qw = 0; qw < 8; qw++)
+			for (uint64_t bits = nz[qw]; bits; bits &= bits - 1) {
+				int j = 64 * qw + __builtin_ctzll(bits);
 				uint64_t key = base | (uint64_t)j, v;
 				if (pass == 0) {
 					v = first ? key : key - prev;
@@ -1744,6 +1762,7 @@ out:
 			map_free(&r.workers[i].map);
 			free(r.workers[i].tris);
 			free(r.workers[i].order);
+			free(r.workers[i].nz);
 			free(r.workers[i].blk);
 			free(r.workers[i].base);
 			free(r.workers[i].prefix);
