@@ -264,6 +264,17 @@ static void test_large_and_clipped(void)
 	CHECK_EQ(bad, 0);
 }
 
+/* Rows longer than the rasterizer's table bound their columns one by
+ * one: the same voxels through that path. */
+static void test_untabled_rows(void)
+{
+	vd_raster_table_max = 0;
+	random_triangles_at(4, 3000);
+	random_triangles_at(14, 3000);
+	test_large_and_clipped();
+	vd_raster_table_max = 512;
+}
+
 static void test_box_overlap(void)
 {
 	const int L = 6;
@@ -483,6 +494,7 @@ int main(void)
 	dir = test_tmpdir("voxelize");
 	RUN(test_random_triangles);
 	RUN(test_large_and_clipped);
+	RUN(test_untabled_rows);
 	RUN(test_box_overlap);
 	RUN(test_real_mesh_brute_force);
 	RUN(test_chunked_equals_monolithic);

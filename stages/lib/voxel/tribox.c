@@ -51,6 +51,8 @@ static inline double vd_ceil(double x)
 	return i + (x > i);
 }
 
+int vd_raster_table_max = 512;
+
 #define RT int64_t
 #define RN(name) name##64
 #include "voxel/tribox_impl.h"
@@ -96,9 +98,10 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
 	return axes_overlap128(&x, zero);
 }
 
-void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
-			const int64_t clip_lo[3], const int64_t clip_hi[3],
-			vd_voxel_fn fn, void *ctx)
+void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
+			      const int64_t clip_lo[3],
+			      const int64_t clip_hi[3], vd_span_fn fn,
+			      void *ctx)
 {
 	const int64_t s = vd_snap_voxel(levels);
 	int64_t vlo[3], vhi[3], origin[3], extent = 0;
@@ -133,4 +136,26 @@ void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
 		raster64(t, vlo, vhi, origin, s, fn, ctx);
 	else
 		raster128(t, vlo, vhi, origin, s, fn, ctx);
+}
+
+struct each_voxel {
+	vd_voxel_fn fn;
+	void *ctx;
+};
+
+static void each_voxel(void *vctx, int axis, int64_t x, int64_t y, int64_t z,
+		       int64_t n)
+{
+	const struct each_voxel *e = vctx;
+	int64_t p[3] = {x, y, z};
+	for (int64_t i = 0; i < n; i++, p[axis]++)
+		e->fn(e->ctx, p[0], p[1], p[2]);
+}
+
+void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
+			const int64_t clip_lo[3], const int64_t clip_hi[3],
+			vd_voxel_fn fn, void *ctx)
+{
+	struct each_voxel e = {fn, ctx};
+	vd_raster_triangle_spans(t, levels, clip_lo, clip_hi, each_voxel, &e);
 }

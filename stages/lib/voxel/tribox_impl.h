@@ -92,15 +92,60 @@ static inline void RN(narrow)(double lower, double upper, double a,
 		*hi = f1 < (double)*lo ? *lo - 1 : (int64_t)f1;
 }
 
-/* Visits every voxel of [vlo, vhi] that the triangle overlaps. Columns run
- * along the axis w where the normal is largest, so the plane crosses few
- * voxels of a column. The edge axes e_k x unit_w are constant along a
- * column: per row (fixed u) they bound the range of v, and per column they
- * are tested exactly once. The plane bounds the range of w in a column; the
- * remaining 7 axes are tested exactly per voxel, stepped incrementally. */
+/* floor(a / b) for b > 0 */
+static inline RT RN(fdiv)(RT a, RT b)
+{
+	RT q = a / b;
+	return q - (a % b != 0 && a < 0);
+}
+
+/* Narrows [*k1, *k2] to the integers k with lo <= b + A*k <= hi, exactly
+ * (an empty result has *k1 > *k2 and stays empty under more narrowing). */
+static inline void RN(bound)(RT b, RT A, RT lo, RT hi, int64_t *k1,
+			     int64_t *k2)
+{
+	RT c1, c2;
+	if (A == 0) {
+		if (b >= lo && b <= hi)
+			return;
+		c1 = 1, c2 = 0;
+	} else if (A > 0) {
+		c1 = -RN(fdiv)(b - lo, A); /* ceil((lo - b) / A) */
+		c2 = RN(fdiv)(hi - b, A);
+	} else {
+		c1 = -RN(fdiv)(hi - b, -A); /* ceil((b - hi) / -A) */
+		c2 = RN(fdiv)(b - lo, -A);
+	}
+	if (c1 > *k1)
+		*k1 = c1 > *k2 ? *k2 + 1 : (int64_t)c1;
+	if (c2 < *k2)
+		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
+}
+
+/* Rows of at most this many voxels (and vd_raster_table_max) have their
+ * per-v bounds tabled; longer ones bound each column on its own. */
+enum { RN(VTAB) = 512 };
+
+/* Visits every voxel of [vlo, vhi] that the triangle overlaps, as runs
+ * along one axis. Columns run along the axis w where the normal is
+ * largest, so the plane crosses few voxels of a column. Every axis bounds
+ * the w of a column's voxels to an interval, so the column's voxels are
+ * one interval, the intersection of:
+ *   - the box axes: the clip box [vlo, vhi];
+ *   - the edge axes e_k x unit_w, constant along a column: per row (fixed
+ *     u) they bound the range of v, and per column they are tested once;
+ *   - the edge axes e_k x unit_v, whose projections do not depend on v:
+ *     one interval per row;
+ *   - the edge axes e_k x unit_u, which do not depend on u: one interval
+ *     per v, tabled once per triangle;
+ *   - the plane: its interval is found by one exact division per row and
+ *     then stepped from column to column in integers (it moves by less
+ *     than one voxel of w per voxel of v, since |n_v| <= |n_w|).
+ * All of it is exact integer arithmetic: the same voxels as testing the
+ * 13 axes on every box. */
 static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
-		       vd_voxel_fn fn, void *ctx)
+		       vd_span_fn fn, void *ctx)
 {
 	int64_t t[3][3];
 	for (int k = 0; k < 3; k++)
@@ -114,33 +159,47 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		    (x.a[0][w] < 0 ? -x.a[0][w] : x.a[0][w]))
 			w = a;
 	const int u = (w + 1) % 3, v = (w + 2) % 3;
-	int col[3], vox[7], nvox = 0;
-	for (int k = 0; k < 3; k++)
-		col[k] = 1 + 3 * k + w;
-	vox[nvox++] = 0;
-	for (int j = 1; j < 10; j++)
-		if ((j - 1) % 3 != w)
-			vox[nvox++] = j;
-	/* per-voxel axes packed as lo <= a.p <= hi */
-	RT wstep[7], vstep[7], colvstep[3], lo[7], hi[7], clo[3], chi[3];
-	RT cin_lo[3], cin_hi[3];
-	for (int i = 0; i < 7; i++) {
-		wstep[i] = x.a[vox[i]][w] * s;
-		vstep[i] = x.a[vox[i]][v] * s;
-		lo[i] = x.tmin[vox[i]] - x.bhi[vox[i]];
-		hi[i] = x.tmax[vox[i]] - x.blo[vox[i]];
-	}
+	/* axes as lo <= a.p <= hi; col: e_k x unit_w, ru: e_k x unit_v
+	 * (per row), tv: e_k x unit_u (per v) */
+	int col[3], ru[3], tv[3];
 	for (int k = 0; k < 3; k++) {
-		colvstep[k] = x.a[col[k]][v] * s;
-		clo[k] = x.tmin[col[k]] - x.bhi[col[k]];
-		chi[k] = x.tmax[col[k]] - x.blo[col[k]];
-		/* the column's square lies inside the triangle's projection */
-		cin_lo[k] = x.tmin[col[k]] - x.blo[col[k]];
-		cin_hi[k] = x.tmax[col[k]] - x.bhi[col[k]];
+		col[k] = 1 + 3 * k + w;
+		ru[k] = 1 + 3 * k + v;
+		tv[k] = 1 + 3 * k + u;
 	}
+	RT lo[10], hi[10];
+	for (int j = 0; j < 10; j++) {
+		lo[j] = x.tmin[j] - x.bhi[j];
+		hi[j] = x.tmax[j] - x.blo[j];
+	}
+	RT colvstep[3];
+	for (int k = 0; k < 3; k++)
+		colvstep[k] = x.a[col[k]][v] * s;
+	const int64_t kmax = vhi[w] - vlo[w];
+	const int64_t nv = vhi[v] - vlo[v] + 1;
+	/* per v: the range of k = cw - vlo[w] the axes tv admit (origin[w]
+	 * is the low corner of voxel vlo[w], so p[w] = k * s) */
+	int64_t tv1[RN(VTAB)], tv2[RN(VTAB)];
+	const int tabled = nv <= RN(VTAB) && nv <= vd_raster_table_max;
+	if (tabled)
+		for (int64_t i = 0; i < nv; i++) {
+			RT pv = (RT)(vlo[v] + i) * s - origin[v];
+			tv1[i] = 0, tv2[i] = kmax;
+			for (int k = 0; k < 3; k++)
+				RN(bound)(x.a[tv[k]][v] * pv, x.a[tv[k]][w] * s,
+					  lo[tv[k]], hi[tv[k]], &tv1[i], &tv2[i]);
+		}
+	/* The plane in a column: lo[0] <= b + wstep * k <= hi[0]. Negated
+	 * when wstep < 0, it reads pl <= c + P * k <= ph with P > 0,
+	 * c = sg * b. A zero normal (degenerate triangle) is a zero axis: it
+	 * passes every box. */
+	const RT wstep = x.a[0][w] * s;
+	const RT P = wstep < 0 ? -wstep : wstep;
+	const RT sg = wstep < 0 ? -1 : 1;
+	const RT pl = wstep < 0 ? -hi[0] : lo[0];
+	const RT ph = wstep < 0 ? -lo[0] : hi[0];
+	const RT dc = sg * x.a[0][v] * s;
 	const double inv_s = 1.0 / (double)s;
-	const double nw = (double)x.a[0][w];
-	const double inv_nw = nw != 0 ? 1.0 / nw : 0;
 	int64_t p[3];
 	for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {
 		p[u] = cu * s - origin[u];
@@ -148,96 +207,72 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		for (int k = 0; k < 3 && v0 <= v1; k++) {
 			const RT *ax = x.a[col[k]];
 			RT au = ax[u] * p[u];
-			RN(narrow)((double)(x.tmin[col[k]] - x.bhi[col[k]] - au),
-				   (double)(x.tmax[col[k]] - x.blo[col[k]] - au),
+			RN(narrow)((double)(lo[col[k]] - au),
+				   (double)(hi[col[k]] - au),
 				   (double)ax[v], (double)origin[v], inv_s, &v0, &v1);
 		}
 		if (v0 > v1)
 			continue;
+		/* the row's range of k from the axes ru */
+		int64_t r1 = 0, r2 = kmax;
+		for (int k = 0; k < 3; k++)
+			RN(bound)(x.a[ru[k]][u] * p[u], x.a[ru[k]][w] * s,
+				  lo[ru[k]], hi[ru[k]], &r1, &r2);
+		if (r1 > r2)
+			continue;
 		p[v] = v0 * s - origin[v];
-		RT cd[3], base[7];
+		RT cd[3];
 		for (int k = 0; k < 3; k++)
 			cd[k] = x.a[col[k]][u] * p[u] + x.a[col[k]][v] * p[v];
-		for (int i = 0; i < 7; i++)
-			base[i] = x.a[vox[i]][u] * p[u] + x.a[vox[i]][v] * p[v];
+		/* the plane's exact range of k in the first column, and the
+		 * slack e1 = c + P*k1 - pl, e2 = ph - c - P*k2 in [0, P) */
+		RT k1 = 0, k2 = kmax, e1 = 0, e2 = 0;
+		if (P != 0) {
+			RT c = sg * (x.a[0][u] * p[u] + x.a[0][v] * p[v]);
+			k1 = -RN(fdiv)(c - pl, P); /* ceil((pl - c) / P) */
+			k2 = RN(fdiv)(ph - c, P);
+			e1 = c + P * k1 - pl;
+			e2 = ph - c - P * k2;
+		}
 		for (int64_t cv = v0; cv <= v1; cv++) {
-			int skip = 0, inner = 1;
+			int skip = 0;
 			for (int k = 0; k < 3; k++) {
-				skip |= cd[k] < clo[k] || cd[k] > chi[k];
-				inner &= cd[k] >= cin_lo[k] && cd[k] <= cin_hi[k];
+				skip |= cd[k] < lo[col[k]] || cd[k] > hi[col[k]];
 				cd[k] += colvstep[k];
 			}
-			RT b[7];
-			for (int i = 0; i < 7; i++) {
-				b[i] = base[i];
-				base[i] += vstep[i];
+			int64_t w0 = k1 > r1 ? (int64_t)k1 : r1;
+			int64_t w1 = k2 < r2 ? (int64_t)k2 : r2;
+			if (P != 0) {
+				/* step the plane's range to the next column */
+				e1 += dc;
+				if (e1 < 0)
+					k1++, e1 += P;
+				else if (e1 >= P)
+					k1--, e1 -= P;
+				e2 -= dc;
+				if (e2 < 0)
+					k2--, e2 += P;
+				else if (e2 >= P)
+					k2++, e2 -= P;
 			}
-			if (skip)
+			if (skip || w0 > w1)
 				continue;
-			int64_t w0 = vlo[w], w1 = vhi[w];
-			if (nw != 0) {
-				/* plane: lo[0] <= n.p <= hi[0] */
-				double g0 = (double)(lo[0] - b[0]) * inv_nw,
-				       g1 = (double)(hi[0] - b[0]) * inv_nw;
-				if (g0 > g1) {
-					double tmp = g0;
-					g0 = g1;
-					g1 = tmp;
-				}
-				const double margin = 1.0 / 64;
-				double f0 = vd_ceil((g0 - margin + (double)origin[w]) * inv_s);
-				double f1 = vd_floor((g1 + margin + (double)origin[w]) * inv_s);
-				if (f0 > (double)w0)
-					w0 = (int64_t)f0;
-				if (f1 < (double)w1)
-					w1 = (int64_t)f1;
+			int64_t i = cv - vlo[v];
+			if (tabled) {
+				w0 = tv1[i] > w0 ? tv1[i] : w0;
+				w1 = tv2[i] < w1 ? tv2[i] : w1;
+			} else {
+				RT pv = (RT)cv * s - origin[v];
+				for (int k = 0; k < 3; k++)
+					RN(bound)(x.a[tv[k]][v] * pv,
+						  x.a[tv[k]][w] * s, lo[tv[k]],
+						  hi[tv[k]], &w0, &w1);
 			}
 			if (w0 > w1)
 				continue;
-			/* Each axis admits an interval of w, so the voxels of
-			 * the column form one interval: find its ends exactly
-			 * and take everything between without testing. Where
-			 * the column's square lies inside the triangle's
-			 * projection, a box meets the triangle iff it meets its
-			 * plane, and the plane alone is tested. */
-			int naxes = inner && nw != 0 ? 1 : 7;
-			RT d[7];
-			int64_t pw = w0 * s - origin[w];
-			for (int i = 0; i < naxes; i++)
-				d[i] = b[i] + x.a[vox[i]][w] * pw;
-			int64_t first = w0;
-			for (;; first++) {
-				if (first > w1)
-					break;
-				int ok = 1;
-				for (int i = 0; i < naxes; i++) {
-					ok &= d[i] >= lo[i] && d[i] <= hi[i];
-					d[i] += wstep[i];
-				}
-				if (ok)
-					break;
-			}
-			if (first > w1)
-				continue;
-			int64_t last = w1;
-			pw = w1 * s - origin[w];
-			for (int i = 0; i < naxes; i++)
-				d[i] = b[i] + x.a[vox[i]][w] * pw;
-			for (; last > first; last--) {
-				int ok = 1;
-				for (int i = 0; i < naxes; i++) {
-					ok &= d[i] >= lo[i] && d[i] <= hi[i];
-					d[i] -= wstep[i];
-				}
-				if (ok)
-					break;
-			}
 			int64_t out[3];
-			out[u] = cu, out[v] = cv;
-			for (int64_t cw = first; cw <= last; cw++) {
-				out[w] = cw;
-				fn(ctx, out[0], out[1], out[2]);
-			}
+			out[u] = cu, out[v] = cv, out[w] = vlo[w] + w0;
+			fn(ctx, w, out[0], out[1], out[2], w1 - w0 + 1);
 		}
 	}
 }

@@ -49,6 +49,11 @@ enum {
 	BLOCK_COST = BLOCK_BYTES + 48,    /* with malloc and map overhead */
 	MAX_CHUNK_LEVEL = 7,              /* 2M cells: per-cell arrays stay small */
 	TRI_BATCH = 16384,
+	/* Blocks are allocated in slabs: one calloc per 64 blocks, not one
+	 * per block (a block allocation cost as much as rasterizing it);
+	 * pages of a slab not yet used stay unmapped, so memory still
+	 * follows the blocks in use. */
+	SLAB_BLOCKS = 64,
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
 	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
@@ -560,6 +565,9 @@ struct block_map {
 	size_t cap, count;
 	uint64_t **spare;    /* zeroed blocks kept from earlier cells */
 	size_t nspare, spare_cap;
+	uint64_t **slabs;    /* blocks come SLAB_BLOCKS at a time */
+	size_t nslabs, slabs_cap;
+	size_t slab_used;    /* blocks taken from the last slab */
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
 	size_t limit;        /* blocks allowed by the budget */
@@ -593,6 +601,30 @@ static int map_grow(struct block_map *m)
 	return VD_OK;
 }
 
+/* A zeroed block: a spare one, or the next of the current slab. */
+static uint64_t *map_new_block(struct block_map *m)
+{
+	if (m->nspare)
+		return m->spare[--m->nspare];
+	if (!m->nslabs || m->slab_used == SLAB_BLOCKS) {
+		if (m->nslabs == m->slabs_cap) {
+			size_t cap = m->slabs_cap ? 2 * m->slabs_cap : 16;
+			uint64_t **sl = realloc(m->slabs, cap * sizeof *sl);
+			if (!sl)
+				return NULL;
+			m->slabs = sl;
+			m->slabs_cap = cap;
+		}
+		uint64_t *slab = calloc((size_t)SLAB_BLOCKS * BLOCK_WORDS,
+					sizeof *slab);
+		if (!slab)
+			return NULL;
+		m->slabs[m->nslabs++] = slab;
+		m->slab_used = 0;
+	}
+	return m->slabs[m->nslabs - 1] + (size_t)BLOCK_WORDS * m->slab_used++;
+}
+
 static uint64_t *map_get(struct block_map *m, uint64_t key)
 {
 	if (m->last_val && m->last_key == key)
@@ -621,8 +653,7 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 		while (m->keys[j])
 			j = (j + 1) & (m->cap - 1);
 	}
-	uint64_t *blk = m->nspare ? m->spare[--m->nspare]
-				  : calloc(BLOCK_WORDS, sizeof(uint64_t));
+	uint64_t *blk = map_new_block(m);
 	if (!blk) {
 		m->over = 1;
 		return NULL;
@@ -660,8 +691,9 @@ static int map_reset(struct block_map *m)
 static void map_free(struct block_map *m)
 {
 	map_reset(m);
-	for (size_t i = 0; i < m->nspare; i++)
-		free(m->spare[i]);
+	for (size_t i = 0; i < m->nslabs; i++)
+		free(m->slabs[i]);
+	free(m->slabs);
 	free(m->spare);
 	free(m->keys);
 	free(m->vals);
@@ -678,28 +710,42 @@ struct raster_ctx {
 	uint64_t *blk;
 };
 
-static void set_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
+/* Sets a run of n voxels along `axis`: per block, the two fixed
+ * coordinates' parts of the word index and bit are computed once. */
+static void set_span(void *vctx, int axis, int64_t x, int64_t y, int64_t z,
+		     int64_t n)
 {
 	struct raster_ctx *r = vctx;
-	uint32_t lx = (uint32_t)(x - r->lo[0]), ly = (uint32_t)(y - r->lo[1]),
-		 lz = (uint32_t)(z - r->lo[2]);
-	uint32_t bx = lx >> BLOCK_SHIFT, by = ly >> BLOCK_SHIFT,
-		 bz = lz >> BLOCK_SHIFT;
-	uint64_t *blk = r->blk;
-	if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
-		blk = map_get(r->map, vd_morton3(bx, by, bz));
-		if (!blk)
-			return;
-		r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
+	uint32_t l[3] = {(uint32_t)(x - r->lo[0]), (uint32_t)(y - r->lo[1]),
+			 (uint32_t)(z - r->lo[2])};
+	/* Morton order: x is the high bit of each triple, z the low */
+	const int sh = 2 - axis;
+	while (n > 0) {
+		uint32_t bx = l[0] >> BLOCK_SHIFT, by = l[1] >> BLOCK_SHIFT,
+			 bz = l[2] >> BLOCK_SHIFT;
+		uint64_t *blk = r->blk;
+		if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
+			blk = map_get(r->map, vd_morton3(bx, by, bz));
+			if (!blk)
+				return;
+			r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
+		}
+		unsigned wi = 0, bit = 0;
+		for (int a = 0; a < 3; a++)
+			if (a != axis) {
+				wi |= (unsigned)spread3[(l[a] >> 2) & 7] << (2 - a);
+				bit |= (unsigned)spread3[l[a] & 3] << (2 - a);
+			}
+		uint32_t lw = l[axis], end = (lw | 31) + 1;
+		if ((int64_t)(end - lw) > n)
+			end = lw + (uint32_t)n;
+		n -= end - lw;
+		for (; lw < end; lw++)
+			blk[wi | (unsigned)spread3[(lw >> 2) & 7] << sh] |=
+				1ull << (bit | (unsigned)spread3[lw & 3] << sh);
+		l[axis] = lw;
 	}
-	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
-		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
-		      spread3[(lz >> 2) & 7];
-	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
-		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
-	blk[wi] |= 1ull << bit;
 }
-
 
 /* A voxel's colour while the cell's triangles are visited: the squared
  * distance (in voxels) from its centre to the nearest point so far and
@@ -715,6 +761,8 @@ struct worker {
 	struct vd_triangle *tris;  /* bin read buffer (TRI_BATCH records) */
 	uint64_t *order;
 	size_t order_cap;
+	uint64_t *nz;              /* write_cell: non-empty bricks per block */
+	size_t nz_cap;
 	/* colours: per block in key order its pointer, first rank and per
 	 * word ranks within it; per voxel its colour slot */
 	uint64_t **blk;
@@ -819,10 +867,25 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 	uint64_t count = 0;
 	for (int l = 0; l <= k; l++)
 		counts[l] = 0;
+	/* per block, which of its 512 bricks are non-empty (8 words): the
+	 * passes below visit those only */
+	if (nb > w->nz_cap) {
+		free(w->nz);
+		w->nz_cap = 0;
+		if (!(w->nz = malloc(nb * 2 * 8 * sizeof *w->nz)))
+			return vd_fail(VD_ERR_NOMEM, "brick masks");
+		w->nz_cap = nb * 2;
+	}
 	for (size_t i = 0; i < nb; i++) {
 		const uint64_t *blk = map_get(m, w->order[i]);
-		for (int j = 0; j < BLOCK_WORDS; j++)
-			count += blk[j] != 0;
+		uint64_t *nz = w->nz + 8 * i;
+		for (int q = 0; q < 8; q++) {
+			uint64_t bits = 0;
+			for (int j = 0; j < 64; j++)
+				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			nz[q] = bits;
+			count += (uint64_t)__builtin_popcountll(bits);
+		}
 	}
 	*nbricks = count;
 	if (count == 0)
@@ -862,10 +925,11 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		for (size_t i = 0; i < nb && !err; i++) {
 			const uint64_t *blk = map_get(m, w->order[i]);
 			uint64_t base = prefix | w->order[i] << 9;
+			const uint64_t *nz = w->nz + 8 * i;
 			size_t n = 0;
-			for (int j = 0; j < BLOCK_WORDS; j++) {
-				if (!blk[j])
-					continue;
+			for (int qw = 0; qw < 8; qw++)
+			for (uint64_t bits = nz[qw]; bits; bits &= bits - 1) {
+				int j = 64 * qw + __builtin_ctzll(bits);
 				uint64_t key = base | (uint64_t)j, v;
 				if (pass == 0) {
 					v = first ? key : key - prev;
@@ -1210,7 +1274,8 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle(&st, r->g.L, rc.lo, hi, set_voxel, &rc);
+				vd_raster_triangle_spans(&st, r->g.L, rc.lo, hi,
+							 set_span, &rc);
 		}
 		/* progress inside a cell: large cells take minutes */
 		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
@@ -1714,6 +1779,7 @@ out:
 			map_free(&r.workers[i].map);
 			free(r.workers[i].tris);
 			free(r.workers[i].order);
+			free(r.workers[i].nz);
 			free(r.workers[i].blk);
 			free(r.workers[i].base);
 			free(r.workers[i].prefix);

@@ -8,12 +8,28 @@
 /* Receives one voxel (grid coordinates) that a triangle overlaps. */
 typedef void (*vd_voxel_fn)(void *ctx, int64_t x, int64_t y, int64_t z);
 
+/* Receives a run of n >= 1 voxels that a triangle overlaps: (x, y, z) and
+ * the n - 1 voxels after it along `axis` (0, 1, 2: x, y, z). */
+typedef void (*vd_span_fn)(void *ctx, int axis, int64_t x, int64_t y,
+			   int64_t z, int64_t n);
+
 /* Calls fn once for every voxel inside [clip_lo, clip_hi] (inclusive, in
  * voxels of a grid of depth `levels`) whose closed cube overlaps the closed
  * triangle `t`. */
 void vd_raster_triangle(const struct vd_snapped_tri *t, int levels,
 			const int64_t clip_lo[3], const int64_t clip_hi[3],
 			vd_voxel_fn fn, void *ctx);
+
+/* The same voxels as runs: each voxel in exactly one call. */
+void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
+			      const int64_t clip_lo[3],
+			      const int64_t clip_hi[3], vd_span_fn fn,
+			      void *ctx);
+
+/* The longest row (in voxels) whose per-column bounds the rasterizer
+ * tables once per triangle, at most 512: tests lower it to exercise the
+ * untabled path. */
+extern int vd_raster_table_max;
 
 /* Adds one brick to streaming per-level counts (as vd_svo_count_levels):
  * `prev` is the previous brick's key, `first` says there is none. */
