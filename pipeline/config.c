@@ -462,7 +462,7 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
 			lossy_param = k;
 		} else if (!strcmp(key, "group")) {
-			if (want_int(x, v, key, 8, 48, &d->group))
+			if (want_int(x, v, key, 0, 48, &d->group))
 				return 1;
 			if (d->group != 8 && d->group != 48)
 				return fail_at(x, v, "'group' is 8 (reflections, "

@@ -49,6 +49,38 @@ static void log_line(const char *fmt, ...)
 	fflush(runner_log);
 }
 
+/* A runner stopped by SIGTERM, SIGINT or SIGHUP says so, in runner.log
+ * and on stderr, before it dies of the signal (its jobs die with it:
+ * PR_SET_PDEATHSIG); otherwise an interrupted run's log just ends. Only
+ * write(2) here: a handler may not use stdio. */
+static int runner_log_fd = -1;
+
+static void on_stop(int sig)
+{
+	int saved = errno;
+	char line[160] = "voxdag: stopped by signal ";
+	size_t n = strlen(line);
+	char digits[12];
+	int nd = 0;
+	for (int v = sig; v > 0 && nd < 11; v /= 10)
+		digits[nd++] = (char)('0' + v % 10);
+	while (nd > 0)
+		line[n++] = digits[--nd];
+	const char *tail = "; finished jobs are kept, the same command "
+			   "carries on\n";
+	for (size_t i = 0; tail[i] && n < sizeof line - 1; i++)
+		line[n++] = tail[i];
+	if (runner_log_fd >= 0 && write(runner_log_fd, line, n) < 0) {
+		/* nothing more can be done */
+	}
+	if (write(2, line, n) < 0) {
+		/* nor here */
+	}
+	errno = saved;
+	signal(sig, SIG_DFL);
+	raise(sig);
+}
+
 static void log_path(const struct plan *p, const struct job *j, char *buf,
 		     size_t cap)
 {
@@ -817,6 +849,10 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
 	runner_log = fopen(rl, "a");
+	runner_log_fd = runner_log ? fileno(runner_log) : -1;
+	signal(SIGTERM, on_stop);
+	signal(SIGINT, on_stop);
+	signal(SIGHUP, on_stop);
 	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
 	if (!slurm)

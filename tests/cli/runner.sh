@@ -168,6 +168,26 @@ else
 fi
 expect job_killed_then_rerun 0 '' $R -q run "$CFG"
 expect job_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $D/vox/*.svo
+# --- SIGTERM to the runner: one line in runner.log and on stderr, the
+# exit of the signal, and the rerun carries on (checked by the next run)
+rm -rf $D
+write_cfg 11 2
+$R -q run "$CFG" 2>"$T/term.err" &
+pid=$!
+for i in $(seq 1 500); do
+	grep -q ' started ' $D/logs/runner.log 2>/dev/null && break
+	sleep 0.01
+done
+kill -TERM $pid
+wait $pid
+rc=$?
+if [ $rc -eq 143 ] && grep -qx 'voxdag: stopped by signal 15; .*carries on' "$T/term.err" &&
+   tail -n 1 $D/logs/runner.log | grep -q '^voxdag: stopped by signal 15'; then
+	pass runner_sigterm_said
+else
+	fail runner_sigterm_said "rc=$rc" "$(cat "$T/term.err")" "$(tail -n 2 $D/logs/runner.log)"
+fi
+expect runner_sigterm_then_rerun 0 '' $R -q run "$CFG"
 # after a clean rerun: the per-cell jobs said nothing and left no log,
 # and the killed job's old log is gone with its failure
 quiet_logs=$(ls $D/logs | grep -c '^dag\.\|^ssvdag\.')
@@ -351,6 +371,9 @@ printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njob
 # starts nothing
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v]}\n  s: {stage: symmetry-merge, needs: [d], group: 12}\n' |
 	bad_cfg config_group_bad "bad.yaml:8:49: 'group' is 8 .* or 48"
+# below 8 too: one line naming the two groups, not a range that looks valid
+printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v]}\n  s: {stage: symmetry-merge, needs: [d], group: 7}\n' |
+	bad_cfg config_group_7 "bad.yaml:8:49: 'group' is 8 .* or 48 .*, not 7"
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v], group: 48}\n' |
 	bad_cfg config_group_not_symmetry_merge "bad.yaml:7:38: 'group' is a parameter of symmetry-merge jobs"
 printf 'version: 1\nname: x\ninput: {mesh: tests/data/bunny.ply}\nlevels: 6\njobs:\n  v: {stage: voxelize}\n  d: {stage: svo-to-dag, needs: [v]}\n  s: {stage: symmetry-merge, needs: [d]}\n  t: {stage: symmetry-merge, needs: [d]}\n  e: {stage: encode, needs: [d, s, t]}\n' |
