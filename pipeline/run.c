@@ -321,18 +321,10 @@ static pid_t launch(char **argv, int fd, char *start_err, size_t cap)
 		memcpy(b, argv[i], l);
 		b += l;
 	}
-	union {
-		struct cmsghdr h;
-		char space[CMSG_SPACE(sizeof(int))];
-	} ctl;
-	memset(&ctl, 0, sizeof ctl);
+	union vd_spawn_ctl ctl;
 	struct iovec iov = {buf, len};
 	struct msghdr m;
-	memset(&m, 0, sizeof m);
-	m.msg_iov = &iov;
-	m.msg_iovlen = 1;
-	m.msg_control = ctl.space;
-	m.msg_controllen = sizeof ctl.space;
+	vd_spawn_msg(&m, &iov, &ctl);
 	struct cmsghdr *c = CMSG_FIRSTHDR(&m);
 	c->cmsg_level = SOL_SOCKET;
 	c->cmsg_type = SCM_RIGHTS;

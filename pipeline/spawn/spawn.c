@@ -4,13 +4,7 @@
  *
  * is started once per run and starts every local job the runner asks for
  * on the socket FD (spawn.h says what they say), waits for them and tells
- * the runner how each ended. The one-job form
- *
- *   voxdag-spawn FD PROG [ARGS...]
- *
- * (a trampoline per job, as the runner used before the launcher) forks
- * PROG, waits for it and writes one struct vd_spawn_rec (its wait status,
- * peak RSS and CPU times) to the pipe FD, then exits as PROG did.
+ * the runner how each ended.
  *
  * Why it exists: a process's peak RSS (wait4's ru_maxrss) starts at that of
  * the memory it had before its exec, and a job the runner starts with
@@ -40,17 +34,6 @@
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-static volatile sig_atomic_t job_pid;
-
-/* A signal meant for the job (Ctrl-C reaches the whole group; a kill
- * aimed at this process) is passed on, so the job can stop cleanly as it
- * did when it was the runner's child. */
-static void forward(int sig)
-{
-	if (job_pid > 0)
-		kill((pid_t)job_pid, sig);
-}
 
 /* Says "voxdag: A'B'C\n" on stderr with write() alone: no stdio, which
  * would double this program's size and its start-up cost, and the child
@@ -200,17 +183,10 @@ static int serve(int sock)
 				continue;
 			return 1;
 		}
-		union {
-			struct cmsghdr h;
-			char space[CMSG_SPACE(sizeof(int))];
-		} ctl;
+		union vd_spawn_ctl ctl;
 		struct iovec iov = {buf, VD_LAUNCH_MAX_REQ};
 		struct msghdr m;
-		memset(&m, 0, sizeof m);
-		m.msg_iov = &iov;
-		m.msg_iovlen = 1;
-		m.msg_control = ctl.space;
-		m.msg_controllen = sizeof ctl.space;
+		vd_spawn_msg(&m, &iov, &ctl);
 		ssize_t n = recvmsg(sock, &m, MSG_CMSG_CLOEXEC);
 		if (n < 0 && (errno == EINTR || errno == EAGAIN))
 			continue;
@@ -231,78 +207,11 @@ static int serve(int sock)
 
 int main(int argc, char **argv)
 {
-	char *end;
-	if (argc == 3 && strcmp(argv[1], "--serve") == 0) {
-		long fd = strtol(argv[2], &end, 10);
-		if (*end || fd < 3) {
-			say("usage: voxdag-spawn --serve FD (run by voxdag)", NULL,
-			    NULL);
-			return 2;
-		}
+	char *end = NULL;
+	long fd = argc == 3 && strcmp(argv[1], "--serve") == 0 ?
+		strtol(argv[2], &end, 10) : -1;
+	if (end && !*end && fd >= 3)
 		return serve((int)fd);
-	}
-	long fd = argc >= 3 ? strtol(argv[1], &end, 10) : -1;
-	if (argc < 3 || *end || fd < 3) {
-		say("usage: voxdag-spawn FD PROG [ARGS...] (run by voxdag, one "
-		    "per job)", NULL, NULL);
-		return 2;
-	}
-	pid_t self = getpid();
-	/* vfork: this process is small, so the job's peak starts near zero
-	 * either way, and no page tables are copied */
-	pid_t pid = vfork();
-	if (pid < 0) {
-		say("cannot fork '", argv[2], "'");
-		return 127;
-	}
-	if (pid == 0) {
-		prctl(PR_SET_PDEATHSIG, SIGKILL);
-		if (getppid() != self) /* it died between vfork and prctl */
-			_exit(127);
-		close((int)fd);
-		execv(argv[2], argv + 2);
-		say("cannot run '", argv[2], "'");
-		_exit(127);
-	}
-	job_pid = pid;
-	struct sigaction sa;
-	memset(&sa, 0, sizeof sa);
-	sa.sa_handler = forward;
-	sigemptyset(&sa.sa_mask);
-	sigaction(SIGTERM, &sa, NULL);
-	sigaction(SIGINT, &sa, NULL);
-	sigaction(SIGHUP, &sa, NULL);
-	sigaction(SIGQUIT, &sa, NULL);
-	signal(SIGPIPE, SIG_IGN); /* a runner gone: write fails, no signal */
-	int status;
-	struct rusage ru;
-	while (wait4(pid, &status, 0, &ru) < 0)
-		if (errno != EINTR)
-			return 127;
-	struct vd_spawn_rec r;
-	memset(&r, 0, sizeof r);
-	r.magic = VD_SPAWN_MAGIC;
-	r.type = VD_LAUNCH_ENDED;
-	r.pid = (int32_t)self;
-	r.status = status;
-	r.peak_rss = (uint64_t)ru.ru_maxrss * 1024;
-	r.utime_us = usec(ru.ru_utime);
-	r.stime_us = usec(ru.ru_stime);
-	/* one write under PIPE_BUF: records from many jobs never interleave */
-	int told = write((int)fd, &r, sizeof r) == (ssize_t)sizeof r;
-	if (WIFEXITED(status))
-		return WEXITSTATUS(status);
-	int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-	if (!told && sig) {
-		/* the runner learns how the job ended from this exit only:
-		 * end the same way (without a second core dump) */
-		struct rlimit none = {0, 0};
-		setrlimit(RLIMIT_CORE, &none);
-		signal(sig, SIG_DFL);
-		sigset_t all;
-		sigfillset(&all);
-		sigprocmask(SIG_UNBLOCK, &all, NULL);
-		raise(sig);
-	}
-	return 128 + sig;
+	say("usage: voxdag-spawn --serve FD (run by voxdag)", NULL, NULL);
+	return 2;
 }
