@@ -246,6 +246,52 @@ static void check_minimal(const struct vd_hashdag *h, const struct ref *r)
 	vd_svo_release(&s);
 }
 
+/* Two DAGs are the same in every array (what vd_dag_save writes, and the
+ * bricks it is checked against). */
+static int same_dag(const struct vd_dag *a, const struct vd_dag *b)
+{
+	if (a->kind != b->kind || a->levels != b->levels ||
+	    a->chunk_level != b->chunk_level || a->voxels != b->voxels ||
+	    a->cell_morton != b->cell_morton)
+		return 0;
+	int L = a->levels;
+	for (int l = a->chunk_level; l < L; l++) {
+		const struct vd_dag_level *x = &a->lv[l], *y = &b->lv[l];
+		if (x->nodes != y->nodes || x->refs != y->refs ||
+		    memcmp(x->mask, y->mask, x->nodes))
+			return 0;
+		if (l < L - 1 &&
+		    (memcmp(x->first, y->first, 8 * (x->nodes + 1)) ||
+		     memcmp(x->child, y->child, 4 * x->refs)))
+			return 0;
+	}
+	if (a->lv[a->chunk_level].nodes && L >= 2 &&
+	    memcmp(a->bricks, b->bricks, 8 * a->lv[L - 2].nodes))
+		return 0;
+	return 1;
+}
+
+/* The DAG saved from h is, array for array, the one svo-to-dag builds
+ * from the reference voxels (the save walks the HashDAG; the reference
+ * decodes and rebuilds). */
+static void check_saved(const struct vd_hashdag *h, const struct ref *r)
+{
+	struct vd_svo rs;
+	ref_to_svo(r, &rs);
+	struct vd_dag got = {0}, want = {0};
+	struct vd_dag_opts dop = {.threads = 1};
+	CHECK_EQ(vd_hashdag_to_dag(h, &got), VD_OK);
+	CHECK_EQ(vd_dag_from_svo(&want, &rs, VD_KIND_DAG, &dop, NULL), VD_OK);
+	const struct vd_svo *sp = &rs;
+	struct vd_dag_diff diff;
+	CHECK_EQ(vd_dag_compare_svo(&got, &sp, 1, &diff), VD_OK);
+	CHECK_EQ(diff.differing_voxels, 0);
+	CHECK(same_dag(&got, &want));
+	vd_dag_release(&got);
+	vd_dag_release(&want);
+	vd_svo_release(&rs);
+}
+
 static void random_sequence(const char *mesh, int L, int nops, uint64_t seed)
 {
 	struct ref r, r0;
@@ -276,31 +322,8 @@ static void random_sequence(const char *mesh, int L, int nops, uint64_t seed)
 			}
 		}
 	}
-	/* the saved DAG is the one svo-to-dag builds from the expected voxels,
-	 * and holds them (what dag-verify checks) */
-	struct vd_svo rs;
-	ref_to_svo(&r, &rs);
-	struct vd_dag got = {0}, want = {0};
-	struct vd_dag_opts dop = {.threads = 1};
-	CHECK_EQ(vd_hashdag_to_dag(h, &got), VD_OK);
-	CHECK_EQ(vd_dag_from_svo(&want, &rs, VD_KIND_DAG, &dop, NULL), VD_OK);
-	const struct vd_svo *sp = &rs;
-	struct vd_dag_diff diff;
-	CHECK_EQ(vd_dag_compare_svo(&got, &sp, 1, &diff), VD_OK);
-	CHECK_EQ(diff.differing_voxels, 0);
-	for (int l = 0; l < L; l++) {
-		CHECK_EQ(got.lv[l].nodes, want.lv[l].nodes);
-		if (got.lv[l].nodes == want.lv[l].nodes) {
-			CHECK(!memcmp(got.lv[l].mask, want.lv[l].mask,
-				      got.lv[l].nodes));
-			if (l < L - 1)
-				CHECK(!memcmp(got.lv[l].child, want.lv[l].child,
-					      4 * got.lv[l].refs));
-		}
-	}
-	vd_dag_release(&got);
-	vd_dag_release(&want);
-	vd_svo_release(&rs);
+	/* the saved DAG is the one svo-to-dag builds from the expected voxels */
+	check_saved(h, &r);
 	/* gc keeping the whole history, then undo to the start and redo */
 	struct vd_edit_stats gst;
 	CHECK_EQ(vd_hashdag_gc(h, 1, &gst), VD_OK);
@@ -310,6 +333,7 @@ static void random_sequence(const char *mesh, int L, int nops, uint64_t seed)
 		undone++;
 	CHECK_EQ(undone, nops);
 	CHECK(same_voxels(h, &r0));
+	check_saved(h, &r0);
 	while (vd_hashdag_redo(h) == VD_OK)
 		;
 	CHECK(same_voxels(h, &r));
@@ -317,6 +341,7 @@ static void random_sequence(const char *mesh, int L, int nops, uint64_t seed)
 	CHECK_EQ(vd_hashdag_gc(h, 0, &gst), VD_OK);
 	CHECK(same_voxels(h, &r));
 	check_minimal(h, &r);
+	check_saved(h, &r);
 	CHECK_EQ(vd_hashdag_undo(h), VD_ERR_RANGE);
 	/* editing after gc still works (full nodes made again) */
 	struct vd_edit_op op = {.kind = VD_EDIT_FILL, .shape = VD_SHAPE_BOX,
@@ -570,8 +595,136 @@ static void test_empty_scene(void)
 	vd_svo_release(&s);
 }
 
+/* A copy of `in` where one node of level l that is referenced at least
+ * twice has a duplicate (appended last) taking over its last reference:
+ * a valid DAG that is not minimal. 0 if no node of l is shared. */
+static int dag_with_duplicate(const struct vd_dag *in, int l,
+			      struct vd_dag *out)
+{
+	int L = in->levels;
+	const struct vd_dag_level *up = &in->lv[l - 1];
+	uint32_t *seen = calloc(in->lv[l].nodes, 4);
+	uint64_t dup = UINT64_MAX, last = 0;
+	for (uint64_t j = 0; j < up->refs; j++)
+		if (++seen[up->child[j]] == 2 && dup == UINT64_MAX)
+			dup = up->child[j];
+	free(seen);
+	if (dup == UINT64_MAX)
+		return 0;
+	for (uint64_t j = 0; j < up->refs; j++)
+		if (up->child[j] == dup)
+			last = j;
+	*out = *in;
+	for (int k = 0; k < L; k++) {
+		const struct vd_dag_level *a = &in->lv[k];
+		struct vd_dag_level *b = &out->lv[k];
+		uint64_t extra = k == l, xr = k == l && k < L - 1 ?
+			(uint64_t)__builtin_popcount(a->mask[dup]) : 0;
+		b->nodes = a->nodes + extra;
+		b->refs = a->refs + xr;
+		b->mask = malloc(b->nodes);
+		memcpy(b->mask, a->mask, a->nodes);
+		if (extra)
+			b->mask[a->nodes] = a->mask[dup];
+		b->first = NULL;
+		b->child = NULL;
+		b->refl = NULL;
+		if (k == L - 1)
+			continue;
+		b->first = malloc(8 * (b->nodes + 1));
+		memcpy(b->first, a->first, 8 * (a->nodes + 1));
+		b->child = malloc(4 * (b->refs ? b->refs : 1));
+		memcpy(b->child, a->child, 4 * a->refs);
+		if (extra) {
+			memcpy(b->child + a->refs, a->child + a->first[dup],
+			       4 * xr);
+			b->first[b->nodes] = b->refs;
+		}
+	}
+	out->lv[l - 1].child[last] = (uint32_t)in->lv[l].nodes;
+	uint64_t nb = out->lv[L - 2].nodes;
+	out->bricks = malloc(8 * nb);
+	memcpy(out->bricks, in->bricks, 8 * in->lv[L - 2].nodes);
+	if (l == L - 2)
+		out->bricks[nb - 1] = in->bricks[dup];
+	return 1;
+}
+
+static int same_file(const char *a, const char *b)
+{
+	FILE *f = fopen(a, "rb"), *g = fopen(b, "rb");
+	int same = f && g, x = 0, y = 0;
+	while (same && (x = getc(f)) == (y = getc(g)) && x != EOF)
+		;
+	same = same && x == y;
+	if (f)
+		fclose(f);
+	if (g)
+		fclose(g);
+	return same;
+}
+
+/* Load then save without edits gives the input back: the DAG arrays, and
+ * the chunk file byte for byte (same provenance). A valid chunk that is
+ * not minimal (a duplicated node on a level) loads into the same tables
+ * and saves as the minimal DAG. */
+static void test_load_save_identity(void)
+{
+	int L = 8;
+	struct ref r;
+	struct vd_dag d0 = {0};
+	struct vd_hashdag_opts o = {.threads = 1};
+	struct vd_hashdag *h = scene("tests/data/bunny.ply", L, &r, &d0, &o);
+	if (!h)
+		return;
+	struct vd_dag got = {0};
+	CHECK_EQ(vd_hashdag_to_dag(h, &got), VD_OK);
+	CHECK(same_dag(&got, &d0));
+	vd_dag_release(&got);
+	const char *dir = test_tmpdir("test_edit_identity");
+	char in[600], out[600];
+	snprintf(in, sizeof in, "%s/in.dag", dir);
+	snprintf(out, sizeof out, "%s/out.dag", dir);
+	const struct vd_transform *t = vd_hashdag_transform(h);
+	CHECK_EQ(vd_dag_save(&d0, t, in, "test"), VD_OK);
+	struct vd_hashdag *h2 = NULL;
+	CHECK_EQ(vd_hashdag_load(&h2, in, &o), VD_OK);
+	if (h2) {
+		CHECK_EQ(vd_hashdag_save(h2, out, "test"), VD_OK);
+		CHECK(same_file(in, out));
+	}
+	vd_hashdag_free(h2);
+	uint64_t st0[VD_MAX_LEVELS], st1[VD_MAX_LEVELS];
+	vd_hashdag_counts(h, st0, NULL);
+	int tried = 0;
+	for (int l = 1; l <= L - 2; l++) {
+		struct vd_dag dd;
+		if (!dag_with_duplicate(&d0, l, &dd))
+			continue;
+		tried++;
+		CHECK_EQ(vd_dag_validate(&dd), VD_OK);
+		struct vd_hashdag *h3 = NULL;
+		CHECK_EQ(vd_hashdag_from_dag(&h3, &dd, t, &o), VD_OK);
+		if (h3) {
+			vd_hashdag_counts(h3, st1, NULL);
+			for (int k = 0; k <= L - 2; k++)
+				CHECK_EQ(st1[k], st0[k]);
+			CHECK_EQ(vd_hashdag_to_dag(h3, &got), VD_OK);
+			CHECK(same_dag(&got, &d0));
+			vd_dag_release(&got);
+		}
+		vd_hashdag_free(h3);
+		vd_dag_release(&dd);
+	}
+	CHECK(tried >= 3);
+	vd_hashdag_free(h);
+	vd_dag_release(&d0);
+	free(r.b);
+}
+
 int main(void)
 {
+	RUN(test_load_save_identity);
 	RUN(test_empty_scene);
 	RUN(test_random_bunny_8);
 	RUN(test_random_bunny_9);

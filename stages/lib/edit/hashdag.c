@@ -325,6 +325,53 @@ void vd_hashdag_free(struct vd_hashdag *h)
 	free(h);
 }
 
+/* Loading: the nodes of a level of the input go in one after another
+ * through a private open-addressing set of the pointers appended so far,
+ * so a node equal to one already stored (a chunk that is valid but not
+ * minimal) is found in O(1) and every other node is appended without the
+ * bucket's linear search, which made loading quadratic in the bucket fill
+ * (about 100 s at 2^14). The hashes, buckets and order of appends are
+ * those of find-or-append, so the tables come out word for word the same
+ * as inserting each node with hd_insert_*. */
+struct load_set {
+	uint32_t *slot; /* pointers, HD_EMPTY: free */
+	uint64_t mask;
+};
+
+static int load_set_init(struct load_set *s, uint64_t n)
+{
+	uint64_t cap = 16;
+	while (cap < 2 * n)
+		cap *= 2;
+	s->slot = malloc(cap * sizeof *s->slot);
+	if (!s->slot)
+		return vd_fail(VD_ERR_NOMEM, "load set of %llu nodes",
+			       (unsigned long long)n);
+	memset(s->slot, 0xff, cap * sizeof *s->slot);
+	s->mask = cap - 1;
+	return VD_OK;
+}
+
+static int load_insert(struct vd_hashdag *h, int l, struct load_set *s,
+		       const uint32_t *w, uint32_t n, uint64_t hash,
+		       uint32_t *out)
+{
+	struct hd_level *lv = &h->lv[l];
+	uint64_t i = (hash >> 32 ^ hash >> 7) & s->mask;
+	for (; s->slot[i] != HD_EMPTY; i = (i + 1) & s->mask) {
+		const uint32_t *nd = hd_node(h, l, s->slot[i]);
+		if (hd_node_words(h, l, nd) == n &&
+		    !memcmp(nd, w, 4 * (size_t)n)) {
+			*out = s->slot[i];
+			return VD_OK;
+		}
+	}
+	int err = insert_words(h, lv, l, w, n, hash, 0, out);
+	if (!err)
+		s->slot[i] = *out;
+	return err;
+}
+
 int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
 			const struct vd_transform *t,
 			const struct vd_hashdag_opts *o)
@@ -354,12 +401,19 @@ int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
 	if (dag->lv[0].nodes) {
 		uint64_t n = dag->lv[L - 2].nodes;
 		uint32_t *map = malloc((n ? n : 1) * sizeof *map), *up = NULL;
+		struct load_set set = {0};
 		if (!map) {
 			err = vd_fail(VD_ERR_NOMEM, "load remap");
 			goto fail;
 		}
-		for (uint64_t i = 0; i < n && !err; i++)
-			err = hd_insert_leaf(h, dag->bricks[i], &map[i]);
+		err = load_set_init(&set, n);
+		for (uint64_t i = 0; i < n && !err; i++) {
+			uint64_t b = dag->bricks[i];
+			uint32_t w[2] = {(uint32_t)b, (uint32_t)(b >> 32)};
+			err = load_insert(h, L - 2, &set, w, 2, mix64(b),
+					  &map[i]);
+		}
+		free(set.slot);
 		for (int l = L - 3; l >= 0 && !err; l--) {
 			const struct vd_dag_level *dl = &dag->lv[l];
 			up = malloc((dl->nodes ? dl->nodes : 1) * sizeof *up);
@@ -367,15 +421,21 @@ int vd_hashdag_from_dag(struct vd_hashdag **out, const struct vd_dag *dag,
 				err = vd_fail(VD_ERR_NOMEM, "load remap");
 				break;
 			}
+			err = load_set_init(&set, dl->nodes);
 			for (uint64_t i = 0; i < dl->nodes && !err; i++) {
-				uint32_t ch[8];
+				uint32_t w[9], k = 1;
 				uint64_t r = dl->first[i];
+				w[0] = dl->mask[i];
 				for (int c = 0; c < 8; c++)
 					if (dl->mask[i] >> c & 1)
-						ch[c] = map[dl->child[r++]];
-				err = hd_insert_inner(h, l, dl->mask[i], ch,
-						      &up[i]);
+						w[k++] = map[dl->child[r++]];
+				err = load_insert(h, l, &set, w, k,
+						  vd_hash64(w, 4 * (size_t)k,
+							    (uint64_t)l),
+						  &up[i]);
 			}
+			free(set.slot);
+			set.slot = NULL;
 			free(map);
 			map = up;
 		}
@@ -490,30 +550,6 @@ int vd_hashdag_to_svo(const struct vd_hashdag *h, struct vd_svo *svo)
 	return VD_OK;
 }
 
-int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
-{
-	struct vd_svo svo;
-	memset(dag, 0, sizeof *dag);
-	int err = vd_hashdag_to_svo(h, &svo);
-	if (err)
-		return err;
-	struct vd_dag_opts o = {.threads = h->o.threads};
-	err = vd_dag_from_svo(dag, &svo, VD_KIND_DAG, &o, NULL);
-	vd_svo_release(&svo);
-	return err;
-}
-
-int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
-		    const char *provenance)
-{
-	struct vd_dag dag;
-	int err = vd_hashdag_to_dag(h, &dag);
-	if (!err)
-		err = vd_dag_save(&dag, &h->t, path, provenance);
-	vd_dag_release(&dag);
-	return err;
-}
-
 /* -------------------------------------------------------- measurements */
 
 /* The live nodes of one level: a bit per word of the level's address
@@ -584,6 +620,206 @@ static int reachable(const struct vd_hashdag *h, const uint32_t *roots,
 			}
 	}
 	return VD_OK;
+}
+
+/* -------------------------------------------------------------- saving */
+
+/* Popcount without -mpopcnt (the builtin is a libgcc call there). */
+static inline uint64_t popcount64(uint64_t v)
+{
+	v -= v >> 1 & 0x5555555555555555ULL;
+	v = (v & 0x3333333333333333ULL) + (v >> 2 & 0x3333333333333333ULL);
+	v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+	return v * 0x0101010101010101ULL >> 56;
+}
+
+static inline uint64_t live_rank_fast(const struct live *v, uint32_t p)
+{
+	return v->before[p >> 6] +
+	       popcount64(v->bits[p >> 6] & ((1ull << (p & 63)) - 1));
+}
+
+/* The DAG of the current scene, written from its reachable nodes without
+ * decoding: the same bytes as vd_dag_from_svo() of the decoded voxels.
+ * That builder numbers the distinct nodes of a level in the order they
+ * are first met in Morton order of their cells; the first cell of a node
+ * on level l+1 lies under the first cell of some node on level l (an
+ * earlier cell of that parent would hold it earlier), so walking the
+ * nodes of level l in their own order and numbering children in slot
+ * order when first seen gives that order, level by level. The HashDAG
+ * is minimal (every insertion finds before it appends; load and gc keep
+ * nodes distinct), so its reachable nodes are the minimal DAG's. Level
+ * L-1 (2x2x2 masks) is numbered as the builder does: masks first met over
+ * the distinct bricks in order, slots in order. */
+int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
+{
+	memset(dag, 0, sizeof *dag);
+	int L = h->levels, err = VD_OK;
+	dag->kind = VD_KIND_DAG;
+	dag->levels = L;
+	uint32_t root = h->roots[h->cur];
+	if (root == HD_EMPTY)
+		return VD_OK;
+	struct live live[VD_MAX_LEVELS];
+	memset(live, 0, sizeof live);
+	if ((err = reachable(h, &root, 1, live)))
+		return err;
+	uint32_t *order[VD_MAX_LEVELS] = {0}, *id = NULL;
+	uint64_t *cnt = NULL, *cnt_below = NULL;
+	order[0] = malloc(sizeof *order[0]);
+	if (!order[0]) {
+		err = vd_fail(VD_ERR_NOMEM, "save order");
+		goto done;
+	}
+	order[0][0] = root;
+	/* inner levels: masks, references; the order of the level below */
+	for (int l = 0; l < L - 2; l++) {
+		const struct live *vb = &live[l + 1];
+		struct vd_dag_level *dl = &dag->lv[l];
+		uint64_t n = live[l].n, refs = 0, next = 0;
+		for (uint64_t i = 0; i < n; i++)
+			refs += popcount64(hd_node(h, l, order[l][i])[0] & 0xff);
+		dl->nodes = n;
+		dl->refs = refs;
+		dl->mask = malloc(n);
+		dl->first = malloc((n + 1) * sizeof *dl->first);
+		dl->child = malloc((refs ? refs : 1) * sizeof *dl->child);
+		order[l + 1] = malloc((vb->n ? vb->n : 1) * sizeof *order[l + 1]);
+		id = malloc((vb->n ? vb->n : 1) * sizeof *id);
+		if (!dl->mask || !dl->first || !dl->child || !order[l + 1] ||
+		    !id) {
+			err = vd_fail(VD_ERR_NOMEM, "save of level %d", l);
+			goto done;
+		}
+		memset(id, 0xff, (vb->n ? vb->n : 1) * sizeof *id);
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < n; i++) {
+			const uint32_t *nd = hd_node(h, l, order[l][i]);
+			uint32_t k = hd_node_words(h, l, nd);
+			dl->mask[i] = (uint8_t)nd[0];
+			dl->first[i] = j;
+			for (uint32_t c = 1; c < k; c++) {
+				uint64_t r = live_rank_fast(vb, nd[c]);
+				if (id[r] == UINT32_MAX) {
+					id[r] = (uint32_t)next;
+					order[l + 1][next++] = nd[c];
+				}
+				dl->child[j++] = id[r];
+			}
+		}
+		dl->first[n] = j;
+		free(id);
+		id = NULL;
+		free(order[l]);
+		order[l] = NULL;
+		live_free(&live[l]);
+		if (next != vb->n) {
+			err = vd_fail(VD_ERR_INTERNAL, "hashdag.c: %llu of %llu "
+				      "nodes of level %d reached",
+				      (unsigned long long)next,
+				      (unsigned long long)vb->n, l + 1);
+			goto done;
+		}
+	}
+	/* bricks, and from them the leaf masks of level L-1 */
+	{
+		struct vd_dag_level *lb = &dag->lv[L - 2], *ll = &dag->lv[L - 1];
+		uint64_t n = live[L - 2].n, refs = 0, voxels = 0;
+		uint32_t leaf_id[256], nleaf = 0;
+		uint8_t leaf_mask[256];
+		memset(leaf_id, 0xff, sizeof leaf_id);
+		dag->bricks = malloc(n * sizeof *dag->bricks);
+		lb->mask = malloc(n);
+		lb->first = malloc((n + 1) * sizeof *lb->first);
+		cnt_below = malloc(n * sizeof *cnt_below);
+		if (!dag->bricks || !lb->mask || !lb->first || !cnt_below) {
+			err = vd_fail(VD_ERR_NOMEM, "save of the bricks");
+			goto done;
+		}
+		for (uint64_t i = 0; i < n; i++) {
+			uint64_t v = hd_brick(h, order[L - 2][i]);
+			uint8_t mk = 0;
+			dag->bricks[i] = v;
+			cnt_below[i] = popcount64(v);
+			lb->first[i] = refs;
+			for (unsigned s = 0; s < 8; s++)
+				if (v >> 8 * s & 0xff) {
+					mk |= (uint8_t)(1u << s);
+					refs++;
+				}
+			lb->mask[i] = mk;
+		}
+		lb->first[n] = refs;
+		lb->nodes = n;
+		lb->refs = refs;
+		lb->child = malloc((refs ? refs : 1) * sizeof *lb->child);
+		if (!lb->child) {
+			err = vd_fail(VD_ERR_NOMEM, "save of the bricks");
+			goto done;
+		}
+		uint64_t j = 0;
+		for (uint64_t i = 0; i < n; i++)
+			for (unsigned s = 0; s < 8; s++) {
+				uint8_t v = (uint8_t)(dag->bricks[i] >> 8 * s);
+				if (!v)
+					continue;
+				if (leaf_id[v] == UINT32_MAX) {
+					leaf_id[v] = nleaf;
+					leaf_mask[nleaf++] = v;
+				}
+				lb->child[j++] = leaf_id[v];
+			}
+		ll->nodes = nleaf;
+		ll->mask = malloc(nleaf ? nleaf : 1);
+		if (!ll->mask) {
+			err = vd_fail(VD_ERR_NOMEM, "save of the leaves");
+			goto done;
+		}
+		memcpy(ll->mask, leaf_mask, nleaf);
+		/* voxels: counts per node, bottom-up */
+		for (int l = L - 3; l >= 0; l--) {
+			const struct vd_dag_level *dl = &dag->lv[l];
+			cnt = malloc((dl->nodes ? dl->nodes : 1) * sizeof *cnt);
+			if (!cnt) {
+				err = vd_fail(VD_ERR_NOMEM, "save counts");
+				goto done;
+			}
+			for (uint64_t i = 0; i < dl->nodes; i++) {
+				uint64_t s = 0;
+				for (uint64_t r = dl->first[i];
+				     r < dl->first[i + 1]; r++)
+					s += cnt_below[dl->child[r]];
+				cnt[i] = s;
+			}
+			free(cnt_below);
+			cnt_below = cnt;
+			cnt = NULL;
+		}
+		voxels = cnt_below[0];
+		dag->voxels = voxels;
+	}
+done:
+	for (int l = 0; l < VD_MAX_LEVELS; l++) {
+		free(order[l]);
+		live_free(&live[l]);
+	}
+	free(id);
+	free(cnt);
+	free(cnt_below);
+	if (err)
+		vd_dag_release(dag);
+	return err;
+}
+
+int vd_hashdag_save(const struct vd_hashdag *h, const char *path,
+		    const char *provenance)
+{
+	struct vd_dag dag;
+	int err = vd_hashdag_to_dag(h, &dag);
+	if (!err)
+		err = vd_dag_save(&dag, &h->t, path, provenance);
+	vd_dag_release(&dag);
+	return err;
 }
 
 void vd_hashdag_counts(const struct vd_hashdag *h, uint64_t *stored,

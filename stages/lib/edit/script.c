@@ -424,7 +424,7 @@ static int read_script(const char *path, char **text)
 }
 
 static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
-		      double seconds_load)
+		      double seconds_load, double cpu_seconds_load)
 {
 	char *text = NULL;
 	int err = read_script(job->script, &text);
@@ -470,6 +470,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		vd_json_str(j, "version", VD_VERSION_STRING);
 		vd_json_u64(j, "levels", (uint64_t)h->levels);
 		vd_json_f64(j, "seconds_load", seconds_load);
+		vd_json_f64(j, "cpu_seconds_load", cpu_seconds_load);
 		uint64_t st0[VD_MAX_LEVELS];
 		vd_hashdag_counts(h, st0, NULL);
 		vd_json_u64_array(j, "input_nodes", st0, (size_t)h->levels - 1);
@@ -494,7 +495,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		return err;
 	}
 	vd_json_end_array(j);
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	struct vd_dag dag;
 	if ((err = vd_hashdag_to_dag(h, &dag)) ||
 	    (err = vd_dag_save(&dag, &h->t, staged, job->provenance)))
@@ -509,6 +510,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		vd_json_u64(j, "hash_bytes", vd_hashdag_memory_bytes(h));
 		vd_json_u64(j, "dag_bytes", vd_dag_memory_bytes(&dag));
 		vd_json_f64(j, "seconds_save", vd_seconds() - t0);
+		vd_json_f64(j, "cpu_seconds_save", hd_cpu_seconds() - c0);
 		vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 		if (!job->quiet)
 			fprintf(stderr, "%s: %zu lines applied, %llu voxels, "
@@ -575,7 +577,7 @@ static int run_shell(const struct vd_edit_job *job, struct vd_hashdag *h)
 
 int vd_edit_run(const struct vd_edit_job *job)
 {
-	double t0 = vd_seconds();
+	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
 	struct vd_hashdag *h;
 	int err = vd_hashdag_load(&h, job->input, &job->opts);
 	if (err)
@@ -587,7 +589,8 @@ int vd_edit_run(const struct vd_edit_job *job)
 		vd_hashdag_free(h);
 		return rewrap(err, 1, "cannot read colours '%s'", job->colours);
 	}
-	err = job->script ? run_script(job, h, vd_seconds() - t0)
+	err = job->script ? run_script(job, h, vd_seconds() - t0,
+				       hd_cpu_seconds() - c0)
 			  : run_shell(job, h);
 	vd_hashdag_free(h);
 	return err;
