@@ -637,6 +637,17 @@ int vd_dir_publish(const char *staging, const char *final);
 /* Removes a staging directory after a failure; keeps the error detail. */
 void vd_dir_abandon(const char *staging);
 
+/* vd_dir_publish's rename alone, for a directory published together with
+ * other outputs (edit's DAG and colours): the caller has written the
+ * staging directory's manifest (vd_manifest_write). vd_dir_swap puts the
+ * staging directory in place of `final` in one step; the old output, if
+ * there was one (*had_old), is then under the staging name, for the
+ * caller to remove with vd_dir_abandon() once the other outputs are in
+ * place, or to put back with vd_dir_unswap(staging, final, had_old) if
+ * they failed (the new directory is then under the staging name). */
+int vd_dir_swap(const char *staging, const char *final, int *had_old);
+int vd_dir_unswap(const char *staging, const char *final, int had_old);
+
 /* Spill files (tmpfile.c). vd_tmpfile opens an anonymous file in `dir`
  * (O_TMPFILE; where the file system lacks it, "<dir>/<stem>.tmp.XXXXXX"
  * unlinked at once), so nothing is left behind on any exit: the fd, or -1
@@ -2222,6 +2233,15 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
  * are written. So render --colours DIR and colorize DIR take it. */
 int vd_hashdag_colours_save(const struct vd_hashdag *h, const char *dir,
 			    const char *provenance);
+
+/* The first half of vd_hashdag_colours_save, for publishing the colours
+ * together with the DAG: writes the directory complete (cells and
+ * manifest) under the staging name it puts in `staging` (cap bytes), for
+ * the caller to publish with vd_dir_swap() or drop with vd_dir_abandon().
+ * On failure nothing is left behind. */
+int vd_hashdag_colours_stage(const struct vd_hashdag *h, const char *dir,
+			     const char *provenance, char *staging,
+			     size_t cap);
 
 /* One run of the edit tool (script.c). */
 struct vd_edit_job {

@@ -141,6 +141,32 @@ bad colour-no-colours 'needs a scene with colours' 'fill box 0 0 0 3 3 3 colour 
 bad colour-range "line 1, column 33: expected a number 0..255" 'fill box 0 0 0 3 3 3 colour 1 2 300'
 expect colours-out-alone 2 'needs --colours' "$BIN/edit" "$T/b.dag" -o "$T/x.dag" --script "$T/id.txt" --colours-out "$T/x"
 expect colours-no-out 2 'needs --colours-out' "$BIN/edit" "$T/c.dag" -o "$T/x.dag" --script "$T/id.txt" --colours "$T/cv"
+# the DAG and its colour directory are replaced together or not at all: a
+# failure of the colours (here a file edit did not write in the colour
+# directory, which it refuses to replace) leaves the previous DAG, its
+# statistics and its colours as they were, and no temporary (edit used to
+# publish the DAG, then fail on the colours: a new DAG beside old colours)
+state() { (cd "$T" && md5sum ce.dag ce.dag.stats.json ce/* && ls -a ce && ls | grep '\.tmp\.') 2>&1; }
+echo x >"$T/ce/foreign.txt"
+before=$(state)
+expect colours-fail-all-or-nothing 1 "holds 'foreign.txt'" "$BIN/edit" "$T/c.dag" \
+	--colours "$T/cv" -o "$T/ce.dag" --colours-out "$T/ce" --script "$T/noop.txt" -q
+[ "$(state)" = "$before" ] && pass colours-fail-outputs-untouched ||
+	fail colours-fail-outputs-untouched "$(diff <(echo "$before") <(state))"
+# the same through the script's save command (the DAG of 'save FILE')
+cp "$T/ce.dag" "$T/ce-save.dag"
+printf 'paint box 0 0 0 3 3 3 colour 9 9 9\nsave %s\n' "$T/ce-save.dag" >"$T/save.txt"
+expect colours-fail-save-command 1 "holds 'foreign.txt'" "$BIN/edit" "$T/c.dag" \
+	--colours "$T/cv" -o "$T/ce-x.dag" --colours-out "$T/ce" --script "$T/save.txt" -q
+cmp -s "$T/ce.dag" "$T/ce-save.dag" && [ "$(state)" = "$before" ] && [ ! -e "$T/ce-x.dag" ] &&
+	pass colours-fail-save-untouched || fail colours-fail-save-untouched "$(ls "$T")"
+rm "$T/ce/foreign.txt"
+# once the cause is gone, the pair is replaced: the new DAG beside its colours
+expect colours-replace 0 '' "$BIN/edit" "$T/c.dag" --colours "$T/cv" -o "$T/ce.dag" \
+	--colours-out "$T/ce" --script "$T/noop.txt" -q
+"$BIN/render" "$T/ce.dag" -o "$T/ce2.png" -s 160x120 -c iso -q -C "$T/ce"
+cmp -s "$T/c.png" "$T/ce2.png" && ! ls "$T" | grep -q '\.tmp\.' && pass colours-replaced ||
+	fail colours-replaced "$(ls "$T")"
 bad mem-budget 'needs .* bytes \(bucket tables\).*--mem-budget of 65536' 'fill box 0 0 0 3 3 3' --mem-budget 64K
 
 head -c 3000 "$T/b.dag" >"$T/trunc.dag"

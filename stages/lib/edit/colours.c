@@ -854,14 +854,14 @@ static int write_cell(const struct vd_hashdag *h, uint64_t ci,
 	return err;
 }
 
-int vd_hashdag_colours_save(const struct vd_hashdag *h, const char *dir,
-			    const char *provenance)
+int vd_hashdag_colours_stage(const struct vd_hashdag *h, const char *dir,
+			     const char *provenance, char *staging,
+			     size_t cap)
 {
 	if (!h->col)
 		return vd_fail(VD_ERR_UNSUPPORTED, "the scene has no colours");
 	const struct hd_colours *c = h->col;
-	char staging[4096];
-	int err = vd_dir_stage(dir, NULL, staging, sizeof staging);
+	int err = vd_dir_stage(dir, NULL, staging, cap);
 	if (err)
 		return err;
 	struct hd_cellcol **tab = c->tab[h->cur];
@@ -877,8 +877,27 @@ int vd_hashdag_colours_save(const struct vd_hashdag *h, const char *dir,
 		err = write_cell(h, ci, tab[ci], staging, svo, col, provenance);
 	}
 	if (!err)
-		err = vd_dir_publish(staging, dir);
-	else
+		err = vd_manifest_write(staging);
+	if (err)
 		vd_dir_abandon(staging);
 	return err;
+}
+
+int vd_hashdag_colours_save(const struct vd_hashdag *h, const char *dir,
+			    const char *provenance)
+{
+	char staging[4096];
+	int had_old, err = vd_hashdag_colours_stage(h, dir, provenance,
+						    staging, sizeof staging);
+	if (err)
+		return err;
+	if ((err = vd_dir_swap(staging, dir, &had_old))) {
+		vd_dir_abandon(staging);
+		return err;
+	}
+	if (had_old) { /* the old output; the new one is in place */
+		vd_dir_abandon(staging);
+		vd_error_clear();
+	}
+	return VD_OK;
 }

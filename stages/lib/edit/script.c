@@ -350,6 +350,44 @@ static int render_to(const struct vd_edit_job *job, struct vd_hashdag *h,
 	return err;
 }
 
+/* Puts an edit's outputs in place together: the DAG chunk `staged`
+ * (and its statistics staged_stats, or NULL) and, when cstage is not
+ * NULL, the colour directory staged there for colours_out. Everything was
+ * written complete before this (a full disk fails before any rename);
+ * the colours go in first and are put back if the chunk's rename fails,
+ * so the DAG and its colours are replaced together or not at all (the
+ * pair once left a new DAG beside old colours when the colours failed).
+ * On failure the staged files are removed. */
+static int publish(const char *cstage, const char *colours_out,
+		   const char *staged, const char *out,
+		   const char *staged_stats, const char *stats)
+{
+	int had_old = 0, err;
+	if (cstage && (err = vd_dir_swap(cstage, colours_out, &had_old))) {
+		vd_dir_abandon(cstage);
+		unlink(staged);
+		if (staged_stats)
+			unlink(staged_stats);
+		return rewrap(err, 1, "cannot write '%s'", colours_out);
+	}
+	err = staged_stats ? vd_publish_pair(staged, out, staged_stats, stats)
+			   : vd_replace_file(staged, out);
+	if (err) {
+		unlink(staged);
+		err = rewrap(err, 1, "cannot write '%s'", out);
+		/* the new colours back under the staging name, then removed
+		 * (if they cannot go back, both stay: nothing is deleted) */
+		if (cstage && vd_dir_unswap(cstage, colours_out, had_old) == VD_OK)
+			vd_dir_abandon(cstage);
+		return err;
+	}
+	if (cstage && had_old) { /* the old colours, now replaced */
+		vd_dir_abandon(cstage);
+		vd_error_clear();
+	}
+	return VD_OK;
+}
+
 /* Runs one command; *st is filled for edits and gc. */
 static int run_cmd(const struct vd_edit_job *job, struct vd_hashdag *h,
 		   const struct cmd *c, struct vd_edit_stats *st)
@@ -370,15 +408,22 @@ static int run_cmd(const struct vd_edit_job *job, struct vd_hashdag *h,
 		const char *p = c->path[0] ? c->path : job->output;
 		if (!p)
 			return vd_fail(VD_ERR_ARG, "save needs a FILE (no -o)");
-		int err = vd_hashdag_save(h, p, job->provenance);
+		char staged[1200], cstage[4096];
+		int err = vd_stage_name(p, staged, sizeof staged);
+		if (!err && (err = vd_hashdag_save(h, staged, job->provenance)))
+			unlink(staged);
 		if (err)
 			return rewrap(err, 1, "cannot write '%s'", p);
 		if (job->colours_out &&
-		    (err = vd_hashdag_colours_save(h, job->colours_out,
-						   job->provenance)))
+		    (err = vd_hashdag_colours_stage(h, job->colours_out,
+						    job->provenance, cstage,
+						    sizeof cstage))) {
+			unlink(staged);
 			return rewrap(err, 1, "cannot write '%s'",
 				      job->colours_out);
-		return VD_OK;
+		}
+		return publish(job->colours_out ? cstage : NULL,
+			       job->colours_out, staged, p, NULL, NULL);
 	}
 	case CMD_STATS:
 		print_stats(job->out ? job->out : stdout, h);
@@ -453,9 +498,9 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		p = e ? e + 1 : p + strlen(p);
 	}
 	free(text);
-	/* the chunk and its statistics are written under staging names and
-	 * replace the previous pair together, so a failure (a full disk)
-	 * leaves the previous pair as it was */
+	/* the chunk, its statistics and the colour directory are written
+	 * under staging names and replace the previous outputs together
+	 * (publish), so a failure (a full disk) leaves them as they were */
 	char stats[1100], staged[1200], staged_stats[1200];
 	snprintf(stats, sizeof stats, "%s.stats.json", job->output);
 	if (!err)
@@ -520,22 +565,27 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 				vd_seconds() - t0);
 	}
 	vd_dag_release(&dag);
-	if (err) {
+	/* the colours are staged too before anything is replaced */
+	char cstage[4096];
+	if (!err && job->colours_out &&
+	    (err = vd_hashdag_colours_stage(h, job->colours_out,
+					    job->provenance, cstage,
+					    sizeof cstage)))
+		err = rewrap(err, 1, "cannot write '%s'", job->colours_out);
+	if (!err && (err = vd_json_close(j))) {
+		err = rewrap(err, 1, "cannot write '%s'", stats);
+		if (job->colours_out)
+			vd_dir_abandon(cstage);
+	} else if (err) {
 		vd_json_close(j);
+	}
+	if (err) {
 		unlink(staged_stats);
 		unlink(staged);
 		return err;
 	}
-	if ((err = vd_json_close(j)) ||
-	    (err = vd_publish_pair(staged, job->output, staged_stats, stats))) {
-		unlink(staged);
-		return rewrap(err, 1, "cannot write '%s'", stats);
-	}
-	if (job->colours_out &&
-	    (err = vd_hashdag_colours_save(h, job->colours_out,
-					   job->provenance)))
-		return rewrap(err, 1, "cannot write '%s'", job->colours_out);
-	return VD_OK;
+	return publish(job->colours_out ? cstage : NULL, job->colours_out,
+		       staged, job->output, staged_stats, stats);
 }
 
 static int run_shell(const struct vd_edit_job *job, struct vd_hashdag *h)

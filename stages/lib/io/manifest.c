@@ -516,13 +516,11 @@ int vd_dir_stage(const char *given, int (*ours)(const char *name),
 	return VD_OK;
 }
 
-int vd_dir_publish(const char *staging, const char *final)
+int vd_dir_swap(const char *staging, const char *final, int *had_old)
 {
-	int err = vd_manifest_write(staging);
-	if (err)
-		return err;
 	struct stat st;
-	if (stat(final, &st) != 0) {
+	*had_old = stat(final, &st) == 0;
+	if (!*had_old) {
 		if (rename(staging, final) != 0)
 			return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
 				       staging, final, strerror(errno));
@@ -532,11 +530,30 @@ int vd_dir_publish(const char *staging, const char *final)
 	if (renameat2(AT_FDCWD, staging, AT_FDCWD, final, RENAME_EXCHANGE) != 0)
 		return vd_fail(VD_ERR_IO, "cannot swap '%s' into '%s': %s",
 			       staging, final, strerror(errno));
+	return VD_OK;
+}
+
+int vd_dir_unswap(const char *staging, const char *final, int had_old)
+{
+	int r = had_old ? renameat2(AT_FDCWD, staging, AT_FDCWD, final,
+				    RENAME_EXCHANGE)
+			: rename(final, staging);
+	if (r != 0)
+		return vd_fail(VD_ERR_IO, "cannot put '%s' back: %s", final,
+			       strerror(errno));
+	return VD_OK;
+}
+
+int vd_dir_publish(const char *staging, const char *final)
+{
+	int err = vd_manifest_write(staging), had_old;
+	if (err || (err = vd_dir_swap(staging, final, &had_old)))
+		return err;
 	/* the old output, now under the staging name. The new one is in
 	 * place whatever happens here: a failure to remove the old (a
 	 * directory made unreadable) is not the run's failure, and the next
 	 * vd_dir_stage removes what is left as a dead run's staging. */
-	if (remove_dir_files(staging) != VD_OK)
+	if (had_old && remove_dir_files(staging) != VD_OK)
 		vd_error_clear();
 	return VD_OK;
 }
