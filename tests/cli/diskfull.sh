@@ -48,8 +48,17 @@ for L in 6 7; do
 	$RB/symmetry-merge -q "$R/root$L.dag" -o "$R/root$L.sdag" &&
 	$RB/encode -q "$R/root$L.dag" "$R/root$L.sdag" -o "$R/enc$L" --name s ||
 		{ fail inputs "level $L"; exit 1; }
+	# a coloured scene in 8 cells for edit --colours (its root DAG)
+	$RB/voxelize -q $BUNNY -o "$R/col$L" --levels $L --chunk-level 1 &&
+	$RB/colour-make-test "$R/col$L" &&
+	for f in "$R/col$L"/*.svo; do
+		$RB/svo-to-dag -q "$f" -o "$R/col$L-$(basename "$f" .svo).dag" || exit 1
+	done &&
+	$RB/svo-to-dag -q --merge "$R/col$L"-*.dag -o "$R/colroot$L.dag" --to-level 0 ||
+		{ fail inputs "colours, level $L"; exit 1; }
 done
 echo 'carve box 0 0 0 40 40 40' > "$R/edit.txt"
+echo 'paint box 0 0 0 40 40 40 colour 9 8 7' > "$R/paint.txt"
 
 # run_stage WHAT L OUT: the command of each stage at depth L, writing OUT
 run_stage() {
@@ -62,6 +71,9 @@ run_stage() {
 	encode) $BIN/encode -q "$R/root$L.dag" "$R/root$L.sdag" -o "$out" --name s ;;
 	render) $BIN/render -q "$R/enc$L/s.ssvdag" -o "$out" --size 96x64 ;;
 	edit) $BIN/edit -q "$R/root$L.dag" -o "$out" --script "$R/edit.txt" ;;
+	# the DAG and its colour directory beside it: both or neither
+	edit-colours) $BIN/edit -q "$R/colroot$L.dag" --colours "$R/col$L" \
+		-o "$out" --colours-out "$out.col" --script "$R/paint.txt" ;;
 	vdb-export) $BIN/vdb-export -o "$out" "$R/cells$L" >/dev/null ;;
 	esac
 }
@@ -169,6 +181,7 @@ check_stage lossy-cluster lossy.dag
 check_stage encode enc
 check_stage render pic.png
 check_stage edit edited.dag
+check_stage edit-colours painted.dag
 check_stage vdb-export scene.vdb
 
 # --- the runner: a pipeline whose outputs are on the tmpfs. A complete
