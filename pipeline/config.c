@@ -19,7 +19,7 @@ static const struct stage_info stages[] = {
 	{"encode", STAGE_ENCODE, 2, 3},
 	{"render", STAGE_RENDER, 1, 2},
 	{"lossy-cluster", STAGE_LOSSY, 1, 1},
-	{"edit", STAGE_EDIT, 1, 1},
+	{"edit", STAGE_EDIT, 1, 2},
 	{"colorize", STAGE_COLORIZE, 1, 1},
 };
 
@@ -616,8 +616,15 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 				break;
 			case STAGE_SYMMETRY_MERGE:
 			case STAGE_LOSSY:
-			case STAGE_EDIT:
 				bad = !stage_makes_root_dag(t[k]);
+				break;
+			case STAGE_EDIT:
+				/* a second need: the voxelize job, whose
+				 * colours are those of svo-to-dag's scene
+				 * (not of a lossy or edited one) */
+				bad = k == 0 ? !stage_makes_root_dag(t[k])
+					     : t[k] != STAGE_VOXELIZE ||
+					       t[0] != STAGE_SVO_TO_DAG;
 				break;
 			case STAGE_ENCODE:
 				bad = !stage_makes_root_dag(t[k]) &&
@@ -631,7 +638,10 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 					       t[k] != STAGE_COLORIZE;
 				break;
 			case STAGE_COLORIZE:
-				bad = t[k] != STAGE_VOXELIZE;
+				/* or an edit job that carries the colours */
+				bad = t[k] != STAGE_VOXELIZE &&
+				      !(t[k] == STAGE_EDIT &&
+					c->jobs_decl[d->needs[k]].nneeds == 2);
 				break;
 			default:
 				bad = 1;
@@ -670,11 +680,14 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 					"encode job, an encode job to show the "
 					"differences from, or a colorize job for "
 					"the colours]",
-				[STAGE_COLORIZE] = "needs: [a voxelize job]",
+				[STAGE_COLORIZE] = "needs: [a voxelize job] or "
+					"[an edit job with colours]",
 				[STAGE_LOSSY] = "needs: [an svo-to-dag, "
 					"lossy-cluster or edit job]",
 				[STAGE_EDIT] = "needs: [an svo-to-dag, "
-					"lossy-cluster or edit job]",
+					"lossy-cluster or edit job] or, with "
+					"colours, [an svo-to-dag job, the "
+					"voxelize job]",
 			};
 			fprintf(stderr, "voxdag: %s:%d:%d: job '%s' (stage %s) "
 				"takes %s\n", x->path, d->line, d->column,

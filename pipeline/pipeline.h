@@ -125,6 +125,10 @@ struct job {
 	int decl;                  /* the job_decl it comes from */
 	char **argv;               /* NULL-terminated; argv[0] is the program */
 	char *output;              /* the file (or directory) it produces */
+	char *extra_output;        /* a second output, a directory with its
+				    * manifest (an edit job's colours), or
+				    * NULL: its digest and signature are
+				    * mixed into the output's */
 	char *key_path;            /* output + ".key" (or DIR/.key for a
 				    * directory output), where keys were
 				    * kept before the journal (plan.c) */

@@ -405,6 +405,45 @@ static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
 	return 0;
 }
 
+/* output_digest and stat_sig over a job's outputs: its output, mixed with
+ * its extra directory output when it has one (so a lost or changed colour
+ * directory of an edit job reruns it). Without one they are the output's
+ * own, so the keys of other jobs are unchanged. */
+static int job_digest(const struct job *j, uint64_t *digest, uint64_t *sig,
+		      int *sig_ok, char *why, size_t cap)
+{
+	if (output_digest(j->output, digest, sig, sig_ok, why, cap))
+		return 1;
+	if (!j->extra_output)
+		return 0;
+	uint64_t d2, s2;
+	int ok2;
+	if (output_digest(j->extra_output, &d2, &s2, &ok2, why, cap))
+		return 1;
+	uint64_t f[2] = {*digest, d2}, g[2] = {*sig, s2};
+	*digest = XXH3_64bits(f, sizeof f);
+	*sig = XXH3_64bits(g, sizeof g);
+	*sig_ok = *sig_ok && ok2;
+	return 0;
+}
+
+static int job_stat_sig(const struct job *j, int64_t t0, uint64_t *sig,
+			int *ok)
+{
+	if (stat_sig(j->output, t0, sig, ok) != 0)
+		return -1;
+	if (!j->extra_output)
+		return 0;
+	uint64_t s2;
+	int ok2;
+	if (stat_sig(j->extra_output, t0, &s2, &ok2) != 0)
+		return -1;
+	uint64_t g[2] = {*sig, s2};
+	*sig = XXH3_64bits(g, sizeof g);
+	*ok = *ok && ok2;
+	return 0;
+}
+
 /* Arguments that do not change what a job writes are left out of its key,
  * so changing resources does not rerun finished work. */
 static int volatile_arg(const char *a)
@@ -691,7 +730,7 @@ int job_key_write(const struct job *j, char *why, size_t cap)
 		snprintf(why, cap, "an input is missing or unreadable");
 		return 1;
 	}
-	if (output_digest(j->output, &digest, &sig, &sig_ok, why, cap))
+	if (job_digest(j, &digest, &sig, &sig_ok, why, cap))
 		return 1;
 	struct key_rec *r = kj_find(kj_name(j), 1);
 	r->op = 'K';
@@ -732,11 +771,11 @@ int job_is_fresh(struct job *j, char *why, size_t cap)
 	int sig_ok;
 	if (r->has_sig) {
 		/* unchanged since it was hashed, settled: no need to read it */
-		if (stat_sig(j->output, now_ns(), &sig, &sig_ok) == 0 &&
+		if (job_stat_sig(j, now_ns(), &sig, &sig_ok) == 0 &&
 		    sig == r->sig)
 			return 1;
 	}
-	if (output_digest(j->output, &digest, &sig, &sig_ok, why, cap))
+	if (job_digest(j, &digest, &sig, &sig_ok, why, cap))
 		return 0;
 	if (digest != r->digest) {
 		snprintf(why, cap, "'%s' changed after it was written",
@@ -1078,23 +1117,28 @@ static int write_if_changed(const char *path, const char *text)
 }
 
 /* edit on the root DAG chunk with the job's script; the script's content
- * is an input, so a changed script reruns the edit and what follows. */
+ * is an input, so a changed script reruns the edit and what follows. With
+ * the voxelize job as a second need the edit takes its colour chunks and
+ * writes the edited colours to <job>/colours (a second output, replaced
+ * together with the DAG), which a colorize job needing the edit packs. */
 static void plan_edit(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
-	int in;
+	int in, vox = -1;
+	if (dd->nneeds > 1 &&
+	    (vox = plan_find(p, decl_of(p, dd->needs[1])->name)) < 0)
+		return;
 	struct job *j = add_root_job(p, d, dd->needs[0], "dag", &in);
 	if (!j)
 		return;
-	char budget[32], threads[16], script[1200];
+	char budget[32], threads[16], script[1200], dir[1100];
 	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
+	path_join(dir, sizeof dir, p->dir, dd->name);
 	if (dd->script_text) {
 		/* inline lines: written beside the output, where the edit
 		 * tool and its key read them */
-		char dir[1100];
-		path_join(dir, sizeof dir, p->dir, dd->name);
 		snprintf(script, sizeof script, "%s/script.txt", dir);
 		if (mkdir_p(dir) != 0 ||
 		    write_if_changed(script, dd->script_text) != 0) {
@@ -1106,8 +1150,24 @@ static void plan_edit(struct plan *p, int d)
 		snprintf(script, sizeof script, "%s", dd->script);
 	}
 	const char *src = p->jobs[in].output;
-	set_argv(j, "edit", src, "-o", j->output, "--script", script,
-		 "--mem-budget", budget, "--threads", threads, "-q", NULL);
+	if (vox >= 0) {
+		char colours[1200], manifest[1200];
+		path_join(colours, sizeof colours, dir, "colours");
+		j->extra_output = xstrdup(colours);
+		set_argv(j, "edit", src, "-o", j->output, "--script", script,
+			 "--colours", p->jobs[vox].output, "--colours-out",
+			 colours, "--mem-budget", budget, "--threads", threads,
+			 "-q", NULL);
+		/* the colour chunks through the voxelize manifest */
+		path_join(manifest, sizeof manifest, p->jobs[vox].output,
+			  "manifest");
+		add_input(j, manifest);
+		add_dep(p, j, vox);
+	} else {
+		set_argv(j, "edit", src, "-o", j->output, "--script", script,
+			 "--mem-budget", budget, "--threads", threads, "-q",
+			 NULL);
+	}
 	add_input(j, src);
 	add_input(j, script);
 	add_dep(p, j, in);
@@ -1413,9 +1473,13 @@ static void plan_colorize(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
 	const struct job_decl *dd = decl_of(p, d);
-	int vox = plan_find(p, decl_of(p, dd->needs[0])->name);
+	/* the voxelize job's colour chunks, or an edit job's edited ones */
+	int edit = decl_of(p, dd->needs[0])->stage->type == STAGE_EDIT;
+	int vox = edit ? stage_root_job(p, dd->needs[0])
+		       : plan_find(p, decl_of(p, dd->needs[0])->name);
 	if (vox < 0)
 		return;
+	const char *src = edit ? p->jobs[vox].extra_output : p->jobs[vox].output;
 	char out[1100], key[1200], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
 	path_join(key, sizeof key, out, ".key");
@@ -1425,7 +1489,7 @@ static void plan_colorize(struct plan *p, int d)
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	const char *args[24];
 	int na = 0;
-	const char *head[] = {p->jobs[vox].output, "-o", out, "--method",
+	const char *head[] = {src, "-o", out, "--method",
 			      dd->method, "--threads", threads, "-q"};
 	for (size_t i = 0; i < sizeof head / sizeof *head; i++)
 		args[na++] = head[i];
@@ -1442,7 +1506,7 @@ static void plan_colorize(struct plan *p, int d)
 	/* a directory is fingerprinted through its manifest: every file's
 	 * checksum, the colour chunks' too */
 	char manifest[1200];
-	path_join(manifest, sizeof manifest, p->jobs[vox].output, "manifest");
+	path_join(manifest, sizeof manifest, src, "manifest");
 	add_input(j, manifest);
 	add_dep(p, j, vox);
 	j->mem_estimate = c->job_mem_budget;
@@ -1590,6 +1654,7 @@ void plan_free(struct plan *p)
 		free(j->rdeps);
 		free(j->id);
 		free(j->output);
+		free(j->extra_output);
 		free(j->key_path);
 	}
 	free(p->jobs);

@@ -245,3 +245,66 @@ rc=$?
 [ $rc -eq 1 ] && grep -q "job ed/root failed" "$T/bad.err" &&
 	grep -q "edit: cannot parse .*: line 2, column 6: expected box or sphere" "$T/bad.err" &&
 	pass edit_bad_line_fails || fail edit_bad_line_fails "rc=$rc" "$(cat "$T/bad.err")"
+
+# --- an edit pipeline with colours: with the voxelize job as a second need
+# the edit takes its colour chunks and writes the edited ones beside its
+# DAG (<job>/colours), and a colorize job needing the edit packs those:
+# the same as the tools by hand; a rerun starts nothing; a lost colour
+# directory reruns the edit alone (the same colours: colorize stays)
+cedit_cfg() {
+	cat <<EOF
+version: 1
+name: $NAME
+input: {mesh: $PWD/tests/data/spider/spider.obj}
+levels: 8
+chunk_level: 1
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox: {stage: voxelize}
+  dag: {stage: svo-to-dag, needs: [vox]}
+EOF
+	cat
+}
+rm -rf $D
+CFG=$T/cedit.yaml
+cedit_cfg > "$CFG" <<'EOF'
+  ced: {stage: edit, needs: [dag, vox], script: ["paint sphere 128 128 128 40 colour 255 0 0", "carve sphere 100 100 100 10"]}
+  col: {stage: colorize, needs: [ced], method: raw}
+  raw: {stage: colorize, needs: [vox], method: raw}
+EOF
+expect colour_edit_run 0 '' $R -q run "$CFG"
+H=$T/chand
+mkdir -p $H
+printf 'paint sphere 128 128 128 40 colour 255 0 0\ncarve sphere 100 100 100 10\n' > $H/s.txt
+$BIN/edit $D/dag/root.dag --colours $D/vox -o $H/e.dag --colours-out $H/ecol \
+	--script $H/s.txt -q && $BIN/colorize $H/ecol -o $H/pk --method raw -q
+expect colour_edit_dag_by_hand 0 '^differing_voxels=0 ' $BIN/dag-verify --diff $H/e.dag $D/ced/root.dag
+# (the files record their command lines: compared through pictures)
+pic() { $BIN/render "$1" -o "$3" -s 160x120 -c iso -q -C "$2"; }
+pic $H/e.dag $H/ecol $H/hand-dir.png && pic $H/e.dag $H/pk/colours.raw $H/hand-pk.png &&
+	pic $D/ced/root.dag $D/ced/colours $H/run-dir.png &&
+	pic $D/ced/root.dag $D/col/colours.raw $H/run-pk.png &&
+	pic $D/dag/root.dag $D/raw/colours.raw $H/before.png &&
+	cmp -s $H/hand-dir.png $H/run-dir.png && cmp -s $H/hand-pk.png $H/run-pk.png &&
+	cmp -s $H/hand-pk.png $H/hand-dir.png && pass colour_edit_colours_by_hand ||
+	fail colour_edit_colours_by_hand "$(ls $D/ced/colours $D/col)"
+! cmp -s $H/before.png $H/run-pk.png && pass colour_edit_colours_edited ||
+	fail colour_edit_colours_edited "the picture is the unedited scene's"
+expect colour_edit_rerun 0 '' $R -q run "$CFG"
+[ -z "$(started)" ] && pass colour_edit_rerun_starts_nothing ||
+	fail colour_edit_rerun_starts_nothing "$(started)"
+rm -rf $D/ced/colours
+expect colour_edit_lost_colours 0 '' $R -q run "$CFG"
+[ "$(started)" = "ced/root " ] && [ -f $D/ced/colours/manifest ] &&
+	pass colour_edit_lost_colours_rerun || fail colour_edit_lost_colours_rerun "$(started)"
+# the colours are those of svo-to-dag's scene: not after another stage
+cedit_cfg > "$CFG" <<'EOF'
+  ed:  {stage: edit, needs: [dag], script: ["fill box 0 0 0 3 3 3"]}
+  ced: {stage: edit, needs: [ed, vox], script: ["fill box 0 0 0 3 3 3"]}
+EOF
+expect colour_edit_after_edit_refused 1 "job 'ced' \(stage edit\) takes .*with colours, \[an svo-to-dag job, the voxelize job\]" $R -q run "$CFG"
+cedit_cfg > "$CFG" <<'EOF'
+  ed:  {stage: edit, needs: [dag], script: ["fill box 0 0 0 3 3 3"]}
+  col: {stage: colorize, needs: [ed], method: raw}
+EOF
+expect colorize_of_colourless_edit_refused 1 "job 'col' \(stage colorize\) takes needs: \[a voxelize job\] or \[an edit job with colours\]" $R -q run "$CFG"
