@@ -17,8 +17,7 @@
 #       1:2020.3.16+dfsg-1, Models/Maritime/Military/CG-57-high-detail.
 #       GPL-2+ (FlightGear; copyright file: Files: *).
 #   fg-truman/truman.ac  USS Harry S. Truman (Nimitz-class carrier): AC3D,
-#       19 PNG textures and one SGI .rgb (wake.rgb: not decoded, its faces
-#       take the material colour with one warning). Same package,
+#       19 PNG textures and one SGI .rgb (wake.rgb). Same package,
 #       Models/Geometry/Nimitz (the directory also holds the Vinson and
 #       deck-object models). GPL-2+.
 #   torcs-brondehach/brondehach.acc  TORCS road track "Brondehach"
