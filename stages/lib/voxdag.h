@@ -39,8 +39,8 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 4)       /* 4: SGI textures; 3: .col; 2: manifest */  \
-	X("voxelize-vdb", 2)   /* 2: the same */                             \
+	X("voxelize", 4)       /* 4: SGI textures; 3: .col; 2: manifest */   \
+	X("voxelize-vdb", 2)   /* 2: manifest */                             \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 3)         /* 3: ssvdag48 columns; 2: manifest */        \
