@@ -47,11 +47,12 @@ endif
 # libopenvdb-dev does not pull in; libopenvdb-tools: vdb_print for the tests.
 # slurm-wlm, munge: the one-node Slurm that tests/cli/slurm.sh starts.
 # libpng-dev, libjpeg62-turbo-dev, libstb-dev: mesh textures (PNG, JPEG,
-# and stb_image for TGA, BMP and the rest).
+# and stb_image for TGA, BMP and the rest); netpbm: pnmtosgi, the SGI
+# encoder the SGI decoder's test checks against.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
-                libjpeg62-turbo-dev libstb-dev
+                libjpeg62-turbo-dev libstb-dev netpbm
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)

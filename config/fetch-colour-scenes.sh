@@ -17,8 +17,7 @@
 #       1:2020.3.16+dfsg-1, Models/Maritime/Military/CG-57-high-detail.
 #       GPL-2+ (FlightGear; copyright file: Files: *).
 #   fg-truman/truman.ac  USS Harry S. Truman (Nimitz-class carrier): AC3D,
-#       19 PNG textures and one SGI .rgb (wake.rgb: not decoded, its faces
-#       take the material colour with one warning). Same package,
+#       19 PNG textures and one SGI .rgb (wake.rgb). Same package,
 #       Models/Geometry/Nimitz (the directory also holds the Vinson and
 #       deck-object models). GPL-2+.
 #   torcs-brondehach/brondehach.acc  TORCS road track "Brondehach"
@@ -26,9 +25,9 @@
 #       ~210 PNG textures (base unit used; schemas/colour-rule.md).
 #       torcs-data 1.3.7+dfsg-5, tracks/road/brondehach. Free Art License
 #       (copyright file: data/tracks/road/brondehach/*, J.-C. Durieu).
-#       Chosen among TORCS's tracks because its kids counts are right: most
-#       others declare more kids than they hold, which voxelize refuses
-#       as truncation.
+#       Chosen among TORCS's tracks because its kids counts are right: 22
+#       of the 25 others declare more kids than they hold (voxelize reads
+#       them to the end of the file, as TORCS does, with one warning).
 #
 # Exit status: 0 success (or already present), 1 failure, 2 usage.
 

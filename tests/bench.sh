@@ -8,6 +8,7 @@
 # colours is measured by tests/bench/colour_in.sh.
 set -u
 cd "$(dirname "$0")/.."
+. tests/lossless_yaml.sh
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
 OUT=out/bench
 if [ ! -d "$DATA" ]; then
@@ -79,19 +80,8 @@ scaling fg_terrain_reykjavik.ply 14
 # process) and the largest process's peak memory.
 pipeline() { # pipeline NAME SCENE LEVELS
 	local name=bench-$1 cfg=$OUT/$1.yaml
-	cat > "$cfg" <<YAML
-version: 1
-name: $name
-input: {mesh: $DATA/$2}
-levels: $3
-chunk_level: auto
-resources: {jobs: 2, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}
-jobs:
-  voxelize: {stage: voxelize}
-  svdag:    {stage: svo-to-dag, needs: [voxelize]}
-  ssvdag:   {stage: symmetry-merge, needs: [svdag]}
-  encode:   {stage: encode, needs: [svdag, ssvdag]}
-YAML
+	lossless_yaml "$name" "$DATA/$2" "$3" auto \
+		"{jobs: 2, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}" > "$cfg"
 	rm -rf "out/$name"
 	local t0=$(date +%s.%N)
 	if ! out/bin/voxdag -q run "$cfg"; then
@@ -101,7 +91,7 @@ YAML
 	local wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
 	local vox=$(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "out/$name/report.json")
 	# every process runs one thread but voxelize, which runs several
-	local vt=$(sed -n 's/^  "threads": \([0-9]*\),*$/\1/p' "out/$name/voxelize/voxelize.stats.json")
+	local vt=$(sed -n 's/^  "threads": \([0-9]*\),*$/\1/p' "out/$name/vox/voxelize.stats.json")
 	awk -F, -v name="$1" -v vox="$vox" -v wall="$wall" -v vt="${vt:-1}" 'NR > 1 {
 		cores = $2 == "voxelize" ? vt : 1
 		printf "%-22s %-15s %9d procs %9.2f s %14.0f voxels/s/core %8.0f MiB peak\n",
@@ -210,25 +200,14 @@ bash tests/bench/g48_table.sh
 # VOXDAG_BENCH_RUNNER=0 skips it; =small runs only the bunny case.
 runner_scale() { # runner_scale NAME MESH LEVELS CHUNK_LEVEL
 	local name=bench-runner-$1 cfg=$OUT/runner-$1.yaml
-	cat > "$cfg" <<YAML
-version: 1
-name: $name
-input: {mesh: $2}
-levels: $3
-chunk_level: $4
-resources: {jobs: 2, threads: 1, mem_budget: 4GiB, job_mem_budget: 1GiB}
-jobs:
-  voxelize: {stage: voxelize}
-  svdag:    {stage: svo-to-dag, needs: [voxelize]}
-  ssvdag:   {stage: symmetry-merge, needs: [svdag]}
-  encode:   {stage: encode, needs: [svdag, ssvdag]}
-YAML
+	lossless_yaml "$name" "$2" "$3" "$4" \
+		"{jobs: 2, threads: 1, mem_budget: 4GiB, job_mem_budget: 1GiB}" > "$cfg"
 	rm -rf "out/$name"
 	if ! out/bin/voxdag -q run "$cfg"; then
 		echo "bench: runner pipeline $1 failed"
 		return
 	fi
-	local cells=$(ls "out/$name/voxelize" | grep -c '\.svo$')
+	local cells=$(ls "out/$name/vox" | grep -c '\.svo$')
 	# a second run finds everything fresh: the cost of resuming
 	out/bin/voxdag -q run "$cfg"
 	grep ' finished: ' "out/$name/logs/runner.log" | tail -n 2 | awk -v name="$1" -v cells="$cells" \

@@ -39,8 +39,8 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 3)       /* 3: .col colour chunks; 2: manifest */      \
-	X("voxelize-vdb", 2)   /* 2: the same */                             \
+	X("voxelize", 4)       /* 4: SGI textures; 3: .col; 2: manifest */   \
+	X("voxelize-vdb", 2)   /* 2: manifest */                             \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 3)         /* 3: ssvdag48 columns; 2: manifest */        \
@@ -438,7 +438,7 @@ struct vd_texture {
 /* Decodes the image at `path` (format from its first bytes). Errors:
  * VD_ERR_IO (cannot open), VD_ERR_FORMAT (corrupt or undecodable, the
  * decoder's reason in the detail), VD_ERR_UNSUPPORTED (known but
- * unsupported format, e.g. SGI .rgb), VD_ERR_RANGE (wider or higher than
+ * unsupported format, e.g. a colour-mapped SGI image), VD_ERR_RANGE (wider or higher than
  * 32768 texels). Free with vd_texture_release(). */
 int vd_texture_load(struct vd_texture *t, const char *path);
 void vd_texture_release(struct vd_texture *t);

@@ -57,22 +57,11 @@ help_lists_options() {
 	fi
 }
 
+. "$(dirname "${BASH_SOURCE[0]}")/../lossless_yaml.sh"
+
 # bunny_pipeline NAME LEVELS CHUNK_LEVEL: the lossless pipeline on the
-# bundled bunny (voxelize, DAG, SSVDAG, encodings), two 1-thread jobs at a
-# time, as YAML on stdout: the runner tests' common case.
+# bundled bunny, two 1-thread jobs at a time: the runner tests' common case.
 bunny_pipeline() {
-	cat <<YAML
-version: 1
-name: $1
-input:
-  mesh: tests/data/bunny.ply
-levels: $2
-chunk_level: $3
-resources: {jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [dag]}
-  enc:    {stage: encode, needs: [dag, ssvdag]}
-YAML
+	lossless_yaml "$1" tests/data/bunny.ply "$2" "$3" \
+		"{jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}"
 }

@@ -11,7 +11,7 @@ T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 rm -rf "$C"
 mkdir -p $C/ply $C/obj $C/stl $C/ac3d $C/chunk $C/svdag $C/ussvdag \
-	$C/esvdag $C/ssvdag $C/ssvdag48 $C/config $C/vdb
+	$C/esvdag $C/ssvdag $C/ssvdag48 $C/config $C/vdb $C/texture
 
 python3 - "$C" <<'PY'
 import struct, sys
@@ -133,6 +133,16 @@ for L in 5 6; do
 		cp "$T/e$L/b.$f" $C/$f/bunny-L$L.$f
 	done
 done
+
+# Textures: the bundled scene's small images, and SGI images from netpbm's
+# pnmtosgi (verbatim and RLE, grey and colour, 8 and 16 bits).
+cp tests/data/textured/*.png tests/data/textured/*.tga \
+	tests/data/textured/*.bmp tests/data/textured/*.jpg $C/texture/
+printf 'P6\n5 3\n255\n%s' "$(head -c 45 /dev/zero | tr '\0' 'a')" > "$T/c.ppm"
+printf 'P5\n4 2\n65535\n%s' "$(head -c 16 /dev/zero | tr '\0' 'z')" > "$T/g.pgm"
+pnmtosgi -rle "$T/c.ppm" > $C/texture/rle.rgb
+pnmtosgi -verbatim "$T/c.ppm" > $C/texture/verbatim.rgb
+pnmtosgi -rle "$T/g.pgm" > $C/texture/grey16.bw
 
 # OpenVDB grids: the small test grids, cut to 64 KiB at most.
 mkdir -p "$T/vdb"

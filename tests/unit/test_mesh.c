@@ -1031,6 +1031,70 @@ static void test_ac3d_every_truncation(void)
 	free(t);
 }
 
+/* TORCS's .acc files declare more kids than they hold (22 of its 25 tracks
+ * end that way): an .acc file that ends between two objects is read as
+ * complete, with one warning however often it is read; the same bytes
+ * named .ac are truncated, and a cut inside an object is truncation in
+ * both. */
+static int acc_warnings;
+static char acc_warning[600];
+
+static void count_warning(void *ctx, const char *line)
+{
+	(void)ctx;
+	acc_warnings++;
+	snprintf(acc_warning, sizeof acc_warning, "%s", line);
+}
+
+static void test_acc_short_kids(void)
+{
+	/* the world declares 5 kids; the file holds 2 */
+	char *w = strdup(ac_nested), *k = strstr(w, "kids 2\n");
+	k[5] = '5';
+	CHECK_EQ(mesh_error(write_text("short.ac", w)), VD_ERR_TRUNCATED);
+	CHECK(detail_has("2 of the 5 kids"));
+	const char *acc = write_text("short.acc", w);
+	struct vd_mesh_open_opts o = {.warn = count_warning};
+	struct vd_mesh *m;
+	acc_warnings = 0;
+	CHECK_EQ(vd_mesh_open_opts(&m, acc, &o), VD_OK);
+	if (!m) {
+		free(w);
+		return;
+	}
+	for (int pass = 0; pass < 2; pass++) {
+		struct vd_triangle buf[8];
+		size_t got = 0, n;
+		int e;
+		while (!(e = vd_mesh_read(m, buf + got, 1, &n)) && n)
+			got += n;
+		CHECK_EQ(e, VD_OK);
+		CHECK(same_as_nested(buf, got));
+		CHECK_EQ(vd_mesh_rewind(m), VD_OK);
+	}
+	vd_mesh_close(m);
+	CHECK_EQ(acc_warnings, 1);
+	CHECK(strstr(acc_warning, "2 of the 5 kids of object 'root'") != NULL);
+	/* every cut: truncated, unless it falls right after a kids line
+	 * (between two objects, the line's newline kept or not), where TORCS
+	 * would stop too; "kids 9" inside the data block is no kids line */
+	size_t len = strlen(w);
+	for (size_t cut = 4; cut < len - 1; cut++) {
+		int e = mesh_error(write_bytes("cut.acc", w, cut));
+		const char *line = w + cut - 1;
+		while (line > w && line[-1] != '\n')
+			line--;
+		int boundary = (w[cut - 1] == '\n' || w[cut] == '\n') &&
+			       !strncmp(line, "kids ", 5) &&
+			       strncmp(line, "kids 9\nSURF", 11);
+		if (e != (boundary ? VD_OK : VD_ERR_TRUNCATED))
+			fprintf(stderr, "cut at %zu (%d, boundary %d): %s\n",
+				cut, e, boundary, vd_error_detail());
+		CHECK_EQ(e, (boundary ? VD_OK : VD_ERR_TRUNCATED));
+	}
+	free(w);
+}
+
 /* A line longer than the read buffer is an error naming its line in every
  * text format; the error used to come back as "a line" of garbage. */
 static void test_long_lines(void)
@@ -1630,6 +1694,7 @@ int main(void)
 	RUN(test_ac3d);
 	RUN(test_ac3d_errors);
 	RUN(test_ac3d_every_truncation);
+	RUN(test_acc_short_kids);
 	RUN(test_long_lines);
 	RUN(test_not_meshes);
 	RUN(test_every_truncation);

@@ -515,6 +515,8 @@ struct vd_mesh {
 	size_t ac_depth, ac_cap;
 	int ac_in_object;      /* between OBJECT and its kids line */
 	int ac_seen_object;    /* some OBJECT was seen (else truncated) */
+	int ac_torcs;          /* a TORCS .acc file (vd_ac_eof) */
+	int ac_warned_kids;    /* its short kids count said once */
 	double ac_rot[9], ac_loc[3]; /* the object's own rot and loc */
 	uint64_t ac_surf_left; /* surfaces of the object still to read */
 	uint64_t ac_object_line;
@@ -2517,9 +2519,23 @@ static int vd_ac_eof(struct vd_mesh *m, int *got)
 			       "(before its kids line)", m->ac_name);
 	if (m->ac_depth > 0) {
 		const struct vd_ac_frame *f = &m->ac_stack[m->ac_depth - 1];
-		return vd_fail(VD_ERR_TRUNCATED, "file ends after %" PRIu64
-			       " of the %" PRIu64 " kids of object '%s'",
-			       f->kids - f->kids_left, f->kids, f->name);
+		if (!m->ac_torcs)
+			return vd_fail(VD_ERR_TRUNCATED, "file ends after %"
+				       PRIu64 " of the %" PRIu64 " kids of "
+				       "object '%s'", f->kids - f->kids_left,
+				       f->kids, f->name);
+		/* TORCS's track generator declares more kids than it writes
+		 * (22 of its 25 tracks), and TORCS reads to the end of the
+		 * file: so do we, saying so once (every pass reads it) */
+		if (!m->ac_warned_kids) {
+			m->ac_warned_kids = 1;
+			vd_mesh_warn(m, "the file ends after %" PRIu64 " of the %"
+				     PRIu64 " kids of object '%s', between two "
+				     "objects: read as complete, as TORCS does "
+				     "with its .acc files (a file cut there "
+				     "would look the same)",
+				     f->kids - f->kids_left, f->kids, f->name);
+		}
 	}
 	if (!m->ac_seen_object)
 		return vd_fail(VD_ERR_TRUNCATED, "AC3D file without any OBJECT "
@@ -2635,12 +2651,19 @@ static int vd_ac_next(struct vd_mesh *m, int *got)
 	}
 }
 
+static int vd_has_ext(const char *path, const char *ext)
+{
+	size_t n = strlen(path), e = strlen(ext);
+	return n > e && !strcasecmp(path + n - e, ext);
+}
+
 /* The detection saw "AC3D"; the rest of the first line is the version. */
-static int vd_ac_open(struct vd_mesh *m)
+static int vd_ac_open(struct vd_mesh *m, const char *path)
 {
 	char *s;
 	size_t len;
 	m->kind = MESH_AC3D;
+	m->ac_torcs = vd_has_ext(path, ".acc");
 	int e = vd_rd_line(&m->r, &s, &len, 0);
 	if (e < 0)
 		return -e;
@@ -2650,12 +2673,6 @@ static int vd_ac_open(struct vd_mesh *m)
 }
 
 /* ------------------------------------------------------------- detection */
-
-static int vd_has_ext(const char *path, const char *ext)
-{
-	size_t n = strlen(path), e = strlen(ext);
-	return n > e && !strcasecmp(path + n - e, ext);
-}
 
 /* Text as far as we can tell: no NUL or control bytes but whitespace.
  * Bytes >= 0x80 pass so that UTF-8 names and comments are fine. */
@@ -2744,7 +2761,7 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 	    (hn == 3 || head[3] == '\n' || head[3] == '\r'))
 		return vd_ply_open(m);
 	if (hn >= 4 && !memcmp(head, "AC3D", 4))
-		return vd_ac_open(m);
+		return vd_ac_open(m, path);
 
 	if (m->file_bytes >= 84 &&
 	    84 + 50 * vd_ld(head + 80, 4, 0) == m->file_bytes) {
@@ -2814,6 +2831,9 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		free(m);
 		return vd_fail(VD_ERR_NOMEM, "mesh reader");
 	}
+	/* warnings are said with or without colours */
+	m->col.warn = o->warn;
+	m->col.warn_ctx = o->warn_ctx;
 	if (o->colours) {
 		m->col_on = 1;
 		m->col = *o;

@@ -1,9 +1,16 @@
 /* texture.c - texture images for coloured meshes: decoding (libpng,
- * libjpeg-turbo, stb_image for the rest) and the sampling rule.
+ * libjpeg-turbo, SGI here, stb_image for the rest) and the sampling rule.
  *
  * Decisions worth knowing:
  * - The format is told by the first bytes, never the name: exporters often
  *   name a JPEG .png.
+ * - SGI images (.rgb, .rgba, .bw: FlightGear's and TORCS's older textures)
+ *   are decoded here: no Debian library that reads them is maintained
+ *   (FreeImage and DevIL are dead upstream; ImageMagick is far too large
+ *   for one simple format), and the format is a 512-byte header and
+ *   planar rows, verbatim or run-length encoded. Every read is checked
+ *   against the file's size, every write against the row; the tests
+ *   compare it with netpbm's sgitopnm, and it is fuzzed (fuzz_texture).
  * - Texels are kept as RGB8 (alpha dropped, unpremultiplied): a voxel's
  *   colour is the surface's albedo; transparency is not a colour.
  * - Sampling is bilinear with repeat wrapping, v = 0 at the bottom row
@@ -39,6 +46,32 @@ static int tex_size_ok(uint64_t w, uint64_t h, const char *path)
 			       "%d per side)", path, (unsigned long long)w,
 			       (unsigned long long)h, TEX_MAX_SIDE);
 	return VD_OK;
+}
+
+/* The formats decoded here and by stb_image read past a file's end as if
+ * it went on (stb gives zeros), so a 45-byte TGA whose header claims
+ * 24456x24288 texels made us allocate 3.5 GB (found by fuzz_texture).
+ * Their compression (RLE, LZW) expands a byte into at most a few hundred
+ * texels, so more than MAX_EXPANSION bytes of RGB per byte of file is a
+ * corrupt header, said before anything is allocated. (libpng and libjpeg
+ * stop at the end of the data themselves.) */
+#define MAX_EXPANSION 1024
+
+static int tex_expansion_ok(uint64_t w, uint64_t h, uint64_t file_bytes,
+			    const char *path)
+{
+	if (w * h * 3 <= MAX_EXPANSION * file_bytes)
+		return VD_OK;
+	return vd_fail(VD_ERR_FORMAT, "'%s' claims %llux%llu texels in %llu "
+		       "bytes: a corrupt header", path, (unsigned long long)w,
+		       (unsigned long long)h, (unsigned long long)file_bytes);
+}
+
+static uint64_t file_size(FILE *f)
+{
+	struct stat st;
+	return fstat(fileno(f), &st) == 0 && st.st_size > 0 ?
+		       (uint64_t)st.st_size : 0;
 }
 
 static int load_png(struct vd_texture *t, const char *path)
@@ -153,6 +186,9 @@ static int load_stb(struct vd_texture *t, const char *path, FILE *f)
 		return vd_fail(VD_ERR_FORMAT, "'%s': not an image stb_image "
 			       "reads (%s)", path, stbi_failure_reason());
 	int err = tex_size_ok((uint64_t)w, (uint64_t)h, path);
+	if (!err)
+		err = tex_expansion_ok((uint64_t)w, (uint64_t)h, file_size(f),
+				       path);
 	if (err)
 		return err;
 	uint8_t *p = stbi_load_from_file(f, &w, &h, &n, 3);
@@ -172,6 +208,171 @@ static int load_stb(struct vd_texture *t, const char *path, FILE *f)
 	t->width = (uint32_t)w;
 	t->height = (uint32_t)h;
 	return VD_OK;
+}
+
+/* SGI image (Haeberli's format): a 512-byte big-endian header, then the
+ * channels one after another, each as rows bottom to top; verbatim, or
+ * run-length encoded with a table of each row's offset and length. 8 or
+ * 16 bits per channel (16 keeps its high byte); 1 channel is grey, 2 grey
+ * and alpha, 3 RGB, 4 RGBA. Colour-mapped images (obsolete) are refused. */
+#define SGI_HEADER 512
+
+static uint32_t be16(const uint8_t *p)
+{
+	return (uint32_t)p[0] << 8 | p[1];
+}
+
+static uint32_t be32(const uint8_t *p)
+{
+	return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 |
+	       (uint32_t)p[2] << 8 | p[3];
+}
+
+/* One row of one channel into out[0..w) (8-bit values). Returns 0, or -1
+ * when the row runs past `end` or does not hold exactly w values. */
+static int sgi_row(const uint8_t *in, const uint8_t *end, int rle, int bpc,
+		   uint32_t w, uint8_t *out)
+{
+	if (!rle) {
+		if ((size_t)(end - in) < (size_t)w * (size_t)bpc)
+			return -1;
+		for (uint32_t x = 0; x < w; x++)
+			out[x] = in[(size_t)x * (size_t)bpc];
+		return 0;
+	}
+	uint32_t x = 0;
+	for (;;) {
+		if (end - in < bpc)
+			return -1;
+		uint32_t c = bpc == 1 ? in[0] : be16(in);
+		in += bpc;
+		uint32_t n = c & 0x7f;
+		if (n == 0)
+			return x == w ? 0 : -1;
+		if (n > w - x)
+			return -1;
+		if (c & 0x80) { /* n literal values */
+			if ((size_t)(end - in) < (size_t)n * (size_t)bpc)
+				return -1;
+			for (uint32_t i = 0; i < n; i++, in += bpc)
+				out[x++] = in[0];
+		} else { /* one value n times */
+			if (end - in < bpc)
+				return -1;
+			memset(out + x, in[0], n);
+			x += n;
+			in += bpc;
+		}
+	}
+}
+
+static int load_sgi(struct vd_texture *t, const char *path, FILE *f)
+{
+	struct stat st;
+	if (fstat(fileno(f), &st) != 0)
+		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
+			       strerror(errno));
+	if (st.st_size < SGI_HEADER)
+		return vd_fail(VD_ERR_FORMAT, "'%s': SGI image cut inside its "
+			       "header (%lld bytes)", path,
+			       (long long)st.st_size);
+	/* a texture is at most TEX_MAX_SIDE^2 texels of 4 channels of 16
+	 * bits, and RLE at most doubles that: anything larger is corrupt */
+	if ((uint64_t)st.st_size > 8ull * TEX_MAX_SIDE * TEX_MAX_SIDE * 4 +
+					SGI_HEADER)
+		return vd_fail(VD_ERR_FORMAT, "'%s': %lld bytes is too large "
+			       "for an SGI image", path, (long long)st.st_size);
+	size_t size = (size_t)st.st_size;
+	uint8_t *b = malloc(size);
+	if (!b)
+		return vd_fail(VD_ERR_NOMEM, "texture '%s'", path);
+	rewind(f);
+	int err = VD_OK;
+	if (fread(b, 1, size, f) != size) {
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
+		goto out;
+	}
+	int rle = b[2], bpc = b[3];
+	uint32_t dim = be16(b + 4), w = be16(b + 6), h = be16(b + 8),
+		 zs = be16(b + 10), cmap = be32(b + 104);
+	/* a 1-dimensional image is one row of one channel */
+	if (dim == 1)
+		h = zs = 1;
+	else if (dim == 2)
+		zs = 1;
+	if (rle > 1 || (bpc != 1 && bpc != 2) || dim < 1 || dim > 3 ||
+	    zs < 1 || zs > 4) {
+		err = vd_fail(VD_ERR_FORMAT, "'%s': not a valid SGI image "
+			      "(storage %d, %d bytes per channel, dimension "
+			      "%u, %u channels)", path, rle, bpc, dim, zs);
+		goto out;
+	}
+	if (cmap != 0) {
+		err = vd_fail(VD_ERR_UNSUPPORTED, "'%s' is a colour-mapped SGI "
+			      "image (colormap %u), which is not supported",
+			      path, cmap);
+		goto out;
+	}
+	if ((err = tex_size_ok(w, h, path)) ||
+	    (err = tex_expansion_ok(w, h, size, path)))
+		goto out;
+	const uint8_t *end = b + size;
+	const uint8_t *tab = b + SGI_HEADER;
+	size_t rows = (size_t)h * zs;
+	if (rle ? (size_t)(end - tab) / 8 < rows :
+		  (size_t)(end - tab) / w / (size_t)bpc < rows) {
+		err = vd_fail(VD_ERR_FORMAT, "'%s': SGI image cut inside its "
+			      "%s", path, rle ? "row tables" : "rows");
+		goto out;
+	}
+	uint8_t *plane = malloc((size_t)w * h * zs);
+	t->rgb = malloc((size_t)w * h * 3);
+	if (!plane || !t->rgb) {
+		free(plane);
+		err = vd_fail(VD_ERR_NOMEM, "texture '%s'", path);
+		goto out;
+	}
+	for (size_t r = 0; r < rows && !err; r++) {
+		const uint8_t *in;
+		const uint8_t *stop = end;
+		if (rle) {
+			uint32_t off = be32(tab + 4 * r);
+			uint32_t len = be32(tab + 4 * rows + 4 * r);
+			if (off < SGI_HEADER || off > size || len > size - off) {
+				err = -1;
+				break;
+			}
+			in = b + off;
+			stop = in + len;
+		} else { /* every row is in the file (checked above) */
+			in = b + SGI_HEADER + (size_t)w * (size_t)bpc * r;
+		}
+		if (sgi_row(in, stop, rle, bpc, w, plane + (size_t)w * r))
+			err = -1;
+	}
+	if (err) {
+		free(plane);
+		err = vd_fail(VD_ERR_FORMAT, "'%s': SGI image with a row cut or "
+			      "longer than %u pixels", path, w);
+		goto out;
+	}
+	/* channel c's row y (from the bottom) is plane row c*h + y; our row
+	 * j is from the top */
+	for (uint32_t j = 0; j < h; j++) {
+		size_t y = h - 1 - j;
+		uint8_t *o = t->rgb + (size_t)j * w * 3;
+		for (uint32_t x = 0; x < w; x++)
+			for (int c = 0; c < 3; c++) {
+				uint32_t z = zs >= 3 ? (uint32_t)c : 0;
+				o[3 * x + c] = plane[((size_t)z * h + y) * w + x];
+			}
+	}
+	free(plane);
+	t->width = w;
+	t->height = h;
+out:
+	free(b);
+	return err;
 }
 
 int vd_texture_load(struct vd_texture *t, const char *path)
@@ -202,8 +403,7 @@ int vd_texture_load(struct vd_texture *t, const char *path)
 		rewind(f);
 		err = load_jpeg(t, path, f);
 	} else if (got >= 2 && m[0] == 0x01 && m[1] == 0xda) {
-		err = vd_fail(VD_ERR_UNSUPPORTED, "'%s' is an SGI image, which "
-			      "is not supported (convert it to PNG)", path);
+		err = load_sgi(t, path, f);
 	} else {
 		rewind(f);
 		err = load_stb(t, path, f);
