@@ -86,51 +86,73 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 	vd_rgb565_decode(c0, a);
 	vd_rgb565_decode(c1, b);
 	int m = (1 << wb) - 1;
-	/* the 2^W decoded colours of this block's line */
-	uint8_t pal[256][3];
+	/* the 2^W decoded colours of this block's line at [1..m+1], by
+	 * channel; [0] and [m+2] far outside the cube, so the neighbours of
+	 * the first and last weight never win and need no test */
+	int pr[258], pg[258], pb[258];
 	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
 	 * divides by a constant (a multiplication), other widths by m */
 	if (m == 7)
-		for (int k = 0; k <= 7; k++)
-			for (int c = 0; c < 3; c++)
-				pal[k][c] = (uint8_t)((a[c] * (7 - k) + b[c] * k + 3) / 7);
+		for (int k = 0; k <= 7; k++) {
+			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
+			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
+			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
+		}
 	else
-		for (int k = 0; k <= m; k++)
-			for (int c = 0; c < 3; c++)
-				pal[k][c] = (uint8_t)((a[c] * (m - k) + b[c] * k + m / 2) / m);
+		for (int k = 0; k <= m; k++) {
+			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
+			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
+			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
+		}
+	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
 	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
 	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
 	/* the rounded projection is only where the search starts (it and
 	 * its neighbours are judged exactly), so a float product will do */
 	float inv = len2 ? (float)m / (float)len2 : 0.f;
 	uint64_t s = 0;
-	for (uint32_t i = 0; i < n; i++) {
-		const uint8_t *x = rgb + 3 * (size_t)i;
-		int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
-			  (x[2] - a[2]) * d[2];
-		int k0 = (int)((float)dot * inv + 0.5f);
-		k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
-		unsigned best = vd_rgb_dist2(x, pal[k0]);
-		int bk = k0;
-		if (k0 > 0) {
-			unsigned e = vd_rgb_dist2(x, pal[k0 - 1]);
-			if (e < best || (e == best && k0 - 1 < bk)) {
-				best = e;
+	/* Branch-free over runs of colours, the limit tested once a run: a
+	 * colour outside fails the block wherever it is, and the weights of a
+	 * failed check are not used. Of the three weights the least error
+	 * wins, ties to the lower weight. */
+	enum { RUN = 32 };
+	uint8_t wrun[RUN];
+	for (uint32_t i0 = 0; i0 < n; i0 += RUN) {
+		uint32_t len = n - i0 < RUN ? n - i0 : RUN;
+		const uint8_t *x = rgb + 3 * (size_t)i0;
+		unsigned worst = 0, rs = 0;
+		uint8_t *wo = w ? w + i0 : wrun;
+		for (uint32_t i = 0; i < len; i++, x += 3) {
+			int r = x[0], g = x[1], bl = x[2];
+			int dot = (r - a[0]) * d[0] + (g - a[1]) * d[1] +
+				  (bl - a[2]) * d[2];
+			int k0 = (int)((float)dot * inv + 0.5f);
+			k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
+			int e0r = r - pr[k0 + 1], e0g = g - pg[k0 + 1],
+			    e0b = bl - pb[k0 + 1];
+			int elr = r - pr[k0], elg = g - pg[k0], elb = bl - pb[k0];
+			int ehr = r - pr[k0 + 2], ehg = g - pg[k0 + 2],
+			    ehb = bl - pb[k0 + 2];
+			unsigned e0 = (unsigned)(e0r * e0r + e0g * e0g + e0b * e0b);
+			unsigned el = (unsigned)(elr * elr + elg * elg + elb * elb);
+			unsigned eh = (unsigned)(ehr * ehr + ehg * ehg + ehb * ehb);
+			unsigned best = e0;
+			int bk = k0;
+			if (el <= best) {
+				best = el;
 				bk = k0 - 1;
 			}
-		}
-		if (k0 < m) {
-			unsigned e = vd_rgb_dist2(x, pal[k0 + 1]);
-			if (e < best) {
-				best = e;
+			if (eh < best) {
+				best = eh;
 				bk = k0 + 1;
 			}
+			worst = best > worst ? best : worst;
+			rs += best;
+			wo[i] = (uint8_t)bk;
 		}
-		if (best > limit)
+		if (worst > limit)
 			return 0;
-		s += best;
-		if (w)
-			w[i] = (uint8_t)bk;
+		s += rs;
 	}
 	*sse = s;
 	return 1;
@@ -156,8 +178,11 @@ static pthread_once_t near_once = PTHREAD_ONCE_INIT;
 /* The least-squares fit's weights q / m and their products, row m + q as
  * in near_tab: the same doubles the fit would compute per colour, without
  * a division per colour. */
+typedef double v2d __attribute__((vector_size(16)));
 struct lsw {
-	double sa, sb, aa, ab, bb;
+	v2d s;       /* 1 - q/m, q/m */
+	v2d q;       /* their products aa, ab */
+	double bb;
 };
 static struct lsw ls_tab[511];
 
@@ -166,11 +191,10 @@ static void near_init(void)
 	for (int m = 1; m < 256; m = 2 * m + 1)
 		for (int q = 0; q <= m; q++) {
 			struct lsw *e = &ls_tab[m + q];
-			e->sb = (double)q / m;
-			e->sa = 1 - e->sb;
-			e->aa = e->sa * e->sa;
-			e->ab = e->sa * e->sb;
-			e->bb = e->sb * e->sb;
+			double sb = (double)q / m, sa = 1 - sb;
+			e->s = (v2d){sa, sb};
+			e->q = (v2d){sa * sa, sa * sb};
+			e->bb = sb * sb;
 		}
 	for (int wb = 1; wb <= 8; wb++) {
 		int m = (1 << wb) - 1;
@@ -382,23 +406,24 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	int m = (1 << weight_bits) - 1;
 	if (tmax - tmin > 1e-9) {
 		double sc = m / (tmax - tmin);
-		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
-		       rb[3] = {0, 0, 0};
+		/* two sums a lane (a's, b's), each lane the same operations
+		 * in the same order as one scalar sum: the same bits */
+		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
+		double bb = 0;
 		pthread_once(&near_once, near_init);
 		const struct lsw *lw = ls_tab + m;
 		for (uint32_t i = 0; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
 			int q = (int)((t[i] - tmin) * sc + 0.5);
 			const struct lsw *e = lw + (q > m ? m : q);
-			double sa = e->sa, sb = e->sb;
-			aa += e->aa;
-			ab += e->ab;
+			r0 += e->s * (double)x[0];
+			r1 += e->s * (double)x[1];
+			r2 += e->s * (double)x[2];
+			qab += e->q;
 			bb += e->bb;
-			for (int k = 0; k < 3; k++) {
-				ra[k] += sa * x[k];
-				rb[k] += sb * x[k];
-			}
 		}
+		double aa = qab[0], ab = qab[1];
+		double ra[3] = {r0[0], r1[0], r2[0]}, rb[3] = {r0[1], r1[1], r2[1]};
 		double det = aa * bb - ab * ab;
 		if (fabs(det) > 1e-9)
 			for (int k = 0; k < 3; k++) {
