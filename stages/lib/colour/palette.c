@@ -371,10 +371,28 @@ static unsigned width_of(uint32_t colours)
 	return w;
 }
 
-static int cmp_u32(const void *a, const void *b)
+/* Sorts v[0..n) ascending (LSD radix, 8 bits a pass, only the passes the
+ * largest value needs); tmp holds n. */
+static void radix_sort(uint32_t *v, uint32_t n, uint32_t *tmp)
 {
-	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-	return (x > y) - (x < y);
+	uint32_t hi = 0;
+	for (uint32_t i = 0; i < n; i++)
+		hi |= v[i];
+	uint32_t *src = v, *dst = tmp;
+	for (int sh = 0; sh < 32 && (hi >> sh); sh += 8) {
+		uint32_t cnt[257] = {0};
+		for (uint32_t i = 0; i < n; i++)
+			cnt[(src[i] >> sh & 255) + 1]++;
+		for (int k = 0; k < 256; k++)
+			cnt[k + 1] += cnt[k];
+		for (uint32_t i = 0; i < n; i++)
+			dst[cnt[src[i] >> sh & 255]++] = src[i];
+		uint32_t *t = src;
+		src = dst;
+		dst = t;
+	}
+	if (src != v)
+		memcpy(v, src, n * sizeof *v);
 }
 
 int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
@@ -391,10 +409,14 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 	/* a small open hash set of the block's global indices */
 	uint32_t hcap = 4096;
 	uint32_t *hset = malloc(hcap * sizeof *hset);
+	uint32_t *hrank = malloc(hcap * sizeof *hrank);
+	uint32_t *tmp = malloc(hcap * sizeof *tmp);
 	if (!gi || !s->offsets || !s->start || !s->pal_first || !s->pal ||
-	    !hset) {
+	    !hset || !hrank || !tmp) {
 		free(gi);
 		free(hset);
+		free(hrank);
+		free(tmp);
 		vd_palette_segment_release(s);
 		return vd_fail(VD_ERR_NOMEM, "palette blocks of %u colours", n);
 	}
@@ -434,37 +456,34 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 			if (w >= best || j + 1 - best_end >= LOOKAHEAD)
 				break;
 		}
-		/* the block [i, best_end): its sorted set and offsets */
+		/* the block [i, best_end): its sorted set and offsets. Its
+		 * distinct indices by the hash set again (at most d of them),
+		 * sorted by radix, each slot then holding its value's rank */
 		s->start[nblk] = i;
 		s->pal_first[nblk] = npal;
 		uint32_t first = npal;
+		memset(hset, 0xff, hcap * sizeof *hset);
 		for (uint32_t j = i; j < best_end; j++) {
-			/* small sets by a linear check; larger ones collect
-			 * duplicates and are deduplicated by the sort below */
-			uint32_t v = gi[j];
-			int seen = 0;
-			if (npal - first < 64)
-				for (uint32_t q = first; q < npal && !seen; q++)
-					seen = s->pal[q] == v;
-			if (!seen)
+			uint32_t v = gi[j], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != UINT32_MAX && hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			if (hset[h] == UINT32_MAX) {
+				hset[h] = v;
 				s->pal[npal++] = v;
-		}
-		qsort(s->pal + first, npal - first, sizeof *s->pal, cmp_u32);
-		uint32_t u = first;
-		for (uint32_t q = first; q < npal; q++)
-			if (q == first || s->pal[q] != s->pal[u - 1])
-				s->pal[u++] = s->pal[q];
-		npal = u;
-		for (uint32_t j = i; j < best_end; j++) {
-			uint32_t lo = first, hi = npal; /* binary search */
-			while (hi - lo > 1) {
-				uint32_t mid = lo + (hi - lo) / 2;
-				if (s->pal[mid] <= gi[j])
-					lo = mid;
-				else
-					hi = mid;
 			}
-			s->offsets[j] = lo - first;
+		}
+		radix_sort(s->pal + first, npal - first, tmp);
+		for (uint32_t q = first; q < npal; q++) {
+			uint32_t v = s->pal[q], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			hrank[h] = q - first;
+		}
+		for (uint32_t j = i; j < best_end; j++) {
+			uint32_t v = gi[j], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			s->offsets[j] = hrank[h];
 		}
 		nblk++;
 		i = best_end;
@@ -473,6 +492,8 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 	s->pal_first[nblk] = npal;
 	free(gi);
 	free(hset);
+	free(hrank);
+	free(tmp);
 	return VD_OK;
 }
 
