@@ -488,8 +488,13 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
 		if (l < 1e-12)
 			break;
+		double nx[3] = {y[0] / l, y[1] / l, y[2] / l};
+		/* a step that changes nothing is a fixed point: the steps
+		 * left would repeat it bit for bit */
+		if (nx[0] == ax[0] && nx[1] == ax[1] && nx[2] == ax[2])
+			break;
 		for (int k = 0; k < 3; k++)
-			ax[k] = y[k] / l;
+			ax[k] = nx[k];
 	}
 	double tmin = 1e30, tmax = -1e30;
 	for (uint32_t i = 0; i < n; i++) {
