@@ -66,9 +66,9 @@ static uint32_t grid_cell(const struct grid *t, const uint8_t *x)
 
 static int grid_init(struct grid *t, const uint8_t *rgb, uint32_t n)
 {
-	/* about one palette colour per cell: g = 2^round(log2(n) / 3) */
+	/* about one palette colour per cell or fewer: g^3 >= n */
 	int lg = 0;
-	while (lg < 8 && (1ull << (3 * lg + 2)) < n)
+	while (lg < 8 && (1ull << (3 * lg)) < n)
 		lg++;
 	t->g = 1 << lg;
 	t->shift = 8 - lg;
