@@ -42,33 +42,45 @@ static const uint8_t dec6[64] = {E6x4(0), E6x4(4), E6x4(8), E6x4(12),
 				 E6x4(32), E6x4(36), E6x4(40), E6x4(44),
 				 E6x4(48), E6x4(52), E6x4(56), E6x4(60)};
 
-/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]: the
- * rounded scaled value or a neighbour, ties to the lower level. (v >= 0,
- * so the cast is the floor.) */
+/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255], ties to
+ * the lower level: the number of midpoints between consecutive decoded
+ * levels that lie below v. The midpoints are multiples of 1/2, so with
+ * j = floor(2v) that is the count of those below j/2 plus one when a
+ * midpoint sits at j/2 and v is above it: two tables by j. (It replaced a
+ * search of the rounded scaled value and its neighbours, which finds the
+ * same level: checked against it on every multiple of 1/4096 in [0, 255]
+ * and the doubles next to every multiple of 1/2.) */
+static uint8_t lvl_below[2][511], lvl_at[2][511];
+static pthread_once_t lvl_once = PTHREAD_ONCE_INIT;
+
+static void lvl_init(void)
+{
+	for (int kind = 0; kind < 2; kind++) {
+		int top = kind ? 63 : 31;
+		const uint8_t *dec = kind ? dec6 : dec5;
+		for (int j = 0; j < 511; j++)
+			for (int c = 0; c < top; c++) {
+				int mid2 = dec[c] + dec[c + 1]; /* twice the midpoint */
+				lvl_below[kind][j] += mid2 < j;
+				lvl_at[kind][j] |= mid2 == j;
+			}
+	}
+}
+
 static inline unsigned nearest_level(double v, int bits)
 {
-	int top = (1 << bits) - 1;
-	const uint8_t *dec = bits == 5 ? dec5 : dec6;
-	int k = (int)(v * top / 255.0 + 0.5);
-	int best = 0;
-	double bd = 1e30;
-	for (int c = k - 1; c <= k + 1; c++) {
-		if (c < 0 || c > top)
-			continue;
-		double d = fabs(dec[c] - v);
-		if (d < bd) {
-			bd = d;
-			best = c;
-		}
-	}
-	return (unsigned)best;
+	int kind = bits == 6;
+	double v2 = 2 * v;
+	int j = (int)v2;
+	return lvl_below[kind][j] + (lvl_at[kind][j] && v2 > j);
 }
 
 static uint16_t to565(const double c[3])
 {
+	pthread_once(&lvl_once, lvl_init);
 	double v[3];
 	for (int k = 0; k < 3; k++)
-		v[k] = c[k] < 0 ? 0 : c[k] > 255 ? 255 : c[k];
+		v[k] = c[k] > 255 ? 255 : c[k] >= 0 ? c[k] : 0; /* NaN: 0 */
 	return (uint16_t)(nearest_level(v[0], 5) << 11 |
 			  nearest_level(v[1], 6) << 5 |
 			  nearest_level(v[2], 5));
