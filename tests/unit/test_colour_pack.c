@@ -285,6 +285,48 @@ static void test_palette_k(void)
 	}
 }
 
+/* The global palette's map against the brute-force nearest colour
+ * (vd_palette_nearest: least squared distance, ties to the lower index),
+ * index for index, over every colour the histogram saw: clustered and
+ * spread colours, palettes from sparse (256) to dense (16K), where the
+ * search visits few or many cells. */
+static void test_palette_map_exact(void)
+{
+	static const uint32_t ks[] = {256, 2048, 16384};
+	uint64_t r = 99;
+	uint32_t n = 60000;
+	uint8_t *rgb = malloc(3 * (size_t)n);
+	CHECK(rgb != NULL);
+	for (uint32_t i = 0; i < n; i++) {
+		r ^= r << 13, r ^= r >> 7, r ^= r << 17;
+		/* half in a few tight clusters (ties and near ties), half
+		 * anywhere in the cube */
+		int spread = i % 2 ? 256 : 12;
+		for (int k = 0; k < 3; k++) {
+			unsigned base = i % 2 ? 0 : (unsigned)(i / 2 % 7) * 36;
+			rgb[3 * i + k] = (uint8_t)(base + (r >> (8 * k + 5)) % spread);
+		}
+	}
+	for (int t = 0; t < 3; t++) {
+		struct vd_colour_hist h;
+		CHECK_EQ(vd_colour_hist_init(&h), VD_OK);
+		vd_colour_hist_add(&h, rgb, n);
+		struct vd_palette pal;
+		CHECK_EQ(vd_palette_build(&pal, &h, ks[t], 0, 1), VD_OK);
+		CHECK(!pal.lossless);
+		uint32_t bad = 0;
+		for (uint32_t i = 0; i < n; i++) {
+			const uint8_t *x = rgb + 3 * i;
+			uint32_t c = (uint32_t)x[0] << 16 | (uint32_t)x[1] << 8 | x[2];
+			bad += pal.index[c] != vd_palette_nearest(&pal, x);
+		}
+		CHECK_EQ(bad, 0);
+		vd_palette_release(&pal);
+		vd_colour_hist_release(&h);
+	}
+	free(rgb);
+}
+
 static void test_raw(void)
 {
 	struct vd_cpack_params p = {.method = VD_CPACK_RAW, .zstd_level = 3};
@@ -440,6 +482,7 @@ int main(void)
 	RUN(test_cells_independent);
 	RUN(test_palette_lossless);
 	RUN(test_palette_k);
+	RUN(test_palette_map_exact);
 	RUN(test_raw);
 	RUN(test_damaged);
 	RUN(test_inconsistent);

@@ -67,11 +67,32 @@ static uint32_t get_bits(const uint8_t *b, uint64_t pos, unsigned width)
 	return (uint32_t)(v >> sh) & (uint32_t)((1ull << width) - 1);
 }
 
-static void put_bits(uint8_t *b, uint64_t pos, unsigned width, uint32_t v)
+/* Writes values LSB first into consecutive bits of a zeroed buffer, a
+ * byte at a time (the bytes a bit-by-bit writer makes). */
+struct bitw {
+	uint8_t *b;
+	size_t at;       /* next byte */
+	uint64_t acc;    /* bits not yet written, below 8 + 32 */
+	unsigned n;
+};
+
+static void bitw_put(struct bitw *o, unsigned width, uint32_t v)
 {
-	for (unsigned k = 0; k < width; k++, pos++)
-		if (v >> k & 1)
-			b[pos >> 3] |= (uint8_t)(1u << (pos & 7));
+	o->acc |= (uint64_t)v << o->n;
+	o->n += width;
+	while (o->n >= 8) {
+		o->b[o->at++] = (uint8_t)o->acc;
+		o->acc >>= 8;
+		o->n -= 8;
+	}
+}
+
+static void bitw_flush(struct bitw *o)
+{
+	if (o->n)
+		o->b[o->at++] = (uint8_t)o->acc;
+	o->acc = 0;
+	o->n = 0;
 }
 
 /* ------------------------------------------------------------------ writer */
@@ -362,6 +383,7 @@ static int put_pal(struct vd_cpack_writer *w,
 		return err;
 	memset(w->scratch, 0, nb + 1);
 	uint64_t pos = 0;
+	struct bitw bw = {.b = w->scratch};
 	for (uint32_t b = 0; b < s->count && !err; b++) {
 		uint32_t cnt = s->pal_first[b + 1] - s->pal_first[b], id;
 		err = palset_find(&w->ps, s->pal + s->pal_first[b], cnt, &id);
@@ -375,8 +397,9 @@ static int put_pal(struct vd_cpack_writer *w,
 		unsigned width = width_of(cnt);
 		uint32_t end = b + 1 < s->count ? s->start[b + 1] : s->n;
 		for (uint32_t i = s->start[b]; i < end; i++, pos += width)
-			put_bits(w->scratch, pos, width, s->offsets[i]);
+			bitw_put(&bw, width, s->offsets[i]);
 	}
+	bitw_flush(&bw);
 	if (!err)
 		err = vd_chunk_writer_write(w->cw, w->scratch, nb);
 	w->blocks += s->count;

@@ -40,114 +40,113 @@ void vd_colour_hist_release(struct vd_colour_hist *h)
 	memset(h, 0, sizeof *h);
 }
 
-/* ------------------------------------------------- nearest-colour k-d tree
- * Exact nearest search over the palette: a balanced tree in an array
- * (node i's children 2i+1, 2i+2 over sorted sub-ranges). */
-struct kd {
-	uint32_t n;
-	uint32_t *idx;   /* palette indices in tree order */
-	uint8_t *axis;
+/* --------------------------------------------- nearest-colour search grid
+ * Exact nearest search over the palette (least squared distance, ties to
+ * the lower index, as vd_palette_nearest): the RGB cube cut into g^3 cells
+ * of side 256/g, the palette's entries listed per cell, and the cells
+ * visited in shells of growing Chebyshev distance around the query's own
+ * cell. A colour in a cell r shells out differs from the query by at least
+ * (r-1) s + 1 in one channel, so the search stops at the first shell whose
+ * bound exceeds the best distance found (strictly: an equal distance may
+ * still be a lower index). It replaced a k-d tree whose searches took 90%
+ * of colorize's time at 16K colours. */
+struct grid {
+	int shift, g;          /* cell of channel v: v >> shift; g = 256 >> shift */
+	uint32_t *first;       /* g^3 + 1 offsets into idx */
+	uint32_t *idx;         /* palette indices, by cell, ascending within */
 	const uint8_t *rgb;
 };
 
-static const uint8_t *kd_rgb;
-static int kd_axis;
-
-static int cmp_axis(const void *a, const void *b)
+static uint32_t grid_cell(const struct grid *t, const uint8_t *x)
 {
-	uint32_t i = *(const uint32_t *)a, j = *(const uint32_t *)b;
-	int d = kd_rgb[3 * i + kd_axis] - kd_rgb[3 * j + kd_axis];
-	return d ? d : (i > j) - (i < j);
+	int sh = t->shift, g = t->g;
+	return ((uint32_t)(x[0] >> sh) * (uint32_t)g + (uint32_t)(x[1] >> sh)) *
+		       (uint32_t)g + (uint32_t)(x[2] >> sh);
 }
 
-/* Builds the implicit tree: the range [lo, hi) becomes the subtree whose
- * root is the median element; stored in order (an in-order layout, so the
- * root of [lo, hi) is at mid). */
-static void kd_build(struct kd *t, uint32_t lo, uint32_t hi)
+static int grid_init(struct grid *t, const uint8_t *rgb, uint32_t n)
 {
-	if (hi - lo <= 1) {
-		if (hi > lo)
-			t->axis[lo] = 0;
-		return;
+	/* about one palette colour per cell or fewer: g^3 >= n */
+	int lg = 0;
+	while (lg < 8 && (1ull << (3 * lg)) < n)
+		lg++;
+	t->g = 1 << lg;
+	t->shift = 8 - lg;
+	t->rgb = rgb;
+	size_t cells = (size_t)t->g * t->g * t->g;
+	t->first = calloc(cells + 1, sizeof *t->first);
+	t->idx = malloc(((size_t)n + 1) * sizeof *t->idx);
+	if (!t->first || !t->idx) {
+		free(t->first);
+		free(t->idx);
+		return vd_fail(VD_ERR_NOMEM, "palette search grid");
 	}
-	int lmin[3] = {255, 255, 255}, lmax[3] = {0, 0, 0};
-	for (uint32_t i = lo; i < hi; i++)
-		for (int k = 0; k < 3; k++) {
-			int v = t->rgb[3 * t->idx[i] + k];
-			if (v < lmin[k])
-				lmin[k] = v;
-			if (v > lmax[k])
-				lmax[k] = v;
-		}
-	int ax = 0;
-	for (int k = 1; k < 3; k++)
-		if (lmax[k] - lmin[k] > lmax[ax] - lmin[ax])
-			ax = k;
-	kd_rgb = t->rgb;
-	kd_axis = ax;
-	qsort(t->idx + lo, hi - lo, sizeof *t->idx, cmp_axis);
-	uint32_t mid = lo + (hi - lo) / 2;
-	t->axis[mid] = (uint8_t)ax;
-	kd_build(t, lo, mid);
-	kd_build(t, mid + 1, hi);
+	for (uint32_t i = 0; i < n; i++)
+		t->first[grid_cell(t, rgb + 3 * (size_t)i) + 1]++;
+	for (size_t c = 0; c < cells; c++)
+		t->first[c + 1] += t->first[c];
+	for (uint32_t i = 0; i < n; i++) {
+		uint32_t c = grid_cell(t, rgb + 3 * (size_t)i);
+		/* first[c] runs ahead while filling, restored below */
+		t->idx[t->first[c]++] = i;
+	}
+	for (size_t c = cells; c > 0; c--)
+		t->first[c] = t->first[c - 1];
+	t->first[0] = 0;
+	return VD_OK;
 }
 
-static void kd_search(const struct kd *t, uint32_t lo, uint32_t hi,
+static void grid_scan(const struct grid *t, int cx, int cy, int cz,
 		      const uint8_t *x, unsigned *best, uint32_t *bi)
 {
-	while (hi > lo) {
-		uint32_t mid = lo + (hi - lo) / 2;
-		uint32_t p = t->idx[mid];
-		unsigned d = vd_rgb_dist2(x, t->rgb + 3 * p);
+	int g = t->g;
+	if (cx < 0 || cy < 0 || cz < 0 || cx >= g || cy >= g || cz >= g)
+		return;
+	size_t c = ((size_t)cx * g + (size_t)cy) * g + (size_t)cz;
+	for (uint32_t j = t->first[c]; j < t->first[c + 1]; j++) {
+		uint32_t p = t->idx[j];
+		unsigned d = vd_rgb_dist2(x, t->rgb + 3 * (size_t)p);
 		if (d < *best || (d == *best && p < *bi)) {
 			*best = d;
 			*bi = p;
 		}
-		int ax = t->axis[mid];
-		int diff = x[ax] - t->rgb[3 * p + ax];
-		/* the near side first; the far side only if the splitting
-		 * plane is within the best distance (<=: ties by index) */
-		if (diff < 0) {
-			if ((unsigned)(diff * diff) <= *best)
-				kd_search(t, mid + 1, hi, x, best, bi);
-			hi = mid;
-		} else {
-			if ((unsigned)(diff * diff) <= *best)
-				kd_search(t, lo, mid, x, best, bi);
-			lo = mid + 1;
-		}
 	}
 }
 
-static uint32_t kd_nearest(const struct kd *t, const uint8_t *x)
+static uint32_t grid_nearest(const struct grid *t, const uint8_t *x)
 {
 	unsigned best = UINT32_MAX;
 	uint32_t bi = UINT32_MAX;
-	kd_search(t, 0, t->n, x, &best, &bi);
+	int sh = t->shift, s = 1 << sh, g = t->g;
+	int cx = x[0] >> sh, cy = x[1] >> sh, cz = x[2] >> sh;
+	for (int r = 0; r < g; r++) {
+		if (r > 0) {
+			unsigned lb = (unsigned)((r - 1) * s + 1);
+			if (lb * lb > best)
+				break;
+		}
+		for (int dx = -r; dx <= r; dx++)
+			for (int dy = -r; dy <= r; dy++) {
+				if (dx == -r || dx == r || dy == -r || dy == r)
+					for (int dz = -r; dz <= r; dz++)
+						grid_scan(t, cx + dx, cy + dy, cz + dz,
+							  x, &best, &bi);
+				else {
+					grid_scan(t, cx + dx, cy + dy, cz - r, x,
+						  &best, &bi);
+					if (r)
+						grid_scan(t, cx + dx, cy + dy, cz + r,
+							  x, &best, &bi);
+				}
+			}
+	}
 	return bi;
 }
 
-static int kd_init(struct kd *t, const uint8_t *rgb, uint32_t n)
+static void grid_free(struct grid *t)
 {
-	t->n = n;
-	t->rgb = rgb;
-	t->idx = malloc(((size_t)n + 1) * sizeof *t->idx);
-	t->axis = malloc((size_t)n + 1);
-	if (!t->idx || !t->axis) {
-		free(t->idx);
-		free(t->axis);
-		return vd_fail(VD_ERR_NOMEM, "palette search tree");
-	}
-	for (uint32_t i = 0; i < n; i++)
-		t->idx[i] = i;
-	kd_build(t, 0, n);
-	return VD_OK;
-}
-
-static void kd_free(struct kd *t)
-{
+	free(t->first);
 	free(t->idx);
-	free(t->axis);
 }
 
 /* ------------------------------------------------------------ median cut */
@@ -289,19 +288,19 @@ int vd_palette_build(struct vd_palette *p, struct vd_colour_hist *h,
 	}
 	p->k = nb;
 	for (int it = 0; it < 4; it++) {
-		struct kd t;
-		if ((err = kd_init(&t, p->rgb, p->k)))
+		struct grid t;
+		if ((err = grid_init(&t, p->rgb, p->k)))
 			goto out;
 		memset(acc, 0, (size_t)k * 4 * sizeof *acc);
 		for (uint64_t i = 0; i < d; i++) {
 			uint8_t x[3] = {(uint8_t)(e[i].c >> 16),
 					(uint8_t)(e[i].c >> 8), (uint8_t)e[i].c};
-			uint32_t q = kd_nearest(&t, x);
+			uint32_t q = grid_nearest(&t, x);
 			for (int c = 0; c < 3; c++)
 				acc[4 * q + c] += (double)x[c] * e[i].w;
 			acc[4 * q + 3] += e[i].w;
 		}
-		kd_free(&t);
+		grid_free(&t);
 		for (uint32_t i = 0; i < p->k; i++)
 			if (acc[4 * i + 3] > 0)
 				for (int c = 0; c < 3; c++)
@@ -310,15 +309,15 @@ int vd_palette_build(struct vd_palette *p, struct vd_colour_hist *h,
 	}
 	/* the map of every colour seen to its nearest palette colour */
 	{
-		struct kd t;
-		if ((err = kd_init(&t, p->rgb, p->k)))
+		struct grid t;
+		if ((err = grid_init(&t, p->rgb, p->k)))
 			goto out;
 		for (uint64_t i = 0; i < d; i++) {
 			uint8_t x[3] = {(uint8_t)(e[i].c >> 16),
 					(uint8_t)(e[i].c >> 8), (uint8_t)e[i].c};
-			h->count[e[i].c] = kd_nearest(&t, x);
+			h->count[e[i].c] = grid_nearest(&t, x);
 		}
-		kd_free(&t);
+		grid_free(&t);
 	}
 	p->index = h->count;
 	h->count = NULL;
@@ -372,10 +371,28 @@ static unsigned width_of(uint32_t colours)
 	return w;
 }
 
-static int cmp_u32(const void *a, const void *b)
+/* Sorts v[0..n) ascending (LSD radix, 8 bits a pass, only the passes the
+ * largest value needs); tmp holds n. */
+static void radix_sort(uint32_t *v, uint32_t n, uint32_t *tmp)
 {
-	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-	return (x > y) - (x < y);
+	uint32_t hi = 0;
+	for (uint32_t i = 0; i < n; i++)
+		hi |= v[i];
+	uint32_t *src = v, *dst = tmp;
+	for (int sh = 0; sh < 32 && (hi >> sh); sh += 8) {
+		uint32_t cnt[257] = {0};
+		for (uint32_t i = 0; i < n; i++)
+			cnt[(src[i] >> sh & 255) + 1]++;
+		for (int k = 0; k < 256; k++)
+			cnt[k + 1] += cnt[k];
+		for (uint32_t i = 0; i < n; i++)
+			dst[cnt[src[i] >> sh & 255]++] = src[i];
+		uint32_t *t = src;
+		src = dst;
+		dst = t;
+	}
+	if (src != v)
+		memcpy(v, src, n * sizeof *v);
 }
 
 int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
@@ -392,10 +409,14 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 	/* a small open hash set of the block's global indices */
 	uint32_t hcap = 4096;
 	uint32_t *hset = malloc(hcap * sizeof *hset);
+	uint32_t *hrank = malloc(hcap * sizeof *hrank);
+	uint32_t *tmp = malloc(hcap * sizeof *tmp);
 	if (!gi || !s->offsets || !s->start || !s->pal_first || !s->pal ||
-	    !hset) {
+	    !hset || !hrank || !tmp) {
 		free(gi);
 		free(hset);
+		free(hrank);
+		free(tmp);
 		vd_palette_segment_release(s);
 		return vd_fail(VD_ERR_NOMEM, "palette blocks of %u colours", n);
 	}
@@ -435,37 +456,34 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 			if (w >= best || j + 1 - best_end >= LOOKAHEAD)
 				break;
 		}
-		/* the block [i, best_end): its sorted set and offsets */
+		/* the block [i, best_end): its sorted set and offsets. Its
+		 * distinct indices by the hash set again (at most d of them),
+		 * sorted by radix, each slot then holding its value's rank */
 		s->start[nblk] = i;
 		s->pal_first[nblk] = npal;
 		uint32_t first = npal;
+		memset(hset, 0xff, hcap * sizeof *hset);
 		for (uint32_t j = i; j < best_end; j++) {
-			/* small sets by a linear check; larger ones collect
-			 * duplicates and are deduplicated by the sort below */
-			uint32_t v = gi[j];
-			int seen = 0;
-			if (npal - first < 64)
-				for (uint32_t q = first; q < npal && !seen; q++)
-					seen = s->pal[q] == v;
-			if (!seen)
+			uint32_t v = gi[j], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != UINT32_MAX && hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			if (hset[h] == UINT32_MAX) {
+				hset[h] = v;
 				s->pal[npal++] = v;
-		}
-		qsort(s->pal + first, npal - first, sizeof *s->pal, cmp_u32);
-		uint32_t u = first;
-		for (uint32_t q = first; q < npal; q++)
-			if (q == first || s->pal[q] != s->pal[u - 1])
-				s->pal[u++] = s->pal[q];
-		npal = u;
-		for (uint32_t j = i; j < best_end; j++) {
-			uint32_t lo = first, hi = npal; /* binary search */
-			while (hi - lo > 1) {
-				uint32_t mid = lo + (hi - lo) / 2;
-				if (s->pal[mid] <= gi[j])
-					lo = mid;
-				else
-					hi = mid;
 			}
-			s->offsets[j] = lo - first;
+		}
+		radix_sort(s->pal + first, npal - first, tmp);
+		for (uint32_t q = first; q < npal; q++) {
+			uint32_t v = s->pal[q], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			hrank[h] = q - first;
+		}
+		for (uint32_t j = i; j < best_end; j++) {
+			uint32_t v = gi[j], h = (v * 2654435761u) & (hcap - 1);
+			while (hset[h] != v)
+				h = (h + 1) & (hcap - 1);
+			s->offsets[j] = hrank[h];
 		}
 		nblk++;
 		i = best_end;
@@ -474,6 +492,8 @@ int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
 	s->pal_first[nblk] = npal;
 	free(gi);
 	free(hset);
+	free(hrank);
+	free(tmp);
 	return VD_OK;
 }
 

@@ -42,37 +42,147 @@ static const uint8_t dec6[64] = {E6x4(0), E6x4(4), E6x4(8), E6x4(12),
 				 E6x4(32), E6x4(36), E6x4(40), E6x4(44),
 				 E6x4(48), E6x4(52), E6x4(56), E6x4(60)};
 
-/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]: the
- * rounded scaled value or a neighbour, ties to the lower level. (v >= 0,
- * so the cast is the floor.) */
+/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255], ties to
+ * the lower level: the number of midpoints between consecutive decoded
+ * levels that lie below v. The midpoints are multiples of 1/2, so with
+ * j = floor(2v) that is the count of those below j/2 plus one when a
+ * midpoint sits at j/2 and v is above it: two tables by j. (It replaced a
+ * search of the rounded scaled value and its neighbours, which finds the
+ * same level: checked against it on every multiple of 1/4096 in [0, 255]
+ * and the doubles next to every multiple of 1/2.) */
+static uint8_t lvl_below[2][511], lvl_at[2][511];
+static pthread_once_t lvl_once = PTHREAD_ONCE_INIT;
+
+static void lvl_init(void)
+{
+	for (int kind = 0; kind < 2; kind++) {
+		int top = kind ? 63 : 31;
+		const uint8_t *dec = kind ? dec6 : dec5;
+		for (int j = 0; j < 511; j++)
+			for (int c = 0; c < top; c++) {
+				int mid2 = dec[c] + dec[c + 1]; /* twice the midpoint */
+				lvl_below[kind][j] += mid2 < j;
+				lvl_at[kind][j] |= mid2 == j;
+			}
+	}
+}
+
 static inline unsigned nearest_level(double v, int bits)
 {
-	int top = (1 << bits) - 1;
-	const uint8_t *dec = bits == 5 ? dec5 : dec6;
-	int k = (int)(v * top / 255.0 + 0.5);
-	int best = 0;
-	double bd = 1e30;
-	for (int c = k - 1; c <= k + 1; c++) {
-		if (c < 0 || c > top)
-			continue;
-		double d = fabs(dec[c] - v);
-		if (d < bd) {
-			bd = d;
-			best = c;
-		}
-	}
-	return (unsigned)best;
+	int kind = bits == 6;
+	double v2 = 2 * v;
+	int j = (int)v2;
+	return lvl_below[kind][j] + (lvl_at[kind][j] && v2 > j);
 }
 
 static uint16_t to565(const double c[3])
 {
+	pthread_once(&lvl_once, lvl_init);
 	double v[3];
 	for (int k = 0; k < 3; k++)
-		v[k] = c[k] < 0 ? 0 : c[k] > 255 ? 255 : c[k];
+		v[k] = c[k] > 255 ? 255 : c[k] >= 0 ? c[k] : 0; /* NaN: 0 */
 	return (uint16_t)(nearest_level(v[0], 5) << 11 |
 			  nearest_level(v[1], 6) << 5 |
 			  nearest_level(v[2], 5));
 }
+
+/* Eight lanes of an AVX2 register, on x86-64 CPUs that have it (checked
+ * at run time; elsewhere the scalar loop does all). No FMA: C11 mode keeps
+ * a*b+c two roundings, so the lanes give the scalar loop's bits. */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define VBR_LANES 8
+#define LANES VBR_LANES
+typedef float vf __attribute__((vector_size(4 * LANES)));
+typedef int32_t vi __attribute__((vector_size(4 * LANES)));
+
+/* check_endpoints' rule LANES colours at a time (rgb[0..n), n a multiple
+ * of LANES), in float lanes where every value is an exact integer: the
+ * dot product and squared distances stay below 2^24, the rounded
+ * projection is the same float product as the scalar one, and a decoded
+ * level (A + D k + m/2) div m is the truncation of (A + D k + m/2 + 1/2) / m
+ * computed with a float 1/m (the result lies at least 1/(2m) from the
+ * next integer, the float error below 2^-14). Adds to *sse; 0 when a
+ * colour is outside the limit. */
+__attribute__((target("avx2")))
+static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
+		       int m, const uint8_t a[3], const int d[3], float inv,
+		       uint8_t *w, uint64_t *sse)
+{
+	const vf zf = {0};
+	const vi zi = {0};
+	const float invm = 1.0f / (float)m;
+	/* level numerators at k: A_c + D_c k, with m/2 + 1/2 folded in */
+	vf A[3], D[3], ac[3];
+	for (int c = 0; c < 3; c++) {
+		A[c] = zf + ((float)(a[c] * m + m / 2) + 0.5f);
+		D[c] = zf + (float)d[c];
+		ac[c] = zf + (float)a[c];
+	}
+	const vi vm = zi + m;
+	const vf vlim = zf + (float)limit, vbig = zf + 1e9f;
+	uint64_t s = 0;
+	for (uint32_t i0 = 0; i0 < n; i0 += 4 * LANES) {
+		uint32_t end = n - i0 < 4 * LANES ? n : i0 + 4 * LANES;
+		vi fail = zi, acc = zi;
+		for (uint32_t i = i0; i < end; i += LANES) {
+			const uint8_t *x = rgb + 3 * (size_t)i;
+			vf X[3];
+			for (int c = 0; c < 3; c++)
+				for (int l = 0; l < LANES; l++)
+					X[c][l] = x[3 * l + c];
+			vf dot = (X[0] - ac[0]) * D[0] + (X[1] - ac[1]) * D[1] +
+				 (X[2] - ac[2]) * D[2];
+			vi k0 = __builtin_convertvector(dot * inv + 0.5f, vi);
+			k0 &= ~(k0 < zi);
+			vi over = k0 > vm;
+			k0 = (k0 & ~over) | (vm & over);
+			vf kf = __builtin_convertvector(k0, vf);
+			vf e0 = zf, el = zf, eh = zf;
+			for (int c = 0; c < 3; c++) {
+				vf num = A[c] + D[c] * kf;
+				vf p0 = __builtin_convertvector(
+					__builtin_convertvector(num * invm, vi), vf);
+				vf pl = __builtin_convertvector(
+					__builtin_convertvector((num - D[c]) * invm, vi),
+					vf);
+				vf ph = __builtin_convertvector(
+					__builtin_convertvector((num + D[c]) * invm, vi),
+					vf);
+				vf q0 = X[c] - p0, ql = X[c] - pl, qh = X[c] - ph;
+				e0 += q0 * q0;
+				el += ql * ql;
+				eh += qh * qh;
+			}
+			/* no weight below 0 or above m */
+			vi lo = k0 == zi, hi = k0 == vm;
+			el = (vf)(((vi)el & ~lo) | ((vi)vbig & lo));
+			eh = (vf)(((vi)eh & ~hi) | ((vi)vbig & hi));
+			/* ties to the lower weight */
+			vi tl = el <= e0;
+			vf best = (vf)(((vi)el & tl) | ((vi)e0 & ~tl));
+			vi bk = k0 + tl; /* tl is -1 where true */
+			vi th = eh < best;
+			best = (vf)(((vi)eh & th) | ((vi)best & ~th));
+			bk = (bk & ~th) | ((k0 + 1) & th);
+			fail |= best > vlim;
+			acc += __builtin_convertvector(best, vi);
+			if (w)
+				for (int l = 0; l < LANES; l++)
+					w[i + (uint32_t)l] = (uint8_t)bk[l];
+		}
+		uint32_t f = 0, t = 0;
+		for (int l = 0; l < LANES; l++) {
+			f |= (uint32_t)fail[l];
+			t += (uint32_t)acc[l];
+		}
+		if (f)
+			return 0;
+		s += t;
+	}
+	*sse += s;
+	return 1;
+}
+#endif
 
 /* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
  * colour (rounded projection and its neighbours, judged by the exact
@@ -86,51 +196,81 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 	vd_rgb565_decode(c0, a);
 	vd_rgb565_decode(c1, b);
 	int m = (1 << wb) - 1;
-	/* the 2^W decoded colours of this block's line */
-	uint8_t pal[256][3];
+	/* the 2^W decoded colours of this block's line at [1..m+1], by
+	 * channel; [0] and [m+2] far outside the cube, so the neighbours of
+	 * the first and last weight never win and need no test */
+	int pr[258], pg[258], pb[258];
 	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
 	 * divides by a constant (a multiplication), other widths by m */
 	if (m == 7)
-		for (int k = 0; k <= 7; k++)
-			for (int c = 0; c < 3; c++)
-				pal[k][c] = (uint8_t)((a[c] * (7 - k) + b[c] * k + 3) / 7);
+		for (int k = 0; k <= 7; k++) {
+			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
+			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
+			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
+		}
 	else
-		for (int k = 0; k <= m; k++)
-			for (int c = 0; c < 3; c++)
-				pal[k][c] = (uint8_t)((a[c] * (m - k) + b[c] * k + m / 2) / m);
+		for (int k = 0; k <= m; k++) {
+			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
+			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
+			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
+		}
+	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
 	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
 	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
 	/* the rounded projection is only where the search starts (it and
 	 * its neighbours are judged exactly), so a float product will do */
 	float inv = len2 ? (float)m / (float)len2 : 0.f;
 	uint64_t s = 0;
-	for (uint32_t i = 0; i < n; i++) {
-		const uint8_t *x = rgb + 3 * (size_t)i;
-		int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
-			  (x[2] - a[2]) * d[2];
-		int k0 = (int)((float)dot * inv + 0.5f);
-		k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
-		unsigned best = vd_rgb_dist2(x, pal[k0]);
-		int bk = k0;
-		if (k0 > 0) {
-			unsigned e = vd_rgb_dist2(x, pal[k0 - 1]);
-			if (e < best || (e == best && k0 - 1 < bk)) {
-				best = e;
+	/* Branch-free over runs of colours, the limit tested once a run: a
+	 * colour outside fails the block wherever it is, and the weights of a
+	 * failed check are not used. Of the three weights the least error
+	 * wins, ties to the lower weight. */
+	uint32_t n4 = 0;
+#ifdef VBR_LANES
+	if (__builtin_cpu_supports("avx2")) {
+		n4 = n & ~(uint32_t)(VBR_LANES - 1);
+		if (n4 && !check_lanes(rgb, n4, limit, m, a, d, inv, w, &s))
+			return 0;
+	}
+#endif
+	enum { RUN = 32 };
+	uint8_t wrun[RUN];
+	for (uint32_t i0 = n4; i0 < n; i0 += RUN) {
+		uint32_t len = n - i0 < RUN ? n - i0 : RUN;
+		const uint8_t *x = rgb + 3 * (size_t)i0;
+		unsigned worst = 0, rs = 0;
+		uint8_t *wo = w ? w + i0 : wrun;
+		for (uint32_t i = 0; i < len; i++, x += 3) {
+			int r = x[0], g = x[1], bl = x[2];
+			int dot = (r - a[0]) * d[0] + (g - a[1]) * d[1] +
+				  (bl - a[2]) * d[2];
+			int k0 = (int)((float)dot * inv + 0.5f);
+			k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
+			int e0r = r - pr[k0 + 1], e0g = g - pg[k0 + 1],
+			    e0b = bl - pb[k0 + 1];
+			int elr = r - pr[k0], elg = g - pg[k0], elb = bl - pb[k0];
+			int ehr = r - pr[k0 + 2], ehg = g - pg[k0 + 2],
+			    ehb = bl - pb[k0 + 2];
+			unsigned e0 = (unsigned)(e0r * e0r + e0g * e0g + e0b * e0b);
+			unsigned el = (unsigned)(elr * elr + elg * elg + elb * elb);
+			unsigned eh = (unsigned)(ehr * ehr + ehg * ehg + ehb * ehb);
+			unsigned best = e0;
+			int bk = k0;
+			if (el <= best) {
+				best = el;
 				bk = k0 - 1;
 			}
-		}
-		if (k0 < m) {
-			unsigned e = vd_rgb_dist2(x, pal[k0 + 1]);
-			if (e < best) {
-				best = e;
+			if (eh < best) {
+				best = eh;
 				bk = k0 + 1;
 			}
+			worst = best > worst ? best : worst;
+			rs += best;
+			wo[i] = (uint8_t)bk;
 		}
-		if (best > limit)
+		if (worst > limit)
 			return 0;
-		s += best;
-		if (w)
-			w[i] = (uint8_t)bk;
+		s += rs;
 	}
 	*sse = s;
 	return 1;
@@ -156,8 +296,11 @@ static pthread_once_t near_once = PTHREAD_ONCE_INIT;
 /* The least-squares fit's weights q / m and their products, row m + q as
  * in near_tab: the same doubles the fit would compute per colour, without
  * a division per colour. */
+typedef double v2d __attribute__((vector_size(16)));
 struct lsw {
-	double sa, sb, aa, ab, bb;
+	v2d s;       /* 1 - q/m, q/m */
+	v2d q;       /* their products aa, ab */
+	double bb;
 };
 static struct lsw ls_tab[511];
 
@@ -166,11 +309,10 @@ static void near_init(void)
 	for (int m = 1; m < 256; m = 2 * m + 1)
 		for (int q = 0; q <= m; q++) {
 			struct lsw *e = &ls_tab[m + q];
-			e->sb = (double)q / m;
-			e->sa = 1 - e->sb;
-			e->aa = e->sa * e->sa;
-			e->ab = e->sa * e->sb;
-			e->bb = e->sb * e->sb;
+			double sb = (double)q / m, sa = 1 - sb;
+			e->s = (v2d){sa, sb};
+			e->q = (v2d){sa * sa, sa * sb};
+			e->bb = sb * sb;
 		}
 	for (int wb = 1; wb <= 8; wb++) {
 		int m = (1 << wb) - 1;
@@ -339,12 +481,16 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * sum than the principal axis, whose sum is trace - lambda_max. So
 	 * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
 	 * every colour within the limit. The margins keep it sound against
-	 * rounding in the eigenvalue. */
-	double tr = cov[0] + cov[3] + cov[5];
-	double resid = tr - lambda_max(cov);
-	double reach = sqrt((double)limit) + 0.8661;
-	if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
-		return 0;
+	 * rounding in the eigenvalue. Being sound it changes no answer, only
+	 * the time: on a few colours reading them costs less than the
+	 * eigenvalue (its acos and cos), so small blocks go without. */
+	if (n >= 32) {
+		double tr = cov[0] + cov[3] + cov[5];
+		double resid = tr - lambda_max(cov);
+		double reach = sqrt((double)limit) + 0.8661;
+		if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
+			return 0;
+	}
 	/* principal axis by power iteration from the widest channel */
 	double ax[3] = {0, 0, 0};
 	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
@@ -358,8 +504,13 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
 		if (l < 1e-12)
 			break;
+		double nx[3] = {y[0] / l, y[1] / l, y[2] / l};
+		/* a step that changes nothing is a fixed point: the steps
+		 * left would repeat it bit for bit */
+		if (nx[0] == ax[0] && nx[1] == ax[1] && nx[2] == ax[2])
+			break;
 		for (int k = 0; k < 3; k++)
-			ax[k] = y[k] / l;
+			ax[k] = nx[k];
 	}
 	double tmin = 1e30, tmax = -1e30;
 	for (uint32_t i = 0; i < n; i++) {
@@ -382,23 +533,24 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	int m = (1 << weight_bits) - 1;
 	if (tmax - tmin > 1e-9) {
 		double sc = m / (tmax - tmin);
-		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
-		       rb[3] = {0, 0, 0};
+		/* two sums a lane (a's, b's), each lane the same operations
+		 * in the same order as one scalar sum: the same bits */
+		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
+		double bb = 0;
 		pthread_once(&near_once, near_init);
 		const struct lsw *lw = ls_tab + m;
 		for (uint32_t i = 0; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
 			int q = (int)((t[i] - tmin) * sc + 0.5);
 			const struct lsw *e = lw + (q > m ? m : q);
-			double sa = e->sa, sb = e->sb;
-			aa += e->aa;
-			ab += e->ab;
+			r0 += e->s * (double)x[0];
+			r1 += e->s * (double)x[1];
+			r2 += e->s * (double)x[2];
+			qab += e->q;
 			bb += e->bb;
-			for (int k = 0; k < 3; k++) {
-				ra[k] += sa * x[k];
-				rb[k] += sb * x[k];
-			}
 		}
+		double aa = qab[0], ab = qab[1];
+		double ra[3] = {r0[0], r1[0], r2[0]}, rb[3] = {r0[1], r1[1], r2[1]};
 		double det = aa * bb - ab * ab;
 		if (fabs(det) > 1e-9)
 			for (int k = 0; k < 3; k++) {

@@ -1,0 +1,801 @@
+/* test_colour_vbr_ref.c - the variable-bitrate encoder (vbr.c) against
+ * the straightforward implementation it was optimised from, kept here
+ * verbatim as the independent reference (from commit d897819: the fit
+ * with its per-colour checks exiting at the first colour outside, scalar
+ * least-squares sums, Algorithm 1's passes). The fast paths must give the
+ * same blocks, endpoints, weights, SSE and passes bit for bit: on random
+ * arrays, on real-ish ones and on a real voxelized textured scene, over
+ * every weight width and the paper's thresholds. */
+#include "check.h"
+#include "voxdag.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------- the reference (verbatim) */
+/* Decoded 8-bit values of the 5- and 6-bit levels (bit replication). */
+#define E5(c) ((c) << 3 | (c) >> 2)
+#define E6(c) ((c) << 2 | (c) >> 4)
+#define E5x4(c) E5(c), E5((c) + 1), E5((c) + 2), E5((c) + 3)
+#define E6x4(c) E6(c), E6((c) + 1), E6((c) + 2), E6((c) + 3)
+static const uint8_t dec5[32] = {E5x4(0), E5x4(4), E5x4(8), E5x4(12),
+				 E5x4(16), E5x4(20), E5x4(24), E5x4(28)};
+static const uint8_t dec6[64] = {E6x4(0), E6x4(4), E6x4(8), E6x4(12),
+				 E6x4(16), E6x4(20), E6x4(24), E6x4(28),
+				 E6x4(32), E6x4(36), E6x4(40), E6x4(44),
+				 E6x4(48), E6x4(52), E6x4(56), E6x4(60)};
+
+/* Nearest 5- or 6-bit level (by decoded value) to v in [0, 255]: the
+ * rounded scaled value or a neighbour, ties to the lower level. (v >= 0,
+ * so the cast is the floor.) */
+static inline unsigned nearest_level(double v, int bits)
+{
+	int top = (1 << bits) - 1;
+	const uint8_t *dec = bits == 5 ? dec5 : dec6;
+	int k = (int)(v * top / 255.0 + 0.5);
+	int best = 0;
+	double bd = 1e30;
+	for (int c = k - 1; c <= k + 1; c++) {
+		if (c < 0 || c > top)
+			continue;
+		double d = fabs(dec[c] - v);
+		if (d < bd) {
+			bd = d;
+			best = c;
+		}
+	}
+	return (unsigned)best;
+}
+
+static uint16_t to565(const double c[3])
+{
+	double v[3];
+	for (int k = 0; k < 3; k++)
+		v[k] = c[k] < 0 ? 0 : c[k] > 255 ? 255 : c[k];
+	return (uint16_t)(nearest_level(v[0], 5) << 11 |
+			  nearest_level(v[1], 6) << 5 |
+			  nearest_level(v[2], 5));
+}
+
+/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
+ * colour (rounded projection and its neighbours, judged by the exact
+ * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 at the
+ * first colour outside. */
+static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
+			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
+			   uint64_t *sse)
+{
+	uint8_t a[3], b[3];
+	vd_rgb565_decode(c0, a);
+	vd_rgb565_decode(c1, b);
+	int m = (1 << wb) - 1;
+	/* the 2^W decoded colours of this block's line */
+	uint8_t pal[256][3];
+	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
+	 * divides by a constant (a multiplication), other widths by m */
+	if (m == 7)
+		for (int k = 0; k <= 7; k++)
+			for (int c = 0; c < 3; c++)
+				pal[k][c] = (uint8_t)((a[c] * (7 - k) + b[c] * k + 3) / 7);
+	else
+		for (int k = 0; k <= m; k++)
+			for (int c = 0; c < 3; c++)
+				pal[k][c] = (uint8_t)((a[c] * (m - k) + b[c] * k + m / 2) / m);
+	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+	/* the rounded projection is only where the search starts (it and
+	 * its neighbours are judged exactly), so a float product will do */
+	float inv = len2 ? (float)m / (float)len2 : 0.f;
+	uint64_t s = 0;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		int dot = (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1] +
+			  (x[2] - a[2]) * d[2];
+		int k0 = (int)((float)dot * inv + 0.5f);
+		k0 = k0 < 0 ? 0 : k0 > m ? m : k0;
+		unsigned best = vd_rgb_dist2(x, pal[k0]);
+		int bk = k0;
+		if (k0 > 0) {
+			unsigned e = vd_rgb_dist2(x, pal[k0 - 1]);
+			if (e < best || (e == best && k0 - 1 < bk)) {
+				best = e;
+				bk = k0 - 1;
+			}
+		}
+		if (k0 < m) {
+			unsigned e = vd_rgb_dist2(x, pal[k0 + 1]);
+			if (e < best) {
+				best = e;
+				bk = k0 + 1;
+			}
+		}
+		if (best > limit)
+			return 0;
+		s += best;
+		if (w)
+			w[i] = (uint8_t)bk;
+	}
+	*sse = s;
+	return 1;
+}
+
+/* A block of one colour x. With the weight w fixed the three channels are
+ * independent (each its own endpoint levels), so per channel and w the
+ * levels (a, b) whose interpolation decodes nearest x_k are a table, and
+ * the best (c0, c1, w) is the w of least summed squared error. Storing the
+ * nearest RGB565 instead (w = 0) kept its whole rounding error, up to
+ * 6.1/255 and 8.2 in GMSE units on average, on every flat material colour,
+ * though two endpoints and a weight decode 98.5% of all 8-bit colours
+ * exactly at W = 3. Tables for every weight width, built once: row m + w
+ * (m = 2^W - 1, so the widths 1..8 use the disjoint rows 1..510); kind 0
+ * the 5-bit channels, 1 the 6-bit one. Ties: the lower w, the decoded value
+ * below x, the first (a, b) in a-major order. */
+struct near1 {
+	uint8_t a, b, err;
+};
+static struct near1 near_tab[511][2][256];
+static pthread_once_t near_once = PTHREAD_ONCE_INIT;
+
+/* The least-squares fit's weights q / m and their products, row m + q as
+ * in near_tab: the same doubles the fit would compute per colour, without
+ * a division per colour. */
+struct lsw {
+	double sa, sb, aa, ab, bb;
+};
+static struct lsw ls_tab[511];
+
+static void near_init(void)
+{
+	for (int m = 1; m < 256; m = 2 * m + 1)
+		for (int q = 0; q <= m; q++) {
+			struct lsw *e = &ls_tab[m + q];
+			e->sb = (double)q / m;
+			e->sa = 1 - e->sb;
+			e->aa = e->sa * e->sa;
+			e->ab = e->sa * e->sb;
+			e->bb = e->sb * e->sb;
+		}
+	for (int wb = 1; wb <= 8; wb++) {
+		int m = (1 << wb) - 1;
+		for (int kind = 0; kind < 2; kind++) {
+			int bits = kind ? 6 : 5, L = 1 << bits;
+			for (int w = 0; w <= m; w++) {
+				int16_t ha[256], hb[256];
+				for (int v = 0; v < 256; v++)
+					ha[v] = hb[v] = -1;
+				for (int a = 0; a < L; a++)
+					for (int b = 0; b < L; b++) {
+						int ea = bits == 5 ? (a << 3 | a >> 2)
+								   : (a << 2 | a >> 4);
+						int eb = bits == 5 ? (b << 3 | b >> 2)
+								   : (b << 2 | b >> 4);
+						int v = (ea * (m - w) + eb * w + m / 2) / m;
+						if (ha[v] < 0) {
+							ha[v] = (int16_t)a;
+							hb[v] = (int16_t)b;
+						}
+					}
+				struct near1 *t = near_tab[m + w][kind];
+				for (int x = 0; x < 256; x++)
+					for (int d = 0; d < 256; d++) {
+						int v = x - d >= 0 && ha[x - d] >= 0 ? x - d
+							: x + d < 256 && ha[x + d] >= 0 ? x + d
+											: -1;
+						if (v < 0)
+							continue;
+						t[x].a = (uint8_t)ha[v];
+						t[x].b = (uint8_t)hb[v];
+						t[x].err = (uint8_t)d;
+						break;
+					}
+			}
+		}
+	}
+}
+
+static int fit_flat(const uint8_t *x, unsigned limit, int wb, uint16_t *c0,
+		    uint16_t *c1, uint8_t *wt, uint64_t *sse)
+{
+	pthread_once(&near_once, near_init);
+	int m = (1 << wb) - 1, bw = 0;
+	unsigned best = UINT32_MAX;
+	for (int w = 0; w <= m; w++) {
+		const struct near1 *r = &near_tab[m + w][0][x[0]],
+				   *g = &near_tab[m + w][1][x[1]],
+				   *b = &near_tab[m + w][0][x[2]];
+		unsigned d = (unsigned)(r->err * r->err + g->err * g->err +
+					b->err * b->err);
+		if (d < best) {
+			best = d;
+			bw = w;
+		}
+	}
+	if (best > limit)
+		return 0;
+	const struct near1 *r = &near_tab[m + bw][0][x[0]],
+			   *g = &near_tab[m + bw][1][x[1]],
+			   *b = &near_tab[m + bw][0][x[2]];
+	*c0 = (uint16_t)(r->a << 11 | g->a << 5 | b->a);
+	*c1 = (uint16_t)(r->b << 11 | g->b << 5 | b->b);
+	*wt = (uint8_t)bw;
+	*sse = best;
+	return 1;
+}
+
+/* Sums of a block's colours and of their products, exact integers, so the
+ * moments of a merged block are the sum of its parts' (O(1) per merge)
+ * and every path computes the same fit bit for bit. */
+struct mom {
+	uint64_t n, s[3], q[6]; /* q: rr rg rb gg gb bb */
+};
+
+static void mom_of(struct mom *m, const uint8_t *rgb, uint32_t n)
+{
+	memset(m, 0, sizeof *m);
+	m->n = n;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		unsigned r = x[0], g = x[1], b = x[2];
+		m->s[0] += r;
+		m->s[1] += g;
+		m->s[2] += b;
+		m->q[0] += r * r;
+		m->q[1] += r * g;
+		m->q[2] += r * b;
+		m->q[3] += g * g;
+		m->q[4] += g * b;
+		m->q[5] += b * b;
+	}
+}
+
+static void mom_add(struct mom *a, const struct mom *b)
+{
+	a->n += b->n;
+	for (int k = 0; k < 3; k++)
+		a->s[k] += b->s[k];
+	for (int k = 0; k < 6; k++)
+		a->q[k] += b->q[k];
+}
+
+/* Largest eigenvalue of the symmetric 3x3 matrix c (closed form,
+ * Smith 1961), for the bound below. */
+static double lambda_max(const double c[6])
+{
+	double p1 = c[1] * c[1] + c[2] * c[2] + c[4] * c[4];
+	double tr = c[0] + c[3] + c[5];
+	if (p1 < 1e-30)
+		return fmax(c[0], fmax(c[3], c[5]));
+	double q = tr / 3;
+	double a = c[0] - q, d = c[3] - q, f = c[5] - q;
+	double p2 = a * a + d * d + f * f + 2 * p1;
+	double p = sqrt(p2 / 6);
+	/* det((C - qI) / p) / 2 */
+	double b0 = a / p, b1 = c[1] / p, b2 = c[2] / p, b3 = d / p,
+	       b4 = c[4] / p, b5 = f / p;
+	double det = b0 * (b3 * b5 - b4 * b4) - b1 * (b1 * b5 - b4 * b2) +
+		     b2 * (b1 * b4 - b3 * b2);
+	double r = det / 2;
+	double phi = r <= -1 ? M_PI / 3 : r >= 1 ? 0 : acos(r) / 3;
+	return q + 2 * p * cos(phi);
+}
+
+/* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
+ * doubles. */
+static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
+		 int weight_bits, const struct mom *mo, double *t,
+		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
+{
+	if (n == 0) {
+		*c0 = *c1 = 0;
+		*sse = 0;
+		return 1;
+	}
+	double mu[3], cov[6];
+	for (int k = 0; k < 3; k++)
+		mu[k] = (double)mo->s[k] / n;
+	static const int ix[6][2] = {{0, 0}, {0, 1}, {0, 2},
+				     {1, 1}, {1, 2}, {2, 2}};
+	/* n q - s s' is exact in 64 bits (n <= 2^20, s <= 2^28, q <= 2^36) */
+	int64_t num[6];
+	for (int k = 0; k < 6; k++) {
+		num[k] = (int64_t)(n * mo->q[k]) -
+			 (int64_t)(mo->s[ix[k][0]] * mo->s[ix[k][1]]);
+		cov[k] = (double)num[k] / n;
+	}
+	uint64_t s;
+	uint16_t a, b;
+	if (num[0] + num[3] + num[5] == 0) {
+		/* one colour: the endpoints and weight nearest it */
+		uint8_t wv;
+		if (!fit_flat(rgb, limit, weight_bits, &a, &b, &wv, &s))
+			return 0;
+		if (w)
+			memset(w, wv, n);
+		*c0 = a;
+		*c1 = b;
+		*sse = s * n;
+		return 1;
+	}
+	/* A bound that rejects without reading the colours: every decoded
+	 * colour lies within sqrt(3)/2 (the rounding) of the line through
+	 * its endpoints, and no line is nearer the colours in the squared
+	 * sum than the principal axis, whose sum is trace - lambda_max. So
+	 * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
+	 * every colour within the limit. The margins keep it sound against
+	 * rounding in the eigenvalue. */
+	double tr = cov[0] + cov[3] + cov[5];
+	double resid = tr - lambda_max(cov);
+	double reach = sqrt((double)limit) + 0.8661;
+	if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
+		return 0;
+	/* principal axis by power iteration from the widest channel */
+	double ax[3] = {0, 0, 0};
+	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
+		   : cov[3] >= cov[5]                    ? 1
+							 : 2;
+	ax[wide] = 1;
+	for (int it = 0; it < 8; it++) {
+		double y[3] = {cov[0] * ax[0] + cov[1] * ax[1] + cov[2] * ax[2],
+			       cov[1] * ax[0] + cov[3] * ax[1] + cov[4] * ax[2],
+			       cov[2] * ax[0] + cov[4] * ax[1] + cov[5] * ax[2]};
+		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+		if (l < 1e-12)
+			break;
+		for (int k = 0; k < 3; k++)
+			ax[k] = y[k] / l;
+	}
+	double tmin = 1e30, tmax = -1e30;
+	for (uint32_t i = 0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
+			   (x[2] - mu[2]) * ax[2];
+		t[i] = v;
+		tmin = v < tmin ? v : tmin;
+		tmax = v > tmax ? v : tmax;
+	}
+	double e0[3], e1[3], l0[3], l1[3];
+	for (int k = 0; k < 3; k++) {
+		l0[k] = e0[k] = mu[k] + tmin * ax[k];
+		l1[k] = e1[k] = mu[k] + tmax * ax[k];
+	}
+	/* Least squares: each colour's weight from its place between the
+	 * extremes of the axis, then the two endpoints minimising the squared
+	 * error for those weights (2x2 normal equations shared by the
+	 * channels). */
+	int m = (1 << weight_bits) - 1;
+	if (tmax - tmin > 1e-9) {
+		double sc = m / (tmax - tmin);
+		double aa = 0, ab = 0, bb = 0, ra[3] = {0, 0, 0},
+		       rb[3] = {0, 0, 0};
+		pthread_once(&near_once, near_init);
+		const struct lsw *lw = ls_tab + m;
+		for (uint32_t i = 0; i < n; i++) {
+			const uint8_t *x = rgb + 3 * (size_t)i;
+			int q = (int)((t[i] - tmin) * sc + 0.5);
+			const struct lsw *e = lw + (q > m ? m : q);
+			double sa = e->sa, sb = e->sb;
+			aa += e->aa;
+			ab += e->ab;
+			bb += e->bb;
+			for (int k = 0; k < 3; k++) {
+				ra[k] += sa * x[k];
+				rb[k] += sb * x[k];
+			}
+		}
+		double det = aa * bb - ab * ab;
+		if (fabs(det) > 1e-9)
+			for (int k = 0; k < 3; k++) {
+				l0[k] = (bb * ra[k] - ab * rb[k]) / det;
+				l1[k] = (aa * rb[k] - ab * ra[k]) / det;
+			}
+	}
+	/* the least-squares endpoints first; the extremes of the axis when
+	 * RGB565 rounding pushed a colour outside */
+	a = to565(l0);
+	b = to565(l1);
+	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
+		*c0 = a;
+		*c1 = b;
+		*sse = s;
+		return 1;
+	}
+	uint16_t a2 = to565(e0), b2 = to565(e1);
+	if ((a2 != a || b2 != b) &&
+	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s)) {
+		*c0 = a2;
+		*c1 = b2;
+		*sse = s;
+		return 1;
+	}
+	/* last, the first colour's nearest RGB565 for all: the rule the
+	 * first sweep grows its single-colour runs by, so every run it finds
+	 * is a block this fit accepts */
+	double f[3] = {rgb[0], rgb[1], rgb[2]};
+	a = to565(f);
+	if (check_endpoints(rgb, n, limit, weight_bits, a, a, w, &s)) {
+		*c0 = *c1 = a;
+		*sse = s;
+		return 1;
+	}
+	return 0;
+}
+
+static int ref_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
+	       int weight_bits, uint16_t *c0, uint16_t *c1, uint8_t *w,
+	       uint64_t *sse)
+{
+	struct mom m;
+	mom_of(&m, rgb, n);
+	double *t = malloc(((size_t)n + 1) * sizeof *t);
+	if (!t)
+		return 0;
+	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse);
+	free(t);
+	return ok;
+}
+
+/* Algorithm 1 over one segment. Blocks form a doubly linked list indexed
+ * by their first voxel; `stuck[b]` caches "block b cannot merge with its
+ * right neighbour", valid until either of the two changes (the paper's
+ * "which blocks were modified in the last pass"). A possible merge needs
+ * no cache: of a block's two possible merges the one not taken involves
+ * the block itself, which the taken one changed. */
+struct blocks {
+	uint32_t *next, *prev, *end;
+	uint8_t *stuck;
+	struct mom *mom;   /* moments of the block starting there */
+	double *t;         /* scratch of the fit */
+};
+
+#define NIL UINT32_MAX
+
+/* MSE of the merged block [s, e) (blocks at s and l2 = the right part's
+ * head) or -1 when a colour would fall outside. */
+static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
+		   uint32_t l2, unsigned limit, int wb)
+{
+	uint16_t a, b;
+	uint64_t sse;
+	struct mom m = B->mom[s];
+	mom_add(&m, &B->mom[l2]);
+	uint32_t n = B->end[l2] - s;
+	if (!fit_m(rgb + 3 * (size_t)s, n, limit, wb, &m, B->t, &a, &b, NULL,
+		   &sse))
+		return -1;
+	return (double)sse / n;
+}
+
+static int ref_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
+		  const struct vd_vbr_params *p)
+{
+	memset(seg, 0, sizeof *seg);
+	if (p->weight_bits < 1 || p->weight_bits > 8 || n > VD_CPACK_SEGMENT_MAX ||
+	    !(p->max_error > 0) || !(p->max_error <= 2))
+		return vd_fail(VD_ERR_ARG, "vbr: weight bits %d, max error %g, "
+			       "%u colours", p->weight_bits, p->max_error, n);
+	int wb = p->weight_bits;
+	unsigned limit = vd_colour_error_limit(p->max_error);
+	seg->n = n;
+	seg->weight_bits = wb;
+	struct blocks B = {0};
+	B.next = malloc(((size_t)n + 1) * sizeof *B.next);
+	B.prev = malloc(((size_t)n + 1) * sizeof *B.prev);
+	B.end = malloc(((size_t)n + 1) * sizeof *B.end);
+	B.stuck = calloc((size_t)n + 1, 1);
+	B.mom = malloc(((size_t)n + 1) * sizeof *B.mom);
+	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
+	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
+	uint8_t *w = malloc((size_t)n + 1);
+	int err = VD_OK;
+	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
+	    !seg->weights || !w) {
+		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
+		goto out;
+	}
+	/* the first sweep: greedy runs that one colour (the nearest RGB565
+	 * of the run's first colour) stores within the threshold; every
+	 * other colour its own block */
+	uint32_t head = n ? 0 : NIL, last = NIL;
+	for (uint32_t i = 0; i < n;) {
+		uint32_t j = i + 1;
+		if (!p->no_single_sweep) {
+			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
+				       rgb[3 * (size_t)i + 2]};
+			uint8_t d[3];
+			vd_rgb565_decode(to565(c), d);
+			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
+				while (j < n &&
+				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
+					j++;
+		}
+		B.prev[i] = last;
+		if (last != NIL)
+			B.next[last] = i;
+		B.end[i] = j;
+		mom_of(&B.mom[i], rgb + 3 * (size_t)i, j - i);
+		last = i;
+		i = j;
+	}
+	if (last != NIL)
+		B.next[last] = NIL;
+	/* the merge passes */
+	int merged;
+	do {
+		merged = 0;
+		seg->passes++;
+		uint32_t b = head == NIL ? NIL : B.next[head];
+		while (b != NIL) {
+			uint32_t l = B.prev[b], r = B.next[b];
+			double lm = -1, rm = -1;
+			if (l != NIL && !B.stuck[l]) {
+				lm = eval(rgb, &B, l, b, limit, wb);
+				if (lm < 0)
+					B.stuck[l] = 1;
+			}
+			if (r != NIL && !B.stuck[b]) {
+				rm = eval(rgb, &B, b, r, limit, wb);
+				if (rm < 0)
+					B.stuck[b] = 1;
+			}
+			uint32_t m = b;
+			if (lm >= 0 && (rm < 0 || lm <= rm)) {
+				/* b joins its left neighbour */
+				B.end[l] = B.end[b];
+				mom_add(&B.mom[l], &B.mom[b]);
+				B.next[l] = r;
+				if (r != NIL)
+					B.prev[r] = l;
+				m = l;
+				merged = 1;
+			} else if (rm >= 0) {
+				B.end[b] = B.end[r];
+				mom_add(&B.mom[b], &B.mom[r]);
+				uint32_t rr = B.next[r];
+				B.next[b] = rr;
+				if (rr != NIL)
+					B.prev[rr] = b;
+				B.stuck[b] = B.stuck[r] = 0;
+				merged = 1;
+			}
+			if (m != b || rm >= 0) {
+				B.stuck[m] = 0;
+				if (B.prev[m] != NIL)
+					B.stuck[B.prev[m]] = 0;
+			}
+			uint32_t nx = B.next[m];
+			b = nx == NIL ? NIL : B.next[nx];
+		}
+	} while (merged);
+	/* the final blocks: fit again for their endpoints and weights */
+	uint32_t count = 0;
+	for (uint32_t b = head; b != NIL; b = B.next[b])
+		count++;
+	seg->count = count;
+	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
+	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
+	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
+	if (!seg->start || !seg->c0 || !seg->c1) {
+		err = vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
+		goto out;
+	}
+	uint32_t k = 0;
+	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
+		uint64_t sse;
+		uint32_t len = B.end[b] - b;
+		if (!fit_m(rgb + 3 * (size_t)b, len, limit, wb, &B.mom[b], B.t,
+			   &seg->c0[k], &seg->c1[k], w, &sse)) {
+			/* only a first block of one colour can get here: merges
+			 * were all checked */
+			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
+				      "RGB565 endpoints: colour (%u, %u, %u) cannot "
+				      "be stored within it (0.0236 always works)",
+				      p->max_error, rgb[3 * (size_t)b],
+				      rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
+			goto out;
+		}
+		seg->start[k] = b;
+		seg->sse += sse;
+		for (uint32_t i = 0; i < len; i++) {
+			uint64_t bit = (uint64_t)(b + i) * wb;
+			unsigned v = w[i];
+			/* weights are at most 8 bits: two bytes at most */
+			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
+			if ((bit & 7) + wb > 8)
+				seg->weights[(bit >> 3) + 1] |=
+					(uint8_t)(v >> (8 - (bit & 7)));
+			uint8_t d[3];
+			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
+			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
+			if (e > seg->max_dist2)
+				seg->max_dist2 = e;
+		}
+	}
+out:
+	free(B.next);
+	free(B.prev);
+	free(B.end);
+	free(B.stuck);
+	free(B.mom);
+	free(B.t);
+	free(w);
+	if (err)
+		vd_vbr_segment_release(seg);
+	return err;
+}
+
+
+/* --------------------------------------------------------------- the tests */
+static uint64_t rng = 977;
+static uint32_t next(void)
+{
+	rng ^= rng << 13;
+	rng ^= rng >> 7;
+	rng ^= rng << 17;
+	return (uint32_t)(rng >> 11);
+}
+
+static uint8_t clamp8(double v)
+{
+	return (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v + 0.5);
+}
+
+/* runs of flat colour, gradients, noisy gradients, stripes, outliers */
+static void realish(uint8_t *rgb, uint32_t n, int noise)
+{
+	uint32_t i = 0;
+	while (i < n) {
+		uint32_t len = 1 + next() % 400, kind = next() % 5;
+		double a[3], b[3];
+		for (int k = 0; k < 3; k++) {
+			a[k] = next() % 256;
+			b[k] = a[k] + (double)(next() % 81) - 40;
+		}
+		for (uint32_t j = 0; j < len && i < n; j++, i++) {
+			double t = (double)j / len;
+			for (int k = 0; k < 3; k++) {
+				double v = a[k];
+				if (kind == 1)
+					v = a[k] + t * (b[k] - a[k]);
+				else if (kind == 2)
+					v = a[k] + t * (b[k] - a[k]) +
+					    (double)(next() % (2 * noise + 1)) - noise;
+				else if (kind == 3)
+					v = (j / 3) & 1 ? a[k] : b[k];
+				else if (kind == 4 && next() % 50 == 0)
+					v = next() % 256;
+				rgb[3 * i + k] = clamp8(v);
+			}
+		}
+	}
+}
+
+static int compared;
+
+/* Both encoders on rgb[0..n): identical segments, or the same error. */
+static void same_encoding(const uint8_t *rgb, uint32_t n, double et, int wb,
+			  int no_sweep)
+{
+	struct vd_vbr_params p = {.max_error = et, .weight_bits = wb,
+				  .no_single_sweep = no_sweep};
+	struct vd_vbr_segment f, r;
+	int ef = vd_vbr_encode(&f, rgb, n, &p);
+	int er = ref_encode(&r, rgb, n, &p);
+	CHECK_EQ(ef, er);
+	if (ef || er)
+		return;
+	CHECK_EQ(f.count, r.count);
+	CHECK_EQ(f.passes, r.passes);
+	CHECK_EQ(f.sse, r.sse);
+	CHECK_EQ(f.max_dist2, r.max_dist2);
+	int same = f.count == r.count;
+	for (uint32_t b = 0; same && b < f.count; b++)
+		same = f.start[b] == r.start[b] && f.c0[b] == r.c0[b] &&
+		       f.c1[b] == r.c1[b];
+	same = same && !memcmp(f.weights, r.weights,
+			       ((size_t)n * wb + 7) / 8);
+	if (!same)
+		printf("  differ: n %u et %g W %d sweep %d\n", n, et, wb, !no_sweep);
+	CHECK(same);
+	compared++;
+	vd_vbr_segment_release(&f);
+	vd_vbr_segment_release(&r);
+}
+
+static const double ets[] = {0.0236, 0.025, 0.038, 0.05, 0.1, 0.3};
+
+static void test_random_arrays(void)
+{
+	uint32_t n = 3000;
+	uint8_t *rgb = malloc(3 * (size_t)n);
+	CHECK(rgb != NULL);
+	for (int round = 0; round < 4; round++) {
+		for (uint32_t i = 0; i < 3 * n; i++)
+			rgb[i] = (uint8_t)next();
+		/* uniform noise, then narrower noise (more merges) */
+		if (round & 1)
+			for (uint32_t i = 0; i < 3 * n; i++)
+				rgb[i] = (uint8_t)(128 + rgb[i] % 24);
+		for (size_t e = 0; e < sizeof ets / sizeof *ets; e++)
+			for (int wb = 1; wb <= 8; wb++)
+				same_encoding(rgb, n - (uint32_t)(next() % 100), ets[e],
+					      wb, round >= 2);
+	}
+	free(rgb);
+}
+
+static void test_realish_arrays(void)
+{
+	uint32_t n = 12000;
+	uint8_t *rgb = malloc(3 * (size_t)n);
+	CHECK(rgb != NULL);
+	for (int noise = 1; noise <= 8; noise *= 2) {
+		realish(rgb, n, noise);
+		for (size_t e = 0; e < sizeof ets / sizeof *ets; e++)
+			for (int wb = 1; wb <= 8; wb++)
+				same_encoding(rgb, n, ets[e], wb, wb == 5);
+	}
+	/* the fit alone, on random pieces: same answer, endpoints, weights */
+	uint8_t wf[512], wr[512];
+	for (int t = 0; t < 3000; t++) {
+		uint32_t len = 1 + next() % 500, at = next() % (n - len);
+		unsigned limit = vd_colour_error_limit(ets[next() % 6]);
+		int wb = 1 + (int)(next() % 8);
+		uint16_t a0 = 0, a1 = 0, b0 = 1, b1 = 1;
+		uint64_t sf = 0, sr = 1;
+		int of = vd_vbr_fit(rgb + 3 * at, len, limit, wb, &a0, &a1, wf, &sf);
+		int orf = ref_fit(rgb + 3 * at, len, limit, wb, &b0, &b1, wr, &sr);
+		CHECK_EQ(of, orf);
+		if (of && orf) {
+			CHECK(a0 == b0 && a1 == b1 && sf == sr);
+			CHECK(!memcmp(wf, wr, len));
+		}
+	}
+	free(rgb);
+}
+
+/* The bundled textured spider voxelized at 2^8: the colour array of a
+ * real scene (texture-sampled colours, material colours, edges). */
+static void test_real_scene(void)
+{
+	const char *dir = test_tmpdir("vbr-ref");
+	struct vd_voxelize_opts o = {.levels = 8, .chunk_level = 1,
+				     .mem_budget_bytes = 1ull << 30,
+				     .threads = 2, .quiet = 1, .tool = "test",
+				     .provenance = "test", .colours = 1};
+	struct vd_voxelize_result res;
+	CHECK_EQ(vd_voxelize_mesh("tests/data/spider/spider.obj", dir, &o, &res),
+		 VD_OK);
+	int cells = 0;
+	for (uint64_t cell = 0; cell < 8; cell++) {
+		char name[256], path[4096];
+		vd_chunk_file_name(name, sizeof name, 1, cell, "col");
+		snprintf(path, sizeof path, "%s/%s", dir, name);
+		struct vd_colours c;
+		if (vd_colours_load(&c, NULL, path))
+			continue;
+		cells++;
+		for (uint64_t f = 0; f < c.voxels; f += VD_CPACK_SEGMENT_MAX) {
+			uint32_t m = (uint32_t)(c.voxels - f < VD_CPACK_SEGMENT_MAX
+							? c.voxels - f
+							: VD_CPACK_SEGMENT_MAX);
+			for (size_t e = 1; e < 5; e++)
+				for (int wb = 2; wb <= 4; wb++)
+					same_encoding(c.rgb + 3 * f, m, ets[e], wb, 0);
+		}
+		vd_colours_release(&c);
+	}
+	printf("  %d cells of the spider\n", cells);
+	CHECK(cells > 1);
+}
+
+int main(void)
+{
+	RUN(test_random_arrays);
+	RUN(test_realish_arrays);
+	RUN(test_real_scene);
+	printf("  %d encodings compared\n", compared);
+	return CHECK_DONE();
+}
