@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmark of edit (the CPU HashDAG) on the shared dragon: copy, fill,
-# paint and carve of cubes of about 1K, 100K and 10M voxels (sides 10, 47,
-# 216 centred on a set voxel near the grid centre (tests/bench/edit_site.c;
+# paint and carve of cubes of about 1K, 100K, 10M and 300M voxels (sides
+# 10, 47, 216, 669, those at most half the grid's side; centred on a set voxel near the grid centre (tests/bench/edit_site.c;
 # the dragon is hollow there); the copy first, so its source is the scene's
 # own surface, to a destination clamped inside the grid) with 1 and 2
 # threads, on a coloured scene (colour-make-test colours, cells of level 3:
@@ -13,6 +13,11 @@
 # peak RSS from GNU time; the machine is shared, so they are noisy. The
 # scene is built once per depth and kept in out/bench-edit/.
 #   tests/bench_edit.sh [SCENE LEVELS]...   (default: dragon 12, dragon 14)
+#   SCENE is a file of the shared data folder, or a path (with a '/');
+#   VOXDAG_BENCH_MODES="plain" skips the coloured runs (their colours are
+#   3 bytes a voxel: 10 GB for the 777 at 2^16, 3.5 G voxels), e.g.
+#     VOXDAG_BENCH_MODES=plain tests/bench_edit.sh \
+#         out/data/boeing777/77L.ac 16
 #   VOXDAG_BENCH_BIN=DIR takes the tools from DIR (default out/bin), to
 #   measure another build on the same scenes; VOXDAG_BENCH_OUT=DIR keeps
 #   the scenes and results there (default out/bench-edit).
@@ -21,6 +26,7 @@ cd "$(dirname "$0")/.."
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
 BIN=${VOXDAG_BENCH_BIN:-out/bin}
 OUT=${VOXDAG_BENCH_OUT:-out/bench-edit}
+MODES=${VOXDAG_BENCH_MODES:-col plain}
 [ -d "$DATA" ] || { echo "bench_edit: $DATA is absent; nothing to measure"; exit 0; }
 mkdir -p "$OUT"
 get() { tr -d '\n ' < "$2" | grep -o "\"$1\":[^,}]*" | head -1 | cut -d: -f2; }
@@ -32,7 +38,10 @@ prep() { # DIR MESH LEVELS: cells, colours, a DAG per cell, the root DAG
 	[ -f "$dir/root.dag" ] && [ -d "$dir/v" ] && return 0
 	rm -rf "$dir" && mkdir -p "$dir/cells"
 	"$BIN/voxelize" "$mesh" -o "$dir/v" --levels "$L" --chunk-level $c \
-		--mem-budget 3G -q && "$BIN/colour-make-test" "$dir/v" || return 1
+		--mem-budget 3G --no-colours -q || return 1
+	case " $MODES " in
+	*" col "*) "$BIN/colour-make-test" "$dir/v" || return 1 ;;
+	esac
 	for f in "$dir"/v/*.svo; do
 		"$BIN/svo-to-dag" "$f" -o "$dir/cells/$(basename "$f" .svo).dag" -q || return 1
 	done
@@ -41,17 +50,18 @@ prep() { # DIR MESH LEVELS: cells, colours, a DAG per cell, the root DAG
 }
 
 bench() { # SCENE LEVELS
-	local scene=$1 L=$2 name dir
-	name=$(basename "$scene" .ply)-$L
+	local scene=$1 L=$2 name dir mesh
+	case $scene in */*) mesh=$scene ;; *) mesh=$DATA/$scene ;; esac
+	name=$(basename "$scene"); name=${name%.*}-$L
 	dir=$OUT/$name
-	[ -f "$DATA/$scene" ] || { echo "bench_edit: $scene absent"; return; }
-	prep "$dir" "$DATA/$scene" "$L" || { echo "bench_edit: building $name failed"; return; }
+	[ -f "$mesh" ] || { echo "bench_edit: $mesh absent"; return; }
+	prep "$dir" "$mesh" "$L" || { echo "bench_edit: building $name failed"; return; }
 	# the boxes are centred on a set voxel near the grid centre, so the
 	# copies copy surface and the paints meet voxels
 	local n=$((1 << L)) ops="" s site
 	site=$(out/bench/edit_site "$dir/root.dag") ||
 		{ echo "bench_edit: edit_site failed"; return; }
-	for s in 10 47 216; do
+	for s in 10 47 216 669; do
 		[ "$s" -gt $((n / 2)) ] && continue
 		local x y z ax ay az
 		read -r x y z <<<"$site"
@@ -72,7 +82,7 @@ bench() { # SCENE LEVELS
 	printf '%s' "$ops" > "$dir/script.txt"
 	grep -v '^paint' "$dir/script.txt" > "$dir/script-plain.txt"
 	local mode j col script
-	for mode in col plain; do
+	for mode in $MODES; do
 	for j in 1 2; do
 		col=() script=$dir/script-plain.txt
 		[ "$mode" = col ] && col=(--colours "$dir/v" --colours-out "$dir/edited-$j.col") &&
