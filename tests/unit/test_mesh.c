@@ -1644,7 +1644,7 @@ static const char *write_vt_obj(const char *name, int n)
 		if (i % 50 == 0)
 			fprintf(f, "usemtl %s\n", i / 50 % 3 == 2 ? "plain" : "tex");
 		fprintf(f, "v %.4f %.4f %.4f\n", (i * 7919 % 1000) / 10.0,
-			(i * 104729 % 997) / 9.0, (i % 89) * 0.5);
+			(i * 104729LL % 997) / 9.0, (i % 89) * 0.5);
 		for (int k = 0; k < 3; k++)
 			fprintf(f, "vt %.4f %.4f\n", (i * 31 + k * 17) % 1000 / 250.0,
 				(i * 13 + k * 7) % 997 / 997.0);
