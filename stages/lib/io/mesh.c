@@ -641,18 +641,26 @@ static int vd_mesh_over_limit(const struct vd_mesh *m)
 }
 
 /* The capacity an in-memory array of `n` items of `item` bytes may grow
- * to, doubling, within what verts_limit leaves beside `other` bytes of
- * the other array (vertices and vt share the limit), at most `most`;
- * n when it cannot grow. */
+ * to within what verts_limit leaves beside `other` bytes of the other
+ * array (vertices and vt share the limit), at most `most`; n when it
+ * cannot grow. It doubles while that fits, then grows by an eighth: a
+ * jump to all the room left would leave none to the other array, and
+ * the mesh would spill with both arrays' contents far under the limit. */
 static uint64_t vd_mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
 				 uint64_t item, uint64_t other, uint64_t most)
 {
 	uint64_t cap = n ? n * 2 : 4096;
 	if (cap > most)
 		cap = most;
-	if (m->verts_limit && cap * item + other > m->verts_limit)
-		cap = m->verts_limit > other ? (m->verts_limit - other) / item
-					     : 0;
+	if (m->verts_limit && cap * item + other > m->verts_limit) {
+		uint64_t room = m->verts_limit > other
+			? (m->verts_limit - other) / item : 0;
+		cap = n + n / 8 + 1;
+		if (cap > room)
+			cap = room;
+		if (cap > most)
+			cap = most;
+	}
 	return cap > n ? cap : n;
 }
 
