@@ -14,10 +14,10 @@
  * the joined corners back by triangle (one sort per table), and
  * vd_spill_next() then yields the triangles in the order they were given,
  * each with its corners' records. Memory stays within the `mem_bytes`
- * given at open; disk use is about (16 + 12 + record) x 2 bytes per corner
- * and table it has an index in, plus 16 + triangle record bytes per
- * triangle, plus the tables, in unlinked temporary files of `dir` (gone
- * when closed or when the process dies). */
+ * given at open; disk use is 16 + 12 + record bytes per corner and table
+ * it has an index in, plus 16 + triangle record bytes per triangle, plus
+ * the tables, in unlinked temporary files of `dir` (gone when closed or
+ * when the process dies). */
 #ifndef VD_MESH_SPILL_H
 #define VD_MESH_SPILL_H
 
