@@ -359,21 +359,24 @@ struct vd_mesh;
  * file cannot hold), VD_ERR_TRAILING (binary STL longer than its count). */
 int vd_mesh_open(struct vd_mesh **out, const char *path);
 /* As vd_mesh_open, but the vertex array may not grow beyond
- * `max_vertex_bytes` (0: no limit): VD_ERR_BUDGET, from vd_mesh_open_limited
- * for a PLY whose header asks for more, from vd_mesh_read for other formats,
- * before the memory is taken. */
+ * `max_vertex_bytes` (0: no limit; an OBJ read with colours counts its
+ * texture coordinates against it too, 8 bytes each): VD_ERR_BUDGET, from
+ * vd_mesh_open_limited for a PLY whose header asks for more, from
+ * vd_mesh_read for other formats, before the memory is taken. */
 int vd_mesh_open_limited(struct vd_mesh **out, const char *path,
 			 uint64_t max_vertex_bytes);
-/* As vd_mesh_open_limited, but PLY and OBJ vertices over the limit are
- * not refused: the faces are resolved against them by an external join in
- * unlinked temporary files of `spill_dir` (which must exist when the
- * reading starts), so memory stays within `max_vertex_bytes` (at least
- * 1 MiB) whatever the mesh. The triangles and their order are those of
- * the in-memory reader; a spilled mesh is read whole on its first
- * vd_mesh_read() (OBJ: again from the start when the limit is passed
- * mid-file) and rewinds without reading the file again. Errors besides
- * vd_mesh_open_limited's: VD_ERR_IO naming the spill directory (a full
- * disk). AC3D keeps the limit (its vertices are per object). */
+/* As vd_mesh_open_limited, but vertices (and OBJ texture coordinates)
+ * over the limit are not refused: the faces are resolved against them by
+ * an external join in unlinked temporary files of `spill_dir` (which must
+ * exist when the reading starts), so memory stays within
+ * `max_vertex_bytes` (at least 1 MiB) whatever the mesh. AC3D spills
+ * when one object's vertices pass the limit. The triangles, their order
+ * and their attributes are those of the in-memory reader; a spilled mesh
+ * is read whole on its first vd_mesh_read() (OBJ and AC3D: again from the
+ * start when the limit is passed mid-file) and rewinds without reading
+ * the file again. Errors besides vd_mesh_open_limited's: VD_ERR_IO naming
+ * the spill directory (a full disk); VD_ERR_RANGE for a spilled AC3D file
+ * with more than 2^32 - 1 vertices in all its objects together. */
 int vd_mesh_open_spill(struct vd_mesh **out, const char *path,
 		       uint64_t max_vertex_bytes, const char *spill_dir);
 
@@ -475,9 +478,10 @@ struct vd_mesh_open_opts {
 	 * cannot be read); NULL: warnings are dropped. */
 	void (*warn)(void *ctx, const char *line);
 	void *warn_ctx;
-	/* As vd_mesh_open_spill's: vertices over max_vertex_bytes are
-	 * joined with the faces on disk in this directory; NULL: refused. A
-	 * spilled mesh hands out the same triangles and attributes. */
+	/* As vd_mesh_open_spill's: vertices (and OBJ texture coordinates)
+	 * over max_vertex_bytes are joined with the faces on disk in this
+	 * directory; NULL: refused. A spilled mesh hands out the same
+	 * triangles and attributes. */
 	const char *spill_dir;
 };
 

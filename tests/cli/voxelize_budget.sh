@@ -140,6 +140,73 @@ if command -v perl >/dev/null; then
 else
 	echo "SKIP budget_spill_colour (perl absent)"
 fi
+# texture coordinates count against the same share and spill with the
+# vertices: an OBJ of 1.0 million vertices (15.3 MiB, under the 18 MiB
+# share of 36 MiB) with a vt each (7.6 MiB more, over it), indexed
+# absolutely, relatively and crosswise, a textured and a plain material;
+# and an AC3D file whose one big object (1.69 million vertices, 19.3 MiB)
+# is over the share, between small objects, textured, with strips and
+# under a rotated parent. Spilled, each stays under the budget and its
+# .svo and .col chunks are the bytes of an in-memory run.
+if command -v perl >/dev/null; then
+	mkdir -p "$T/vt"
+	cp tests/data/textured/checker.png "$T/vt/"
+	printf 'newmtl kd\nKd 0.2 0.7 0.3\nnewmtl chk\nKd 1 1 1\nmap_Kd checker.png\n' \
+		> "$T/vt/vt.mtl"
+	perl -e '
+	my $n = 1000; my $s = 11; my $c = int(($n - 1) / $s); my $nv = $n * $n;
+	print "mtllib vt.mtl\n";
+	for my $j (0 .. $n - 1) { for my $i (0 .. $n - 1) {
+	    printf "v %d %d %.3f\nvt %.4f %.4f\n", $i, $j,
+		20 * sin($i / 37.0) * cos($j / 23.0), $i / 97.0, $j / 89.0; } }
+	for my $j (0 .. $c - 1) {
+	    print $j % 3 ? "usemtl chk\n" : "usemtl kd\n";
+	    for my $i (0 .. $c - 1) {
+		my $a = 1 + $s * ($j * $n + $i); my $b = $a + $s;
+		my $d = $a + $s * $n; my $e = $d + $s;
+		if ($i % 4 == 1) { print "f $a/$a $b/$b $e/$e $d/$d\n" }
+		elsif ($i % 4 == 2) { my ($x, $y, $z) = map { $_ - $nv - 1 } ($a, $b, $e);
+		    print "f $x/$x $y/$y $z/$z\nf $a/$a/1 $e/$e/1 $d/$d/1\n" }
+		elsif ($i % 7 == 0) { print "f $a $b/$b $e/$e\nf $a/$a $e/$e $d/$d\n" }
+		else { print "f $a/$e $b/$d $e/$a\nf $a/$b $e/$a $d/$b\n" } } }
+	' > "$T/vt/vt.obj"
+	mkdir -p "$T/ac"
+	cp tests/data/textured/checker.png "$T/ac/"
+	perl -e '
+	my $n = 1300; my $s = 7; my $c = int(($n - 1) / $s);
+	my $m = "rgb 0.9 0.1 0.1  amb 0.2 0.2 0.2  emis 0 0 0  spec 0 0 0  shi 10  trans 0";
+	print "AC3Db\nMATERIAL \"red\" $m\nMATERIAL \"sea\" $m\nOBJECT world\nkids 3\n";
+	print "OBJECT poly\nname \"small\"\nloc 1 2 3\nnumvert 4\n0 0 0\n100 0 0\n",
+	    "100 100 0\n0 100 50\nnumsurf 1\nSURF 0x10\nmat 1\nrefs 4\n0 0 0\n",
+	    "1 1 0\n2 1 1\n3 0 1\nkids 0\n";
+	print "OBJECT group\nrot 0 1 0 -1 0 0 0 0 1\nloc 5 -3 1\nkids 1\n";
+	print "OBJECT poly\nname \"grid\"\ntexture \"checker.png\"\ntexrep 2 2\n",
+	    "numvert ", $n * $n, "\n";
+	for my $j (0 .. $n - 1) { for my $i (0 .. $n - 1) {
+	    printf "%d %d %.3f\n", $i, $j, 20 * sin($i / 37.0) * cos($j / 23.0); } }
+	print "numsurf ", $c * $c, "\n";
+	for my $j (0 .. $c - 1) { for my $i (0 .. $c - 1) {
+	    my $a = $s * ($j * $n + $i); my $b = $a + $s; my $d = $a + $s * $n;
+	    my $e = $d + $s; my $k = ($i + $j) % 2;
+	    if ($i % 5 == 3) { print "SURF 0x14\nmat $k\nrefs 4\n$a 0 0\n$b 1 0\n$d 0 1\n$e 1 1\n" }
+	    else { print "SURF 0x10\nmat $k\nrefs 4\n$a 0 0\n$b 0.3 0\n$e 1 1\n$d 0 1\n" } } }
+	print "kids 0\nOBJECT poly\nname \"last\"\nnumvert 3\n0 0 0\n900 0 0\n",
+	    "0 900 9\nnumsurf 1\nSURF 0x10\nmat 0\nrefs 3\n0\n1\n2\nkids 0\n";
+	' > "$T/ac/big.ac"
+	for m in "$T/vt/vt.obj" "$T/ac/big.ac"; do
+		n=spill_$(basename "${m%.*}")_${m##*.}
+		expect "budget_$n" 0 '' \
+			run $V "$m" -o "$T/s_$n" --levels 9 --chunk-level 1 --mem-budget 36M -q
+		within "budget_${n}_peak" 36
+		$V "$m" -o "$T/m_$n" --levels 9 --chunk-level 1 -q
+		same_chunks "budget_${n}_same_bytes" "$T/s_$n" "$T/m_$n"
+		grep -q '"textures_loaded": 1' "$T/s_$n/voxelize.stats.json" &&
+			pass "budget_${n}_textured" ||
+			fail "budget_${n}_textured" "$(cat "$T/s_$n/voxelize.stats.json")"
+	done
+else
+	echo "SKIP budget_spill_vt, budget_spill_ac3d (perl absent)"
+fi
 # a run that fits: under the budget by GNU time and by its own report
 expect budget_fits 0 '' run $V $BUNNY -o "$T/e" --levels 12 --mem-budget 64M -q
 within budget_fits_peak 64

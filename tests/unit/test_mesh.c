@@ -1670,6 +1670,364 @@ static void test_spill_shared(void)
 		       test_shared_data());
 }
 
+/* --------------------------------------------- spilled vt and AC3D */
+
+/* The bundled checker texture, as an absolute path (fixtures are written
+ * elsewhere). */
+static const char *checker_png(void)
+{
+	static char path[4096];
+	if (!path[0] && !realpath("tests/data/textured/checker.png", path))
+		snprintf(path, sizeof path, "checker.png");
+	return path;
+}
+
+/* An OBJ with three vt per vertex (so vt pass a vertex limit before the
+ * vertices do), a textured and a plain material, and faces with relative
+ * and absolute vt indices, some reaching far back, corners without vt,
+ * v//vn and v/vt/vn corners and quads. n vertices, 3n vt. */
+static const char *write_vt_obj(const char *name, int n)
+{
+	char mtl[64];
+	snprintf(mtl, sizeof mtl, "%s.mtl", name);
+	const char *mp = fixture_path(mtl);
+	FILE *f = fopen(mp, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return mp;
+	fprintf(f, "newmtl tex\nKd 1 1 1\nmap_Kd %s\nnewmtl plain\n"
+		"Kd 0.2 0.5 0.9\n", checker_png());
+	CHECK(fclose(f) == 0);
+	const char *p = fixture_path(name);
+	f = fopen(p, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return p;
+	fprintf(f, "mtllib %s\n", mtl);
+	for (int i = 0; i < n; i++) {
+		if (i % 50 == 0)
+			fprintf(f, "usemtl %s\n", i / 50 % 3 == 2 ? "plain" : "tex");
+		fprintf(f, "v %.4f %.4f %.4f\n", (i * 7919 % 1000) / 10.0,
+			(i * 104729LL % 997) / 9.0, (i % 89) * 0.5);
+		for (int k = 0; k < 3; k++)
+			fprintf(f, "vt %.4f %.4f\n", (i * 31 + k * 17) % 1000 / 250.0,
+				(i * 13 + k * 7) % 997 / 997.0);
+		if (i < 3)
+			continue;
+		int vt = 3 * (i + 1);
+		switch (i % 6) {
+		case 0:
+			fprintf(f, "f -3/-1 -2/-4 -1/-2\n");
+			break;
+		case 1:
+			fprintf(f, "f %d/%d -2/-3 -1/%d\n", i / 2 + 1,
+				(i * 37) % vt + 1, vt - 1);
+			break;
+		case 2:
+			fprintf(f, "f -4/-1 -3/-2 -2/-3 -1/-6\n");
+			break;
+		case 3:
+			fprintf(f, "f -3/-1 -2 -1/-2\n");
+			break;
+		case 4:
+			fprintf(f, "f -3//1 -2//1 -1//1\n");
+			break;
+		default:
+			fprintf(f, "f -3/-1/1 -2/%d/1 -1/-3/1\n", 1 + i % 5);
+		}
+	}
+	CHECK(fclose(f) == 0);
+	return p;
+}
+
+/* What reading `path` to the end gives, as one line: the number of
+ * triangles and a hash of their bytes (with colours: of their attributes
+ * too), then the error code and detail. A spill of `cap` bytes when cap
+ * is not 0. */
+static void read_outcome(const char *path, uint64_t cap, int colours,
+			 char *out, size_t outsize)
+{
+	struct vd_mesh *m;
+	struct vd_mesh_open_opts o = {.colours = colours,
+				      .max_vertex_bytes = cap,
+				      .spill_dir = cap ? dir : NULL};
+	int e = vd_mesh_open_opts(&m, path, &o);
+	uint64_t h = 1469598103934665603ull, n = 0;
+	if (!e) {
+		static struct vd_triangle t[64];
+		static struct vd_tri_attr a[64];
+		size_t k;
+		while (!(e = colours ? vd_mesh_read_attr(m, t, a, 64, &k)
+				     : vd_mesh_read(m, t, 64, &k)) && k) {
+			const unsigned char *b[2] = {(const void *)t,
+						     (const void *)a};
+			size_t len[2] = {k * sizeof *t,
+					 colours ? k * sizeof *a : 0};
+			for (int j = 0; j < 2; j++)
+				for (size_t i = 0; i < len[j]; i++)
+					h = (h ^ b[j][i]) * 1099511628211ull;
+			n += k;
+		}
+		vd_mesh_close(m);
+	}
+	snprintf(out, outsize, "%" PRIu64 " triangles %016" PRIx64 "; %d %s",
+		 n, h, e, e ? vd_error_detail() : "");
+}
+
+/* Reading `path` spilled (a limit of `cap` bytes) ends as in memory: the
+ * same error, with the same detail. The triangles before it are not
+ * compared: the spill reads the whole file before it hands any out. */
+static int same_error_spilled(const char *path, uint64_t cap, int colours)
+{
+	char want[700], got[700];
+	read_outcome(path, 0, colours, want, sizeof want);
+	read_outcome(path, cap, colours, got, sizeof got);
+	const char *w = strchr(want, ';'), *g = strchr(got, ';');
+	if (!strcmp(w, g))
+		return 1;
+	fprintf(stderr, "%s\nmemory:%s\nspill: %s\n", path, w + 1, g + 1);
+	return 0;
+}
+
+/* OBJ texture coordinates share the vertices' limit and, over it, are
+ * joined with the corners on disk: the same triangles and attributes
+ * (every uv byte) as in memory, within the limit. */
+static void test_spill_vt(void)
+{
+	struct spill_seen seen;
+	/* 60,000 vertices of 16 bytes (0.92 MiB) fit a limit of 1.25 MiB,
+	 * but their 180,000 vt (1.37 MiB) do not */
+	const char *obj = write_vt_obj("spill-vt.obj", 60000);
+	uint64_t cap = 5 << 18;
+	struct vd_mesh *m;
+	struct vd_mesh_open_opts o = {.colours = 1, .max_vertex_bytes = cap};
+	CHECK_EQ(vd_mesh_open_opts(&m, obj, &o), VD_OK);
+	struct vd_triangle t[256];
+	struct vd_tri_attr a[256];
+	size_t n;
+	int e;
+	while ((e = vd_mesh_read_attr(m, t, a, 256, &n)) == VD_OK && n)
+		;
+	CHECK_EQ(e, VD_ERR_BUDGET);
+	CHECK(detail_has("texture coordinates need more than 1280 KiB"));
+	vd_mesh_close(m);
+	/* spilled by the vt, read in batches that straddle the switch */
+	long long tris = spill_compare_opts(obj, cap, 77, 1, &seen);
+	CHECK(tris > 60000);
+	CHECK(seen.textured > tris / 3 && seen.textured < tris);
+	CHECK(spill_compare_opts(obj, cap, 4096, 1, &seen) == tris);
+	/* spilled from the first vertex, and switching early */
+	CHECK(spill_compare_opts(obj, 16, 4096, 1, &seen) == tris);
+	CHECK(spill_compare_opts(obj, 16 * 1000, 1000, 1, &seen) == tris);
+	/* without colours vt are not read: the vertices fit */
+	o.colours = 0;
+	CHECK_EQ(vd_mesh_open_opts(&m, obj, &o), VD_OK);
+	while ((e = vd_mesh_read(m, t, 256, &n)) == VD_OK && n)
+		;
+	CHECK_EQ(e, VD_OK);
+	vd_mesh_close(m);
+	CHECK(spill_compare(obj, cap, 4096) == tris);
+}
+
+/* A vt error while spilled: the in-memory message, face and line, from
+ * the first vertex on and after a switch mid-file; a file cut anywhere
+ * reads as in memory. */
+static void test_spill_vt_errors(void)
+{
+	static const char *const faces[] = {
+		"f 1/1 2/2 3/4\n",       /* past the end */
+		"f 1/1 2/-4 3/3\n",      /* relative, before the first */
+		"f 1/1 2/0 3/3\n",       /* 0 */
+		"f 1/1 2/2 3/x\n",       /* malformed */
+	};
+	static const char *const want[] = {
+		"line 10: face 2: texture coordinate index 4 out of range "
+		"(3 defined so far)",
+		"line 10: face 2: texture coordinate index -4 out of range "
+		"(3 defined so far)",
+		"line 10: face 2: texture coordinate index 0 out of range "
+		"(3 defined so far)",
+		"line 10: malformed face corner '3/x'"};
+	char text[512], name[32];
+	for (size_t i = 0; i < sizeof faces / sizeof *faces; i++) {
+		snprintf(text, sizeof text, "mtllib spill-vt.obj.mtl\n"
+			 "usemtl tex\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+			 "vt 0 0\nf 1/1 2/-1 3/1\nvt 1 0\nvt 0 1\n%s"
+			 "f 1/1 2/2 3/3\n", faces[i]);
+		snprintf(name, sizeof name, "spill-vt-bad%zu.obj", i);
+		const char *p = write_text(name, text);
+		CHECK(same_error_spilled(p, 16, 1));
+		char got[700];
+		read_outcome(p, 16, 1, got, sizeof got);
+		if (!strstr(got, want[i]))
+			fprintf(stderr, "%s lacks '%s'\n", got, want[i]);
+		CHECK(strstr(got, want[i]) != NULL);
+	}
+	/* after the switch: the bad face at the end of a file that passes
+	 * the limit near its start */
+	const char *obj = write_vt_obj("spill-vt-late.obj", 3000);
+	FILE *f = fopen(obj, "a");
+	CHECK(f != NULL);
+	if (f) {
+		fprintf(f, "f 1/1 2/2 3/9001\n");
+		CHECK(fclose(f) == 0);
+	}
+	CHECK(same_error_spilled(obj, 16 * 200, 1));
+	char got[700];
+	read_outcome(obj, 16 * 200, 1, got, sizeof got);
+	CHECK(strstr(got, "texture coordinate index 9001 out of range "
+		      "(9000 defined so far)") != NULL);
+	/* cut at every length: the same triangles, attributes and error */
+	const char *whole = write_vt_obj("spill-vt-cut.obj", 16);
+	FILE *in = fopen(whole, "rb");
+	static char buf[8192];
+	size_t len = in ? fread(buf, 1, sizeof buf, in) : 0;
+	if (in)
+		fclose(in);
+	CHECK(len > 600 && len < sizeof buf);
+	int bad = 0;
+	for (size_t k = 1; k <= len && bad < 3; k++) {
+		char w[700], g[700];
+		const char *p = write_bytes("spill-vt-cut.obj", buf, k);
+		read_outcome(p, 0, 1, w, sizeof w);
+		read_outcome(p, 16, 1, g, sizeof g);
+		if (strcmp(w, g)) {
+			fprintf(stderr, "cut at %zu:\nmemory: %s\nspill:  %s\n",
+				k, w, g);
+			bad++;
+		}
+	}
+	CHECK_EQ(bad, 0);
+}
+
+/* An AC3D file of small objects around one of `n` x `n` vertices
+ * (textured, with quads, strips, a line, under a rotated and moved
+ * parent): the small ones fit a limit the big one passes. */
+static const char *write_big_ac(const char *name, int n)
+{
+	const char *p = fixture_path(name);
+	FILE *f = fopen(p, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return p;
+	fprintf(f, "AC3Db\nMATERIAL \"red\" rgb 0.9 0.1 0.1  amb 0.2 0.2 0.2"
+		"  emis 0 0 0  spec 0 0 0  shi 10  trans 0\n"
+		"MATERIAL \"sea\" rgb 0.1 0.4 0.8  amb 0.2 0.2 0.2  emis 0 0 0"
+		"  spec 0 0 0  shi 10  trans 0\nOBJECT world\nkids 3\n");
+	fprintf(f, "OBJECT poly\nname \"small\"\nloc 1 2 3\nnumvert 4\n"
+		"0 0 0\n10 0 0\n10 10 0\n0 10 5\nnumsurf 1\nSURF 0x10\nmat 1\n"
+		"refs 4\n0 0 0\n1 1 0\n2 1 1\n3 0 1\nkids 0\n");
+	fprintf(f, "OBJECT group\nname \"parent\"\nrot 0 1 0 -1 0 0 0 0 1\n"
+		"loc 5 -3 1\nkids 2\n");
+	fprintf(f, "OBJECT poly\nname \"big\"\ntexture \"%s\"\ntexrep 2 3\n"
+		"texoff 0.5 0\nloc 0 0 2\nnumvert %d\n", checker_png(), n * n);
+	for (int j = 0; j < n; j++)
+		for (int i = 0; i < n; i++)
+			fprintf(f, "%d %d %.3f\n", i, j,
+				20 * sin(i / 37.0) * cos(j / 23.0));
+	int s = 3, c = (n - 1) / s;
+	fprintf(f, "numsurf %d\n", c * c + 1);
+	for (int j = 0; j < c; j++)
+		for (int i = 0; i < c; i++) {
+			int a = s * (j * n + i), b = a + s, d = a + s * n,
+			    e = d + s;
+			if (i % 5 == 3)
+				fprintf(f, "SURF 0x14\nmat %d\nrefs 4\n%d 0 0\n"
+					"%d 1 0\n%d 0 1\n%d 1 1\n", (i + j) % 2,
+					a, b, d, e);
+			else if (i % 7 == 2)
+				fprintf(f, "SURF 0x10\nmat 0\nrefs 3\n%d\n%d\n"
+					"%d\n", a, b, e);
+			else
+				fprintf(f, "SURF 0x10\nmat %d\nrefs 4\n%d 0 0\n"
+					"%d 0.%d 0\n%d 1 1\n%d 0 1\n",
+					(i + j) % 2, a, b, i % 10, e, d);
+		}
+	fprintf(f, "SURF 0x12\nmat 0\nrefs 2\n0 0 0\n1 1 1\nkids 0\n");
+	fprintf(f, "OBJECT poly\nname \"after\"\nnumvert 3\n0 0 0\n1 0 0\n"
+		"0 1 0\nnumsurf 1\nSURF 0x10\nmat 0\nrefs 3\n0\n1\n2\nkids 0\n");
+	fprintf(f, "OBJECT poly\nname \"last\"\nnumvert 4\n0 0 0\n1 0 0\n"
+		"0 1 0\n1 1 1\nnumsurf 1\nSURF 0x10\nmat 1\nrefs 3\n3\n1\n2\n"
+		"kids 0\n");
+	CHECK(fclose(f) == 0);
+	return p;
+}
+
+/* AC3D objects over the limit are joined with their surfaces on disk
+ * (once over, the whole file is): the same triangles and attributes as
+ * in memory, within the limit; errors as in memory. */
+static void test_spill_ac3d(void)
+{
+	struct spill_seen seen;
+	const char *nested = write_text("spill-nested.ac", ac_nested);
+	for (int col = 0; col < 2; col++) {
+		CHECK_EQ(spill_compare_opts(nested, 12, 1, col, NULL), 5);
+		CHECK_EQ(spill_compare_opts(nested, 12 * 4, 2, col, NULL), 5);
+	}
+	CHECK_EQ(spill_compare_opts("tests/data/textured/scene.ac", 12, 1, 1,
+				    &seen), 3);
+	CHECK_EQ(seen.textured, 2);
+	/* 90,000 vertices (1.03 MiB) over a limit of 1 MiB, after an object
+	 * that fits; read in batches that straddle the switch */
+	const char *big = write_big_ac("spill-big.ac", 300);
+	struct vd_mesh *m;
+	CHECK_EQ(vd_mesh_open_limited(&m, big, 1 << 20), VD_OK);
+	struct vd_triangle t[256];
+	size_t n;
+	int e;
+	while ((e = vd_mesh_read(m, t, 256, &n)) == VD_OK && n)
+		;
+	CHECK_EQ(e, VD_ERR_BUDGET);
+	vd_mesh_close(m);
+	long long tris = spill_compare_opts(big, 1 << 20, 1, 1, &seen);
+	CHECK(tris > 10000);
+	CHECK(seen.textured > tris / 2 && seen.textured < tris);
+	CHECK(spill_compare_opts(big, 1 << 20, 4096, 1, &seen) == tris);
+	CHECK(spill_compare_opts(big, 1 << 20, 77, 0, NULL) == tris);
+	CHECK(spill_compare_opts(big, 12, 4096, 1, &seen) == tris);
+	/* errors in the second object, after the switch: a ref past its
+	 * vertices (valid in the first), a non-finite vertex (its index is
+	 * the object's own), a cut file */
+	static const char *const second[] = {
+		"numvert 3\n0 0 0\n1 0 0\n0 1 0\nnumsurf 1\nSURF 0\nrefs 3\n"
+		"0\n1\n3\nkids 0\n",
+		"numvert 3\n0 0 0\n1 nan 0\n0 1 0\nnumsurf 1\nSURF 0\nrefs 3\n"
+		"0\n2\n1\nkids 0\n"};
+	static const char *const want[] = {
+		"line 30: surface 2: vertex index 3 out of range (object "
+		"'second' has 3 vertices)",
+		"line 26: face 2 uses vertex 1 whose position is not finite"};
+	for (int i = 0; i < 2; i++) {
+		char text[1024], got[700];
+		snprintf(text, sizeof text, "AC3Db\nOBJECT world\nkids 2\n"
+			 "OBJECT poly\nname \"first\"\nnumvert 4\n0 0 0\n"
+			 "1 0 0\n0 1 0\n1 1 1\nnumsurf 1\nSURF 0\nrefs 4\n0\n"
+			 "1\n2\n3\nkids 0\nOBJECT poly\nname \"second\"\n%s",
+			 second[i]);
+		const char *p = write_text("spill-bad.ac", text);
+		CHECK(same_error_spilled(p, 12 * 4, 0));
+		CHECK(same_error_spilled(p, 12, 1));
+		read_outcome(p, 12 * 4, 0, got, sizeof got);
+		if (!strstr(got, want[i]))
+			fprintf(stderr, "%s lacks '%s'\n", got, want[i]);
+		CHECK(strstr(got, want[i]) != NULL);
+	}
+	size_t len = strlen(ac_nested);
+	int bad = 0;
+	for (size_t k = 1; k <= len && bad < 3; k++) {
+		char w[700], g[700];
+		const char *p = write_bytes("spill-cut.ac", ac_nested, k);
+		read_outcome(p, 0, 1, w, sizeof w);
+		read_outcome(p, 12, 1, g, sizeof g);
+		if (strcmp(w, g)) {
+			fprintf(stderr, "cut at %zu:\nmemory: %s\nspill:  %s\n",
+				k, w, g);
+			bad++;
+		}
+	}
+	CHECK_EQ(bad, 0);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("mesh");
@@ -1678,6 +2036,9 @@ int main(void)
 	RUN(test_spill_nonfinite);
 	RUN(test_spill_colours);
 	RUN(test_spill_shared);
+	RUN(test_spill_vt);
+	RUN(test_spill_vt_errors);
+	RUN(test_spill_ac3d);
 	RUN(test_ply_binary_be);
 	RUN(test_ply_ascii);
 	RUN(test_obj);

@@ -1,9 +1,10 @@
 /* mesh.c - streaming triangle readers for PLY, OBJ, STL and AC3D.
  *
- * Memory is bounded by the vertex positions (12 bytes per vertex) plus one
- * read buffer: the face body is decoded from a fixed buffer as the caller
- * asks for triangles, never loaded whole, so meshes far larger than memory
- * stream through as long as their vertices fit.
+ * Memory is bounded by the vertex positions (12 bytes per vertex; an OBJ
+ * read with colours adds 8 per `vt`) plus one read buffer: the face body
+ * is decoded from a fixed buffer as the caller asks for triangles, never
+ * loaded whole, so meshes far larger than memory stream through as long
+ * as their vertices fit, and given a spill directory, whatever their size.
  *
  * Decisions worth knowing:
  * - PLY vertices are loaded at open (they precede the faces in every file
@@ -24,11 +25,24 @@
  *   m->vfloats floats to everything but vd_mesh_push_vertex and the
  *   triangle assembly). Per-corner texture coordinates travel in
  *   m->poly_tc beside m->poly, and the polygon's material in m->poly_mat.
- * - PLY and OBJ vertices over the limit, given a spill directory, are not
- *   refused but joined with the faces on disk (mesh_spill.c). A spilled
- *   vertex record is the in-memory record, and each triangle carries what
- *   its polygon decides of its attributes (texture, uv, material colour),
- *   so spilled reading hands out the same triangles and attributes.
+ * - Vertices over the limit (verts_limit), given a spill directory, are
+ *   not refused but joined with the faces on disk (mesh_spill.c): PLY,
+ *   OBJ, and AC3D when one object's vertices pass it. OBJ texture
+ *   coordinates share the limit with the vertices (the limit is on both
+ *   arrays' capacity together) and spill with them: a spilled vt is a
+ *   second table of the same join, so a textured corner carries a vertex
+ *   index and a vt index. Range errors need only the counts, so they are
+ *   raised while the file is read, with the in-memory message; whether a
+ *   triangle is textured needs only whether its corners have vt, so it is
+ *   decided then too, and only a textured triangle's corners take part
+ *   in the vt join. A spilled vertex or vt record is the in-memory one,
+ *   and each triangle carries what its polygon decides of its attributes
+ *   (texture, AC3D's inline uv, material colour), so spilled reading
+ *   hands out the same triangles and attributes.
+ * - An AC3D surface indexes its object's vertices; spilled, every
+ *   object's vertices go to one table and a surface's indices are offset
+ *   by its object's first (ac_vbase), which its triangles keep for the
+ *   messages. A file whose objects all fit stays in memory, read once.
  */
 #include "voxdag.h"
 #include "io/mesh_spill.h"
@@ -50,8 +64,14 @@
 /* What a spilled mesh keeps per triangle beside its vertex records when
  * colours are on: the part of its vd_tri_attr its polygon decides
  * (vd_mesh_attr_pack), so that the join gives back the attributes the
- * in-memory reader computes. */
+ * in-memory reader computes. An AC3D triangle adds 4 bytes: the spill
+ * index of its object's first vertex (vd_mesh_spill_open). */
 #define MESH_SPILL_ATTR_BYTES 32
+
+/* The spill's tables: the vertex records, and an OBJ's texture
+ * coordinates (u v as two floats) when it is read with colours. */
+#define MESH_SPILL_VERTS 0
+#define MESH_SPILL_UVS 1
 
 /* Large enough that read() calls are rare, small enough to never matter
  * against a memory budget; also the longest text line we accept. */
@@ -477,7 +497,9 @@ struct vd_mesh {
 	struct vd_mesh_open_opts col;
 	char *dir;             /* the mesh file's directory, for relative names */
 	float *poly_tc;        /* u v per corner of m->poly; NAN u: none */
-	size_t poly_tc_cap;
+	uint32_t *poly_ti;     /* OBJ spilled: the corner's vt index (its u v
+				* come from the join; poly_tc holds 0 0) */
+	size_t poly_tc_cap;    /* corners of poly_tc and poly_ti */
 	int poly_mat;          /* material of the polygon, -1: none */
 	int poly_has_tc;       /* poly_tc holds this polygon's corners */
 	struct vd_material *mats;
@@ -488,8 +510,8 @@ struct vd_mesh {
 	int cur_mat;           /* OBJ: the usemtl in force */
 	char **mtllibs;        /* OBJ: MTL files already read */
 	size_t nmtllibs;
-	float *uvs;            /* OBJ: vt u v */
-	uint64_t nuvs, uvs_cap;
+	float *uvs;            /* OBJ: vt u v (not when spilled) */
+	uint64_t nuvs, uvs_cap; /* nuvs: vt lines so far, spilled or not */
 	int warned_mat;        /* one warning for unknown materials */
 	int icol[3];           /* PLY: red green blue property indices */
 	signed char *vslot;    /* PLY: per vertex property, 0-2 xyz, 3-5 rgb */
@@ -510,7 +532,8 @@ struct vd_mesh {
 
 	/* AC3D: m->verts holds the current object's vertices only, already
 	 * in world coordinates, since a surface may only use its own
-	 * object's vertices. */
+	 * object's vertices (spilled: m->nverts counts them, and ac_vbase
+	 * is the spill index of the first). */
 	struct vd_ac_frame *ac_stack; /* open ancestors, root first */
 	size_t ac_depth, ac_cap;
 	int ac_in_object;      /* between OBJECT and its kids line */
@@ -521,18 +544,21 @@ struct vd_mesh {
 	uint64_t ac_surf_left; /* surfaces of the object still to read */
 	uint64_t ac_object_line;
 	char ac_name[48];      /* the object's name, for messages */
+	uint64_t ac_vbase;
 	int poly_strip;        /* m->poly is a triangle strip, not a fan */
 
-	/* Vertices over verts_limit with a spill directory: the faces are
-	 * resolved by an external join on disk (mesh_spill.c). PLY knows it
-	 * at open; OBJ when a vertex would pass the limit (spill_wanted),
-	 * then the file is read again from the start into the spill and the
-	 * triangles already handed out are skipped (spill_skip). */
+	/* Vertices (and OBJ texture coordinates) over verts_limit with a
+	 * spill directory: the faces are resolved by an external join on
+	 * disk (mesh_spill.c). PLY knows it at open; OBJ and AC3D when a
+	 * vertex or vt would pass the limit (spill_wanted), then the file is
+	 * read again from the start into the spill and the triangles already
+	 * handed out are skipped (spill_skip). */
 	char *spill_dir;
 	struct vd_spill *spill;
-	size_t spill_tri_bytes; /* MESH_SPILL_ATTR_BYTES with colours, else 0 */
 	int spill_wanted, spill_ready;
 	uint64_t spill_skip;
+	uint64_t spill_nverts; /* vertex records in the spill (AC3D: of
+				* every object so far) */
 
 	struct vd_mesh_stats stats;
 	int done;
@@ -557,10 +583,33 @@ static int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
 
 /* A spilled vertex record is the in-memory one (m->vfloats floats: the
  * position, and with colours the packed colour), so the join hands back
- * exactly what vd_mesh_vert() would. */
+ * exactly what vd_mesh_vert() would; a spilled vt is the in-memory pair
+ * of floats. */
 static int vd_mesh_can_spill(const struct vd_mesh *m)
 {
-	return m->spill_dir && m->kind != MESH_AC3D;
+	return m->spill_dir != NULL;
+}
+
+/* Bytes of MESH_SPILL_ATTR_BYTES in a spilled triangle's record. */
+static size_t vd_mesh_spill_attr_bytes(const struct vd_mesh *m)
+{
+	return m->col_on ? MESH_SPILL_ATTR_BYTES : 0;
+}
+
+/* Opens the spill (PLY at open, OBJ and AC3D when reading starts over):
+ * the vertex table, the vt table for OBJ with colours, and per triangle
+ * what its polygon decides of its attributes (with colours) and for AC3D
+ * ac_vbase (4 bytes). Within verts_limit: the share the arrays had. */
+static int vd_mesh_spill_open(struct vd_mesh *m)
+{
+	size_t rb[VD_SPILL_MAX_TABLES];
+	rb[MESH_SPILL_VERTS] = 4 * (size_t)m->vfloats;
+	rb[MESH_SPILL_UVS] = 2 * sizeof(float);
+	size_t ntab = m->kind == MESH_OBJ && m->col_on ? 2 : 1;
+	size_t tri = vd_mesh_spill_attr_bytes(m) +
+		     (m->kind == MESH_AC3D ? 4 : 0);
+	return vd_spill_open(&m->spill, m->spill_dir, ntab, rb, tri,
+			     m->verts_limit);
 }
 
 /* Fills the record of a vertex: the position, and in 4-float records the
@@ -579,15 +628,56 @@ static void vd_mesh_vrec(const struct vd_mesh *m, const float v[3],
 	}
 }
 
+/* The error for an in-memory array that would pass verts_limit without a
+ * spill directory to go to. */
+static int vd_mesh_over_limit(const struct vd_mesh *m)
+{
+	char uvs[64] = "";
+	if (m->nuvs)
+		snprintf(uvs, sizeof uvs, " and %" PRIu64 " texture "
+			 "coordinates", m->nuvs);
+	return vd_fail(VD_ERR_BUDGET, "more than %" PRIu64 " vertices%s need "
+		       "more than %" PRIu64 " KiB in memory, the vertex share "
+		       "(half) of the memory budget", m->nverts, uvs,
+		       m->verts_limit >> 10);
+}
+
+/* The capacity an in-memory array of `n` items of `item` bytes may grow
+ * to within what verts_limit leaves beside `other` bytes of the other
+ * array (vertices and vt share the limit), at most `most`; n when it
+ * cannot grow. It doubles while that fits, then grows by an eighth: a
+ * jump to all the room left would leave none to the other array, and
+ * the mesh would spill with both arrays' contents far under the limit. */
+static uint64_t vd_mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
+				 uint64_t item, uint64_t other, uint64_t most)
+{
+	uint64_t cap = n ? n * 2 : 4096;
+	if (cap > most)
+		cap = most;
+	if (m->verts_limit && cap * item + other > m->verts_limit) {
+		uint64_t room = m->verts_limit > other
+			? (m->verts_limit - other) / item : 0;
+		cap = n + n / 8 + 1;
+		if (cap > room)
+			cap = room;
+		if (cap > most)
+			cap = most;
+	}
+	return cap > n ? cap : n;
+}
+
 /* Appends a vertex; `rgb` (NULL: none) is kept only in 4-float records. */
 static int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 				   const uint8_t *rgb)
 {
 	const uint64_t vbytes = 4 * (uint64_t)m->vfloats;
 	if (m->spill || m->spill_wanted) {
-		if (m->nverts >= UINT32_MAX)
+		if (m->nverts >= UINT32_MAX || m->spill_nverts >= UINT32_MAX)
 			return vd_fail(VD_ERR_RANGE, "more than %" PRIu32
-				       " vertices", UINT32_MAX);
+				       " vertices%s", UINT32_MAX,
+				       m->nverts < UINT32_MAX ? " in all "
+				       "objects (the most a spilled AC3D file "
+				       "may have)" : "");
 		m->nverts++;
 		if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
 			m->nonfinite = 1;
@@ -596,30 +686,25 @@ static int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 			return VD_OK;
 		float d[4];
 		vd_mesh_vrec(m, v, rgb, d);
-		return vd_spill_vertex(m->spill, d);
+		m->spill_nverts++;
+		return vd_spill_record(m->spill, MESH_SPILL_VERTS, d);
 	}
-	if (m->verts_limit && (m->nverts + 1) * vbytes > m->verts_limit &&
+	const uint64_t other = m->uvs_cap * 2 * sizeof(float);
+	if (m->verts_limit &&
+	    (m->nverts + 1) * vbytes + other > m->verts_limit &&
 	    vd_mesh_can_spill(m)) {
 		m->spill_wanted = 1;
 		return vd_mesh_push_vertex_rgb(m, v, rgb);
 	}
 	if (m->nverts == m->verts_cap) {
-		uint64_t cap = m->verts_cap ? m->verts_cap * 2 : 4096;
-		if (cap > UINT32_MAX)
-			cap = UINT32_MAX;
-		if (m->nverts >= cap)
+		if (m->nverts >= UINT32_MAX)
 			return vd_fail(VD_ERR_RANGE,
 				       "more than %" PRIu32 " vertices",
 				       UINT32_MAX);
-		if (m->verts_limit && cap * vbytes > m->verts_limit) {
-			cap = m->verts_limit / vbytes;
-			if (m->nverts >= cap)
-				return vd_fail(VD_ERR_BUDGET, "more than %" PRIu64
-					       " vertices need more than %" PRIu64
-					       " KiB in memory, the vertex share "
-					       "(half) of the memory budget",
-					       m->nverts, m->verts_limit >> 10);
-		}
+		uint64_t cap = vd_mesh_grow_cap(m, m->nverts, vbytes, other,
+						UINT32_MAX);
+		if (cap == m->nverts)
+			return vd_mesh_over_limit(m);
 		float *p = realloc(m->verts, (size_t)(cap * vbytes));
 		if (!p)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
@@ -1242,9 +1327,7 @@ static int vd_ply_open(struct vd_mesh *m)
 		int spill = m->verts_limit && ve->count * vbytes > m->verts_limit;
 		if (spill && vd_mesh_can_spill(m)) {
 			/* the records go to the spill (vd_mesh_push_vertex_rgb) */
-			if ((e = vd_spill_open(&m->spill, m->spill_dir,
-					       (size_t)vbytes, m->spill_tri_bytes,
-					       m->verts_limit)))
+			if ((e = vd_mesh_spill_open(m)))
 				return e;
 		} else if (spill)
 			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
@@ -1431,7 +1514,7 @@ static int vd_mesh_add_material(struct vd_mesh *m, const char *name)
 	return VD_OK;
 }
 
-/* Grows m->poly_tc to hold `need` corners. */
+/* Grows m->poly_tc and m->poly_ti to hold `need` corners. */
 static int vd_mesh_grow_tc(struct vd_mesh *m, size_t need)
 {
 	if (need <= m->poly_tc_cap)
@@ -1440,9 +1523,12 @@ static int vd_mesh_grow_tc(struct vd_mesh *m, size_t need)
 	while (cap < need)
 		cap *= 2;
 	float *p = realloc(m->poly_tc, cap * 2 * sizeof *p);
-	if (!p)
+	if (p)
+		m->poly_tc = p;
+	uint32_t *q = p ? realloc(m->poly_ti, cap * sizeof *q) : NULL;
+	if (!q)
 		return vd_fail(VD_ERR_NOMEM, "polygon of %zu corners", need);
-	m->poly_tc = p;
+	m->poly_ti = q;
 	m->poly_tc_cap = cap;
 	return VD_OK;
 }
@@ -1635,20 +1721,34 @@ static int vd_obj_vt(struct vd_mesh *m, uint64_t ln, const char *p)
 				       "coordinate '%.*s' is not finite", ln,
 				       vd_tok40(t), t);
 	}
+	/* an index is below VD_SPILL_NONE, spilled or not */
+	if (m->nuvs >= UINT32_MAX)
+		return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": more than %"
+			       PRIu32 " texture coordinates", ln, UINT32_MAX);
+	float uv[2] = {(float)d[0], (float)d[1]};
+	const uint64_t vbytes = 4 * (uint64_t)m->vfloats,
+		       other = m->verts_cap * vbytes;
+	if (!m->spill && !m->spill_wanted && m->verts_limit &&
+	    (m->nuvs + 1) * sizeof uv + other > m->verts_limit &&
+	    vd_mesh_can_spill(m))
+		m->spill_wanted = 1; /* they share the vertices' limit */
+	if (m->spill || m->spill_wanted) {
+		m->nuvs++;
+		return m->spill ? vd_spill_record(m->spill, MESH_SPILL_UVS, uv)
+				: VD_OK;
+	}
 	if (m->nuvs == m->uvs_cap) {
-		uint64_t cap = m->uvs_cap ? 2 * m->uvs_cap : 4096;
-		if (cap > UINT32_MAX)
-			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": more "
-				       "than %" PRIu32 " texture coordinates",
-				       ln, UINT32_MAX);
-		float *q = realloc(m->uvs, (size_t)cap * 2 * sizeof *q);
+		uint64_t cap = vd_mesh_grow_cap(m, m->nuvs, sizeof uv, other,
+						UINT32_MAX);
+		if (cap == m->nuvs)
+			return vd_mesh_over_limit(m);
+		float *q = realloc(m->uvs, (size_t)cap * sizeof uv);
 		if (!q)
 			return vd_fail(VD_ERR_NOMEM, "texture coordinates");
 		m->uvs = q;
 		m->uvs_cap = cap;
 	}
-	m->uvs[2 * m->nuvs] = (float)d[0];
-	m->uvs[2 * m->nuvs + 1] = (float)d[1];
+	memcpy(m->uvs + 2 * m->nuvs, uv, sizeof uv);
 	m->nuvs++;
 	return VD_OK;
 }
@@ -1671,6 +1771,13 @@ static int vd_obj_corner_uv(struct vd_mesh *m, uint64_t ln, int64_t ti)
 			       ": texture coordinate index %" PRId64 " out of "
 			       "range (%" PRIu64 " defined so far)", ln,
 			       m->poly_face, ti, m->nuvs);
+	if (m->spill || m->spill_wanted) {
+		/* the u v come from the join (wanted: they are not kept, and
+		 * the polygon is read again into the spill) */
+		tc[0] = tc[1] = 0;
+		m->poly_ti[m->poly_n] = (uint32_t)i;
+		return VD_OK;
+	}
 	tc[0] = m->uvs[2 * i];
 	tc[1] = m->uvs[2 * i + 1];
 	return VD_OK;
@@ -2039,8 +2146,9 @@ static int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
  * Decisions worth knowing:
  * - A surface indexes its own object's vertices only, so one object's
  *   vertices are in memory at a time: memory is bounded by the largest
- *   object, not the model. They are transformed to world coordinates as
- *   they are read.
+ *   object, not the model; an object over the vertex limit sends the
+ *   whole file to the spill (see the top of this file). They are
+ *   transformed to world coordinates as they are read.
  * - Transforms follow OpenSceneGraph's loader, which is what FlightGear
  *   renders with: an object's `rot` r0..r8 is a row-major matrix applied
  *   to column vectors (x' = r0 x + r1 y + r2 z), then its `loc` is added,
@@ -2392,6 +2500,7 @@ static int vd_ac_vertices(struct vd_mesh *m, uint64_t count)
 		identity &= w[i] == vd_ac_identity[i];
 	m->nverts = 0;
 	m->nonfinite = 0;
+	m->ac_vbase = m->spill_nverts;
 	m->stats.vertices += count;
 	for (uint64_t i = 0; i < count; i++) {
 		char *s;
@@ -2838,7 +2947,6 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		m->col_on = 1;
 		m->col = *o;
 		m->col.spill_dir = NULL; /* m->spill_dir is the copy */
-		m->spill_tri_bytes = MESH_SPILL_ATTR_BYTES;
 		char *d = strdup(path);
 		m->dir = d ? strdup(dirname(d)) : NULL;
 		free(d);
@@ -2976,10 +3084,85 @@ static void vd_mesh_attr_unpack(const uint8_t *p, struct vd_tri_attr *a,
 
 static int vd_mesh_next(struct vd_mesh *m, int *got);
 
-/* Spill mode: the first call reads the whole mesh into the spill (OBJ:
- * again from the start, `delivered` triangles having been handed out
- * from memory already) and joins; every call then hands out triangles
- * from the join, with their attributes into attr[] when it is not NULL. */
+/* Back to the first face, reading the file again from the start of its
+ * body: vd_mesh_rewind without a spill, and the start of reading into
+ * one. The materials, textures and MTL files of OBJ stay (an MTL file is
+ * read once); AC3D reads its MATERIAL lines again. */
+static int vd_mesh_restart(struct vd_mesh *m)
+{
+	m->done = 0;
+	m->poly_n = m->poly_next = 0;
+	m->poly_face = 0;
+	m->faces_done = 0;
+	m->stats.faces_dropped_short = 0;
+	m->stats.polygons_split = 0;
+	switch (m->kind) {
+	case MESH_OBJ:
+	case MESH_STL_ASCII:
+		m->nverts = 0;
+		m->nonfinite = 0;
+		m->stl_in_solid = 0;
+		m->stl_rest = NULL;
+		if (m->kind == MESH_OBJ)
+			m->stats.vertices = 0;
+		m->nuvs = 0;
+		m->cur_mat = -1;
+		return vd_rd_seek(&m->r, 0, 0);
+	case MESH_STL_BIN:
+		return vd_rd_seek(&m->r, m->body_off, 0);
+	case MESH_AC3D:
+		m->nverts = 0;
+		m->nonfinite = 0;
+		m->stats.vertices = 0;
+		m->ac_depth = 0;
+		m->ac_in_object = m->ac_seen_object = 0;
+		m->ac_surf_left = 0;
+		m->poly_strip = 0;
+		vd_mesh_free_materials(m);
+		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
+	default:
+		if (m->face_elem == m->nelems) {
+			m->done = 1;
+			return VD_OK;
+		}
+		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
+	}
+}
+
+/* Hands the polygon's next triangle to the spill: its corners' vertex
+ * indices (AC3D: the object's, made the spill's by ac_vbase), with
+ * colours what the polygon decides of its attributes and for a textured
+ * OBJ triangle its corners' vt indices (their u v come from the join);
+ * AC3D adds ac_vbase, for messages. */
+static int vd_mesh_spill_triangle(struct vd_mesh *m)
+{
+	size_t pc[3];
+	uint32_t c[VD_SPILL_MAX_TABLES][3];
+	uint8_t extra[MESH_SPILL_ATTR_BYTES + 4];
+	size_t ab = vd_mesh_spill_attr_bytes(m);
+	uint32_t vbase = m->kind == MESH_AC3D ? (uint32_t)m->ac_vbase : 0;
+	struct vd_tri_attr a = {.texture = -1};
+	vd_mesh_fan(m, pc);
+	if (ab) {
+		uint8_t base[3];
+		vd_mesh_attr_face(m, pc, &a, base);
+		vd_mesh_attr_pack(&a, base, extra);
+	}
+	memcpy(extra + ab, &vbase, 4);
+	for (int j = 0; j < 3; j++) {
+		c[MESH_SPILL_VERTS][j] = m->poly[pc[j]] + vbase;
+		c[MESH_SPILL_UVS][j] = m->kind == MESH_OBJ && a.texture >= 0
+			? m->poly_ti[pc[j]] : VD_SPILL_NONE;
+	}
+	return vd_spill_triangle(m->spill, c, m->poly_face, m->poly_line,
+				 extra);
+}
+
+/* Spill mode: the first call reads the whole mesh into the spill (OBJ
+ * and AC3D: again from the start, `delivered` triangles having been
+ * handed out from memory already) and joins; every call then hands out
+ * triangles from the join, with their attributes into attr[] when it is
+ * not NULL. */
 static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 			      struct vd_tri_attr *attr, size_t cap, size_t *n,
 			      uint64_t delivered)
@@ -2988,48 +3171,23 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 	*n = 0;
 	if (!m->spill_ready) {
 		if (m->spill_wanted) {
-			/* only OBJ gets here: PLY knows at open */
-			if ((e = vd_spill_open(&m->spill, m->spill_dir,
-					       4 * (size_t)m->vfloats,
-					       m->spill_tri_bytes,
-					       m->verts_limit)) ||
-			    (e = vd_rd_seek(&m->r, 0, 0)))
-				return e;
-			/* as vd_mesh_rewind does for OBJ; the materials,
-			 * textures and MTL files read stay */
+			/* OBJ and AC3D: PLY knows at open. The arrays go
+			 * first: the spill takes their share. */
+			free(m->verts);
+			free(m->uvs);
+			m->verts = NULL;
+			m->uvs = NULL;
+			m->verts_cap = m->uvs_cap = 0;
+			m->spill_nverts = 0;
 			m->spill_wanted = 0;
 			m->spill_skip = delivered;
-			free(m->verts);
-			m->verts = NULL;
-			m->nverts = m->verts_cap = 0;
-			m->nonfinite = 0;
-			m->done = 0;
-			m->poly_n = m->poly_next = 0;
-			m->poly_face = 0;
-			m->nuvs = 0;
-			m->cur_mat = -1;
-			m->stats.vertices = 0;
-			m->stats.faces_dropped_short = 0;
-			m->stats.polygons_split = 0;
+			if ((e = vd_mesh_spill_open(m)) ||
+			    (e = vd_mesh_restart(m)))
+				return e;
 		}
 		for (;;) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
-				size_t pc[3];
-				uint32_t c[3];
-				uint8_t extra[MESH_SPILL_ATTR_BYTES];
-				vd_mesh_fan(m, pc);
-				for (int j = 0; j < 3; j++)
-					c[j] = m->poly[pc[j]];
-				if (m->spill_tri_bytes) {
-					struct vd_tri_attr a;
-					uint8_t base[3];
-					vd_mesh_attr_face(m, pc, &a, base);
-					vd_mesh_attr_pack(&a, base, extra);
-				}
-				if ((e = vd_spill_triangle(m->spill, c,
-							   m->poly_face,
-							   m->poly_line,
-							   extra)))
+				if ((e = vd_mesh_spill_triangle(m)))
 					return e;
 				m->poly_next++;
 				continue;
@@ -3055,9 +3213,10 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 			return e;
 		m->spill_ready = 1;
 	}
+	size_t ab = vd_mesh_spill_attr_bytes(m);
 	while (*n < cap) {
-		const uint8_t *rec[3], *extra;
-		uint32_t v[3];
+		const uint8_t *rec[VD_SPILL_MAX_TABLES][3], *extra;
+		uint32_t v[VD_SPILL_MAX_TABLES][3];
 		uint64_t face, line;
 		int got;
 		if ((e = vd_spill_next(m->spill, rec, v, &face, &line, &extra,
@@ -3070,20 +3229,41 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 			continue;
 		}
 		struct vd_triangle *t = &buf[*n];
+		for (int j = 0; j < 3; j++) {
+			if (!rec[MESH_SPILL_VERTS][j])
+				return vd_fail(VD_ERR_INTERNAL, "face %" PRIu64
+					       " without its vertices in the "
+					       "spill", face);
+			memcpy(t->v[j], rec[MESH_SPILL_VERTS][j], 12);
+		}
+		/* every triangle checked: AC3D's m->nonfinite is the last
+		 * object's only */
 		for (int j = 0; j < 3; j++)
-			memcpy(t->v[j], rec[j], 12);
-		if (m->nonfinite)
-			for (int j = 0; j < 3; j++)
-				if (!isfinite(t->v[j][0]) || !isfinite(t->v[j][1]) ||
-				    !isfinite(t->v[j][2])) {
-					m->poly_face = face;
-					m->poly_line = line;
-					return vd_mesh_nonfinite(m, v[j], t->v[j]);
-				}
+			if (!isfinite(t->v[j][0]) || !isfinite(t->v[j][1]) ||
+			    !isfinite(t->v[j][2])) {
+				uint32_t vbase;
+				memcpy(&vbase, extra + ab, 4);
+				m->poly_face = face;
+				m->poly_line = line;
+				return vd_mesh_nonfinite(m,
+					v[MESH_SPILL_VERTS][j] -
+					(m->kind == MESH_AC3D ? vbase : 0),
+					t->v[j]);
+			}
 		if (attr) {
 			uint8_t base[3];
-			vd_mesh_attr_unpack(extra, &attr[*n], base);
-			vd_mesh_attr_corners(m, rec, base, &attr[*n]);
+			struct vd_tri_attr *a = &attr[*n];
+			vd_mesh_attr_unpack(extra, a, base);
+			vd_mesh_attr_corners(m, rec[MESH_SPILL_VERTS], base, a);
+			for (int j = 0; a->texture >= 0 && m->kind == MESH_OBJ &&
+			     j < 3; j++) {
+				if (!rec[MESH_SPILL_UVS][j])
+					return vd_fail(VD_ERR_INTERNAL, "face %"
+						       PRIu64 " without its "
+						       "texture coordinates in "
+						       "the spill", face);
+				memcpy(a->uv[j], rec[MESH_SPILL_UVS][j], 8);
+			}
 		}
 		(*n)++;
 	}
@@ -3223,51 +3403,13 @@ int vd_mesh_rewind(struct vd_mesh *m)
 	if (!m)
 		return vd_fail(VD_ERR_ARG, "vd_mesh_rewind: NULL mesh");
 	m->err = 0;
+	m->stats.triangles_read = 0;
 	if (m->spill_ready) {
 		/* the join is the whole mesh: no file to read again */
-		m->stats.triangles_read = 0;
 		m->spill_skip = 0;
 		return vd_spill_rewind(m->spill);
 	}
-	m->done = 0;
-	m->poly_n = m->poly_next = 0;
-	m->poly_face = 0;
-	m->faces_done = 0;
-	m->stats.triangles_read = 0;
-	m->stats.faces_dropped_short = 0;
-	m->stats.polygons_split = 0;
-	switch (m->kind) {
-	case MESH_OBJ:
-	case MESH_STL_ASCII:
-		m->nverts = 0;
-		m->nonfinite = 0;
-		m->stl_in_solid = 0;
-		m->stl_rest = NULL;
-		if (m->kind == MESH_OBJ)
-			m->stats.vertices = 0;
-		m->nuvs = 0;
-		m->cur_mat = -1;
-		return vd_rd_seek(&m->r, 0, 0);
-	case MESH_STL_BIN:
-		return vd_rd_seek(&m->r, m->body_off, 0);
-	case MESH_AC3D:
-		m->nverts = 0;
-		m->nonfinite = 0;
-		m->stats.vertices = 0;
-		m->ac_depth = 0;
-		m->ac_in_object = m->ac_seen_object = 0;
-		m->ac_surf_left = 0;
-		m->poly_strip = 0;
-		/* the MATERIAL lines are read again */
-		vd_mesh_free_materials(m);
-		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
-	default:
-		if (m->face_elem == m->nelems) {
-			m->done = 1;
-			return VD_OK;
-		}
-		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
-	}
+	return vd_mesh_restart(m);
 }
 
 const char *vd_mesh_format(const struct vd_mesh *m)
@@ -3283,7 +3425,7 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 		   (size_t)m->verts_cap * 4 * (size_t)m->vfloats +
 		   m->poly_cap * sizeof *m->poly +
 		   m->ac_cap * sizeof *m->ac_stack +
-		   m->poly_tc_cap * 2 * sizeof(float) +
+		   m->poly_tc_cap * (2 * sizeof(float) + sizeof(uint32_t)) +
 		   (size_t)m->uvs_cap * 2 * sizeof(float) +
 		   m->mats_cap * sizeof *m->mats +
 		   m->texs_cap * sizeof *m->texs +
@@ -3323,6 +3465,7 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->mtllibs);
 	free(m->uvs);
 	free(m->poly_tc);
+	free(m->poly_ti);
 	free(m->vslot);
 	free(m->dir);
 	vd_spill_close(m->spill);

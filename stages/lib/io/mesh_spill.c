@@ -1,20 +1,26 @@
-/* mesh_spill.c - the external join of an indexed mesh's faces with its
- * vertices, for meshes whose vertices do not fit in the memory budget
- * (mesh_spill.h says what it does; this says how).
+/* mesh_spill.c - the external join of an indexed mesh's faces with
+ * tables of records (its vertices, an OBJ's texture coordinates), for
+ * meshes whose tables do not fit in the memory budget (mesh_spill.h says
+ * what it does; this says how).
  *
- * Two external sorts of fixed-size records keyed by a uint64 at offset 0:
- *   A: one record per triangle corner, (vertex index, corner position
- *      3t+k), sorted by vertex index;
- *   B: the join of A's merged runs with the vertex file read in order,
- *      (corner position, vertex index, vertex record), sorted by corner
- *      position, so its merge yields the triangles in their input order.
+ * External sorts of fixed-size records keyed by a uint64 at offset 0:
+ *   A: one record per triangle corner and table it has an index in,
+ *      (table << 32 | index, corner position 3t+k), sorted by that key,
+ *      so its merge gives table 0's corners in index order, then table
+ *      1's: one sort serves every table, and the join reads the tables
+ *      one after the other, each in order;
+ *   B_t, one per table: the join of A's merged runs with table t's file
+ *      read in order, (corner position, index, record), sorted by corner
+ *      position, so the merges of the B_t in step yield the triangles in
+ *      their input order (a corner without an index in table t is simply
+ *      absent from B_t).
  * A sort fills a buffer, sorts it and appends it as one run to its file;
  * the merge reads every run through its own small buffer (one pass: with
  * runs of half the budget there are few of them). The triangles' face
  * numbers and lines (for messages) and their own records are already in
- * triangle order and go to a file of their own. All files are unlinked temporaries
- * (O_TMPFILE), written and read with explicit offsets; records are native
- * byte order, as they never leave the process. */
+ * triangle order and go to a file of their own. All files are unlinked
+ * temporaries (O_TMPFILE), written and read with explicit offsets;
+ * records are native byte order, as they never leave the process. */
 #include "voxdag.h"
 #include "io/mesh_spill.h"
 
@@ -309,51 +315,81 @@ static void xs_release(struct xsort *x)
 
 /* ------------------------------------------------------------ the join */
 
+/* A table: its records in index order in a file of their own, and the
+ * sort B of its joined corners. */
+struct spill_table {
+	size_t rb;                /* record bytes */
+	uint64_t n;               /* records appended */
+	int fd;
+	struct wr w;
+	struct xsort b;           /* (corner position, index, record) */
+	const uint8_t *head;      /* reading: B's next record, NULL at end */
+};
+
 struct vd_spill {
 	char *dir;
-	size_t rb;                /* vertex record bytes */
+	size_t ntab;
+	struct spill_table t[VD_SPILL_MAX_TABLES];
 	size_t mr;                /* meta record: face, line, triangle record */
 	uint64_t mem;
-	uint64_t nverts, ntris;
-	int vfd, mfd;             /* vertices; triangles' meta records */
-	struct wr vw, mw;
-	struct xsort a, b;
+	uint64_t ntris;
+	int mfd;                  /* the triangles' meta records */
+	struct wr mw;
+	struct xsort a;           /* (table << 32 | index, corner position) */
 	int finished;
 	/* reading */
 	struct rd meta;
 	uint8_t *meta_buf;
-	uint8_t *tri;             /* 3 B records of the current triangle */
+	uint8_t *tri;             /* per table the 3 B records of the current
+				   * triangle, at tri_off[table] */
+	size_t tri_off[VD_SPILL_MAX_TABLES];
 	uint64_t next_tri;
 };
 
-int vd_spill_open(struct vd_spill **out, const char *dir, size_t rec_bytes,
-		  size_t tri_bytes, uint64_t mem_bytes)
+int vd_spill_open(struct vd_spill **out, const char *dir, size_t ntables,
+		  const size_t rec_bytes[], size_t tri_bytes,
+		  uint64_t mem_bytes)
 {
 	*out = NULL;
 	spill_dir_name = dir;
+	if (ntables < 1 || ntables > VD_SPILL_MAX_TABLES)
+		return vd_fail(VD_ERR_ARG, "a spill of %zu tables (1 to %d)",
+			       ntables, VD_SPILL_MAX_TABLES);
 	struct vd_spill *s = calloc(1, sizeof *s);
 	if (!s)
 		return vd_fail(VD_ERR_NOMEM, "vertex spill");
-	s->vfd = s->mfd = s->a.fd = s->b.fd = -1;
-	s->rb = rec_bytes;
+	s->ntab = ntables;
+	s->mfd = s->a.fd = -1;
+	for (size_t t = 0; t < VD_SPILL_MAX_TABLES; t++)
+		s->t[t].fd = s->t[t].b.fd = -1;
 	s->mr = 16 + tri_bytes;
 	s->mem = mem_bytes < SPILL_MIN_MEM ? SPILL_MIN_MEM : mem_bytes;
 	int err = VD_OK;
 	if (!(s->dir = strdup(dir)))
 		err = vd_fail(VD_ERR_NOMEM, "vertex spill");
-	if (!err && ((s->vfd = vd_tmpfile(dir, "mesh-spill")) < 0 || (s->mfd = vd_tmpfile(dir, "mesh-spill")) < 0))
+	if (!err && (s->mfd = vd_tmpfile(dir, "mesh-spill")) < 0)
 		err = io_fail("create");
+	for (size_t t = 0; t < ntables && !err; t++) {
+		s->t[t].rb = rec_bytes[t];
+		if ((s->t[t].fd = vd_tmpfile(dir, "mesh-spill")) < 0)
+			err = io_fail("create");
+		if (!err)
+			err = xs_init(&s->t[t].b, dir, 12 + rec_bytes[t]);
+	}
 	if (!err)
 		err = xs_init(&s->a, dir, 16);
-	if (!err)
-		err = xs_init(&s->b, dir, 12 + rec_bytes);
 	/* while the input comes: A's run buffer takes half the memory, the
-	 * two append buffers an eighth each */
-	size_t wcap = (size_t)(s->mem / 8);
+	 * meta writer an eighth and the tables' writers an eighth together */
+	size_t mcap = (size_t)(s->mem / 8), tcap = mcap / ntables;
 	if (!err) {
-		s->vw = (struct wr){.fd = s->vfd, .cap = wcap, .b = malloc(wcap)};
-		s->mw = (struct wr){.fd = s->mfd, .cap = wcap, .b = malloc(wcap)};
-		if (!s->vw.b || !s->mw.b)
+		s->mw = (struct wr){.fd = s->mfd, .cap = mcap, .b = malloc(mcap)};
+		if (!s->mw.b)
+			err = vd_fail(VD_ERR_NOMEM, "vertex spill buffers");
+	}
+	for (size_t t = 0; t < ntables && !err; t++) {
+		s->t[t].w = (struct wr){.fd = s->t[t].fd, .cap = tcap,
+					.b = malloc(tcap)};
+		if (!s->t[t].w.b)
 			err = vd_fail(VD_ERR_NOMEM, "vertex spill buffers");
 	}
 	if (!err)
@@ -366,22 +402,31 @@ int vd_spill_open(struct vd_spill **out, const char *dir, size_t rec_bytes,
 	return VD_OK;
 }
 
-int vd_spill_vertex(struct vd_spill *s, const void *rec)
+int vd_spill_record(struct vd_spill *s, size_t t, const void *rec)
 {
 	spill_dir_name = s->dir;
-	s->nverts++;
-	return wr_put(&s->vw, rec, s->rb);
+	if (t >= s->ntab || s->t[t].n >= VD_SPILL_NONE)
+		return vd_fail(VD_ERR_INTERNAL, "record %llu of spill table "
+			       "%zu of %zu", (unsigned long long)(t < s->ntab
+			       ? s->t[t].n : 0), t, s->ntab);
+	s->t[t].n++;
+	return wr_put(&s->t[t].w, rec, s->t[t].rb);
 }
 
-int vd_spill_triangle(struct vd_spill *s, const uint32_t v[3], uint64_t face,
-		      uint64_t line, const void *tri_rec)
+int vd_spill_triangle(struct vd_spill *s,
+		      const uint32_t idx[VD_SPILL_MAX_TABLES][3],
+		      uint64_t face, uint64_t line, const void *tri_rec)
 {
 	spill_dir_name = s->dir;
 	int err = VD_OK;
-	for (int k = 0; k < 3 && !err; k++) {
-		uint64_t r[2] = {v[k], 3 * s->ntris + (uint64_t)k};
-		err = xs_add(&s->a, r);
-	}
+	for (size_t t = 0; t < s->ntab && !err; t++)
+		for (int k = 0; k < 3 && !err; k++) {
+			if (idx[t][k] == VD_SPILL_NONE)
+				continue;
+			uint64_t r[2] = {(uint64_t)t << 32 | idx[t][k],
+					 3 * s->ntris + (uint64_t)k};
+			err = xs_add(&s->a, r);
+		}
 	uint64_t m[2] = {face, line};
 	if (!err)
 		err = wr_put(&s->mw, m, sizeof m);
@@ -391,74 +436,115 @@ int vd_spill_triangle(struct vd_spill *s, const uint32_t v[3], uint64_t face,
 	return err;
 }
 
+/* Starts (again) the reading of the joined triangles: B's merges take an
+ * eighth of the memory together, since they stay for every pass of the
+ * caller over the mesh (runs are read sequentially: small buffers are
+ * enough). */
+static int spill_read_start(struct vd_spill *s)
+{
+	int err = VD_OK;
+	s->next_tri = 0;
+	rd_init(&s->meta, s->mfd, s->mr, 0, s->mr * s->ntris, s->meta_buf,
+		1 << 16);
+	for (size_t t = 0; t < s->ntab && !err; t++) {
+		struct spill_table *tb = &s->t[t];
+		err = xs_merge_start(&tb->b, (size_t)(s->mem / 8 / s->ntab));
+		if (!err)
+			tb->head = xs_merge_next(&tb->b, &err);
+	}
+	return err;
+}
+
 int vd_spill_finish(struct vd_spill *s)
 {
 	spill_dir_name = s->dir;
-	int err = wr_flush(&s->vw);
-	if (!err)
-		err = wr_flush(&s->mw);
-	free(s->vw.b);
+	int err = wr_flush(&s->mw);
 	free(s->mw.b);
-	s->vw.b = s->mw.b = NULL;
+	s->mw.b = NULL;
+	size_t bmax = 0;
+	for (size_t t = 0; t < s->ntab; t++) {
+		if (!err)
+			err = wr_flush(&s->t[t].w);
+		free(s->t[t].w.b);
+		s->t[t].w.b = NULL;
+		if (s->t[t].b.R > bmax)
+			bmax = s->t[t].b.R;
+	}
 	if (!err)
 		err = xs_finish(&s->a);
-	/* the join: A's merge a quarter, B's run buffer half, the vertex
-	 * reader an eighth */
+	/* the join, one table after the other as A's merge gives them: A's
+	 * merge a quarter, the run buffer of the table's B half, the
+	 * table's reader an eighth */
 	size_t vcap = (size_t)(s->mem / 8);
-	uint8_t *vbuf = NULL, *brec = malloc(s->b.R);
+	uint8_t *vbuf = NULL, *brec = malloc(bmax);
 	if (!err && (!(vbuf = malloc(vcap)) || !brec))
 		err = vd_fail(VD_ERR_NOMEM, "vertex spill join");
 	if (!err)
 		err = xs_merge_start(&s->a, (size_t)(s->mem / 4));
-	if (!err)
-		err = xs_reserve(&s->b, (size_t)(s->mem / 2));
-	struct rd vr;
-	rd_init(&vr, s->vfd, s->rb, 0, s->nverts * s->rb, vbuf, vcap);
-	uint64_t vi = 0; /* index of the vertex after `vrec` */
+	struct rd vr = {0};
+	size_t cur = SIZE_MAX;    /* the table being joined */
+	uint64_t vi = 0;          /* index of the record after `vrec` */
 	const uint8_t *vrec = NULL, *r;
 	while (!err && (r = xs_merge_next(&s->a, &err))) {
-		uint64_t want, pos;
-		memcpy(&want, r, 8);
+		uint64_t key, pos;
+		memcpy(&key, r, 8);
 		memcpy(&pos, r + 8, 8);
+		size_t t = (size_t)(key >> 32);
+		uint32_t want = (uint32_t)key;
+		if (t != cur) {
+			if (t >= s->ntab || (cur != SIZE_MAX && t < cur)) {
+				err = vd_fail(VD_ERR_INTERNAL, "spill table %zu "
+					      "after table %zu", t, cur);
+				break;
+			}
+			if ((cur != SIZE_MAX && (err = xs_finish(&s->t[cur].b))) ||
+			    (err = xs_reserve(&s->t[t].b, (size_t)(s->mem / 2))))
+				break;
+			cur = t;
+			rd_init(&vr, s->t[t].fd, s->t[t].rb, 0,
+				s->t[t].n * s->t[t].rb, vbuf, vcap);
+			vi = 0;
+			vrec = NULL;
+		}
 		while (!err && vi <= want) {
 			if (!(vrec = rd_next(&vr, &err)) && !err)
-				err = vd_fail(VD_ERR_INTERNAL, "vertex %llu of %llu "
-					      "missing from the spill",
-					      (unsigned long long)want,
-					      (unsigned long long)s->nverts);
+				err = vd_fail(VD_ERR_INTERNAL, "record %lu of %llu "
+					      "of table %zu missing from the "
+					      "spill", (unsigned long)want,
+					      (unsigned long long)s->t[t].n, t);
 			vi++;
 		}
 		if (err)
 			break;
-		uint32_t v32 = (uint32_t)want;
 		memcpy(brec, &pos, 8);
-		memcpy(brec + 8, &v32, 4);
-		memcpy(brec + 12, vrec, s->rb);
-		err = xs_add(&s->b, brec);
+		memcpy(brec + 8, &want, 4);
+		memcpy(brec + 12, vrec, s->t[t].rb);
+		err = xs_add(&s->t[t].b, brec);
 	}
+	if (!err && cur != SIZE_MAX)
+		err = xs_finish(&s->t[cur].b);
 	free(vbuf);
 	free(brec);
 	xs_release(&s->a);
-	close(s->vfd);
-	s->vfd = -1;
-	if (!err)
-		err = xs_finish(&s->b);
-	/* reading: B's merge an eighth of the memory, since it stays for
-	 * every pass of the caller over the mesh (runs are read
-	 * sequentially: small buffers are enough) */
+	for (size_t t = 0; t < s->ntab; t++) {
+		close(s->t[t].fd);
+		s->t[t].fd = -1;
+	}
 	if (!err) {
+		size_t off = 0;
+		for (size_t t = 0; t < s->ntab; t++) {
+			s->tri_off[t] = off;
+			off += 3 * s->t[t].b.R;
+		}
 		s->meta_buf = malloc(1 << 16);
-		s->tri = malloc(3 * s->b.R);
+		s->tri = malloc(off);
 		if (!s->meta_buf || !s->tri)
 			err = vd_fail(VD_ERR_NOMEM, "vertex spill reader");
 	}
 	if (!err)
-		err = xs_merge_start(&s->b, (size_t)(s->mem / 8));
-	if (!err) {
-		rd_init(&s->meta, s->mfd, s->mr, 0, s->mr * s->ntris,
-			s->meta_buf, 1 << 16);
+		err = spill_read_start(s);
+	if (!err)
 		s->finished = 1;
-	}
 	/* the sort buffers are freed, but glibc keeps freed heap pages of
 	 * their size (its mmap threshold rises after the first): give them
 	 * back, the caller's budget counts resident memory */
@@ -466,9 +552,10 @@ int vd_spill_finish(struct vd_spill *s)
 	return err;
 }
 
-int vd_spill_next(struct vd_spill *s, const uint8_t *rec[3], uint32_t v[3],
-		  uint64_t *face, uint64_t *line, const uint8_t **tri_rec,
-		  int *got)
+int vd_spill_next(struct vd_spill *s,
+		  const uint8_t *rec[VD_SPILL_MAX_TABLES][3],
+		  uint32_t idx[VD_SPILL_MAX_TABLES][3], uint64_t *face,
+		  uint64_t *line, const uint8_t **tri_rec, int *got)
 {
 	spill_dir_name = s->dir;
 	*got = 0;
@@ -477,19 +564,29 @@ int vd_spill_next(struct vd_spill *s, const uint8_t *rec[3], uint32_t v[3],
 	if (s->next_tri == s->ntris)
 		return VD_OK;
 	int err = VD_OK;
-	for (int k = 0; k < 3; k++) {
-		const uint8_t *r = xs_merge_next(&s->b, &err);
-		uint64_t pos = 0;
-		if (r)
-			memcpy(&pos, r, 8);
-		if (!r || pos != 3 * s->next_tri + (uint64_t)k)
-			return err ? err : vd_fail(VD_ERR_INTERNAL, "vertex "
-				"spill out of order at triangle %llu",
-				(unsigned long long)s->next_tri);
-		uint8_t *d = s->tri + (size_t)k * s->b.R;
-		memcpy(d, r, s->b.R);
-		memcpy(&v[k], d + 8, 4);
-		rec[k] = d + 12;
+	for (size_t t = 0; t < s->ntab; t++) {
+		struct spill_table *tb = &s->t[t];
+		for (int k = 0; k < 3; k++) {
+			uint64_t want = 3 * s->next_tri + (uint64_t)k, pos = 0;
+			rec[t][k] = NULL;
+			idx[t][k] = VD_SPILL_NONE;
+			if (tb->head)
+				memcpy(&pos, tb->head, 8);
+			if (!tb->head || pos > want)
+				continue; /* no index in this table */
+			if (pos < want)
+				return vd_fail(VD_ERR_INTERNAL, "vertex spill out "
+					       "of order at triangle %llu",
+					       (unsigned long long)s->next_tri);
+			uint8_t *d = s->tri + s->tri_off[t] +
+				     (size_t)k * tb->b.R;
+			memcpy(d, tb->head, tb->b.R);
+			memcpy(&idx[t][k], d + 8, 4);
+			rec[t][k] = d + 12;
+			tb->head = xs_merge_next(&tb->b, &err);
+			if (err)
+				return err;
+		}
 	}
 	const uint8_t *m = rd_next(&s->meta, &err);
 	if (!m)
@@ -508,21 +605,21 @@ int vd_spill_rewind(struct vd_spill *s)
 	spill_dir_name = s->dir;
 	if (!s->finished)
 		return vd_fail(VD_ERR_INTERNAL, "vertex spill rewound before finish");
-	s->next_tri = 0;
-	rd_init(&s->meta, s->mfd, s->mr, 0, s->mr * s->ntris, s->meta_buf,
-		1 << 16);
-	return xs_merge_start(&s->b, (size_t)(s->mem / 8));
+	return spill_read_start(s);
 }
 
 size_t vd_spill_memory_bytes(const struct vd_spill *s)
 {
 	if (!s)
 		return 0;
-	size_t b = sizeof *s + (s->vw.b ? s->vw.cap : 0) +
-		   (s->mw.b ? s->mw.cap : 0) + (s->meta_buf ? 1 << 16 : 0);
-	const struct xsort *x[2] = {&s->a, &s->b};
-	for (int i = 0; i < 2; i++)
-		b += (x[i]->buf ? x[i]->cap * x[i]->R : 0) + x[i]->mbytes;
+	size_t b = sizeof *s + (s->mw.b ? s->mw.cap : 0) +
+		   (s->meta_buf ? 1 << 16 : 0) +
+		   (s->a.buf ? s->a.cap * s->a.R : 0) + s->a.mbytes;
+	for (size_t t = 0; t < s->ntab; t++) {
+		const struct spill_table *tb = &s->t[t];
+		b += (tb->w.b ? tb->w.cap : 0) + 3 * tb->b.R +
+		     (tb->b.buf ? tb->b.cap * tb->b.R : 0) + tb->b.mbytes;
+	}
 	return b;
 }
 
@@ -531,12 +628,14 @@ void vd_spill_close(struct vd_spill *s)
 	if (!s)
 		return;
 	xs_release(&s->a);
-	xs_release(&s->b);
-	if (s->vfd >= 0)
-		close(s->vfd);
+	for (size_t t = 0; t < VD_SPILL_MAX_TABLES; t++) {
+		xs_release(&s->t[t].b);
+		if (s->t[t].fd >= 0)
+			close(s->t[t].fd);
+		free(s->t[t].w.b);
+	}
 	if (s->mfd >= 0)
 		close(s->mfd);
-	free(s->vw.b);
 	free(s->mw.b);
 	free(s->meta_buf);
 	free(s->tri);

@@ -1492,9 +1492,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 				.start = t0,
 				.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct vd_mesh *mesh;
-	/* indexed meshes keep their vertices in memory up to half the
-	 * budget; beyond it their faces are joined with them on disk, in
-	 * unlinked files of the output (staging) directory (mesh_spill.c) */
+	/* indexed meshes keep their vertices (and an OBJ's vt) in memory up
+	 * to half the budget; beyond it their faces are joined with them on
+	 * disk, in unlinked files of the output (staging) directory
+	 * (mesh_spill.c) */
 	struct vd_mesh_open_opts mo = {
 		.max_vertex_bytes = opts->mem_budget_bytes / 2,
 		.colours = opts->colours, .strict = opts->strict,
