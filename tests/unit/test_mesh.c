@@ -1953,6 +1953,18 @@ static const char *write_big_ac(const char *name, int n)
 	return p;
 }
 
+/* A TORCS .acc file with short kids counts (test_acc_short_kids) reads
+ * the same spilled as in memory. */
+static void test_spill_acc_short_kids(void)
+{
+	char *w = strdup(ac_nested), *k = strstr(w, "kids 2\n");
+	k[5] = '5';
+	const char *acc = write_text("spill-short.acc", w);
+	for (int col = 0; col < 2; col++)
+		CHECK_EQ(spill_compare_opts(acc, 12, 1, col, NULL), 5);
+	free(w);
+}
+
 /* AC3D objects over the limit are joined with their surfaces on disk
  * (once over, the whole file is): the same triangles and attributes as
  * in memory, within the limit; errors as in memory. */
@@ -2039,6 +2051,7 @@ int main(void)
 	RUN(test_spill_vt);
 	RUN(test_spill_vt_errors);
 	RUN(test_spill_ac3d);
+	RUN(test_spill_acc_short_kids);
 	RUN(test_ply_binary_be);
 	RUN(test_ply_ascii);
 	RUN(test_obj);
