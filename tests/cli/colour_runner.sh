@@ -12,20 +12,11 @@ D=out/$NAME
 trap 'rm -rf "$T" out/$NAME' EXIT
 
 cfg() { # the common part, then the jobs given on stdin
-	cat <<EOF
-version: 1
-name: $NAME
-input: {mesh: $PWD/tests/data/spider/spider.obj}
-levels: 8
-chunk_level: 1
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:  {stage: voxelize}
-  dag:  {stage: svo-to-dag, needs: [vox]}
-  sdag: {stage: symmetry-merge, needs: [dag]}
-  enc:  {stage: encode, needs: [dag, sdag]}
-EOF
-	cat
+	{
+		echo "  sdag:   {stage: symmetry-merge, needs: [dag]}"
+		echo "  enc:    {stage: encode, needs: [dag, sdag]}"
+		cat
+	} | small_pipeline "$NAME" "$PWD/tests/data/spider/spider.obj"
 }
 bad() { # bad NAME PATTERN (jobs on stdin)
 	cfg > "$T/bad.yaml"

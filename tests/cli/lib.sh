@@ -59,6 +59,23 @@ help_lists_options() {
 
 . "$(dirname "${BASH_SOURCE[0]}")/../lossless_yaml.sh"
 
+# small_pipeline NAME MESH: a pipeline at 2^8, cells of level 1, with the
+# voxelize job `vox` and the DAG job `dag`, then the jobs given on stdin.
+small_pipeline() {
+	cat <<EOF
+version: 1
+name: $1
+input: {mesh: $2}
+levels: 8
+chunk_level: 1
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:    {stage: voxelize}
+  dag:    {stage: svo-to-dag, needs: [vox]}
+EOF
+	cat
+}
+
 # bunny_pipeline NAME LEVELS CHUNK_LEVEL: the lossless pipeline on the
 # bundled bunny, two 1-thread jobs at a time: the runner tests' common case.
 bunny_pipeline() {

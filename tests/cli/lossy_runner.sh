@@ -17,18 +17,7 @@ last_run() { awk '/ run /{buf=""} {buf=buf $0 "\n"} END{printf "%s", buf}' $D/lo
 started() { last_run | grep ' started ' | sed 's/.* started \([^ ]*\) .*/\1/' | sort | tr '\n' ' '; }
 
 head_cfg() { # the common part, then the jobs given on stdin
-	cat <<EOF
-version: 1
-name: $NAME
-input: {mesh: $PWD/tests/data/bunny.ply}
-levels: 8
-chunk_level: 1
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-EOF
-	cat
+	small_pipeline "$NAME" "$PWD/tests/data/bunny.ply"
 }
 
 # --- config errors: one line naming file:line:column, exit 1
@@ -252,18 +241,7 @@ rc=$?
 # the same as the tools by hand; a rerun starts nothing; a lost colour
 # directory reruns the edit alone (the same colours: colorize stays)
 cedit_cfg() {
-	cat <<EOF
-version: 1
-name: $NAME
-input: {mesh: $PWD/tests/data/spider/spider.obj}
-levels: 8
-chunk_level: 1
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox: {stage: voxelize}
-  dag: {stage: svo-to-dag, needs: [vox]}
-EOF
-	cat
+	small_pipeline "$NAME" "$PWD/tests/data/spider/spider.obj"
 }
 rm -rf $D
 CFG=$T/cedit.yaml

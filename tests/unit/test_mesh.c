@@ -1832,6 +1832,27 @@ static void test_spill_vt(void)
 /* A vt error while spilled: the in-memory message, face and line, from
  * the first vertex on and after a switch mid-file; a file cut anywhere
  * reads as in memory. */
+/* Every cut of buf (len bytes) written to `name` reads the same in
+ * memory as spilled at `cap` bytes: triangles, attributes and error.
+ * Returns the number of cuts that differ (at most 3 are looked for). */
+static int cuts_disagree(const char *name, const char *buf, size_t len,
+			 uint64_t cap)
+{
+	int bad = 0;
+	for (size_t k = 1; k <= len && bad < 3; k++) {
+		char w[700], g[700];
+		const char *p = write_bytes(name, buf, k);
+		read_outcome(p, 0, 1, w, sizeof w);
+		read_outcome(p, cap, 1, g, sizeof g);
+		if (strcmp(w, g)) {
+			fprintf(stderr, "cut at %zu:\nmemory: %s\nspill:  %s\n",
+				k, w, g);
+			bad++;
+		}
+	}
+	return bad;
+}
+
 static void test_spill_vt_errors(void)
 {
 	static const char *const faces[] = {
@@ -1885,19 +1906,7 @@ static void test_spill_vt_errors(void)
 	if (in)
 		fclose(in);
 	CHECK(len > 600 && len < sizeof buf);
-	int bad = 0;
-	for (size_t k = 1; k <= len && bad < 3; k++) {
-		char w[700], g[700];
-		const char *p = write_bytes("spill-vt-cut.obj", buf, k);
-		read_outcome(p, 0, 1, w, sizeof w);
-		read_outcome(p, 16, 1, g, sizeof g);
-		if (strcmp(w, g)) {
-			fprintf(stderr, "cut at %zu:\nmemory: %s\nspill:  %s\n",
-				k, w, g);
-			bad++;
-		}
-	}
-	CHECK_EQ(bad, 0);
+	CHECK_EQ(cuts_disagree("spill-vt-cut.obj", buf, len, 16), 0);
 }
 
 /* An AC3D file of small objects around one of `n` x `n` vertices
@@ -2024,20 +2033,8 @@ static void test_spill_ac3d(void)
 			fprintf(stderr, "%s lacks '%s'\n", got, want[i]);
 		CHECK(strstr(got, want[i]) != NULL);
 	}
-	size_t len = strlen(ac_nested);
-	int bad = 0;
-	for (size_t k = 1; k <= len && bad < 3; k++) {
-		char w[700], g[700];
-		const char *p = write_bytes("spill-cut.ac", ac_nested, k);
-		read_outcome(p, 0, 1, w, sizeof w);
-		read_outcome(p, 12, 1, g, sizeof g);
-		if (strcmp(w, g)) {
-			fprintf(stderr, "cut at %zu:\nmemory: %s\nspill:  %s\n",
-				k, w, g);
-			bad++;
-		}
-	}
-	CHECK_EQ(bad, 0);
+	CHECK_EQ(cuts_disagree("spill-cut.ac", ac_nested, strlen(ac_nested),
+			       12), 0);
 }
 
 int main(void)
