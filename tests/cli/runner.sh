@@ -13,21 +13,8 @@ trap 'rm -rf "$T" out/$NAME' EXIT
 # The runner.log lines of the last run.
 last_run() { awk '/ run /{buf=""} {buf=buf $0 "\n"} END{printf "%s", buf}' $D/logs/runner.log; }
 
-write_cfg() { # write_cfg LEVELS CHUNK_LEVEL [extra jobs yaml]
-	cat > "$CFG" <<EOF
-version: 1
-name: $NAME
-input:
-  mesh: tests/data/bunny.ply
-levels: $1
-chunk_level: $2
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [dag]}
-  enc:    {stage: encode, needs: [dag, ssvdag]}
-EOF
+write_cfg() { # write_cfg LEVELS CHUNK_LEVEL
+	bunny_pipeline "$NAME" "$1" "$2" > "$CFG"
 }
 
 # --- config errors: one line naming file:line:column, exit 1, nothing run
