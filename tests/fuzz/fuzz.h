@@ -95,7 +95,8 @@ static inline int fuzz_mesh(const uint8_t *data, size_t size, const char *ext)
 	/* Spilled from the first vertex (joined with the faces on disk, as
 	 * voxelize does past its budget): the same mesh, or an error where
 	 * the reader in memory has one (perhaps after other triangles: the
-	 * spill reads the whole file first). */
+	 * spill reads the whole file first). A reader that cannot spill
+	 * (STL keeps a facet's vertices) refuses the tiny limit: no test. */
 	struct vd_mesh_open_opts so = {.max_vertex_bytes = 12,
 				       .spill_dir = fuzz_tmpdir()};
 	int serr = vd_mesh_open_opts(&m, path, &so);
@@ -114,6 +115,8 @@ static inline int fuzz_mesh(const uint8_t *data, size_t size, const char *ext)
 		}
 		vd_mesh_close(m);
 	}
+	if (serr == VD_ERR_BUDGET)
+		return 0;
 	if (!serr != !err[0] ||
 	    (!serr && (scount != count[0] || (ssum != sum[0] && sum[0] == sum[0]))))
 		abort(); /* the spill must not change the mesh */

@@ -1625,6 +1625,31 @@ static void test_spill_colours(void)
 }
 
 /* A non-finite vertex: the same error from the join as from memory. */
+/* STL is not indexed, so it never spills: an ASCII STL over a tiny limit
+ * is refused as before, not handed out as its first triangle over and
+ * over (the spill's fuzz check found that); under a real limit it reads
+ * as in memory. */
+static void test_spill_stl_refused(void)
+{
+	const char *p = write_text("spill.stl",
+		"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+		"vertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+		"facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+		"vertex 0 0 1\nendloop\nendfacet\nendsolid t\n");
+	struct vd_mesh_open_opts o = {.max_vertex_bytes = 12,
+				      .spill_dir = dir};
+	struct vd_mesh *m = NULL;
+	int e = vd_mesh_open_opts(&m, p, &o);
+	struct vd_triangle t[4];
+	size_t n = 0;
+	if (!e) {
+		e = vd_mesh_read(m, t, 4, &n);
+		vd_mesh_close(m);
+	}
+	CHECK_EQ(e, VD_ERR_BUDGET);
+	CHECK_EQ(spill_compare(p, 1 << 20, 1), 2);
+}
+
 static void test_spill_nonfinite(void)
 {
 	const char *obj = write_interleaved_obj("spill-nan.obj", 3000, 2500);
@@ -2043,6 +2068,7 @@ int main(void)
 	RUN(test_ply_binary_le);
 	RUN(test_spill_bundled);
 	RUN(test_spill_nonfinite);
+	RUN(test_spill_stl_refused);
 	RUN(test_spill_colours);
 	RUN(test_spill_shared);
 	RUN(test_spill_vt);

@@ -587,7 +587,10 @@ static int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
  * of floats. */
 static int vd_mesh_can_spill(const struct vd_mesh *m)
 {
-	return m->spill_dir != NULL;
+	/* indexed formats only: an ASCII STL holds one facet's vertices,
+	 * and spilling them handed out its first triangle over and over */
+	return m->spill_dir != NULL && m->kind != MESH_STL_ASCII &&
+	       m->kind != MESH_STL_BIN;
 }
 
 /* Bytes of MESH_SPILL_ATTR_BYTES in a spilled triangle's record. */
