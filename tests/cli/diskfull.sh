@@ -191,22 +191,10 @@ check_stage vdb-export scene.vdb
 # its manifest verifies); once space is freed the same command finishes
 # with the outputs of a run that never failed.
 pipeline() { # LEVELS DIR: the pipeline file of depth LEVELS writing DIR
-	cat <<YAML
-version: 1
-name: diskfull
-input:
-  mesh: $BUNNY
-levels: $1
-chunk_level: 1
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-outputs: $2
-jobs:
-  vox:    {stage: voxelize}
-  dag:    {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [dag]}
-  enc:    {stage: encode, needs: [dag, ssvdag]}
-  pic:    {stage: render, needs: [enc]}
-YAML
+	lossless_yaml diskfull "$BUNNY" "$1" 1 \
+		"{jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}"
+	echo "  pic:    {stage: render, needs: [enc]}"
+	echo "outputs: $2"
 }
 pipeline 6 "$F/pipe" > "$T/p6.yaml"
 pipeline 7 "$F/pipe" > "$T/p7.yaml"

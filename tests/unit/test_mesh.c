@@ -1548,23 +1548,32 @@ static void test_spill_bundled(void)
  * their own colour (an MTL beside it), every third vertex coloured
  * ("v x y z r g b"), corners with texture coordinates or without, faces
  * with no material before the first usemtl and after an unknown one. */
+/* Writes `mtl` as NAME.mtl and opens OBJ file NAME with its mtllib line:
+ * the caller writes the rest and closes it. NULL after a failed CHECK. */
+static FILE *open_obj_with_mtl(const char *name, const char *mtl)
+{
+	char path[64];
+	snprintf(path, sizeof path, "%s.mtl", name);
+	FILE *f = fopen(fixture_path(path), "w");
+	CHECK(f != NULL);
+	if (!f)
+		return NULL;
+	fputs(mtl, f);
+	CHECK(fclose(f) == 0);
+	f = fopen(fixture_path(name), "w");
+	CHECK(f != NULL);
+	if (f)
+		fprintf(f, "mtllib %s\n", path);
+	return f;
+}
+
 static const char *write_coloured_obj(const char *name, int n)
 {
-	char mtl[64];
-	snprintf(mtl, sizeof mtl, "%s.mtl", name);
-	const char *mp = fixture_path(mtl);
-	FILE *f = fopen(mp, "w");
-	CHECK(f != NULL);
-	if (!f)
-		return mp;
-	fprintf(f, "newmtl red\nKd 0.9 0.1 0.1\nnewmtl sea\nKd 0.1 0.4 0.8\n");
-	CHECK(fclose(f) == 0);
+	FILE *f = open_obj_with_mtl(name, "newmtl red\nKd 0.9 0.1 0.1\n"
+				    "newmtl sea\nKd 0.1 0.4 0.8\n");
 	const char *p = fixture_path(name);
-	f = fopen(p, "w");
-	CHECK(f != NULL);
 	if (!f)
 		return p;
-	fprintf(f, "mtllib %s\n", mtl);
 	int vt = 0;
 	for (int i = 0; i < n; i++) {
 		double x = (i * 7919 % 1000) / 10.0, y = (i * 104729 % 997) / 9.0;
@@ -1713,22 +1722,13 @@ static const char *checker_png(void)
  * v//vn and v/vt/vn corners and quads. n vertices, 3n vt. */
 static const char *write_vt_obj(const char *name, int n)
 {
-	char mtl[64];
-	snprintf(mtl, sizeof mtl, "%s.mtl", name);
-	const char *mp = fixture_path(mtl);
-	FILE *f = fopen(mp, "w");
-	CHECK(f != NULL);
-	if (!f)
-		return mp;
-	fprintf(f, "newmtl tex\nKd 1 1 1\nmap_Kd %s\nnewmtl plain\n"
-		"Kd 0.2 0.5 0.9\n", checker_png());
-	CHECK(fclose(f) == 0);
+	char text[600];
+	snprintf(text, sizeof text, "newmtl tex\nKd 1 1 1\nmap_Kd %s\n"
+		 "newmtl plain\nKd 0.2 0.5 0.9\n", checker_png());
+	FILE *f = open_obj_with_mtl(name, text);
 	const char *p = fixture_path(name);
-	f = fopen(p, "w");
-	CHECK(f != NULL);
 	if (!f)
 		return p;
-	fprintf(f, "mtllib %s\n", mtl);
 	for (int i = 0; i < n; i++) {
 		if (i % 50 == 0)
 			fprintf(f, "usemtl %s\n", i / 50 % 3 == 2 ? "plain" : "tex");
