@@ -40,7 +40,7 @@ extern "C" {
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
 	X("voxelize", 4)       /* 4: SGI textures; 3: .col; 2: manifest */   \
-	X("voxelize-vdb", 2)   /* 2: manifest */                             \
+	X("voxelize-vdb", 3)   /* 3: .col from a Vec3 grid; 2: manifest */   \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
 	X("encode", 3)         /* 3: ssvdag48 columns; 2: manifest */        \
@@ -736,6 +736,9 @@ struct vd_vdb_select {
 	const char *grid_name;   /* NULL: the first grid in the file */
 	int mode;                /* enum vd_vdb_mode */
 	double fog_threshold;    /* VD_VDB_FOG: set when value > this */
+	/* The colour grid (vd_vdb_colour_open; used by vd_vdb_import when
+	 * opts->colours): NULL picks one by name, or none. */
+	const char *colour_grid;
 };
 
 /* What vd_vdb_open() found. Index boxes are inclusive, in OpenVDB index
@@ -800,6 +803,47 @@ int vd_vdb_scan(struct vd_vdb *v,
 int vd_vdb_leaf_mask(struct vd_vdb *v, const int32_t origin[3],
 		     uint64_t mask[8]);
 
+/* Colour from a Vec3 grid beside the density grid; the rule, value ranges
+ * and sampling are in schemas/colour-rule.md ("OpenVDB colour grids"). */
+struct vd_vdb_colour;
+
+struct vd_vdb_colour_info {
+	char grid_name[128];
+	char value_type[32];   /* "vec3s", "vec3d" or "vec3i" */
+	/* 1: the colour grid's transform is the density grid's, so a voxel's
+	 * colour is read at its own index; 0: read at the colour grid's voxel
+	 * nearest to the voxel centre's world position */
+	int same_transform;
+};
+
+/* Reads the colour grid of the OpenVDB file `path` beside the density grid
+ * `density` (open): the grid named `name`, or when `name` is NULL a grid
+ * named Cd, color, colour or rgb whose values are Vec3
+ * (vec3s, vec3d or vec3i), names tried in that order (OpenVDB lists a
+ * file's grids by name, so a file order is not to be had); with no such
+ * grid *out is NULL and VD_OK is
+ * returned (no colours). Errors: those of vd_vdb_open(), VD_ERR_ARG (no
+ * grid `name`; the detail lists the names), VD_ERR_UNSUPPORTED (grid `name`
+ * is not a Vec3 grid, or has a non-linear transform). Fills `info` when
+ * there is a grid and `info` is not NULL. Close with
+ * vd_vdb_colour_close(). */
+int vd_vdb_colour_open(struct vd_vdb_colour **out, const char *path,
+		       const char *name, const struct vd_vdb *density,
+		       struct vd_vdb_colour_info *info);
+void vd_vdb_colour_close(struct vd_vdb_colour *c);
+
+/* The sRGB colours (R, G, B bytes, rgb[0..3V) for V the voxels of the
+ * bricks) of the voxels of n bricks of an import, bricks in the order
+ * given, within a brick in mask bit order: brick i's key is
+ * keys[i * stride], its mask masks[i * stride]. Our voxel v is the
+ * OpenVDB voxels off + v 2^shift .. off + (v + 1) 2^shift - 1 of the density
+ * grid (vd_vdb_import_result.index_offset, resample_shift); its colour is
+ * read at its centre. Safe to call from several threads. */
+int vd_vdb_colour_bricks(const struct vd_vdb_colour *c, const int32_t off[3],
+			 int shift, const uint64_t *keys,
+			 const uint64_t *masks, size_t stride, size_t n,
+			 uint8_t *rgb);
+
 /* Import: the selected voxels of a grid into SVO chunk files, one per
  * non-empty L0 cell, named and laid out as vd_voxelize_mesh() does.
  *
@@ -830,9 +874,14 @@ struct vd_vdb_import_result {
 	double seconds_read, seconds_scan, seconds_voxelize, seconds_total;
 	uint64_t peak_rss_bytes, mem_budget_bytes;
 	int threads;
+	int colours;                 /* colour chunks were written */
+	struct vd_vdb_colour_info colour; /* their grid, when colours */
 };
 
-/* opts->levels: 0 to fit (see above), or the depth to resample to. */
+/* opts->levels: 0 to fit (see above), or the depth to resample to. With
+ * opts->colours and a colour grid (vd_vdb_colour_open with
+ * sel->colour_grid), each cell also gets its colour chunk, as
+ * vd_voxelize_mesh() writes them. */
 int vd_vdb_import(const char *vdb_path, const char *outdir,
 		  const struct vd_vdb_select *sel,
 		  const struct vd_voxelize_opts *opts,
@@ -896,6 +945,20 @@ int vd_vdb_test_add_empty(struct vd_vdb_test_file *f, const char *name);
 int vd_vdb_test_add_transformed(struct vd_vdb_test_file *f,
 				const char *name, int n, double rotate_deg,
 				double sx, double sy, double sz);
+/* The test colour of OpenVDB index (x, y, z), sRGB 0..255: a fixed
+ * function of the coordinate that vd_vdb_test_add_colour() stores. */
+void vd_vdb_test_colour_of(int64_t x, int64_t y, int64_t z, uint8_t rgb[3]);
+/* A colour grid of `type` ("vec3s", "vec3d": vd_vdb_test_colour_of / 255;
+ * "vec3i": as it is) with voxel size `voxel_size` and index (0,0,0) at world
+ * `translation`: every index of the inclusive box lo..hi active with its
+ * test colour, then those of off_lo..off_hi made inactive (their values
+ * kept) unless off_lo[0] > off_hi[0]; the background is `bg` in the same
+ * encoding. Voxel by voxel: small boxes only. */
+int vd_vdb_test_add_colour(struct vd_vdb_test_file *f, const char *name,
+			   const char *type, double voxel_size,
+			   const double translation[3], const int32_t lo[3],
+			   const int32_t hi[3], const int32_t off_lo[3],
+			   const int32_t off_hi[3], const uint8_t bg[3]);
 int vd_vdb_test_write(struct vd_vdb_test_file *f, const char *path);
 void vd_vdb_test_free(struct vd_vdb_test_file *f);
 
@@ -988,6 +1051,9 @@ struct vd_colours {
 /* XXH3-64 over the little-endian (key, mask) u64 pairs of n bricks. */
 uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks,
 		       size_t n);
+/* The same with key i at keys[i * stride], mask i at masks[i * stride]. */
+uint64_t vd_svo_digest_stride(const uint64_t *keys, const uint64_t *masks,
+			      size_t stride, size_t n);
 
 /* Writes the colours `rgb` (3 * voxels bytes) of the cell whose SVO chunk
  * header is `svo_h` (its voxel count must equal `voxels`: VD_ERR_MISMATCH)
@@ -995,6 +1061,16 @@ uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks,
 int vd_colours_save(const char *path, const struct vd_chunk_header *svo_h,
 		    uint64_t svo_digest, const uint8_t *rgb, uint64_t voxels,
 		    const char *provenance);
+
+/* The same, the colours streamed: each call of `next` sets *rgb to the next
+ * *n colours (3 * *n bytes, valid until the next call) and returns VD_OK;
+ * *n == 0 ends, a non-zero return aborts the write and is returned. More
+ * or fewer than `voxels` colours in all: VD_ERR_MISMATCH, nothing
+ * written. */
+int vd_colours_write(const char *path, const struct vd_chunk_header *svo_h,
+		     uint64_t svo_digest, uint64_t voxels,
+		     int (*next)(void *ctx, const uint8_t **rgb, size_t *n),
+		     void *ctx, const char *provenance);
 
 /* Reads and verifies a colour chunk. Free with vd_colours_release(). */
 int vd_colours_load(struct vd_colours *c, struct vd_chunk_header *h,

@@ -16,7 +16,13 @@ static const char usage[] =
 	"level set 'sphere' of radius 20 voxels), fog.vdb (a fog box 'density'\n"
 	"with whole tiles and a fainter core), two.vdb (grids 'a' and 'b'),\n"
 	"empty.vdb (a grid without active voxels), rotated.vdb and\n"
-	"nonuniform.vdb (transforms voxdag refuses). The second converts a mesh\n"
+	"nonuniform.vdb (transforms voxdag refuses), colour.vdb (a fog box\n"
+	"'density' of indices -5..20, -3..17, 2..30 and colour grids beside it:\n"
+	"'color' (float, not a colour), 'Cd' (vec3s, the same transform, indices\n"
+	"0..3, 0..4, 10..12 inactive, background (51, 102, 153)), 'rgb8' (vec3i),\n"
+	"'Cd_double' (vec3d), 'Cd_coarse' (vec3s, voxel size 2, index 0 at\n"
+	"world 0.5); colour of index (x, y, z): vd_vdb_test_colour_of, in\n"
+	"0..1 for floats). The second converts a mesh\n"
 	"to a level set named 'surface' with N voxels across its largest extent\n"
 	"(OpenVDB tools::meshToLevelSet, half width 3 voxels).\n"
 	"\n"
@@ -83,6 +89,34 @@ static int add_nonuniform(struct vd_vdb_test_file *f)
 	return vd_vdb_test_add_transformed(f, "stretched", 8, 0, 1, 2, 1);
 }
 
+/* The colour fixture: density with colour grids of every kind. */
+static int add_colour(struct vd_vdb_test_file *f)
+{
+	static const int32_t lo[3] = {-5, -3, 2}, hi[3] = {20, 17, 30};
+	static const int32_t off_lo[3] = {0, 0, 10}, off_hi[3] = {3, 4, 12};
+	static const int32_t clo[3] = {-3, -2, 1}, chi[3] = {10, 8, 15};
+	static const uint8_t bg[3] = {51, 102, 153};
+	static const double zero[3] = {0, 0, 0}, half[3] = {0.5, 0.5, 0.5};
+	int err = vd_vdb_test_add_fog_box(f, "density", lo, hi, 1, none_lo,
+					  none_hi, 0);
+	if (!err)
+		err = vd_vdb_test_add_fog_box(f, "color", lo, hi, 1, none_lo,
+					      none_hi, 0);
+	if (!err)
+		err = vd_vdb_test_add_colour(f, "Cd", "vec3s", 1, zero, lo, hi,
+					     off_lo, off_hi, bg);
+	if (!err)
+		err = vd_vdb_test_add_colour(f, "rgb8", "vec3i", 1, zero, lo, hi,
+					     none_lo, none_hi, bg);
+	if (!err)
+		err = vd_vdb_test_add_colour(f, "Cd_double", "vec3d", 1, zero, lo,
+					     hi, none_lo, none_hi, bg);
+	if (!err)
+		err = vd_vdb_test_add_colour(f, "Cd_coarse", "vec3s", 2, half, clo,
+					     chi, none_lo, none_hi, bg);
+	return err;
+}
+
 int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
@@ -139,5 +173,6 @@ int main(int argc, char **argv)
 	       make(dir, "fog.vdb", add_fog) || make(dir, "two.vdb", add_two) ||
 	       make(dir, "empty.vdb", add_empty) ||
 	       make(dir, "rotated.vdb", add_rotated) ||
-	       make(dir, "nonuniform.vdb", add_nonuniform);
+	       make(dir, "nonuniform.vdb", add_nonuniform) ||
+	       make(dir, "colour.vdb", add_colour);
 }

@@ -15,7 +15,8 @@
 static const char usage[] =
 	"usage: voxelize MESH -o OUTDIR --levels L [options]\n"
 	"       voxelize GRID.vdb -o OUTDIR [--levels L] [--grid NAME]\n"
-	"                [--vdb-mode MODE] [--fog-threshold X] [options]\n"
+	"                [--vdb-mode MODE] [--fog-threshold X]\n"
+	"                [--colour-grid NAME] [options]\n"
 	"\n"
 	"Voxelizes the surface of a triangle mesh (PLY, OBJ, STL or AC3D) into\n"
 	"a grid of 2^L voxels per side and writes one SVO chunk file per\n"
@@ -41,12 +42,13 @@ static const char usage[] =
 	"  -q, --quiet             no progress lines on stderr\n"
 	"  -h, --help              this text\n"
 	"\n"
-	"Colours (mesh input): when the mesh has colours (PLY vertex colours,\n"
+	"Colours: when the mesh has colours (PLY vertex colours,\n"
 	"OBJ materials with MTL Kd / map_Kd textures, AC3D materials and\n"
 	"textures) each cell also gets chunk-L<L0>-<cell>.col, the sRGB colour\n"
 	"of every voxel in the cell's Morton order: the colour of the surface\n"
 	"point nearest to the voxel's centre among the triangles overlapping it\n"
-	"(schemas/colour-rule.md). The .svo files are the same either way.\n"
+	"(schemas/colour-rule.md). An OpenVDB file's colours come from a Vec3\n"
+	"grid (--colour-grid). The .svo files are the same either way.\n"
 	"      --no-colours        geometry only: no .col files\n"
 	"      --strict            a missing or unreadable texture or MTL file\n"
 	"                          is an error (default: one warning, and the\n"
@@ -62,6 +64,15 @@ static const char usage[] =
 	"                            levelset-solid    value <= 0, inside tiles too\n"
 	"                            fog               active, value > threshold\n"
 	"      --fog-threshold X   for fog mode (default 0)\n"
+	"      --colour-grid NAME  the Vec3 grid (vec3s, vec3d, vec3i) that gives\n"
+	"                          the voxels' colours, written as .col files\n"
+	"                          like a mesh's (default: the Vec3 grid named\n"
+	"                          Cd, else color, colour, rgb; none: no\n"
+	"                          colours). Floats 0..1 and ints 0..255 are\n"
+	"                          sRGB, clamped, NaN 0; an inactive voxel has\n"
+	"                          the grid's background. A grid with another\n"
+	"                          transform is read at the voxel nearest to each\n"
+	"                          voxel's centre (schemas/colour-rule.md)\n"
 	"\n"
 	"Exit status: 0 success, 1 failure (bad input, I/O, budget), 2 usage.\n";
 
@@ -108,7 +119,7 @@ static int is_vdb(const char *path)
 }
 
 enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD, OPT_NO_COLOURS,
-       OPT_STRICT };
+       OPT_STRICT, OPT_COLOUR_GRID };
 
 int main(int argc, char **argv)
 {
@@ -125,6 +136,7 @@ int main(int argc, char **argv)
 		{"fog-threshold", required_argument, NULL, OPT_FOG_THRESHOLD},
 		{"no-colours", no_argument, NULL, OPT_NO_COLOURS},
 		{"strict", no_argument, NULL, OPT_STRICT},
+		{"colour-grid", required_argument, NULL, OPT_COLOUR_GRID},
 		{NULL, 0, NULL, 0},
 	};
 	struct vd_voxelize_opts o = {.levels = 0, .chunk_level = -1,
@@ -187,6 +199,10 @@ int main(int argc, char **argv)
 						   "number", optarg);
 			vdb_opts = 1;
 			break;
+		case OPT_COLOUR_GRID:
+			sel.colour_grid = optarg;
+			vdb_opts = 1;
+			break;
 		case OPT_NO_COLOURS:
 			o.colours = 0;
 			break;
@@ -214,8 +230,12 @@ int main(int argc, char **argv)
 	if (!have_levels && !vdb)
 		return vd_cli_usage(TOOL, "%s", "no grid depth (--levels L) given");
 	if (vdb_opts && !vdb)
-		return vd_cli_usage(TOOL, "%s", "--grid, --vdb-mode and --fog-threshold "
-				   "are for OpenVDB (.vdb) input only");
+		return vd_cli_usage(TOOL, "%s", "--grid, --vdb-mode, --fog-threshold "
+				   "and --colour-grid are for OpenVDB (.vdb) "
+				   "input only");
+	if (sel.colour_grid && !o.colours)
+		return vd_cli_usage(TOOL, "%s", "--colour-grid and --no-colours "
+				   "contradict each other");
 	o.provenance = provenance;
 
 #ifndef VOXELIZE_WITH_VDB

@@ -47,6 +47,32 @@ grep -q '"grid": "a"' "$T/a/voxelize.stats.json" && pass first_grid_is_a || fail
 expect grid_by_name 0 '' $V "$G/two.vdb" -o "$T/b" --grid b -q
 same grid_by_name_count "$(stat_of "$T/b/voxelize.stats.json" voxels)" 1000
 
+# --- colours from a Vec3 grid beside the density grid (exact values:
+# tests/unit/test_vdb.c, test_colour)
+ls "$T"/s/*.col >/dev/null 2>&1 && fail no_colour_grid_no_col "$(ls "$T/s")" || pass no_colour_grid_no_col
+C="$G/colour.vdb"
+expect colour_default 0 "colours from grid 'Cd' \(vec3s, same transform" \
+	$V "$C" --grid density -o "$T/col" --chunk-level 1
+n_svo=$(ls "$T"/col/*.svo | wc -l)
+n_col=$(ls "$T"/col/*.col | wc -l)
+[ "$n_svo" -gt 1 ] && [ "$n_col" = "$n_svo" ] && pass colour_one_col_per_cell ||
+	fail colour_one_col_per_cell "$n_svo svo, $n_col col"
+expect colour_chunks_check 0 '' $BIN/chunk-check "$T"/col/*.col
+grep -q '"colour_grid": "Cd"' "$T/col/voxelize.stats.json" && pass colour_stats_name ||
+	fail colour_stats_name "$(cat "$T/col/voxelize.stats.json")"
+expect colour_none 0 '' $V "$C" --grid density -o "$T/nocol" --chunk-level 1 --no-colours -q
+ls "$T"/nocol/*.col >/dev/null 2>&1 && fail colour_none_no_col "$(ls "$T/nocol")" || pass colour_none_no_col
+# the same cells and voxels (the bytes differ only in the arguments the
+# chunks record)
+same colour_same_cells "$(cd "$T/col" && ls *.svo)" "$(cd "$T/nocol" && ls *.svo)"
+same colour_same_voxels "$(stat_of "$T/col/voxelize.stats.json" voxels)" \
+	"$(stat_of "$T/nocol/voxelize.stats.json" voxels)"
+expect colour_vec3i 0 "colours from grid 'rgb8' \(vec3i" $V "$C" --grid density -o "$T/c8" --colour-grid rgb8
+expect colour_other_transform 0 "colours from grid 'Cd_coarse' .*other transform: nearest" \
+	$V "$C" --grid density -o "$T/cc" --colour-grid Cd_coarse
+expect colour_grid_and_no_colours 2 'contradict' $V "$C" -o "$T/bad" --colour-grid Cd --no-colours
+expect colour_grid_on_mesh 2 'OpenVDB' $V tests/data/bunny.ply -o "$T/bad" --levels 5 --colour-grid Cd
+
 # --- export, and OpenVDB reading it back
 expect export 0 '^[0-9]+ voxels from' $X -o "$T/sphere-out.vdb" "$T/solid"
 same export_vdb_print_count "$(active_of "$T/sphere-out.vdb")" "$solid"
@@ -82,6 +108,9 @@ bad missing_vdb 'No such file' "$T/none.vdb"
 bad rotated 'rotated transform' "$G/rotated.vdb"
 bad nonuniform 'cubic voxels' "$G/nonuniform.vdb"
 bad fog_as_level_set 'not a level set' "$G/fog.vdb" --vdb-mode levelset-solid
+bad colour_grid_not_vec3 "colour grid 'color' holds float values; colours come from vec3s" \
+	"$G/colour.vdb" --grid density --colour-grid color
+bad colour_grid_missing "no grid named 'Cd_none'.*'Cd', 'Cd_coarse'" "$G/colour.vdb" --colour-grid Cd_none
 expect bad_mode 2 'vdb-mode' $V "$G/sphere.vdb" -o "$T/bad" --vdb-mode smoke
 expect bad_threshold 2 'fog-threshold' $V "$G/sphere.vdb" -o "$T/bad" --fog-threshold lots
 expect vdb_option_on_mesh 2 'OpenVDB' $V tests/data/bunny.ply -o "$T/bad" --levels 5 --grid a

@@ -25,6 +25,12 @@ static uint64_t get64(const uint8_t *p)
 
 uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
 {
+	return vd_svo_digest_stride(keys, masks, 1, n);
+}
+
+uint64_t vd_svo_digest_stride(const uint64_t *keys, const uint64_t *masks,
+			      size_t stride, size_t n)
+{
 	/* Defined on little-endian (key, mask) pairs rather than on the BRKS
 	 * section's bytes, so a writer that streams its bricks and a reader
 	 * that holds them as arrays compute it alike. */
@@ -35,8 +41,8 @@ uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
 	uint8_t buf[16 * 256];
 	size_t k = 0;
 	for (size_t i = 0; i < n; i++) {
-		put64(buf + 16 * k, keys[i]);
-		put64(buf + 16 * k + 8, masks[i]);
+		put64(buf + 16 * k, keys[i * stride]);
+		put64(buf + 16 * k + 8, masks[i * stride]);
 		if (++k == 256) {
 			XXH3_64bits_update(s, buf, sizeof buf);
 			k = 0;
@@ -48,9 +54,34 @@ uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
 	return h;
 }
 
+struct whole {
+	const uint8_t *rgb;
+	uint64_t voxels;
+	int given;
+};
+
+static int next_whole(void *ctx, const uint8_t **rgb, size_t *n)
+{
+	struct whole *w = ctx;
+	*rgb = w->rgb;
+	*n = w->given ? 0 : (size_t)w->voxels;
+	w->given = 1;
+	return VD_OK;
+}
+
 int vd_colours_save(const char *path, const struct vd_chunk_header *svo_h,
 		    uint64_t svo_digest, const uint8_t *rgb, uint64_t voxels,
 		    const char *provenance)
+{
+	struct whole w = {rgb, voxels, 0};
+	return vd_colours_write(path, svo_h, svo_digest, voxels, next_whole, &w,
+				provenance);
+}
+
+int vd_colours_write(const char *path, const struct vd_chunk_header *svo_h,
+		     uint64_t svo_digest, uint64_t voxels,
+		     int (*next)(void *ctx, const uint8_t **rgb, size_t *n),
+		     void *ctx, const char *provenance)
 {
 	if (svo_h->kind != VD_KIND_SVO || svo_h->level_count == 0)
 		return vd_fail(VD_ERR_ARG, "colours need the header of an svo "
@@ -70,8 +101,29 @@ int vd_colours_save(const char *path, const struct vd_chunk_header *svo_h,
 	put64(dig, svo_digest);
 	err = vd_chunk_writer_section(w, VD_TAG_BDIG, dig, sizeof dig);
 	if (!err)
-		err = vd_chunk_writer_section(w, VD_TAG_COLS, rgb,
-					      (size_t)(3 * voxels));
+		err = vd_chunk_writer_begin(w, VD_TAG_COLS, 0);
+	uint64_t got = 0;
+	while (!err) {
+		const uint8_t *rgb;
+		size_t n = 0;
+		err = next(ctx, &rgb, &n);
+		if (err || n == 0)
+			break;
+		if (n > voxels - got) {
+			err = vd_fail(VD_ERR_MISMATCH, "more than %llu colours "
+				      "for %llu voxels",
+				      (unsigned long long)(got + n),
+				      (unsigned long long)voxels);
+			break;
+		}
+		got += n;
+		err = vd_chunk_writer_write(w, rgb, 3 * n);
+	}
+	if (!err && got != voxels)
+		err = vd_fail(VD_ERR_MISMATCH, "%llu colours for %llu voxels",
+			      (unsigned long long)got, (unsigned long long)voxels);
+	if (!err)
+		err = vd_chunk_writer_end(w);
 	if (err) {
 		vd_chunk_writer_abort(w);
 		return err;

@@ -671,6 +671,208 @@ extern "C" int vd_vdb_export(const char *path, const char *grid_name,
 	}
 }
 
+// ------------------------------------------------------------------ colour
+
+struct vd_vdb_colour {
+	openvdb::GridBase::ConstPtr grid;
+	openvdb::math::Transform::ConstPtr density_xf;
+	bool same;
+};
+
+namespace {
+
+enum colour_kind { C_VEC3S, C_VEC3D, C_VEC3I, C_NONE };
+
+colour_kind colour_kind_of(const openvdb::GridBase &g)
+{
+	if (g.isType<openvdb::Vec3SGrid>()) return C_VEC3S;
+	if (g.isType<openvdb::Vec3DGrid>()) return C_VEC3D;
+	if (g.isType<openvdb::Vec3IGrid>()) return C_VEC3I;
+	return C_NONE;
+}
+
+// The names a colour grid goes by when none is given: Houdini's Cd, then
+// the spellings other exporters use.
+const char *const colour_names[] = {"Cd", "color", "colour", "rgb"};
+
+// The first of those names (in that order, as OpenVDB lists a file's
+// grids by name, not in the order they were written) that a grid with
+// Vec3 values has; "" when none. The caller catches.
+int find_colour_grid(const char *path, std::string *name)
+{
+	name->clear();
+	openvdb::io::File file(path);
+	try {
+		file.open(false);
+		openvdb::GridPtrVecPtr grids = file.readAllGridMetadata();
+		file.close();
+		for (const char *n : colour_names)
+			for (const auto &g : *grids)
+				if (g->getName() == n &&
+				    colour_kind_of(*g) != C_NONE) {
+					*name = n;
+					return VD_OK;
+				}
+	} catch (const std::exception &e) {
+		return vd_fail(VD_ERR_TRUNCATED, "cut short or damaged: %s", e.what());
+	}
+	return VD_OK;
+}
+
+// Colour values as sRGB bytes: floats in 0..1 scaled by 255, ints as they
+// are; rounded half up, clamped; NaN is 0 (as PLY float colours).
+uint8_t colour_byte(double v)
+{
+	double d = v * 255.0;
+	if (!(d > 0))
+		return 0;
+	return d >= 255 ? 255 : uint8_t(d + 0.5);
+}
+uint8_t colour_byte(int32_t v)
+{
+	return v <= 0 ? 0 : v >= 255 ? 255 : uint8_t(v);
+}
+
+int32_t round_index(double x)
+{
+	double r = std::floor(x + 0.5); // nearest, halves up
+	if (!(r > double(INT32_MIN)))
+		return INT32_MIN;
+	return r >= double(INT32_MAX) ? INT32_MAX : int32_t(r);
+}
+
+template <typename GridT>
+void colour_bricks(const GridT &grid, const vd_vdb_colour &c,
+		   const int32_t off[3], int shift, const uint64_t *keys,
+		   const uint64_t *masks, size_t stride, size_t n, uint8_t *rgb)
+{
+	static const brick_table tab;
+	using V = typename GridT::ValueType;
+	using E = typename V::value_type;
+	ConstAcc<GridT> acc(grid.tree());
+	const V bg = grid.background();
+	const openvdb::math::Transform &cxf = grid.transform();
+	// the voxel nearest to the centre of ours, in the density's index
+	// space: off + v 2^shift + (2^shift - 1)/2, halves up
+	const int64_t half = shift ? int64_t(1) << (shift - 1) : 0;
+	const double centre = (double(int64_t(1) << shift) - 1) / 2;
+	for (size_t i = 0; i < n; i++) {
+		uint32_t bx, by, bz;
+		vd_morton3_decode(keys[i * stride], &bx, &by, &bz);
+		const int64_t base[3] = {int64_t(bx) * 4, int64_t(by) * 4,
+					 int64_t(bz) * 4};
+		uint64_t m = masks[i * stride];
+		while (m) {
+			int b = __builtin_ctzll(m);
+			m &= m - 1;
+			const int64_t v[3] = {base[0] + tab.x[b], base[1] + tab.y[b],
+					      base[2] + tab.z[b]};
+			Coord q;
+			if (c.same) {
+				for (int a = 0; a < 3; a++)
+					q[a] = int32_t(off[a] + (v[a] << shift) + half);
+			} else {
+				openvdb::Vec3d p;
+				for (int a = 0; a < 3; a++)
+					p[a] = double(off[a]) + double(v[a] << shift) + centre;
+				openvdb::Vec3d ci =
+					cxf.worldToIndex(c.density_xf->indexToWorld(p));
+				q = Coord(round_index(ci[0]), round_index(ci[1]),
+					  round_index(ci[2]));
+			}
+			V val;
+			if (!acc.probeValue(q, val))
+				val = bg; // inactive: the background
+			for (int a = 0; a < 3; a++) {
+				if constexpr (std::is_floating_point_v<E>)
+					*rgb++ = colour_byte(double(val[a]));
+				else
+					*rgb++ = colour_byte(int32_t(val[a]));
+			}
+		}
+	}
+}
+
+} // namespace
+
+extern "C" int vd_vdb_colour_open(struct vd_vdb_colour **out, const char *path,
+				  const char *name,
+				  const struct vd_vdb *density,
+				  struct vd_vdb_colour_info *info)
+{
+	*out = nullptr;
+	try {
+		init_once();
+		std::string want;
+		if (name)
+			want = name;
+		else if (int err = find_colour_grid(path, &want))
+			return err;
+		if (want.empty())
+			return VD_OK; // no colour grid: no colours
+		openvdb::GridBase::Ptr grid;
+		if (int err = read_grid(path, want.c_str(), &grid))
+			return err;
+		if (colour_kind_of(*grid) == C_NONE)
+			return vd_fail(VD_ERR_UNSUPPORTED, "colour grid '%s' holds "
+				       "%s values; colours come from vec3s, vec3d "
+				       "or vec3i grids", grid->getName().c_str(),
+				       grid->valueType().c_str());
+		auto *c = new vd_vdb_colour;
+		c->grid = grid;
+		c->density_xf = density->grid->constTransformPtr();
+		c->same = grid->transform() == density->grid->transform();
+		if (info) {
+			std::memset(info, 0, sizeof *info);
+			std::snprintf(info->grid_name, sizeof info->grid_name, "%s",
+				      grid->getName().c_str());
+			std::snprintf(info->value_type, sizeof info->value_type,
+				      "%s", grid->valueType().c_str());
+			info->same_transform = c->same;
+		}
+		*out = c;
+		return VD_OK;
+	} catch (const std::bad_alloc &) {
+		return vd_fail(VD_ERR_NOMEM, "reading the colour grid");
+	} catch (const std::exception &e) {
+		return fail_exception("colour grid", e);
+	}
+}
+
+extern "C" void vd_vdb_colour_close(struct vd_vdb_colour *c)
+{
+	delete c;
+}
+
+extern "C" int vd_vdb_colour_bricks(const struct vd_vdb_colour *c,
+				    const int32_t off[3], int shift,
+				    const uint64_t *keys, const uint64_t *masks,
+				    size_t stride, size_t n, uint8_t *rgb)
+{
+	try {
+		const openvdb::GridBase &g = *c->grid;
+		switch (colour_kind_of(g)) {
+		case C_VEC3S:
+			colour_bricks(static_cast<const openvdb::Vec3SGrid &>(g), *c,
+				      off, shift, keys, masks, stride, n, rgb);
+			break;
+		case C_VEC3D:
+			colour_bricks(static_cast<const openvdb::Vec3DGrid &>(g), *c,
+				      off, shift, keys, masks, stride, n, rgb);
+			break;
+		case C_VEC3I:
+			colour_bricks(static_cast<const openvdb::Vec3IGrid &>(g), *c,
+				      off, shift, keys, masks, stride, n, rgb);
+			break;
+		case C_NONE:
+			return vd_fail(VD_ERR_INTERNAL, "not a colour grid");
+		}
+		return VD_OK;
+	} catch (const std::exception &e) {
+		return fail_exception("colour", e);
+	}
+}
+
 // ------------------------------------------------------------ test support
 
 struct vd_vdb_test_file {
@@ -804,6 +1006,76 @@ extern "C" int vd_vdb_test_add_transformed(struct vd_vdb_test_file *f,
 			xf->postRotate(rotate_deg * M_PI / 180, openvdb::math::Z_AXIS);
 		g->setTransform(xf);
 		f->grids.push_back(g);
+	})
+}
+
+extern "C" void vd_vdb_test_colour_of(int64_t x, int64_t y, int64_t z,
+				      uint8_t rgb[3])
+{
+	rgb[0] = uint8_t(uint64_t(37 * x + 11) & 255);
+	rgb[1] = uint8_t(uint64_t(59 * y + 3 * x + 23) & 255);
+	rgb[2] = uint8_t(uint64_t(17 * z + 5 * y + 7) & 255);
+}
+
+namespace {
+
+template <typename GridT>
+void add_colour(vd_vdb_test_file *f, const char *name, double voxel_size,
+		const double tr[3], const int32_t lo[3], const int32_t hi[3],
+		const int32_t off_lo[3], const int32_t off_hi[3],
+		const uint8_t bg[3])
+{
+	using V = typename GridT::ValueType;
+	using E = typename V::value_type;
+	auto enc = [](const uint8_t c[3]) {
+		if constexpr (std::is_floating_point_v<E>)
+			return V(E(c[0]) / E(255), E(c[1]) / E(255), E(c[2]) / E(255));
+		else
+			return V(E(c[0]), E(c[1]), E(c[2]));
+	};
+	auto g = GridT::create(enc(bg));
+	g->setName(name);
+	auto xf = openvdb::math::Transform::createLinearTransform(voxel_size);
+	xf->postTranslate(openvdb::Vec3d(tr[0], tr[1], tr[2]));
+	g->setTransform(xf);
+	auto acc = g->getAccessor();
+	for (int32_t x = lo[0]; x <= hi[0]; x++)
+		for (int32_t y = lo[1]; y <= hi[1]; y++)
+			for (int32_t z = lo[2]; z <= hi[2]; z++) {
+				uint8_t c[3];
+				vd_vdb_test_colour_of(x, y, z, c);
+				acc.setValueOn(Coord(x, y, z), enc(c));
+			}
+	// inactive but not the background: the import must not read these
+	for (int32_t x = off_lo[0]; x <= off_hi[0]; x++)
+		for (int32_t y = off_lo[1]; y <= off_hi[1]; y++)
+			for (int32_t z = off_lo[2]; z <= off_hi[2]; z++)
+				acc.setValueOff(Coord(x, y, z));
+	f->grids.push_back(g);
+}
+
+} // namespace
+
+extern "C" int vd_vdb_test_add_colour(struct vd_vdb_test_file *f,
+				      const char *name, const char *type,
+				      double voxel_size, const double tr[3],
+				      const int32_t lo[3], const int32_t hi[3],
+				      const int32_t off_lo[3],
+				      const int32_t off_hi[3], const uint8_t bg[3])
+{
+	TEST_TRY("colour grid", {
+		std::string t = type;
+		if (t == "vec3s")
+			add_colour<openvdb::Vec3SGrid>(f, name, voxel_size, tr, lo, hi,
+						       off_lo, off_hi, bg);
+		else if (t == "vec3d")
+			add_colour<openvdb::Vec3DGrid>(f, name, voxel_size, tr, lo, hi,
+						       off_lo, off_hi, bg);
+		else if (t == "vec3i")
+			add_colour<openvdb::Vec3IGrid>(f, name, voxel_size, tr, lo, hi,
+						       off_lo, off_hi, bg);
+		else
+			return vd_fail(VD_ERR_ARG, "colour grid type '%s'", type);
 	})
 }
 

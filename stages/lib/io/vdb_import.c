@@ -11,9 +11,11 @@
  *      L0 is the coarsest level whose largest cell fits the budget;
  *   3. cells, in parallel: each cell's entries become (brick key, mask)
  *      pairs - a leaf's mask asked again from OpenVDB, a tile filled brick
- *      by brick without visiting its voxels - sorted, merged and written.
- * Memory: the grid OpenVDB holds, 32 bytes per entry (about one per leaf),
- * and per worker 16 bytes per brick of its cell.
+ *      by brick without visiting its voxels - sorted, merged and written;
+ *      with a colour grid, the cell's colours are then looked up brick by
+ *      brick and streamed into its colour chunk.
+ * Memory: the grids OpenVDB holds, 32 bytes per entry (about one per leaf),
+ * and per worker 16 bytes per brick of its cell plus a fixed colour buffer.
  */
 #include "voxdag.h"
 #include "voxel/voxelize_internal.h"
@@ -30,7 +32,8 @@
 
 enum {
 	MAX_CHUNK_LEVEL = 7,          /* as the mesh voxelizer */
-	WORKER_OVERHEAD = 8 << 20,    /* zstd, write buffer, stack */
+	WORKER_OVERHEAD = 8 << 20,    /* zstd, write buffer, colours, stack */
+	COLOUR_BRICKS = 1024,         /* bricks coloured per batch: 192 KiB */
 	LEAF_FLAG = 1u << 31,         /* entry.dim: a leaf (mask from OpenVDB) */
 };
 
@@ -249,10 +252,12 @@ struct job {
 struct worker {
 	struct pair *p;
 	size_t cap;
+	uint8_t *rgb;        /* COLOUR_BRICKS * 64 colours, with colours */
 };
 
 struct run {
 	struct vd_vdb *vdb;
+	struct vd_vdb_colour *col;    /* NULL: no colours */
 	struct place pl;
 	int L0;
 	struct vd_transform tr;
@@ -387,6 +392,62 @@ static int entry_pairs(struct run *r, const struct entry *e, struct pair *out,
 	return VD_OK;
 }
 
+/* Colours of a cell's bricks, batch by batch (vd_colours_write). */
+struct colour_feed {
+	struct run *r;
+	struct worker *w;
+	const struct pair *pr;
+	size_t n, next;
+};
+
+static int next_colours(void *ctx, const uint8_t **rgb, size_t *n)
+{
+	struct colour_feed *f = ctx;
+	size_t b = f->n - f->next < COLOUR_BRICKS ? f->n - f->next : COLOUR_BRICKS;
+	*rgb = f->w->rgb;
+	*n = 0;
+	if (b == 0)
+		return VD_OK;
+	const struct pair *p = f->pr + f->next;
+	int32_t off[3];
+	for (int a = 0; a < 3; a++)
+		off[a] = (int32_t)f->r->pl.off[a];
+	int err = vd_vdb_colour_bricks(f->r->col, off, f->r->pl.k, &p[0].key,
+				       &p[0].mask, 2, b, f->w->rgb);
+	if (err)
+		return err;
+	for (size_t i = 0; i < b; i++)
+		*n += (size_t)__builtin_popcountll(p[i].mask);
+	f->next += b;
+	return VD_OK;
+}
+
+/* Writes the colour chunk of a cell whose SVO chunk holds the n pairs pr
+ * with per-level counts `counts`. */
+static int write_colours(struct run *r, struct worker *w, uint64_t cell,
+			 const struct pair *pr, size_t n, const uint64_t *counts)
+{
+	if (!w->rgb && !(w->rgb = malloc(COLOUR_BRICKS * 64 * 3)))
+		return vd_fail(VD_ERR_NOMEM, "colour buffer");
+	/* the SVO chunk's header, as vd_svo_write() made it */
+	struct vd_chunk_header h = {0};
+	h.kind = VD_KIND_SVO;
+	h.levels = (uint32_t)r->pl.L;
+	h.chunk_level = (uint32_t)r->L0;
+	h.cell_morton = cell;
+	h.transform = r->tr;
+	h.level_count = (uint32_t)(r->pl.L - r->L0 + 1);
+	memcpy(h.level_nodes, counts, h.level_count * sizeof *counts);
+	char path[4096], name[64];
+	vd_chunk_file_name(name, sizeof name, r->L0, cell, "col");
+	snprintf(path, sizeof path, "%s/%s", r->outdir, name);
+	struct colour_feed f = {r, w, pr, n, 0};
+	return vd_colours_write(path, &h,
+				vd_svo_digest_stride(&pr[0].key, &pr[0].mask, 2, n),
+				counts[h.level_count - 1], next_colours, &f,
+				r->opts->provenance);
+}
+
 /* Writes sorted, merged pairs as the cell's SVO chunk. */
 static int write_chunk(struct run *r, uint64_t cell, const struct pair *pr,
 		       size_t n, uint64_t *counts)
@@ -432,6 +493,8 @@ static int do_cell(struct run *r, struct worker *w, const struct job *j,
 		return VD_OK;
 	uint64_t counts[VD_MAX_LEVELS + 1];
 	int err = write_chunk(r, j->cell, w->p, m, counts);
+	if (!err && r->col)
+		err = write_colours(r, w, j->cell, w->p, m, counts);
 	if (err)
 		return err;
 	*written = 1;
@@ -536,13 +599,19 @@ int vd_vdb_import(const char *vdb_path, const char *outdir,
 	int err = vd_vdb_open(&r.vdb, vdb_path, sel, &res->info);
 	if (err)
 		return err;
+	if (opts->colours &&
+	    (err = vd_vdb_colour_open(&r.col, vdb_path, sel->colour_grid, r.vdb,
+				      &res->colour)))
+		goto out;
+	res->colours = r.col != NULL;
 	res->mode = sel->mode;
 	res->fog_threshold = sel->fog_threshold;
 	res->seconds_read = vd_seconds() - t0;
 	uint64_t grid_rss = vd_peak_rss_bytes();
 	if (grid_rss > opts->mem_budget_bytes) {
-		err = vd_fail(VD_ERR_BUDGET, "the grid alone takes %llu MiB, "
-			      "over --mem-budget %llu MiB",
+		err = vd_fail(VD_ERR_BUDGET, "the grid%s alone take%s %llu MiB, "
+			      "over --mem-budget %llu MiB", r.col ? "s" : "",
+			      r.col ? "" : "s",
 			      (unsigned long long)(grid_rss >> 20),
 			      (unsigned long long)(opts->mem_budget_bytes >> 20));
 		goto out;
@@ -550,6 +619,12 @@ int vd_vdb_import(const char *vdb_path, const char *outdir,
 	say(opts, t0, "read grid '%s' (%s, %s, %llu active voxels) in %.2fs",
 	    res->info.grid_name, res->info.value_type, res->info.grid_class,
 	    (unsigned long long)res->info.active_voxels, res->seconds_read);
+	if (r.col)
+		say(opts, t0, "colours from grid '%s' (%s, %s)",
+		    res->colour.grid_name, res->colour.value_type,
+		    res->colour.same_transform ? "same transform: read at each "
+		    "voxel's index" : "other transform: nearest voxel to each "
+		    "voxel's centre");
 
 	/* 1. scan */
 	double t1 = vd_seconds();
@@ -717,13 +792,16 @@ int vd_vdb_import(const char *vdb_path, const char *outdir,
 			      (unsigned long long)(opts->mem_budget_bytes >> 20));
 out:
 	if (r.workers)
-		for (int i = 0; i < nworkers; i++)
+		for (int i = 0; i < nworkers; i++) {
 			free(r.workers[i].p);
+			free(r.workers[i].rgb);
+		}
 	free(r.workers);
 	free(r.jobs);
 	free(r.written);
 	free(cells);
 	free(s.e);
+	vd_vdb_colour_close(r.col);
 	vd_vdb_close(r.vdb);
 	if (err && cleaned)
 		vd_remove_chunks(outdir); /* no partial set of chunks survives */
@@ -752,7 +830,14 @@ int vd_vdb_import_write_stats(const struct vd_vdb_import_result *res,
 	vd_json_u64(j, "leaves_selected", res->leaves_selected);
 	vd_json_u64(j, "tiles_selected", res->tiles_selected);
 	vd_json_u64(j, "resample_factor", (uint64_t)1 << res->resample_shift);
+	if (res->colours) {
+		vd_json_str(j, "colour_grid", res->colour.grid_name);
+		vd_json_str(j, "colour_value_type", res->colour.value_type);
+		vd_json_str(j, "colour_lookup", res->colour.same_transform
+			    ? "index" : "nearest to centre");
+	}
 	vd_json_end_object(j);
+	vd_json_u64(j, "colours", (uint64_t)res->colours);
 	vd_json_u64(j, "levels", (uint64_t)res->levels);
 	vd_json_u64(j, "chunk_level", (uint64_t)res->chunk_level);
 	vd_json_object(j, "seconds");
