@@ -169,6 +169,7 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 		{"vdb", c->vdb, sizeof c->vdb},
 		{"grid", c->vdb_grid, sizeof c->vdb_grid},
 		{"mode", c->vdb_mode, sizeof c->vdb_mode},
+		{"colour_grid", c->vdb_colour_grid, sizeof c->vdb_colour_grid},
 		{"fetch", c->fetch, sizeof c->fetch},
 	};
 	yaml_node_t *k, *v;
@@ -181,7 +182,7 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 			f++;
 		if (f == sizeof fields / sizeof *fields)
 			return fail_at(x, k, "unknown key 'input.%s' (known: mesh, "
-				       "vdb, grid, mode, fetch)", key);
+				       "vdb, grid, mode, colour_grid, fetch)", key);
 		if (want_string(x, v, key, fields[f].buf, fields[f].cap))
 			return 1;
 	}
@@ -193,8 +194,9 @@ static int parse_input(struct ctx *x, yaml_node_t *map)
 		return fail_at(x, map, "'input.mode' is '%s' (known: active, "
 			       "levelset-surface, levelset-solid, fog)",
 			       c->vdb_mode);
-	if ((*c->vdb_grid || *c->vdb_mode) && !*c->vdb)
-		return fail_at(x, map, "'grid' and 'mode' go with 'vdb'");
+	if ((*c->vdb_grid || *c->vdb_mode || *c->vdb_colour_grid) && !*c->vdb)
+		return fail_at(x, map, "'grid', 'mode' and 'colour_grid' go with "
+			       "'vdb'");
 	return 0;
 }
 

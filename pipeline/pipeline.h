@@ -78,6 +78,7 @@ struct config {
 	/* input */
 	char mesh[1024];
 	char vdb[1024], vdb_grid[MAX_NAME], vdb_mode[32];
+	char vdb_colour_grid[MAX_NAME];
 	char fetch[1024];          /* command that fetches a missing input */
 	int levels;
 	int chunk_level;           /* -1: auto */

@@ -829,6 +829,8 @@ static void plan_voxelize(struct plan *p, int d)
 		args[na++] = "--grid", args[na++] = c->vdb_grid;
 	if (*c->vdb_mode)
 		args[na++] = "--vdb-mode", args[na++] = c->vdb_mode;
+	if (*c->vdb_colour_grid)
+		args[na++] = "--colour-grid", args[na++] = c->vdb_colour_grid;
 	args[na] = NULL;
 	set_argv_list(j, "voxelize", args);
 	add_input(j, in);

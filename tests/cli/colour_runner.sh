@@ -9,7 +9,8 @@ cd "$(dirname "$0")/../.."
 R=$BIN/voxdag
 NAME=clicolour-$$
 D=out/$NAME
-trap 'rm -rf "$T" out/$NAME' EXIT
+VNAME=clicolourvdb-$$
+trap 'rm -rf "$T" out/$NAME out/$VNAME' EXIT
 
 cfg() { # the common part, then the jobs given on stdin
 	{
@@ -68,3 +69,41 @@ expect colour_lost 0 '' $R -q run "$CFG"
 # rebuilt to the same bytes, so the picture of it is not redrawn
 [ "$(started)" = "vbr " ] && pass colour_lost_reruns_only_it || fail colour_lost_reruns_only_it "$(started)"
 cmp -s $D/vbr/colours.vbr "$T/saved.vbr" && pass colour_rebuilt_identical || fail colour_rebuilt_identical
+
+# --- an OpenVDB input: colours from its Vec3 grid through the same jobs
+mkdir -p "$T/grids"
+$BIN/vdb-make-test-grids "$T/grids"
+VD=out/$VNAME
+vyaml() { # vyaml COLOUR_GRID
+	cat <<EOF
+version: 1
+name: $VNAME
+input: {vdb: $T/grids/colour.vdb, grid: density, colour_grid: $1}
+levels: 5
+chunk_level: 2
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:  {stage: voxelize}
+  dag:  {stage: svo-to-dag, needs: [vox]}
+  sdag: {stage: symmetry-merge, needs: [dag]}
+  enc:  {stage: encode, needs: [dag, sdag]}
+  raw:  {stage: colorize, needs: [vox], method: raw}
+  p0:   {stage: render, needs: [enc, raw]}
+EOF
+}
+vyaml Cd_coarse > "$T/v.yaml"
+expect vdb_colour_run 0 '' $R -q run "$T/v.yaml"
+grep -rq "colours from grid 'Cd_coarse'" $VD/logs/ &&
+	pass vdb_colour_grid_passed_on || fail vdb_colour_grid_passed_on "$(ls $VD/logs)"
+n_svo=$(ls $VD/vox/*.svo | wc -l)
+[ "$n_svo" -gt 1 ] && [ "$(ls $VD/vox/*.col | wc -l)" = "$n_svo" ] &&
+	pass vdb_colour_col_per_cell || fail vdb_colour_col_per_cell "$(ls $VD/vox)"
+$BIN/render $VD/enc/$VNAME.ssvdag -o "$T/vhand.png" --size 960x720 --camera iso -q -C $VD/vox
+cmp -s "$T/vhand.png" $VD/p0.png && pass vdb_colour_picture_is_the_chunks_colours ||
+	fail vdb_colour_picture_is_the_chunks_colours
+vyaml color > "$T/vbad.yaml"
+# the runner's own report of a failed job (several lines) names the cause
+$R -q run "$T/vbad.yaml" > "$T/vbad.out" 2>&1
+rc=$?
+[ $rc = 1 ] && grep -q "colour grid 'color' holds float values" "$T/vbad.out" &&
+	pass vdb_colour_grid_not_vec3 || fail vdb_colour_grid_not_vec3 "exit $rc" "$(cat "$T/vbad.out")"
