@@ -959,6 +959,11 @@ int vd_vdb_test_add_colour(struct vd_vdb_test_file *f, const char *name,
 			   const double translation[3], const int32_t lo[3],
 			   const int32_t hi[3], const int32_t off_lo[3],
 			   const int32_t off_hi[3], const uint8_t bg[3]);
+/* A colour grid of `type` (as above; background 0) whose index (i, 0, 0)
+ * holds values[3i .. 3i+2] (converted to the type), active, i < n. */
+int vd_vdb_test_add_colour_values(struct vd_vdb_test_file *f,
+				  const char *name, const char *type, int n,
+				  const double *values);
 int vd_vdb_test_write(struct vd_vdb_test_file *f, const char *path);
 void vd_vdb_test_free(struct vd_vdb_test_file *f);
 

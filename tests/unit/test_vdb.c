@@ -531,6 +531,58 @@ static void test_colour(void)
 	CHECK(strstr(vd_error_detail(), "no grid named 'Cd'"));
 }
 
+/* Value ranges: floats 0..1 times 255, ints as they are; rounded half up,
+ * clamped, NaN 0. The voxels lie along x, so Morton order is index order. */
+static void test_colour_values(void)
+{
+	const double f[] = {0.5, -0.1, 1.7,  NAN, INFINITY, -INFINITY,
+			    0.25, 1, 0,      1e30, -1e30, 0.999};
+	const uint8_t fwant[] = {128, 0, 255,  0, 255, 0,
+				 64, 255, 0,   255, 0, 255};
+	const double i[] = {-5, 300, 128,  0, 255, 1};
+	const uint8_t iwant[] = {0, 255, 128,  0, 255, 1};
+	const struct {
+		const char *type;
+		int n;
+		const double *v;
+		const uint8_t *want;
+	} cases[] = {{"vec3s", 4, f, fwant}, {"vec3d", 4, f, fwant},
+		     {"vec3i", 2, i, iwant}};
+	char path[700];
+	snprintf(path, sizeof path, "%s/values.vdb", dir);
+	for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+		struct vd_vdb_test_file *tf;
+		const int32_t lo[3] = {0, 0, 0}, hi[3] = {cases[c].n - 1, 0, 0};
+		const int32_t none_lo[3] = {1, 1, 1}, none_hi[3] = {0, 0, 0};
+		CHECK_EQ(vd_vdb_test_new(&tf), VD_OK);
+		CHECK_EQ(vd_vdb_test_add_fog_box(tf, "density", lo, hi, 1, none_lo,
+						 none_hi, 0), VD_OK);
+		CHECK_EQ(vd_vdb_test_add_colour_values(tf, "Cd", cases[c].type,
+						       cases[c].n, cases[c].v),
+			 VD_OK);
+		CHECK_EQ(vd_vdb_test_write(tf, path), VD_OK);
+		vd_vdb_test_free(tf);
+		struct vd_vdb_import_result r;
+		struct vd_vdb_select sel = {"density", VD_VDB_ACTIVE, 0, NULL};
+		struct vd_voxelize_opts o = {.chunk_level = 0, .quiet = 1,
+					     .colours = 1,
+					     .mem_budget_bytes = 1ull << 30};
+		CHECK_EQ(vd_vdb_import(path, dir, &sel, &o, &r), VD_OK);
+		CHECK_EQ(r.colours, 1);
+		uint8_t *got;
+		int ncells;
+		CHECK_EQ(load_colours(&got, &ncells), cases[c].n);
+		if (memcmp(got, cases[c].want, 3 * (size_t)cases[c].n)) {
+			fprintf(stderr, "%s:", cases[c].type);
+			for (int k = 0; k < 3 * cases[c].n; k++)
+				fprintf(stderr, " %u/%u", got[k], cases[c].want[k]);
+			fprintf(stderr, " (got/want)\n");
+			CHECK(0);
+		}
+		free(got);
+	}
+}
+
 static void test_errors(void)
 {
 	struct vd_vdb_import_result r;
@@ -596,6 +648,7 @@ int main(void)
 	RUN(test_transform);
 	RUN(test_round_trip);
 	RUN(test_colour);
+	RUN(test_colour_values);
 	RUN(test_errors);
 	return CHECK_DONE();
 }

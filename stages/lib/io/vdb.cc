@@ -1079,6 +1079,41 @@ extern "C" int vd_vdb_test_add_colour(struct vd_vdb_test_file *f,
 	})
 }
 
+namespace {
+
+template <typename GridT>
+void add_colour_values(vd_vdb_test_file *f, const char *name, int n,
+		       const double *v)
+{
+	using V = typename GridT::ValueType;
+	using E = typename V::value_type;
+	auto g = GridT::create(V(E(0), E(0), E(0)));
+	g->setName(name);
+	for (int i = 0; i < n; i++)
+		g->tree().setValueOn(Coord(i, 0, 0),
+				     V(E(v[3 * i]), E(v[3 * i + 1]), E(v[3 * i + 2])));
+	f->grids.push_back(g);
+}
+
+} // namespace
+
+extern "C" int vd_vdb_test_add_colour_values(struct vd_vdb_test_file *f,
+					     const char *name, const char *type,
+					     int n, const double *values)
+{
+	TEST_TRY("colour values", {
+		std::string t = type;
+		if (t == "vec3s")
+			add_colour_values<openvdb::Vec3SGrid>(f, name, n, values);
+		else if (t == "vec3d")
+			add_colour_values<openvdb::Vec3DGrid>(f, name, n, values);
+		else if (t == "vec3i")
+			add_colour_values<openvdb::Vec3IGrid>(f, name, n, values);
+		else
+			return vd_fail(VD_ERR_ARG, "colour grid type '%s'", type);
+	})
+}
+
 extern "C" int vd_vdb_test_write(struct vd_vdb_test_file *f, const char *path)
 {
 	TEST_TRY("write", {
