@@ -39,7 +39,11 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 4)       /* 4: SGI textures; 3: .col; 2: manifest */   \
+	X("voxelize", 5)       /* 5: .vdb colours (see below); 4: SGI      \
+				  textures; 3: .col; 2: manifest */         \
+	/* A .vdb input runs as `voxelize` (which execs voxelize-vdb), so the  \
+	 * runner's keys and the chunks' provenance carry voxelize's number:  \
+	 * bump both. */                                                      \
 	X("voxelize-vdb", 3)   /* 3: .col from a Vec3 grid; 2: manifest */   \
 	X("svo-to-dag", 2)     /* 2: stage_version in provenance */          \
 	X("symmetry-merge", 2) /* 2: the same */                             \
@@ -989,10 +993,11 @@ struct vd_voxelize_opts {
 	int quiet;                /* no progress on stderr */
 	const char *provenance;   /* stored in every chunk */
 	const char *tool;         /* prefix for progress lines */
-	/* Mesh input: write each non-empty cell's colour chunk ("col",
-	 * vd_colours_save) when the mesh has colours (vd_mesh_has_colours;
-	 * rule in schemas/colour-rule.md). The SVO chunks are the same
-	 * bytes either way. */
+	/* Write each non-empty cell's colour chunk ("col", vd_colours_save)
+	 * when the mesh has colours (vd_mesh_has_colours) or the OpenVDB file
+	 * a colour grid (vd_vdb_colour_open); rules in
+	 * schemas/colour-rule.md. The SVO chunks' voxels are the same either
+	 * way. */
 	int colours;
 	int strict;               /* a missing texture or MTL is an error */
 };
