@@ -571,6 +571,8 @@ struct block_map {
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
 	size_t limit;        /* blocks allowed by the budget */
+	atomic_size_t *shared; /* if set, the blocks of all the maps that
+				* share one cell, which `limit` bounds */
 	int over;            /* the limit was hit */
 };
 
@@ -640,7 +642,8 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 			j = (j + 1) & (m->cap - 1);
 		}
 	}
-	if (m->count >= m->limit) {
+	if (m->count >= m->limit ||
+	    (m->shared && atomic_fetch_add(m->shared, 1) >= m->limit)) {
 		m->over = 1;
 		return NULL;
 	}
@@ -801,6 +804,7 @@ struct run {
 	atomic_int failed;
 	int err;
 	char detail[512];
+	atomic_size_t split_blocks;  /* split_cell: the cell's blocks */
 };
 
 /* What a user can do about a cell too large for a worker's share: a
@@ -831,34 +835,53 @@ static void run_fail(struct run *r, int err)
 	pthread_mutex_unlock(&r->lock);
 }
 
-/* The cell's block keys, sorted (Morton order), into w->order. */
-static int sort_blocks(struct worker *w, size_t *nb_out)
+/* Where a cell's blocks are: one worker's map, or, for a cell whose
+ * octants were rasterized by several workers (split_cell), the map of
+ * the worker that did each octant (block key >> part_shift). */
+struct cell_blocks {
+	struct block_map *map[8];
+	int part_shift;
+};
+
+static inline uint64_t *cell_block(const struct cell_blocks *cb,
+				   uint64_t key)
 {
-	struct block_map *m = &w->map;
-	if (m->count > w->order_cap) {
-		uint64_t *o = realloc(w->order, m->count * sizeof *o * 2);
+	return map_get(cb->map[key >> cb->part_shift & 7], key);
+}
+
+/* The keys of the blocks in maps[0..n), sorted (Morton order), into
+ * w->order. */
+static int gather_blocks(struct worker *w, struct block_map *const *maps,
+			 int n, size_t *nb_out)
+{
+	size_t total = 0;
+	for (int k = 0; k < n; k++)
+		total += maps[k]->count;
+	if (total > w->order_cap) {
+		uint64_t *o = realloc(w->order, total * sizeof *o * 2);
 		if (!o)
 			return vd_fail(VD_ERR_NOMEM, "block order");
 		w->order = o;
-		w->order_cap = m->count * 2;
+		w->order_cap = total * 2;
 	}
 	size_t nb = 0;
-	for (size_t i = 0; i < m->cap; i++)
-		if (m->keys[i])
-			w->order[nb++] = m->keys[i] - 1;
+	for (int k = 0; k < n; k++)
+		for (size_t i = 0; i < maps[k]->cap; i++)
+			if (maps[k]->keys[i])
+				w->order[nb++] = maps[k]->keys[i] - 1;
 	qsort(w->order, nb, sizeof *w->order, cmp_u64);
 	*nb_out = nb;
 	return VD_OK;
 }
 
-/* Streams the cell's bricks (blocks w->order[0..nb), sorted), in Morton
- * order, into an SVO chunk. With `hout`, also returns the chunk's header
+/* Streams the cell's bricks (blocks w->order[0..nb), sorted, found
+ * through cb), in Morton order, into an SVO chunk. With `hout`, also returns the chunk's header
  * and the vd_svo_digest() of its bricks, for the colour chunk. */
-static int write_cell(struct run *r, struct worker *w, uint64_t cell,
-		      size_t nb, uint64_t *counts, uint64_t *nbricks,
+static int write_cell(struct run *r, struct worker *w,
+		      const struct cell_blocks *cb, uint64_t cell, size_t nb,
+		      uint64_t *counts, uint64_t *nbricks,
 		      struct vd_chunk_header *hout, uint64_t *digest)
 {
-	struct block_map *m = &w->map;
 	int L = r->g.L, L0 = r->g.L0, k = L - L0;
 	/* brick key = cell prefix | block key | brick within block */
 	int cell_shift = k >= 2 ? 3 * (k - 2) : 0;
@@ -877,7 +900,7 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		w->nz_cap = nb * 2;
 	}
 	for (size_t i = 0; i < nb; i++) {
-		const uint64_t *blk = map_get(m, w->order[i]);
+		const uint64_t *blk = cell_block(cb, w->order[i]);
 		uint64_t *nz = w->nz + 8 * i;
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
@@ -923,7 +946,7 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		uint64_t prev = 0;
 		int first = 1;
 		for (size_t i = 0; i < nb && !err; i++) {
-			const uint64_t *blk = map_get(m, w->order[i]);
+			const uint64_t *blk = cell_block(cb, w->order[i]);
 			uint64_t base = prefix | w->order[i] << 9;
 			const uint64_t *nz = w->nz + 8 * i;
 			size_t n = 0;
@@ -1236,6 +1259,18 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	return VD_OK;
 }
 
+/* Adds a written cell's counts to the run's. */
+static void cell_counted(struct run *r, const uint64_t *counts,
+			 uint64_t nbricks)
+{
+	atomic_fetch_add(&r->bricks, nbricks);
+	atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
+	pthread_mutex_lock(&r->lock);
+	for (int l = 0; l <= r->g.L - r->g.L0; l++)
+		r->level_nodes[l] += counts[l];
+	pthread_mutex_unlock(&r->lock);
+}
+
 static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 {
 	int shift = r->g.L - r->g.L0;
@@ -1299,15 +1334,19 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	fclose(f);
 	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
 	size_t nb = 0;
+	struct block_map *mp = &w->map;
+	struct cell_blocks cb = {.part_shift = 0};
+	for (int k = 0; k < 8; k++)
+		cb.map[k] = mp;
 	if (!err)
-		err = sort_blocks(w, &nb);
+		err = gather_blocks(w, &mp, 1, &nb);
 	if (!err && r->colours && w->map.count)
 		err = colour_cell(r, w, cell, nb, path, rc.lo, hi, &ncol);
 	unlink(path);
 	struct vd_chunk_header h;
 	uint64_t digest = 0;
 	if (!err)
-		err = write_cell(r, w, cell, nb, counts, &nbricks,
+		err = write_cell(r, w, &cb, cell, nb, counts, &nbricks,
 				 r->colours ? &h : NULL, &digest);
 	if (!err && r->colours && nbricks) {
 		char name[64], cpath[4096];
@@ -1316,17 +1355,146 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
 				      ncol, r->opts->provenance);
 	}
-	if (!err && nbricks) {
-		atomic_fetch_add(&r->bricks, nbricks);
-		atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
-		pthread_mutex_lock(&r->lock);
-		for (int l = 0; l <= r->g.L - r->g.L0; l++)
-			r->level_nodes[l] += counts[l];
-		pthread_mutex_unlock(&r->lock);
-	}
+	if (!err && nbricks)
+		cell_counted(r, counts, nbricks);
 	if (map_reset(&w->map) && !err)
 		err = vd_fail(VD_ERR_NOMEM, "block list");
 	return err;
+}
+
+/* ------------------------------------------ one cell on all the threads
+ * When there are few cells for the threads (a scene of one cell, or a few
+ * large ones), whole cells per thread leave threads idle. Then the cells
+ * go one after another and each is rasterized by all the workers, an
+ * octant at a time: a worker reads the cell's bin, keeps the triangles
+ * that reach its octant and rasterizes them clipped to it, into its own
+ * map. Octants are whole blocks, so every block is in one map, and the
+ * cell's bricks are written from all the maps in Morton order: the same
+ * chunk as one worker writes. Geometry only: with colours, cells stay
+ * whole (the colour pass walks the cell's triangles once more). */
+
+struct split_cell {
+	struct run *r;
+	uint64_t cell;
+	int64_t lo[3];        /* the cell's first voxel */
+	int64_t half;         /* an octant's side, voxels */
+	int owner[8];         /* the worker that did each octant */
+};
+
+static void octant_task(void *ctx, size_t k, int worker)
+{
+	struct split_cell *sc = ctx;
+	struct run *r = sc->r;
+	struct worker *w = &r->workers[worker];
+	sc->owner[k] = worker;
+	if (atomic_load(&r->failed))
+		return;
+	int64_t plo[3], phi[3];
+	for (int a = 0; a < 3; a++) {
+		/* Morton: x is the high bit of the octant, z the low */
+		plo[a] = sc->lo[a] + (int64_t)(k >> (2 - a) & 1) * sc->half;
+		phi[a] = plo[a] + sc->half - 1;
+	}
+	struct raster_ctx rc = {.map = &w->map};
+	memcpy(rc.lo, sc->lo, sizeof rc.lo);
+	char path[4096];
+	bin_path(path, sizeof path, r->outdir, sc->cell);
+	FILE *f = fopen(path, "rb");
+	if (!f) {
+		run_fail(r, vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
+				    strerror(errno)));
+		return;
+	}
+	int err = VD_OK;
+	size_t n;
+	while (!err && !w->map.over &&
+	       (n = fread(w->tris, BIN_BYTES_GEOM, TRI_BATCH, f)) > 0) {
+		const unsigned char *rb = (const unsigned char *)w->tris;
+		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
+			struct vd_triangle t;
+			struct vd_snapped_tri st;
+			memcpy(t.v, rb + BIN_BYTES_GEOM * i, sizeof t.v);
+			err = vd_snap_triangle(&st, &t, &r->g.tr);
+			if (!err)
+				vd_raster_triangle_spans(&st, r->g.L, plo, phi,
+							 set_span, &rc);
+		}
+		if (k == 0) /* each octant reads them all: count once */
+			atomic_fetch_add(&r->pairs_done, n);
+	}
+	if (!err && ferror(f))
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
+	fclose(f);
+	if (!err && w->map.over)
+		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
+			      "MiB, the budget's share per cell (%zu blocks "
+			      "of 32^3 voxels); %s",
+			      (unsigned long long)sc->cell,
+			      (unsigned long long)(r->worker_bytes >> 20),
+			      w->map.limit, budget_advice(r));
+	if (err)
+		run_fail(r, err);
+}
+
+static int split_cell(struct run *r, uint64_t cell)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	struct split_cell sc = {.r = r, .cell = cell,
+				.half = (int64_t)1 << (shift - 1)};
+	for (int a = 0; a < 3; a++)
+		sc.lo[a] = (int64_t)c[a] << shift;
+	/* the cell's blocks, wherever they are, within one limit */
+	atomic_store(&r->split_blocks, 0);
+	for (int i = 0; i < r->nworkers; i++) {
+		r->workers[i].map.limit = r->block_limit;
+		r->workers[i].map.shared = &r->split_blocks;
+	}
+	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
+	/* a worker's failure is in r->err and r->detail, said by the caller */
+	int failed = atomic_load(&r->failed);
+	struct worker *w0 = &r->workers[0];
+	struct block_map *maps[8];
+	struct cell_blocks cb = {.part_shift = 3 * (shift - 1 - BLOCK_SHIFT)};
+	int nmaps = 0;
+	for (int k = 0; k < 8; k++) {
+		struct block_map *m = &r->workers[sc.owner[k]].map;
+		cb.map[k] = m;
+		int seen = 0;
+		for (int j = 0; j < nmaps; j++)
+			seen |= maps[j] == m;
+		if (!seen)
+			maps[nmaps++] = m;
+	}
+	size_t nb = 0;
+	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0;
+	if (!err && !failed)
+		err = gather_blocks(w0, maps, nmaps, &nb);
+	if (!err && !failed)
+		err = write_cell(r, w0, &cb, cell, nb, counts, &nbricks, NULL,
+				 NULL);
+	if (!err && nbricks)
+		cell_counted(r, counts, nbricks);
+	char path[4096];
+	bin_path(path, sizeof path, r->outdir, cell);
+	unlink(path);
+	/* freed, not kept: the next cell's blocks may fall to other
+	 * workers, and kept blocks would add up beyond one cell's */
+	for (int i = 0; i < r->nworkers; i++)
+		map_free(&r->workers[i].map);
+	return err;
+}
+
+/* One more cell done: the count and the progress line. */
+static void cell_done(struct run *r)
+{
+	size_t done = atomic_fetch_add(&r->done, 1) + 1;
+	double el = vd_seconds() - r->prog->start;
+	progress_say(r->prog, 0, "voxelizing cells %zu/%zu, %llu voxels, "
+		     "ETA %.0fs", done, r->njobs,
+		     (unsigned long long)atomic_load(&r->voxels),
+		     el / (double)done * (double)(r->njobs - done));
 }
 
 static void cell_task(void *ctx, size_t i, int worker)
@@ -1339,12 +1507,7 @@ static void cell_task(void *ctx, size_t i, int worker)
 		run_fail(r, err);
 		return;
 	}
-	size_t done = atomic_fetch_add(&r->done, 1) + 1;
-	double el = vd_seconds() - r->prog->start;
-	progress_say(r->prog, 0, "voxelizing cells %zu/%zu, %llu voxels, "
-		     "ETA %.0fs", done, r->njobs,
-		     (unsigned long long)atomic_load(&r->voxels),
-		     el / (double)done * (double)(r->njobs - done));
+	cell_done(r);
 }
 
 static int cmp_jobs(const void *a, const void *b)
@@ -1417,6 +1580,9 @@ struct plan {
 	int L0, threads;
 	size_t block_limit;
 	uint64_t worker_bytes;  /* each worker's share */
+	int want;               /* the threads asked for */
+	uint64_t avail;         /* the budget left for the workers */
+	uint64_t cell_blocks;   /* the blocks planned for the largest cell */
 };
 
 /* Per-cell arrays of the binning and the jobs at chunk level l: allocated
@@ -1455,6 +1621,9 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 				uint64_t share = avail / (uint64_t)t - WORKER_OVERHEAD;
 				p->block_limit = (size_t)(share / block_cost);
 				p->worker_bytes = share;
+				p->want = threads;
+				p->avail = avail;
+				p->cell_blocks = max_blocks[l];
 				return VD_OK;
 			}
 		}
@@ -1702,19 +1871,44 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	r.block_limit = plan.block_limit;
 	r.worker_bytes = plan.worker_bytes;
 	r.pairs_total = b.pairs;
-	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
+	/* Few cells for the threads: each cell on all of them (split_cell),
+	 * when the budget holds the blocks planned for the largest cell
+	 * plus every worker's overhead. */
+	int nw = plan.threads, split = 0;
+	if (!r.colours && plan.want > 1 && r.njobs < 4 * (size_t)plan.want &&
+	    L - r.g.L0 > BLOCK_SHIFT) {
+		uint64_t over = (uint64_t)plan.want * WORKER_OVERHEAD;
+		size_t limit = plan.avail > over ?
+			(size_t)((plan.avail - over) / block_cost) : 0;
+		if (limit >= plan.cell_blocks) {
+			split = 1;
+			nw = plan.want;
+			r.block_limit = limit;
+			r.worker_bytes = (uint64_t)limit * block_cost;
+		}
+	}
+	r.workers = calloc((size_t)nw, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");
 		goto out;
 	}
-	r.nworkers = plan.threads;
+	r.nworkers = nw;
 	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
-	for (int i = 0; i < plan.threads; i++)
+	for (int i = 0; i < nw; i++)
 		if (!(r.workers[i].tris = malloc(TRI_BATCH * rec_bytes))) {
 			err = vd_fail(VD_ERR_NOMEM, "workers");
 			goto out;
 		}
-	err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+	if (split) {
+		progress_say(&prog, 1, "%zu cells for %d threads: each cell "
+			     "rasterized by all of them", r.njobs, nw);
+		for (size_t i = 0; i < r.njobs && !err && !r.err; i++) {
+			err = split_cell(&r, r.jobs[i].cell);
+			cell_done(&r);
+		}
+	} else {
+		err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+	}
 	if (!err && r.err)
 		err = vd_fail(r.err, "%s", r.detail);
 	if (err)
@@ -1748,7 +1942,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		res->level_nodes[l] = nodes[l - r.g.L0];
 	res->levels = L;
 	res->chunk_level = r.g.L0;
-	res->threads = plan.threads;
+	res->threads = r.nworkers;
 	res->mem_budget_bytes = opts->mem_budget_bytes;
 	snprintf(res->format, sizeof res->format, "%s", vd_mesh_format(mesh));
 	res->transform = r.g.tr;
