@@ -1146,15 +1146,16 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
 }
 
-/* The colour of every voxel of the cell (whose geometry is complete in
- * w->map; w->order[0..nb) its sorted blocks): reads the bin again and
- * leaves the colours in w->vox[0..voxels), compacted to RGB8 in place
- * (the bytes at (uint8_t *)w->vox). */
-static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
-		       size_t nb, const char *bin, const int64_t lo[3],
-		       const int64_t hi[3], uint64_t *voxels_out)
+/* The colour pass of a cell (whose geometry is complete; w->order[0..nb)
+ * its sorted blocks, found through cb) in three steps: colour_tables
+ * makes w's rank tables and zeroed colour slots, colour_pass visits the
+ * cell's triangles again within a clip box (the cell, or one octant of
+ * it on each worker), colour_compact leaves the colours in
+ * w->vox[0..voxels) as RGB8 in place (the bytes at (uint8_t *)w->vox). */
+static int colour_tables(struct run *r, struct worker *w,
+			 const struct cell_blocks *cb, uint64_t cell,
+			 size_t nb, uint64_t *voxels_out)
 {
-	double t0 = vd_seconds();
 	if (nb > w->blk_cap) {
 		size_t cap = nb * 2;
 		uint64_t **bp = realloc(w->blk, cap * sizeof *bp);
@@ -1173,7 +1174,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	}
 	uint64_t voxels = 0;
 	for (size_t i = 0; i < nb; i++) {
-		uint64_t *blk = map_get(&w->map, w->order[i]);
+		uint64_t *blk = cell_block(cb, w->order[i]);
 		w->blk[i] = blk;
 		w->base[i] = voxels;
 		unsigned in = 0;
@@ -1185,7 +1186,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	}
 	/* exactly, now that the voxels are known: blocks, rank tables and
 	 * colour slots within the worker's share */
-	uint64_t need = (uint64_t)w->map.count * BLOCK_COST +
+	uint64_t need = (uint64_t)nb * BLOCK_COST +
 			(uint64_t)w->blk_cap * (16 + BLOCK_WORDS * 2) +
 			voxels * sizeof(struct vox_col);
 	if (need > r->worker_bytes)
@@ -1206,7 +1207,17 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 		w->vox_cap = voxels;
 	}
 	memset(w->vox, 0, voxels * sizeof *w->vox);
+	*voxels_out = voxels;
+	return VD_OK;
+}
 
+/* The colour pass over the voxels inside [clip_lo, clip_hi] of the cell
+ * whose first voxel is `lo`, into w's tables, reading the bin with
+ * `rd`'s buffer (w's own, or another worker's for an octant). */
+static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
+		       size_t nb, const char *bin, const int64_t lo[3],
+		       const int64_t clip_lo[3], const int64_t clip_hi[3])
+{
 	FILE *f = fopen(bin, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
@@ -1216,7 +1227,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	memcpy(cc.lo, lo, sizeof cc.lo);
 	int err = VD_OK;
 	size_t n;
-	unsigned char *rb = (unsigned char *)w->tris;
+	unsigned char *rb = (unsigned char *)rd->tris;
 	while (!err && (n = fread(rb, BIN_BYTES_COL, TRI_BATCH, f)) > 0) {
 		for (size_t i = 0; i < n && !err; i++) {
 			struct bin_rec_col rec;
@@ -1234,15 +1245,18 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
-			vd_raster_triangle(&st, r->g.L, lo, hi, colour_voxel,
-					   &cc);
+			vd_raster_triangle(&st, r->g.L, clip_lo, clip_hi,
+					   colour_voxel, &cc);
 		}
 	}
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", bin);
 	fclose(f);
-	if (err)
-		return err;
+	return err;
+}
+
+static int colour_compact(struct worker *w, uint64_t cell, uint64_t voxels)
+{
 	/* RGB8 in place: byte 3i is written after slot i was read */
 	uint8_t *rgb = (uint8_t *)w->vox;
 	for (uint64_t i = 0; i < voxels; i++) {
@@ -1254,9 +1268,24 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 				w->vox[i].rgb[2]};
 		memcpy(rgb + 3 * i, c, 3);
 	}
+	return VD_OK;
+}
+
+static int colour_cell(struct run *r, struct worker *w,
+		       const struct cell_blocks *cb, uint64_t cell, size_t nb,
+		       const char *bin, const int64_t lo[3],
+		       const int64_t hi[3], uint64_t *voxels_out)
+{
+	double t0 = vd_seconds();
+	uint64_t voxels = 0;
+	int err = colour_tables(r, w, cb, cell, nb, &voxels);
+	if (!err)
+		err = colour_pass(r, w, w, nb, bin, lo, lo, hi);
+	if (!err)
+		err = colour_compact(w, cell, voxels);
 	*voxels_out = voxels;
 	w->seconds_colour += vd_seconds() - t0;
-	return VD_OK;
+	return err;
 }
 
 /* Adds a written cell's counts to the run's. */
@@ -1269,6 +1298,57 @@ static void cell_counted(struct run *r, const uint64_t *counts,
 	for (int l = 0; l <= r->g.L - r->g.L0; l++)
 		r->level_nodes[l] += counts[l];
 	pthread_mutex_unlock(&r->lock);
+}
+
+struct split_cell {
+	struct run *r;
+	uint64_t cell;
+	int64_t lo[3];        /* the cell's first voxel */
+	int64_t half;         /* an octant's side, voxels */
+	int owner[8];         /* the worker that did each octant */
+	char path[4096];      /* the cell's bin */
+	size_t nb;            /* its blocks (colour pass) */
+};
+
+static int colour_split(struct run *r, struct split_cell *sc,
+			const struct cell_blocks *cb, uint64_t *voxels_out);
+
+/* The rest of a cell once its geometry is in maps[0..nmaps) (found
+ * through cb): the colour pass when there are colours (here, or on every
+ * worker for a split cell `sc`), the bin removed, the SVO chunk and the
+ * colour chunk written, the counts added. */
+static int finish_cell(struct run *r, struct worker *w,
+		       const struct cell_blocks *cb,
+		       struct block_map *const *maps, int nmaps,
+		       uint64_t cell, const char *path, const int64_t lo[3],
+		       const int64_t hi[3], struct split_cell *sc)
+{
+	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
+	size_t nb = 0;
+	int err = gather_blocks(w, maps, nmaps, &nb);
+	if (sc)
+		sc->nb = nb;
+	if (!err && r->colours && nb)
+		err = sc ? colour_split(r, sc, cb, &ncol)
+			 : colour_cell(r, w, cb, cell, nb, path, lo, hi, &ncol);
+	unlink(path);
+	if (!err && atomic_load(&r->failed))
+		return VD_OK; /* a worker's failure, said by the caller */
+	struct vd_chunk_header h;
+	uint64_t digest = 0;
+	if (!err)
+		err = write_cell(r, w, cb, cell, nb, counts, &nbricks,
+				 r->colours ? &h : NULL, &digest);
+	if (!err && r->colours && nbricks) {
+		char name[64], cpath[4096];
+		vd_chunk_file_name(name, sizeof name, r->g.L0, cell, "col");
+		snprintf(cpath, sizeof cpath, "%s/%s", r->outdir, name);
+		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
+				      ncol, r->opts->provenance);
+	}
+	if (!err && nbricks)
+		cell_counted(r, counts, nbricks);
+	return err;
 }
 
 static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
@@ -1332,31 +1412,14 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
 	fclose(f);
-	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
-	size_t nb = 0;
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
 	for (int k = 0; k < 8; k++)
 		cb.map[k] = mp;
 	if (!err)
-		err = gather_blocks(w, &mp, 1, &nb);
-	if (!err && r->colours && w->map.count)
-		err = colour_cell(r, w, cell, nb, path, rc.lo, hi, &ncol);
-	unlink(path);
-	struct vd_chunk_header h;
-	uint64_t digest = 0;
-	if (!err)
-		err = write_cell(r, w, &cb, cell, nb, counts, &nbricks,
-				 r->colours ? &h : NULL, &digest);
-	if (!err && r->colours && nbricks) {
-		char name[64], cpath[4096];
-		vd_chunk_file_name(name, sizeof name, r->g.L0, cell, "col");
-		snprintf(cpath, sizeof cpath, "%s/%s", r->outdir, name);
-		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
-				      ncol, r->opts->provenance);
-	}
-	if (!err && nbricks)
-		cell_counted(r, counts, nbricks);
+		err = finish_cell(r, w, &cb, &mp, 1, cell, path, rc.lo, hi, NULL);
+	else
+		unlink(path);
 	if (map_reset(&w->map) && !err)
 		err = vd_fail(VD_ERR_NOMEM, "block list");
 	return err;
@@ -1370,16 +1433,19 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
  * that reach its octant and rasterizes them clipped to it, into its own
  * map. Octants are whole blocks, so every block is in one map, and the
  * cell's bricks are written from all the maps in Morton order: the same
- * chunk as one worker writes. Geometry only: with colours, cells stay
- * whole (the colour pass walks the cell's triangles once more). */
+ * chunk as one worker writes. The colour pass goes the same way, an
+ * octant per worker, into one set of rank tables. */
 
-struct split_cell {
-	struct run *r;
-	uint64_t cell;
-	int64_t lo[3];        /* the cell's first voxel */
-	int64_t half;         /* an octant's side, voxels */
-	int owner[8];         /* the worker that did each octant */
-};
+
+static void octant_box(const struct split_cell *sc, size_t k,
+		       int64_t plo[3], int64_t phi[3])
+{
+	for (int a = 0; a < 3; a++) {
+		/* Morton: x is the high bit of the octant, z the low */
+		plo[a] = sc->lo[a] + (int64_t)(k >> (2 - a) & 1) * sc->half;
+		phi[a] = plo[a] + sc->half - 1;
+	}
+}
 
 static void octant_task(void *ctx, size_t k, int worker)
 {
@@ -1390,30 +1456,28 @@ static void octant_task(void *ctx, size_t k, int worker)
 	if (atomic_load(&r->failed))
 		return;
 	int64_t plo[3], phi[3];
-	for (int a = 0; a < 3; a++) {
-		/* Morton: x is the high bit of the octant, z the low */
-		plo[a] = sc->lo[a] + (int64_t)(k >> (2 - a) & 1) * sc->half;
-		phi[a] = plo[a] + sc->half - 1;
-	}
+	octant_box(sc, k, plo, phi);
 	struct raster_ctx rc = {.map = &w->map};
 	memcpy(rc.lo, sc->lo, sizeof rc.lo);
-	char path[4096];
-	bin_path(path, sizeof path, r->outdir, sc->cell);
-	FILE *f = fopen(path, "rb");
+	FILE *f = fopen(sc->path, "rb");
 	if (!f) {
-		run_fail(r, vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
-				    strerror(errno)));
+		run_fail(r, vd_fail(VD_ERR_IO, "cannot read '%s': %s",
+				    sc->path, strerror(errno)));
 		return;
 	}
+	/* with colours a record is bin_rec_col after its cell: index,
+	 * then the corners */
+	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
+	size_t off = r->colours ? sizeof(uint64_t) : 0;
 	int err = VD_OK;
 	size_t n;
 	while (!err && !w->map.over &&
-	       (n = fread(w->tris, BIN_BYTES_GEOM, TRI_BATCH, f)) > 0) {
+	       (n = fread(w->tris, rec, TRI_BATCH, f)) > 0) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
-			memcpy(t.v, rb + BIN_BYTES_GEOM * i, sizeof t.v);
+			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
 				vd_raster_triangle_spans(&st, r->g.L, plo, phi,
@@ -1423,7 +1487,7 @@ static void octant_task(void *ctx, size_t k, int worker)
 			atomic_fetch_add(&r->pairs_done, n);
 	}
 	if (!err && ferror(f))
-		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", sc->path);
 	fclose(f);
 	if (!err && w->map.over)
 		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
@@ -1436,6 +1500,42 @@ static void octant_task(void *ctx, size_t k, int worker)
 		run_fail(r, err);
 }
 
+/* The colour pass of octant k, into worker 0's tables. */
+static void colour_octant_task(void *ctx, size_t k, int worker)
+{
+	struct split_cell *sc = ctx;
+	struct run *r = sc->r;
+	if (atomic_load(&r->failed))
+		return;
+	int64_t plo[3], phi[3];
+	octant_box(sc, k, plo, phi);
+	int err = colour_pass(r, &r->workers[0], &r->workers[worker], sc->nb,
+			      sc->path, sc->lo, plo, phi);
+	if (err)
+		run_fail(r, err);
+}
+
+/* The colour pass of a split cell on every worker, an octant each: each
+ * voxel is in one octant and sees the cell's triangles in bin order, so
+ * the colours are those of one worker's pass. */
+static int colour_split(struct run *r, struct split_cell *sc,
+			const struct cell_blocks *cb, uint64_t *voxels_out)
+{
+	struct worker *w = &r->workers[0];
+	double t0 = vd_seconds();
+	uint64_t voxels = 0;
+	int err = colour_tables(r, w, cb, sc->cell, sc->nb, &voxels);
+	if (!err)
+		err = vd_parallel_for(8, r->nworkers, colour_octant_task, sc);
+	if (!err && atomic_load(&r->failed))
+		return VD_OK; /* said by the caller, from r->err */
+	if (!err)
+		err = colour_compact(w, sc->cell, voxels);
+	*voxels_out = voxels;
+	w->seconds_colour += vd_seconds() - t0;
+	return err;
+}
+
 static int split_cell(struct run *r, uint64_t cell)
 {
 	int shift = r->g.L - r->g.L0;
@@ -1445,6 +1545,7 @@ static int split_cell(struct run *r, uint64_t cell)
 				.half = (int64_t)1 << (shift - 1)};
 	for (int a = 0; a < 3; a++)
 		sc.lo[a] = (int64_t)c[a] << shift;
+	bin_path(sc.path, sizeof sc.path, r->outdir, cell);
 	/* the cell's blocks, wherever they are, within one limit */
 	atomic_store(&r->split_blocks, 0);
 	for (int i = 0; i < r->nworkers; i++) {
@@ -1452,9 +1553,6 @@ static int split_cell(struct run *r, uint64_t cell)
 		r->workers[i].map.shared = &r->split_blocks;
 	}
 	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
-	/* a worker's failure is in r->err and r->detail, said by the caller */
-	int failed = atomic_load(&r->failed);
-	struct worker *w0 = &r->workers[0];
 	struct block_map *maps[8];
 	struct cell_blocks cb = {.part_shift = 3 * (shift - 1 - BLOCK_SHIFT)};
 	int nmaps = 0;
@@ -1467,18 +1565,16 @@ static int split_cell(struct run *r, uint64_t cell)
 		if (!seen)
 			maps[nmaps++] = m;
 	}
-	size_t nb = 0;
-	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0;
-	if (!err && !failed)
-		err = gather_blocks(w0, maps, nmaps, &nb);
-	if (!err && !failed)
-		err = write_cell(r, w0, &cb, cell, nb, counts, &nbricks, NULL,
-				 NULL);
-	if (!err && nbricks)
-		cell_counted(r, counts, nbricks);
-	char path[4096];
-	bin_path(path, sizeof path, r->outdir, cell);
-	unlink(path);
+	/* a worker's failure is in r->err and r->detail, said by the caller */
+	if (!err && !atomic_load(&r->failed)) {
+		int64_t hi[3];
+		for (int a = 0; a < 3; a++)
+			hi[a] = sc.lo[a] + 2 * sc.half - 1;
+		err = finish_cell(r, &r->workers[0], &cb, maps, nmaps, cell,
+				  sc.path, sc.lo, hi, &sc);
+	} else {
+		unlink(sc.path);
+	}
 	/* freed, not kept: the next cell's blocks may fall to other
 	 * workers, and kept blocks would add up beyond one cell's */
 	for (int i = 0; i < r->nworkers; i++)
@@ -1875,7 +1971,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	 * when the budget holds the blocks planned for the largest cell
 	 * plus every worker's overhead. */
 	int nw = plan.threads, split = 0;
-	if (!r.colours && plan.want > 1 && r.njobs < 4 * (size_t)plan.want &&
+	if (plan.want > 1 && r.njobs < 4 * (size_t)plan.want &&
 	    L - r.g.L0 > BLOCK_SHIFT) {
 		uint64_t over = (uint64_t)plan.want * WORKER_OVERHEAD;
 		size_t limit = plan.avail > over ?
