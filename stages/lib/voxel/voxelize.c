@@ -571,6 +571,8 @@ struct block_map {
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
 	size_t limit;        /* blocks allowed by the budget */
+	atomic_size_t *shared; /* if set, the blocks of all the maps that
+				* share one cell, which `limit` bounds */
 	int over;            /* the limit was hit */
 };
 
@@ -640,7 +642,8 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 			j = (j + 1) & (m->cap - 1);
 		}
 	}
-	if (m->count >= m->limit) {
+	if (m->count >= m->limit ||
+	    (m->shared && atomic_fetch_add(m->shared, 1) >= m->limit)) {
 		m->over = 1;
 		return NULL;
 	}
@@ -801,6 +804,7 @@ struct run {
 	atomic_int failed;
 	int err;
 	char detail[512];
+	atomic_size_t split_blocks;  /* split_cell: the cell's blocks */
 };
 
 /* What a user can do about a cell too large for a worker's share: a
@@ -831,34 +835,53 @@ static void run_fail(struct run *r, int err)
 	pthread_mutex_unlock(&r->lock);
 }
 
-/* The cell's block keys, sorted (Morton order), into w->order. */
-static int sort_blocks(struct worker *w, size_t *nb_out)
+/* Where a cell's blocks are: one worker's map, or, for a cell whose
+ * octants were rasterized by several workers (split_cell), the map of
+ * the worker that did each octant (block key >> part_shift). */
+struct cell_blocks {
+	struct block_map *map[8];
+	int part_shift;
+};
+
+static inline uint64_t *cell_block(const struct cell_blocks *cb,
+				   uint64_t key)
 {
-	struct block_map *m = &w->map;
-	if (m->count > w->order_cap) {
-		uint64_t *o = realloc(w->order, m->count * sizeof *o * 2);
+	return map_get(cb->map[key >> cb->part_shift & 7], key);
+}
+
+/* The keys of the blocks in maps[0..n), sorted (Morton order), into
+ * w->order. */
+static int gather_blocks(struct worker *w, struct block_map *const *maps,
+			 int n, size_t *nb_out)
+{
+	size_t total = 0;
+	for (int k = 0; k < n; k++)
+		total += maps[k]->count;
+	if (total > w->order_cap) {
+		uint64_t *o = realloc(w->order, total * sizeof *o * 2);
 		if (!o)
 			return vd_fail(VD_ERR_NOMEM, "block order");
 		w->order = o;
-		w->order_cap = m->count * 2;
+		w->order_cap = total * 2;
 	}
 	size_t nb = 0;
-	for (size_t i = 0; i < m->cap; i++)
-		if (m->keys[i])
-			w->order[nb++] = m->keys[i] - 1;
+	for (int k = 0; k < n; k++)
+		for (size_t i = 0; i < maps[k]->cap; i++)
+			if (maps[k]->keys[i])
+				w->order[nb++] = maps[k]->keys[i] - 1;
 	qsort(w->order, nb, sizeof *w->order, cmp_u64);
 	*nb_out = nb;
 	return VD_OK;
 }
 
-/* Streams the cell's bricks (blocks w->order[0..nb), sorted), in Morton
- * order, into an SVO chunk. With `hout`, also returns the chunk's header
+/* Streams the cell's bricks (blocks w->order[0..nb), sorted, found
+ * through cb), in Morton order, into an SVO chunk. With `hout`, also returns the chunk's header
  * and the vd_svo_digest() of its bricks, for the colour chunk. */
-static int write_cell(struct run *r, struct worker *w, uint64_t cell,
-		      size_t nb, uint64_t *counts, uint64_t *nbricks,
+static int write_cell(struct run *r, struct worker *w,
+		      const struct cell_blocks *cb, uint64_t cell, size_t nb,
+		      uint64_t *counts, uint64_t *nbricks,
 		      struct vd_chunk_header *hout, uint64_t *digest)
 {
-	struct block_map *m = &w->map;
 	int L = r->g.L, L0 = r->g.L0, k = L - L0;
 	/* brick key = cell prefix | block key | brick within block */
 	int cell_shift = k >= 2 ? 3 * (k - 2) : 0;
@@ -877,7 +900,7 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		w->nz_cap = nb * 2;
 	}
 	for (size_t i = 0; i < nb; i++) {
-		const uint64_t *blk = map_get(m, w->order[i]);
+		const uint64_t *blk = cell_block(cb, w->order[i]);
 		uint64_t *nz = w->nz + 8 * i;
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
@@ -923,7 +946,7 @@ static int write_cell(struct run *r, struct worker *w, uint64_t cell,
 		uint64_t prev = 0;
 		int first = 1;
 		for (size_t i = 0; i < nb && !err; i++) {
-			const uint64_t *blk = map_get(m, w->order[i]);
+			const uint64_t *blk = cell_block(cb, w->order[i]);
 			uint64_t base = prefix | w->order[i] << 9;
 			const uint64_t *nz = w->nz + 8 * i;
 			size_t n = 0;
@@ -1123,15 +1146,16 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
 }
 
-/* The colour of every voxel of the cell (whose geometry is complete in
- * w->map; w->order[0..nb) its sorted blocks): reads the bin again and
- * leaves the colours in w->vox[0..voxels), compacted to RGB8 in place
- * (the bytes at (uint8_t *)w->vox). */
-static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
-		       size_t nb, const char *bin, const int64_t lo[3],
-		       const int64_t hi[3], uint64_t *voxels_out)
+/* The colour pass of a cell (whose geometry is complete; w->order[0..nb)
+ * its sorted blocks, found through cb) in three steps: colour_tables
+ * makes w's rank tables and zeroed colour slots, colour_pass visits the
+ * cell's triangles again within a clip box (the cell, or one octant of
+ * it on each worker), colour_compact leaves the colours in
+ * w->vox[0..voxels) as RGB8 in place (the bytes at (uint8_t *)w->vox). */
+static int colour_tables(struct run *r, struct worker *w,
+			 const struct cell_blocks *cb, uint64_t cell,
+			 size_t nb, uint64_t *voxels_out)
 {
-	double t0 = vd_seconds();
 	if (nb > w->blk_cap) {
 		size_t cap = nb * 2;
 		uint64_t **bp = realloc(w->blk, cap * sizeof *bp);
@@ -1150,7 +1174,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	}
 	uint64_t voxels = 0;
 	for (size_t i = 0; i < nb; i++) {
-		uint64_t *blk = map_get(&w->map, w->order[i]);
+		uint64_t *blk = cell_block(cb, w->order[i]);
 		w->blk[i] = blk;
 		w->base[i] = voxels;
 		unsigned in = 0;
@@ -1162,7 +1186,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	}
 	/* exactly, now that the voxels are known: blocks, rank tables and
 	 * colour slots within the worker's share */
-	uint64_t need = (uint64_t)w->map.count * BLOCK_COST +
+	uint64_t need = (uint64_t)nb * BLOCK_COST +
 			(uint64_t)w->blk_cap * (16 + BLOCK_WORDS * 2) +
 			voxels * sizeof(struct vox_col);
 	if (need > r->worker_bytes)
@@ -1183,7 +1207,17 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 		w->vox_cap = voxels;
 	}
 	memset(w->vox, 0, voxels * sizeof *w->vox);
+	*voxels_out = voxels;
+	return VD_OK;
+}
 
+/* The colour pass over the voxels inside [clip_lo, clip_hi] of the cell
+ * whose first voxel is `lo`, into w's tables, reading the bin with
+ * `rd`'s buffer (w's own, or another worker's for an octant). */
+static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
+		       size_t nb, const char *bin, const int64_t lo[3],
+		       const int64_t clip_lo[3], const int64_t clip_hi[3])
+{
 	FILE *f = fopen(bin, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
@@ -1193,7 +1227,7 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 	memcpy(cc.lo, lo, sizeof cc.lo);
 	int err = VD_OK;
 	size_t n;
-	unsigned char *rb = (unsigned char *)w->tris;
+	unsigned char *rb = (unsigned char *)rd->tris;
 	while (!err && (n = fread(rb, BIN_BYTES_COL, TRI_BATCH, f)) > 0) {
 		for (size_t i = 0; i < n && !err; i++) {
 			struct bin_rec_col rec;
@@ -1211,15 +1245,18 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
-			vd_raster_triangle(&st, r->g.L, lo, hi, colour_voxel,
-					   &cc);
+			vd_raster_triangle(&st, r->g.L, clip_lo, clip_hi,
+					   colour_voxel, &cc);
 		}
 	}
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", bin);
 	fclose(f);
-	if (err)
-		return err;
+	return err;
+}
+
+static int colour_compact(struct worker *w, uint64_t cell, uint64_t voxels)
+{
 	/* RGB8 in place: byte 3i is written after slot i was read */
 	uint8_t *rgb = (uint8_t *)w->vox;
 	for (uint64_t i = 0; i < voxels; i++) {
@@ -1231,9 +1268,87 @@ static int colour_cell(struct run *r, struct worker *w, uint64_t cell,
 				w->vox[i].rgb[2]};
 		memcpy(rgb + 3 * i, c, 3);
 	}
+	return VD_OK;
+}
+
+static int colour_cell(struct run *r, struct worker *w,
+		       const struct cell_blocks *cb, uint64_t cell, size_t nb,
+		       const char *bin, const int64_t lo[3],
+		       const int64_t hi[3], uint64_t *voxels_out)
+{
+	double t0 = vd_seconds();
+	uint64_t voxels = 0;
+	int err = colour_tables(r, w, cb, cell, nb, &voxels);
+	if (!err)
+		err = colour_pass(r, w, w, nb, bin, lo, lo, hi);
+	if (!err)
+		err = colour_compact(w, cell, voxels);
 	*voxels_out = voxels;
 	w->seconds_colour += vd_seconds() - t0;
-	return VD_OK;
+	return err;
+}
+
+/* Adds a written cell's counts to the run's. */
+static void cell_counted(struct run *r, const uint64_t *counts,
+			 uint64_t nbricks)
+{
+	atomic_fetch_add(&r->bricks, nbricks);
+	atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
+	pthread_mutex_lock(&r->lock);
+	for (int l = 0; l <= r->g.L - r->g.L0; l++)
+		r->level_nodes[l] += counts[l];
+	pthread_mutex_unlock(&r->lock);
+}
+
+struct split_cell {
+	struct run *r;
+	uint64_t cell;
+	int64_t lo[3];        /* the cell's first voxel */
+	int64_t half;         /* an octant's side, voxels */
+	int owner[8];         /* the worker that did each octant */
+	char path[4096];      /* the cell's bin */
+	size_t nb;            /* its blocks (colour pass) */
+};
+
+static int colour_split(struct run *r, struct split_cell *sc,
+			const struct cell_blocks *cb, uint64_t *voxels_out);
+
+/* The rest of a cell once its geometry is in maps[0..nmaps) (found
+ * through cb): the colour pass when there are colours (here, or on every
+ * worker for a split cell `sc`), the bin removed, the SVO chunk and the
+ * colour chunk written, the counts added. */
+static int finish_cell(struct run *r, struct worker *w,
+		       const struct cell_blocks *cb,
+		       struct block_map *const *maps, int nmaps,
+		       uint64_t cell, const char *path, const int64_t lo[3],
+		       const int64_t hi[3], struct split_cell *sc)
+{
+	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
+	size_t nb = 0;
+	int err = gather_blocks(w, maps, nmaps, &nb);
+	if (sc)
+		sc->nb = nb;
+	if (!err && r->colours && nb)
+		err = sc ? colour_split(r, sc, cb, &ncol)
+			 : colour_cell(r, w, cb, cell, nb, path, lo, hi, &ncol);
+	unlink(path);
+	if (!err && atomic_load(&r->failed))
+		return VD_OK; /* a worker's failure, said by the caller */
+	struct vd_chunk_header h;
+	uint64_t digest = 0;
+	if (!err)
+		err = write_cell(r, w, cb, cell, nb, counts, &nbricks,
+				 r->colours ? &h : NULL, &digest);
+	if (!err && r->colours && nbricks) {
+		char name[64], cpath[4096];
+		vd_chunk_file_name(name, sizeof name, r->g.L0, cell, "col");
+		snprintf(cpath, sizeof cpath, "%s/%s", r->outdir, name);
+		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
+				      ncol, r->opts->provenance);
+	}
+	if (!err && nbricks)
+		cell_counted(r, counts, nbricks);
+	return err;
 }
 
 static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
@@ -1297,36 +1412,185 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
 	fclose(f);
-	uint64_t counts[VD_MAX_LEVELS + 1], nbricks = 0, ncol = 0;
-	size_t nb = 0;
+	struct block_map *mp = &w->map;
+	struct cell_blocks cb = {.part_shift = 0};
+	for (int k = 0; k < 8; k++)
+		cb.map[k] = mp;
 	if (!err)
-		err = sort_blocks(w, &nb);
-	if (!err && r->colours && w->map.count)
-		err = colour_cell(r, w, cell, nb, path, rc.lo, hi, &ncol);
-	unlink(path);
-	struct vd_chunk_header h;
-	uint64_t digest = 0;
-	if (!err)
-		err = write_cell(r, w, cell, nb, counts, &nbricks,
-				 r->colours ? &h : NULL, &digest);
-	if (!err && r->colours && nbricks) {
-		char name[64], cpath[4096];
-		vd_chunk_file_name(name, sizeof name, r->g.L0, cell, "col");
-		snprintf(cpath, sizeof cpath, "%s/%s", r->outdir, name);
-		err = vd_colours_save(cpath, &h, digest, (uint8_t *)w->vox,
-				      ncol, r->opts->provenance);
-	}
-	if (!err && nbricks) {
-		atomic_fetch_add(&r->bricks, nbricks);
-		atomic_fetch_add(&r->voxels, counts[r->g.L - r->g.L0]);
-		pthread_mutex_lock(&r->lock);
-		for (int l = 0; l <= r->g.L - r->g.L0; l++)
-			r->level_nodes[l] += counts[l];
-		pthread_mutex_unlock(&r->lock);
-	}
+		err = finish_cell(r, w, &cb, &mp, 1, cell, path, rc.lo, hi, NULL);
+	else
+		unlink(path);
 	if (map_reset(&w->map) && !err)
 		err = vd_fail(VD_ERR_NOMEM, "block list");
 	return err;
+}
+
+/* ------------------------------------------ one cell on all the threads
+ * When there are few cells for the threads (a scene of one cell, or a few
+ * large ones), whole cells per thread leave threads idle. Then the cells
+ * go one after another and each is rasterized by all the workers, an
+ * octant at a time: a worker reads the cell's bin, keeps the triangles
+ * that reach its octant and rasterizes them clipped to it, into its own
+ * map. Octants are whole blocks, so every block is in one map, and the
+ * cell's bricks are written from all the maps in Morton order: the same
+ * chunk as one worker writes. The colour pass goes the same way, an
+ * octant per worker, into one set of rank tables. */
+
+
+static void octant_box(const struct split_cell *sc, size_t k,
+		       int64_t plo[3], int64_t phi[3])
+{
+	for (int a = 0; a < 3; a++) {
+		/* Morton: x is the high bit of the octant, z the low */
+		plo[a] = sc->lo[a] + (int64_t)(k >> (2 - a) & 1) * sc->half;
+		phi[a] = plo[a] + sc->half - 1;
+	}
+}
+
+static void octant_task(void *ctx, size_t k, int worker)
+{
+	struct split_cell *sc = ctx;
+	struct run *r = sc->r;
+	struct worker *w = &r->workers[worker];
+	sc->owner[k] = worker;
+	if (atomic_load(&r->failed))
+		return;
+	int64_t plo[3], phi[3];
+	octant_box(sc, k, plo, phi);
+	struct raster_ctx rc = {.map = &w->map};
+	memcpy(rc.lo, sc->lo, sizeof rc.lo);
+	FILE *f = fopen(sc->path, "rb");
+	if (!f) {
+		run_fail(r, vd_fail(VD_ERR_IO, "cannot read '%s': %s",
+				    sc->path, strerror(errno)));
+		return;
+	}
+	/* with colours a record is bin_rec_col after its cell: index,
+	 * then the corners */
+	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
+	size_t off = r->colours ? sizeof(uint64_t) : 0;
+	int err = VD_OK;
+	size_t n;
+	while (!err && !w->map.over &&
+	       (n = fread(w->tris, rec, TRI_BATCH, f)) > 0) {
+		const unsigned char *rb = (const unsigned char *)w->tris;
+		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
+			struct vd_triangle t;
+			struct vd_snapped_tri st;
+			memcpy(t.v, rb + rec * i + off, sizeof t.v);
+			err = vd_snap_triangle(&st, &t, &r->g.tr);
+			if (!err)
+				vd_raster_triangle_spans(&st, r->g.L, plo, phi,
+							 set_span, &rc);
+		}
+		if (k == 0) /* each octant reads them all: count once */
+			atomic_fetch_add(&r->pairs_done, n);
+	}
+	if (!err && ferror(f))
+		err = vd_fail(VD_ERR_IO, "cannot read '%s'", sc->path);
+	fclose(f);
+	if (!err && w->map.over)
+		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
+			      "MiB, the budget's share per cell (%zu blocks "
+			      "of 32^3 voxels); %s",
+			      (unsigned long long)sc->cell,
+			      (unsigned long long)(r->worker_bytes >> 20),
+			      w->map.limit, budget_advice(r));
+	if (err)
+		run_fail(r, err);
+}
+
+/* The colour pass of octant k, into worker 0's tables. */
+static void colour_octant_task(void *ctx, size_t k, int worker)
+{
+	struct split_cell *sc = ctx;
+	struct run *r = sc->r;
+	if (atomic_load(&r->failed))
+		return;
+	int64_t plo[3], phi[3];
+	octant_box(sc, k, plo, phi);
+	int err = colour_pass(r, &r->workers[0], &r->workers[worker], sc->nb,
+			      sc->path, sc->lo, plo, phi);
+	if (err)
+		run_fail(r, err);
+}
+
+/* The colour pass of a split cell on every worker, an octant each: each
+ * voxel is in one octant and sees the cell's triangles in bin order, so
+ * the colours are those of one worker's pass. */
+static int colour_split(struct run *r, struct split_cell *sc,
+			const struct cell_blocks *cb, uint64_t *voxels_out)
+{
+	struct worker *w = &r->workers[0];
+	double t0 = vd_seconds();
+	uint64_t voxels = 0;
+	int err = colour_tables(r, w, cb, sc->cell, sc->nb, &voxels);
+	if (!err)
+		err = vd_parallel_for(8, r->nworkers, colour_octant_task, sc);
+	if (!err && atomic_load(&r->failed))
+		return VD_OK; /* said by the caller, from r->err */
+	if (!err)
+		err = colour_compact(w, sc->cell, voxels);
+	*voxels_out = voxels;
+	w->seconds_colour += vd_seconds() - t0;
+	return err;
+}
+
+static int split_cell(struct run *r, uint64_t cell)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	struct split_cell sc = {.r = r, .cell = cell,
+				.half = (int64_t)1 << (shift - 1)};
+	for (int a = 0; a < 3; a++)
+		sc.lo[a] = (int64_t)c[a] << shift;
+	bin_path(sc.path, sizeof sc.path, r->outdir, cell);
+	/* the cell's blocks, wherever they are, within one limit */
+	atomic_store(&r->split_blocks, 0);
+	for (int i = 0; i < r->nworkers; i++) {
+		r->workers[i].map.limit = r->block_limit;
+		r->workers[i].map.shared = &r->split_blocks;
+	}
+	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
+	struct block_map *maps[8];
+	struct cell_blocks cb = {.part_shift = 3 * (shift - 1 - BLOCK_SHIFT)};
+	int nmaps = 0;
+	for (int k = 0; k < 8; k++) {
+		struct block_map *m = &r->workers[sc.owner[k]].map;
+		cb.map[k] = m;
+		int seen = 0;
+		for (int j = 0; j < nmaps; j++)
+			seen |= maps[j] == m;
+		if (!seen)
+			maps[nmaps++] = m;
+	}
+	/* a worker's failure is in r->err and r->detail, said by the caller */
+	if (!err && !atomic_load(&r->failed)) {
+		int64_t hi[3];
+		for (int a = 0; a < 3; a++)
+			hi[a] = sc.lo[a] + 2 * sc.half - 1;
+		err = finish_cell(r, &r->workers[0], &cb, maps, nmaps, cell,
+				  sc.path, sc.lo, hi, &sc);
+	} else {
+		unlink(sc.path);
+	}
+	/* freed, not kept: the next cell's blocks may fall to other
+	 * workers, and kept blocks would add up beyond one cell's */
+	for (int i = 0; i < r->nworkers; i++)
+		map_free(&r->workers[i].map);
+	return err;
+}
+
+/* One more cell done: the count and the progress line. */
+static void cell_done(struct run *r)
+{
+	size_t done = atomic_fetch_add(&r->done, 1) + 1;
+	double el = vd_seconds() - r->prog->start;
+	progress_say(r->prog, 0, "voxelizing cells %zu/%zu, %llu voxels, "
+		     "ETA %.0fs", done, r->njobs,
+		     (unsigned long long)atomic_load(&r->voxels),
+		     el / (double)done * (double)(r->njobs - done));
 }
 
 static void cell_task(void *ctx, size_t i, int worker)
@@ -1339,12 +1603,7 @@ static void cell_task(void *ctx, size_t i, int worker)
 		run_fail(r, err);
 		return;
 	}
-	size_t done = atomic_fetch_add(&r->done, 1) + 1;
-	double el = vd_seconds() - r->prog->start;
-	progress_say(r->prog, 0, "voxelizing cells %zu/%zu, %llu voxels, "
-		     "ETA %.0fs", done, r->njobs,
-		     (unsigned long long)atomic_load(&r->voxels),
-		     el / (double)done * (double)(r->njobs - done));
+	cell_done(r);
 }
 
 static int cmp_jobs(const void *a, const void *b)
@@ -1417,6 +1676,9 @@ struct plan {
 	int L0, threads;
 	size_t block_limit;
 	uint64_t worker_bytes;  /* each worker's share */
+	int want;               /* the threads asked for */
+	uint64_t avail;         /* the budget left for the workers */
+	uint64_t cell_blocks;   /* the blocks planned for the largest cell */
 };
 
 /* Per-cell arrays of the binning and the jobs at chunk level l: allocated
@@ -1455,6 +1717,9 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 				uint64_t share = avail / (uint64_t)t - WORKER_OVERHEAD;
 				p->block_limit = (size_t)(share / block_cost);
 				p->worker_bytes = share;
+				p->want = threads;
+				p->avail = avail;
+				p->cell_blocks = max_blocks[l];
 				return VD_OK;
 			}
 		}
@@ -1702,19 +1967,44 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	r.block_limit = plan.block_limit;
 	r.worker_bytes = plan.worker_bytes;
 	r.pairs_total = b.pairs;
-	r.workers = calloc((size_t)plan.threads, sizeof *r.workers);
+	/* Few cells for the threads: each cell on all of them (split_cell),
+	 * when the budget holds the blocks planned for the largest cell
+	 * plus every worker's overhead. */
+	int nw = plan.threads, split = 0;
+	if (plan.want > 1 && r.njobs < 4 * (size_t)plan.want &&
+	    L - r.g.L0 > BLOCK_SHIFT) {
+		uint64_t over = (uint64_t)plan.want * WORKER_OVERHEAD;
+		size_t limit = plan.avail > over ?
+			(size_t)((plan.avail - over) / block_cost) : 0;
+		if (limit >= plan.cell_blocks) {
+			split = 1;
+			nw = plan.want;
+			r.block_limit = limit;
+			r.worker_bytes = (uint64_t)limit * block_cost;
+		}
+	}
+	r.workers = calloc((size_t)nw, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");
 		goto out;
 	}
-	r.nworkers = plan.threads;
+	r.nworkers = nw;
 	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
-	for (int i = 0; i < plan.threads; i++)
+	for (int i = 0; i < nw; i++)
 		if (!(r.workers[i].tris = malloc(TRI_BATCH * rec_bytes))) {
 			err = vd_fail(VD_ERR_NOMEM, "workers");
 			goto out;
 		}
-	err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+	if (split) {
+		progress_say(&prog, 1, "%zu cells for %d threads: each cell "
+			     "rasterized by all of them", r.njobs, nw);
+		for (size_t i = 0; i < r.njobs && !err && !r.err; i++) {
+			err = split_cell(&r, r.jobs[i].cell);
+			cell_done(&r);
+		}
+	} else {
+		err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+	}
 	if (!err && r.err)
 		err = vd_fail(r.err, "%s", r.detail);
 	if (err)
@@ -1748,7 +2038,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		res->level_nodes[l] = nodes[l - r.g.L0];
 	res->levels = L;
 	res->chunk_level = r.g.L0;
-	res->threads = plan.threads;
+	res->threads = r.nworkers;
 	res->mem_budget_bytes = opts->mem_budget_bytes;
 	snprintf(res->format, sizeof res->format, "%s", vd_mesh_format(mesh));
 	res->transform = r.g.tr;
