@@ -1351,47 +1351,44 @@ static int finish_cell(struct run *r, struct worker *w,
 	return err;
 }
 
-static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
+/* Rasterizes the triangles of `cell`'s bin (at `path`) into w's map,
+ * clipped to [clip_lo, clip_hi]: the whole cell, or one octant of a
+ * split cell. `count`: this pass counts the triangles for the progress
+ * line (a split cell's octants all read them; one counts). */
+static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
+		      const char *path, const int64_t clip_lo[3],
+		      const int64_t clip_hi[3], int count)
 {
 	int shift = r->g.L - r->g.L0;
-	uint32_t cx, cy, cz;
-	vd_morton3_decode(cell, &cx, &cy, &cz);
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
 	struct raster_ctx rc = {.map = &w->map};
-	rc.lo[0] = (int64_t)cx << shift;
-	rc.lo[1] = (int64_t)cy << shift;
-	rc.lo[2] = (int64_t)cz << shift;
-	int64_t hi[3];
-	int64_t top = ((int64_t)1 << r->g.L) - 1;
-	for (int a = 0; a < 3; a++) {
-		hi[a] = rc.lo[a] + ((int64_t)1 << shift) - 1;
-		if (hi[a] > top)
-			hi[a] = top;
-	}
-	w->map.limit = r->block_limit;
-
-	char path[4096];
-	bin_path(path, sizeof path, r->outdir, cell);
+	for (int a = 0; a < 3; a++)
+		rc.lo[a] = (int64_t)c[a] << shift;
 	FILE *f = fopen(path, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
 			       strerror(errno));
-	int err = VD_OK;
-	size_t n;
-	unsigned char *rb = (unsigned char *)w->tris;
 	/* with colours a record is bin_rec_col after its cell: index,
 	 * then the corners */
 	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
 	size_t off = r->colours ? sizeof(uint64_t) : 0;
-	while (!err && (n = fread(rb, rec, TRI_BATCH, f)) > 0) {
+	int err = VD_OK;
+	size_t n;
+	while (!err && !w->map.over &&
+	       (n = fread(w->tris, rec, TRI_BATCH, f)) > 0) {
+		const unsigned char *rb = (const unsigned char *)w->tris;
 		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
 			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle_spans(&st, r->g.L, rc.lo, hi,
-							 set_span, &rc);
+				vd_raster_triangle_spans(&st, r->g.L, clip_lo,
+							 clip_hi, set_span, &rc);
 		}
+		if (!count)
+			continue;
 		/* progress inside a cell: large cells take minutes */
 		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
 		double el = vd_seconds() - r->prog->start;
@@ -1401,23 +1398,44 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 			     (unsigned long long)r->pairs_total,
 			     atomic_load(&r->done), r->njobs,
 			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
-		if (w->map.over)
-			err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than "
-				      "%llu MiB, the budget's share per worker "
-				      "(%zu blocks of 32^3 voxels); %s",
-				      (unsigned long long)cell,
-				      (unsigned long long)(r->worker_bytes >> 20),
-				      w->map.limit, budget_advice(r));
 	}
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
 	fclose(f);
+	if (!err && w->map.over)
+		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
+			      "MiB, the budget's share per %s (%zu blocks of "
+			      "32^3 voxels); %s", (unsigned long long)cell,
+			      (unsigned long long)(r->worker_bytes >> 20),
+			      w->map.shared ? "cell" : "worker", w->map.limit,
+			      budget_advice(r));
+	return err;
+}
+
+static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	int64_t lo[3], hi[3];
+	int64_t top = ((int64_t)1 << r->g.L) - 1;
+	for (int a = 0; a < 3; a++) {
+		lo[a] = (int64_t)c[a] << shift;
+		hi[a] = lo[a] + ((int64_t)1 << shift) - 1;
+		if (hi[a] > top)
+			hi[a] = top;
+	}
+	w->map.limit = r->block_limit;
+
+	char path[4096];
+	bin_path(path, sizeof path, r->outdir, cell);
+	int err = raster_bin(r, w, cell, path, lo, hi, 1);
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
 	for (int k = 0; k < 8; k++)
 		cb.map[k] = mp;
 	if (!err)
-		err = finish_cell(r, w, &cb, &mp, 1, cell, path, rc.lo, hi, NULL);
+		err = finish_cell(r, w, &cb, &mp, 1, cell, path, lo, hi, NULL);
 	else
 		unlink(path);
 	if (map_reset(&w->map) && !err)
@@ -1451,51 +1469,13 @@ static void octant_task(void *ctx, size_t k, int worker)
 {
 	struct split_cell *sc = ctx;
 	struct run *r = sc->r;
-	struct worker *w = &r->workers[worker];
 	sc->owner[k] = worker;
 	if (atomic_load(&r->failed))
 		return;
 	int64_t plo[3], phi[3];
 	octant_box(sc, k, plo, phi);
-	struct raster_ctx rc = {.map = &w->map};
-	memcpy(rc.lo, sc->lo, sizeof rc.lo);
-	FILE *f = fopen(sc->path, "rb");
-	if (!f) {
-		run_fail(r, vd_fail(VD_ERR_IO, "cannot read '%s': %s",
-				    sc->path, strerror(errno)));
-		return;
-	}
-	/* with colours a record is bin_rec_col after its cell: index,
-	 * then the corners */
-	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
-	size_t off = r->colours ? sizeof(uint64_t) : 0;
-	int err = VD_OK;
-	size_t n;
-	while (!err && !w->map.over &&
-	       (n = fread(w->tris, rec, TRI_BATCH, f)) > 0) {
-		const unsigned char *rb = (const unsigned char *)w->tris;
-		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
-			struct vd_triangle t;
-			struct vd_snapped_tri st;
-			memcpy(t.v, rb + rec * i + off, sizeof t.v);
-			err = vd_snap_triangle(&st, &t, &r->g.tr);
-			if (!err)
-				vd_raster_triangle_spans(&st, r->g.L, plo, phi,
-							 set_span, &rc);
-		}
-		if (k == 0) /* each octant reads them all: count once */
-			atomic_fetch_add(&r->pairs_done, n);
-	}
-	if (!err && ferror(f))
-		err = vd_fail(VD_ERR_IO, "cannot read '%s'", sc->path);
-	fclose(f);
-	if (!err && w->map.over)
-		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
-			      "MiB, the budget's share per cell (%zu blocks "
-			      "of 32^3 voxels); %s",
-			      (unsigned long long)sc->cell,
-			      (unsigned long long)(r->worker_bytes >> 20),
-			      w->map.limit, budget_advice(r));
+	int err = raster_bin(r, &r->workers[worker], sc->cell, sc->path, plo,
+			     phi, k == 0);
 	if (err)
 		run_fail(r, err);
 }
