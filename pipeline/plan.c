@@ -882,6 +882,20 @@ static uint64_t merge_share(const struct vd_chunk_header *h, uint32_t kind)
 	return vd_dag_estimate_header(&d);
 }
 
+/* The --mem-budget of a DAG job (a cell or a merge) with estimate `est`:
+ * the job budget, unless the job cannot fit it (a cell of a dense scene, or
+ * a merge whose parts cannot be grouped smaller: the root above all); then
+ * its estimate, up to the whole budget. The scheduler runs a job estimated
+ * above what is free alone, so giving it more than the job budget never
+ * oversubscribes memory; without this the stage would refuse the job that
+ * the whole budget could hold. */
+static uint64_t dag_job_budget(const struct config *c, uint64_t est)
+{
+	if (est <= c->job_mem_budget)
+		return c->job_mem_budget;
+	return est < c->mem_budget ? est : c->mem_budget;
+}
+
 /* A merge of parts whose shares sum to `sum`: each share holds the fixed
  * part once. */
 static uint64_t merge_estimate(uint64_t sum, int nparts)
@@ -952,7 +966,8 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			snprintf(key, sizeof key, "%s.key", out);
 			snprintf(to, sizeof to, "%d", a);
 			snprintf(budget, sizeof budget, "%llu",
-				 (unsigned long long)c->job_mem_budget);
+				 (unsigned long long)dag_job_budget(
+					 c, merge_estimate(sum, k - i)));
 			snprintf(threads, sizeof threads, "%d", c->threads);
 			int idx = plan_find(p, id);
 			struct job *j = idx < 0 ? add_job(p, d, id, out, key) : NULL;
@@ -1247,10 +1262,13 @@ static void plan_dag_stage(struct plan *p, int d)
 		snprintf(key, sizeof key, "%s.key", out);
 		snprintf(id, sizeof id, "%s/cells/%.*s", dd->name,
 			 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
-		snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
 		snprintf(threads, sizeof threads, "%d", c->threads);
 		struct vd_chunk_header h;
 		int ok = vd_chunk_read_header(in, &h) == VD_OK;
+		/* the stage's own bound for this input */
+		uint64_t est = ok ? vd_dag_estimate_header(&h) : c->job_mem_budget;
+		snprintf(budget, sizeof budget, "%llu",
+			 (unsigned long long)dag_job_budget(c, est));
 		struct job *j = add_job(p, d, id, out, key);
 		if (j) {
 			j->cell = 1;
@@ -1270,9 +1288,7 @@ static void plan_dag_stage(struct plan *p, int d)
 				if (si >= 0)
 					add_dep(p, j, si);
 			}
-			/* the stage's own bound for this input */
-			j->mem_estimate = ok ? vd_dag_estimate_header(&h)
-					     : c->job_mem_budget;
+			j->mem_estimate = est;
 			/* voxels it handles, for the progress line (read
 			 * here once, not again when it ends) */
 			if (ok && h.level_count > 0)

@@ -322,6 +322,27 @@ sum=$(awk '/ started /{id = $4; e[id] = $6; s += $6; n++; if (n > 1 && s > m) m 
 over=$(sed -n 's/.* peak \([0-9]*\) MiB.*/\1/p' $D/logs/runner.log | awk '$1 > 40' | wc -l)
 [ "$over" -eq 0 ] && pass budget_no_job_over || fail budget_no_job_over "$over jobs over 40 MiB"
 
+# --- a merge that cannot fit the job budget (the root of 8 L1 DAGs of the
+# bunny at 2^10 estimates about 46 MiB against 32M) gets its estimate as
+# --mem-budget, up to the whole budget, and runs alone: the same minimal
+# root as with a budget that holds it, lossless, not a refused job
+levels_of() { $BIN/chunk-check -v "$1" | grep 'nodes per level'; }
+rm -rf $D
+write_cfg 10 2
+expect budget_merge_reference 0 '' $R -q run "$CFG"
+want=$(levels_of $D/dag/root.dag)
+rm -rf $D
+sed -i 's/resources: .*/resources: {jobs: 2, threads: 1, mem_budget: 1G, job_mem_budget: 32M}/' "$CFG"
+expect budget_merge_over_job_budget 0 '' $R -q run "$CFG"
+got=$(levels_of $D/dag/root.dag)
+[ -n "$want" ] && [ "$got" = "$want" ] && pass budget_merge_same_root ||
+	fail budget_merge_same_root "want '$want' got '$got'"
+expect budget_merge_root_lossless 0 '' $BIN/dag-verify $D/dag/root.dag $D/vox/*.svo
+mb=$($BIN/chunk-check -v $D/dag/root.dag | sed -n "s/.*'--mem-budget' '\([0-9]*\)'.*/\1/p")
+[ "${mb:-0}" -gt 33554432 ] && [ "$mb" -le 1073741824 ] &&
+	pass budget_merge_gets_its_estimate ||
+	fail budget_merge_gets_its_estimate "root --mem-budget '$mb'"
+
 # --- an OpenVDB input: a level set's inside, through the whole graph, with
 # the report's picture
 mkdir -p "$T/grids" && $BIN/vdb-make-test-grids "$T/grids" >/dev/null
