@@ -173,7 +173,17 @@ struct stage_row {
 	double seconds;        /* sum of the stages' own seconds */
 	double wall_this_run;  /* sum of the jobs run this time */
 	uint64_t peak_rss;     /* largest job */
+	uint64_t budget;       /* largest --mem-budget given; 0: none */
 };
+
+/* The --mem-budget a job was given (0 when its stage takes none). */
+static uint64_t job_budget(const struct job *j)
+{
+	for (char **a = j->argv; a && *a && a[1]; a++)
+		if (!strcmp(*a, "--mem-budget"))
+			return strtoull(a[1], NULL, 10);
+	return 0;
+}
 
 /* The pictures side by side (one paragraph), then what each shows. */
 static void write_pictures(FILE *f, const struct plan *p)
@@ -543,6 +553,8 @@ int report_write(const struct plan *p)
 		json_t *root = text ? json_loads(text, 0, &jerr) : NULL;
 		struct stage_row *r = &rows[j->decl];
 		r->jobs++;
+		if (job_budget(j) > r->budget)
+			r->budget = job_budget(j);
 		double secs = json_get(root, "seconds", "total");
 		enum stage_type t = c->jobs_decl[j->decl].stage->type;
 		size_t nops;
@@ -648,28 +660,38 @@ int report_write(const struct plan *p)
 	fprintf(f, "## The run\n\n");
 	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
 		"their statistics files); peak memory is the largest job's, "
-		"against the per-job budget of %llu MiB.\n\n",
+		"against the largest `--mem-budget` given to the stage's jobs: "
+		"the per-job budget of %llu MiB, or more for a job that could "
+		"not fit it (it then ran alone).\n\n",
 		(unsigned long long)(c->job_mem_budget >> 20));
 	fprintf(f, "| job | stage | processes | seconds | peak MiB | budget MiB |\n"
 		   "|---|---|---:|---:|---:|---:|\n");
-	for (int d = 0; d < c->njobs; d++)
-		fprintf(f, "| %s | %s | %d | %.2f | %.0f | %llu |\n",
+	for (int d = 0; d < c->njobs; d++) {
+		char b[32] = "-";
+		if (rows[d].budget)
+			snprintf(b, sizeof b, "%llu",
+				 (unsigned long long)(rows[d].budget >> 20));
+		fprintf(f, "| %s | %s | %d | %.2f | %.0f | %s |\n",
 			c->jobs_decl[d].name, c->jobs_decl[d].stage->name,
 			rows[d].jobs, rows[d].seconds,
-			(double)rows[d].peak_rss / (1 << 20),
-			(unsigned long long)(c->job_mem_budget >> 20));
+			(double)rows[d].peak_rss / (1 << 20), b);
+	}
 	int err = close_tmp(f, tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.csv", p->dir);
 	f = err ? NULL : open_tmp(path, tmp, sizeof tmp);
 	if (f) {
 		fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
-		for (int d = 0; d < c->njobs; d++)
-			fprintf(f, "%s,%s,%d,%.3f,%llu,%llu\n", c->jobs_decl[d].name,
+		for (int d = 0; d < c->njobs; d++) {
+			char b[32] = ""; /* empty: the stage takes no budget */
+			if (rows[d].budget)
+				snprintf(b, sizeof b, "%llu",
+					 (unsigned long long)rows[d].budget);
+			fprintf(f, "%s,%s,%d,%.3f,%llu,%s\n", c->jobs_decl[d].name,
 				c->jobs_decl[d].stage->name, rows[d].jobs,
 				rows[d].seconds,
-				(unsigned long long)rows[d].peak_rss,
-				(unsigned long long)c->job_mem_budget);
+				(unsigned long long)rows[d].peak_rss, b);
+		}
 	}
 	if (!err)
 		err = close_tmp(f, tmp, path, why, sizeof why);
@@ -693,7 +715,8 @@ int report_write(const struct plan *p)
 			vd_json_u64(j, "processes", (uint64_t)rows[d].jobs);
 			vd_json_f64(j, "seconds", rows[d].seconds);
 			vd_json_u64(j, "peak_rss_bytes", rows[d].peak_rss);
-			vd_json_u64(j, "budget_bytes", c->job_mem_budget);
+			if (rows[d].budget) /* absent: the stage takes none */
+				vd_json_u64(j, "budget_bytes", rows[d].budget);
 			vd_json_end_object(j);
 		}
 		vd_json_end_array(j);

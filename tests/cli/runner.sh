@@ -342,6 +342,13 @@ mb=$($BIN/chunk-check -v $D/dag/root.dag | sed -n "s/.*'--mem-budget' '\([0-9]*\
 [ "${mb:-0}" -gt 33554432 ] && [ "$mb" -le 1073741824 ] &&
 	pass budget_merge_gets_its_estimate ||
 	fail budget_merge_gets_its_estimate "root --mem-budget '$mb'"
+# the report's budget column: the largest budget a stage's jobs were
+# given (the root's, in MiB), the job budget elsewhere, '-' for render
+row() { grep "^| $1 | " $D/report.md | awk -F'|' '{gsub(/ /, "", $7); print $7}'; }
+[ "$(row dag)" = $((mb >> 20)) ] && [ "$(row vox)" = 32 ] &&
+	grep -q "^dag,svo-to-dag,.*,$mb\$" $D/report.csv &&
+	pass budget_report_shows_merge_budget ||
+	fail budget_report_shows_merge_budget "dag '$(row dag)' vox '$(row vox)' want $((mb >> 20))" "$(cat $D/report.csv)"
 
 # --- an OpenVDB input: a level set's inside, through the whole graph, with
 # the report's picture
