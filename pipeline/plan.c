@@ -799,6 +799,18 @@ static const struct job_decl *decl_of(const struct plan *p, int d)
 	return &p->cfg->jobs_decl[d];
 }
 
+/* 1 when a job of the graph takes voxelize's colour chunks (colorize, or
+ * edit, which carries them through): the colour of every voxel costs
+ * voxelize as much as its geometry, so it is computed only then. */
+static int colours_wanted(const struct config *c)
+{
+	for (int d = 0; d < c->njobs; d++)
+		if (c->jobs_decl[d].stage->type == STAGE_COLORIZE ||
+		    c->jobs_decl[d].stage->type == STAGE_EDIT)
+			return 1;
+	return 0;
+}
+
 /* The voxelize job: one process over the whole mesh. */
 static void plan_voxelize(struct plan *p, int d)
 {
@@ -831,6 +843,8 @@ static void plan_voxelize(struct plan *p, int d)
 		args[na++] = "--vdb-mode", args[na++] = c->vdb_mode;
 	if (*c->vdb_colour_grid)
 		args[na++] = "--colour-grid", args[na++] = c->vdb_colour_grid;
+	else if (!colours_wanted(c))
+		args[na++] = "--no-colours";
 	args[na] = NULL;
 	set_argv_list(j, "voxelize", args);
 	add_input(j, in);
@@ -1190,6 +1204,51 @@ static void plan_edit(struct plan *p, int d)
 	add_dep(p, j, in);
 }
 
+/* 1 when declared job d has cell jobs. */
+static int has_cells(const struct plan *p, int d)
+{
+	for (int i = 0; i < p->n; i++)
+		if (p->jobs[i].decl == d && p->jobs[i].cell)
+			return 1;
+	return 0;
+}
+
+/* svo-to-dag of a scene whose one cell is the whole grid (chunk level 0):
+ * that cell's DAG is the root, so one job builds root.dag from it, with no
+ * one-part merge after it (which would only load, re-reduce and save the
+ * same DAG). Returns 0, planning nothing, when the cell is not level 0. */
+static int plan_single_root(struct plan *p, int d, const char *src_dir,
+			    const char *name, int src_job)
+{
+	const struct config *c = p->cfg;
+	char in[1400], out[1200], key[1300], id[200], budget[32], threads[16];
+	snprintf(in, sizeof in, "%s/%s", src_dir, name);
+	struct vd_chunk_header h;
+	if (vd_chunk_read_header(in, &h) != VD_OK || h.chunk_level != 0)
+		return 0;
+	snprintf(out, sizeof out, "%s/%s/root.dag", p->dir, decl_of(p, d)->name);
+	snprintf(key, sizeof key, "%s.key", out);
+	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
+	uint64_t est = vd_dag_estimate_header(&h);
+	snprintf(budget, sizeof budget, "%llu",
+		 (unsigned long long)dag_job_budget(c, est));
+	snprintf(threads, sizeof threads, "%d", c->threads);
+	struct job *j = add_job(p, d, id, out, key);
+	if (j) {
+		set_argv(j, "svo-to-dag", in, "-o", out, "--mem-budget", budget,
+			 "--threads", threads, "-q", NULL);
+		add_group_arg(decl_of(p, d), j);
+		add_input(j, in);
+		add_dep(p, j, src_job);
+		j->mem_estimate = est;
+		if (h.level_count > 0)
+			j->voxels = h.level_nodes[h.level_count - 1];
+	}
+	p->cells_planned[d] = 1;
+	p->merges_planned[d] = 1;
+	return 1;
+}
+
 static void plan_dag_stage(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
@@ -1227,6 +1286,10 @@ static void plan_dag_stage(struct plan *p, int d)
 			return;
 	} else if (!p->cells_planned[src] || p->cells_left[src] > 0) {
 		return;
+	} else if (p->merges_planned[src] && stage_root_job(p, src) >= 0 &&
+		   !has_cells(p, src)) {
+		plan_root_ssvdag(p, d); /* the source is one root, no cells */
+		return;
 	}
 	/* voxelize replaces its directory, so its listing is exact; a DAG
 	 * stage's cells are the jobs planned for it (a listing could hold
@@ -1237,6 +1300,11 @@ static void plan_dag_stage(struct plan *p, int d)
 		n = list_files(src_dir, src_ext, &names);
 		if (n < 0)
 			return;
+		if (n == 1 && plan_single_root(p, d, src_dir, names[0], src_job)) {
+			free(names[0]);
+			free(names);
+			return;
+		}
 	} else {
 		names = xrealloc(NULL, ((size_t)p->n + 1) * sizeof *names);
 		for (int i = 0; i < p->n; i++) {
@@ -1332,9 +1400,7 @@ static void plan_dag_merges(struct plan *p, int d, const char *ext,
 			parts[i].share = merge_share(&h, kind);
 		}
 	}
-	/* a single cell at level 0 is already the root: merge anyway so the
-	 * root always has the same name (a one-part merge is cheap and checks
-	 * the part) */
+	/* (a single cell at level 0 has no cell job: plan_single_root) */
 	if (all_built) {
 		plan_merges(p, d, parts, n, ext);
 		p->merges_planned[d] = 1;
