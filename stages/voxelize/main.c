@@ -121,7 +121,10 @@ static int is_vdb(const char *path)
 enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD, OPT_NO_COLOURS,
        OPT_STRICT, OPT_COLOUR_GRID };
 
-int main(int argc, char **argv)
+/* The command; main owns `provenance` and `argv_given` (argv before
+ * getopt_long permutes it), so every early return frees them. */
+static int voxelize_main(int argc, char **argv, char *provenance,
+			 char **argv_given)
 {
 	static const struct option longopts[] = {
 		{"output", required_argument, NULL, 'o'},
@@ -146,14 +149,6 @@ int main(int argc, char **argv)
 	int c, have_levels = 0, vdb_opts = 0;
 	struct vd_vdb_select sel = {.mode = VD_VDB_ACTIVE};
 	char *end;
-	/* before getopt_long permutes argv */
-	char *provenance = vd_provenance_new("voxelize", argc, argv);
-	char **argv_given = calloc((size_t)argc + 1, sizeof *argv_given);
-	if (!argv_given || !provenance) {
-		fprintf(stderr, "voxelize: out of memory\n");
-		return 1;
-	}
-	memcpy(argv_given, argv, (size_t)argc * sizeof *argv);
 	while ((c = getopt_long(argc, argv, "o:l:c:m:j:qh", longopts, NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -267,8 +262,6 @@ int main(int argc, char **argv)
 		if (err)
 			vd_dir_abandon(stage);
 	}
-	free(provenance);
-	free(argv_given);
 	if (err) {
 		const char *d = vd_error_detail();
 		fprintf(stderr, "voxelize: cannot voxelize '%s': %s%s%s\n", mesh,
@@ -276,4 +269,21 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	/* before getopt_long permutes argv */
+	char *provenance = vd_provenance_new("voxelize", argc, argv);
+	char **argv_given = calloc((size_t)argc + 1, sizeof *argv_given);
+	int rc = 1;
+	if (argv_given && provenance) {
+		memcpy(argv_given, argv, (size_t)argc * sizeof *argv);
+		rc = voxelize_main(argc, argv, provenance, argv_given);
+	} else {
+		fprintf(stderr, "voxelize: out of memory\n");
+	}
+	free(provenance);
+	free(argv_given);
+	return rc;
 }
