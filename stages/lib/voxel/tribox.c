@@ -22,6 +22,16 @@
 
 typedef __int128 i128;
 
+/* llround without the libm call (a tenth of voxelize's time went to it):
+ * halves away from zero. For |g| < 2^52 the truncation and g - i are
+ * exact; above, g is an integer and f is 0. */
+static inline int64_t round_half_away(double g)
+{
+	int64_t i = (int64_t)g;
+	double f = g - (double)i;
+	return i + (f >= 0.5) - (f <= -0.5);
+}
+
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr)
 {
@@ -33,7 +43,7 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 				return vd_fail(VD_ERR_RANGE, "non-finite or huge "
 					       "vertex coordinate %g",
 					       (double)t->v[k][a]);
-			out->v[k][a] = llround(g);
+			out->v[k][a] = round_half_away(g);
 		}
 	return VD_OK;
 }
