@@ -14,7 +14,8 @@ static const char usage[] =
 	"\n"
 	"The first form writes the test fixtures into OUTDIR: sphere.vdb (a\n"
 	"level set 'sphere' of radius 20 voxels), fog.vdb (a fog box 'density'\n"
-	"with whole tiles and a fainter core), two.vdb (grids 'a' and 'b'),\n"
+	"with whole tiles and a fainter core), two.vdb (grids 'b', a sphere,\n"
+	"then 'a', a 10^3 fog box),\n"
 	"empty.vdb (a grid without active voxels), rotated.vdb and\n"
 	"nonuniform.vdb (transforms voxdag refuses), colour.vdb (a fog box\n"
 	"'density' of indices -5..20, -3..17, 2..30 and colour grids beside it:\n"
@@ -68,9 +69,10 @@ static int add_fog(struct vd_vdb_test_file *f)
 
 static int add_two(struct vd_vdb_test_file *f)
 {
+	/* 'b' first: the file's first grid is not the first by name */
 	const int32_t lo[3] = {0, 0, 0}, hi[3] = {9, 9, 9};
-	int err = vd_vdb_test_add_sphere(f, "a", 10, centre, 0.5, 3);
-	return err ? err : vd_vdb_test_add_fog_box(f, "b", lo, hi, 1, none_lo,
+	int err = vd_vdb_test_add_sphere(f, "b", 10, centre, 0.5, 3);
+	return err ? err : vd_vdb_test_add_fog_box(f, "a", lo, hi, 1, none_lo,
 						   none_hi, 0);
 }
 

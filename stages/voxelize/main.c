@@ -55,7 +55,7 @@ static const char usage[] =
 	"                          material colour is used)\n"
 	"\n"
 	"OpenVDB input only:\n"
-	"      --grid NAME         the grid to read (default: the first)\n"
+	"      --grid NAME         the grid to read (default: the first by name)\n"
 	"      --vdb-mode MODE     which voxels are set (default: active):\n"
 	"                            active            active voxels and tiles\n"
 	"                            levelset-surface  value <= 0 with a face\n"
