@@ -102,11 +102,11 @@ typedef int32_t vi __attribute__((vector_size(4 * LANES)));
  * level (A + D k + m/2) div m is the truncation of (A + D k + m/2 + 1/2) / m
  * computed with a float 1/m (the result lies at least 1/(2m) from the
  * next integer, the float error below 2^-14). Adds to *sse; 0 when a
- * colour is outside the limit. */
+ * colour is outside the limit, *failed the first index of its run. */
 __attribute__((target("avx2")))
 static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 		       int m, const uint8_t a[3], const int d[3], float inv,
-		       uint8_t *w, uint64_t *sse)
+		       uint8_t *w, uint64_t *sse, uint32_t *failed)
 {
 	const vf zf = {0};
 	const vi zi = {0};
@@ -175,8 +175,10 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 			f |= (uint32_t)fail[l];
 			t += (uint32_t)acc[l];
 		}
-		if (f)
+		if (f) {
+			*failed = i0;
 			return 0;
+		}
 		s += t;
 	}
 	*sse += s;
@@ -184,42 +186,30 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 }
 #endif
 
-/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
- * colour (rounded projection and its neighbours, judged by the exact
- * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 at the
- * first colour outside. */
-static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
-			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
-			   uint64_t *sse)
-{
-	uint8_t a[3], b[3];
-	vd_rgb565_decode(c0, a);
-	vd_rgb565_decode(c1, b);
-	int m = (1 << wb) - 1;
+/* A block's line: decoded endpoints and the 2^W colours on it, for the
+ * checks of check_endpoints. */
+struct line {
+	uint8_t a[3];
+	int d[3], m;
+	float inv;
+	unsigned limit;
 	/* the 2^W decoded colours of this block's line at [1..m+1], by
 	 * channel; [0] and [m+2] far outside the cube, so the neighbours of
 	 * the first and last weight never win and need no test */
 	int pr[258], pg[258], pb[258];
-	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
-	 * divides by a constant (a multiplication), other widths by m */
-	if (m == 7)
-		for (int k = 0; k <= 7; k++) {
-			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
-			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
-			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
-		}
-	else
-		for (int k = 0; k <= m; k++) {
-			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
-			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
-			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
-		}
-	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
-	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-	/* the rounded projection is only where the search starts (it and
-	 * its neighbours are judged exactly), so a float product will do */
-	float inv = len2 ? (float)m / (float)len2 : 0.f;
+};
+
+/* Checks rgb[0..n) against the line L. Returns 1 and adds the SSE to
+ * *sse, or 0 with *fail the first index of the run of colours that holds
+ * one outside the limit. */
+static int check_span(const struct line *L, const uint8_t *rgb, uint32_t n,
+		      uint8_t *w, uint64_t *sse, uint32_t *fail)
+{
+	const uint8_t *a = L->a;
+	const int *d = L->d, *pr = L->pr, *pg = L->pg, *pb = L->pb;
+	int m = L->m;
+	float inv = L->inv;
+	unsigned limit = L->limit;
 	uint64_t s = 0;
 	/* Branch-free over runs of colours, the limit tested once a run: a
 	 * colour outside fails the block wherever it is, and the weights of a
@@ -229,7 +219,8 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 #ifdef VBR_LANES
 	if (__builtin_cpu_supports("avx2")) {
 		n4 = n & ~(uint32_t)(VBR_LANES - 1);
-		if (n4 && !check_lanes(rgb, n4, limit, m, a, d, inv, w, &s))
+		if (n4 && !check_lanes(rgb, n4, limit, m, a, d, inv, w, &s,
+				       fail))
 			return 0;
 	}
 #endif
@@ -268,9 +259,71 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 			rs += best;
 			wo[i] = (uint8_t)bk;
 		}
-		if (worst > limit)
+		if (worst > limit) {
+			*fail = i0;
 			return 0;
+		}
 		s += rs;
+	}
+	*sse += s;
+	return 1;
+}
+
+/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
+ * colour (rounded projection and its neighbours, judged by the exact
+ * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 when
+ * a colour is outside. *hint (< n, or any value >= n for none) names a
+ * colour likely to fail, tested first: the answer is the same whatever
+ * the order (a failure anywhere fails the block, the SSE is an integer
+ * sum), only found sooner; on a failure it is set to a failing run. */
+static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
+			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
+			   uint64_t *sse, uint32_t *hint)
+{
+	struct line L;
+	uint8_t b[3];
+	const uint8_t *a = L.a;
+	vd_rgb565_decode(c0, L.a);
+	vd_rgb565_decode(c1, b);
+	int m = L.m = (1 << wb) - 1;
+	int *pr = L.pr, *pg = L.pg, *pb = L.pb;
+	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
+	 * divides by a constant (a multiplication), other widths by m */
+	if (m == 7)
+		for (int k = 0; k <= 7; k++) {
+			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
+			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
+			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
+		}
+	else
+		for (int k = 0; k <= m; k++) {
+			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
+			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
+			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
+		}
+	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
+	for (int k = 0; k < 3; k++)
+		L.d[k] = b[k] - a[k];
+	int len2 = L.d[0] * L.d[0] + L.d[1] * L.d[1] + L.d[2] * L.d[2];
+	/* the rounded projection is only where the search starts (it and
+	 * its neighbours are judged exactly), so a float product will do */
+	L.inv = len2 ? (float)m / (float)len2 : 0.f;
+	L.limit = limit;
+	uint32_t fail = 0;
+	uint64_t s = 0;
+	if (*hint < n) {
+		/* the hint's run of colours, aligned to the lanes */
+		uint32_t h0 = *hint & ~(uint32_t)31;
+		uint32_t hn = n - h0 < 32 ? n - h0 : 32;
+		if (!check_span(&L, rgb + 3 * (size_t)h0, hn, NULL, &s, &fail)) {
+			*hint = h0 + fail;
+			return 0;
+		}
+		s = 0;
+	}
+	if (!check_span(&L, rgb, n, w, &s, &fail)) {
+		*hint = fail;
+		return 0;
 	}
 	*sse = s;
 	return 1;
@@ -562,7 +615,8 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * RGB565 rounding pushed a colour outside */
 	a = to565(l0);
 	b = to565(l1);
-	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
+	uint32_t hint = n;
+	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s, &hint)) {
 		*c0 = a;
 		*c1 = b;
 		*sse = s;
@@ -570,7 +624,7 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	}
 	uint16_t a2 = to565(e0), b2 = to565(e1);
 	if ((a2 != a || b2 != b) &&
-	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s)) {
+	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s, &hint)) {
 		*c0 = a2;
 		*c1 = b2;
 		*sse = s;
@@ -581,7 +635,7 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * is a block this fit accepts */
 	double f[3] = {rgb[0], rgb[1], rgb[2]};
 	a = to565(f);
-	if (check_endpoints(rgb, n, limit, weight_bits, a, a, w, &s)) {
+	if (check_endpoints(rgb, n, limit, weight_bits, a, a, w, &s, &hint)) {
 		*c0 = *c1 = a;
 		*sse = s;
 		return 1;
