@@ -75,9 +75,9 @@ static inline unsigned nearest_level(double v, int bits)
 	return lvl_below[kind][j] + (lvl_at[kind][j] && v2 > j);
 }
 
+/* The caller has run vbr_init(). */
 static uint16_t to565(const double c[3])
 {
-	pthread_once(&lvl_once, lvl_init);
 	double v[3];
 	for (int k = 0; k < 3; k++)
 		v[k] = c[k] > 255 ? 255 : c[k] >= 0 ? c[k] : 0; /* NaN: 0 */
@@ -309,20 +309,24 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * its neighbours are judged exactly), so a float product will do */
 	L.inv = len2 ? (float)m / (float)len2 : 0.f;
 	L.limit = limit;
+	/* the hint's run of colours (aligned to the lanes) first, then the
+	 * colours before it, then those after: each colour once */
+	uint32_t h0 = *hint < n ? *hint & ~(uint32_t)31 : 0;
+	uint32_t hn = n - h0 < 32 ? n - h0 : 32, h1 = h0 + hn;
 	uint32_t fail = 0;
 	uint64_t s = 0;
-	if (*hint < n) {
-		/* the hint's run of colours, aligned to the lanes */
-		uint32_t h0 = *hint & ~(uint32_t)31;
-		uint32_t hn = n - h0 < 32 ? n - h0 : 32;
-		if (!check_span(&L, rgb + 3 * (size_t)h0, hn, NULL, &s, &fail)) {
-			*hint = h0 + fail;
-			return 0;
-		}
-		s = 0;
+	if (!check_span(&L, rgb + 3 * (size_t)h0, hn, w ? w + h0 : NULL, &s,
+			&fail)) {
+		*hint = h0 + fail;
+		return 0;
 	}
-	if (!check_span(&L, rgb, n, w, &s, &fail)) {
+	if (!check_span(&L, rgb, h0, w, &s, &fail)) {
 		*hint = fail;
+		return 0;
+	}
+	if (!check_span(&L, rgb + 3 * (size_t)h1, n - h1, w ? w + h1 : NULL,
+			&s, &fail)) {
+		*hint = h1 + fail;
 		return 0;
 	}
 	*sse = s;
@@ -408,7 +412,6 @@ static void near_init(void)
 static int fit_flat(const uint8_t *x, unsigned limit, int wb, uint16_t *c0,
 		    uint16_t *c1, uint8_t *wt, uint64_t *sse)
 {
-	pthread_once(&near_once, near_init);
 	int m = (1 << wb) - 1, bw = 0;
 	unsigned best = UINT32_MAX;
 	for (int w = 0; w <= m; w++) {
@@ -432,6 +435,14 @@ static int fit_flat(const uint8_t *x, unsigned limit, int wb, uint16_t *c0,
 	*wt = (uint8_t)bw;
 	*sse = best;
 	return 1;
+}
+
+/* The tables of to565, fit_flat and fit_m, built once: the entry points
+ * run this, not each fit (a call per fit was 1.5% of the time). */
+static void vbr_init(void)
+{
+	pthread_once(&lvl_once, lvl_init);
+	pthread_once(&near_once, near_init);
 }
 
 /* Sums of a block's colours and of their products, exact integers, so the
@@ -492,10 +503,12 @@ static double lambda_max(const double c[6])
 }
 
 /* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
- * doubles. */
+ * doubles. `hint` (n for none) is a colour likely to fail the check
+ * (check_endpoints), which changes only the time. */
 static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		 int weight_bits, const struct mom *mo, double *t,
-		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
+		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse,
+		 uint32_t hint)
 {
 	if (n == 0) {
 		*c0 = *c1 = 0;
@@ -590,7 +603,6 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		 * in the same order as one scalar sum: the same bits */
 		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
 		double bb = 0;
-		pthread_once(&near_once, near_init);
 		const struct lsw *lw = ls_tab + m;
 		for (uint32_t i = 0; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
@@ -615,7 +627,6 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * RGB565 rounding pushed a colour outside */
 	a = to565(l0);
 	b = to565(l1);
-	uint32_t hint = n;
 	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s, &hint)) {
 		*c0 = a;
 		*c1 = b;
@@ -652,7 +663,8 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 	double *t = malloc(((size_t)n + 1) * sizeof *t);
 	if (!t)
 		return 0;
-	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse);
+	vbr_init();
+	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse, n);
 	free(t);
 	return ok;
 }
@@ -682,9 +694,13 @@ static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
 	struct mom m = B->mom[s];
 	mom_add(&m, &B->mom[l2]);
 	uint32_t n = B->end[l2] - s;
+	/* a colour outside is likelier in the smaller part: the fit leans
+	 * to the larger */
+	uint32_t k = l2 - s;
 	if (!fit_m(rgb + 3 * (size_t)s, n, limit, wb, &m, B->t, &a, &b, NULL,
-		   &sse))
+		   &sse, n - k < k ? k : 0)) {
 		return -1;
+	}
 	return (double)sse / n;
 }
 
@@ -697,6 +713,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		return vd_fail(VD_ERR_ARG, "vbr: weight bits %d, max error %g, "
 			       "%u colours", p->weight_bits, p->max_error, n);
 	int wb = p->weight_bits;
+	vbr_init();
 	unsigned limit = vd_colour_error_limit(p->max_error);
 	seg->n = n;
 	seg->weight_bits = wb;
@@ -806,7 +823,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		uint64_t sse;
 		uint32_t len = B.end[b] - b;
 		if (!fit_m(rgb + 3 * (size_t)b, len, limit, wb, &B.mom[b], B.t,
-			   &seg->c0[k], &seg->c1[k], w, &sse)) {
+			   &seg->c0[k], &seg->c1[k], w, &sse, len)) {
 			/* only a first block of one colour can get here: merges
 			 * were all checked */
 			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
