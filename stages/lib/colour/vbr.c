@@ -248,20 +248,45 @@ static uint32_t project_lanes(const struct cols *C, uint32_t n,
 /* A block's line: decoded endpoints and the 2^W colours on it, for the
  * checks of check_endpoints. */
 struct line {
-	uint8_t a[3];
+	uint8_t a[3], b[3];
 	int d[3], m;
 	float inv;
 	unsigned limit;
 	/* the 2^W decoded colours of this block's line at [1..m+1], by
 	 * channel; [0] and [m+2] far outside the cube, so the neighbours of
-	 * the first and last weight never win and need no test */
+	 * the first and last weight never win and need no test. Filled
+	 * (palette = 1) only when a scalar loop needs them. */
+	int palette;
 	int pr[258], pg[258], pb[258];
 };
+
+/* Fills L's palette for the scalar loop (the lanes compute the levels):
+ * vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
+ * divides by a constant (a multiplication), other widths by m. */
+static void line_palette(struct line *L)
+{
+	const uint8_t *a = L->a, *b = L->b;
+	int *pr = L->pr, *pg = L->pg, *pb = L->pb, m = L->m;
+	if (m == 7)
+		for (int k = 0; k <= 7; k++) {
+			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
+			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
+			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
+		}
+	else
+		for (int k = 0; k <= m; k++) {
+			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
+			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
+			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
+		}
+	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
+	L->palette = 1;
+}
 
 /* Checks C's colours [0..n) against the line L. Returns 1 and adds the
  * SSE to *sse, or 0 with *fail the first index of the run of colours that
  * holds one outside the limit. */
-static int check_span(const struct line *L, struct cols C, uint32_t n,
+static int check_span(struct line *L, struct cols C, uint32_t n,
 		      uint8_t *w, uint64_t *sse, uint32_t *fail)
 {
 	const uint8_t *rgb = C.rgb;
@@ -284,6 +309,8 @@ static int check_span(const struct line *L, struct cols C, uint32_t n,
 			return 0;
 	}
 #endif
+	if (n4 < n && !L->palette)
+		line_palette(L);
 	enum { RUN = 32 };
 	uint8_t wrun[RUN];
 	for (uint32_t i0 = n4; i0 < n; i0 += RUN) {
@@ -341,27 +368,11 @@ static int check_endpoints(const struct cols *C, uint32_t n, unsigned limit,
 			   uint64_t *sse, uint32_t *hint)
 {
 	struct line L;
-	uint8_t b[3];
-	const uint8_t *a = L.a;
+	const uint8_t *a = L.a, *b = L.b;
 	vd_rgb565_decode(c0, L.a);
-	vd_rgb565_decode(c1, b);
+	vd_rgb565_decode(c1, L.b);
 	int m = L.m = (1 << wb) - 1;
-	int *pr = L.pr, *pg = L.pg, *pb = L.pb;
-	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
-	 * divides by a constant (a multiplication), other widths by m */
-	if (m == 7)
-		for (int k = 0; k <= 7; k++) {
-			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
-			pg[k + 1] = (a[1] * (7 - k) + b[1] * k + 3) / 7;
-			pb[k + 1] = (a[2] * (7 - k) + b[2] * k + 3) / 7;
-		}
-	else
-		for (int k = 0; k <= m; k++) {
-			pr[k + 1] = (a[0] * (m - k) + b[0] * k + m / 2) / m;
-			pg[k + 1] = (a[1] * (m - k) + b[1] * k + m / 2) / m;
-			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
-		}
-	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
+	L.palette = 0;
 	for (int k = 0; k < 3; k++)
 		L.d[k] = b[k] - a[k];
 	int len2 = L.d[0] * L.d[0] + L.d[1] * L.d[1] + L.d[2] * L.d[2];
