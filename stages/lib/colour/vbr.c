@@ -427,10 +427,76 @@ static pthread_once_t near_once = PTHREAD_ONCE_INIT;
 typedef double v2d __attribute__((vector_size(16)));
 struct lsw {
 	v2d s;       /* 1 - q/m, q/m */
-	v2d q;       /* their products aa, ab */
+	v2d q;       /* their products aa, ab (ls_lanes reads s, q as one) */
 	double bb;
 };
 static struct lsw ls_tab[511];
+
+#ifdef VBR_LANES
+/* fit_m's least-squares sums over C's [0..n & ~3), four colours a step:
+ * their weights from t in double lanes (the scalar expression per lane),
+ * then the sums colour by colour in order, r0 and r1 sharing a register
+ * ({sa, sb, sa, sb} times {r, r, g, g}) and r2 with qab ({sa, sb, aa, ab}
+ * times {b, b, 1, 1}, the 1 exact): per lane the scalar loop's operations,
+ * so the same bits, in fewer instructions. Returns the count done. */
+__attribute__((target("avx2")))
+static uint32_t ls_lanes(const struct cols *C, const double *t, uint32_t n,
+			 double tmin, double sc, int m, v2d r[4],
+			 double *bbp)
+{
+	const struct lsw *lw = ls_tab + m;
+	__m256d r01 = _mm256_setr_pd(r[0][0], r[0][1], r[1][0], r[1][1]);
+	__m256d r2q = _mm256_setr_pd(r[2][0], r[2][1], r[3][0], r[3][1]);
+	double bb = *bbp;
+	const __m256d vmin = _mm256_set1_pd(tmin), vsc = _mm256_set1_pd(sc),
+		      half = _mm256_set1_pd(0.5), one = _mm256_set1_pd(1);
+	const __m128i vm = _mm_set1_epi32(m);
+	uint32_t n4 = n & ~(uint32_t)3;
+	for (uint32_t i = 0; i < n4; i += 4) {
+		__m256d y = _mm256_add_pd(
+			_mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(t + i), vmin),
+				      vsc),
+			half);
+		int32_t q[4];
+		_mm_storeu_si128((__m128i *)q,
+				 _mm_min_epi32(_mm256_cvttpd_epi32(y), vm));
+		__m256d X[3];
+		for (int c = 0; c < 3; c++) {
+			int32_t four;
+			memcpy(&four, C->pl + c * C->ps + i, sizeof four);
+			X[c] = _mm256_cvtepi32_pd(
+				_mm_cvtepu8_epi32(_mm_cvtsi32_si128(four)));
+		}
+		/* {r, g} of colours 0, 2 and of 1, 3 */
+		__m256d u0 = _mm256_unpacklo_pd(X[0], X[1]),
+			u1 = _mm256_unpackhi_pd(X[0], X[1]);
+		__m256d x01[4] = {_mm256_permute4x64_pd(u0, 0x50),
+				  _mm256_permute4x64_pd(u1, 0x50),
+				  _mm256_permute4x64_pd(u0, 0xfa),
+				  _mm256_permute4x64_pd(u1, 0xfa)};
+		__m256d x2q[4] = {
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0x00), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0x55), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0xaa), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0xff), one, 12)};
+		for (int l = 0; l < 4; l++) {
+			const struct lsw *e = lw + q[l];
+			__m256d s01 = _mm256_broadcast_pd((const __m128d *)&e->s);
+			__m256d s2q = _mm256_loadu_pd((const double *)&e->s);
+			r01 = _mm256_add_pd(r01, _mm256_mul_pd(s01, x01[l]));
+			r2q = _mm256_add_pd(r2q, _mm256_mul_pd(s2q, x2q[l]));
+			bb += e->bb;
+		}
+	}
+	double o[8];
+	_mm256_storeu_pd(o, r01);
+	_mm256_storeu_pd(o + 4, r2q);
+	for (int k = 0; k < 4; k++)
+		r[k] = (v2d){o[2 * k], o[2 * k + 1]};
+	*bbp = bb;
+	return n4;
+}
+#endif
 
 static void near_init(void)
 {
@@ -693,7 +759,15 @@ static int fit_m(const struct cols *C, uint32_t n, unsigned limit,
 		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
 		double bb = 0;
 		const struct lsw *lw = ls_tab + m;
-		for (uint32_t i = 0; i < n; i++) {
+		uint32_t done = 0;
+#ifdef VBR_LANES
+		if (__builtin_cpu_supports("avx2")) {
+			v2d r[4] = {r0, r1, r2, qab};
+			done = ls_lanes(C, t, n, tmin, sc, m, r, &bb);
+			r0 = r[0], r1 = r[1], r2 = r[2], qab = r[3];
+		}
+#endif
+		for (uint32_t i = done; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
 			int q = (int)((t[i] - tmin) * sc + 0.5);
 			const struct lsw *e = lw + (q > m ? m : q);
