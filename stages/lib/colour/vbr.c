@@ -111,8 +111,8 @@ static inline struct cols cols_at(const struct cols *C, uint32_t i)
 typedef float vf __attribute__((vector_size(4 * LANES)));
 typedef int32_t vi __attribute__((vector_size(4 * LANES)));
 
-/* check_endpoints' rule LANES colours at a time (C's [0..n), n a multiple
- * of LANES), in float lanes where every value is an exact integer: the
+/* check_endpoints' rule LANES colours at a time (C's [0..n); the planes
+ * readable to LANES - 1 bytes past n), in float lanes where every value is an exact integer: the
  * dot product and squared distances stay below 2^24, the rounded
  * projection is the same float product as the scalar one, and a decoded
  * level (A + D k + m/2) div m is the truncation of (A + D k + m/2 + 1/2) / m
@@ -134,7 +134,7 @@ static int check_lanes(const struct cols *C, uint32_t n, unsigned limit,
 		D[c] = zf + (float)d[c];
 		ac[c] = zf + (float)a[c];
 	}
-	const vi vm = zi + m;
+	const vi vm = zi + m, lane = {0, 1, 2, 3, 4, 5, 6, 7};
 	const vf vlim = zf + (float)limit, vbig = zf + 1e9f;
 	uint64_t s = 0;
 	for (uint32_t i0 = 0; i0 < n; i0 += 4 * LANES) {
@@ -182,10 +182,13 @@ static int check_lanes(const struct cols *C, uint32_t n, unsigned limit,
 			vi th = eh < best;
 			best = (vf)(((vi)eh & th) | ((vi)best & ~th));
 			bk = (bk & ~th) | ((k0 + 1) & th);
+			int valid = n - i < LANES ? (int)(n - i) : LANES;
+			if (valid < LANES) /* the lanes past n count nothing */
+				best = (vf)((vi)best & (lane < valid));
 			fail |= best > vlim;
 			acc += __builtin_convertvector(best, vi);
 			if (w)
-				for (int l = 0; l < LANES; l++)
+				for (int l = 0; l < valid; l++)
 					w[i + (uint32_t)l] = (uint8_t)bk[l];
 		}
 		uint32_t f = 0, t = 0;
@@ -303,7 +306,7 @@ static int check_span(struct line *L, struct cols C, uint32_t n,
 	uint32_t n4 = 0;
 #ifdef VBR_LANES
 	if (__builtin_cpu_supports("avx2")) {
-		n4 = n & ~(uint32_t)(VBR_LANES - 1);
+		n4 = n;
 		if (n4 && !check_lanes(&C, n4, limit, m, a, d, inv, w, &s,
 				       fail))
 			return 0;
@@ -582,13 +585,16 @@ static void vbr_init(void)
 	pthread_once(&near_once, near_init);
 }
 
-/* Fills the planes of C (3 n bytes at pl, ps = n) from rgb[0..n). */
+/* Fills the planes of C (COLS_BYTES(n) at pl, ps = n) from rgb[0..n);
+ * the bytes past the last plane are zeros the lanes may read. */
+#define COLS_BYTES(n) (3 * (size_t)(n) + 16)
 static void cols_split(struct cols *C, const uint8_t *rgb, uint8_t *pl,
 		       uint32_t n)
 {
 	for (uint32_t i = 0; i < n; i++)
 		for (int c = 0; c < 3; c++)
 			pl[(size_t)c * n + i] = rgb[3 * (size_t)i + c];
+	memset(pl + 3 * (size_t)n, 0, 16);
 	C->rgb = rgb;
 	C->pl = pl;
 	C->ps = n;
@@ -824,7 +830,7 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 	struct mom m;
 	mom_of(&m, rgb, n);
 	double *t = malloc(((size_t)n + 1) * sizeof *t);
-	uint8_t *pl = malloc(3 * (size_t)n + 1);
+	uint8_t *pl = malloc(COLS_BYTES(n));
 	int ok = 0;
 	if (t && pl) {
 		struct cols C;
@@ -895,7 +901,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
 	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
 	uint8_t *w = malloc((size_t)n + 1);
-	uint8_t *pl = malloc(3 * (size_t)n + 1);
+	uint8_t *pl = malloc(COLS_BYTES(n));
 	int err = VD_OK;
 	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
 	    !seg->weights || !w || !pl) {
