@@ -134,6 +134,16 @@ static int check_lanes(const struct cols *C, uint32_t n, unsigned limit,
 		D[c] = zf + (float)d[c];
 		ac[c] = zf + (float)a[c];
 	}
+	/* W <= 3: a channel's 2^W levels fit one register, looked up by
+	 * weight (vpermps, which wraps the indices -1 and 8 that only the
+	 * masked neighbours use) instead of divided: the same integers */
+	const int looked = m <= 7;
+	vf P[3] = {zf, zf, zf};
+	if (looked)
+		for (int c = 0; c < 3; c++)
+			for (int k = 0; k <= m; k++)
+				P[c][k] = (float)((a[c] * (m - k) +
+						   (a[c] + d[c]) * k + m / 2) / m);
 	const vi vm = zi + m, lane = {0, 1, 2, 3, 4, 5, 6, 7};
 	const vf vlim = zf + (float)limit, vbig = zf + 1e9f;
 	uint64_t s = 0;
@@ -156,16 +166,28 @@ static int check_lanes(const struct cols *C, uint32_t n, unsigned limit,
 			k0 = (k0 & ~over) | (vm & over);
 			vf kf = __builtin_convertvector(k0, vf);
 			vf e0 = zf, el = zf, eh = zf;
+			vi kl = k0 - 1, kh = k0 + 1;
 			for (int c = 0; c < 3; c++) {
-				vf num = A[c] + D[c] * kf;
-				vf p0 = __builtin_convertvector(
-					__builtin_convertvector(num * invm, vi), vf);
-				vf pl = __builtin_convertvector(
-					__builtin_convertvector((num - D[c]) * invm, vi),
-					vf);
-				vf ph = __builtin_convertvector(
-					__builtin_convertvector((num + D[c]) * invm, vi),
-					vf);
+				vf p0, pl, ph;
+				if (looked) {
+					__m256 pc = (__m256)P[c];
+					p0 = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)k0);
+					pl = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)kl);
+					ph = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)kh);
+				} else {
+					vf num = A[c] + D[c] * kf;
+					p0 = __builtin_convertvector(
+						__builtin_convertvector(num * invm, vi),
+						vf);
+					pl = __builtin_convertvector(
+						__builtin_convertvector(
+							(num - D[c]) * invm, vi),
+						vf);
+					ph = __builtin_convertvector(
+						__builtin_convertvector(
+							(num + D[c]) * invm, vi),
+						vf);
+				}
 				vf q0 = X[c] - p0, ql = X[c] - pl, qh = X[c] - ph;
 				e0 += q0 * q0;
 				el += ql * ql;
