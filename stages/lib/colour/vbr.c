@@ -75,9 +75,9 @@ static inline unsigned nearest_level(double v, int bits)
 	return lvl_below[kind][j] + (lvl_at[kind][j] && v2 > j);
 }
 
+/* The caller has run vbr_init(). */
 static uint16_t to565(const double c[3])
 {
-	pthread_once(&lvl_once, lvl_init);
 	double v[3];
 	for (int k = 0; k < 3; k++)
 		v[k] = c[k] > 255 ? 255 : c[k] >= 0 ? c[k] : 0; /* NaN: 0 */
@@ -86,27 +86,43 @@ static uint16_t to565(const double c[3])
 			  nearest_level(v[2], 5));
 }
 
+/* A run of colours twice: interleaved (colour i at rgb + 3 i) for the
+ * scalar loops and as three planes (channel c of colour i at
+ * pl[c * ps + i]) for the lanes, which then load eight of a channel at
+ * once instead of gathering bytes (a tenth of the time). */
+struct cols {
+	const uint8_t *rgb, *pl;
+	size_t ps;
+};
+
+static inline struct cols cols_at(const struct cols *C, uint32_t i)
+{
+	struct cols c = {C->rgb + 3 * (size_t)i, C->pl + i, C->ps};
+	return c;
+}
+
 /* Eight lanes of an AVX2 register, on x86-64 CPUs that have it (checked
  * at run time; elsewhere the scalar loop does all). No FMA: C11 mode keeps
  * a*b+c two roundings, so the lanes give the scalar loop's bits. */
 #if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
 #define VBR_LANES 8
 #define LANES VBR_LANES
 typedef float vf __attribute__((vector_size(4 * LANES)));
 typedef int32_t vi __attribute__((vector_size(4 * LANES)));
 
-/* check_endpoints' rule LANES colours at a time (rgb[0..n), n a multiple
- * of LANES), in float lanes where every value is an exact integer: the
+/* check_endpoints' rule LANES colours at a time (C's [0..n); the planes
+ * readable to LANES - 1 bytes past n), in float lanes where every value is an exact integer: the
  * dot product and squared distances stay below 2^24, the rounded
  * projection is the same float product as the scalar one, and a decoded
  * level (A + D k + m/2) div m is the truncation of (A + D k + m/2 + 1/2) / m
  * computed with a float 1/m (the result lies at least 1/(2m) from the
  * next integer, the float error below 2^-14). Adds to *sse; 0 when a
- * colour is outside the limit. */
+ * colour is outside the limit, *failed the first index of its run. */
 __attribute__((target("avx2")))
-static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
+static int check_lanes(const struct cols *C, uint32_t n, unsigned limit,
 		       int m, const uint8_t a[3], const int d[3], float inv,
-		       uint8_t *w, uint64_t *sse)
+		       uint8_t *w, uint64_t *sse, uint32_t *failed)
 {
 	const vf zf = {0};
 	const vi zi = {0};
@@ -118,18 +134,30 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 		D[c] = zf + (float)d[c];
 		ac[c] = zf + (float)a[c];
 	}
-	const vi vm = zi + m;
+	/* W <= 3: a channel's 2^W levels fit one register, looked up by
+	 * weight (vpermps, which wraps the indices -1 and 8 that only the
+	 * masked neighbours use) instead of divided: the same integers */
+	const int looked = m <= 7;
+	vf P[3] = {zf, zf, zf};
+	if (looked)
+		for (int c = 0; c < 3; c++)
+			for (int k = 0; k <= m; k++)
+				P[c][k] = (float)((a[c] * (m - k) +
+						   (a[c] + d[c]) * k + m / 2) / m);
+	const vi vm = zi + m, lane = {0, 1, 2, 3, 4, 5, 6, 7};
 	const vf vlim = zf + (float)limit, vbig = zf + 1e9f;
 	uint64_t s = 0;
 	for (uint32_t i0 = 0; i0 < n; i0 += 4 * LANES) {
 		uint32_t end = n - i0 < 4 * LANES ? n : i0 + 4 * LANES;
 		vi fail = zi, acc = zi;
 		for (uint32_t i = i0; i < end; i += LANES) {
-			const uint8_t *x = rgb + 3 * (size_t)i;
 			vf X[3];
-			for (int c = 0; c < 3; c++)
-				for (int l = 0; l < LANES; l++)
-					X[c][l] = x[3 * l + c];
+			for (int c = 0; c < 3; c++) {
+				/* zero-extend eight bytes, convert (exact) */
+				__m128i x = _mm_loadl_epi64(
+					(const __m128i *)(C->pl + c * C->ps + i));
+				X[c] = (vf)_mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(x));
+			}
 			vf dot = (X[0] - ac[0]) * D[0] + (X[1] - ac[1]) * D[1] +
 				 (X[2] - ac[2]) * D[2];
 			vi k0 = __builtin_convertvector(dot * inv + 0.5f, vi);
@@ -138,16 +166,28 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 			k0 = (k0 & ~over) | (vm & over);
 			vf kf = __builtin_convertvector(k0, vf);
 			vf e0 = zf, el = zf, eh = zf;
+			vi kl = k0 - 1, kh = k0 + 1;
 			for (int c = 0; c < 3; c++) {
-				vf num = A[c] + D[c] * kf;
-				vf p0 = __builtin_convertvector(
-					__builtin_convertvector(num * invm, vi), vf);
-				vf pl = __builtin_convertvector(
-					__builtin_convertvector((num - D[c]) * invm, vi),
-					vf);
-				vf ph = __builtin_convertvector(
-					__builtin_convertvector((num + D[c]) * invm, vi),
-					vf);
+				vf p0, pl, ph;
+				if (looked) {
+					__m256 pc = (__m256)P[c];
+					p0 = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)k0);
+					pl = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)kl);
+					ph = (vf)_mm256_permutevar8x32_ps(pc, (__m256i)kh);
+				} else {
+					vf num = A[c] + D[c] * kf;
+					p0 = __builtin_convertvector(
+						__builtin_convertvector(num * invm, vi),
+						vf);
+					pl = __builtin_convertvector(
+						__builtin_convertvector(
+							(num - D[c]) * invm, vi),
+						vf);
+					ph = __builtin_convertvector(
+						__builtin_convertvector(
+							(num + D[c]) * invm, vi),
+						vf);
+				}
 				vf q0 = X[c] - p0, ql = X[c] - pl, qh = X[c] - ph;
 				e0 += q0 * q0;
 				el += ql * ql;
@@ -164,10 +204,13 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 			vi th = eh < best;
 			best = (vf)(((vi)eh & th) | ((vi)best & ~th));
 			bk = (bk & ~th) | ((k0 + 1) & th);
+			int valid = n - i < LANES ? (int)(n - i) : LANES;
+			if (valid < LANES) /* the lanes past n count nothing */
+				best = (vf)((vi)best & (lane < valid));
 			fail |= best > vlim;
 			acc += __builtin_convertvector(best, vi);
 			if (w)
-				for (int l = 0; l < LANES; l++)
+				for (int l = 0; l < valid; l++)
 					w[i + (uint32_t)l] = (uint8_t)bk[l];
 		}
 		uint32_t f = 0, t = 0;
@@ -175,33 +218,80 @@ static int check_lanes(const uint8_t *rgb, uint32_t n, unsigned limit,
 			f |= (uint32_t)fail[l];
 			t += (uint32_t)acc[l];
 		}
-		if (f)
+		if (f) {
+			*failed = i0;
 			return 0;
+		}
 		s += t;
 	}
 	*sse += s;
 	return 1;
 }
+
+typedef double vd4 __attribute__((vector_size(32)));
+typedef int64_t vl4 __attribute__((vector_size(32)));
+
+/* fit_m's projection on the axis four colours at a time, each lane the
+ * scalar loop's operations in its order (no FMA), so the same t[i]; their
+ * least and greatest are the same in any order. Does C's [0..n & ~3) and
+ * returns that count. */
+__attribute__((target("avx2")))
+static uint32_t project_lanes(const struct cols *C, uint32_t n,
+			      const double mu[3], const double ax[3],
+			      double *t, double *tmin, double *tmax)
+{
+	vd4 M[3], A[3];
+	for (int c = 0; c < 3; c++) { /* not z + ax[c], which loses a -0 */
+		M[c] = (vd4){mu[c], mu[c], mu[c], mu[c]};
+		A[c] = (vd4){ax[c], ax[c], ax[c], ax[c]};
+	}
+	vd4 lo = {*tmin, *tmin, *tmin, *tmin}, hi = {*tmax, *tmax, *tmax, *tmax};
+	uint32_t n4 = n & ~(uint32_t)3;
+	for (uint32_t i = 0; i < n4; i += 4) {
+		vd4 X[3];
+		for (int c = 0; c < 3; c++) {
+			int32_t four;
+			memcpy(&four, C->pl + c * C->ps + i, sizeof four);
+			X[c] = (vd4)_mm256_cvtepi32_pd(
+				_mm_cvtepu8_epi32(_mm_cvtsi32_si128(four)));
+		}
+		vd4 v = (X[0] - M[0]) * A[0] + (X[1] - M[1]) * A[1] +
+			(X[2] - M[2]) * A[2];
+		memcpy(t + i, &v, sizeof v);
+		vl4 below = v < lo, above = v > hi;
+		lo = (vd4)(((vl4)v & below) | ((vl4)lo & ~below));
+		hi = (vd4)(((vl4)v & above) | ((vl4)hi & ~above));
+	}
+	for (int l = 0; l < 4; l++) {
+		*tmin = lo[l] < *tmin ? lo[l] : *tmin;
+		*tmax = hi[l] > *tmax ? hi[l] : *tmax;
+	}
+	return n4;
+}
 #endif
 
-/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
- * colour (rounded projection and its neighbours, judged by the exact
- * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 at the
- * first colour outside. */
-static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
-			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
-			   uint64_t *sse)
-{
+/* A block's line: decoded endpoints and the 2^W colours on it, for the
+ * checks of check_endpoints. */
+struct line {
 	uint8_t a[3], b[3];
-	vd_rgb565_decode(c0, a);
-	vd_rgb565_decode(c1, b);
-	int m = (1 << wb) - 1;
+	int d[3], m;
+	float inv;
+	unsigned limit;
 	/* the 2^W decoded colours of this block's line at [1..m+1], by
 	 * channel; [0] and [m+2] far outside the cube, so the neighbours of
-	 * the first and last weight never win and need no test */
+	 * the first and last weight never win and need no test. Filled
+	 * (palette = 1) only when a scalar loop needs them. */
+	int palette;
 	int pr[258], pg[258], pb[258];
-	/* vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
-	 * divides by a constant (a multiplication), other widths by m */
+};
+
+/* Fills L's palette for the scalar loop (the lanes compute the levels):
+ * vd_vbr_interp's rule, the endpoints decoded once; the paper's W = 3
+ * divides by a constant (a multiplication), other widths by m. */
+static void line_palette(struct line *L)
+{
+	const uint8_t *a = L->a, *b = L->b;
+	int *pr = L->pr, *pg = L->pg, *pb = L->pb, m = L->m;
 	if (m == 7)
 		for (int k = 0; k <= 7; k++) {
 			pr[k + 1] = (a[0] * (7 - k) + b[0] * k + 3) / 7;
@@ -215,11 +305,21 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 			pb[k + 1] = (a[2] * (m - k) + b[2] * k + m / 2) / m;
 		}
 	pr[0] = pg[0] = pb[0] = pr[m + 2] = pg[m + 2] = pb[m + 2] = 4096;
-	int d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-	int len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-	/* the rounded projection is only where the search starts (it and
-	 * its neighbours are judged exactly), so a float product will do */
-	float inv = len2 ? (float)m / (float)len2 : 0.f;
+	L->palette = 1;
+}
+
+/* Checks C's colours [0..n) against the line L. Returns 1 and adds the
+ * SSE to *sse, or 0 with *fail the first index of the run of colours that
+ * holds one outside the limit. */
+static int check_span(struct line *L, struct cols C, uint32_t n,
+		      uint8_t *w, uint64_t *sse, uint32_t *fail)
+{
+	const uint8_t *rgb = C.rgb;
+	const uint8_t *a = L->a;
+	const int *d = L->d, *pr = L->pr, *pg = L->pg, *pb = L->pb;
+	int m = L->m;
+	float inv = L->inv;
+	unsigned limit = L->limit;
 	uint64_t s = 0;
 	/* Branch-free over runs of colours, the limit tested once a run: a
 	 * colour outside fails the block wherever it is, and the weights of a
@@ -228,11 +328,14 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 	uint32_t n4 = 0;
 #ifdef VBR_LANES
 	if (__builtin_cpu_supports("avx2")) {
-		n4 = n & ~(uint32_t)(VBR_LANES - 1);
-		if (n4 && !check_lanes(rgb, n4, limit, m, a, d, inv, w, &s))
+		n4 = n;
+		if (n4 && !check_lanes(&C, n4, limit, m, a, d, inv, w, &s,
+				       fail))
 			return 0;
 	}
 #endif
+	if (n4 < n && !L->palette)
+		line_palette(L);
 	enum { RUN = 32 };
 	uint8_t wrun[RUN];
 	for (uint32_t i0 = n4; i0 < n; i0 += RUN) {
@@ -268,9 +371,59 @@ static int check_endpoints(const uint8_t *rgb, uint32_t n, unsigned limit,
 			rs += best;
 			wo[i] = (uint8_t)bk;
 		}
-		if (worst > limit)
+		if (worst > limit) {
+			*fail = i0;
 			return 0;
+		}
 		s += rs;
+	}
+	*sse += s;
+	return 1;
+}
+
+/* Checks endpoints c0, c1 against rgb[0..n): the best weight of every
+ * colour (rounded projection and its neighbours, judged by the exact
+ * integer decoder), all within `limit`. Returns 1 and the SSE, or 0 when
+ * a colour is outside. *hint (< n, or any value >= n for none) names a
+ * colour likely to fail, tested first: the answer is the same whatever
+ * the order (a failure anywhere fails the block, the SSE is an integer
+ * sum), only found sooner; on a failure it is set to a failing run. */
+static int check_endpoints(const struct cols *C, uint32_t n, unsigned limit,
+			   int wb, uint16_t c0, uint16_t c1, uint8_t *w,
+			   uint64_t *sse, uint32_t *hint)
+{
+	struct line L;
+	const uint8_t *a = L.a, *b = L.b;
+	vd_rgb565_decode(c0, L.a);
+	vd_rgb565_decode(c1, L.b);
+	int m = L.m = (1 << wb) - 1;
+	L.palette = 0;
+	for (int k = 0; k < 3; k++)
+		L.d[k] = b[k] - a[k];
+	int len2 = L.d[0] * L.d[0] + L.d[1] * L.d[1] + L.d[2] * L.d[2];
+	/* the rounded projection is only where the search starts (it and
+	 * its neighbours are judged exactly), so a float product will do */
+	L.inv = len2 ? (float)m / (float)len2 : 0.f;
+	L.limit = limit;
+	/* the hint's run of colours (aligned to the lanes) first, then the
+	 * colours before it, then those after: each colour once */
+	uint32_t h0 = *hint < n ? *hint & ~(uint32_t)31 : 0;
+	uint32_t hn = n - h0 < 32 ? n - h0 : 32, h1 = h0 + hn;
+	uint32_t fail = 0;
+	uint64_t s = 0;
+	if (!check_span(&L, cols_at(C, h0), hn, w ? w + h0 : NULL, &s,
+			&fail)) {
+		*hint = h0 + fail;
+		return 0;
+	}
+	if (!check_span(&L, *C, h0, w, &s, &fail)) {
+		*hint = fail;
+		return 0;
+	}
+	if (!check_span(&L, cols_at(C, h1), n - h1, w ? w + h1 : NULL,
+			&s, &fail)) {
+		*hint = h1 + fail;
+		return 0;
 	}
 	*sse = s;
 	return 1;
@@ -299,10 +452,76 @@ static pthread_once_t near_once = PTHREAD_ONCE_INIT;
 typedef double v2d __attribute__((vector_size(16)));
 struct lsw {
 	v2d s;       /* 1 - q/m, q/m */
-	v2d q;       /* their products aa, ab */
+	v2d q;       /* their products aa, ab (ls_lanes reads s, q as one) */
 	double bb;
 };
 static struct lsw ls_tab[511];
+
+#ifdef VBR_LANES
+/* fit_m's least-squares sums over C's [0..n & ~3), four colours a step:
+ * their weights from t in double lanes (the scalar expression per lane),
+ * then the sums colour by colour in order, r0 and r1 sharing a register
+ * ({sa, sb, sa, sb} times {r, r, g, g}) and r2 with qab ({sa, sb, aa, ab}
+ * times {b, b, 1, 1}, the 1 exact): per lane the scalar loop's operations,
+ * so the same bits, in fewer instructions. Returns the count done. */
+__attribute__((target("avx2")))
+static uint32_t ls_lanes(const struct cols *C, const double *t, uint32_t n,
+			 double tmin, double sc, int m, v2d r[4],
+			 double *bbp)
+{
+	const struct lsw *lw = ls_tab + m;
+	__m256d r01 = _mm256_setr_pd(r[0][0], r[0][1], r[1][0], r[1][1]);
+	__m256d r2q = _mm256_setr_pd(r[2][0], r[2][1], r[3][0], r[3][1]);
+	double bb = *bbp;
+	const __m256d vmin = _mm256_set1_pd(tmin), vsc = _mm256_set1_pd(sc),
+		      half = _mm256_set1_pd(0.5), one = _mm256_set1_pd(1);
+	const __m128i vm = _mm_set1_epi32(m);
+	uint32_t n4 = n & ~(uint32_t)3;
+	for (uint32_t i = 0; i < n4; i += 4) {
+		__m256d y = _mm256_add_pd(
+			_mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(t + i), vmin),
+				      vsc),
+			half);
+		int32_t q[4];
+		_mm_storeu_si128((__m128i *)q,
+				 _mm_min_epi32(_mm256_cvttpd_epi32(y), vm));
+		__m256d X[3];
+		for (int c = 0; c < 3; c++) {
+			int32_t four;
+			memcpy(&four, C->pl + c * C->ps + i, sizeof four);
+			X[c] = _mm256_cvtepi32_pd(
+				_mm_cvtepu8_epi32(_mm_cvtsi32_si128(four)));
+		}
+		/* {r, g} of colours 0, 2 and of 1, 3 */
+		__m256d u0 = _mm256_unpacklo_pd(X[0], X[1]),
+			u1 = _mm256_unpackhi_pd(X[0], X[1]);
+		__m256d x01[4] = {_mm256_permute4x64_pd(u0, 0x50),
+				  _mm256_permute4x64_pd(u1, 0x50),
+				  _mm256_permute4x64_pd(u0, 0xfa),
+				  _mm256_permute4x64_pd(u1, 0xfa)};
+		__m256d x2q[4] = {
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0x00), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0x55), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0xaa), one, 12),
+			_mm256_blend_pd(_mm256_permute4x64_pd(X[2], 0xff), one, 12)};
+		for (int l = 0; l < 4; l++) {
+			const struct lsw *e = lw + q[l];
+			__m256d s01 = _mm256_broadcast_pd((const __m128d *)&e->s);
+			__m256d s2q = _mm256_loadu_pd((const double *)&e->s);
+			r01 = _mm256_add_pd(r01, _mm256_mul_pd(s01, x01[l]));
+			r2q = _mm256_add_pd(r2q, _mm256_mul_pd(s2q, x2q[l]));
+			bb += e->bb;
+		}
+	}
+	double o[8];
+	_mm256_storeu_pd(o, r01);
+	_mm256_storeu_pd(o + 4, r2q);
+	for (int k = 0; k < 4; k++)
+		r[k] = (v2d){o[2 * k], o[2 * k + 1]};
+	*bbp = bb;
+	return n4;
+}
+#endif
 
 static void near_init(void)
 {
@@ -355,7 +574,6 @@ static void near_init(void)
 static int fit_flat(const uint8_t *x, unsigned limit, int wb, uint16_t *c0,
 		    uint16_t *c1, uint8_t *wt, uint64_t *sse)
 {
-	pthread_once(&near_once, near_init);
 	int m = (1 << wb) - 1, bw = 0;
 	unsigned best = UINT32_MAX;
 	for (int w = 0; w <= m; w++) {
@@ -379,6 +597,29 @@ static int fit_flat(const uint8_t *x, unsigned limit, int wb, uint16_t *c0,
 	*wt = (uint8_t)bw;
 	*sse = best;
 	return 1;
+}
+
+/* The tables of to565, fit_flat and fit_m, built once: the entry points
+ * run this, not each fit (a call per fit was 1.5% of the time). */
+static void vbr_init(void)
+{
+	pthread_once(&lvl_once, lvl_init);
+	pthread_once(&near_once, near_init);
+}
+
+/* Fills the planes of C (COLS_BYTES(n) at pl, ps = n) from rgb[0..n);
+ * the bytes past the last plane are zeros the lanes may read. */
+#define COLS_BYTES(n) (3 * (size_t)(n) + 16)
+static void cols_split(struct cols *C, const uint8_t *rgb, uint8_t *pl,
+		       uint32_t n)
+{
+	for (uint32_t i = 0; i < n; i++)
+		for (int c = 0; c < 3; c++)
+			pl[(size_t)c * n + i] = rgb[3 * (size_t)i + c];
+	memset(pl + 3 * (size_t)n, 0, 16);
+	C->rgb = rgb;
+	C->pl = pl;
+	C->ps = n;
 }
 
 /* Sums of a block's colours and of their products, exact integers, so the
@@ -439,11 +680,14 @@ static double lambda_max(const double c[6])
 }
 
 /* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
- * doubles. */
-static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
+ * doubles. `hint` (n for none) is a colour likely to fail the check
+ * (check_endpoints), which changes only the time. */
+static int fit_m(const struct cols *C, uint32_t n, unsigned limit,
 		 int weight_bits, const struct mom *mo, double *t,
-		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse)
+		 uint16_t *c0, uint16_t *c1, uint8_t *w, uint64_t *sse,
+		 uint32_t hint)
 {
+	const uint8_t *rgb = C->rgb;
 	if (n == 0) {
 		*c0 = *c1 = 0;
 		*sse = 0;
@@ -513,7 +757,12 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 			ax[k] = nx[k];
 	}
 	double tmin = 1e30, tmax = -1e30;
-	for (uint32_t i = 0; i < n; i++) {
+	uint32_t i0 = 0;
+#ifdef VBR_LANES
+	if (__builtin_cpu_supports("avx2"))
+		i0 = project_lanes(C, n, mu, ax, t, &tmin, &tmax);
+#endif
+	for (uint32_t i = i0; i < n; i++) {
 		const uint8_t *x = rgb + 3 * (size_t)i;
 		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
 			   (x[2] - mu[2]) * ax[2];
@@ -537,9 +786,16 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 		 * in the same order as one scalar sum: the same bits */
 		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
 		double bb = 0;
-		pthread_once(&near_once, near_init);
 		const struct lsw *lw = ls_tab + m;
-		for (uint32_t i = 0; i < n; i++) {
+		uint32_t done = 0;
+#ifdef VBR_LANES
+		if (__builtin_cpu_supports("avx2")) {
+			v2d r[4] = {r0, r1, r2, qab};
+			done = ls_lanes(C, t, n, tmin, sc, m, r, &bb);
+			r0 = r[0], r1 = r[1], r2 = r[2], qab = r[3];
+		}
+#endif
+		for (uint32_t i = done; i < n; i++) {
 			const uint8_t *x = rgb + 3 * (size_t)i;
 			int q = (int)((t[i] - tmin) * sc + 0.5);
 			const struct lsw *e = lw + (q > m ? m : q);
@@ -562,7 +818,7 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * RGB565 rounding pushed a colour outside */
 	a = to565(l0);
 	b = to565(l1);
-	if (check_endpoints(rgb, n, limit, weight_bits, a, b, w, &s)) {
+	if (check_endpoints(C, n, limit, weight_bits, a, b, w, &s, &hint)) {
 		*c0 = a;
 		*c1 = b;
 		*sse = s;
@@ -570,7 +826,7 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	}
 	uint16_t a2 = to565(e0), b2 = to565(e1);
 	if ((a2 != a || b2 != b) &&
-	    check_endpoints(rgb, n, limit, weight_bits, a2, b2, w, &s)) {
+	    check_endpoints(C, n, limit, weight_bits, a2, b2, w, &s, &hint)) {
 		*c0 = a2;
 		*c1 = b2;
 		*sse = s;
@@ -581,7 +837,7 @@ static int fit_m(const uint8_t *rgb, uint32_t n, unsigned limit,
 	 * is a block this fit accepts */
 	double f[3] = {rgb[0], rgb[1], rgb[2]};
 	a = to565(f);
-	if (check_endpoints(rgb, n, limit, weight_bits, a, a, w, &s)) {
+	if (check_endpoints(C, n, limit, weight_bits, a, a, w, &s, &hint)) {
 		*c0 = *c1 = a;
 		*sse = s;
 		return 1;
@@ -596,10 +852,16 @@ int vd_vbr_fit(const uint8_t *rgb, uint32_t n, unsigned limit,
 	struct mom m;
 	mom_of(&m, rgb, n);
 	double *t = malloc(((size_t)n + 1) * sizeof *t);
-	if (!t)
-		return 0;
-	int ok = fit_m(rgb, n, limit, weight_bits, &m, t, c0, c1, w, sse);
+	uint8_t *pl = malloc(COLS_BYTES(n));
+	int ok = 0;
+	if (t && pl) {
+		struct cols C;
+		cols_split(&C, rgb, pl, n);
+		vbr_init();
+		ok = fit_m(&C, n, limit, weight_bits, &m, t, c0, c1, w, sse, n);
+	}
 	free(t);
+	free(pl);
 	return ok;
 }
 
@@ -620,7 +882,7 @@ struct blocks {
 
 /* MSE of the merged block [s, e) (blocks at s and l2 = the right part's
  * head) or -1 when a colour would fall outside. */
-static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
+static double eval(const struct cols *C, const struct blocks *B, uint32_t s,
 		   uint32_t l2, unsigned limit, int wb)
 {
 	uint16_t a, b;
@@ -628,9 +890,14 @@ static double eval(const uint8_t *rgb, const struct blocks *B, uint32_t s,
 	struct mom m = B->mom[s];
 	mom_add(&m, &B->mom[l2]);
 	uint32_t n = B->end[l2] - s;
-	if (!fit_m(rgb + 3 * (size_t)s, n, limit, wb, &m, B->t, &a, &b, NULL,
-		   &sse))
+	/* a colour outside is likelier in the smaller part: the fit leans
+	 * to the larger */
+	uint32_t k = l2 - s;
+	struct cols Cs = cols_at(C, s);
+	if (!fit_m(&Cs, n, limit, wb, &m, B->t, &a, &b, NULL, &sse,
+		   n - k < k ? k : 0)) {
 		return -1;
+	}
 	return (double)sse / n;
 }
 
@@ -643,6 +910,7 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		return vd_fail(VD_ERR_ARG, "vbr: weight bits %d, max error %g, "
 			       "%u colours", p->weight_bits, p->max_error, n);
 	int wb = p->weight_bits;
+	vbr_init();
 	unsigned limit = vd_colour_error_limit(p->max_error);
 	seg->n = n;
 	seg->weight_bits = wb;
@@ -655,12 +923,15 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	B.t = malloc(((size_t)n + 1) * sizeof *B.t);
 	seg->weights = calloc(((size_t)n * wb + 7) / 8 + 1, 1);
 	uint8_t *w = malloc((size_t)n + 1);
+	uint8_t *pl = malloc(COLS_BYTES(n));
 	int err = VD_OK;
 	if (!B.next || !B.prev || !B.end || !B.stuck || !B.mom || !B.t ||
-	    !seg->weights || !w) {
+	    !seg->weights || !w || !pl) {
 		err = vd_fail(VD_ERR_NOMEM, "vbr: blocks of %u colours", n);
 		goto out;
 	}
+	struct cols C;
+	cols_split(&C, rgb, pl, n);
 	/* the first sweep: greedy runs that one colour (the nearest RGB565
 	 * of the run's first colour) stores within the threshold; every
 	 * other colour its own block */
@@ -697,12 +968,12 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 			uint32_t l = B.prev[b], r = B.next[b];
 			double lm = -1, rm = -1;
 			if (l != NIL && !B.stuck[l]) {
-				lm = eval(rgb, &B, l, b, limit, wb);
+				lm = eval(&C, &B, l, b, limit, wb);
 				if (lm < 0)
 					B.stuck[l] = 1;
 			}
 			if (r != NIL && !B.stuck[b]) {
-				rm = eval(rgb, &B, b, r, limit, wb);
+				rm = eval(&C, &B, b, r, limit, wb);
 				if (rm < 0)
 					B.stuck[b] = 1;
 			}
@@ -751,8 +1022,9 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
 		uint64_t sse;
 		uint32_t len = B.end[b] - b;
-		if (!fit_m(rgb + 3 * (size_t)b, len, limit, wb, &B.mom[b], B.t,
-			   &seg->c0[k], &seg->c1[k], w, &sse)) {
+		struct cols Cb = cols_at(&C, b);
+		if (!fit_m(&Cb, len, limit, wb, &B.mom[b], B.t, &seg->c0[k],
+			   &seg->c1[k], w, &sse, len)) {
 			/* only a first block of one colour can get here: merges
 			 * were all checked */
 			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
@@ -787,6 +1059,7 @@ out:
 	free(B.mom);
 	free(B.t);
 	free(w);
+	free(pl);
 	if (err)
 		vd_vbr_segment_release(seg);
 	return err;
