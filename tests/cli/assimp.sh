@@ -9,6 +9,8 @@ cd "$(dirname "$0")/../.."
 . tests/cli/lib.sh
 V=$BIN/voxelize
 S=tests/data/gltf
+NAME=cliassimp-$$
+trap 'rm -rf "$T" out/$NAME' EXIT
 
 # body DIR: the voxel and colour content of DIR's chunks, without the
 # provenance (which names the input)
@@ -55,6 +57,14 @@ expect gltf_no_colours 0 '' $V "$S/scene.gltf" -o "$T/geo" --levels 6 --chunk-le
 [ -z "$(ls "$T/geo" | grep '\.col$')" ] &&
 	[ "$(body "$T/geo")" = "$(grep '\.svo ' "$T/obj.body")" ] &&
 	pass gltf_no_colours_same_svo || fail gltf_no_colours_same_svo
+
+# --- in a pipeline: the runner's voxelize job runs the sibling too
+small_pipeline "$NAME" "$PWD/$S/scene.glb" > "$T/p.yaml" < /dev/null
+expect pipeline_glb 0 '' $BIN/voxdag -q run "$T/p.yaml"
+expect twin_l8 0 '' $V "$S/scene.obj" -o "$T/o8" --levels 8 --chunk-level 1 -q
+[ -n "$(ls out/$NAME/vox/*.col 2>/dev/null)" ] &&
+	[ "$(body out/$NAME/vox)" = "$(body "$T/o8")" ] && pass pipeline_glb_equals_obj ||
+	fail pipeline_glb_equals_obj "$(ls out/$NAME/vox)"
 
 # --- a missing texture: one warning naming it, the material's colour
 mkdir -p "$T/miss"
