@@ -149,6 +149,9 @@ $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
 	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
 
+# The Assimp importer's test calls vd_assimp_import itself.
+$(OUT)/tests/test_assimp: LDLIBS += -lassimp
+
 # Installs missing Debian packages; silent when everything is there.
 deps:
 	@missing=$$(for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \

@@ -7,7 +7,8 @@ embedded), and scene.obj + scene.mtl: the same triangles in the order
 Assimp hands them out (its pre-transform step groups them by material, in
 material order), the same texture coordinates (OBJ's v = 1 - glTF's v)
 and colours. glTF's colour factors and vertex colours are linear light;
-the OBJ holds their sRGB values.
+the OBJ holds their sRGB values. wrap.gltf is scene.gltf with the
+texture clamped in u and mirrored in v (tests/unit/test_assimp.c).
 
 Coordinates, scales and translations are small binary fractions, so the
 pre-transformed float positions are exact and equal to the OBJ's.
@@ -108,6 +109,9 @@ g['buffers'][0]['uri'] = 'scene.bin'
 open('scene.gltf', 'w').write(json.dumps(g, indent=1) + '\n')
 open('scene.bin', 'wb').write(b)
 open('checker.png', 'wb').write(PNG)
+# the same with the texture clamped in u and mirrored in v
+g['samplers'] = [{'wrapS': 33071, 'wrapT': 33648}]
+open('wrap.gltf', 'w').write(json.dumps(g, indent=1) + '\n')
 
 g, b = build(True)
 js = json.dumps(g, separators=(',', ':')).encode()
