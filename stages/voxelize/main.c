@@ -251,19 +251,25 @@ int main(int argc, char **argv)
 				   "contradict each other");
 	o.provenance = provenance;
 
+	int sibling_rc = -1; /* exec_sibling only returns on failure */
 #ifndef VOXELIZE_WITH_VDB
 	if (vdb) {
 		(void)sel;
-		return exec_sibling(argv_given, "voxelize-vdb", "OpenVDB");
+		sibling_rc = exec_sibling(argv_given, "voxelize-vdb", "OpenVDB");
 	}
 #endif
 #ifndef VOXELIZE_WITH_ASSIMP
 	if (vd_mesh_is_imported(mesh))
-		return exec_sibling(argv_given, "voxelize-assimp",
-				    "glTF, FBX, Collada or 3DS");
+		sibling_rc = exec_sibling(argv_given, "voxelize-assimp",
+					  "glTF, FBX, Collada or 3DS");
 #else
 	vd_mesh_set_importer(vd_assimp_import);
 #endif
+	if (sibling_rc >= 0) {
+		free(provenance);
+		free(argv_given);
+		return sibling_rc;
+	}
 	/* all or nothing: build beside OUTDIR, then swap it in whole */
 	char stage[4096], path[4200];
 	int err = vd_dir_stage(outdir, our_file, stage, sizeof stage);
