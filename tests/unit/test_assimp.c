@@ -4,13 +4,14 @@
  * Assimp's order, their colour attributes worked out by hand from the
  * scene (linear factors to sRGB, vertex colours, texture coordinates with
  * v flipped to the bottom), the texture decoded from a file and from the
- * .glb's buffer, the sampler's wrap modes; bad scenes and a missing
- * texture are errors or warnings; without the hook the names are
+ * .glb's buffer, the sampler's wrap modes, a texture named in another
+ * case; bad scenes and a missing texture are errors or warnings; without the hook the names are
  * refused. Linked with -lassimp (Makefile). */
 #include "check.h"
 #include "voxdag.h"
 
 #include <math.h>
+#include <sys/stat.h>
 
 #define DIR "tests/data/gltf/"
 
@@ -202,6 +203,32 @@ static void test_missing_texture(void)
 	CHECK(strstr(vd_error_detail(), "checker.png") != NULL);
 }
 
+/* A texture named in another case than its file's (3DS's DOS names) is
+ * found; with two such files, neither is guessed. */
+static void test_texture_case(void)
+{
+	static char sub[600];
+	snprintf(sub, sizeof sub, "%s/case", tmp);
+	mkdir(sub, 0755);
+	copy_to(DIR "scene.bin", "case/scene.bin", -1);
+	copy_to(DIR "checker.png", "case/Checker.PNG", -1);
+	char p[600]; /* copy_to's buffer is reused below */
+	snprintf(p, sizeof p, "%s", copy_to(DIR "scene.gltf", "case/scene.gltf",
+					    -1));
+	int err;
+	struct vd_mesh *m = open_col(p, 1, &err);
+	CHECK_EQ(err, VD_OK);
+	if (m) {
+		check_scene(m, 1);
+		check_texels(vd_mesh_texture(m, 0));
+		vd_mesh_close(m);
+	}
+	copy_to(DIR "checker.png", "case/CHECKER.png", -1);
+	m = open_col(p, 1, &err);
+	CHECK(m == NULL);
+	CHECK_EQ(err, VD_ERR_IO);
+}
+
 /* A scene cut anywhere is one error from Assimp, never a crash (the
  * sanitizer build watches), and no reader is left. */
 static void test_cut(void)
@@ -252,6 +279,7 @@ int main(void)
 	RUN(test_wrap_modes);
 	RUN(test_geometry_only);
 	RUN(test_missing_texture);
+	RUN(test_texture_case);
 	RUN(test_cut);
 	RUN(test_without_importer);
 	return CHECK_DONE();

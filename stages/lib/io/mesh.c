@@ -50,6 +50,7 @@
 #include "io/mesh_spill.h"
 #include "io/mesh_import.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <float.h>
@@ -2871,6 +2872,40 @@ static size_t vd_import_bytes(const struct vd_import_scene *s)
 	return b;
 }
 
+/* A texture file that is not there under its name may be there in
+ * another case: 3DS and older FBX files name them as DOS did ("TEST.PNG"
+ * for test.png). Replaces *path by the one name of its directory that
+ * matches ignoring case, if there is exactly one; else leaves it. */
+static void vd_import_fix_case(char **path)
+{
+	struct stat st;
+	if (stat(*path, &st) == 0)
+		return;
+	char *slash = strrchr(*path, '/');
+	if (!slash)
+		return;
+	*slash = 0;
+	DIR *d = opendir(**path ? *path : "/");
+	char *found = NULL;
+	int matches = 0;
+	struct dirent *e;
+	while (d && (e = readdir(d)))
+		if (!strcasecmp(e->d_name, slash + 1) && matches++ == 0) {
+			found = malloc(strlen(*path) + strlen(e->d_name) + 2);
+			if (found)
+				sprintf(found, "%s/%s", *path, e->d_name);
+		}
+	if (d)
+		closedir(d);
+	*slash = '/';
+	if (found && matches == 1) {
+		free(*path);
+		*path = found;
+	} else {
+		free(found);
+	}
+}
+
 /* The slot of the scene's texture ti sampled with `wrap`, -1 on
  * failure. */
 static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
@@ -2884,6 +2919,8 @@ static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
 	char *path;
 	if (it->path) {
 		path = vd_mesh_path(m, NULL, it->path);
+		if (path)
+			vd_import_fix_case(&path);
 	} else {
 		const char *nm = it->name ? it->name : "?";
 		path = malloc(strlen(mesh_path) + strlen(nm) + 32);
