@@ -50,8 +50,8 @@ endif
 # and stb_image for TGA, BMP and the rest); netpbm: pnmtosgi, the SGI
 # encoder the SGI decoder's test checks against.
 # libassimp-dev: glTF, FBX, Collada and 3DS input (voxelize-assimp);
-# assimp-utils: `assimp export`, which the tests use to check our glTF
-# scene the way Assimp itself reads it.
+# assimp-utils: `assimp export`, which tests/cli/assimp.sh uses to write
+# the test scene again with another glTF writer than ours.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
