@@ -49,10 +49,13 @@ endif
 # libpng-dev, libjpeg62-turbo-dev, libstb-dev: mesh textures (PNG, JPEG,
 # and stb_image for TGA, BMP and the rest); netpbm: pnmtosgi, the SGI
 # encoder the SGI decoder's test checks against.
+# libassimp-dev: glTF, FBX, Collada and 3DS input (voxelize-assimp);
+# assimp-utils: `assimp export`, which tests/cli/assimp.sh uses to write
+# the test scene again with another glTF writer than ours.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
-                libjpeg62-turbo-dev libstb-dev netpbm
+                libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
@@ -69,7 +72,8 @@ HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.
 .PHONY: all run pipeline test bench deps clean tests fuzz fuzz-build
 .DEFAULT_GOAL := all
 
-all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn $(OUT)/bin/voxelize-vdb
+all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn $(OUT)/bin/voxelize-vdb \
+     $(OUT)/bin/voxelize-assimp
 tests: $(TESTS)
 
 $(OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
@@ -98,6 +102,18 @@ $(OUT)/obj/voxelize/main-vdb.o: stages/voxelize/main.c $(HEADERS)
 $(OUT)/bin/voxelize-vdb: $(OUT)/obj/voxelize/main-vdb.o $(LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(LDFLAGS) -o $@ $< $(LIB) $(LDLIBS)
+
+# Likewise voxelize-assimp for glTF, FBX, Collada and 3DS: Assimp costs
+# ~4 MB at start. Only its main references io/assimp.cc (vd_assimp_import),
+# so no other program pulls that object out of the archive or links
+# libassimp.
+$(OUT)/obj/voxelize/main-assimp.o: stages/voxelize/main.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -DVOXELIZE_WITH_ASSIMP -c -o $@ $<
+
+$(OUT)/bin/voxelize-assimp: $(OUT)/obj/voxelize/main-assimp.o $(LIB)
+	@mkdir -p $(@D)
+	$(CXX) $(LDFLAGS) -o $@ $< $(LIB) -lassimp $(LDLIBS)
 
 # Linked with the C++ driver because TBB's runtime is C++.
 $(OUT)/bin/%: $(OUT)/obj/%/main.o $(LIB)
@@ -132,6 +148,9 @@ $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
 	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
+
+# The Assimp importer's test calls vd_assimp_import itself.
+$(OUT)/tests/test_assimp: LDLIBS += -lassimp
 
 # Installs missing Debian packages; silent when everything is there.
 deps:

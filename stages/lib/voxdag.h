@@ -436,10 +436,16 @@ void vd_mesh_close(struct vd_mesh *m);
  * schemas/colour-rule.md. */
 #define VD_GREY 128
 
+/* How a texture coordinate outside 0..1 is read: repeat (OBJ, AC3D and
+ * the default), clamp to the edge texels, or mirrored repeat (glTF's and
+ * Assimp's samplers may ask for either). */
+enum vd_tex_wrap { VD_WRAP_REPEAT = 0, VD_WRAP_CLAMP, VD_WRAP_MIRROR };
+
 /* A decoded texture: RGB8 texels, rows top first. */
 struct vd_texture {
 	uint32_t width, height;
 	uint8_t *rgb;          /* 3 * width * height bytes */
+	uint8_t wrap[2];       /* enum vd_tex_wrap in u and in v */
 };
 
 /* Decodes the image at `path` (format from its first bytes). Errors:
@@ -448,10 +454,14 @@ struct vd_texture {
  * unsupported format, e.g. a colour-mapped SGI image), VD_ERR_RANGE (wider or higher than
  * 32768 texels). Free with vd_texture_release(). */
 int vd_texture_load(struct vd_texture *t, const char *path);
+/* As vd_texture_load, for an image file's `bytes` bytes at `data` (an
+ * image embedded in a scene); `name` stands for the path in messages. */
+int vd_texture_load_mem(struct vd_texture *t, const void *data, size_t bytes,
+			const char *name);
 void vd_texture_release(struct vd_texture *t);
 
-/* Bilinear sample at (u, v) (finite), wrapping in both directions, v = 0
- * the bottom row: texel (i, j) (row j from the top) has its centre at
+/* Bilinear sample at (u, v) (finite), wrapping in both directions as
+ * t->wrap says (vd_texture_load: repeat), v = 0 the bottom row: texel (i, j) (row j from the top) has its centre at
  * u = (i + 0.5) / width, v = 1 - (j + 0.5) / height. Rounds to nearest. */
 void vd_texture_sample(const struct vd_texture *t, double u, double v,
 		       uint8_t rgb[3]);
@@ -511,6 +521,39 @@ const struct vd_texture *vd_mesh_texture(const struct vd_mesh *m, int i);
 uint64_t vd_mesh_textures_missing(const struct vd_mesh *m);
 /* Textures loaded, so far. */
 uint64_t vd_mesh_textures_loaded(const struct vd_mesh *m);
+
+/* ----------------------------------------------------- imported formats
+ * glTF 2.0 (.gltf, .glb), FBX (.fbx), Collada (.dae) and 3DS (.3ds) are
+ * read by an importer that loads the whole scene in memory (Assimp, in
+ * io/assimp.cc). Only voxelize-assimp links it and sets it with
+ * vd_mesh_set_importer(), so the other programs do not carry the library
+ * (voxelize execs voxelize-assimp for these names). vd_mesh_open*() then
+ * hands out the scene's triangles in world space, in the importer's
+ * order, with vd_tri_attr colours by the same rule as OBJ's
+ * (schemas/colour-rule.md, "Imported formats"). The scene is held whole:
+ * its vertices, triangles and attributes (about 40 bytes a vertex and 16 a
+ * triangle) count against max_vertex_bytes (VD_ERR_BUDGET beyond it; no
+ * spill). */
+struct vd_import_scene; /* io/mesh_import.h */
+
+/* Reads the scene at `path` into *out (zeroed first; the caller releases
+ * it with vd_import_scene_release). Returns VD_OK or an error code with
+ * a detail line. */
+typedef int (*vd_mesh_importer)(const char *path, struct vd_import_scene *out);
+
+/* Sets the importer vd_mesh_open*() uses for names vd_mesh_is_imported()
+ * accepts (NULL: none, and such a name is VD_ERR_UNSUPPORTED). Call it
+ * before opening meshes; it is process-wide. */
+void vd_mesh_set_importer(vd_mesh_importer fn);
+
+/* 1 when `path` ends (any case) in .gltf, .glb, .fbx, .dae or .3ds. */
+int vd_mesh_is_imported(const char *path);
+
+/* The Assimp importer (a vd_mesh_importer). Never throws: Assimp's
+ * failures are VD_ERR_FORMAT with its message in the detail, VD_ERR_EMPTY
+ * for a scene without triangles, VD_ERR_NOMEM, VD_ERR_RANGE for more than
+ * 2^32 - 1 vertices. */
+int vd_assimp_import(const char *path, struct vd_import_scene *out);
 
 /* ---------------------------------------------------- triangle/box overlap
  * Voxelization decides overlap exactly on snapped coordinates: a vertex is

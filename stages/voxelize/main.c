@@ -18,12 +18,20 @@ static const char usage[] =
 	"                [--vdb-mode MODE] [--fog-threshold X]\n"
 	"                [--colour-grid NAME] [options]\n"
 	"\n"
-	"Voxelizes the surface of a triangle mesh (PLY, OBJ, STL or AC3D) into\n"
-	"a grid of 2^L voxels per side and writes one SVO chunk file per\n"
-	"non-empty cell of the chunk level L0, plus OUTDIR/voxelize.stats.json\n"
-	"and OUTDIR/manifest (every file's size and checksum). The new OUTDIR is\n"
-	"built beside the old one and replaces it whole only when complete; a\n"
-	"failure leaves the old one as it was.\n"
+	"Voxelizes the surface of a triangle mesh into a grid of 2^L voxels per\n"
+	"side and writes one SVO chunk file per non-empty cell of the chunk\n"
+	"level L0, plus OUTDIR/voxelize.stats.json and OUTDIR/manifest (every\n"
+	"file's size and checksum). The new OUTDIR is built beside the old one\n"
+	"and replaces it whole only when complete; a failure leaves the old one\n"
+	"as it was.\n"
+	"\n"
+	"Mesh formats: PLY, OBJ (+ MTL), STL and AC3D are streamed (told apart\n"
+	"by their first bytes). glTF 2.0 (.gltf, .glb), FBX (.fbx), Collada\n"
+	"(.dae) and 3DS (.3ds), told by the name, are read whole in memory by\n"
+	"Assimp (in the sibling program voxelize-assimp), triangulated and\n"
+	"moved to world space, with their materials' diffuse / base colour\n"
+	"textures (UV channel 0, the file's wrap modes; images embedded in a\n"
+	"scene too), vertex colours and material colours.\n"
 	"\n"
 	"An input named *.vdb is an OpenVDB file: the chosen grid's voxels are\n"
 	"imported instead. Without --levels one grid voxel is one voxel and L is\n"
@@ -42,11 +50,12 @@ static const char usage[] =
 	"  -q, --quiet             no progress lines on stderr\n"
 	"  -h, --help              this text\n"
 	"\n"
-	"Colours: when the mesh has colours (PLY vertex colours,\n"
-	"OBJ materials with MTL Kd / map_Kd textures, AC3D materials and\n"
-	"textures) each cell also gets chunk-L<L0>-<cell>.col, the sRGB colour\n"
-	"of every voxel in the cell's Morton order: the colour of the surface\n"
-	"point nearest to the voxel's centre among the triangles overlapping it\n"
+	"Colours: when the mesh has colours (PLY vertex colours, OBJ materials\n"
+	"with MTL Kd / map_Kd textures, AC3D materials and textures, the\n"
+	"materials and vertex colours of Assimp's formats) each cell also gets\n"
+	"chunk-L<L0>-<cell>.col, the sRGB colour of every voxel in the cell's\n"
+	"Morton order: the colour of the surface point nearest to the voxel's\n"
+	"centre among the triangles overlapping it\n"
 	"(schemas/colour-rule.md). An OpenVDB file's colours come from a Vec3\n"
 	"grid (--colour-grid). The .svo files are the same either way.\n"
 	"      --no-colours        geometry only: no .col files\n"
@@ -88,11 +97,15 @@ static int our_file(const char *name)
 }
 
 /* OpenVDB costs a process about 30 MB of memory at start (relocating
- * libopenvdb), which mesh voxelization should not pay against its budget.
- * So this file builds two programs: voxelize, which hands .vdb input to its
- * sibling, and voxelize-vdb (VOXELIZE_WITH_VDB), which links OpenVDB. */
-#ifndef VOXELIZE_WITH_VDB
-static int exec_vdb_sibling(char **argv)
+ * libopenvdb), and Assimp about 4 MB, which mesh voxelization should not
+ * pay against its budget. So this file builds three programs: voxelize,
+ * which hands .vdb input and Assimp's formats to a sibling, voxelize-vdb
+ * (VOXELIZE_WITH_VDB), which links OpenVDB, and voxelize-assimp
+ * (VOXELIZE_WITH_ASSIMP), which links Assimp. */
+#if !defined(VOXELIZE_WITH_VDB) || !defined(VOXELIZE_WITH_ASSIMP)
+/* Runs the program `name` of our own directory with our arguments; only
+ * returns (1, said) when that fails. `what` names the input kind. */
+static int exec_sibling(char **argv, const char *name, const char *what)
 {
 	char path[4096];
 	ssize_t n = readlink("/proc/self/exe", path, sizeof path - 32);
@@ -103,10 +116,10 @@ static int exec_vdb_sibling(char **argv)
 	}
 	path[n] = 0;
 	char *slash = strrchr(path, '/');
-	strcpy(slash ? slash + 1 : path, "voxelize-vdb");
+	snprintf(slash ? slash + 1 : path, 32, "%s", name);
 	execv(path, argv);
-	fprintf(stderr, "voxelize: cannot run '%s' for OpenVDB input: %s\n",
-		path, strerror(errno));
+	fprintf(stderr, "voxelize: cannot run '%s' for %s input: %s\n",
+		path, what, strerror(errno));
 	return 1;
 }
 #endif
@@ -233,12 +246,25 @@ static int voxelize_main(int argc, char **argv, char *provenance,
 				   "contradict each other");
 	o.provenance = provenance;
 
+	int sibling_rc = -1; /* exec_sibling only returns on failure */
 #ifndef VOXELIZE_WITH_VDB
 	if (vdb) {
 		(void)sel;
-		return exec_vdb_sibling(argv_given);
+		sibling_rc = exec_sibling(argv_given, "voxelize-vdb", "OpenVDB");
 	}
 #endif
+#ifndef VOXELIZE_WITH_ASSIMP
+	if (vd_mesh_is_imported(mesh))
+		sibling_rc = exec_sibling(argv_given, "voxelize-assimp",
+					  "glTF, FBX, Collada or 3DS");
+#else
+	vd_mesh_set_importer(vd_assimp_import);
+#endif
+	if (sibling_rc >= 0) {
+		free(provenance);
+		free(argv_given);
+		return sibling_rc;
+	}
 	/* all or nothing: build beside OUTDIR, then swap it in whole */
 	char stage[4096], path[4200];
 	int err = vd_dir_stage(outdir, our_file, stage, sizeof stage);

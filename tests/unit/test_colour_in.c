@@ -239,7 +239,8 @@ static void ref_sample(const uint8_t *t, int w, int h, double u, double v,
 
 static void test_texture_sample_hand(void)
 {
-	struct vd_texture t = {2, 2, (uint8_t *)tex2};
+	struct vd_texture t = {2, 2, (uint8_t *)tex2,
+			       {VD_WRAP_REPEAT, VD_WRAP_REPEAT}};
 	static const struct {
 		double u, v;
 		uint8_t rgb[3];

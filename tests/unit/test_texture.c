@@ -11,6 +11,8 @@
 #include "check.h"
 #include "voxdag.h"
 
+#include <png.h>
+
 static const char *dir;
 
 static const char *path_of(const char *name)
@@ -249,6 +251,74 @@ static void test_expansion_bomb(void)
 	vd_texture_release(&t);
 }
 
+/* Wrap modes, hand-computed on a 4x1 texture whose red is 0, 80, 160,
+ * 240: x = 4u - 0.5 is the texel coordinate; repeat wraps to the far
+ * side, clamp holds the edge texel, mirror reflects (texel -1 is texel 0,
+ * texel 4 is texel 3, texel 5 is texel 2). */
+static void test_wrap_modes(void)
+{
+	uint8_t texels[12] = {0, 1, 2, 80, 1, 2, 160, 1, 2, 240, 1, 2};
+	struct vd_texture t = {4, 1, texels, {0, 0}};
+	static const struct {
+		double u;
+		uint8_t red[3]; /* repeat, clamp, mirror */
+	} cases[] = {
+		{0.375, {80, 80, 80}},     /* texel 1's centre */
+		{-0.125, {240, 0, 0}},     /* texel -1 */
+		{1.125, {0, 240, 240}},    /* texel 4 */
+		{1.375, {80, 240, 160}},   /* texel 5 */
+		{0.0, {120, 0, 0}},        /* half texel -1, half texel 0 */
+		{1.0, {120, 240, 240}},    /* half texel 3, half texel 4 */
+		{-0.625, {80, 0, 160}},    /* texel -3: 1 wrapped, 2 mirrored */
+		{-0.5, {120, 0, 120}},     /* texel -2.5 (mirrored: 1.5) */
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof *cases; i++)
+		for (int m = 0; m < 3; m++) {
+			uint8_t rgb[3];
+			t.wrap[0] = (uint8_t)m;
+			vd_texture_sample(&t, cases[i].u, 0.5, rgb);
+			if (rgb[0] != cases[i].red[m])
+				fprintf(stderr, "u %g mode %d: red %d, want %d\n",
+					cases[i].u, m, rgb[0], cases[i].red[m]);
+			CHECK_EQ(rgb[0], cases[i].red[m]);
+			CHECK_EQ(rgb[1], 1);
+			CHECK_EQ(rgb[2], 2);
+		}
+}
+
+/* An image in memory (a .glb's embedded PNG) decodes to the texels it was
+ * written from; cut short, it is an error naming it. */
+static void test_load_mem(void)
+{
+	uint8_t px[2 * 3 * 3];
+	for (int i = 0; i < 18; i++)
+		px[i] = (uint8_t)(i * 13 + 7);
+	png_image img;
+	memset(&img, 0, sizeof img);
+	img.version = PNG_IMAGE_VERSION;
+	img.width = 3;
+	img.height = 2;
+	img.format = PNG_FORMAT_RGB;
+	png_alloc_size_t n = 0;
+	CHECK(png_image_write_to_memory(&img, NULL, &n, 0, px, 0, NULL));
+	uint8_t *b = malloc(n);
+	CHECK(b != NULL);
+	CHECK(png_image_write_to_memory(&img, b, &n, 0, px, 0, NULL));
+	struct vd_texture t;
+	CHECK_EQ(vd_texture_load_mem(&t, b, n, "x.glb, embedded image *0"),
+		 VD_OK);
+	CHECK_EQ(t.width, 3u);
+	CHECK_EQ(t.height, 2u);
+	CHECK(t.rgb && !memcmp(t.rgb, px, sizeof px));
+	CHECK_EQ(t.wrap[0], VD_WRAP_REPEAT);
+	vd_texture_release(&t);
+	CHECK(vd_texture_load_mem(&t, b, n / 2, "cut *0") != VD_OK);
+	CHECK(strstr(vd_error_detail(), "cut *0") != NULL);
+	CHECK(t.rgb == NULL);
+	CHECK(vd_texture_load_mem(&t, b, 0, "empty *0") != VD_OK);
+	free(b);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("texture");
@@ -256,5 +326,7 @@ int main(void)
 	RUN(test_hand_rle_rgba);
 	RUN(test_hand_verbatim);
 	RUN(test_pnmtosgi);
+	RUN(test_wrap_modes);
+	RUN(test_load_mem);
 	return CHECK_DONE();
 }

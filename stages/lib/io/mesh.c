@@ -1,4 +1,6 @@
-/* mesh.c - streaming triangle readers for PLY, OBJ, STL and AC3D.
+/* mesh.c - streaming triangle readers for PLY, OBJ, STL and AC3D, and the
+ * in-memory scenes of an importer (glTF, FBX, Collada, 3DS: Assimp, set by
+ * voxelize-assimp only).
  *
  * Memory is bounded by the vertex positions (12 bytes per vertex; an OBJ
  * read with colours adds 8 per `vt`) plus one read buffer: the face body
@@ -46,7 +48,9 @@
  */
 #include "voxdag.h"
 #include "io/mesh_spill.h"
+#include "io/mesh_import.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <float.h>
@@ -444,12 +448,12 @@ static double vd_ply_decode(const unsigned char *p, int type, int be)
 
 enum vd_mesh_kind {
 	MESH_PLY_LE, MESH_PLY_BE, MESH_PLY_ASCII, MESH_OBJ, MESH_STL_BIN,
-	MESH_STL_ASCII, MESH_AC3D
+	MESH_STL_ASCII, MESH_AC3D, MESH_IMPORT
 };
 
 static const char *const vd_mesh_kind_names[] = {
 	"ply-binary-le", "ply-binary-be", "ply-ascii", "obj", "stl-binary",
-	"stl-ascii", "ac3d"};
+	"stl-ascii", "ac3d", "imported"};
 
 /* An AC3D object whose kids are being read: its world transform (row-major
  * 3x3 matrix in w[0..8], translation in w[9..11], p' = A p + t) and how
@@ -472,6 +476,13 @@ struct vd_tex_slot {
 	char *path;
 	int state;             /* 0 not tried, 1 loaded, -1 failed */
 	struct vd_texture t;
+	/* imported scenes: the image when embedded (owned by m->imp), the
+	 * scene's texture and the wrap modes the slot stands for */
+	const uint8_t *data;
+	size_t bytes;
+	int imp_tex;
+	uint8_t wrap[2];
+	const char *unsupported; /* why it cannot be decoded, or NULL */
 };
 
 struct vd_mesh {
@@ -546,6 +557,10 @@ struct vd_mesh {
 	char ac_name[48];      /* the object's name, for messages */
 	uint64_t ac_vbase;
 	int poly_strip;        /* m->poly is a triangle strip, not a fan */
+
+	/* MESH_IMPORT: the scene the importer read, handed out from memory */
+	struct vd_import_scene imp;
+	uint64_t imp_next;     /* the next triangle */
 
 	/* Vertices (and OBJ texture coordinates) over verts_limit with a
 	 * spill directory: the faces are resolved by an external join on
@@ -1444,14 +1459,10 @@ static char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
 	return p;
 }
 
-/* The texture slot of `path` (taken over by the slot), -1 on failure. */
-static int vd_mesh_tex_slot(struct vd_mesh *m, char *path)
+/* A new texture slot for `path` (taken over by the slot), -1 on
+ * failure. */
+static int vd_mesh_tex_new(struct vd_mesh *m, char *path)
 {
-	for (size_t i = 0; i < m->ntexs; i++)
-		if (!strcmp(m->texs[i].path, path)) {
-			free(path);
-			return (int)i;
-		}
 	if (m->ntexs == m->texs_cap) {
 		size_t cap = m->texs_cap ? 2 * m->texs_cap : 8;
 		struct vd_tex_slot *t = realloc(m->texs, cap * sizeof *t);
@@ -1465,7 +1476,19 @@ static int vd_mesh_tex_slot(struct vd_mesh *m, char *path)
 	struct vd_tex_slot *t = &m->texs[m->ntexs];
 	memset(t, 0, sizeof *t);
 	t->path = path;
+	t->imp_tex = -1;
 	return (int)m->ntexs++;
+}
+
+/* The texture slot of `path` (taken over by the slot), -1 on failure. */
+static int vd_mesh_tex_slot(struct vd_mesh *m, char *path)
+{
+	for (size_t i = 0; i < m->ntexs; i++)
+		if (!strcmp(m->texs[i].path, path)) {
+			free(path);
+			return (int)i;
+		}
+	return vd_mesh_tex_new(m, path);
 }
 
 /* Loads texture slot i if not tried yet. A failure is a warning (the slot
@@ -1476,8 +1499,13 @@ static int vd_mesh_tex_use(struct vd_mesh *m, int i)
 	if (i < 0 || m->texs[i].state != 0)
 		return VD_OK;
 	struct vd_tex_slot *t = &m->texs[i];
-	int e = vd_texture_load(&t->t, t->path);
+	int e = t->unsupported
+		? vd_fail(VD_ERR_UNSUPPORTED, "'%s' %s", t->path, t->unsupported)
+		: t->data ? vd_texture_load_mem(&t->t, t->data, t->bytes, t->path)
+		: vd_texture_load(&t->t, t->path);
 	if (!e) {
+		t->t.wrap[0] = t->wrap[0];
+		t->t.wrap[1] = t->wrap[1];
 		t->state = 1;
 		m->tex_loaded++;
 		return VD_OK;
@@ -2784,6 +2812,250 @@ static int vd_ac_open(struct vd_mesh *m, const char *path)
 	return VD_OK;
 }
 
+/* ------------------------------------------------------ imported scenes
+ * glTF, FBX, Collada and 3DS through the importer voxelize-assimp sets
+ * (voxdag.h, "imported formats"): the importer reads the whole scene into
+ * m->imp; its triangles are then handed out from memory in its order, and
+ * their attributes follow the OBJ rule: the material's texture when it
+ * loaded and the triangle's corners all have texture coordinates, else
+ * the vertices' colours, else the material's colour, else grey. A texture
+ * slot stands for one of the scene's textures under one pair of wrap
+ * modes (materials may sample one image differently). */
+
+static vd_mesh_importer vd_importer;
+
+void vd_mesh_set_importer(vd_mesh_importer fn)
+{
+	vd_importer = fn;
+}
+
+int vd_mesh_is_imported(const char *path)
+{
+	static const char *const ext[] = {".gltf", ".glb", ".fbx", ".dae",
+					  ".3ds"};
+	size_t n = path ? strlen(path) : 0;
+	for (size_t i = 0; i < sizeof ext / sizeof *ext; i++) {
+		size_t e = strlen(ext[i]);
+		if (n > e && !strcasecmp(path + n - e, ext[i]))
+			return 1;
+	}
+	return 0;
+}
+
+void vd_import_scene_release(struct vd_import_scene *s)
+{
+	if (!s)
+		return;
+	free(s->pos);
+	free(s->uv);
+	free(s->rgb);
+	free(s->idx);
+	free(s->mat);
+	free(s->mats);
+	for (size_t i = 0; i < s->ntexs; i++) {
+		free(s->texs[i].path);
+		free(s->texs[i].data);
+		free(s->texs[i].name);
+	}
+	free(s->texs);
+	memset(s, 0, sizeof *s);
+}
+
+/* Bytes the scene's arrays take (embedded images included). */
+static size_t vd_import_bytes(const struct vd_import_scene *s)
+{
+	size_t b = (size_t)s->nverts * (12 + 8 + 4) +
+		   (size_t)s->ntris * (12 + 4) +
+		   s->nmats * sizeof *s->mats + s->ntexs * sizeof *s->texs;
+	for (size_t i = 0; i < s->ntexs; i++)
+		b += s->texs[i].bytes;
+	return b;
+}
+
+/* A texture file that is not there under its name may be there in
+ * another case: 3DS and older FBX files name them as DOS did ("TEST.PNG"
+ * for test.png). Replaces *path by the one name of its directory that
+ * matches ignoring case, if there is exactly one; else leaves it. */
+static void vd_import_fix_case(char **path)
+{
+	struct stat st;
+	if (stat(*path, &st) == 0)
+		return;
+	char *slash = strrchr(*path, '/');
+	if (!slash)
+		return;
+	*slash = 0;
+	DIR *d = opendir(**path ? *path : "/");
+	char *found = NULL;
+	int matches = 0;
+	struct dirent *e;
+	while (d && (e = readdir(d)))
+		if (!strcasecmp(e->d_name, slash + 1) && matches++ == 0) {
+			found = malloc(strlen(*path) + strlen(e->d_name) + 2);
+			if (found)
+				sprintf(found, "%s/%s", *path, e->d_name);
+		}
+	if (d)
+		closedir(d);
+	*slash = '/';
+	if (found && matches == 1) {
+		free(*path);
+		*path = found;
+	} else {
+		free(found);
+	}
+}
+
+/* The slot of the scene's texture ti sampled with `wrap`, -1 on
+ * failure. */
+static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
+			  const uint8_t wrap[2])
+{
+	for (size_t i = 0; i < m->ntexs; i++)
+		if (m->texs[i].imp_tex == ti && m->texs[i].wrap[0] == wrap[0] &&
+		    m->texs[i].wrap[1] == wrap[1])
+			return (int)i;
+	const struct vd_import_texture *it = &m->imp.texs[ti];
+	char *path;
+	if (it->path) {
+		path = vd_mesh_path(m, NULL, it->path);
+		if (path)
+			vd_import_fix_case(&path);
+	} else {
+		const char *nm = it->name ? it->name : "?";
+		path = malloc(strlen(mesh_path) + strlen(nm) + 32);
+		if (path)
+			sprintf(path, "%s, embedded image %s", mesh_path, nm);
+	}
+	if (!path)
+		return -1;
+	int slot = vd_mesh_tex_new(m, path);
+	if (slot < 0)
+		return -1;
+	struct vd_tex_slot *t = &m->texs[slot];
+	t->imp_tex = ti;
+	t->wrap[0] = wrap[0];
+	t->wrap[1] = wrap[1];
+	t->data = it->data;
+	t->bytes = it->bytes;
+	t->unsupported = it->unsupported ? "is stored as raw texels, which "
+			 "voxelize does not decode" : NULL;
+	return slot;
+}
+
+static int vd_import_open(struct vd_mesh *m, const char *path)
+{
+	if (!vd_importer)
+		return vd_fail(VD_ERR_UNSUPPORTED, "glTF, FBX, Collada and 3DS "
+			       "files are read by voxelize (through its sibling "
+			       "voxelize-assimp), not by this program");
+	m->kind = MESH_IMPORT;
+	struct vd_import_scene *s = &m->imp;
+	int e = vd_importer(path, s);
+	if (e)
+		return e;
+	size_t bytes = vd_import_bytes(s);
+	if (m->verts_limit && bytes > m->verts_limit)
+		return vd_fail(VD_ERR_BUDGET, "'%s' takes %zu bytes in memory "
+			       "once read (its scene is held whole), over the "
+			       "%" PRIu64 " bytes allowed for a mesh's vertices",
+			       path, bytes, m->verts_limit);
+	for (uint64_t t = 0; t < s->ntris; t++)
+		for (int j = 0; j < 3; j++)
+			if (s->idx[3 * t + j] >= s->nverts)
+				return vd_fail(VD_ERR_INTERNAL, "the importer's "
+					       "triangle %" PRIu64 " uses vertex "
+					       "%" PRIu32 " of %" PRIu64, t,
+					       s->idx[3 * t + j], s->nverts);
+	m->stats.vertices = s->nverts;
+	m->stats.faces_dropped_short = s->faces_dropped_short;
+	if (!m->col_on)
+		return VD_OK;
+	m->col_seen = s->has_colours;
+	for (size_t i = 0; i < s->nmats; i++) {
+		if ((e = vd_mesh_add_material(m, "")))
+			return e;
+		struct vd_material *mt = &m->mats[i];
+		memcpy(mt->rgb, s->mats[i].rgb, 3);
+		int ti = s->mats[i].tex;
+		if (ti >= 0 && (size_t)ti < s->ntexs &&
+		    (mt->tex = vd_import_slot(m, path, ti, s->mats[i].wrap)) < 0)
+			return vd_fail(VD_ERR_NOMEM, "textures");
+	}
+	/* the textures of the materials some triangle uses, now: the first
+	 * pass over the triangles must see them loaded (voxelize.c) */
+	for (uint64_t t = 0; t < s->ntris; t++) {
+		int32_t mi = s->mat[t];
+		if (mi >= 0 && (size_t)mi < m->nmats &&
+		    (e = vd_mesh_tex_use(m, m->mats[mi].tex)))
+			return e;
+	}
+	return VD_OK;
+}
+
+/* The attributes of triangle t (corners ix). */
+static int vd_import_attr(struct vd_mesh *m, uint64_t t, const uint32_t *ix,
+			  struct vd_tri_attr *a)
+{
+	const struct vd_import_scene *s = &m->imp;
+	memset(a, 0, sizeof *a);
+	a->texture = -1;
+	int32_t mi = s->mat[t];
+	const struct vd_material *mt =
+		mi >= 0 && (size_t)mi < m->nmats ? &m->mats[mi] : NULL;
+	int tex = mt ? mt->tex : -1;
+	if (tex >= 0 && m->texs[tex].state == 1 && (s->rgb[4 * ix[0] + 3] &
+	    s->rgb[4 * ix[1] + 3] & s->rgb[4 * ix[2] + 3] & 2)) {
+		for (int j = 0; j < 3; j++) {
+			const float *uv = s->uv + 2 * (size_t)ix[j];
+			if (!isfinite(uv[0]) || !isfinite(uv[1]))
+				return vd_fail(VD_ERR_RANGE, "triangle %" PRIu64
+					       ": the texture coordinates of "
+					       "vertex %" PRIu32 " are not "
+					       "finite (%g %g)", t + 1, ix[j],
+					       uv[0], uv[1]);
+			a->uv[j][0] = uv[0];
+			a->uv[j][1] = uv[1];
+		}
+		a->texture = tex;
+	}
+	static const uint8_t grey[3] = {VD_GREY, VD_GREY, VD_GREY};
+	const uint8_t *base = mt ? mt->rgb : grey;
+	for (int j = 0; j < 3; j++) {
+		const uint8_t *c = s->rgb + 4 * (size_t)ix[j];
+		memcpy(a->rgb[j], c[3] & 1 ? c : base, 3);
+	}
+	return VD_OK;
+}
+
+static int vd_import_read(struct vd_mesh *m, struct vd_triangle *buf,
+			  struct vd_tri_attr *attr, size_t cap, size_t *n)
+{
+	const struct vd_import_scene *s = &m->imp;
+	size_t k = 0;
+	int e = VD_OK;
+	for (; !e && k < cap && m->imp_next < s->ntris; m->imp_next++) {
+		uint64_t t = m->imp_next;
+		const uint32_t *ix = s->idx + 3 * t;
+		for (int j = 0; j < 3; j++) {
+			const float *v = s->pos + 3 * (size_t)ix[j];
+			if (!isfinite(v[0]) || !isfinite(v[1]) ||
+			    !isfinite(v[2])) {
+				m->poly_face = t + 1;
+				e = vd_mesh_nonfinite(m, ix[j], v);
+				break;
+			}
+			memcpy(buf[k].v[j], v, 12);
+		}
+		if (!e && attr)
+			e = vd_import_attr(m, t, ix, &attr[k]);
+		if (!e)
+			k++;
+	}
+	*n = k;
+	return e;
+}
+
 /* ------------------------------------------------------------- detection */
 
 /* Text as far as we can tell: no NUL or control bytes but whitespace.
@@ -2982,7 +3254,14 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 			    path);
 	else if (st.st_size == 0)
 		e = vd_fail(VD_ERR_EMPTY, "'%s' is empty (0 bytes)", path);
-	else if (!(m->r.buf = malloc(MESH_BUF_BYTES + 1)))
+	else if (vd_mesh_is_imported(path)) {
+		/* the importer reads the file itself */
+		close(m->r.fd);
+		m->r.fd = -1;
+		m->verts_limit = o->max_vertex_bytes;
+		m->file_bytes = (uint64_t)st.st_size;
+		e = vd_import_open(m, path);
+	} else if (!(m->r.buf = malloc(MESH_BUF_BYTES + 1)))
 		e = vd_fail(VD_ERR_NOMEM, "read buffer");
 	else {
 		m->r.cap = MESH_BUF_BYTES;
@@ -3113,6 +3392,10 @@ static int vd_mesh_restart(struct vd_mesh *m)
 		return vd_rd_seek(&m->r, 0, 0);
 	case MESH_STL_BIN:
 		return vd_rd_seek(&m->r, m->body_off, 0);
+	case MESH_IMPORT:
+		m->imp_next = 0;
+		m->stats.faces_dropped_short = m->imp.faces_dropped_short;
+		return VD_OK;
 	case MESH_AC3D:
 		m->nverts = 0;
 		m->nonfinite = 0;
@@ -3302,6 +3585,8 @@ static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 			memset(attr[i].rgb, VD_GREY, sizeof attr[i].rgb);
 			attr[i].texture = -1;
 		}
+	} else if (m->kind == MESH_IMPORT) {
+		e = vd_import_read(m, buf, attr, cap, &k);
 	} else {
 		while (k < cap && !m->spill) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
@@ -3417,6 +3702,8 @@ int vd_mesh_rewind(struct vd_mesh *m)
 
 const char *vd_mesh_format(const struct vd_mesh *m)
 {
+	if (m && m->kind == MESH_IMPORT)
+		return m->imp.format;
 	return m ? vd_mesh_kind_names[m->kind] : "none";
 }
 
@@ -3432,7 +3719,7 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 		   (size_t)m->uvs_cap * 2 * sizeof(float) +
 		   m->mats_cap * sizeof *m->mats +
 		   m->texs_cap * sizeof *m->texs +
-		   vd_spill_memory_bytes(m->spill);
+		   vd_spill_memory_bytes(m->spill) + vd_import_bytes(&m->imp);
 	for (size_t i = 0; i < m->ntexs; i++)
 		b += 3 * (size_t)m->texs[i].t.width * m->texs[i].t.height;
 	for (size_t i = 0; i < m->nelems; i++)
@@ -3476,5 +3763,6 @@ void vd_mesh_close(struct vd_mesh *m)
 	for (size_t i = 0; i < m->nelems; i++)
 		free(m->elems[i].props);
 	free(m->elems);
+	vd_import_scene_release(&m->imp);
 	free(m);
 }

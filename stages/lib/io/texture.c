@@ -67,19 +67,12 @@ static int tex_expansion_ok(uint64_t w, uint64_t h, uint64_t file_bytes,
 		       (unsigned long long)h, (unsigned long long)file_bytes);
 }
 
-static uint64_t file_size(FILE *f)
-{
-	struct stat st;
-	return fstat(fileno(f), &st) == 0 && st.st_size > 0 ?
-		       (uint64_t)st.st_size : 0;
-}
-
-static int load_png(struct vd_texture *t, const char *path)
+static int load_png(struct vd_texture *t, const char *path, FILE *f)
 {
 	png_image img;
 	memset(&img, 0, sizeof img);
 	img.version = PNG_IMAGE_VERSION;
-	if (!png_image_begin_read_from_file(&img, path))
+	if (!png_image_begin_read_from_stdio(&img, f))
 		return vd_fail(VD_ERR_FORMAT, "'%s': %s", path, img.message);
 	int err = tex_size_ok(img.width, img.height, path);
 	if (err) {
@@ -179,7 +172,8 @@ static int load_jpeg(struct vd_texture *t, const char *path, FILE *f)
 	return VD_OK;
 }
 
-static int load_stb(struct vd_texture *t, const char *path, FILE *f)
+static int load_stb(struct vd_texture *t, const char *path, FILE *f,
+		    uint64_t size)
 {
 	int w, h, n;
 	if (!stbi_info_from_file(f, &w, &h, &n))
@@ -187,8 +181,7 @@ static int load_stb(struct vd_texture *t, const char *path, FILE *f)
 			       "reads (%s)", path, stbi_failure_reason());
 	int err = tex_size_ok((uint64_t)w, (uint64_t)h, path);
 	if (!err)
-		err = tex_expansion_ok((uint64_t)w, (uint64_t)h, file_size(f),
-				       path);
+		err = tex_expansion_ok((uint64_t)w, (uint64_t)h, size, path);
 	if (err)
 		return err;
 	uint8_t *p = stbi_load_from_file(f, &w, &h, &n, 3);
@@ -266,23 +259,20 @@ static int sgi_row(const uint8_t *in, const uint8_t *end, int rle, int bpc,
 	}
 }
 
-static int load_sgi(struct vd_texture *t, const char *path, FILE *f)
+static int load_sgi(struct vd_texture *t, const char *path, FILE *f,
+		    uint64_t file_bytes)
 {
-	struct stat st;
-	if (fstat(fileno(f), &st) != 0)
-		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
-			       strerror(errno));
-	if (st.st_size < SGI_HEADER)
+	if (file_bytes < SGI_HEADER)
 		return vd_fail(VD_ERR_FORMAT, "'%s': SGI image cut inside its "
-			       "header (%lld bytes)", path,
-			       (long long)st.st_size);
+			       "header (%llu bytes)", path,
+			       (unsigned long long)file_bytes);
 	/* a texture is at most TEX_MAX_SIDE^2 texels of 4 channels of 16
 	 * bits, and RLE at most doubles that: anything larger is corrupt */
-	if ((uint64_t)st.st_size > 8ull * TEX_MAX_SIDE * TEX_MAX_SIDE * 4 +
-					SGI_HEADER)
-		return vd_fail(VD_ERR_FORMAT, "'%s': %lld bytes is too large "
-			       "for an SGI image", path, (long long)st.st_size);
-	size_t size = (size_t)st.st_size;
+	if (file_bytes > 8ull * TEX_MAX_SIDE * TEX_MAX_SIDE * 4 + SGI_HEADER)
+		return vd_fail(VD_ERR_FORMAT, "'%s': %llu bytes is too large "
+			       "for an SGI image", path,
+			       (unsigned long long)file_bytes);
+	size_t size = (size_t)file_bytes;
 	uint8_t *b = malloc(size);
 	if (!b)
 		return vd_fail(VD_ERR_NOMEM, "texture '%s'", path);
@@ -375,6 +365,46 @@ out:
 	return err;
 }
 
+/* Decodes the `size` bytes of stream f (a file or an image in memory);
+ * `path` names it in messages. Closes f. */
+static int tex_decode(struct vd_texture *t, const char *path, FILE *f,
+		      uint64_t size)
+{
+	unsigned char m[8] = {0};
+	size_t got = fread(m, 1, sizeof m, f);
+	int err;
+	rewind(f);
+	if (got == 0) {
+		err = vd_fail(VD_ERR_FORMAT, "'%s' is empty", path);
+	} else if (got >= 8 && !memcmp(m, "\x89PNG\r\n\x1a\n", 8)) {
+		err = load_png(t, path, f);
+	} else if (got >= 3 && m[0] == 0xff && m[1] == 0xd8 && m[2] == 0xff) {
+		err = load_jpeg(t, path, f);
+	} else if (got >= 2 && m[0] == 0x01 && m[1] == 0xda) {
+		err = load_sgi(t, path, f, size);
+	} else {
+		err = load_stb(t, path, f, size);
+	}
+	fclose(f);
+	if (err)
+		vd_texture_release(t);
+	return err;
+}
+
+int vd_texture_load_mem(struct vd_texture *t, const void *data, size_t bytes,
+			const char *name)
+{
+	memset(t, 0, sizeof *t);
+	if (!data || bytes == 0)
+		return vd_fail(VD_ERR_FORMAT, "'%s' is empty", name);
+	/* the decoders read streams: a read-only stream over the bytes */
+	FILE *f = fmemopen((void *)data, bytes, "rb");
+	if (!f)
+		return vd_fail(VD_ERR_NOMEM, "texture '%s': %s", name,
+			       strerror(errno));
+	return tex_decode(t, name, f, bytes);
+}
+
 int vd_texture_load(struct vd_texture *t, const char *path)
 {
 	memset(t, 0, sizeof *t);
@@ -390,29 +420,7 @@ int vd_texture_load(struct vd_texture *t, const char *path)
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
 			       strerror(errno));
-	unsigned char m[8] = {0};
-	size_t got = fread(m, 1, sizeof m, f);
-	int err;
-	if (got == 0) {
-		err = vd_fail(VD_ERR_FORMAT, "'%s' is empty", path);
-	} else if (got >= 8 && !memcmp(m, "\x89PNG\r\n\x1a\n", 8)) {
-		fclose(f);
-		f = NULL;
-		err = load_png(t, path);
-	} else if (got >= 3 && m[0] == 0xff && m[1] == 0xd8 && m[2] == 0xff) {
-		rewind(f);
-		err = load_jpeg(t, path, f);
-	} else if (got >= 2 && m[0] == 0x01 && m[1] == 0xda) {
-		err = load_sgi(t, path, f);
-	} else {
-		rewind(f);
-		err = load_stb(t, path, f);
-	}
-	if (f)
-		fclose(f);
-	if (err)
-		vd_texture_release(t);
-	return err;
+	return tex_decode(t, path, f, (uint64_t)st.st_size);
 }
 
 void vd_texture_release(struct vd_texture *t)
@@ -442,6 +450,28 @@ static uint8_t round_u8(double x)
 	return (uint8_t)(x + 0.5);
 }
 
+/* Texel column (or row) of the floored coordinate x and of x + 1 under
+ * wrap mode `mode` (enum vd_tex_wrap): repeat, clamp to the edge texels,
+ * or mirrored repeat (period 2n, the second half reversed; GL's
+ * MIRRORED_REPEAT). */
+static void texel_pair(double x, uint32_t n, int mode, uint32_t *i0,
+		       uint32_t *i1)
+{
+	if (mode == VD_WRAP_CLAMP) {
+		*i0 = x < 0 ? 0 : x >= n - 1 ? n - 1 : (uint32_t)x;
+		*i1 = x + 1 < 0 ? 0 : x + 1 >= n - 1 ? n - 1 : (uint32_t)(x + 1);
+		return;
+	}
+	if (mode == VD_WRAP_MIRROR) {
+		uint32_t a = wrap(x, 2 * n), b = a + 1 == 2 * n ? 0 : a + 1;
+		*i0 = a < n ? a : 2 * n - 1 - a;
+		*i1 = b < n ? b : 2 * n - 1 - b;
+		return;
+	}
+	*i0 = wrap(x, n);
+	*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
+}
+
 void vd_texture_sample(const struct vd_texture *t, double u, double v,
 		       uint8_t rgb[3])
 {
@@ -451,8 +481,9 @@ void vd_texture_sample(const struct vd_texture *t, double u, double v,
 		x = y = 0; /* |u| near DBL_MAX: any texel is as good */
 	double fx = floor(x), fy = floor(y);
 	double ax = x - fx, ay = y - fy;
-	uint32_t x0 = wrap(fx, w), y0 = wrap(fy, h);
-	uint32_t x1 = x0 + 1 == w ? 0 : x0 + 1, y1 = y0 + 1 == h ? 0 : y0 + 1;
+	uint32_t x0, x1, y0, y1;
+	texel_pair(fx, w, t->wrap[0], &x0, &x1);
+	texel_pair(fy, h, t->wrap[1], &y0, &y1);
 	const uint8_t *p00 = t->rgb + 3 * ((size_t)y0 * w + x0),
 		      *p10 = t->rgb + 3 * ((size_t)y0 * w + x1),
 		      *p01 = t->rgb + 3 * ((size_t)y1 * w + x0),
