@@ -260,11 +260,8 @@ static int voxelize_main(int argc, char **argv, char *provenance,
 #else
 	vd_mesh_set_importer(vd_assimp_import);
 #endif
-	if (sibling_rc >= 0) {
-		free(provenance);
-		free(argv_given);
-		return sibling_rc;
-	}
+	if (sibling_rc >= 0)
+		return sibling_rc; /* main frees the provenance and argv copy */
 	/* all or nothing: build beside OUTDIR, then swap it in whole */
 	char stage[4096], path[4200];
 	int err = vd_dir_stage(outdir, our_file, stage, sizeof stage);
