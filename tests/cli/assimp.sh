@@ -71,8 +71,10 @@ else
 	echo "SKIP assimp_export: no assimp (Debian assimp-utils)"
 fi
 
-# --- in a pipeline: the runner's voxelize job runs the sibling too
-small_pipeline "$NAME" "$PWD/$S/scene.glb" > "$T/p.yaml" < /dev/null
+# --- in a pipeline: the runner's voxelize job runs the sibling too (with
+# a colorize job, so that voxelize computes the colours)
+echo '  col: {stage: colorize, needs: [vox], method: raw}' |
+	small_pipeline "$NAME" "$PWD/$S/scene.glb" > "$T/p.yaml"
 expect pipeline_glb 0 '' $BIN/voxdag -q run "$T/p.yaml"
 expect twin_l8 0 '' $V "$S/scene.obj" -o "$T/o8" --levels 8 --chunk-level 1 -q
 [ -n "$(ls out/$NAME/vox/*.col 2>/dev/null)" ] &&
