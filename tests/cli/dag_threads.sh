@@ -118,3 +118,17 @@ fi
 for f in root.dag root.ssvdag root.s48 flat.dag flat.ssvdag; do
 	expect "verify_t3_$f" 0 '' "$BIN/dag-verify" "$T/t3/$f" "$SVO"
 done
+
+# a budget with no room for the parallel pass's extra memory: the serial
+# loops run on 3 threads too, within the budget, and write the same chunk
+need=$("$BIN/symmetry-merge" -q -j 3 --mem-budget 1K "$T/t1/root.dag" -o "$T/x.ssvdag" 2>&1 |
+	sed -n 's/.*needs about \([0-9]*\) MiB.*/\1/p')
+expect tight_budget_runs 0 '' "$BIN/symmetry-merge" -q -j 3 --mem-budget $((need + 1))M \
+	"$T/t1/root.dag" -o "$T/tight.ssvdag"
+same tight_budget_same "$T/t1/root.ssvdag" "$T/tight.ssvdag"
+peak=$(jq .peak_rss_bytes "$T/tight.ssvdag.stats.json")
+if [ -n "$need" ] && [ "${peak:-0}" -gt 0 ] && [ "$peak" -le $(((need + 1) << 20)) ]; then
+	pass tight_budget_peak
+else
+	fail tight_budget_peak "peak ${peak:-?} bytes over the budget of $((${need:-0} + 1)) MiB"
+fi

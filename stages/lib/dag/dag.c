@@ -317,6 +317,7 @@ struct engine {
 	struct remap *rm;                  /* per part, level l+1 */
 	uint8_t *inv_below;                /* invariance sets on level l+1 */
 	int threads;                       /* as struct vd_dag_opts */
+	uint64_t spare_bytes;              /* budget less the estimate */
 };
 
 static void remaps_free(struct remap *rm, size_t np)
@@ -1078,8 +1079,27 @@ static void ipass_free(struct ipass *ip)
 	free(ip->of);
 }
 
+/* Bytes the parallel pass needs beyond the serial one, for `groups`
+ * frontier groups (at most e->fr.n). Per element: hash 8, mask and set 2,
+ * first-element and id maps 12, record offset 8, record 13 and 5 a
+ * reference, shard table at work 8 at most (51); a group's start 8 more; a
+ * part node's key children 5 a reference. The serial pass's table, which
+ * the estimates count, is not made: this is an upper bound. */
+static uint64_t inner_extra_bytes(const struct engine *e, int l,
+				  uint64_t groups)
+{
+	uint64_t b = (1 << 20) + groups * (51 + 8) + e->fr.n * 5;
+	for (size_t p = 0; p < e->np; p++)
+		if (e->parts[p]->chunk_level <= l)
+			b += e->parts[p]->lv[l].nodes * 51 +
+			     e->parts[p]->lv[l].refs * 10;
+	return b;
+}
+
 /* Whether inner level l runs in parallel: more than one thread asked for,
- * enough elements to pay, few enough for 32-bit element numbers. */
+ * enough elements to pay, few enough for 32-bit element numbers, and room
+ * in the budget for the pass's extra memory (else the serial loops, which
+ * give the same nodes, run: the budget is never exceeded for speed). */
 static int inner_parallel_pays(const struct engine *e, int l)
 {
 	int t = e->threads > 0 ? e->threads : vd_hardware_threads();
@@ -1089,7 +1109,12 @@ static int inner_parallel_pays(const struct engine *e, int l)
 			n += e->parts[p]->lv[l].nodes;
 			all += e->parts[p]->lv[l].nodes;
 		}
-	return t > 1 && n >= PAR_MIN && all <= UINT32_MAX;
+	if (t <= 1 || n < PAR_MIN || all > UINT32_MAX) return 0;
+	if (inner_extra_bytes(e, l, e->fr.n) <= e->spare_bytes) return 1;
+	uint64_t groups = 0; /* the bound was for single-child groups */
+	for (uint64_t i = 0; i < e->fr.n; i++)
+		groups += !i || e->fr.e[i].morton >> 3 != e->fr.e[i - 1].morton >> 3;
+	return inner_extra_bytes(e, l, groups) <= e->spare_bytes;
 }
 
 /* Level l's nodes into b (its arrays exact, b->slot unused), the parts'
@@ -1474,6 +1499,13 @@ static int check_budget(const struct vd_dag_opts *o, uint64_t need,
 	return VD_OK;
 }
 
+/* What the budget leaves beyond the estimate `need` (which it covers). */
+static uint64_t spare(const struct vd_dag_opts *o, uint64_t need)
+{
+	if (!o || !o->mem_budget_bytes) return UINT64_MAX;
+	return o->mem_budget_bytes > need ? o->mem_budget_bytes - need : 0;
+}
+
 /* SWAR popcount: without -mpopcnt the builtin is a libgcc call. */
 static inline uint64_t popcount64(uint64_t v)
 {
@@ -1520,9 +1552,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		stats->input_voxels = voxels;
 		stats->input_nodes = svo->count;
 	}
-	if ((err = check_budget(opts, vd_dag_estimate_from_svo(svo->count,
-				leaves, parents), stats)))
-		return err;
+	uint64_t need = vd_dag_estimate_from_svo(svo->count, leaves, parents);
+	if ((err = check_budget(opts, need, stats))) return err;
 	dag->kind = kind;
 	dag->levels = L;
 	dag->chunk_level = L0;
@@ -1533,7 +1564,8 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 	struct engine e = {.sym = kind != VD_KIND_DAG,
 			   .g48 = kind == VD_KIND_SSVDAG48, .L = L, .A = L0,
 			   .cellA = svo->cell_morton, .svo = svo, .out = dag,
-			   .st = stats, .threads = opts ? opts->threads : 0};
+			   .st = stats, .threads = opts ? opts->threads : 0,
+			   .spare_bytes = spare(opts, need)};
 	err = run_engine(&e);
 	if (stats) stats->seconds_build = vd_seconds() - t0;
 	return err;
@@ -1662,9 +1694,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		stats->input_voxels = voxels;
 		stats->input_nodes = nodes;
 	}
-	if ((err = check_budget(opts, vd_dag_estimate_merge(nodes, refs),
-				stats)))
-		goto out;
+	uint64_t need = vd_dag_estimate_merge(nodes, refs);
+	if ((err = check_budget(opts, need, stats))) goto out;
 	out->kind = kind;
 	out->levels = L;
 	out->chunk_level = A;
@@ -1676,7 +1707,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 				   .g48 = kind == VD_KIND_SSVDAG48, .L = L,
 				   .A = A, .cellA = cellA, .parts = nonempty,
 				   .np = np, .out = out, .st = stats,
-				   .threads = opts ? opts->threads : 0};
+				   .threads = opts ? opts->threads : 0,
+				   .spare_bytes = spare(opts, need)};
 		err = run_engine(&e);
 		if (stats) stats->seconds_build = vd_seconds() - t0;
 	}
