@@ -1143,8 +1143,9 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 			nr += (size_t)((e->parts[p]->lv[l].nodes + chunk - 1) / chunk);
 	ip.pa = calloc(ip.npa ? ip.npa : 1, sizeof *ip.pa);
 	ip.r = calloc(nr ? nr : 1, sizeof *ip.r);
-	/* shards of about 16 thousand elements, so that a table (2 slots an
-	 * element at most: 256 KiB) stays in cache; several per thread */
+	/* shards of about 16 thousand elements, so that a table (at most 4
+	 * slots of 8 bytes an element: 512 KiB) stays in cache; several per
+	 * thread, which balance the load */
 	unsigned ns = 8;
 	while (ns < 1024 && ((uint64_t)ns << 14 < est || ns < 4u * (unsigned)treq))
 		ns *= 2;
@@ -1246,7 +1247,11 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 	ip.rec = NULL;
 	uint64_t distinct = 0;
 	for (unsigned s = 0; s < ns; s++) {
-		if ((err = ip.sh[s].err)) goto out;
+		/* a worker's detail line is its own: say it again here */
+		if (ip.sh[s].err) {
+			err = NOMEM();
+			goto out;
+		}
 		distinct += ip.sh[s].n;
 	}
 	if (distinct > MAX_LEVEL_NODES) {
