@@ -5,11 +5,13 @@
 # (which names the arguments), for the DAG of the SVO, the DAG merges (a
 # flat one of all the chunks, a reduction step of 8 siblings), the SSVDAG
 # and SSVDAG48 of the root and their merges. The scene is chosen so that
-# the parallel passes do run: 898 thousand bricks and 175 thousand nodes
-# on level 8, above the 65536 elements under which a level stays serial
-# (dag.c, PAR_MIN); the test checks those sizes, so a smaller scene cannot
-# pass it vacuously. The multi-threaded outputs also verify against the
-# SVO (dag-verify).
+# the sharded inner pass runs: 898 thousand bricks and 175 thousand nodes
+# on level 8, above the 65536 elements under which a level keeps the
+# serial loops (dag.c, PAR_MIN); the test checks those sizes, so a smaller
+# scene cannot pass it vacuously. Under the least budget a run accepts
+# there is no room for the sharded pass and the serial loops run: their
+# chunks must be the same too. The multi-threaded outputs verify against
+# the SVO (dag-verify).
 set -u
 cd "$(dirname "$0")/../.."
 . tests/cli/lib.sh
@@ -119,16 +121,33 @@ for f in root.dag root.ssvdag root.s48 flat.dag flat.ssvdag; do
 	expect "verify_t3_$f" 0 '' "$BIN/dag-verify" "$T/t3/$f" "$SVO"
 done
 
-# a budget with no room for the parallel pass's extra memory: the serial
-# loops run on 3 threads too, within the budget, and write the same chunk
-need=$("$BIN/symmetry-merge" -q -j 3 --mem-budget 1K "$T/t1/root.dag" -o "$T/x.ssvdag" 2>&1 |
-	sed -n 's/.*needs about \([0-9]*\) MiB.*/\1/p')
-expect tight_budget_runs 0 '' "$BIN/symmetry-merge" -q -j 3 --mem-budget $((need + 1))M \
-	"$T/t1/root.dag" -o "$T/tight.ssvdag"
-same tight_budget_same "$T/t1/root.ssvdag" "$T/tight.ssvdag"
-peak=$(jq .peak_rss_bytes "$T/tight.ssvdag.stats.json")
-if [ -n "$need" ] && [ "${peak:-0}" -gt 0 ] && [ "$peak" -le $(((need + 1) << 20)) ]; then
-	pass tight_budget_peak
-else
-	fail tight_budget_peak "peak ${peak:-?} bytes over the budget of $((${need:-0} + 1)) MiB"
-fi
+# A budget with no room for the sharded pass's extra memory: the serial
+# loops run instead, on 3 threads too, within the budget, and write the
+# same chunk as the sharded pass (which the runs above use on 1 thread too)
+# tight NAME OUT CMD...: runs CMD under the least budget it accepts (a
+# merge checks its inputs one by one: raise the budget until it loads)
+tight() {
+	local name=$1 out=$2 need=0 next i peak
+	shift 2
+	for i in $(seq 100); do
+		next=$("$@" --mem-budget $((need + 1))M -o "$T/x.chunk" 2>&1 |
+			sed -n 's/.*needs about \([0-9]*\) MiB.*/\1/p')
+		[ -z "$next" ] && break
+		need=$next
+	done
+	expect "tight_${name}_runs" 0 '' "$@" --mem-budget $((${need:-0} + 1))M -o "$out"
+	peak=$(jq .peak_rss_bytes "$out.stats.json" 2>/dev/null)
+	if [ -n "$need" ] && [ "${peak:-0}" -gt 0 ] &&
+	   [ "$peak" -le $(((need + 1) << 20)) ]; then
+		pass "tight_${name}_peak"
+	else
+		fail "tight_${name}_peak" "peak ${peak:-?} bytes over the budget of $((${need:-0} + 1)) MiB"
+	fi
+}
+tight svo_to_dag "$T/tight.dag" "$BIN/svo-to-dag" -q -j 3 "$SVO"
+same tight_svo_to_dag_same "$T/t1/root.dag" "$T/tight.dag"
+tight symmetry_merge "$T/tight.ssvdag" "$BIN/symmetry-merge" -q -j 3 "$T/t1/root.dag"
+same tight_symmetry_merge_same "$T/t1/root.ssvdag" "$T/tight.ssvdag"
+tight merge_flat "$T/tight-flat.dag" "$BIN/svo-to-dag" -q -j 3 --merge --to-level 0 \
+	"$T"/t1/cells/chunk-L2-*.dag
+same tight_merge_flat_same "$T/t1/flat.dag" "$T/tight-flat.dag"
