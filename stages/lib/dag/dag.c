@@ -877,7 +877,8 @@ static void inner_keys(void *ctx, size_t k, int worker)
 		const uint64_t *first = e->parts[pa->p]->lv[ip->l].first;
 		uint8_t *rr = ip->rm[pa->p].r;
 		for (uint64_t i = r->lo; i < r->hi; i++, x++) {
-			int n = part_key(e, pa->p, ip->l, i, ip->asis, key, &m, &inv);
+			int n = part_key(e, pa->p, ip->l, i, ip->asis, key, &m,
+					 &inv);
 			uint64_t h = key_hash(key, n);
 			ip->h[x] = h;
 			ip->mask[x] = (uint8_t)key[0];
@@ -906,8 +907,9 @@ static void inner_keys(void *ctx, size_t k, int worker)
 		ip->nf[x - ip->npe] = (struct felem){parent, 0, m};
 		/* the group's entries were read: they hold its key now */
 		for (int j = 0; j < n; j++) {
-			fe[g + (uint64_t)j].id = (uint32_t)(key[j + 1] >> ip->shift);
-			fe[g + (uint64_t)j].r = (uint8_t)(key[j + 1] & rbits);
+			struct felem *f = &fe[g + (uint64_t)j];
+			f->id = (uint32_t)(key[j + 1] >> ip->shift);
+			f->r = (uint8_t)(key[j + 1] & rbits);
 		}
 		r->cnt[h & sm] += REC_SIZE(ip, n);
 	}
@@ -1116,7 +1118,8 @@ static int inner_parallel_pays(const struct engine *e, int l)
 	if (inner_extra_bytes(e, l, e->fr.n) <= e->spare_bytes) return 1;
 	uint64_t groups = 0; /* the bound was for single-child groups */
 	for (uint64_t i = 0; i < e->fr.n; i++)
-		groups += !i || e->fr.e[i].morton >> 3 != e->fr.e[i - 1].morton >> 3;
+		groups += !i ||
+			  e->fr.e[i].morton >> 3 != e->fr.e[i - 1].morton >> 3;
 	return inner_extra_bytes(e, l, groups) <= e->spare_bytes;
 }
 
@@ -1143,7 +1146,8 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 	if (nr == 0 && e->fr.n) nr = 1;
 	for (size_t p = 0; p < e->np; p++)
 		if (e->parts[p]->chunk_level <= l)
-			nr += (size_t)((e->parts[p]->lv[l].nodes + chunk - 1) / chunk);
+			nr += (size_t)((e->parts[p]->lv[l].nodes + chunk - 1) /
+				       chunk);
 	ip.pa = calloc(ip.npa ? ip.npa : 1, sizeof *ip.pa);
 	ip.r = calloc(nr ? nr : 1, sizeof *ip.r);
 	/* shards of about 16 thousand elements, so that a table (at most 4
