@@ -18,22 +18,6 @@ cd "$(dirname "$0")/../.."
 
 PAR_MIN=65536
 
-# The bytes of a chunk without its PROV section and its footer (whose
-# checksums cover the provenance): header, then every other section.
-chunk_sans_prov() {
-	local f=$1 size hs off tag sz
-	size=$(stat -c %s "$f")
-	hs=$(od -An -tu4 -j12 -N4 "$f" | tr -d ' ')
-	head -c "$hs" "$f"
-	off=$hs
-	while [ "$off" -lt $((size - 24)) ]; do
-		tag=$(dd if="$f" bs=1 skip="$off" count=4 2>/dev/null)
-		sz=$(od -An -tu8 -j$((off + 16)) -N8 "$f" | tr -d ' ')
-		[ "$tag" = PROV ] || tail -c +$((off + 1)) "$f" | head -c $((32 + sz))
-		off=$((off + 32 + sz))
-	done
-}
-
 # same NAME A B: A and B are the same chunk but for the provenance.
 same() {
 	if [ -f "$2" ] && [ -f "$3" ] &&

@@ -82,3 +82,21 @@ bunny_pipeline() {
 	lossless_yaml "$1" tests/data/bunny.ply "$2" "$3" \
 		"{jobs: 2, threads: 1, mem_budget: 2GiB, job_mem_budget: 512M}"
 }
+
+# chunk_sans_prov FILE: the bytes of a chunk without its PROV section and
+# its footer (whose checksums cover the provenance, which names the input
+# and the arguments): header, then every other section. Two runs that must
+# write the same voxels compare equal through it (schemas/chunk-format.md).
+chunk_sans_prov() {
+	local f=$1 size hs off tag sz
+	size=$(stat -c %s "$f")
+	hs=$(od -An -tu4 -j12 -N4 "$f" | tr -d ' ')
+	head -c "$hs" "$f"
+	off=$hs
+	while [ "$off" -lt $((size - 24)) ]; do
+		tag=$(dd if="$f" bs=1 skip="$off" count=4 2>/dev/null)
+		sz=$(od -An -tu8 -j$((off + 16)) -N8 "$f" | tr -d ' ')
+		[ "$tag" = PROV ] || tail -c +$((off + 1)) "$f" | head -c $((32 + sz))
+		off=$((off + 32 + sz))
+	done
+}

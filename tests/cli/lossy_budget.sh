@@ -14,22 +14,6 @@ cd "$(dirname "$0")/../.."
 
 BUDGET_MIB=48
 
-# The bytes of a chunk without its PROV section and its footer (whose
-# checksums cover the provenance): header, then every other section.
-chunk_sans_prov() {
-	local f=$1 size hs off tag sz
-	size=$(stat -c %s "$f")
-	hs=$(od -An -tu4 -j12 -N4 "$f" | tr -d ' ')
-	head -c "$hs" "$f"
-	off=$hs
-	while [ "$off" -lt $((size - 24)) ]; do
-		tag=$(dd if="$f" bs=1 skip="$off" count=4 2>/dev/null)
-		sz=$(od -An -tu8 -j$((off + 16)) -N8 "$f" | tr -d ' ')
-		[ "$tag" = PROV ] || tail -c +$((off + 1)) "$f" | head -c $((32 + sz))
-		off=$((off + 32 + sz))
-	done
-}
-
 "$BIN/voxelize" tests/data/bunny.ply -o "$T/vox" --levels 11 --chunk-level 0 -q --no-colours
 "$BIN/svo-to-dag" "$T/vox/chunk-L0-0.svo" -o "$T/root.dag" -q
 rm -rf "$T/vox"
