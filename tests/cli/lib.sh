@@ -100,3 +100,17 @@ chunk_sans_prov() {
 		off=$((off + 32 + sz))
 	done
 }
+
+# one_warning NAME PATTERN CMD...: CMD succeeds and says exactly one line on
+# stderr, which matches PATTERN (kept in $T/warn).
+one_warning() {
+	local name=$1 pat=$2 rc
+	shift 2
+	"$@" 2>"$T/warn"
+	rc=$?
+	if [ $rc -eq 0 ] && [ "$(wc -l < "$T/warn")" -eq 1 ] && grep -q "$pat" "$T/warn"; then
+		pass "$name"
+	else
+		fail "$name" "exit $rc" "$(cat "$T/warn")"
+	fi
+}
