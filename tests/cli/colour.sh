@@ -64,11 +64,7 @@ expect corrupt_png_strict 1 'checker.png' $V "$T/miss/scene.obj" -o "$T/cut-stri
 expect_no_chunks corrupt_png_strict_leaves_nothing "$T/cut-strict"
 
 # --- bad colour data: errors, one line, nothing left
-bad() { # bad NAME PATTERN FILE
-	rm -rf "$T/bad"
-	expect "$1" 1 "$2" $V "$3" -o "$T/bad" --levels 5 -q
-	expect_no_chunks "$1_leaves_nothing" "$T/bad"
-}
+bad() { bad_voxelize "$@" --levels 5; } # bad NAME PATTERN FILE
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 1\nvt nan 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n' > "$T/nan_uv.obj"
 bad nan_uv 'line 4.*not finite' "$T/nan_uv.obj"
 expect nan_uv_geometry_only 0 '' $V "$T/nan_uv.obj" -o "$T/nan-geo" --levels 5 -q --no-colours

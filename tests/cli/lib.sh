@@ -114,3 +114,13 @@ one_warning() {
 		fail "$name" "exit $rc" "$(cat "$T/warn")"
 	fi
 }
+
+# bad_voxelize NAME PATTERN FILE [ARGS...]: voxelize refuses FILE with exit
+# 1 and one line matching PATTERN, and leaves nothing in its OUTDIR.
+bad_voxelize() {
+	local name=$1 pattern=$2
+	shift 2
+	rm -rf "$T/bad"
+	expect "$name" 1 "$pattern" $BIN/voxelize "$@" -o "$T/bad" -q
+	expect_no_chunks "${name}_leaves_nothing" "$T/bad"
+}

@@ -91,13 +91,7 @@ expect export_truncated_chunk 1 "truncated" $X -o "$T/x.vdb" "$T/cut.svo"
 expect export_mixed_grids 1 'different grids|mismatch' $X -o "$T/x.vdb" "$T/solid" "$T/bunny"
 
 # --- bad input: exit 1, one line, the cause named, nothing left behind
-bad() { # bad NAME PATTERN FILE [ARGS...]
-	local name=$1 pattern=$2
-	shift 2
-	rm -rf "$T/bad"
-	expect "$name" 1 "$pattern" $V "$@" -o "$T/bad" -q
-	expect_no_chunks "${name}_leaves_nothing" "$T/bad"
-}
+bad() { bad_voxelize "$@"; } # bad NAME PATTERN FILE [ARGS...]
 bad empty_grid 'no voxel' "$G/empty.vdb"
 bad missing_grid "no grid named 'c'.*'a', 'b'" "$G/two.vdb" --grid c
 cp tests/data/bunny.ply "$T/bunny.vdb"
