@@ -1255,6 +1255,10 @@ int vd_vbr_encode(struct vd_vbr_segment *s, const uint8_t *rgb, uint32_t n,
 void vd_vbr_segment_colour(const struct vd_vbr_segment *s, uint32_t i,
 			   uint8_t rgb[3]);
 void vd_vbr_segment_release(struct vd_vbr_segment *s);
+/* 1 (default): vd_vbr_encode uses AVX2 lanes where the CPU has them, with
+ * the scalar loops' bits; 0: the scalar loops only (for the tests that
+ * compare the two). */
+extern int vd_vbr_lanes;
 
 /* Palette baseline. A histogram of 24-bit colours (2^24 u32 counts,
  * saturating), filled cell by cell, then the global palette. */

@@ -7,6 +7,8 @@
 #include "voxdag.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <string.h>
 
 static uint64_t rng = 12345;
 static uint32_t next(void)
@@ -392,6 +394,47 @@ static void test_flat_colour_best(void)
 	vd_vbr_segment_release(&s);
 }
 
+/* The AVX2 lanes give the scalar loops' bits: the same blocks, endpoints,
+ * weights and statistics with the lanes off, on a real-ish array at every
+ * weight width and the paper's thresholds. On a CPU without AVX2 both runs
+ * are scalar and the test says so. */
+static void test_lanes_equal_scalar(void)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+	if (!__builtin_cpu_supports("avx2"))
+		printf("test_lanes_equal_scalar: no AVX2 here, scalar vs scalar\n");
+#endif
+	uint32_t n = 40000;
+	uint8_t *rgb = malloc(3 * n);
+	realish(rgb, n);
+	static const double ets[] = {0.025, 0.05, 0.1};
+	for (int e = 0; e < 3; e++)
+		for (int wb = 1; wb <= 8; wb++) {
+			struct vd_vbr_params p = {.max_error = ets[e],
+						  .weight_bits = wb};
+			struct vd_vbr_segment a, b;
+			vd_vbr_lanes = 1;
+			CHECK_EQ(vd_vbr_encode(&a, rgb, n, &p), VD_OK);
+			vd_vbr_lanes = 0;
+			CHECK_EQ(vd_vbr_encode(&b, rgb, n, &p), VD_OK);
+			vd_vbr_lanes = 1;
+			CHECK_EQ(a.count, b.count);
+			CHECK_EQ(a.sse, b.sse);
+			CHECK_EQ(a.max_dist2, b.max_dist2);
+			CHECK_EQ(a.passes, b.passes);
+			if (a.count == b.count) {
+				CHECK(!memcmp(a.start, b.start, a.count * sizeof *a.start));
+				CHECK(!memcmp(a.c0, b.c0, a.count * sizeof *a.c0));
+				CHECK(!memcmp(a.c1, b.c1, a.count * sizeof *a.c1));
+			}
+			CHECK(!memcmp(a.weights, b.weights,
+				      ((size_t)n * (size_t)wb + 7) / 8));
+			vd_vbr_segment_release(&a);
+			vd_vbr_segment_release(&b);
+		}
+	free(rgb);
+}
+
 int main(void)
 {
 	RUN(test_fit_by_hand);
@@ -400,5 +443,6 @@ int main(void)
 	RUN(test_threshold_floor);
 	RUN(test_greedy_exact_cases);
 	RUN(test_blocks_vs_brute_force);
+	RUN(test_lanes_equal_scalar);
 	return CHECK_DONE();
 }

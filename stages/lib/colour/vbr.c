@@ -101,6 +101,8 @@ static inline struct cols cols_at(const struct cols *C, uint32_t i)
 	return c;
 }
 
+int vd_vbr_lanes = 1;
+
 /* Eight lanes of an AVX2 register, on x86-64 CPUs that have it (checked
  * at run time; elsewhere the scalar loop does all). No FMA: C11 mode keeps
  * a*b+c two roundings, so the lanes give the scalar loop's bits. */
@@ -108,6 +110,12 @@ static inline struct cols cols_at(const struct cols *C, uint32_t i)
 #include <immintrin.h>
 #define VBR_LANES 8
 #define LANES VBR_LANES
+/* The lanes when the CPU has AVX2 and the tests have not turned them off
+ * (vd_vbr_lanes = 0: they compare the two paths' bytes). */
+static inline int lanes_on(void)
+{
+	return vd_vbr_lanes && __builtin_cpu_supports("avx2");
+}
 typedef float vf __attribute__((vector_size(4 * LANES)));
 typedef int32_t vi __attribute__((vector_size(4 * LANES)));
 
@@ -327,7 +335,7 @@ static int check_span(struct line *L, struct cols C, uint32_t n,
 	 * wins, ties to the lower weight. */
 	uint32_t n4 = 0;
 #ifdef VBR_LANES
-	if (__builtin_cpu_supports("avx2")) {
+	if (lanes_on()) {
 		n4 = n;
 		if (n4 && !check_lanes(&C, n4, limit, m, a, d, inv, w, &s,
 				       fail))
@@ -759,7 +767,7 @@ static int fit_m(const struct cols *C, uint32_t n, unsigned limit,
 	double tmin = 1e30, tmax = -1e30;
 	uint32_t i0 = 0;
 #ifdef VBR_LANES
-	if (__builtin_cpu_supports("avx2"))
+	if (lanes_on())
 		i0 = project_lanes(C, n, mu, ax, t, &tmin, &tmax);
 #endif
 	for (uint32_t i = i0; i < n; i++) {
@@ -789,7 +797,7 @@ static int fit_m(const struct cols *C, uint32_t n, unsigned limit,
 		const struct lsw *lw = ls_tab + m;
 		uint32_t done = 0;
 #ifdef VBR_LANES
-		if (__builtin_cpu_supports("avx2")) {
+		if (lanes_on()) {
 			v2d r[4] = {r0, r1, r2, qab};
 			done = ls_lanes(C, t, n, tmin, sc, m, r, &bb);
 			r0 = r[0], r1 = r[1], r2 = r[2], qab = r[3];
