@@ -662,7 +662,7 @@ int report_write(const struct plan *p)
 		"their statistics files); peak memory is the largest job's, "
 		"against the largest `--mem-budget` given to the stage's jobs: "
 		"the per-job budget of %llu MiB, or more for a job that could "
-		"not fit it (it then ran alone).\n\n",
+		"not fit it (started when the whole budget had room for it).\n\n",
 		(unsigned long long)(c->job_mem_budget >> 20));
 	fprintf(f, "| job | stage | processes | seconds | peak MiB | budget MiB |\n"
 		   "|---|---|---:|---:|---:|---:|\n");
