@@ -39,8 +39,8 @@ extern "C" {
  * same commit that changes the bytes or the format of what it writes, and
  * say why beside it. */
 #define VD_STAGE_VERSIONS(X)                                                 \
-	X("voxelize", 5)       /* 5: .vdb colours (see below); 4: SGI      \
-				  textures; 3: .col; 2: manifest */         \
+	X("voxelize", 6)       /* 6: sources; 5: .vdb colours (see below); \
+				  4: SGI textures; 3: .col; 2: manifest */  \
 	/* A .vdb input runs as `voxelize` (which execs voxelize-vdb), so the  \
 	 * runner's keys and the chunks' provenance carry voxelize's number:  \
 	 * bump both. */                                                      \
@@ -521,6 +521,41 @@ const struct vd_texture *vd_mesh_texture(const struct vd_mesh *m, int i);
 uint64_t vd_mesh_textures_missing(const struct vd_mesh *m);
 /* Textures loaded, so far. */
 uint64_t vd_mesh_textures_loaded(const struct vd_mesh *m);
+
+/* A file the reader read besides the mesh (an OBJ's MTL files and the
+ * textures its faces use, an AC3D file's textures, the buffers and images
+ * of an imported scene), or a name it looked for and could not read: the
+ * mesh's colours depend on each. `found` 0: not there or unreadable (xxh3
+ * and size 0). The content is hashed just before the reader opens it, so
+ * a change made while or after it reads is a difference, never missed. */
+struct vd_mesh_source {
+	char *path;            /* as the reader opened it (relative names stay
+				* relative to the working directory) */
+	uint64_t xxh3, size;   /* vd_file_xxh3 of the whole file */
+	int found;
+};
+/* The sources so far, in the order first read, each path once (complete
+ * after a whole pass); *n receives their count. Owned by the mesh, valid
+ * until the next read or vd_mesh_close(). Without colours
+ * (vd_mesh_open_opts.colours 0) an OBJ's MTL files and textures are not
+ * read, so not listed; an imported scene's buffers are, colours or not. */
+const struct vd_mesh_source *vd_mesh_sources(const struct vd_mesh *m,
+					     size_t *n);
+
+/* Writes `path` (a "sources" file, schemas/manifest.md) listing s[0..n),
+ * atomically. Returns VD_OK or VD_ERR_IO. */
+int vd_sources_write(const char *path, const struct vd_mesh_source *s,
+		     size_t n);
+/* Checks the sources file `path` against the files it lists (relative
+ * names from the working directory): each found one must still have its
+ * size and XXH3, each other must still be unreadable. Returns VD_OK;
+ * VD_ERR_MISMATCH when one differs (the detail names the first and how:
+ * "'x.png' changed", "... is missing or unreadable", "... can be read
+ * now"); VD_ERR_FORMAT for a malformed file; VD_ERR_IO when it cannot be
+ * read. */
+int vd_sources_check(const char *path);
+/* The name of voxelize's sources file in its OUTDIR. */
+#define VD_SOURCES_NAME "sources"
 
 /* ----------------------------------------------------- imported formats
  * glTF 2.0 (.gltf, .glb), FBX (.fbx), Collada (.dae) and 3DS (.3ds) are

@@ -20,8 +20,10 @@ static const char usage[] =
 	"\n"
 	"Voxelizes the surface of a triangle mesh into a grid of 2^L voxels per\n"
 	"side and writes one SVO chunk file per non-empty cell of the chunk\n"
-	"level L0, plus OUTDIR/voxelize.stats.json and OUTDIR/manifest (every\n"
-	"file's size and checksum). The new OUTDIR is built beside the old one\n"
+	"level L0, plus OUTDIR/voxelize.stats.json, OUTDIR/manifest (every\n"
+	"file's size and checksum) and, for a mesh, OUTDIR/sources (the files\n"
+	"it pulled in: MTL files, textures, buffers, with their checksums;\n"
+	"schemas/manifest.md). The new OUTDIR is built beside the old one\n"
 	"and replaces it whole only when complete; a failure leaves the old one\n"
 	"as it was.\n"
 	"\n"
@@ -93,7 +95,8 @@ static int our_file(const char *name)
 	return (!strncmp(name, "chunk-L", 7) && n > 4 &&
 		(!strcmp(name + n - 4, ".svo") ||
 		 !strcmp(name + n - 4, ".col"))) ||
-	       !strcmp(name, "voxelize.stats.json") || !strcmp(name, "bins.tmp");
+	       !strcmp(name, "voxelize.stats.json") || !strcmp(name, "bins.tmp") ||
+	       !strcmp(name, VD_SOURCES_NAME);
 }
 
 /* OpenVDB costs a process about 30 MB of memory at start (relocating

@@ -25,6 +25,7 @@
 #include "voxdag.h"
 #include "io/mesh_import.h"
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -38,6 +39,8 @@
 #include <new>
 #include <string>
 #include <strings.h>
+#include <sys/stat.h>
+#include <vector>
 
 namespace {
 
@@ -56,6 +59,81 @@ template <class T> T *alloc(size_t n)
 		throw std::bad_alloc();
 	return p;
 }
+
+// Assimp opens the files a scene pulls in (a .gltf's buffers, ...)
+// through its IOSystem: this one records each, hashed just before it is
+// opened, and each name it looked for in vain, for voxelize's list of
+// sources (sources.c). The scene file itself is left out: the runner's key
+// covers it, and hashing it would read a large scene once more.
+class RecordingIO : public Assimp::DefaultIOSystem {
+public:
+	RecordingIO(const char *scene, std::vector<vd_mesh_source> *list)
+		: scene_(scene), list_(list)
+	{
+		struct stat st;
+		have_scene_ = stat(scene, &st) == 0;
+		if (have_scene_) {
+			dev_ = st.st_dev;
+			ino_ = st.st_ino;
+		}
+	}
+
+	bool Exists(const char *file) const override
+	{
+		bool there = DefaultIOSystem::Exists(file);
+		if (!there)
+			note(file);
+		return there;
+	}
+
+	Assimp::IOStream *Open(const char *file, const char *mode) override
+	{
+		note(file);
+		return DefaultIOSystem::Open(file, mode);
+	}
+
+private:
+	void note(const char *file) const
+	{
+		struct stat st;
+		if (!strcmp(file, scene_.c_str()) ||
+		    (have_scene_ && stat(file, &st) == 0 && st.st_dev == dev_ &&
+		     st.st_ino == ino_))
+			return;
+		for (const vd_mesh_source &r : *list_)
+			if (!strcmp(r.path, file))
+				return;
+		vd_mesh_source r = {};
+		r.path = dup(file);
+		r.found = vd_file_xxh3(file, &r.xxh3, &r.size) == VD_OK;
+		if (!r.found) {
+			vd_error_clear();
+			r.xxh3 = r.size = 0;
+		}
+		try {
+			list_->push_back(r);
+		} catch (...) {
+			free(r.path);
+			throw;
+		}
+	}
+
+	std::string scene_;
+	std::vector<vd_mesh_source> *list_;
+	bool have_scene_;
+	dev_t dev_ = 0;
+	ino_t ino_ = 0;
+};
+
+// Owns the recorded paths until they are handed to the scene.
+struct SourceList {
+	std::vector<vd_mesh_source> v;
+	~SourceList()
+	{
+		for (vd_mesh_source &r : v)
+			free(r.path);
+	}
+};
 
 // glTF's linear values to sRGB bytes (the sRGB transfer function).
 uint8_t byte_of(float x, bool linear)
@@ -159,13 +237,20 @@ void read_material(const aiScene *sc, const aiMaterial *mat, bool linear,
 
 int import(const char *path, vd_import_scene *s)
 {
+	SourceList files;
 	Assimp::Importer imp;
+	imp.SetIOHandler(new RecordingIO(path, &files.v)); // imp deletes it
 	// points and lines bound no area: dropped here, counted below
 	const aiScene *sc = imp.ReadFile(path, aiProcess_Triangulate |
 					 aiProcess_PreTransformVertices |
 					 aiProcess_ValidateDataStructure);
 	if (!sc)
 		return vd_fail(VD_ERR_FORMAT, "Assimp: %s", imp.GetErrorString());
+	s->sources = alloc<vd_mesh_source>(files.v.size());
+	for (vd_mesh_source &r : files.v) {
+		s->sources[s->nsources++] = r;
+		r.path = nullptr; // the scene's now
+	}
 	if (sc->mFlags & AI_SCENE_FLAGS_INCOMPLETE)
 		return vd_fail(VD_ERR_FORMAT, "Assimp read an incomplete scene "
 			       "(no meshes)");

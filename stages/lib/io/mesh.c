@@ -521,6 +521,10 @@ struct vd_mesh {
 	int cur_mat;           /* OBJ: the usemtl in force */
 	char **mtllibs;        /* OBJ: MTL files already read */
 	size_t nmtllibs;
+	/* Files read besides the mesh, and names looked for in vain
+	 * (vd_mesh_sources): what the colours depend on */
+	struct vd_mesh_source *srcs;
+	size_t nsrcs, srcs_cap;
 	float *uvs;            /* OBJ: vt u v (not when spilled) */
 	uint64_t nuvs, uvs_cap; /* nuvs: vt lines so far, spilled or not */
 	int warned_mat;        /* one warning for unknown materials */
@@ -1432,6 +1436,56 @@ static void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
 	m->col.warn(m->col.warn_ctx, line);
 }
 
+/* Records `path` as a source just before the reader opens it (or after
+ * it looked for it in vain), with `known` (an importer's record) or the
+ * hash of its content now: so
+ * the content read is this one or a later one, never an earlier one that
+ * a check could take for current. A path is recorded once: the first
+ * look counts. */
+static int vd_mesh_note_as(struct vd_mesh *m, const char *path,
+			   const struct vd_mesh_source *known)
+{
+	for (size_t i = 0; i < m->nsrcs; i++)
+		if (!strcmp(m->srcs[i].path, path))
+			return VD_OK;
+	if (m->nsrcs == m->srcs_cap) {
+		size_t cap = m->srcs_cap ? 2 * m->srcs_cap : 8;
+		struct vd_mesh_source *p = realloc(m->srcs, cap * sizeof *p);
+		if (!p)
+			return vd_fail(VD_ERR_NOMEM, "the list of files read");
+		m->srcs = p;
+		m->srcs_cap = cap;
+	}
+	struct vd_mesh_source *r = &m->srcs[m->nsrcs];
+	memset(r, 0, sizeof *r);
+	if (!(r->path = strdup(path)))
+		return vd_fail(VD_ERR_NOMEM, "the list of files read");
+	if (known) {
+		r->found = known->found;
+		r->xxh3 = known->xxh3;
+		r->size = known->size;
+	} else if (!(r->found = vd_file_xxh3(path, &r->xxh3, &r->size) ==
+		     VD_OK)) {
+		vd_error_clear();
+		r->xxh3 = r->size = 0;
+	}
+	m->nsrcs++;
+	return VD_OK;
+}
+
+/* The same, hashed now. */
+static int vd_mesh_note(struct vd_mesh *m, const char *path)
+{
+	return vd_mesh_note_as(m, path, NULL);
+}
+
+const struct vd_mesh_source *vd_mesh_sources(const struct vd_mesh *m,
+					     size_t *n)
+{
+	*n = m->nsrcs;
+	return m->srcs;
+}
+
 static uint8_t vd_unit_byte(double x)
 {
 	if (!(x > 0))
@@ -1499,7 +1553,10 @@ static int vd_mesh_tex_use(struct vd_mesh *m, int i)
 	if (i < 0 || m->texs[i].state != 0)
 		return VD_OK;
 	struct vd_tex_slot *t = &m->texs[i];
-	int e = t->unsupported
+	int e = t->data || t->unsupported ? VD_OK : vd_mesh_note(m, t->path);
+	if (e)
+		return e;
+	e = t->unsupported
 		? vd_fail(VD_ERR_UNSUPPORTED, "'%s' %s", t->path, t->unsupported)
 		: t->data ? vd_texture_load_mem(&t->t, t->data, t->bytes, t->path)
 		: vd_texture_load(&t->t, t->path);
@@ -1608,6 +1665,9 @@ static void vd_rtrim(char *s)
  * error. */
 static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 {
+	int e = vd_mesh_note(m, path);
+	if (e)
+		return e;
 	struct stat st;
 	FILE *f = stat(path, &st) != 0 ? NULL
 		: !S_ISREG(st.st_mode) ? (errno = EINVAL, NULL)
@@ -1630,7 +1690,6 @@ static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 	char *line = NULL;
 	size_t cap = 0;
 	uint64_t ln = 0;
-	int e = VD_OK;
 	struct vd_material *cur = NULL;
 	while (!e && getline(&line, &cap, f) >= 0) {
 		ln++;
@@ -1674,6 +1733,10 @@ static int vd_obj_mtllib(struct vd_mesh *m, const char *rest)
 	char *whole = vd_mesh_path(m, NULL, names);
 	struct stat st;
 	int one = whole && stat(whole, &st) == 0;
+	/* a name with spaces looked for whole in vain: if it appears, the
+	 * MTL files read change */
+	if (whole && !one && strpbrk(names, " \t"))
+		e = vd_mesh_note(m, whole);
 	free(whole);
 	char *save = NULL;
 	for (char *t = one ? names : strtok_r(names, " \t", &save); t && !e;
@@ -2858,6 +2921,9 @@ void vd_import_scene_release(struct vd_import_scene *s)
 		free(s->texs[i].name);
 	}
 	free(s->texs);
+	for (size_t i = 0; i < s->nsources; i++)
+		free(s->sources[i].path);
+	free(s->sources);
 	memset(s, 0, sizeof *s);
 }
 
@@ -2919,8 +2985,19 @@ static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
 	char *path;
 	if (it->path) {
 		path = vd_mesh_path(m, NULL, it->path);
-		if (path)
+		char *asked = path ? strdup(path) : NULL;
+		if (path && asked)
 			vd_import_fix_case(&path);
+		/* the name as given was not there: if it appears, it is the
+		 * texture */
+		int e = asked && strcmp(asked, path) ? vd_mesh_note(m, asked)
+						     : VD_OK;
+		if (!asked || e) {
+			free(asked);
+			free(path);
+			return -1;
+		}
+		free(asked);
 	} else {
 		const char *nm = it->name ? it->name : "?";
 		path = malloc(strlen(mesh_path) + strlen(nm) + 32);
@@ -2969,6 +3046,11 @@ static int vd_import_open(struct vd_mesh *m, const char *path)
 					       s->idx[3 * t + j], s->nverts);
 	m->stats.vertices = s->nverts;
 	m->stats.faces_dropped_short = s->faces_dropped_short;
+	/* the files the importer read besides the scene (a .gltf's buffers,
+	 * hashed as it opened them): the geometry depends on them too */
+	for (size_t i = 0; i < s->nsources; i++)
+		if ((e = vd_mesh_note_as(m, s->sources[i].path, &s->sources[i])))
+			return e;
 	if (!m->col_on)
 		return VD_OK;
 	m->col_seen = s->has_colours;
@@ -3753,6 +3835,9 @@ void vd_mesh_close(struct vd_mesh *m)
 	for (size_t i = 0; i < m->nmtllibs; i++)
 		free(m->mtllibs[i]);
 	free(m->mtllibs);
+	for (size_t i = 0; i < m->nsrcs; i++)
+		free(m->srcs[i].path);
+	free(m->srcs);
 	free(m->uvs);
 	free(m->poly_tc);
 	free(m->poly_ti);

@@ -50,6 +50,11 @@ struct vd_import_scene {
 	size_t ntexs;
 	uint64_t faces_dropped_short; /* points and lines */
 	char format[32];              /* "gltf2", "fbx", ... */
+	/* Files the importer opened besides the scene file (a .gltf's
+	 * buffers, a Collada file's includes), each hashed just before it
+	 * was opened, and names it looked for in vain; paths malloc'd */
+	struct vd_mesh_source *sources;
+	size_t nsources;
 };
 
 /* Frees the arrays and zeroes *s (defined in mesh.c). */

@@ -2063,6 +2063,15 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 			      "--mem-budget %llu MiB",
 			      (unsigned long long)(res->peak_rss_bytes >> 20),
 			      (unsigned long long)(opts->mem_budget_bytes >> 20));
+	if (!err) {
+		/* the files the mesh pulled in (MTL, textures, buffers): the
+		 * runner reruns this job when one of them changes */
+		size_t ns;
+		const struct vd_mesh_source *src = vd_mesh_sources(mesh, &ns);
+		char sp[4200];
+		snprintf(sp, sizeof sp, "%s/" VD_SOURCES_NAME, outdir);
+		err = vd_sources_write(sp, src, ns);
+	}
 out:
 	free(b.totals);
 	free(b.recs);
