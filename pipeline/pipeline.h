@@ -142,6 +142,8 @@ struct job {
 	int *rdeps;                /* jobs that depend on this one */
 	int ninputs;
 	char **inputs;             /* files whose content the key covers */
+	int sources;               /* a mesh's voxelize: the files listed in
+				    * output/sources must be unchanged too */
 	uint64_t mem_estimate;
 	enum job_state state;
 	pid_t pid;

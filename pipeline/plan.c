@@ -747,7 +747,7 @@ int job_key_write(const struct job *j, char *why, size_t cap)
 	return 0;
 }
 
-int job_is_fresh(struct job *j, char *why, size_t cap)
+static int output_is_fresh(struct job *j, char *why, size_t cap)
 {
 	char want[17];
 	*why = 0;
@@ -790,6 +790,37 @@ int job_is_fresh(struct job *j, char *why, size_t cap)
 		kj_append(r);
 	}
 	return 1;
+}
+
+/* The files a mesh pulled in (an OBJ's MTL files and textures, a glTF's
+ * buffers, ...) are found only by reading it, so the key, which the
+ * runner computes without reading meshes, cannot cover them. voxelize
+ * lists them instead, each with the hash of what it read, in its output's
+ * `sources` (covered by the manifest, so trusted once the output is):
+ * each must be unchanged, and each name it looked for in vain still
+ * absent, or voxelize runs again (and what depends on what changes). */
+static int sources_fresh(const struct job *j, char *why, size_t cap)
+{
+	char path[1200];
+	path_join(path, sizeof path, j->output, VD_SOURCES_NAME);
+	int err = vd_sources_check(path);
+	if (!err)
+		return 1;
+	if (err == VD_ERR_MISMATCH)
+		snprintf(why, cap, "%s", vd_error_detail());
+	else
+		snprintf(why, cap, "%s: %s", vd_strerror(err),
+			 vd_error_detail());
+	vd_error_clear();
+	return 0;
+}
+
+int job_is_fresh(struct job *j, char *why, size_t cap)
+{
+	int fresh = output_is_fresh(j, why, cap);
+	if (fresh != 1 || !j->sources)
+		return fresh;
+	return sources_fresh(j, why, cap);
 }
 
 /* -------------------------------------------------------------- expansion */
@@ -848,6 +879,7 @@ static void plan_voxelize(struct plan *p, int d)
 	args[na] = NULL;
 	set_argv_list(j, "voxelize", args);
 	add_input(j, in);
+	j->sources = *c->mesh != 0; /* a .vdb file pulls nothing in */
 	j->mem_estimate = c->job_mem_budget;
 }
 
