@@ -5,7 +5,8 @@
  * scene (linear factors to sRGB, vertex colours, texture coordinates with
  * v flipped to the bottom), the texture decoded from a file and from the
  * .glb's buffer, the sampler's wrap modes, a texture named in another
- * case; bad scenes and a missing texture are errors or warnings; without the hook the names are
+ * case, the files the scene pulled in (vd_mesh_sources); bad scenes and a
+ * missing texture are errors or warnings; without the hook the names are
  * refused. Linked with -lassimp (Makefile). */
 #include "check.h"
 #include "voxdag.h"
@@ -229,6 +230,70 @@ static void test_texture_case(void)
 	CHECK_EQ(err, VD_ERR_IO);
 }
 
+/* The files the scene pulled in (vd_mesh_sources): a .gltf's buffer and
+ * texture, hashed as vd_file_xxh3 does, not the scene itself; nothing for
+ * a .glb; the buffer without colours; a texture name not there in its own
+ * case, looked for in vain, beside the file found in another case. */
+static int has_source(struct vd_mesh *m, const char *path, int found)
+{
+	size_t n = 0;
+	const struct vd_mesh_source *s = vd_mesh_sources(m, &n);
+	for (size_t i = 0; i < n; i++) {
+		if (strcmp(s[i].path, path))
+			continue;
+		uint64_t h = 0, size = 0;
+		int ok = vd_file_xxh3(path, &h, &size) == VD_OK;
+		vd_error_clear();
+		return s[i].found == found && ok == found &&
+		       (!found || (s[i].xxh3 == h && s[i].size == size));
+	}
+	return 0;
+}
+
+static void test_sources(void)
+{
+	int err;
+	size_t n = 9;
+	struct vd_mesh *m = open_col(DIR "scene.gltf", 1, &err);
+	if (m) {
+		check_scene(m, 1);
+		vd_mesh_sources(m, &n);
+		CHECK_EQ(n, 2);
+		CHECK(has_source(m, DIR "scene.bin", 1));
+		CHECK(has_source(m, DIR "checker.png", 1));
+		vd_mesh_close(m);
+	}
+	m = open_col(DIR "scene.glb", 1, &err);
+	CHECK(m && (vd_mesh_sources(m, &n), n == 0));
+	vd_mesh_close(m);
+	m = NULL;
+	CHECK_EQ(vd_mesh_open(&m, DIR "scene.gltf"), VD_OK);
+	if (m) {
+		vd_mesh_sources(m, &n);
+		CHECK_EQ(n, 1);
+		CHECK(has_source(m, DIR "scene.bin", 1));
+		vd_mesh_close(m);
+	}
+	char p[600], q[600];
+	snprintf(p, sizeof p, "%s/case2", tmp);
+	mkdir(p, 0755);
+	copy_to(DIR "scene.bin", "case2/scene.bin", -1);
+	copy_to(DIR "checker.png", "case2/Checker.PNG", -1);
+	snprintf(p, sizeof p, "%s", copy_to(DIR "scene.gltf",
+					    "case2/scene.gltf", -1));
+	m = open_col(p, 1, &err);
+	CHECK(m != NULL);
+	if (m) {
+		snprintf(q, sizeof q, "%s/case2/checker.png", tmp);
+		CHECK(has_source(m, q, 0));
+		snprintf(q, sizeof q, "%s/case2/Checker.PNG", tmp);
+		CHECK(has_source(m, q, 1));
+		snprintf(q, sizeof q, "%s/case2/scene.bin", tmp);
+		CHECK(has_source(m, q, 1));
+		vd_mesh_close(m);
+	}
+}
+
 /* A scene cut anywhere is one error from Assimp, never a crash (the
  * sanitizer build watches), and no reader is left. */
 static void test_cut(void)
@@ -280,6 +345,7 @@ int main(void)
 	RUN(test_geometry_only);
 	RUN(test_missing_texture);
 	RUN(test_texture_case);
+	RUN(test_sources);
 	RUN(test_cut);
 	RUN(test_without_importer);
 	return CHECK_DONE();
