@@ -542,6 +542,10 @@ struct vd_mesh_source {
 const struct vd_mesh_source *vd_mesh_sources(const struct vd_mesh *m,
 					     size_t *n);
 
+/* vd_file_xxh3 for a source: VD_ERR_IO unless `path` is a regular file
+ * read whole (a name such as /dev/zero or a FIFO, which a mesh may give,
+ * is not read: it counts as unreadable). */
+int vd_source_xxh3(const char *path, uint64_t *hash, uint64_t *size);
 /* Writes `path` (a "sources" file, schemas/manifest.md) listing s[0..n),
  * atomically. Returns VD_OK or VD_ERR_IO. */
 int vd_sources_write(const char *path, const struct vd_mesh_source *s,

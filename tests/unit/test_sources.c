@@ -9,6 +9,7 @@
 #include "check.h"
 #include "voxdag.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 static const char *dir;
@@ -32,8 +33,8 @@ static void write_text(const char *name, const char *text)
 	}
 }
 
-/* A 1x1 PNG is not needed: an undecodable texture is still a file read
- * (a warning), and the list is about files. */
+/* No texture need decode: an undecodable one is still a file read (a
+ * warning), and the list is about files. */
 static const char obj[] =
 	"mtllib a.mtl b c.mtl\n"
 	"v 0 0 0\nv 1 0 0\nv 0 1 0\n"
@@ -41,7 +42,8 @@ static const char obj[] =
 	"usemtl red\nf 1/1 2/2 3/3\n"
 	"usemtl tex\nf 1/1 2/2 3/3\n"
 	"usemtl lost\nf 1/1 2/2 3/3\n"
-	"usemtl tex\nf 1/1 2/2 3/3\n";
+	"usemtl tex\nf 1/1 2/2 3/3\n"
+	"usemtl zero\nf 1/1 2/2 3/3\n";
 
 static int warnings;
 static void on_warn(void *ctx, const char *line)
@@ -63,7 +65,7 @@ static struct vd_mesh *read_all(const char *path, int colours)
 	size_t n = 0;
 	CHECK_EQ(colours ? vd_mesh_read_attr(m, t, a, 8, &n)
 			 : vd_mesh_read(m, t, 8, &n), VD_OK);
-	CHECK_EQ(n, 4);
+	CHECK_EQ(n, 5);
 	return m;
 }
 
@@ -86,30 +88,33 @@ static void check_entry(const struct vd_mesh_source *s, const char *name,
 
 /* "mtllib a.mtl b c.mtl": no file is named all of that, so the whole name
  * is looked for in vain, then a.mtl, b (missing) and c.mtl are read.
- * Faces use red (no texture), tex (tex.png, twice) and lost (gone.png,
- * missing); unused (unused.png) is never read. */
+ * Faces use red (no texture), tex (tex.png, twice), lost (gone.png,
+ * missing) and zero (/dev/zero); unused (unused.png) is never read. */
 static void test_obj_list(void)
 {
 	write_text("s.obj", obj);
 	write_text("a.mtl", "newmtl red\nKd 1 0 0\nnewmtl tex\nmap_Kd tex.png\n");
 	write_text("c.mtl", "newmtl lost\nmap_Kd gone.png\n"
-			    "newmtl unused\nmap_Kd unused.png\n");
+			    "newmtl unused\nmap_Kd unused.png\n"
+			    "newmtl zero\nmap_Kd /dev/zero\n");
 	write_text("tex.png", "not a png");
 	write_text("unused.png", "never read");
 	warnings = 0;
 	struct vd_mesh *m = read_all(path_of("s.obj"), 1);
 	size_t n = 0;
 	const struct vd_mesh_source *s = vd_mesh_sources(m, &n);
-	CHECK_EQ(n, 6);
-	if (n == 6) {
+	CHECK_EQ(n, 7);
+	if (n == 7) {
 		check_entry(&s[0], "a.mtl b c.mtl", 0);
 		check_entry(&s[1], "a.mtl", 1);
 		check_entry(&s[2], "b", 0);
 		check_entry(&s[3], "c.mtl", 1);
 		check_entry(&s[4], "tex.png", 1);
 		check_entry(&s[5], "gone.png", 0);
+		/* not a regular file: never read (it has no end) */
+		CHECK(!strcmp(s[6].path, "/dev/zero") && !s[6].found);
 	}
-	CHECK_EQ(warnings, 3); /* b, tex.png undecodable, gone.png */
+	CHECK_EQ(warnings, 4); /* b, tex.png undecodable, gone.png, zero */
 	vd_mesh_close(m);
 	/* without colours no MTL is read */
 	m = read_all(path_of("s.obj"), 0);
@@ -152,6 +157,11 @@ static void test_write_check(void)
 	CHECK_EQ(vd_sources_check(list), VD_ERR_MISMATCH);
 	CHECK(strstr(vd_error_detail(), "missing"));
 	vd_error_clear();
+	/* a FIFO in its place: unreadable, and not waited on */
+	CHECK_EQ(mkfifo(keep[0], 0600), 0);
+	CHECK_EQ(vd_sources_check(list), VD_ERR_MISMATCH);
+	vd_error_clear();
+	unlink(keep[0]);
 	write_text("one", "1");
 	write_text("absent", "");
 	CHECK_EQ(vd_sources_check(list), VD_ERR_MISMATCH);

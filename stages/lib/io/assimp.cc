@@ -105,7 +105,7 @@ private:
 				return;
 		vd_mesh_source r = {};
 		r.path = dup(file);
-		r.found = vd_file_xxh3(file, &r.xxh3, &r.size) == VD_OK;
+		r.found = vd_source_xxh3(file, &r.xxh3, &r.size) == VD_OK;
 		if (!r.found) {
 			vd_error_clear();
 			r.xxh3 = r.size = 0;

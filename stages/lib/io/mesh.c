@@ -1464,7 +1464,7 @@ static int vd_mesh_note_as(struct vd_mesh *m, const char *path,
 		r->found = known->found;
 		r->xxh3 = known->xxh3;
 		r->size = known->size;
-	} else if (!(r->found = vd_file_xxh3(path, &r->xxh3, &r->size) ==
+	} else if (!(r->found = vd_source_xxh3(path, &r->xxh3, &r->size) ==
 		     VD_OK)) {
 		vd_error_clear();
 		r->xxh3 = r->size = 0;

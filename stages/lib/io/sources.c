@@ -11,12 +11,29 @@
 #include "voxdag.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define SOURCES_MAGIC "voxdag-sources 1"
+
+int vd_source_xxh3(const char *path, uint64_t *hash, uint64_t *size)
+{
+	/* O_NONBLOCK: opening a FIFO must not wait for a writer */
+	int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+	if (fd < 0)
+		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
+			       strerror(errno));
+	struct stat st;
+	int regular = fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+	close(fd);
+	if (!regular)
+		return vd_fail(VD_ERR_IO, "'%s' is not a regular file", path);
+	return vd_file_xxh3(path, hash, size);
+}
 
 /* A path on one line: '\' and newline escaped ("\\", "\n"); every other
  * byte as it is. */
@@ -138,7 +155,7 @@ int vd_sources_check(const char *path)
 			break;
 		}
 		uint64_t h, size;
-		int readable = vd_file_xxh3(name, &h, &size) == VD_OK;
+		int readable = vd_source_xxh3(name, &h, &size) == VD_OK;
 		vd_error_clear();
 		if (found && !readable)
 			err = vd_fail(VD_ERR_MISMATCH, "'%s' is missing or "
