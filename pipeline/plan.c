@@ -15,7 +15,9 @@
  *   keys                       the key journal (below)
  * Every output has a key: the stage version, the arguments and the
  * checksums of the inputs, and the digest of the output. A job whose
- * output exists with the same key and digest is skipped.
+ * output exists with the same key and digest is skipped (voxelize of a
+ * mesh only when the files its mesh pulled in are unchanged too:
+ * sources_fresh).
  */
 #include "pipeline.h"
 
