@@ -58,6 +58,7 @@ damage() {
 for spec in \
 	"svo:$(cd $D && ls vox/*.svo | sed -n 3p):vox" \
 	"vox-manifest:vox/manifest:vox" \
+	"vox-sources:vox/sources:vox" \
 	"dag-cell:$(cd $D && ls dag/cells/*.dag | sed -n 2p):dag/cells/" \
 	"dag-root:dag/root.dag:dag/root" \
 	"sdag-cell:$(cd $D && ls ssvdag/cells/*.sdag | sed -n 4p):ssvdag/cells/" \
