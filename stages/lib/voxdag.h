@@ -524,10 +524,11 @@ uint64_t vd_mesh_textures_loaded(const struct vd_mesh *m);
 
 /* A file the reader read besides the mesh (an OBJ's MTL files and the
  * textures its faces use, an AC3D file's textures, the buffers and images
- * of an imported scene), or a name it looked for and could not read: the
- * mesh's colours depend on each. `found` 0: not there or unreadable (xxh3
- * and size 0). The content is hashed just before the reader opens it, so
- * a change made while or after it reads is a difference, never missed. */
+ * of an imported scene), or a name it looked for and could not read: what
+ * is read from the mesh depends on each. `found` 0: not there or
+ * unreadable (xxh3 and size 0). The content is hashed just before the
+ * reader opens it, so a change made while or after it reads is a
+ * difference, never missed. */
 struct vd_mesh_source {
 	char *path;            /* as the reader opened it (relative names stay
 				* relative to the working directory) */

@@ -522,7 +522,7 @@ struct vd_mesh {
 	char **mtllibs;        /* OBJ: MTL files already read */
 	size_t nmtllibs;
 	/* Files read besides the mesh, and names looked for in vain
-	 * (vd_mesh_sources): what the colours depend on */
+	 * (vd_mesh_sources): what the output depends on besides the mesh */
 	struct vd_mesh_source *srcs;
 	size_t nsrcs, srcs_cap;
 	float *uvs;            /* OBJ: vt u v (not when spilled) */
@@ -1438,10 +1438,9 @@ static void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
 
 /* Records `path` as a source just before the reader opens it (or after
  * it looked for it in vain), with `known` (an importer's record) or the
- * hash of its content now: so
- * the content read is this one or a later one, never an earlier one that
- * a check could take for current. A path is recorded once: the first
- * look counts. */
+ * hash of its content now: so the content read is this one or a later
+ * one, never an earlier one that a check could take for current. A path
+ * is recorded once: the first look counts. */
 static int vd_mesh_note_as(struct vd_mesh *m, const char *path,
 			   const struct vd_mesh_source *known)
 {
