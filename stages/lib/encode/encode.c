@@ -1050,9 +1050,13 @@ static int source_of(int format)
 	return format == VD_ENC_SSVDAG48 ? 2 : vd_enc_format_symmetric(format);
 }
 
-int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+/* vd_enc_table_row; `sizes`, when not NULL, are vd_enc_size_bytes() of the
+ * encodings of the uncut DAGs (VD_ENC_ALL_ entries, 0 for one not built),
+ * taken for the full-resolution row instead of encoding everything again:
+ * the encode stage has just built them for its files. */
+static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
-		     struct vd_enc_row *row)
+		     struct vd_enc_row *row, const uint64_t *sizes)
 {
 	memset(row, 0, sizeof *row);
 	row->levels = levels;
@@ -1103,6 +1107,11 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
 		if (vd_enc_format_compact(f) && levels < 3) continue;
 		if (!use[source_of(f)]) continue;
+		if (sizes && levels == dag->levels) {
+			row->bytes[f] = sizes[f];
+			row->has[f] = 1;
+			continue;
+		}
 		struct vd_enc e;
 		err = vd_enc_build(&e, f, use[source_of(f)], NULL);
 		if (!err) {
@@ -1113,6 +1122,13 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	}
 	for (int k = 0; k < 3; k++) vd_dag_release(&cut[k]);
 	return err;
+}
+
+int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+		     const struct vd_dag *ssvdag48, int levels,
+		     struct vd_enc_row *row)
+{
+	return table_row(dag, ssvdag, ssvdag48, levels, row, NULL);
 }
 
 /* ------------------------------------------------------------- timings */
@@ -1487,6 +1503,7 @@ static int load_root(struct vd_dag *d, struct vd_transform *t,
 
 struct row_job {
 	const struct vd_dag *dag, *ssvdag, *ssvdag48;
+	const uint64_t *sizes; /* of the files just written */
 	struct vd_enc_row *rows;
 	int *errs;
 	char (*details)[512];
@@ -1496,8 +1513,8 @@ static void row_worker(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct row_job *r = ctx;
-	int err = vd_enc_table_row(r->dag, r->ssvdag, r->ssvdag48,
-				   r->dag->levels - (int)i, &r->rows[i]);
+	int err = table_row(r->dag, r->ssvdag, r->ssvdag48,
+			    r->dag->levels - (int)i, &r->rows[i], r->sizes);
 	r->errs[i] = err;
 	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
 			  vd_error_detail());
@@ -1610,7 +1627,7 @@ int vd_enc_run(const struct vd_enc_job *job)
 		err = NOMEM();
 		goto out;
 	}
-	struct row_job rj = {&dag, src[1], src[2], rows, errs, details};
+	struct row_job rj = {&dag, src[1], src[2], bytes, rows, errs, details};
 	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
 		goto out;
 	for (size_t i = 0; i < nrows; i++)
