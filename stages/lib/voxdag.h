@@ -617,7 +617,8 @@ uint64_t vd_current_rss_bytes(void);
 double vd_seconds(void);
 
 /* Builds the provenance text stored in chunk files:
- * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
+ * "tool=NAME version=X args='a' 'b' ...", without --threads (-j) and its
+ * value, which change no output byte. Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
 
