@@ -228,8 +228,9 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
 			 const char *provenance);
 
 /* Starts a section; data is streamed through zstd at `zstd_level` (0 means
- * the default level 3; negative stores the bytes uncompressed). Only one
- * section is open at a time. */
+ * the section's default: level 1 for BRKS, 3 for the rest, as measured in
+ * schemas/chunk-format.md; negative stores the bytes uncompressed). Only
+ * one section is open at a time. */
 int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
 			  int zstd_level);
 /* Appends `n` bytes to the open section. */
