@@ -1521,6 +1521,45 @@ static void row_worker(void *ctx, size_t i, int worker)
 }
 
 
+/* The encodings' files, one per format, built and written in parallel
+ * when the job has threads (independent of one another; at most `threads`
+ * of them in memory at once). An error's detail is the worker's, kept for
+ * the caller to report the first in format order. */
+struct file_job {
+	const struct vd_dag *const *src;
+	const struct vd_transform *t;
+	const char *dir, *name;
+	uint64_t *bytes;
+	int *written;
+	int errs[VD_ENC_ALL_];
+	char details[VD_ENC_ALL_][1024];
+};
+
+static void file_worker(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct file_job *fj = ctx;
+	int f = (int)i;
+	const struct vd_dag *d = fj->src[source_of(f)];
+	if (!d || (vd_enc_format_compact(f) && d->levels < 3))
+		return;
+	char path[4096 + 512];
+	snprintf(path, sizeof path, "%s/%s.%s", fj->dir, fj->name,
+		 format_names[f]);
+	struct vd_enc e;
+	int err = vd_enc_build(&e, f, d, fj->t);
+	if (err) err = reword(err, "cannot encode", path);
+	else if ((err = vd_enc_save(&e, path)))
+		err = reword(err, "cannot write", path);
+	fj->bytes[f] = vd_enc_size_bytes(&e);
+	fj->written[f] = !err;
+	vd_enc_release(&e);
+	fj->errs[f] = err;
+	if (err)
+		snprintf(fj->details[f], sizeof fj->details[f], "%s",
+			 vd_error_detail());
+}
+
 /* Files an output directory from before manifests may hold (so it can be
  * replaced); anything else there is the user's. */
 static int encode_file(const char *name)
@@ -1601,20 +1640,12 @@ int vd_enc_run(const struct vd_enc_job *job)
 	uint64_t bytes[VD_ENC_ALL_] = {0};
 	int written[VD_ENC_ALL_] = {0};
 	char path[4096 + 512];
-	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
-		if (vd_enc_format_compact(f) && dag.levels < 3) continue;
-		if (!src[source_of(f)]) continue;
-		struct vd_enc e;
-		snprintf(path, sizeof path, "%s/%s.%s", dir, name,
-			 format_names[f]);
-		err = vd_enc_build(&e, f, src[source_of(f)], &t1);
-		if (err) err = reword(err, "cannot encode", path);
-		else if ((err = vd_enc_save(&e, path)))
-			err = reword(err, "cannot write", path);
-		bytes[f] = vd_enc_size_bytes(&e);
-		written[f] = !err;
-		vd_enc_release(&e);
-	}
+	struct file_job fj = {src, &t1, dir, name, bytes, written, {0}, {{0}}};
+	if ((err = vd_parallel_for(VD_ENC_ALL_, job->threads, file_worker, &fj)))
+		goto out;
+	for (int f = 0; f < VD_ENC_ALL_ && !err; f++)
+		if (fj.errs[f])
+			err = vd_fail(fj.errs[f], "%s", fj.details[f]);
 	if (err) goto out;
 	double t_enc = vd_seconds() - t_enc0, t_tab0 = vd_seconds();
 
