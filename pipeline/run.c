@@ -509,6 +509,49 @@ static int deps_state(const struct plan *p, const struct job *j)
 	return waiting ? 1 : in_slurm ? 3 : 0;
 }
 
+/* The one job that can start while nothing runs, or -1. Such a job runs
+ * alone to its end: no other job's dependencies can finish meanwhile, and
+ * the plan grows only while nothing runs. Scans from `from` and stops at a
+ * second candidate, so the runner's cost stays near-linear in jobs. */
+static int lone_ready(const struct plan *p, int from)
+{
+	int found = -1;
+	for (int i = from; i < p->n; i++) {
+		const struct job *j = &p->jobs[i];
+		if (j->state != JOB_PENDING || deps_state(p, j) != 0)
+			continue;
+		if (found >= 0)
+			return -1;
+		found = i;
+	}
+	return found;
+}
+
+/* A job that runs alone gets the threads of every job slot, as voxelize
+ * always does: the stages write the same bytes for any --threads (which is
+ * why it is not part of a job's key), and the chain of root jobs after
+ * voxelize (svo-to-dag, symmetry-merge, encode on a one-cell scene or the
+ * root merges) would otherwise leave the other cores idle. Returns 0, or
+ * -1 when out of memory (the job keeps its threads). */
+static int widen_threads(const struct config *c, struct job *j)
+{
+	int all = c->threads * c->jobs;
+	for (int i = 1; j->argv[i] && j->argv[i + 1]; i++) {
+		if (strcmp(j->argv[i], "--threads") != 0)
+			continue;
+		if (atoi(j->argv[i + 1]) >= all)
+			return 0;
+		char *v = malloc(16);
+		if (!v)
+			return -1;
+		snprintf(v, 16, "%d", all);
+		free(j->argv[i + 1]);
+		j->argv[i + 1] = v;
+		return 0;
+	}
+	return 0;
+}
+
 static void fmt_time(char *buf, size_t cap, double s)
 {
 	if (s < 0 || s > 1e7)
@@ -876,6 +919,8 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	for (;;) {
 		/* start what is ready */
 		int all_left = 1;
+		int lone = !slurm && running == 0 && c->jobs > 1 ?
+			   lone_ready(p, scan_from) : -1;
 		for (int i = scan_from; i < p->n; i++) {
 			struct job *j = &p->jobs[i];
 			if (all_left && j->state != JOB_PENDING &&
@@ -959,6 +1004,8 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 				    (running > 0 &&
 				     mem_used + j->mem_estimate > c->mem_budget))
 					continue;
+				if (i == lone && running == 0)
+					widen_threads(c, j);
 				j->pid = start_job(p, j);
 				if (j->pid < 0) {
 					log_close(j);

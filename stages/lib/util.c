@@ -149,11 +149,23 @@ char *vd_provenance_new(const char *tool, int argc, char **argv)
 		return NULL;
 	p += sprintf(p, "tool=%s version=%s stage_version=%d args=", tool,
 		     VD_VERSION_STRING, vd_stage_version(tool));
+	int first = 1;
 	for (int i = 1; i < argc; i++) {
+		/* --threads changes no byte a stage writes, and the runner
+		 * gives a job running alone every core: left out, or a rerun
+		 * of one lost cell would change its file and so rebuild every
+		 * job after it (their keys cover their inputs' bytes) */
+		if (!strncmp(argv[i], "--threads=", 10) ||
+		    (!strncmp(argv[i], "-j", 2) && argv[i][2]))
+			continue;
+		if (!strcmp(argv[i], "--threads") || !strcmp(argv[i], "-j")) {
+			i++;
+			continue;
+		}
 		/* shell-quoted, so the line can be pasted back */
-		*p++ = i > 1 ? ' ' : '\0';
-		if (i == 1)
-			p--;
+		if (!first)
+			*p++ = ' ';
+		first = 0;
 		*p++ = '\'';
 		for (const char *c = argv[i]; *c; c++) {
 			if (*c == '\'') {

@@ -228,8 +228,9 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
 			 const char *provenance);
 
 /* Starts a section; data is streamed through zstd at `zstd_level` (0 means
- * the default level 3; negative stores the bytes uncompressed). Only one
- * section is open at a time. */
+ * the section's default: level 1 for BRKS, 3 for the rest, as measured in
+ * schemas/chunk-format.md; negative stores the bytes uncompressed). Only
+ * one section is open at a time. */
 int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
 			  int zstd_level);
 /* Appends `n` bytes to the open section. */
@@ -657,7 +658,8 @@ uint64_t vd_current_rss_bytes(void);
 double vd_seconds(void);
 
 /* Builds the provenance text stored in chunk files:
- * "tool=NAME version=X args='a' 'b' ...". Returns a malloc'd string (free
+ * "tool=NAME version=X args='a' 'b' ...", without --threads (-j) and its
+ * value, which change no output byte. Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
 

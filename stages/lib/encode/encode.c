@@ -1050,9 +1050,13 @@ static int source_of(int format)
 	return format == VD_ENC_SSVDAG48 ? 2 : vd_enc_format_symmetric(format);
 }
 
-int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+/* vd_enc_table_row; `sizes`, when not NULL, are vd_enc_size_bytes() of the
+ * encodings of the uncut DAGs (VD_ENC_ALL_ entries, 0 for one not built),
+ * taken for the full-resolution row instead of encoding everything again:
+ * the encode stage has just built them for its files. */
+static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
-		     struct vd_enc_row *row)
+		     struct vd_enc_row *row, const uint64_t *sizes)
 {
 	memset(row, 0, sizeof *row);
 	row->levels = levels;
@@ -1103,6 +1107,11 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
 		if (vd_enc_format_compact(f) && levels < 3) continue;
 		if (!use[source_of(f)]) continue;
+		if (sizes && levels == dag->levels) {
+			row->bytes[f] = sizes[f];
+			row->has[f] = 1;
+			continue;
+		}
 		struct vd_enc e;
 		err = vd_enc_build(&e, f, use[source_of(f)], NULL);
 		if (!err) {
@@ -1113,6 +1122,13 @@ int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	}
 	for (int k = 0; k < 3; k++) vd_dag_release(&cut[k]);
 	return err;
+}
+
+int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
+		     const struct vd_dag *ssvdag48, int levels,
+		     struct vd_enc_row *row)
+{
+	return table_row(dag, ssvdag, ssvdag48, levels, row, NULL);
 }
 
 /* ------------------------------------------------------------- timings */
@@ -1487,6 +1503,7 @@ static int load_root(struct vd_dag *d, struct vd_transform *t,
 
 struct row_job {
 	const struct vd_dag *dag, *ssvdag, *ssvdag48;
+	const uint64_t *sizes; /* of the files just written */
 	struct vd_enc_row *rows;
 	int *errs;
 	char (*details)[512];
@@ -1496,13 +1513,52 @@ static void row_worker(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct row_job *r = ctx;
-	int err = vd_enc_table_row(r->dag, r->ssvdag, r->ssvdag48,
-				   r->dag->levels - (int)i, &r->rows[i]);
+	int err = table_row(r->dag, r->ssvdag, r->ssvdag48,
+			    r->dag->levels - (int)i, &r->rows[i], r->sizes);
 	r->errs[i] = err;
 	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
 			  vd_error_detail());
 }
 
+
+/* The encodings' files, one per format, built and written in parallel
+ * when the job has threads (independent of one another; at most `threads`
+ * of them in memory at once). An error's detail is the worker's, kept for
+ * the caller to report the first in format order. */
+struct file_job {
+	const struct vd_dag *const *src;
+	const struct vd_transform *t;
+	const char *dir, *name;
+	uint64_t *bytes;
+	int *written;
+	int errs[VD_ENC_ALL_];
+	char details[VD_ENC_ALL_][1024];
+};
+
+static void file_worker(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct file_job *fj = ctx;
+	int f = (int)i;
+	const struct vd_dag *d = fj->src[source_of(f)];
+	if (!d || (vd_enc_format_compact(f) && d->levels < 3))
+		return;
+	char path[4096 + 512];
+	snprintf(path, sizeof path, "%s/%s.%s", fj->dir, fj->name,
+		 format_names[f]);
+	struct vd_enc e;
+	int err = vd_enc_build(&e, f, d, fj->t);
+	if (err) err = reword(err, "cannot encode", path);
+	else if ((err = vd_enc_save(&e, path)))
+		err = reword(err, "cannot write", path);
+	fj->bytes[f] = vd_enc_size_bytes(&e);
+	fj->written[f] = !err;
+	vd_enc_release(&e);
+	fj->errs[f] = err;
+	if (err)
+		snprintf(fj->details[f], sizeof fj->details[f], "%s",
+			 vd_error_detail());
+}
 
 /* Files an output directory from before manifests may hold (so it can be
  * replaced); anything else there is the user's. */
@@ -1584,20 +1640,12 @@ int vd_enc_run(const struct vd_enc_job *job)
 	uint64_t bytes[VD_ENC_ALL_] = {0};
 	int written[VD_ENC_ALL_] = {0};
 	char path[4096 + 512];
-	for (int f = 0; f < VD_ENC_ALL_ && !err; f++) {
-		if (vd_enc_format_compact(f) && dag.levels < 3) continue;
-		if (!src[source_of(f)]) continue;
-		struct vd_enc e;
-		snprintf(path, sizeof path, "%s/%s.%s", dir, name,
-			 format_names[f]);
-		err = vd_enc_build(&e, f, src[source_of(f)], &t1);
-		if (err) err = reword(err, "cannot encode", path);
-		else if ((err = vd_enc_save(&e, path)))
-			err = reword(err, "cannot write", path);
-		bytes[f] = vd_enc_size_bytes(&e);
-		written[f] = !err;
-		vd_enc_release(&e);
-	}
+	struct file_job fj = {src, &t1, dir, name, bytes, written, {0}, {{0}}};
+	if ((err = vd_parallel_for(VD_ENC_ALL_, job->threads, file_worker, &fj)))
+		goto out;
+	for (int f = 0; f < VD_ENC_ALL_ && !err; f++)
+		if (fj.errs[f])
+			err = vd_fail(fj.errs[f], "%s", fj.details[f]);
 	if (err) goto out;
 	double t_enc = vd_seconds() - t_enc0, t_tab0 = vd_seconds();
 
@@ -1610,7 +1658,7 @@ int vd_enc_run(const struct vd_enc_job *job)
 		err = NOMEM();
 		goto out;
 	}
-	struct row_job rj = {&dag, src[1], src[2], rows, errs, details};
+	struct row_job rj = {&dag, src[1], src[2], bytes, rows, errs, details};
 	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
 		goto out;
 	for (size_t i = 0; i < nrows; i++)
