@@ -785,10 +785,10 @@ void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
 /* Closes the top-level object, flushes and renames; frees j. */
 int vd_json_close(struct vd_json *j);
 
-/* ---- OpenVDB (vdb.cc)
- * OpenVDB grids in and out. vdb.cc is the only file that includes OpenVDB;
- * every exception is caught there and returned as an error code with a
- * detail line. The import driver (vdb_import.c) and the chunk export
+/* ---- OpenVDB (io/vdb.cc reads, io/vdb_write.cc writes)
+ * OpenVDB grids in and out. Those two are the only files that include
+ * OpenVDB; every exception is caught there and returned as an error code
+ * with a detail line. The import driver (vdb_import.c) and the chunk export
  * (vdb_export.c) are C on top of these calls.
  *
  * Index space: an OpenVDB voxel (i, j, k) is centred at index (i, j, k), so
