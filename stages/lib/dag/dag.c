@@ -1481,11 +1481,12 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
  * A level's distinct nodes are bounded by its part nodes plus one new
  * parent per part (cells above the parts' roots), its references by the
  * parts' plus one per part. The heap keeps holes: arrays that grow by
- * realloc may leave old copies behind (half the growing arrays again) and
- * the loads' freed images and sections are reused only in part (a quarter
- * of the largest part's load); the dragon's merges at 2^13 showed 2-3 MiB
- * of each. The fixed 16 MiB holds the code and threads (about 4 MiB
- * resident), zstd and small arrays. The parallel inner pass needs more
+ * realloc may leave old copies behind (half the growing arrays again), and
+ * the loads' freed images and sections, below glibc's rising mmap
+ * threshold, stay resident and are reused only in part (the dragon's
+ * merges at 2^15: up to 30% of the largest part's load beyond the parts
+ * once all are loaded; half of it is counted). The fixed 16 MiB holds the
+ * code and threads (about 4 MiB resident), zstd and small arrays. The parallel inner pass needs more
  * (inner_extra_bytes); it runs only when the budget covers that beyond
  * this bound. */
 void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d)
@@ -1531,7 +1532,7 @@ uint64_t vd_dag_estimate_merge(const struct vd_dag_census *c, uint32_t kind)
 	uint64_t parts = n[L - 1] + 8 * np * (uint64_t)L;
 	for (int l = 0; l < L - 1; l++) parts += 9 * n[l] + rb * r[l];
 	if (L >= 2) parts += 8 * n[L - 2];
-	uint64_t peak = parts + c->largest, holes = c->largest / 4;
+	uint64_t peak = parts + c->largest, holes = c->largest / 2;
 	/* the output below level l, and level l at work */
 	uint64_t below = n[L - 1] + np < 256 ? n[L - 1] + np : 256;
 	for (int l = L - 2; l >= 0; l--) {
