@@ -920,14 +920,15 @@ static int list_files(const char *dir, const char *ext, char ***out)
 /* Memory estimates are the stages' own bounds (vd_dag_estimate_header),
  * so the runner never plans a job its stage would refuse. */
 
-/* A part's share of a merge that builds `kind` from it: the bound of a
- * header of that kind with the given per-level counts. The counts of the
- * input chunk bound those of its DAG (merging only removes nodes). */
+/* A part's share of a merge that builds `kind` from it: the bound from
+ * the per-level counts of its header. The counts of the input chunk bound
+ * those of its DAG (merging only removes nodes); the bound is subadditive,
+ * so shares may be summed. */
 static uint64_t merge_share(const struct vd_chunk_header *h, uint32_t kind)
 {
-	struct vd_chunk_header d = *h;
-	d.kind = kind;
-	return vd_dag_estimate_header(&d);
+	struct vd_dag_census cen = {0};
+	vd_dag_census_add_header(&cen, h);
+	return vd_dag_estimate_merge(&cen, kind);
 }
 
 /* The --mem-budget of a DAG job (a cell or a merge) with estimate `est`:
@@ -1368,7 +1369,8 @@ static void plan_dag_stage(struct plan *p, int d)
 		struct vd_chunk_header h;
 		int ok = vd_chunk_read_header(in, &h) == VD_OK;
 		/* the stage's own bound for this input */
-		uint64_t est = ok ? vd_dag_estimate_header(&h) : c->job_mem_budget;
+		uint64_t est = !ok ? c->job_mem_budget : is_dag ?
+			vd_dag_estimate_header(&h) : merge_share(&h, kind);
 		snprintf(budget, sizeof budget, "%llu",
 			 (unsigned long long)dag_job_budget(c, est));
 		struct job *j = add_job(p, d, id, out, key);

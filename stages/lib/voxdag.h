@@ -1636,22 +1636,47 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 /* Bytes held by `dag`. */
 uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);
 
-/* Upper bounds of the peak bytes of vd_dag_from_svo() on an SVO with
+/* Upper bound of the peak bytes of vd_dag_from_svo() on an SVO with
  * `bricks` bricks, `leaves` non-empty level L-1 nodes and `parents`
- * non-empty level L-3 nodes (the SVO header's per-level counts), and of
- * vd_dag_merge() on parts holding `nodes` nodes and `refs` references in
- * total; inputs included. Bounds, not guesses: they assume no two nodes
- * are equal, so a real scan needs about half. The stages compare them with
- * --mem-budget before loading anything. */
+ * non-empty level L-3 nodes (the SVO header's per-level counts); input
+ * included. A bound, not a guess: it assumes no two nodes are equal, so a
+ * real scan needs about half. The stage compares it with --mem-budget
+ * before loading anything. */
 uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 				  uint64_t parents);
-uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs);
 
-/* The same bound from a chunk header alone, as the stages check it before
+/* The per-level totals of a merge's parts, all that its memory bound
+ * needs. Zero it, then add each part (loaded, or by its header). */
+struct vd_dag_census {
+	int levels;                    /* grid depth L (the first part's) */
+	uint64_t parts;                /* parts added */
+	uint64_t nodes[VD_MAX_LEVELS]; /* nodes on level l, over the parts */
+	uint64_t refs[VD_MAX_LEVELS];  /* references held on level l */
+	uint64_t largest;              /* the largest part's section bytes */
+};
+
+/* Adds a loaded part (exact counts). */
+void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d);
+
+/* Adds a part by its chunk header: an SVO header's counts bound those of
+ * its DAG (references on level l: the SVO's nodes on level l+1); a DAG
+ * header's node counts are exact and its references bounded by 8 per node,
+ * as headers do not count them. */
+void vd_dag_census_add_header(struct vd_dag_census *c,
+			      const struct vd_chunk_header *h);
+
+/* Upper bound of the peak bytes of vd_dag_merge() into `kind` on parts
+ * with census `c`, loading the parts (vd_dag_run) included. Assumes no
+ * two nodes are equal, so a merge that shares much needs less. It is
+ * subadditive: the bound of parts A and B together is at most the sum of
+ * theirs less VD_DAG_ESTIMATE_FIXED_BYTES, so a planner may sum shares. */
+uint64_t vd_dag_estimate_merge(const struct vd_dag_census *c, uint32_t kind);
+
+/* The bound from a chunk header alone, as the stages check it before
  * loading (and as a planner should): for an SVO header, what svo-to-dag
  * needs; for a DAG or SSVDAG header, that input's share of a merge or
- * symmetry merge (references bounded by 8 per node, as headers do not
- * count them). Sum the shares of a merge's inputs; each share includes
+ * symmetry merge into its own kind (vd_dag_estimate_merge() of its census
+ * for another). Sum the shares of a merge's inputs; each share includes
  * the fixed 16 MiB, so subtract VD_DAG_ESTIMATE_FIXED_BYTES per input
  * beyond the first. */
 #define VD_DAG_ESTIMATE_FIXED_BYTES (16ull << 20)

@@ -323,7 +323,7 @@ over=$(sed -n 's/.* peak \([0-9]*\) MiB.*/\1/p' $D/logs/runner.log | awk '$1 > 4
 [ "$over" -eq 0 ] && pass budget_no_job_over || fail budget_no_job_over "$over jobs over 40 MiB"
 
 # --- a merge that cannot fit the job budget (the root of 8 L1 DAGs of the
-# bunny at 2^10 estimates about 46 MiB against 32M) gets its estimate as
+# bunny at 2^10 estimates about 39 MiB against 32M) gets its estimate as
 # --mem-budget, up to the whole budget, and runs alone: the same minimal
 # root as with a budget that holds it, lossless, not a refused job
 levels_of() { $BIN/chunk-check -v "$1" | grep 'nodes per level'; }

@@ -227,6 +227,58 @@ static void test_merge_partial_and_mixed(void)
 	grid_free(&g);
 }
 
+/* The merge bound: a value worked out by hand from its comment in dag.c,
+ * and on real merges at least the parts and the output it must hold, no
+ * lower from headers than from loaded parts, and subadditive (what lets
+ * the planner sum shares). */
+static void test_merge_estimate(void)
+{
+	/* one part, L = 4, nodes 1 2 3 4 on levels 0..3, references 2 3 4:
+	 * parts 4 + 8*1*4 + (9+8) + (18+12) + (27+16) + 8*3 = 150; level 2
+	 * (bricks, d 4, refs 5): table 48*4 + 2*3 + 8192 = 8390 over the
+	 * late arrays, maps 15, bricks and sets 36 + 18, frontier 16: 8475,
+	 * below it the 5 leaves: 8630; level 1 (d 3, refs 4): output 43 + 21,
+	 * maps 10 + 15, sets 3 + 4, table 8340, frontier 16: 8452, below it
+	 * 5 + 88: 8695; level 0: 8657. The peak, 8695, plus the fixed part. */
+	struct vd_dag_census c = {.levels = 4, .parts = 1,
+				  .nodes = {1, 2, 3, 4}, .refs = {2, 3, 4, 0}};
+	CHECK_EQ(vd_dag_estimate_merge(&c, VD_KIND_DAG),
+		 8695 + VD_DAG_ESTIMATE_FIXED_BYTES);
+
+	struct grid g;
+	make_scene(&g, 6, SC_SHELL);
+	struct vd_dag parts[8], out;
+	const struct vd_dag *pp[8];
+	struct vd_dag_census all = {0}, half[2] = {{0}}, hdr = {0};
+	uint64_t held = 0;
+	for (int i = 0; i < 8; i++) {
+		struct vd_svo s;
+		grid_to_svo(&g, 1, (uint64_t)i, &s);
+		CHECK_EQ(vd_dag_from_svo(&parts[i], &s, VD_KIND_DAG, &opts, NULL), 0);
+		svo_free(&s);
+		pp[i] = &parts[i];
+		vd_dag_census_add(&all, &parts[i]);
+		vd_dag_census_add(&half[i / 4], &parts[i]);
+		struct vd_chunk_header h = {0};
+		vd_dag_header(&parts[i], &h);
+		vd_dag_census_add_header(&hdr, &h);
+		held += vd_dag_memory_bytes(&parts[i]);
+	}
+	struct vd_dag_stats st;
+	CHECK_EQ(vd_dag_merge(&out, pp, 8, VD_KIND_DAG, 0, &opts, &st), 0);
+	uint64_t est = vd_dag_estimate_merge(&all, VD_KIND_DAG);
+	CHECK_EQ(st.memory_estimate_bytes, est);
+	CHECK(est >= held + vd_dag_memory_bytes(&out) + VD_DAG_ESTIMATE_FIXED_BYTES);
+	CHECK(vd_dag_estimate_merge(&hdr, VD_KIND_DAG) >= est);
+	CHECK(vd_dag_estimate_merge(&all, VD_KIND_SSVDAG) >= est);
+	CHECK(est <= vd_dag_estimate_merge(&half[0], VD_KIND_DAG) +
+		     vd_dag_estimate_merge(&half[1], VD_KIND_DAG) -
+		     VD_DAG_ESTIMATE_FIXED_BYTES);
+	vd_dag_release(&out);
+	for (int i = 0; i < 8; i++) vd_dag_release(&parts[i]);
+	grid_free(&g);
+}
+
 static void test_merge_errors(void)
 {
 	struct grid g5, g6;
@@ -757,6 +809,7 @@ int main(void)
 	RUN(test_minimal_brute_force);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_merge_partial_and_mixed);
+	RUN(test_merge_estimate);
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
 	RUN(test_chunk_files);

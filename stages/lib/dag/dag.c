@@ -1456,22 +1456,106 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 	       VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
-/* Per input node and reference: the parts (9 + 8 per node for offsets and
- * bricks, 5 per reference), the output (at most the same again), two
- * levels of renaming maps (10 per node), the largest level's table (48 per
- * node). */
-uint64_t vd_dag_estimate_merge(uint64_t nodes, uint64_t refs)
+/* A merge's memory, from its engine (vd_dag_run, vd_dag_merge,
+ * run_engine). Parts are loaded one by one and all stay resident to the
+ * end: per node a mask (1) and an offset (8; none on level L-1), per
+ * reference a child (4) and a reflection (1, symmetric kinds), per level
+ * L-2 node a brick (8). While part i loads, its file image, its sections
+ * and the voxel count's two levels of 8 bytes are in flight (`largest`).
+ * The engine then builds the output bottom-up, one level l at a time, and
+ * what a level needs besides the output is freed before the next level
+ * starts; so the peak is the parts, plus the output of the levels built
+ * so far, plus the largest single level's working set, never a sum over
+ * levels:
+ *  - the parts' renaming maps of levels l and l+1 (id 4 + reflection 1
+ *    per part node) and the invariance sets of levels l and l+1 (1 per
+ *    output node);
+ *  - the hash table: at most 4 slots of 8 bytes per distinct node after
+ *    it doubles, 6 while it doubles (48), or its first size, at most 2
+ *    bytes per input node; frontiers of part roots (16 per part);
+ *  - the level's output: masks and offsets (9 per node), references
+ *    (4 or 5), bricks on level L-2 (8). On level L-2 the table is freed
+ *    before the masks, offsets and references are made, so the two are
+ *    not counted together there. Level L-1 of a merge holds at most the
+ *    256 distinct leaf masks.
+ * A level's distinct nodes are bounded by its part nodes plus one new
+ * parent per part (cells above the parts' roots), its references by the
+ * parts' plus one per part. The heap keeps holes: arrays that grow by
+ * realloc may leave old copies behind (half the growing arrays again), and
+ * the loads' freed images and sections, below glibc's rising mmap
+ * threshold, stay resident and are reused only in part (the dragon's
+ * merges at 2^15: up to 30% of the largest part's load beyond the parts
+ * once all are loaded; half of it is counted). The fixed 16 MiB holds the
+ * code and threads (about 4 MiB resident), zstd and small arrays. The parallel inner pass needs more
+ * (inner_extra_bytes); it runs only when the budget covers that beyond
+ * this bound. Measured serial peaks sit 1.3-1.6 times under it (the
+ * dragon's root at 2^17 from 29 L2 chunks: 294 M input nodes, bound 23.9
+ * GiB, peak 15.1 GiB in 270 s, so a 16 GiB budget cannot hold it safely;
+ * the old bound said 38.5 GiB). */
+void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d)
 {
-	return nodes * (17 + 17 + 10 + 48) + refs * 10 +
-	       VD_DAG_ESTIMATE_FIXED_BYTES;
+	if (!c->parts++) c->levels = d->levels;
+	uint64_t n = 0, r = 0;
+	for (int l = d->chunk_level; l < d->levels && l < VD_MAX_LEVELS; l++) {
+		c->nodes[l] += d->lv[l].nodes;
+		c->refs[l] += d->lv[l].refs;
+		n += d->lv[l].nodes;
+		r += d->lv[l].refs;
+	}
+	if (11 * n + 10 * r > c->largest) c->largest = 11 * n + 10 * r;
 }
 
-/* Nodes a chunk header announces over levels chunk_level..L-1. */
-static uint64_t header_nodes(const struct vd_chunk_header *h)
+void vd_dag_census_add_header(struct vd_dag_census *c,
+			      const struct vd_chunk_header *h)
 {
-	uint64_t n = 0;
-	for (uint32_t i = 0; i + 1 < h->level_count; i++) n += h->level_nodes[i];
-	return n;
+	int L = (int)h->levels, A = (int)h->chunk_level;
+	if (!c->parts++) c->levels = L;
+	uint64_t n = 0, r = 0;
+	for (int l = A; l < L && l < VD_MAX_LEVELS &&
+	     (uint32_t)(l - A) + 1 < h->level_count; l++) {
+		uint64_t nl = h->level_nodes[l - A], rl = 0;
+		if (l < L - 1)
+			rl = h->kind == VD_KIND_SVO ? h->level_nodes[l - A + 1]
+						    : 8 * nl;
+		c->nodes[l] += nl;
+		c->refs[l] += rl;
+		n += nl;
+		r += rl;
+	}
+	if (11 * n + 10 * r > c->largest) c->largest = 11 * n + 10 * r;
+}
+
+uint64_t vd_dag_estimate_merge(const struct vd_dag_census *c, uint32_t kind)
+{
+	int L = c->levels < VD_MAX_LEVELS ? c->levels : VD_MAX_LEVELS;
+	uint64_t np = c->parts, rb = kind == VD_KIND_DAG ? 4 : 5;
+	const uint64_t *n = c->nodes, *r = c->refs;
+	if (L < 1) return VD_DAG_ESTIMATE_FIXED_BYTES;
+	/* the parts (an ssvdag merge counts their references at 5) */
+	uint64_t parts = n[L - 1] + 8 * np * (uint64_t)L;
+	for (int l = 0; l < L - 1; l++) parts += 9 * n[l] + rb * r[l];
+	if (L >= 2) parts += 8 * n[L - 2];
+	uint64_t peak = parts + c->largest, holes = c->largest / 2;
+	/* the output below level l, and level l at work */
+	uint64_t below = n[L - 1] + np < 256 ? n[L - 1] + np : 256;
+	for (int l = L - 2; l >= 0; l--) {
+		uint64_t d = n[l] + np, ro = r[l] + np, dn = n[l + 1] + np;
+		uint64_t table = 48 * d + 2 * n[l] + (8 << 10);
+		uint64_t out = 9 * d + rb * ro, work;
+		if (l == L - 2) {
+			out += 8 * d;
+			uint64_t late = 9 * d + rb * ro; /* after the table */
+			work = 5 * n[l] + 9 * d + 9 * d / 2 +
+			       (table > late ? table : late);
+		} else {
+			work = out + out / 2 + 5 * n[l] + 5 * n[l + 1] + d +
+			       dn + table;
+		}
+		work += 16 * np + holes;
+		if (parts + below + work > peak) peak = parts + below + work;
+		below += out;
+	}
+	return peak + VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
 uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
@@ -1481,8 +1565,9 @@ uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
 		return vd_dag_estimate_from_svo(n >= 3 ? h->level_nodes[n - 3] : 1,
 						n >= 2 ? h->level_nodes[n - 2] : 1,
 						n >= 4 ? h->level_nodes[n - 4] : 1);
-	uint64_t nodes = header_nodes(h);
-	return vd_dag_estimate_merge(nodes, 8 * nodes);
+	struct vd_dag_census c = {0};
+	vd_dag_census_add_header(&c, h);
+	return vd_dag_estimate_merge(&c, h->kind);
 }
 
 static int is_dag_kind(uint32_t kind)
@@ -1662,7 +1747,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 	}
 	uint64_t cellA = parts[0]->cell_morton >>
 			 (3 * (parts[0]->chunk_level - A));
-	uint64_t nodes = 0, refs = 0, voxels = 0;
+	uint64_t nodes = 0, voxels = 0;
+	struct vd_dag_census cen = {0};
 	size_t np = 0;
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_dag *d = parts[i];
@@ -1680,10 +1766,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		pr[i].start = d->chunk_level == 0 ? 0 :
 			d->cell_morton * cell_span(L, d->chunk_level);
 		pr[i].end = pr[i].start + cell_span(L, d->chunk_level);
-		for (int l = d->chunk_level; l < L; l++) {
-			nodes += d->lv[l].nodes;
-			refs += d->lv[l].refs;
-		}
+		for (int l = d->chunk_level; l < L; l++) nodes += d->lv[l].nodes;
+		vd_dag_census_add(&cen, d);
 		voxels += d->voxels;
 	}
 	qsort(pr, n, sizeof *pr, part_cmp);
@@ -1706,7 +1790,7 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		stats->input_voxels = voxels;
 		stats->input_nodes = nodes;
 	}
-	uint64_t need = vd_dag_estimate_merge(nodes, refs);
+	uint64_t need = vd_dag_estimate_merge(&cen, kind);
 	if ((err = check_budget(opts, need, stats))) goto out;
 	out->kind = kind;
 	out->levels = L;
@@ -2303,7 +2387,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 			free(pp);
 			return NOMEM();
 		}
-		uint64_t nodes = 0, refs = 0;
+		struct vd_dag_census cen = {0};
 		for (size_t i = 0; i < n && !err; i++) {
 			const char *in = job->inputs[i];
 			uint32_t want = !sym || !job->merge ? VD_KIND_DAG
@@ -2325,19 +2409,16 @@ int vd_dag_run(const struct vd_dag_job *job)
 					      "'%s' (chunks of another scene or "
 					      "resolution?)", in, job->inputs[0]);
 			/* the inputs so far exactly, this one by its header */
-			uint64_t est = vd_dag_estimate_merge(nodes, refs) +
-				       vd_dag_estimate_header(h) -
-				       VD_DAG_ESTIMATE_FIXED_BYTES;
+			struct vd_dag_census ch = cen;
+			vd_dag_census_add_header(&ch, h);
+			uint64_t est = vd_dag_estimate_merge(&ch, job->kind);
 			if (!err && (err = check_budget(o, est, &st)))
 				err = reword(err, "cannot load", in);
 			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
 				err = reword(err, "cannot read", in);
 			vd_chunk_free(c);
 			c = NULL;
-			for (int l = parts[i].chunk_level; !err && l < parts[i].levels; l++) {
-				nodes += parts[i].lv[l].nodes;
-				refs += parts[i].lv[l].refs;
-			}
+			if (!err) vd_dag_census_add(&cen, &parts[i]);
 			pp[i] = &parts[i];
 		}
 		t_load = vd_seconds() - t0;
