@@ -9,21 +9,9 @@
 // C side (vdb_import.c) does the placement, chunking and writing.
 #include "io/vdb_shim.h"
 
-#include <cerrno>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <exception>
-#include <fcntl.h>
-#include <streambuf>
-#include <ostream>
-#include <string>
-#include <unistd.h>
-#include <vector>
-
 using openvdb::Coord;
 using openvdb::CoordBBox;
-using vd_shim::brick_table;
+using vd_shim::brick_table; // the colour bricks
 using vd_shim::fail_exception;
 using vd_shim::init_once;
 

@@ -9,8 +9,14 @@
 
 #include <openvdb/openvdb.h>
 
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <exception>
 #include <mutex>
+#include <string>
+#include <vector>
 
 namespace vd_shim {
 

@@ -6,17 +6,10 @@
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/MeshToVolume.h>
 
-#include <cerrno>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <exception>
 #include <fcntl.h>
-#include <streambuf>
 #include <ostream>
-#include <string>
+#include <streambuf>
 #include <unistd.h>
-#include <vector>
 
 using openvdb::Coord;
 using openvdb::CoordBBox;
