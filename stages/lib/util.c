@@ -139,6 +139,21 @@ int vd_stage_version(const char *tool)
 	return 0;
 }
 
+void *vd_grow(void *a, size_t n, size_t *cap, size_t elem, size_t first)
+{
+	if (n < *cap)
+		return a;
+	size_t c = *cap ? 2 * *cap : first;
+	if (c <= n)
+		c = n + 1;
+	if (c > SIZE_MAX / elem)
+		return NULL;
+	void *p = realloc(a, c * elem);
+	if (p)
+		*cap = c;
+	return p;
+}
+
 char *vd_provenance_new(const char *tool, int argc, char **argv)
 {
 	size_t n = strlen(tool) + 64;

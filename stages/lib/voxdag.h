@@ -657,6 +657,11 @@ uint64_t vd_current_rss_bytes(void);
 /* Monotonic seconds. */
 double vd_seconds(void);
 
+/* Room for element n of a doubling array of `elem`-byte elements with
+ * capacity *cap (`first` when empty): returns the array, moved if it grew,
+ * with *cap > n; NULL when out of memory, the old array untouched. */
+void *vd_grow(void *a, size_t n, size_t *cap, size_t elem, size_t first);
+
 /* Builds the provenance text stored in chunk files:
  * "tool=NAME version=X args='a' 'b' ...", without --threads (-j) and its
  * value, which change no output byte. Returns a malloc'd string (free

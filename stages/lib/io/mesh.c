@@ -1447,14 +1447,11 @@ static int vd_mesh_note_as(struct vd_mesh *m, const char *path,
 	for (size_t i = 0; i < m->nsrcs; i++)
 		if (!strcmp(m->srcs[i].path, path))
 			return VD_OK;
-	if (m->nsrcs == m->srcs_cap) {
-		size_t cap = m->srcs_cap ? 2 * m->srcs_cap : 8;
-		struct vd_mesh_source *p = realloc(m->srcs, cap * sizeof *p);
-		if (!p)
-			return vd_fail(VD_ERR_NOMEM, "the list of files read");
-		m->srcs = p;
-		m->srcs_cap = cap;
-	}
+	struct vd_mesh_source *p = vd_grow(m->srcs, m->nsrcs, &m->srcs_cap,
+					   sizeof *p, 8);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "the list of files read");
+	m->srcs = p;
 	struct vd_mesh_source *r = &m->srcs[m->nsrcs];
 	memset(r, 0, sizeof *r);
 	if (!(r->path = strdup(path)))
@@ -1516,16 +1513,13 @@ static char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
  * failure. */
 static int vd_mesh_tex_new(struct vd_mesh *m, char *path)
 {
-	if (m->ntexs == m->texs_cap) {
-		size_t cap = m->texs_cap ? 2 * m->texs_cap : 8;
-		struct vd_tex_slot *t = realloc(m->texs, cap * sizeof *t);
-		if (!t) {
-			free(path);
-			return -1;
-		}
-		m->texs = t;
-		m->texs_cap = cap;
+	struct vd_tex_slot *a = vd_grow(m->texs, m->ntexs, &m->texs_cap,
+					sizeof *a, 8);
+	if (!a) {
+		free(path);
+		return -1;
 	}
+	m->texs = a;
 	struct vd_tex_slot *t = &m->texs[m->ntexs];
 	memset(t, 0, sizeof *t);
 	t->path = path;
@@ -1584,14 +1578,11 @@ static void vd_mesh_free_materials(struct vd_mesh *m)
 
 static int vd_mesh_add_material(struct vd_mesh *m, const char *name)
 {
-	if (m->nmats == m->mats_cap) {
-		size_t cap = m->mats_cap ? 2 * m->mats_cap : 16;
-		struct vd_material *p = realloc(m->mats, cap * sizeof *p);
-		if (!p)
-			return vd_fail(VD_ERR_NOMEM, "materials");
-		m->mats = p;
-		m->mats_cap = cap;
-	}
+	struct vd_material *p = vd_grow(m->mats, m->nmats, &m->mats_cap,
+					sizeof *p, 16);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "materials");
+	m->mats = p;
 	struct vd_material *mt = &m->mats[m->nmats];
 	if (!(mt->name = strdup(name)))
 		return vd_fail(VD_ERR_NOMEM, "materials");
