@@ -78,9 +78,10 @@ scaling fg_terrain_reykjavik.ply 14
 # The whole pipeline through the runner: per stage, voxels per second per
 # core (voxels over the sum of the stage's process seconds, one thread per
 # process) and the largest process's peak memory.
-pipeline() { # pipeline NAME SCENE LEVELS
-	local name=bench-$1 cfg=$OUT/$1.yaml
-	lossless_yaml "$name" "$DATA/$2" "$3" auto \
+pipeline() { # pipeline NAME SCENE LEVELS (SCENE: a file in $DATA, or a path)
+	local name=bench-$1 cfg=$OUT/$1.yaml mesh=$DATA/$2
+	case $2 in */*) mesh=$2 ;; esac
+	lossless_yaml "$name" "$mesh" "$3" auto \
 		"{jobs: 2, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}" > "$cfg"
 	rm -rf "out/$name"
 	local t0=$(date +%s.%N)
@@ -105,6 +106,14 @@ echo
 pipeline dragon-12 stanford_dragon.ply 12
 pipeline dragon-14 stanford_dragon.ply 14
 pipeline terrain-14 fg_terrain_reykjavik.ply 14
+# Sponza at 2^15 (issue 12), once config/fetch-sponza.sh has fetched it
+# (Dabrovic's original; the script says why not Crytek's remake).
+SPONZA=${VOXDAG_DATA:-out/data}/sponza/sponza.obj
+if [ -f "$SPONZA" ]; then
+	pipeline sponza-15 "$SPONZA" 15
+else
+	echo "bench: $SPONZA is absent (config/fetch-sponza.sh fetches it); no Sponza row"
+fi
 
 # Memory budgets (issue 10): every pass of voxelize within --mem-budget.
 # Each run either finishes under its budget or stops early with one line
