@@ -1684,8 +1684,8 @@ void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d);
 void vd_dag_census_add_header(struct vd_dag_census *c,
 			      const struct vd_chunk_header *h);
 
-/* Upper bound of the peak bytes of vd_dag_merge() into `kind` on parts
- * with census `c`, loading the parts (vd_dag_run) included. Assumes no
+/* Upper bound of the peak bytes of vd_dag_merge_consume() into `kind` on
+ * parts with census `c`, loading the parts (vd_dag_run) included. Assumes no
  * two nodes are equal, so a merge that shares much needs less. It is
  * subadditive: the bound of parts A and B together is at most the sum of
  * theirs less VD_DAG_ESTIMATE_FIXED_BYTES, so a planner may sum shares. */
