@@ -1552,9 +1552,9 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
  * its parts whole, holds them all to the end (`keep`). Measured serial
  * peaks sit 1.1-1.6 times under it, closest on small merges whose freed
  * arrays stay in the heap (the dragon's root from its L1 chunks at 2^13:
- * bound 200 MiB, peak 186; at 2^15: 2119 and 1551; at 2^17: 294 M input
+ * bound 200 MiB, peak 186; at 2^15: 2119 and 1551; at 2^17: 256 M input
  * nodes, bound 15.0 GiB, peak 9.3 GiB, where the parts held whole and a
- * doubling table gave a bound of 22-24 GiB and a peak of 15.1 GiB). */
+ * doubling table gave a bound of 22.0 GiB and a peak of 13.9 GiB). */
 void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d)
 {
 	if (!c->parts++) c->levels = d->levels;
