@@ -1581,6 +1581,18 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		 size_t n, uint32_t kind, int chunk_level,
 		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats);
 
+/* vd_dag_merge on parts[0..n-1] it takes over: it frees each part's levels
+ * as soon as it has read them (so the merge's lower levels are never held
+ * twice, as parts and as output) and releases every part before it
+ * returns, whatever the outcome. Its peak is the one
+ * vd_dag_estimate_merge() bounds; vd_dag_merge, which only reads its
+ * parts, holds them whole to the end and is checked against a larger
+ * bound. */
+int vd_dag_merge_consume(struct vd_dag *out, struct vd_dag *parts, size_t n,
+			 uint32_t kind, int chunk_level,
+			 const struct vd_dag_opts *opts,
+			 struct vd_dag_stats *stats);
+
 /* Calls fn(ctx, key, brick) for every non-empty brick of `dag` in Morton
  * order, applying reflections (key and brick as in struct vd_svo; for
  * L < 2 one brick, key 0). Stops at and returns the first non-zero return
@@ -1658,6 +1670,8 @@ struct vd_dag_census {
 	uint64_t nodes[VD_MAX_LEVELS]; /* nodes on level l, over the parts */
 	uint64_t refs[VD_MAX_LEVELS];  /* references held on level l */
 	uint64_t largest;              /* the largest part's section bytes */
+	uint64_t big_nodes[VD_MAX_LEVELS]; /* most nodes of one part on l */
+	uint64_t big_refs[VD_MAX_LEVELS];  /* most references of one part */
 };
 
 /* Adds a loaded part (exact counts). */
@@ -1670,8 +1684,8 @@ void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d);
 void vd_dag_census_add_header(struct vd_dag_census *c,
 			      const struct vd_chunk_header *h);
 
-/* Upper bound of the peak bytes of vd_dag_merge() into `kind` on parts
- * with census `c`, loading the parts (vd_dag_run) included. Assumes no
+/* Upper bound of the peak bytes of vd_dag_merge_consume() into `kind` on
+ * parts with census `c`, loading the parts (vd_dag_run) included. Assumes no
  * two nodes are equal, so a merge that shares much needs less. It is
  * subadditive: the bound of parts A and B together is at most the sum of
  * theirs less VD_DAG_ESTIMATE_FIXED_BYTES, so a planner may sum shares. */

@@ -234,16 +234,39 @@ static void test_merge_partial_and_mixed(void)
 static void test_merge_estimate(void)
 {
 	/* one part, L = 4, nodes 1 2 3 4 on levels 0..3, references 2 3 4:
-	 * parts 4 + 8*1*4 + (9+8) + (18+12) + (27+16) + 8*3 = 150; level 2
-	 * (bricks, d 4, refs 5): table 48*4 + 2*3 + 8192 = 8390 over the
-	 * late arrays, maps 15, bricks and sets 36 + 18, frontier 16: 8475,
-	 * below it the 5 leaves: 8630; level 1 (d 3, refs 4): output 43 + 21,
-	 * maps 10 + 15, sets 3 + 4, table 8340, frontier 16: 8452, below it
-	 * 5 + 88: 8695; level 0: 8657. The peak, 8695, plus the fixed part. */
+	 * parts 4 + 8*1*4 + (9+8) + (18+12) + (27+16) + 8*3 = 150, all held
+	 * on level 2 (bricks, d 4, refs 5): table 48*4 + 2*3 + 8192 = 8390
+	 * over the late arrays, maps 15, bricks and sets 36 + 18, frontier
+	 * 16: 8475, below it the 5 leaves: 8630; level 1 (d 3, refs 4): held
+	 * 32 + 17 above and the part's level 1, 30; output 43 + 21, maps
+	 * 10 + 15, sets 3 + 4, a table of 1024 slots at least (8192),
+	 * frontier 16:
+	 * 8304, below it 5 + 88: 8476; level 0 (d 2, refs 3): held 32 + 17,
+	 * output 30 + 15, maps 5 + 10, sets 2 + 3, table 8192, frontier 16,
+	 * below 136: 8458. The peak, 8630, plus the fixed part. */
 	struct vd_dag_census c = {.levels = 4, .parts = 1,
-				  .nodes = {1, 2, 3, 4}, .refs = {2, 3, 4, 0}};
+				  .nodes = {1, 2, 3, 4}, .refs = {2, 3, 4, 0},
+				  .big_nodes = {1, 2, 3, 4},
+				  .big_refs = {2, 3, 4, 0}};
 	CHECK_EQ(vd_dag_estimate_merge(&c, VD_KIND_DAG),
-		 8695 + VD_DAG_ESTIMATE_FIXED_BYTES);
+		 8630 + VD_DAG_ESTIMATE_FIXED_BYTES);
+	/* two parts with a big level 1 (1000 nodes, 3000 references, 600
+	 * and 1800 of them in one part), 10 bricks with 40 references, 4
+	 * leaves: parts 64 + 21000 + 330 + 4 = 21398, all held on level 2
+	 * (d 12, refs 42): table 576 + 20 + 8192, maps 50, bricks and sets
+	 * 108 + 54, frontiers 32: 9032, below it 6: 30436; level 1 (d 1002,
+	 * refs 3002): held 64 above and the big part's 5400 + 7200, output
+	 * 21026 and 10513, maps 5000 + 50, sets 1002 + 12, 4 slots a node
+	 * (32064), frontiers 32, below 6 + 372: 82741; level 0 (d 2, refs
+	 * 2): held 64, 26 + 13 + 5000 + 2 + 1002 + 8192 + 32, below 21404:
+	 * 35735. The peak is level 1's. */
+	struct vd_dag_census c2 = {.levels = 4, .parts = 2,
+				   .nodes = {0, 1000, 10, 4},
+				   .refs = {0, 3000, 40, 0},
+				   .big_nodes = {0, 600, 6, 4},
+				   .big_refs = {0, 1800, 24, 0}};
+	CHECK_EQ(vd_dag_estimate_merge(&c2, VD_KIND_DAG),
+		 82741 + VD_DAG_ESTIMATE_FIXED_BYTES);
 
 	struct grid g;
 	make_scene(&g, 6, SC_SHELL);
@@ -265,7 +288,9 @@ static void test_merge_estimate(void)
 		held += vd_dag_memory_bytes(&parts[i]);
 	}
 	struct vd_dag_stats st;
-	CHECK_EQ(vd_dag_merge(&out, pp, 8, VD_KIND_DAG, 0, &opts, &st), 0);
+	CHECK_EQ(vd_dag_merge_consume(&out, parts, 8, VD_KIND_DAG, 0, &opts,
+				      &st), 0);
+	(void)pp;
 	uint64_t est = vd_dag_estimate_merge(&all, VD_KIND_DAG);
 	CHECK_EQ(st.memory_estimate_bytes, est);
 	CHECK(est >= held + vd_dag_memory_bytes(&out) + VD_DAG_ESTIMATE_FIXED_BYTES);
@@ -661,6 +686,23 @@ static void real_mesh(const char *mesh, int L)
 				}
 				CHECK(dags_identical(&par, &root));
 				vd_dag_release(&par);
+			}
+			/* the merge that frees its parts as it reads them makes
+			 * the same bytes, serial and parallel, and releases them */
+			for (int t = 0; t < 2 && L0 > 0; t++) {
+				struct vd_dag own, *cp = calloc(n, sizeof *cp);
+				struct vd_dag_opts po = {3, 0, NULL};
+				for (uint64_t i = 0; i < n; i++)
+					CHECK_EQ(vd_dag_from_svo(&cp[i], &svo[i],
+								 k ? VD_KIND_SSVDAG : VD_KIND_DAG,
+								 &opts, NULL), VD_OK);
+				CHECK_EQ(vd_dag_merge_consume(&own, cp, n, root.kind, 0,
+							      t ? &po : &opts, NULL), 0);
+				CHECK(dags_identical(&own, &root));
+				for (uint64_t i = 0; i < n; i++)
+					CHECK(!cp[i].levels && !cp[i].lv[L - 1].mask);
+				vd_dag_release(&own);
+				free(cp);
 			}
 			struct vd_dag_diff diff;
 			CHECK_EQ(vd_dag_compare_svo(&root, sp, n, &diff), VD_OK);

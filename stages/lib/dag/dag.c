@@ -94,6 +94,17 @@ static int table_init(uint64_t **slot, uint64_t *scap, uint64_t inputs)
 	return VD_OK;
 }
 
+/* A table that holds `inputs` distinct entries at under half load. */
+static int table_exact(uint64_t **slot, uint64_t *scap, uint64_t inputs)
+{
+	uint64_t c = 1024;
+	while (c <= 2 * inputs) c *= 2;
+	*slot = calloc((size_t)c, sizeof(uint64_t));
+	if (!*slot) return NOMEM();
+	*scap = c;
+	return VD_OK;
+}
+
 static int table_rehash(uint64_t **slot, uint64_t *scap)
 {
 	uint64_t nc = *scap * 2, *old = *slot;
@@ -308,8 +319,9 @@ struct engine {
 	int sym, L, A;
 	int g48;                           /* sym over the 48, not the 8 */
 	uint64_t cellA;
-	const struct vd_dag *const *parts; /* non-empty, sorted by cell */
+	struct vd_dag *const *parts;       /* non-empty, sorted by cell */
 	size_t np;
+	int consume;                       /* free parts' levels once read */
 	const struct vd_svo *svo;          /* or NULL */
 	struct vd_dag *out;
 	struct vd_dag_stats *st;
@@ -346,6 +358,31 @@ static void engine_advance(struct engine *e, uint8_t **inv, struct front *nf,
 	remaps_free(e->rm, e->np);
 	e->rm = *rm;
 	*rm = NULL;
+}
+
+/* Part p's level l is read: when the engine owns the parts, its arrays go
+ * now (the counts stay), so a merge never holds the parts' lower levels
+ * together with the output built from them. Level L-2 takes the bricks
+ * and the leaf masks with it. */
+static void part_drop(struct engine *e, size_t p, int l)
+{
+	if (!e->consume) return;
+	struct vd_dag *d = e->parts[p];
+	for (int k = l; k < (l == e->L - 2 ? e->L : l + 1); k++) {
+		struct vd_dag_level *lv = &d->lv[k];
+		free(lv->mask);
+		free(lv->first);
+		free(lv->child);
+		free(lv->refl);
+		lv->mask = NULL;
+		lv->first = NULL;
+		lv->child = NULL;
+		lv->refl = NULL;
+	}
+	if (l == e->L - 2) {
+		free(d->bricks);
+		d->bricks = NULL;
+	}
 }
 
 static struct remap *remaps_new(struct engine *e, int l)
@@ -646,11 +683,12 @@ static int level_brick(struct engine *e)
 
 	for (size_t p = 0; p < e->np; p++) {
 		const struct vd_dag *d = e->parts[p];
-		if (d->chunk_level > l) continue;
-		for (uint64_t i = 0; i < d->lv[l].nodes; i++)
-			if ((err = brick_add(e, &b, part_brick(d, i), asis,
-					     &rm[p].id[i], &rm[p].r[i])))
-				goto out;
+		if (d->chunk_level <= l)
+			for (uint64_t i = 0; i < d->lv[l].nodes; i++)
+				if ((err = brick_add(e, &b, part_brick(d, i), asis,
+						     &rm[p].id[i], &rm[p].r[i])))
+					goto out;
+		part_drop(e, p, l);
 	}
 	if (e->svo && e->svo->chunk_level <= l &&
 	    (err = svo_bricks(e, &b, asis, &nf)))
@@ -1089,16 +1127,19 @@ static void ipass_free(struct ipass *ip)
  * frontier groups (at most e->fr.n). Per element: hash 8, mask and set 2,
  * first-element and id maps 12, record offset 8, record 13 and 5 a
  * reference, shard table at work 8 at most (51); a group's start 8 more; a
- * part node's key children 5 a reference. The serial pass's table, which
- * the estimates count, is not made: this is an upper bound. */
+ * part node's key children 5 a reference. The parts' level stays whole
+ * until the pass ends, where the serial pass frees it part by part and the
+ * estimate counts one part's: 9 a node and 5 a reference more. The serial
+ * pass's table, which the estimates count, is not made: this is an upper
+ * bound. */
 static uint64_t inner_extra_bytes(const struct engine *e, int l,
 				  uint64_t groups)
 {
 	uint64_t b = (1 << 20) + groups * (51 + 8) + e->fr.n * 5;
 	for (size_t p = 0; p < e->np; p++)
 		if (e->parts[p]->chunk_level <= l)
-			b += e->parts[p]->lv[l].nodes * 51 +
-			     e->parts[p]->lv[l].refs * 10;
+			b += e->parts[p]->lv[l].nodes * 60 +
+			     e->parts[p]->lv[l].refs * 15;
 	return b;
 }
 
@@ -1327,8 +1368,17 @@ static int level_inner(struct engine *e, int l)
 	if (!rm) return NOMEM();
 	if (inner_parallel_pays(e, l)) {
 		if ((err = inner_parallel(e, l, asis, &b, &nf, rm))) goto out;
+		for (size_t p = 0; p < e->np; p++)
+			if (e->parts[p]->chunk_level <= l) part_drop(e, p, l);
 	} else {
-		if ((err = table_init(&b.slot, &b.scap, expect))) goto out;
+		/* A merge's inner levels are about half distinct: a table
+		 * for all of them at once never doubles, so it is never held
+		 * twice (and its size is known before the level starts:
+		 * the parts' nodes and a group per frontier cell at most). */
+		if (e->np ? (err = table_exact(&b.slot, &b.scap, expect -
+					       e->fr.n / 4 + e->fr.n))
+			  : (err = table_init(&b.slot, &b.scap, expect)))
+			goto out;
 		uint8_t m, inv;
 		uint64_t key[9];
 		for (size_t p = 0; p < e->np; p++) {
@@ -1340,6 +1390,7 @@ static int level_inner(struct engine *e, int l)
 					goto out;
 				rm[p].r[i] = m;
 			}
+			part_drop(e, p, l);
 		}
 		if ((err = frontier_groups(e, &b, asis, &nf))) goto out;
 	}
@@ -1456,23 +1507,32 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
 	       VD_DAG_ESTIMATE_FIXED_BYTES;
 }
 
-/* A merge's memory, from its engine (vd_dag_run, vd_dag_merge,
- * run_engine). Parts are loaded one by one and all stay resident to the
- * end: per node a mask (1) and an offset (8; none on level L-1), per
- * reference a child (4) and a reflection (1, symmetric kinds), per level
- * L-2 node a brick (8). While part i loads, its file image, its sections
- * and the voxel count's two levels of 8 bytes are in flight (`largest`).
- * The engine then builds the output bottom-up, one level l at a time, and
- * what a level needs besides the output is freed before the next level
- * starts; so the peak is the parts, plus the output of the levels built
- * so far, plus the largest single level's working set, never a sum over
- * levels:
+/* A merge's memory, from its engine (vd_dag_run, vd_dag_merge_consume,
+ * run_engine). Parts are loaded one by one: per node a mask (1) and an
+ * offset (8; none on level L-1), per reference a child (4) and a
+ * reflection (1, symmetric kinds), per level L-2 node a brick (8). While
+ * part i loads, its file image, its sections and the voxel count's two
+ * levels of 8 bytes are in flight (`largest`). The engine then builds the
+ * output bottom-up, one level l at a time, and what a level needs besides
+ * the output is freed before the next level starts; so the peak is the
+ * parts still held, plus the output of the levels built so far, plus the
+ * largest single level's working set, never a sum over levels:
+ *  - the parts: all of them up to the brick level (L-2), which frees
+ *    levels L-2 and L-1 part by part; on an inner level l, their levels
+ *    above l, and of level l the one part being read (the others' are
+ *    either still unread or freed and replaced by the output, which is
+ *    counted in full below and has no more nodes nor references than
+ *    what it was read from);
  *  - the parts' renaming maps of levels l and l+1 (id 4 + reflection 1
  *    per part node) and the invariance sets of levels l and l+1 (1 per
  *    output node);
- *  - the hash table: at most 4 slots of 8 bytes per distinct node after
- *    it doubles, 6 while it doubles (48), or its first size, at most 2
- *    bytes per input node; frontiers of part roots (16 per part);
+ *  - the hash table: on the brick level at most 4 slots of 8 bytes per
+ *    distinct brick after it doubles, 6 while it doubles (48), or its
+ *    first size, at most 2 bytes per input brick; on an inner level one
+ *    table for all its part nodes and frontier cells at under half load,
+ *    a power of two of 8-byte slots made once: at most 4 slots per node
+ *    (counted so, not rounded, the bound stays subadditive), 1024 at
+ *    least; frontiers of part roots (16 per part);
  *  - the level's output: masks and offsets (9 per node), references
  *    (4 or 5), bricks on level L-2 (8). On level L-2 the table is freed
  *    before the masks, offsets and references are made, so the two are
@@ -1486,12 +1546,15 @@ uint64_t vd_dag_estimate_from_svo(uint64_t bricks, uint64_t leaves,
  * threshold, stay resident and are reused only in part (the dragon's
  * merges at 2^15: up to 30% of the largest part's load beyond the parts
  * once all are loaded; half of it is counted). The fixed 16 MiB holds the
- * code and threads (about 4 MiB resident), zstd and small arrays. The parallel inner pass needs more
- * (inner_extra_bytes); it runs only when the budget covers that beyond
- * this bound. Measured serial peaks sit 1.3-1.6 times under it (the
- * dragon's root at 2^17 from 29 L2 chunks: 294 M input nodes, bound 23.9
- * GiB, peak 15.1 GiB in 270 s, so a 16 GiB budget cannot hold it safely;
- * the old bound said 38.5 GiB). */
+ * code and threads (about 4 MiB resident), zstd and small arrays. The
+ * parallel inner pass needs more (inner_extra_bytes); it runs only when
+ * the budget covers that beyond this bound. vd_dag_merge, which leaves
+ * its parts whole, holds them all to the end (`keep`). Measured serial
+ * peaks sit 1.1-1.6 times under it, closest on small merges whose freed
+ * arrays stay in the heap (the dragon's root from its L1 chunks at 2^13:
+ * bound 200 MiB, peak 186; at 2^15: 2119 and 1551; at 2^17: 256 M input
+ * nodes, bound 15.0 GiB, peak 9.3 GiB, where the parts held whole and a
+ * doubling table gave a bound of 22.0 GiB and a peak of 13.9 GiB). */
 void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d)
 {
 	if (!c->parts++) c->levels = d->levels;
@@ -1499,6 +1562,9 @@ void vd_dag_census_add(struct vd_dag_census *c, const struct vd_dag *d)
 	for (int l = d->chunk_level; l < d->levels && l < VD_MAX_LEVELS; l++) {
 		c->nodes[l] += d->lv[l].nodes;
 		c->refs[l] += d->lv[l].refs;
+		if (d->lv[l].nodes > c->big_nodes[l])
+			c->big_nodes[l] = d->lv[l].nodes;
+		if (d->lv[l].refs > c->big_refs[l]) c->big_refs[l] = d->lv[l].refs;
 		n += d->lv[l].nodes;
 		r += d->lv[l].refs;
 	}
@@ -1519,43 +1585,59 @@ void vd_dag_census_add_header(struct vd_dag_census *c,
 						    : 8 * nl;
 		c->nodes[l] += nl;
 		c->refs[l] += rl;
+		if (nl > c->big_nodes[l]) c->big_nodes[l] = nl;
+		if (rl > c->big_refs[l]) c->big_refs[l] = rl;
 		n += nl;
 		r += rl;
 	}
 	if (11 * n + 10 * r > c->largest) c->largest = 11 * n + 10 * r;
 }
 
-uint64_t vd_dag_estimate_merge(const struct vd_dag_census *c, uint32_t kind)
+static uint64_t estimate_merge(const struct vd_dag_census *c, uint32_t kind,
+			       int keep)
 {
 	int L = c->levels < VD_MAX_LEVELS ? c->levels : VD_MAX_LEVELS;
 	uint64_t np = c->parts, rb = kind == VD_KIND_DAG ? 4 : 5;
 	const uint64_t *n = c->nodes, *r = c->refs;
 	if (L < 1) return VD_DAG_ESTIMATE_FIXED_BYTES;
-	/* the parts (an ssvdag merge counts their references at 5) */
-	uint64_t parts = n[L - 1] + 8 * np * (uint64_t)L;
-	for (int l = 0; l < L - 1; l++) parts += 9 * n[l] + rb * r[l];
-	if (L >= 2) parts += 8 * n[L - 2];
+	/* the parts (an ssvdag merge counts their references at 5), and
+	 * those of their levels above l */
+	uint64_t above[VD_MAX_LEVELS + 1];
+	above[0] = 8 * np * (uint64_t)L;
+	for (int l = 0; l < L; l++)
+		above[l + 1] = above[l] + (l < L - 1 ? 9 * n[l] + rb * r[l]
+						     : n[l]) +
+			       (l == L - 2 ? 8 * n[l] : 0);
+	uint64_t parts = above[L];
 	uint64_t peak = parts + c->largest, holes = c->largest / 2;
 	/* the output below level l, and level l at work */
 	uint64_t below = n[L - 1] + np < 256 ? n[L - 1] + np : 256;
 	for (int l = L - 2; l >= 0; l--) {
 		uint64_t d = n[l] + np, ro = r[l] + np, dn = n[l + 1] + np;
-		uint64_t table = 48 * d + 2 * n[l] + (8 << 10);
-		uint64_t out = 9 * d + rb * ro, work;
+		uint64_t out = 9 * d + rb * ro, work, held = parts;
 		if (l == L - 2) {
+			uint64_t table = 48 * d + 2 * n[l] + (8 << 10);
 			out += 8 * d;
 			uint64_t late = 9 * d + rb * ro; /* after the table */
 			work = 5 * n[l] + 9 * d + 9 * d / 2 +
 			       (table > late ? table : late);
 		} else {
 			work = out + out / 2 + 5 * n[l] + 5 * n[l + 1] + d +
-			       dn + table;
+			       dn + 8 * (4 * d > 1024 ? 4 * d : 1024);
+			if (!keep)
+				held = above[l] + 9 * c->big_nodes[l] +
+				       rb * c->big_refs[l];
 		}
 		work += 16 * np + holes;
-		if (parts + below + work > peak) peak = parts + below + work;
+		if (held + below + work > peak) peak = held + below + work;
 		below += out;
 	}
 	return peak + VD_DAG_ESTIMATE_FIXED_BYTES;
+}
+
+uint64_t vd_dag_estimate_merge(const struct vd_dag_census *c, uint32_t kind)
+{
+	return estimate_merge(c, kind, 0);
 }
 
 uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
@@ -1697,9 +1779,11 @@ static const char *part_name(const struct vd_dag_opts *o, size_t i,
 	return buf;
 }
 
-int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
-		 size_t n, uint32_t kind, int chunk_level,
-		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats)
+/* The merge; with `consume` the engine frees the parts' levels as it reads
+ * them, else it leaves the parts as they are (and only reads them). */
+static int merge(struct vd_dag *out, struct vd_dag *const *parts, size_t n,
+		 uint32_t kind, int chunk_level, const struct vd_dag_opts *opts,
+		 struct vd_dag_stats *stats, int consume)
 {
 	memset(out, 0, sizeof *out);
 	char namebuf[2][32];
@@ -1739,7 +1823,7 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		return vd_fail(VD_ERR_MISMATCH, "target level %d is below part "
 			       "chunk level %d", A, top);
 	struct part_ref *pr = malloc(n * sizeof *pr);
-	const struct vd_dag **nonempty = malloc(n * sizeof *nonempty);
+	struct vd_dag **nonempty = malloc(n * sizeof *nonempty);
 	if (!pr || !nonempty) {
 		free(pr);
 		free(nonempty);
@@ -1784,13 +1868,13 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		}
 	for (size_t i = 0; i < n; i++)
 		if (pr[i].d->lv[pr[i].d->chunk_level].nodes)
-			nonempty[np++] = pr[i].d;
+			nonempty[np++] = parts[pr[i].idx];
 	if (stats) {
 		memset(stats, 0, sizeof *stats);
 		stats->input_voxels = voxels;
 		stats->input_nodes = nodes;
 	}
-	uint64_t need = vd_dag_estimate_merge(&cen, kind);
+	uint64_t need = estimate_merge(&cen, kind, !consume);
 	if ((err = check_budget(opts, need, stats))) goto out;
 	out->kind = kind;
 	out->levels = L;
@@ -1802,7 +1886,8 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 		struct engine e = {.sym = kind != VD_KIND_DAG,
 				   .g48 = kind == VD_KIND_SSVDAG48, .L = L,
 				   .A = A, .cellA = cellA, .parts = nonempty,
-				   .np = np, .out = out, .st = stats,
+				   .np = np, .consume = consume, .out = out,
+				   .st = stats,
 				   .threads = opts ? opts->threads : 0,
 				   .spare_bytes = spare(opts, need)};
 		err = run_engine(&e);
@@ -1811,6 +1896,33 @@ int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
 out:
 	free(pr);
 	free(nonempty);
+	return err;
+}
+
+int vd_dag_merge(struct vd_dag *out, const struct vd_dag *const *parts,
+		 size_t n, uint32_t kind, int chunk_level,
+		 const struct vd_dag_opts *opts, struct vd_dag_stats *stats)
+{
+	/* not written: without consume the engine only reads the parts */
+	return merge(out, (struct vd_dag *const *)parts, n, kind, chunk_level,
+		     opts, stats, 0);
+}
+
+int vd_dag_merge_consume(struct vd_dag *out, struct vd_dag *parts, size_t n,
+			 uint32_t kind, int chunk_level,
+			 const struct vd_dag_opts *opts,
+			 struct vd_dag_stats *stats)
+{
+	struct vd_dag **pp = malloc((n ? n : 1) * sizeof *pp);
+	int err;
+	if (!pp) {
+		err = NOMEM();
+	} else {
+		for (size_t i = 0; i < n; i++) pp[i] = &parts[i];
+		err = merge(out, pp, n, kind, chunk_level, opts, stats, 1);
+		free(pp);
+	}
+	for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
 	return err;
 }
 
@@ -2426,7 +2538,9 @@ int vd_dag_run(const struct vd_dag_job *job)
 			struct vd_dag_opts mo = *o;
 			mo.part_names = job->inputs;
 			int level = job->merge ? job->to_level : parts[0].chunk_level;
-			err = vd_dag_merge(&out, pp, n, job->kind, level, &mo, &st);
+			/* the merge frees the parts as it reads them */
+			err = vd_dag_merge_consume(&out, parts, n, job->kind,
+						   level, &mo, &st);
 			if (err)
 				err = reword(err, job->merge ? "cannot merge"
 					     : "cannot symmetry-merge",
