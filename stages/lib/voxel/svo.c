@@ -147,6 +147,12 @@ int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 
 int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
 {
+	return vd_svo_from_chunk_mt(svo, c, 1);
+}
+
+int vd_svo_from_chunk_mt(struct vd_svo *svo, const struct vd_chunk *c,
+			 int threads)
+{
 	memset(svo, 0, sizeof *svo);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
 	if (h->kind != VD_KIND_SVO)
@@ -165,7 +171,8 @@ int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
 			       "level %d", svo->chunk_level, bl);
 	void *data;
 	size_t size;
-	int err = vd_chunk_read_section(c, VD_TAG_BRKS, &data, &size);
+	int err = vd_chunk_read_section_mt(c, VD_TAG_BRKS, &data, &size,
+					   threads);
 	if (err)
 		return err;
 	const uint8_t *p = data;
