@@ -980,6 +980,67 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 	}
 }
 
+/* Which bricks of blocks [k * NZ_RANGE, ...) are non-empty, and how many
+ * (into start[], made starts by the caller). */
+enum { NZ_RANGE = 1024 };
+
+struct nz_job {
+	const struct cell_blocks *cb;
+	const uint64_t *order;
+	uint64_t *nz, *start;
+	size_t nb;
+};
+
+static void nz_range(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct nz_job *nj = ctx;
+	size_t end = (k + 1) * NZ_RANGE < nj->nb ? (k + 1) * NZ_RANGE : nj->nb;
+	for (size_t i = k * NZ_RANGE; i < end; i++) {
+		const uint64_t *blk = cell_block(nj->cb, nj->order[i]);
+		uint64_t *nz = nj->nz + 8 * i, c = 0;
+		for (int q = 0; q < 8; q++) {
+			uint64_t bits = 0;
+			for (int j = 0; j < 64; j++)
+				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			nz[q] = bits;
+			c += (uint64_t)__builtin_popcountll(bits);
+		}
+		nj->start[i] = c;
+	}
+}
+
+/* The per-level counts of the cell's bricks in COUNT_PARTS ranges. */
+enum { COUNT_PARTS = 16 };
+
+struct count_job {
+	const struct brick_src *b;
+	int L, L0;
+	uint64_t counts[COUNT_PARTS][VD_MAX_LEVELS + 1];
+};
+
+static void count_part(void *ctx, size_t p, int worker)
+{
+	(void)worker;
+	struct count_job *cj = ctx;
+	const struct brick_src *b = cj->b;
+	uint64_t lo = b->count * p / COUNT_PARTS;
+	uint64_t hi = b->count * (p + 1) / COUNT_PARTS;
+	if (lo >= hi)
+		return;
+	struct brick_it it;
+	uint64_t prev = 0, key, mask;
+	brick_seek(b, lo ? lo - 1 : 0, &it);
+	if (lo)
+		brick_next(b, &it, &prev, &mask);
+	for (uint64_t i = lo; i < hi; i++) {
+		brick_next(b, &it, &key, &mask);
+		vd_svo_count_brick(cj->counts[p], cj->L, cj->L0, i == 0, prev,
+				   key, mask);
+		prev = key;
+	}
+}
+
 /* Writes the cell's bricks (blocks w->order[0..nb), sorted, found
  * through cb), in Morton order, into an SVO chunk, the section's frames
  * compressed on `threads` threads. With `hout`, also returns the chunk's
@@ -1009,17 +1070,17 @@ static int write_cell(struct run *r, struct worker *w,
 			return vd_fail(VD_ERR_NOMEM, "brick masks");
 		w->nz_cap = (nb + 1) * 2;
 	}
+	/* each block's words read once (4 KiB a block: hundreds of MB for a
+	 * large cell), on the threads; its count then becomes a start */
+	struct nz_job nj = {cb, w->order, w->nz, w->nz_start, nb};
+	int perr = vd_parallel_for((nb + NZ_RANGE - 1) / NZ_RANGE, threads,
+				   nz_range, &nj);
+	if (perr)
+		return perr;
 	for (size_t i = 0; i < nb; i++) {
-		const uint64_t *blk = cell_block(cb, w->order[i]);
-		uint64_t *nz = w->nz + 8 * i;
+		uint64_t c = w->nz_start[i];
 		w->nz_start[i] = count;
-		for (int q = 0; q < 8; q++) {
-			uint64_t bits = 0;
-			for (int j = 0; j < 64; j++)
-				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
-			nz[q] = bits;
-			count += (uint64_t)__builtin_popcountll(bits);
-		}
+		count += c;
 	}
 	w->nz_start[nb] = count;
 	*nbricks = count;
@@ -1036,24 +1097,32 @@ static int write_cell(struct run *r, struct worker *w,
 			return vd_fail(VD_ERR_NOMEM, "digest");
 		XXH3_64bits_reset(xs);
 	}
-	struct brick_it it;
-	brick_seek(&src, 0, &it);
-	uint64_t prev = 0;
-	for (uint64_t i = 0; i < count; i++) {
-		uint64_t key, mask;
-		brick_next(&src, &it, &key, &mask);
-		vd_svo_count_brick(counts, L, L0, i == 0, prev, key, mask);
-		prev = key;
-		if (xs) {
+	if (xs) {
+		struct brick_it it;
+		brick_seek(&src, 0, &it);
+		uint64_t prev = 0;
+		for (uint64_t i = 0; i < count; i++) {
+			uint64_t key, mask;
+			brick_next(&src, &it, &key, &mask);
+			vd_svo_count_brick(counts, L, L0, i == 0, prev, key, mask);
+			prev = key;
 			uint8_t kv[16];
 			put64le(kv, key);
 			put64le(kv + 8, mask);
 			XXH3_64bits_update(xs, kv, 16);
 		}
-	}
-	if (xs) {
 		*digest = XXH3_64bits_digest(xs);
 		XXH3_freeState(xs);
+	} else {
+		/* counts add up over ranges of bricks, each started from the
+		 * brick before it */
+		struct count_job cj = {&src, L, L0, {{0}}};
+		int cerr = vd_parallel_for(COUNT_PARTS, threads, count_part, &cj);
+		if (cerr)
+			return cerr;
+		for (int p = 0; p < COUNT_PARTS; p++)
+			for (int l = 0; l <= k; l++)
+				counts[l] += cj.counts[p][l];
 	}
 
 	struct vd_chunk_header h = {0};
