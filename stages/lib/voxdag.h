@@ -1668,9 +1668,10 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
 /* Writes `dag` as a chunk file at `path` (atomic). */
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 		const char *path, const char *provenance);
-/* The same, its check and sections compressed on up to `threads` threads
- * (0: all cores); the file is byte for byte vd_dag_save's. Memory: the
- * compressed sections, held until all are done. */
+/* The same, with the DAG's check and its reflections section (DAGR)
+ * compressed beside the child section on up to `threads` threads (0: all
+ * cores); the file is byte for byte vd_dag_save's. Memory: DAGR
+ * compressed, held until DAGC is written (at most a byte a reference). */
 int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
 		   const char *path, const char *provenance, int threads);
 

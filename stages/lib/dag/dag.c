@@ -2060,65 +2060,74 @@ static uint32_t get32(const uint8_t *p)
 	       (uint32_t)p[3] << 24;
 }
 
-/* vd_dag_save's tasks, run in parallel: the check of the DAG and each
- * section compressed apart (vd_chunk_blob: the bytes the writer would
- * stream itself, through the same calls), appended in order after. */
-enum { SAVE_CHECK, SAVE_DAGM, SAVE_DAGC, SAVE_DAGR, SAVE_TASKS };
-
-struct save_job {
-	const struct vd_dag *dag;
-	struct vd_chunk_blob blob[SAVE_TASKS];
-	int errs[SAVE_TASKS];
-	char details[SAVE_TASKS][512];
-};
-
-static int save_section(const struct vd_dag *dag, int task,
-			struct vd_chunk_blob *b)
+/* vd_dag_save's sections, as the file orders them. DAGC (4 bytes a
+ * reference) is streamed into the file; DAGR (a byte a reference) may be
+ * compressed apart into memory (vd_chunk_blob: the bytes the writer
+ * would stream, through the same calls) and appended after it. */
+static int save_dagm(const struct vd_dag *dag, struct vd_chunk_writer *w)
 {
-	int A = dag->chunk_level, L = dag->levels;
-	int err;
-	if (task == SAVE_DAGM) {
-		/* DAGM: the masks of levels A..L-1, level after level. */
-		err = vd_chunk_blob_begin(b, VD_TAG_DAGM, 0);
-		for (int l = A; l < L && !err; l++)
-			err = vd_chunk_blob_write(b, dag->lv[l].mask,
-						  (size_t)dag->lv[l].nodes);
-	} else if (task == SAVE_DAGC) {
-		/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
-		err = vd_chunk_blob_begin(b, VD_TAG_DAGC, 0);
-		enum { BATCH = 4096 };
-		uint8_t buf[4 * BATCH];
-		for (int l = A; l < L - 1 && !err; l++) {
-			const struct vd_dag_level *lv = &dag->lv[l];
-			for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
-				size_t n = lv->refs - i < BATCH ?
-					   (size_t)(lv->refs - i) : BATCH;
-				for (size_t j = 0; j < n; j++)
-					put32(buf + 4 * j, lv->child[i + j]);
-				err = vd_chunk_blob_write(b, buf, 4 * n);
-			}
+	/* DAGM: the masks of levels A..L-1, level after level. */
+	int err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
+	for (int l = dag->chunk_level; l < dag->levels && !err; l++)
+		err = vd_chunk_writer_write(w, dag->lv[l].mask,
+					    (size_t)dag->lv[l].nodes);
+	if (!err) err = vd_chunk_writer_end(w);
+	return err;
+}
+
+static int save_dagc(const struct vd_dag *dag, struct vd_chunk_writer *w)
+{
+	/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
+	int err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
+	enum { BATCH = 4096 };
+	uint8_t buf[4 * BATCH];
+	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++) {
+		const struct vd_dag_level *lv = &dag->lv[l];
+		for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
+			size_t n = lv->refs - i < BATCH ? (size_t)(lv->refs - i) : BATCH;
+			for (size_t j = 0; j < n; j++)
+				put32(buf + 4 * j, lv->child[i + j]);
+			err = vd_chunk_writer_write(w, buf, 4 * n);
 		}
-	} else {
-		/* DAGR: reflections of the same references, one byte each. */
-		err = vd_chunk_blob_begin(b, VD_TAG_DAGR, 0);
-		for (int l = A; l < L - 1 && !err; l++)
-			err = vd_chunk_blob_write(b, dag->lv[l].refl,
-						  (size_t)dag->lv[l].refs);
 	}
+	if (!err) err = vd_chunk_writer_end(w);
+	return err;
+}
+
+static int save_dagr(const struct vd_dag *dag, struct vd_chunk_blob *b)
+{
+	/* DAGR: reflections of the same references, one byte each. */
+	int err = vd_chunk_blob_begin(b, VD_TAG_DAGR, 0);
+	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++)
+		err = vd_chunk_blob_write(b, dag->lv[l].refl,
+					  (size_t)dag->lv[l].refs);
 	if (!err) err = vd_chunk_blob_end(b);
 	return err;
 }
+
+/* After DAGM: DAGC into the file, beside the DAG's check and DAGR. */
+enum { SAVE_DAGC, SAVE_CHECK, SAVE_DAGR, SAVE_TASKS };
+
+struct save_job {
+	const struct vd_dag *dag;
+	struct vd_chunk_writer *w;
+	struct vd_chunk_blob dagr;
+	int checked; /* validated already */
+	int errs[SAVE_TASKS];
+	char details[SAVE_TASKS][512];
+};
 
 static void save_task(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct save_job *sj = ctx;
-	int sym = sj->dag->kind != VD_KIND_DAG;
 	int err = VD_OK;
-	if (i == SAVE_CHECK)
-		err = vd_dag_validate(sj->dag);
-	else if (i != SAVE_DAGR || sym)
-		err = save_section(sj->dag, (int)i, &sj->blob[i]);
+	if (i == SAVE_DAGC)
+		err = save_dagc(sj->dag, sj->w);
+	else if (i == SAVE_CHECK)
+		err = sj->checked ? VD_OK : vd_dag_validate(sj->dag);
+	else if (sj->dag->kind != VD_KIND_DAG)
+		err = save_dagr(sj->dag, &sj->dagr);
 	sj->errs[i] = err;
 	if (err)
 		snprintf(sj->details[i], sizeof sj->details[i], "%s",
@@ -2134,26 +2143,31 @@ int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
 		   const char *path, const char *provenance, int threads)
 {
+	/* one thread: the check before anything is written, as ever */
+	int err = threads == 1 ? vd_dag_validate(dag) : VD_OK;
+	if (err) return err;
+	struct vd_chunk_header h = {0};
+	vd_dag_header(dag, &h);
+	h.transform = *t;
+	struct vd_chunk_writer *w;
+	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
 	struct save_job *sj = calloc(1, sizeof *sj);
-	if (!sj) return NOMEM();
-	sj->dag = dag;
-	/* the check first: a bad DAG gets its error, not a section's */
-	int err = vd_parallel_for(SAVE_TASKS, threads, save_task, sj);
-	for (int i = 0; i < SAVE_TASKS && !err; i++)
-		if (sj->errs[i]) err = vd_fail(sj->errs[i], "%s", sj->details[i]);
-	struct vd_chunk_writer *w = NULL;
+	if (!sj) err = NOMEM();
+	if (!err) err = save_dagm(dag, w);
 	if (!err) {
-		struct vd_chunk_header h = {0};
-		vd_dag_header(dag, &h);
-		h.transform = *t;
-		err = vd_chunk_writer_open(&w, path, &h, provenance);
+		sj->dag = dag;
+		sj->w = w;
+		sj->checked = threads == 1;
+		err = vd_parallel_for(SAVE_TASKS, threads, save_task, sj);
 	}
-	int sym = dag->kind != VD_KIND_DAG;
-	for (int i = SAVE_DAGM; i <= SAVE_DAGR && !err; i++)
-		if (i != SAVE_DAGR || sym)
-			err = vd_chunk_writer_put(w, &sj->blob[i]);
-	for (int i = 0; i < SAVE_TASKS; i++)
-		vd_chunk_blob_release(&sj->blob[i]);
+	/* the check's error first: a bad DAG gets its own, not a section's */
+	static const int order[SAVE_TASKS] = {SAVE_CHECK, SAVE_DAGC, SAVE_DAGR};
+	for (int i = 0; i < SAVE_TASKS && !err; i++)
+		if (sj->errs[order[i]])
+			err = vd_fail(sj->errs[order[i]], "%s", sj->details[order[i]]);
+	if (!err && dag->kind != VD_KIND_DAG)
+		err = vd_chunk_writer_put(w, &sj->dagr);
+	if (sj) vd_chunk_blob_release(&sj->dagr);
 	free(sj);
 	if (err) {
 		vd_chunk_writer_abort(w);
