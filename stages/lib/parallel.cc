@@ -20,7 +20,9 @@ extern "C" int vd_parallel_for(size_t n, int threads,
 			       void (*fn)(void *ctx, size_t i, int worker),
 			       void *ctx)
 {
-	if (threads <= 0)
+	// more threads than cores gain nothing, and TBB warns on stderr
+	// that it ignores the extra workers
+	if (threads <= 0 || threads > vd_hardware_threads())
 		threads = vd_hardware_threads();
 	try {
 		if (threads == 1) {

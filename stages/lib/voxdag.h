@@ -242,6 +242,43 @@ int vd_chunk_writer_end(struct vd_chunk_writer *w);
 int vd_chunk_writer_section(struct vd_chunk_writer *w, uint32_t tag,
 			    const void *data, size_t n);
 
+/* A section compressed apart from its writer, on any thread: the bytes
+ * vd_chunk_writer_begin/write/end would store for the same writes (same
+ * zstd parameters and calls), kept in memory until vd_chunk_writer_put()
+ * appends them. So a chunk's sections can be compressed in parallel and
+ * the file stays byte for byte the same. Begin, write and end as for the
+ * writer; after end, put it, then release it (release also after an
+ * error). Errors set the calling thread's detail. */
+struct vd_chunk_blob {
+	uint32_t tag, codec;
+	uint64_t raw_size, hash;
+	uint8_t *stored;
+	size_t stored_size, cap;
+	void *zc;
+};
+int vd_chunk_blob_begin(struct vd_chunk_blob *b, uint32_t tag, int zstd_level);
+int vd_chunk_blob_write(struct vd_chunk_blob *b, const void *data, size_t n);
+int vd_chunk_blob_end(struct vd_chunk_blob *b);
+void vd_chunk_blob_release(struct vd_chunk_blob *b);
+/* Appends a finished blob as the next section (no section may be open). */
+int vd_chunk_writer_put(struct vd_chunk_writer *w,
+			const struct vd_chunk_blob *b);
+
+/* Writes section `tag` of `raw_size` raw bytes at its default level as
+ * zstd frames of VD_CHUNK_FRAME_BYTES raw bytes each (the last shorter),
+ * each declaring its content size, compressed on up to `threads` threads;
+ * fill(ctx, offset, buf, n) writes the raw bytes [offset, offset + n) into
+ * buf, from any thread (offset is a multiple of VD_CHUNK_FRAME_BYTES). The
+ * frame size is fixed, so the file does not depend on `threads`; readers
+ * decompress the frames in parallel (vd_chunk_read_section_mt). Memory:
+ * about 3 * threads frames. No section may be open. */
+#define VD_CHUNK_FRAME_BYTES (2u << 20)
+int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
+			   uint64_t raw_size,
+			   void (*fill)(void *ctx, uint64_t offset,
+					uint8_t *buf, size_t n),
+			   void *ctx, int threads);
+
 /* Replaces the per-level counts of the header (they are often known only
  * after the sections are written). `level_count` must equal the one given
  * at open. */
@@ -283,6 +320,11 @@ const struct vd_chunk_header *vd_chunk_header(const struct vd_chunk *c);
 int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
 			  void **data, size_t *size);
 
+/* The same, a section of several zstd frames decompressed on up to
+ * `threads` threads (one frame, or threads 1: as above). */
+int vd_chunk_read_section_mt(const struct vd_chunk *c, uint32_t tag,
+			     void **data, size_t *size, int threads);
+
 /* Returns 1 if section `tag` is present. */
 int vd_chunk_has_section(const struct vd_chunk *c, uint32_t tag);
 
@@ -315,6 +357,9 @@ int vd_svo_load(struct vd_svo *svo, struct vd_chunk_header *h,
 
 /* Same, from an already opened chunk of kind SVO. */
 int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c);
+/* The same, the bricks' zstd frames decompressed on up to `threads`. */
+int vd_svo_from_chunk_mt(struct vd_svo *svo, const struct vd_chunk *c,
+			 int threads);
 
 /* Computes the per-level non-empty node counts of the bricks in `svo` for
  * levels chunk_level..levels into counts[0..levels-chunk_level]. */
@@ -1635,6 +1680,12 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h);
 /* Writes `dag` as a chunk file at `path` (atomic). */
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 		const char *path, const char *provenance);
+/* The same, with the DAG's check and its reflections section (DAGR)
+ * compressed beside the child section on up to `threads` threads (0: all
+ * cores); the file is byte for byte vd_dag_save's. Memory: DAGR
+ * compressed, held until DAGC is written (at most a byte a reference). */
+int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
+		   const char *path, const char *provenance, int threads);
 
 /* Reads a DAG chunk file: `kind` VD_KIND_DAG, VD_KIND_SSVDAG,
  * VD_KIND_SSVDAG48, VD_KIND_ANY (dag or ssvdag: what the stages after the
@@ -1649,6 +1700,9 @@ int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
 /* The same from an opened chunk. */
 int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 		      uint32_t kind);
+/* The same, its sections decompressed on up to `threads` threads. */
+int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
+			 uint32_t kind, int threads);
 
 /* Bytes held by `dag`. */
 uint64_t vd_dag_memory_bytes(const struct vd_dag *dag);

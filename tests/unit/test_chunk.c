@@ -402,6 +402,123 @@ static void test_morton(void)
 	}
 }
 
+/* Raw bytes for the framed sections: a function of the offset alone, half
+ * runs (so zstd has work) and half noise. */
+static uint8_t framed_byte(uint64_t i)
+{
+	uint64_t x = (i / 64) * 0x9E3779B97F4A7C15ull;
+	return (i / 4096) % 2 ? (uint8_t)(i / 512) : (uint8_t)(x >> 56 ^ i);
+}
+
+static void framed_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
+{
+	(void)ctx;
+	CHECK_EQ(off % VD_CHUNK_FRAME_BYTES, 0);
+	for (size_t i = 0; i < n; i++)
+		buf[i] = framed_byte(off + i);
+}
+
+static void write_framed(const char *path, uint64_t raw, int threads)
+{
+	struct vd_chunk_header h = tiny_header();
+	struct vd_chunk_writer *w;
+	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
+	CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw, framed_fill, NULL,
+					threads), VD_OK);
+	CHECK_EQ(vd_chunk_writer_section(w, VD_TAG('T', 'A', 'I', 'L'), "x", 1),
+		 VD_OK);
+	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
+}
+
+/* A section written as several zstd frames: the same file whatever the
+ * thread count, read back exactly by the serial reader (concatenated
+ * frames are one zstd stream to ZSTD_decompress) and the parallel one. */
+static void test_framed_sections(void)
+{
+	uint64_t sizes[] = {0, 1, VD_CHUNK_FRAME_BYTES,
+			    2 * (uint64_t)VD_CHUNK_FRAME_BYTES + 8 * 12345};
+	for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++) {
+		uint64_t raw = sizes[k];
+		char p1[600], p3[600];
+		snprintf(p1, sizeof p1, "%s/framed1.chk", dir);
+		snprintf(p3, sizeof p3, "%s/framed3.chk", dir);
+		write_framed(p1, raw, 1);
+		write_framed(p3, raw, 3);
+		size_t n1, n3;
+		uint8_t *b1 = slurp(p1, &n1), *b3 = slurp(p3, &n3);
+		CHECK_EQ(n1, n3);
+		CHECK(n1 == n3 && memcmp(b1, b3, n1) == 0);
+		free(b1);
+		free(b3);
+		struct vd_chunk *c;
+		CHECK_EQ(vd_chunk_open(&c, p1, VD_KIND_ANY), VD_OK);
+		for (int threads = 1; threads <= 4; threads += 3) {
+			void *data;
+			size_t size;
+			CHECK_EQ(vd_chunk_read_section_mt(c, VD_TAG_BRKS, &data,
+							  &size, threads), VD_OK);
+			CHECK_EQ(size, raw);
+			size_t bad = 0;
+			for (size_t i = 0; i < size; i++)
+				bad += ((uint8_t *)data)[i] != framed_byte(i);
+			CHECK_EQ(bad, 0);
+			free(data);
+		}
+		vd_chunk_free(c);
+	}
+}
+
+/* Sections compressed apart (vd_chunk_blob) and put give the very bytes
+ * the writer streams itself, including a stored section. */
+static void test_blob_same_bytes(void)
+{
+	enum { N = 300000 };
+	uint8_t *raw = malloc(N);
+	for (size_t i = 0; i < N; i++)
+		raw[i] = framed_byte(i);
+	char pa[600], pb[600];
+	snprintf(pa, sizeof pa, "%s/stream.chk", dir);
+	snprintf(pb, sizeof pb, "%s/blob.chk", dir);
+	struct vd_chunk_header h = tiny_header();
+	struct vd_chunk_writer *w;
+	uint32_t tags[3] = {VD_TAG('A', 'A', 'A', 'A'), VD_TAG('B', 'B', 'B', 'B'),
+			    VD_TAG('C', 'C', 'C', 'C')};
+	int levels[3] = {0, 1, -1};
+	for (int blob = 0; blob < 2; blob++) {
+		CHECK_EQ(vd_chunk_writer_open(&w, blob ? pb : pa, &h, "p"), VD_OK);
+		for (int t = 0; t < 3; t++) {
+			struct vd_chunk_blob b;
+			if (blob)
+				CHECK_EQ(vd_chunk_blob_begin(&b, tags[t], levels[t]), VD_OK);
+			else
+				CHECK_EQ(vd_chunk_writer_begin(w, tags[t], levels[t]), VD_OK);
+			/* uneven pieces, as the DAG sections write them */
+			for (size_t i = 0, step = 1; i < N; i += step, step = step * 3 + 1) {
+				size_t n = N - i < step ? N - i : step;
+				if (blob)
+					CHECK_EQ(vd_chunk_blob_write(&b, raw + i, n), VD_OK);
+				else
+					CHECK_EQ(vd_chunk_writer_write(w, raw + i, n), VD_OK);
+			}
+			if (blob) {
+				CHECK_EQ(vd_chunk_blob_end(&b), VD_OK);
+				CHECK_EQ(vd_chunk_writer_put(w, &b), VD_OK);
+				vd_chunk_blob_release(&b);
+			} else {
+				CHECK_EQ(vd_chunk_writer_end(w), VD_OK);
+			}
+		}
+		CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
+	}
+	size_t na, nb;
+	uint8_t *ba = slurp(pa, &na), *bb = slurp(pb, &nb);
+	CHECK_EQ(na, nb);
+	CHECK(na == nb && memcmp(ba, bb, na) == 0);
+	free(ba);
+	free(bb);
+	free(raw);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("chunk");
@@ -414,5 +531,7 @@ int main(void)
 	RUN(test_parse_size);
 	RUN(test_transform_equal);
 	RUN(test_morton);
+	RUN(test_framed_sections);
+	RUN(test_blob_same_bytes);
 	return CHECK_DONE();
 }

@@ -2172,29 +2172,28 @@ static uint32_t get32(const uint8_t *p)
 	       (uint32_t)p[3] << 24;
 }
 
-int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
-		const char *path, const char *provenance)
+/* vd_dag_save's sections, as the file orders them. DAGC (4 bytes a
+ * reference) is streamed into the file; DAGR (a byte a reference) may be
+ * compressed apart into memory (vd_chunk_blob: the bytes the writer
+ * would stream, through the same calls) and appended after it. */
+static int save_dagm(const struct vd_dag *dag, struct vd_chunk_writer *w)
 {
-	int err = vd_dag_validate(dag);
-	if (err) return err;
-	struct vd_chunk_header h = {0};
-	vd_dag_header(dag, &h);
-	h.transform = *t;
-	struct vd_chunk_writer *w;
-	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
-	int A = dag->chunk_level, L = dag->levels;
-	int sym = dag->kind != VD_KIND_DAG;
 	/* DAGM: the masks of levels A..L-1, level after level. */
-	err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
-	for (int l = A; l < L && !err; l++)
+	int err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
+	for (int l = dag->chunk_level; l < dag->levels && !err; l++)
 		err = vd_chunk_writer_write(w, dag->lv[l].mask,
 					    (size_t)dag->lv[l].nodes);
 	if (!err) err = vd_chunk_writer_end(w);
+	return err;
+}
+
+static int save_dagc(const struct vd_dag *dag, struct vd_chunk_writer *w)
+{
 	/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
-	if (!err) err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
+	int err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
 	enum { BATCH = 4096 };
 	uint8_t buf[4 * BATCH];
-	for (int l = A; l < L - 1 && !err; l++) {
+	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++) {
 		const struct vd_dag_level *lv = &dag->lv[l];
 		for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
 			size_t n = lv->refs - i < BATCH ? (size_t)(lv->refs - i) : BATCH;
@@ -2204,14 +2203,84 @@ int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 		}
 	}
 	if (!err) err = vd_chunk_writer_end(w);
+	return err;
+}
+
+static int save_dagr(const struct vd_dag *dag, struct vd_chunk_blob *b)
+{
 	/* DAGR: reflections of the same references, one byte each. */
-	if (sym && !err) {
-		err = vd_chunk_writer_begin(w, VD_TAG_DAGR, 0);
-		for (int l = A; l < L - 1 && !err; l++)
-			err = vd_chunk_writer_write(w, dag->lv[l].refl,
-						    (size_t)dag->lv[l].refs);
-		if (!err) err = vd_chunk_writer_end(w);
+	int err = vd_chunk_blob_begin(b, VD_TAG_DAGR, 0);
+	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++)
+		err = vd_chunk_blob_write(b, dag->lv[l].refl,
+					  (size_t)dag->lv[l].refs);
+	if (!err) err = vd_chunk_blob_end(b);
+	return err;
+}
+
+/* After DAGM: DAGC into the file, beside the DAG's check and DAGR. */
+enum { SAVE_DAGC, SAVE_CHECK, SAVE_DAGR, SAVE_TASKS };
+
+struct save_job {
+	const struct vd_dag *dag;
+	struct vd_chunk_writer *w;
+	struct vd_chunk_blob dagr;
+	int checked; /* validated already */
+	int errs[SAVE_TASKS];
+	char details[SAVE_TASKS][512];
+};
+
+static void save_task(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct save_job *sj = ctx;
+	int err = VD_OK;
+	if (i == SAVE_DAGC)
+		err = save_dagc(sj->dag, sj->w);
+	else if (i == SAVE_CHECK)
+		err = sj->checked ? VD_OK : vd_dag_validate(sj->dag);
+	else if (sj->dag->kind != VD_KIND_DAG)
+		err = save_dagr(sj->dag, &sj->dagr);
+	sj->errs[i] = err;
+	if (err)
+		snprintf(sj->details[i], sizeof sj->details[i], "%s",
+			 vd_error_detail());
+}
+
+int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
+		const char *path, const char *provenance)
+{
+	return vd_dag_save_mt(dag, t, path, provenance, 1);
+}
+
+int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
+		   const char *path, const char *provenance, int threads)
+{
+	/* one thread: the check before anything is written, as ever */
+	int err = threads == 1 ? vd_dag_validate(dag) : VD_OK;
+	if (err) return err;
+	struct vd_chunk_header h = {0};
+	vd_dag_header(dag, &h);
+	h.transform = *t;
+	struct vd_chunk_writer *w;
+	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
+	struct save_job *sj = calloc(1, sizeof *sj);
+	if (!sj) err = NOMEM();
+	if (!err) err = save_dagm(dag, w);
+	if (!err) {
+		sj->dag = dag;
+		sj->w = w;
+		sj->checked = threads == 1;
+		err = vd_parallel_for(SAVE_TASKS, threads, save_task, sj);
 	}
+	/* the check's error first: a bad DAG gets its own, not a section's */
+	static const int order[SAVE_TASKS] = {SAVE_CHECK, SAVE_DAGC, SAVE_DAGR};
+	for (int i = 0; i < SAVE_TASKS && !err; i++)
+		if (sj->errs[order[i]])
+			err = vd_fail(sj->errs[order[i]], "%s", sj->details[order[i]]);
+	if (!err && dag->kind != VD_KIND_DAG)
+		err = vd_chunk_writer_put(w, &sj->dagr);
+	if (sj) vd_chunk_blob_release(&sj->dagr);
+	free(sj);
 	if (err) {
 		vd_chunk_writer_abort(w);
 		return err;
@@ -2250,8 +2319,36 @@ static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
 	return VD_OK;
 }
 
+/* The sections of a DAG chunk, decompressed in parallel (each is its
+ * own zstd stream). */
+struct read_job {
+	const struct vd_chunk *c;
+	uint32_t tags[3];
+	void *data[3];
+	size_t size[3];
+	int errs[3];
+	char details[3][512];
+};
+
+static void read_task(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct read_job *rj = ctx;
+	rj->errs[i] = vd_chunk_read_section(rj->c, rj->tags[i], &rj->data[i],
+					    &rj->size[i]);
+	if (rj->errs[i])
+		snprintf(rj->details[i], sizeof rj->details[i], "%s",
+			 vd_error_detail());
+}
+
 int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 		      uint32_t kind)
+{
+	return vd_dag_from_chunk_mt(dag, c, kind, 1);
+}
+
+int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
+			 uint32_t kind, int threads)
 {
 	memset(dag, 0, sizeof *dag);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
@@ -2280,9 +2377,14 @@ int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
 	int sym = h->kind != VD_KIND_DAG;
 	void *m = NULL, *cdata = NULL, *r = NULL;
 	size_t msize, csize, rsize = 0;
-	int err = vd_chunk_read_section(c, VD_TAG_DAGM, &m, &msize);
-	if (!err) err = vd_chunk_read_section(c, VD_TAG_DAGC, &cdata, &csize);
-	if (!err && sym) err = vd_chunk_read_section(c, VD_TAG_DAGR, &r, &rsize);
+	struct read_job rj = {c, {VD_TAG_DAGM, VD_TAG_DAGC, VD_TAG_DAGR},
+			      {NULL}, {0}, {0}, {{0}}};
+	int err = vd_parallel_for(sym ? 3 : 2, threads, read_task, &rj);
+	for (int i = 0; i < (sym ? 3 : 2) && !err; i++)
+		if (rj.errs[i]) err = vd_fail(rj.errs[i], "%s", rj.details[i]);
+	m = rj.data[0], msize = rj.size[0];
+	cdata = rj.data[1], csize = rj.size[1];
+	r = rj.data[2], rsize = rj.size[2];
 	if (err) goto out;
 	/* masks, and from them the reference counts */
 	uint64_t need = 0, nref = 0;
@@ -2480,7 +2582,7 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot build the DAG of", in);
 		}
 		struct vd_svo svo;
-		err = vd_svo_from_chunk(&svo, c);
+		err = vd_svo_from_chunk_mt(&svo, c, o->threads);
 		vd_chunk_free(c);
 		if (err) return reword(err, "cannot read", in);
 		t_load = vd_seconds() - t0;
@@ -2526,7 +2628,8 @@ int vd_dag_run(const struct vd_dag_job *job)
 			uint64_t est = vd_dag_estimate_merge(&ch, job->kind);
 			if (!err && (err = check_budget(o, est, &st)))
 				err = reword(err, "cannot load", in);
-			if (!err && (err = vd_dag_from_chunk(&parts[i], c, want)))
+			if (!err && (err = vd_dag_from_chunk_mt(&parts[i], c, want,
+								o->threads)))
 				err = reword(err, "cannot read", in);
 			vd_chunk_free(c);
 			c = NULL;
@@ -2566,7 +2669,8 @@ int vd_dag_run(const struct vd_dag_job *job)
 	err = vd_stage_name(job->output, staged, plen);
 	if (!err) err = vd_stage_name(sp, staged_sp, plen);
 	double t1 = vd_seconds();
-	if (!err) err = vd_dag_save(&out, &tr, staged, job->provenance);
+	if (!err) err = vd_dag_save_mt(&out, &tr, staged, job->provenance,
+				       o->threads);
 	t_save = vd_seconds() - t1;
 	if (err) {
 		err = reword(err, "cannot write", job->output);

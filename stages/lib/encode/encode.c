@@ -1462,13 +1462,13 @@ static int reword(int err, const char *what, const char *subject)
 		       *d ? ": " : "", d);
 }
 
-/* Opens a root chunk of `kind`, checks the budget against its header and
- * loads it. */
-static int load_root(struct vd_dag *d, struct vd_transform *t,
-		     const char *path, uint32_t kind, uint64_t *budget_used,
-		     uint64_t budget)
+/* Opens a root chunk of `kind` and checks the budget against its header;
+ * decode_roots loads it. */
+static int open_root(struct vd_chunk **out, const char *path, uint32_t kind,
+		     uint64_t *budget_used, uint64_t budget)
 {
 	struct vd_chunk *c;
+	*out = NULL;
 	int err = vd_chunk_open(&c, path, kind);
 	if (err) return reword(err, "cannot read", path);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
@@ -1491,14 +1491,43 @@ static int load_root(struct vd_dag *d, struct vd_transform *t,
 			       "%" PRIu64 " MiB, budget --mem-budget %" PRIu64
 			       " MiB", path, *budget_used >> 20, budget >> 20);
 	}
-	*t = h->transform;
-	err = vd_dag_from_chunk(d, c, kind);
-	vd_chunk_free(c);
-	if (err) {
-		vd_dag_release(d);
-		return reword(err, "cannot read", path);
-	}
+	*out = c;
 	return VD_OK;
+}
+
+/* The opened roots decoded side by side (the SVDAG and the SSVDAG are
+ * about the same size: one each on two threads); errors reported in
+ * input order. */
+struct roots_job {
+	struct vd_chunk *c[3];
+	struct vd_dag *d[3];
+	const char *path[3];
+	uint32_t kind[3];
+	int errs[3];
+	char details[3][512];
+};
+
+static void root_worker(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct roots_job *rj = ctx;
+	if (!rj->c[i]) return;
+	int err = vd_dag_from_chunk(rj->d[i], rj->c[i], rj->kind[i]);
+	if (err) {
+		vd_dag_release(rj->d[i]);
+		err = reword(err, "cannot read", rj->path[i]);
+		snprintf(rj->details[i], sizeof rj->details[i], "%s",
+			 vd_error_detail());
+	}
+	rj->errs[i] = err;
+}
+
+static int decode_roots(struct roots_job *rj, int threads)
+{
+	int err = vd_parallel_for(3, threads, root_worker, rj);
+	for (int i = 0; i < 3 && !err; i++)
+		if (rj->errs[i]) err = vd_fail(rj->errs[i], "%s", rj->details[i]);
+	return err;
 }
 
 struct row_job {
@@ -1593,19 +1622,29 @@ int vd_enc_run(const struct vd_enc_job *job)
 	    !job->outdir)
 		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
 			       "chunk and the output directory are needed");
-	if ((err = load_root(&dag, &t1, job->dag_path, VD_KIND_DAG, &used,
-			     job->mem_budget_bytes)))
-		return err;
 	/* the symmetric DAGs given: [0] the ssvdag, [1] the ssvdag48 */
 	struct vd_dag *sym[2] = {&ss, &s48};
 	struct vd_transform *st[2] = {&t2, &t3};
 	const char *sp[2] = {job->ssvdag_path, job->ssvdag48_path};
 	static const uint32_t sk[2] = {VD_KIND_SSVDAG, VD_KIND_SSVDAG48};
+	struct roots_job roots = {{NULL}, {&dag, &ss, &s48},
+			       {job->dag_path, sp[0], sp[1]},
+			       {VD_KIND_DAG, sk[0], sk[1]}, {0}, {{0}}};
+	err = VD_OK;
+	for (int k = 0; k < 3 && !err; k++)
+		if (roots.path[k])
+			err = open_root(&roots.c[k], roots.path[k], roots.kind[k], &used,
+					job->mem_budget_bytes);
+	if (!err) {
+		t1 = vd_chunk_header(roots.c[0])->transform;
+		for (int k = 0; k < 2; k++)
+			if (roots.c[k + 1]) *st[k] = vd_chunk_header(roots.c[k + 1])->transform;
+		err = decode_roots(&roots, job->threads);
+	}
+	for (int k = 0; k < 3; k++) vd_chunk_free(roots.c[k]);
+	if (err) goto out;
 	for (int k = 0; k < 2; k++) {
 		if (!sp[k]) continue;
-		if ((err = load_root(sym[k], st[k], sp[k], sk[k], &used,
-				     job->mem_budget_bytes)))
-			goto out;
 		if (dag.levels != sym[k]->levels || dag.voxels != sym[k]->voxels ||
 		    !vd_transform_equal(&t1, st[k])) {
 			err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with "

@@ -310,6 +310,252 @@ int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
 	return VD_OK;
 }
 
+/* ------------------------------------------------------ sections apart */
+
+int vd_chunk_blob_begin(struct vd_chunk_blob *b, uint32_t tag, int zstd_level)
+{
+	memset(b, 0, sizeof *b);
+	b->tag = tag;
+	b->codec = zstd_level < 0 ? CODEC_STORED : CODEC_ZSTD;
+	if (b->codec == CODEC_ZSTD) {
+		ZSTD_CCtx *zc = ZSTD_createCCtx();
+		if (!zc)
+			return vd_fail(VD_ERR_NOMEM, "zstd context");
+		b->zc = zc;
+		/* the parameters vd_chunk_writer_begin sets, so the bytes are
+		 * the ones it would store */
+		ZSTD_CCtx_setParameter(zc, ZSTD_c_compressionLevel,
+				       zstd_level ? zstd_level : default_level(tag));
+		ZSTD_CCtx_setParameter(zc, ZSTD_c_checksumFlag, 0);
+	}
+	return VD_OK;
+}
+
+static int blob_reserve(struct vd_chunk_blob *b, size_t more)
+{
+	if (b->stored_size + more <= b->cap)
+		return VD_OK;
+	size_t cap = b->cap ? b->cap : 1 << 16;
+	while (cap < b->stored_size + more)
+		cap *= 2;
+	uint8_t *p = realloc(b->stored, cap);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "section '%.4s' of %zu bytes",
+			       (const char *)&b->tag, cap);
+	b->stored = p;
+	b->cap = cap;
+	return VD_OK;
+}
+
+/* The writer's zstd_pump into memory: same calls, same output chunks. */
+static int blob_pump(struct vd_chunk_blob *b, ZSTD_inBuffer *in,
+		     ZSTD_EndDirective mode)
+{
+	size_t step = ZSTD_CStreamOutSize();
+	for (;;) {
+		int err = blob_reserve(b, step);
+		if (err)
+			return err;
+		ZSTD_outBuffer out = {b->stored + b->stored_size, step, 0};
+		size_t left = ZSTD_compressStream2(b->zc, &out, in, mode);
+		if (ZSTD_isError(left))
+			return vd_fail(VD_ERR_COMPRESS, "zstd: %s",
+				       ZSTD_getErrorName(left));
+		b->stored_size += out.pos;
+		if (mode == ZSTD_e_end ? left == 0 : in->pos == in->size)
+			return VD_OK;
+	}
+}
+
+int vd_chunk_blob_write(struct vd_chunk_blob *b, const void *data, size_t n)
+{
+	b->raw_size += n;
+	if (b->codec == CODEC_STORED) {
+		int err = blob_reserve(b, n);
+		if (!err && n)
+			memcpy(b->stored + b->stored_size, data, n);
+		b->stored_size += err ? 0 : n;
+		return err;
+	}
+	ZSTD_inBuffer in = {data, n, 0};
+	return blob_pump(b, &in, ZSTD_e_continue);
+}
+
+int vd_chunk_blob_end(struct vd_chunk_blob *b)
+{
+	int err = VD_OK;
+	if (b->codec == CODEC_ZSTD) {
+		ZSTD_inBuffer in = {NULL, 0, 0};
+		err = blob_pump(b, &in, ZSTD_e_end);
+		ZSTD_freeCCtx(b->zc);
+		b->zc = NULL;
+	}
+	if (!err)
+		b->hash = XXH3_64bits(b->stored, b->stored_size);
+	return err;
+}
+
+void vd_chunk_blob_release(struct vd_chunk_blob *b)
+{
+	ZSTD_freeCCtx(b->zc);
+	free(b->stored);
+	memset(b, 0, sizeof *b);
+}
+
+/* One section whole: header, then its stored bytes. */
+static int put_section(struct vd_chunk_writer *w, uint32_t tag,
+		       uint32_t codec, uint64_t raw_size, uint64_t hash,
+		       const uint8_t *stored, size_t stored_size)
+{
+	if (w->failed || w->in_section)
+		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
+	uint8_t hdr[SECTION_HEADER];
+	put32(hdr, tag);
+	put32(hdr + 4, codec);
+	put64(hdr + 8, raw_size);
+	put64(hdr + 16, stored_size);
+	put64(hdr + 24, hash);
+	int err = write_all(w, hdr, sizeof hdr);
+	if (!err)
+		err = write_all(w, stored, stored_size);
+	if (!err)
+		w->section_count++;
+	return err;
+}
+
+int vd_chunk_writer_put(struct vd_chunk_writer *w,
+			const struct vd_chunk_blob *b)
+{
+	return put_section(w, b->tag, b->codec, b->raw_size, b->hash,
+			   b->stored, b->stored_size);
+}
+
+/* A framed section: frames of VD_CHUNK_FRAME_BYTES raw bytes (the last one
+ * shorter), each its own zstd frame with its content size, so readers can
+ * decompress them in parallel. The frame size is fixed, not derived from
+ * the thread count: the bytes are the same with any number of threads. */
+struct frame_job {
+	void (*fill)(void *ctx, uint64_t offset, uint8_t *buf, size_t n);
+	void *ctx;
+	uint64_t raw_size, first; /* frame index of out[0] */
+	int level;
+	uint8_t **raw;            /* per worker, VD_CHUNK_FRAME_BYTES */
+	ZSTD_CCtx **zc;           /* per worker */
+	uint8_t **out;            /* per frame of the batch */
+	size_t *out_size, out_cap;
+	int *errs;
+	int nworkers;
+};
+
+static void frame_worker(void *ctx, size_t i, int worker)
+{
+	struct frame_job *fj = ctx;
+	if (worker < 0 || worker >= fj->nworkers) {
+		fj->errs[i] = VD_ERR_INTERNAL;
+		return;
+	}
+	uint64_t off = (fj->first + i) * (uint64_t)VD_CHUNK_FRAME_BYTES;
+	size_t n = fj->raw_size - off < VD_CHUNK_FRAME_BYTES ?
+		   (size_t)(fj->raw_size - off) : VD_CHUNK_FRAME_BYTES;
+	if (!fj->raw[worker])
+		fj->raw[worker] = malloc(VD_CHUNK_FRAME_BYTES);
+	if (!fj->zc[worker])
+		fj->zc[worker] = ZSTD_createCCtx();
+	if (!fj->raw[worker] || !fj->zc[worker]) {
+		fj->errs[i] = VD_ERR_NOMEM;
+		return;
+	}
+	fj->fill(fj->ctx, off, fj->raw[worker], n);
+	size_t r = ZSTD_compressCCtx(fj->zc[worker], fj->out[i], fj->out_cap,
+				     fj->raw[worker], n, fj->level);
+	if (ZSTD_isError(r)) {
+		fj->errs[i] = VD_ERR_COMPRESS;
+		return;
+	}
+	fj->out_size[i] = r;
+}
+
+int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
+			   uint64_t raw_size,
+			   void (*fill)(void *ctx, uint64_t offset,
+					uint8_t *buf, size_t n),
+			   void *ctx, int threads)
+{
+	if (w->failed || w->in_section)
+		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
+	if (threads < 1)
+		threads = vd_hardware_threads();
+	/* frames in flight: a few per thread keeps the threads busy to the
+	 * end of a batch while bounding the memory */
+	size_t batch = 2 * (size_t)threads;
+	uint64_t nframes = (raw_size + VD_CHUNK_FRAME_BYTES - 1) /
+			   VD_CHUNK_FRAME_BYTES;
+	int nw = threads + 1; /* TBB's worker index: 0..threads-1 */
+	struct frame_job fj = {fill, ctx, raw_size, 0, default_level(tag),
+			       calloc((size_t)nw, sizeof(uint8_t *)),
+			       calloc((size_t)nw, sizeof(ZSTD_CCtx *)),
+			       calloc(batch, sizeof(uint8_t *)),
+			       calloc(batch, sizeof(size_t)),
+			       ZSTD_compressBound(VD_CHUNK_FRAME_BYTES),
+			       calloc(batch, sizeof(int)), nw};
+	int err = !fj.raw || !fj.zc || !fj.out || !fj.out_size || !fj.errs ?
+		  vd_fail(VD_ERR_NOMEM, "section '%.4s'", (const char *)&tag) : VD_OK;
+	for (size_t i = 0; i < batch && !err; i++)
+		if (!(fj.out[i] = malloc(fj.out_cap)))
+			err = vd_fail(VD_ERR_NOMEM, "section '%.4s'",
+				      (const char *)&tag);
+	/* the header first, patched with the sizes and checksum at the end */
+	off_t pos = err ? 0 : ftello(w->f);
+	uint8_t hdr[SECTION_HEADER] = {0};
+	if (!err)
+		err = write_all(w, hdr, sizeof hdr);
+	uint64_t stored = 0;
+	XXH3_64bits_reset(w->hash);
+	for (uint64_t f = 0; f < nframes && !err; f += batch) {
+		size_t nb = nframes - f < batch ? (size_t)(nframes - f) : batch;
+		fj.first = f;
+		memset(fj.errs, 0, batch * sizeof *fj.errs);
+		err = vd_parallel_for(nb, threads, frame_worker, &fj);
+		for (size_t i = 0; i < nb && !err; i++)
+			if (fj.errs[i])
+				err = vd_fail(fj.errs[i], "cannot compress "
+					      "section '%.4s'", (const char *)&tag);
+		for (size_t i = 0; i < nb && !err; i++) {
+			XXH3_64bits_update(w->hash, fj.out[i], fj.out_size[i]);
+			stored += fj.out_size[i];
+			err = write_all(w, fj.out[i], fj.out_size[i]);
+		}
+	}
+	if (!err) {
+		put32(hdr, tag);
+		put32(hdr + 4, CODEC_ZSTD);
+		put64(hdr + 8, raw_size);
+		put64(hdr + 16, stored);
+		put64(hdr + 24, XXH3_64bits_digest(w->hash));
+		off_t end = ftello(w->f);
+		if (fseeko(w->f, pos, SEEK_SET) != 0 ||
+		    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
+		    fseeko(w->f, end, SEEK_SET) != 0)
+			err = writer_io_error(w, "cannot write");
+		else
+			w->section_count++;
+	}
+	if (err)
+		w->failed = 1;
+	for (int i = 0; i < nw && fj.raw; i++)
+		free(fj.raw[i]);
+	for (int i = 0; i < nw && fj.zc; i++)
+		ZSTD_freeCCtx(fj.zc[i]);
+	for (size_t i = 0; i < batch && fj.out; i++)
+		free(fj.out[i]);
+	free(fj.raw);
+	free(fj.zc);
+	free(fj.out);
+	free(fj.out_size);
+	free(fj.errs);
+	return err;
+}
+
 /* fsync the directory holding `path` so the rename survives a crash. */
 static void sync_dir(const char *path)
 {
@@ -692,8 +938,73 @@ int vd_chunk_has_section(const struct vd_chunk *c, uint32_t tag)
 	return find_section(c, tag) != NULL;
 }
 
+/* The frames of a zstd section when it has several, each declaring its
+ * content size (as vd_chunk_writer_frames writes them) and together
+ * exactly raw_size: then they decompress in parallel. Returns the count, 0
+ * for "decompress it whole" (one frame, or sizes not declared: the serial
+ * path then checks everything). */
+struct dframe {
+	size_t src, src_size, dst, dst_size;
+};
+
+static size_t list_frames(const uint8_t *p, size_t n, uint64_t raw_size,
+			  struct dframe **out)
+{
+	*out = NULL;
+	size_t cap = 0, count = 0, src = 0;
+	uint64_t dst = 0;
+	while (src < n) {
+		size_t fs = ZSTD_findFrameCompressedSize(p + src, n - src);
+		if (ZSTD_isError(fs))
+			break;
+		unsigned long long cs = ZSTD_getFrameContentSize(p + src, fs);
+		if (cs == ZSTD_CONTENTSIZE_ERROR ||
+		    cs == ZSTD_CONTENTSIZE_UNKNOWN || cs > raw_size - dst)
+			break;
+		if (count == cap) {
+			cap = cap ? 2 * cap : 16;
+			struct dframe *q = realloc(*out, cap * sizeof *q);
+			if (!q)
+				break;
+			*out = q;
+		}
+		(*out)[count++] = (struct dframe){src, fs, (size_t)dst, (size_t)cs};
+		src += fs;
+		dst += cs;
+	}
+	if (src != n || dst != raw_size || count < 2) {
+		free(*out);
+		*out = NULL;
+		return 0;
+	}
+	return count;
+}
+
+struct dframe_job {
+	const uint8_t *src;
+	uint8_t *dst;
+	const struct dframe *f;
+	int *bad;
+};
+
+static void dframe_worker(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct dframe_job *j = ctx;
+	const struct dframe *f = &j->f[i];
+	size_t r = ZSTD_decompress(j->dst + f->dst, f->dst_size,
+				   j->src + f->src, f->src_size);
+	j->bad[i] = ZSTD_isError(r) || r != f->dst_size;
+}
+
 int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
 			  void **data, size_t *size)
+{
+	return vd_chunk_read_section_mt(c, tag, data, size, 1);
+}
+
+int vd_chunk_read_section_mt(const struct vd_chunk *c, uint32_t tag,
+			     void **data, size_t *size, int threads)
 {
 	*data = NULL;
 	*size = 0;
@@ -711,6 +1022,35 @@ int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
 	if (s->codec == CODEC_STORED) {
 		memcpy(buf, c->image + s->offset, s->raw_size);
 	} else {
+		struct dframe *fr = NULL;
+		if (threads < 1)
+			threads = vd_hardware_threads();
+		size_t nf = threads > 1 ? list_frames(c->image + s->offset,
+						      s->stored_size,
+						      s->raw_size, &fr) : 0;
+		int *bad = nf ? calloc(nf, sizeof *bad) : NULL;
+		if (nf && bad) {
+			struct dframe_job j = {c->image + s->offset, buf, fr, bad};
+			int err = vd_parallel_for(nf, threads, dframe_worker, &j);
+			for (size_t i = 0; i < nf && !err; i++)
+				if (bad[i])
+					err = vd_fail(VD_ERR_CORRUPT, "section "
+						      "'%.4s' frame %zu does "
+						      "not decompress to its "
+						      "size", (const char *)&tag,
+						      i + 1);
+			free(fr);
+			free(bad);
+			if (err) {
+				free(buf);
+				return err;
+			}
+			*data = buf;
+			*size = s->raw_size;
+			return VD_OK;
+		}
+		free(fr);
+		free(bad);
 		size_t n = ZSTD_decompress(buf, s->raw_size, c->image + s->offset,
 					   s->stored_size);
 		if (ZSTD_isError(n) || n != s->raw_size) {

@@ -145,7 +145,79 @@ int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 			    NULL);
 }
 
+/* BRKS decoded in parts on several threads: pass 0 sums each part's
+ * deltas (the first part's first is the first key), pass 1 makes the keys
+ * from the part's first (the sums before it) and checks them, exactly as
+ * one pass in order would; the first error in brick order wins. */
+enum { PARSE_PARTS = 16 };
+
+struct parse_job {
+	const uint8_t *p; /* the deltas, then the masks */
+	uint64_t n;
+	int bl, chunk_level, levels;
+	uint64_t cell;
+	uint64_t *keys, *masks;
+	uint64_t sum[PARSE_PARTS], base[PARSE_PARTS];
+	int errs[PARSE_PARTS];
+	char details[PARSE_PARTS][128];
+	int pass;
+	uint64_t counts[PARSE_PARTS][VD_MAX_LEVELS + 1];
+};
+
+static void parse_part(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct parse_job *pj = ctx;
+	int parts = pj->n >= PARSE_PARTS * 4096 ? PARSE_PARTS : 1;
+	uint64_t lo = pj->n * k / (uint64_t)parts;
+	uint64_t hi = pj->n * (k + 1) / (uint64_t)parts;
+	const uint8_t *p = pj->p;
+	if (pj->pass == 0) {
+		uint64_t s = 0;
+		for (uint64_t i = lo; i < hi; i++)
+			s += get64(p + 8 * i);
+		pj->sum[k] = s;
+		return;
+	}
+	int below = 3 * (pj->bl - pj->chunk_level);
+	uint64_t key = pj->base[k];
+	int err = VD_OK;
+	for (uint64_t i = lo; i < hi && !err; i++) {
+		uint64_t d = get64(p + 8 * i);
+		if (i > 0 && (d == 0 || key + d < key))
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu out of order",
+				      (unsigned long long)i);
+		key = i ? key + d : d;
+		uint64_t m = get64(p + 8 * pj->n + 8 * i);
+		if (m == 0)
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu is empty",
+				      (unsigned long long)i);
+		if (key >> below != pj->cell || key >> 3 * pj->bl != 0)
+			err = vd_fail(VD_ERR_CORRUPT, "brick %llu lies outside "
+				      "cell %llx", (unsigned long long)i,
+				      (unsigned long long)pj->cell);
+		pj->keys[i] = key;
+		pj->masks[i] = m;
+		/* the previous key: the part's base at its first brick */
+		if (!err)
+			vd_svo_count_brick(pj->counts[k], pj->levels,
+					   pj->chunk_level, i == 0,
+					   i == lo ? pj->base[k] : pj->keys[i - 1],
+					   key, m);
+	}
+	pj->errs[k] = err;
+	if (err)
+		snprintf(pj->details[k], sizeof pj->details[k], "%s",
+			 vd_error_detail());
+}
+
 int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
+{
+	return vd_svo_from_chunk_mt(svo, c, 1);
+}
+
+int vd_svo_from_chunk_mt(struct vd_svo *svo, const struct vd_chunk *c,
+			 int threads)
 {
 	memset(svo, 0, sizeof *svo);
 	const struct vd_chunk_header *h = vd_chunk_header(c);
@@ -165,7 +237,8 @@ int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
 			       "level %d", svo->chunk_level, bl);
 	void *data;
 	size_t size;
-	int err = vd_chunk_read_section(c, VD_TAG_BRKS, &data, &size);
+	int err = vd_chunk_read_section_mt(c, VD_TAG_BRKS, &data, &size,
+					   threads);
 	if (err)
 		return err;
 	const uint8_t *p = data;
@@ -182,27 +255,28 @@ int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
 		return vd_fail(VD_ERR_NOMEM, "%llu bricks", (unsigned long long)n);
 	}
 	svo->count = n;
-	/* Bricks must lie in the cell: their key's bits above the cell level
-	 * are the cell's Morton code. */
-	int below = 3 * (bl - svo->chunk_level);
-	uint64_t cell = svo->cell_morton;
-	uint64_t key = 0;
-	for (uint64_t i = 0; i < n && !err; i++) {
-		uint64_t d = get64(p + 8 + 8 * i);
-		if (i > 0 && (d == 0 || key + d < key))
-			err = vd_fail(VD_ERR_CORRUPT, "brick %llu out of order",
-				      (unsigned long long)i);
-		key = i ? key + d : d;
-		uint64_t m = get64(p + 8 + 8 * n + 8 * i);
-		if (m == 0)
-			err = vd_fail(VD_ERR_CORRUPT, "brick %llu is empty",
-				      (unsigned long long)i);
-		if (key >> below != cell || key >> 3 * bl != 0)
-			err = vd_fail(VD_ERR_CORRUPT, "brick %llu lies outside "
-				      "cell %llx", (unsigned long long)i,
-				      (unsigned long long)cell);
-		svo->keys[i] = key;
-		svo->masks[i] = m;
+	struct parse_job pj = {.p = p + 8, .n = n, .bl = bl,
+			       .chunk_level = svo->chunk_level,
+			       .levels = svo->levels, .cell = svo->cell_morton,
+			       .keys = svo->keys, .masks = svo->masks};
+	int parts = n >= PARSE_PARTS * 4096 ? PARSE_PARTS : 1;
+	/* the deltas' sums per part, then each part's keys from its first */
+	pj.pass = 0;
+	err = vd_parallel_for((size_t)parts, threads, parse_part, &pj);
+	uint64_t base = 0;
+	for (int k = 0; k < parts && !err; k++) {
+		if (pj.errs[k])
+			err = vd_fail(pj.errs[k], "%s", pj.details[k]);
+		uint64_t sum = pj.sum[k];
+		pj.base[k] = base;
+		base += sum;
+	}
+	if (!err) {
+		pj.pass = 1;
+		err = vd_parallel_for((size_t)parts, threads, parse_part, &pj);
+		for (int k = 0; k < parts && !err; k++)
+			if (pj.errs[k])
+				err = vd_fail(pj.errs[k], "%s", pj.details[k]);
 	}
 	free(data);
 	if (!err && svo->levels < 2) {
@@ -213,8 +287,10 @@ int vd_svo_from_chunk(struct vd_svo *svo, const struct vd_chunk *c)
 				      svo->levels);
 	}
 	if (!err) {
-		uint64_t counts[VD_MAX_LEVELS + 1];
-		vd_svo_count_levels(svo, counts);
+		uint64_t counts[VD_MAX_LEVELS + 1] = {0};
+		for (int k = 0; k < PARSE_PARTS; k++)
+			for (uint32_t l = 0; l < h->level_count; l++)
+				counts[l] += pj.counts[k][l];
 		for (uint32_t l = 0; l < h->level_count && !err; l++)
 			if (counts[l] != h->level_nodes[l])
 				err = vd_fail(VD_ERR_CORRUPT, "level %u has %llu "

@@ -765,6 +765,7 @@ struct worker {
 	uint64_t *order;
 	size_t order_cap;
 	uint64_t *nz;              /* write_cell: non-empty bricks per block */
+	uint64_t *nz_start;        /* write_cell: bricks before each block */
 	size_t nz_cap;
 	/* colours: per block in key order its pointer, first rank and per
 	 * word ranks within it; per voxel its colour slot */
@@ -874,12 +875,179 @@ static int gather_blocks(struct worker *w, struct block_map *const *maps,
 	return VD_OK;
 }
 
-/* Streams the cell's bricks (blocks w->order[0..nb), sorted, found
- * through cb), in Morton order, into an SVO chunk. With `hout`, also returns the chunk's header
- * and the vd_svo_digest() of its bricks, for the colour chunk. */
+/* The cell's bricks in Morton order as the BRKS section lays them out
+ * (schemas/chunk-format.md): any range of its raw bytes can be made on its
+ * own, so the section's zstd frames are made and compressed on several
+ * threads (vd_chunk_writer_frames). Block i holds bricks start[i] ..
+ * start[i + 1] - 1, the set bits of its 8 words nz[8i..8i+7]. */
+struct brick_src {
+	const struct cell_blocks *cb;
+	const uint64_t *order, *nz, *start;
+	size_t nb;
+	uint64_t prefix, count;
+};
+
+struct brick_it {
+	size_t blk;
+	int qw;
+	uint64_t bits;
+	const uint64_t *words; /* the block's bricks */
+};
+
+/* Positions `it` at brick i (< count). */
+static void brick_seek(const struct brick_src *b, uint64_t i,
+		       struct brick_it *it)
+{
+	size_t lo = 0, hi = b->nb;
+	while (hi - lo > 1) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (b->start[mid] <= i)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	uint64_t skip = i - b->start[lo];
+	it->blk = lo;
+	it->qw = 0;
+	it->bits = b->nz[8 * lo];
+	for (;;) {
+		uint64_t pc = (uint64_t)__builtin_popcountll(it->bits);
+		if (skip < pc)
+			break;
+		skip -= pc;
+		it->bits = b->nz[8 * lo + ++it->qw];
+	}
+	while (skip--)
+		it->bits &= it->bits - 1;
+	it->words = cell_block(b->cb, b->order[lo]);
+}
+
+/* The brick at `it` (there must be one), then steps past it. */
+static inline void brick_next(const struct brick_src *b, struct brick_it *it,
+			      uint64_t *key, uint64_t *mask)
+{
+	while (!it->bits) {
+		if (++it->qw == 8) {
+			it->qw = 0;
+			it->blk++;
+			it->words = cell_block(b->cb, b->order[it->blk]);
+		}
+		it->bits = b->nz[8 * it->blk + it->qw];
+	}
+	int j = 64 * it->qw + __builtin_ctzll(it->bits);
+	it->bits &= it->bits - 1;
+	*key = b->prefix | b->order[it->blk] << 9 | (uint64_t)j;
+	*mask = it->words[j];
+}
+
+static inline void put64le(uint8_t *p, uint64_t v)
+{
+	for (int i = 0; i < 8; i++)
+		p[i] = (uint8_t)(v >> 8 * i);
+}
+
+/* Raw BRKS bytes [off, off + n): word 0 the count, words 1..count the key
+ * deltas, then the masks. Whole words: frames are multiples of 8 bytes. */
+static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
+{
+	const struct brick_src *b = ctx;
+	uint64_t w = off / 8, w1 = (off + n) / 8, key, mask, prev = 0;
+	struct brick_it it;
+	if (w == 0) {
+		put64le(buf, b->count);
+		buf += 8;
+		w++;
+	}
+	if (w < w1 && w <= b->count) {
+		uint64_t i = w - 1, end = w1 - 1 < b->count ? w1 - 1 : b->count;
+		brick_seek(b, i ? i - 1 : 0, &it);
+		if (i)
+			brick_next(b, &it, &prev, &mask);
+		for (; i < end; i++, buf += 8) {
+			brick_next(b, &it, &key, &mask);
+			put64le(buf, i ? key - prev : key);
+			prev = key;
+		}
+		w = end + 1;
+	}
+	if (w < w1) {
+		uint64_t i = w - 1 - b->count, end = w1 - 1 - b->count;
+		brick_seek(b, i, &it);
+		for (; i < end; i++, buf += 8) {
+			brick_next(b, &it, &key, &mask);
+			put64le(buf, mask);
+		}
+	}
+}
+
+/* Which bricks of blocks [k * NZ_RANGE, ...) are non-empty, and how many
+ * (into start[], made starts by the caller). */
+enum { NZ_RANGE = 1024 };
+
+struct nz_job {
+	const struct cell_blocks *cb;
+	const uint64_t *order;
+	uint64_t *nz, *start;
+	size_t nb;
+};
+
+static void nz_range(void *ctx, size_t k, int worker)
+{
+	(void)worker;
+	struct nz_job *nj = ctx;
+	size_t end = (k + 1) * NZ_RANGE < nj->nb ? (k + 1) * NZ_RANGE : nj->nb;
+	for (size_t i = k * NZ_RANGE; i < end; i++) {
+		const uint64_t *blk = cell_block(nj->cb, nj->order[i]);
+		uint64_t *nz = nj->nz + 8 * i, c = 0;
+		for (int q = 0; q < 8; q++) {
+			uint64_t bits = 0;
+			for (int j = 0; j < 64; j++)
+				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			nz[q] = bits;
+			c += (uint64_t)__builtin_popcountll(bits);
+		}
+		nj->start[i] = c;
+	}
+}
+
+/* The per-level counts of the cell's bricks in COUNT_PARTS ranges. */
+enum { COUNT_PARTS = 16 };
+
+struct count_job {
+	const struct brick_src *b;
+	int L, L0;
+	uint64_t counts[COUNT_PARTS][VD_MAX_LEVELS + 1];
+};
+
+static void count_part(void *ctx, size_t p, int worker)
+{
+	(void)worker;
+	struct count_job *cj = ctx;
+	const struct brick_src *b = cj->b;
+	uint64_t lo = b->count * p / COUNT_PARTS;
+	uint64_t hi = b->count * (p + 1) / COUNT_PARTS;
+	if (lo >= hi)
+		return;
+	struct brick_it it;
+	uint64_t prev = 0, key, mask;
+	brick_seek(b, lo ? lo - 1 : 0, &it);
+	if (lo)
+		brick_next(b, &it, &prev, &mask);
+	for (uint64_t i = lo; i < hi; i++) {
+		brick_next(b, &it, &key, &mask);
+		vd_svo_count_brick(cj->counts[p], cj->L, cj->L0, i == 0, prev,
+				   key, mask);
+		prev = key;
+	}
+}
+
+/* Writes the cell's bricks (blocks w->order[0..nb), sorted, found
+ * through cb), in Morton order, into an SVO chunk, the section's frames
+ * compressed on `threads` threads. With `hout`, also returns the chunk's
+ * header and the vd_svo_digest() of its bricks, for the colour chunk. */
 static int write_cell(struct run *r, struct worker *w,
 		      const struct cell_blocks *cb, uint64_t cell, size_t nb,
-		      uint64_t *counts, uint64_t *nbricks,
+		      int threads, uint64_t *counts, uint64_t *nbricks,
 		      struct vd_chunk_header *hout, uint64_t *digest)
 {
 	int L = r->g.L, L0 = r->g.L0, k = L - L0;
@@ -890,29 +1058,72 @@ static int write_cell(struct run *r, struct worker *w,
 	uint64_t count = 0;
 	for (int l = 0; l <= k; l++)
 		counts[l] = 0;
-	/* per block, which of its 512 bricks are non-empty (8 words): the
-	 * passes below visit those only */
-	if (nb > w->nz_cap) {
+	/* per block, which of its 512 bricks are non-empty (8 words), and
+	 * the bricks before it: the passes below visit those only */
+	if (nb + 1 > w->nz_cap) {
 		free(w->nz);
+		free(w->nz_start);
 		w->nz_cap = 0;
-		if (!(w->nz = malloc(nb * 2 * 8 * sizeof *w->nz)))
+		w->nz = malloc((nb + 1) * 2 * 8 * sizeof *w->nz);
+		w->nz_start = malloc((nb + 1) * 2 * sizeof *w->nz_start);
+		if (!w->nz || !w->nz_start)
 			return vd_fail(VD_ERR_NOMEM, "brick masks");
-		w->nz_cap = nb * 2;
+		w->nz_cap = (nb + 1) * 2;
 	}
+	/* each block's words read once (4 KiB a block: hundreds of MB for a
+	 * large cell), on the threads; its count then becomes a start */
+	struct nz_job nj = {cb, w->order, w->nz, w->nz_start, nb};
+	int perr = vd_parallel_for((nb + NZ_RANGE - 1) / NZ_RANGE, threads,
+				   nz_range, &nj);
+	if (perr)
+		return perr;
 	for (size_t i = 0; i < nb; i++) {
-		const uint64_t *blk = cell_block(cb, w->order[i]);
-		uint64_t *nz = w->nz + 8 * i;
-		for (int q = 0; q < 8; q++) {
-			uint64_t bits = 0;
-			for (int j = 0; j < 64; j++)
-				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
-			nz[q] = bits;
-			count += (uint64_t)__builtin_popcountll(bits);
-		}
+		uint64_t c = w->nz_start[i];
+		w->nz_start[i] = count;
+		count += c;
 	}
+	w->nz_start[nb] = count;
 	*nbricks = count;
 	if (count == 0)
 		return VD_OK; /* touched only by triangles outside its voxels */
+	struct brick_src src = {cb, w->order, w->nz, w->nz_start, nb, prefix,
+				count};
+
+	/* the counts, and the digest as vd_svo_digest() computes it: one
+	 * pass in order (they need the previous brick) */
+	XXH3_state_t *xs = NULL;
+	if (hout) {
+		if (!(xs = XXH3_createState()))
+			return vd_fail(VD_ERR_NOMEM, "digest");
+		XXH3_64bits_reset(xs);
+	}
+	if (xs) {
+		struct brick_it it;
+		brick_seek(&src, 0, &it);
+		uint64_t prev = 0;
+		for (uint64_t i = 0; i < count; i++) {
+			uint64_t key, mask;
+			brick_next(&src, &it, &key, &mask);
+			vd_svo_count_brick(counts, L, L0, i == 0, prev, key, mask);
+			prev = key;
+			uint8_t kv[16];
+			put64le(kv, key);
+			put64le(kv + 8, mask);
+			XXH3_64bits_update(xs, kv, 16);
+		}
+		*digest = XXH3_64bits_digest(xs);
+		XXH3_freeState(xs);
+	} else {
+		/* counts add up over ranges of bricks, each started from the
+		 * brick before it */
+		struct count_job cj = {&src, L, L0, {{0}}};
+		int cerr = vd_parallel_for(COUNT_PARTS, threads, count_part, &cj);
+		if (cerr)
+			return cerr;
+		for (int p = 0; p < COUNT_PARTS; p++)
+			for (int l = 0; l <= k; l++)
+				counts[l] += cj.counts[p][l];
+	}
 
 	struct vd_chunk_header h = {0};
 	h.kind = VD_KIND_SVO;
@@ -921,6 +1132,8 @@ static int write_cell(struct run *r, struct worker *w,
 	h.cell_morton = cell;
 	h.transform = r->g.tr;
 	h.level_count = (uint32_t)k + 1;
+	for (int l = 0; l <= k; l++)
+		h.level_nodes[l] = counts[l];
 	char path[4096], name[64];
 	vd_chunk_file_name(name, sizeof name, L0, cell, "svo");
 	snprintf(path, sizeof path, "%s/%s", r->outdir, name);
@@ -928,73 +1141,14 @@ static int write_cell(struct run *r, struct worker *w,
 	int err = vd_chunk_writer_open(&cw, path, &h, r->opts->provenance);
 	if (err)
 		return err;
-	uint8_t buf[8 * BLOCK_WORDS];
-	for (int i = 0; i < 8; i++)
-		buf[i] = (uint8_t)(count >> 8 * i);
-	err = vd_chunk_writer_begin(cw, VD_TAG_BRKS, 0);
-	if (!err)
-		err = vd_chunk_writer_write(cw, buf, 8);
-	/* the digest as vd_svo_digest() computes it, streamed */
-	XXH3_state_t *xs = NULL;
-	if (!err && hout) {
-		if (!(xs = XXH3_createState()))
-			err = vd_fail(VD_ERR_NOMEM, "digest");
-		else
-			XXH3_64bits_reset(xs);
-	}
-	for (int pass = 0; pass < 2 && !err; pass++) {
-		uint64_t prev = 0;
-		int first = 1;
-		for (size_t i = 0; i < nb && !err; i++) {
-			const uint64_t *blk = cell_block(cb, w->order[i]);
-			uint64_t base = prefix | w->order[i] << 9;
-			const uint64_t *nz = w->nz + 8 * i;
-			size_t n = 0;
-			for (int qw = 0; qw < 8; qw++)
-			for (uint64_t bits = nz[qw]; bits; bits &= bits - 1) {
-				int j = 64 * qw + __builtin_ctzll(bits);
-				uint64_t key = base | (uint64_t)j, v;
-				if (pass == 0) {
-					v = first ? key : key - prev;
-					vd_svo_count_brick(counts, L, L0, first,
-							   prev, key, blk[j]);
-					prev = key;
-					first = 0;
-					if (xs) {
-						uint8_t kv[16];
-						for (int q = 0; q < 8; q++) {
-							kv[q] = (uint8_t)(key >> 8 * q);
-							kv[8 + q] = (uint8_t)(blk[j] >> 8 * q);
-						}
-						XXH3_64bits_update(xs, kv, 16);
-					}
-				} else {
-					v = blk[j];
-				}
-				for (int b = 0; b < 8; b++)
-					buf[8 * n + b] = (uint8_t)(v >> 8 * b);
-				n++;
-			}
-			err = vd_chunk_writer_write(cw, buf, 8 * n);
-		}
-	}
-	if (xs) {
-		*digest = XXH3_64bits_digest(xs);
-		XXH3_freeState(xs);
-	}
-	if (!err)
-		err = vd_chunk_writer_end(cw);
-	if (!err)
-		err = vd_chunk_writer_set_counts(cw, counts, h.level_count);
+	err = vd_chunk_writer_frames(cw, VD_TAG_BRKS, 8 + 16 * count,
+				     brick_fill, &src, threads);
 	if (err) {
 		vd_chunk_writer_abort(cw);
 		return err;
 	}
-	if (hout) {
+	if (hout)
 		*hout = h;
-		for (int l = 0; l <= k; l++)
-			hout->level_nodes[l] = counts[l];
-	}
 	return vd_chunk_writer_commit(cw);
 }
 
@@ -1337,7 +1491,10 @@ static int finish_cell(struct run *r, struct worker *w,
 	struct vd_chunk_header h;
 	uint64_t digest = 0;
 	if (!err)
-		err = write_cell(r, w, cb, cell, nb, counts, &nbricks,
+		/* a split cell's other workers wait for this one: the
+		 * section's frames are compressed on all of them */
+		err = write_cell(r, w, cb, cell, nb, sc ? r->nworkers : 1,
+				 counts, &nbricks,
 				 r->colours ? &h : NULL, &digest);
 	if (!err && r->colours && nbricks) {
 		char name[64], cpath[4096];
@@ -2083,6 +2240,7 @@ out:
 			free(r.workers[i].tris);
 			free(r.workers[i].order);
 			free(r.workers[i].nz);
+			free(r.workers[i].nz_start);
 			free(r.workers[i].blk);
 			free(r.workers[i].base);
 			free(r.workers[i].prefix);
