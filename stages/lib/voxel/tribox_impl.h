@@ -143,9 +143,10 @@ enum { RN(VTAB) = 512 };
  *     than one voxel of w per voxel of v, since |n_v| <= |n_w|).
  * All of it is exact integer arithmetic: the same voxels as testing the
  * 13 axes on every box. */
-static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
-		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
-		       vd_span_fn fn, void *ctx)
+static inline __attribute__((always_inline)) void
+RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
+		const int64_t vhi[3], const int64_t origin[3], int64_t s,
+		vd_span_fn fn, void *ctx, struct vd_brick_sink *sink)
 {
 	int64_t t[3][3];
 	for (int k = 0; k < 3; k++)
@@ -159,6 +160,9 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		    (x.a[0][w] < 0 ? -x.a[0][w] : x.a[0][w]))
 			w = a;
 	const int u = (w + 1) % 3, v = (w + 2) % 3;
+	struct brick_emit e;
+	if (sink)
+		emit_init(&e, sink, u, v, w, vlo, vhi);
 	/* axes as lo <= a.p <= hi; col: e_k x unit_w, ru: e_k x unit_v
 	 * (per row), tv: e_k x unit_u (per v) */
 	int col[3], ru[3], tv[3];
@@ -203,6 +207,11 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	int64_t p[3];
 	for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {
 		p[u] = cu * s - origin[u];
+		if (sink) {
+			if (e.stop)
+				return;
+			emit_row(&e, cu);
+		}
 		int64_t v0 = vlo[v], v1 = vhi[v];
 		for (int k = 0; k < 3 && v0 <= v1; k++) {
 			const RT *ax = x.a[col[k]];
@@ -270,9 +279,28 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			}
 			if (w0 > w1)
 				continue;
+			if (sink) {
+				emit_run(&e, cv, vlo[w] + w0, vlo[w] + w1);
+				continue;
+			}
 			int64_t out[3];
 			out[u] = cu, out[v] = cv, out[w] = vlo[w] + w0;
 			fn(ctx, w, out[0], out[1], out[2], w1 - w0 + 1);
 		}
 	}
+}
+
+static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
+		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
+		       vd_span_fn fn, void *ctx)
+{
+	RN(raster_core)(tri, vlo, vhi, origin, s, fn, ctx, NULL);
+}
+
+static void RN(raster_bricks)(const struct vd_snapped_tri *tri,
+			      const int64_t vlo[3], const int64_t vhi[3],
+			      const int64_t origin[3], int64_t s,
+			      struct vd_brick_sink *sink)
+{
+	RN(raster_core)(tri, vlo, vhi, origin, s, NULL, NULL, sink);
 }
