@@ -49,19 +49,6 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 	return VD_OK;
 }
 
-/* floor and ceil without libm calls (values here are far inside int64) */
-static inline double vd_floor(double x)
-{
-	double i = (double)(int64_t)x;
-	return i - (x < i);
-}
-
-static inline double vd_ceil(double x)
-{
-	double i = (double)(int64_t)x;
-	return i + (x > i);
-}
-
 int vd_raster_table_max = 512;
 
 /* ------------------------------------------------------- brick emitter
