@@ -12,6 +12,7 @@
 #include "voxel/voxelize_internal.h"
 
 #include <dirent.h>
+#include <string.h>
 #include <math.h>
 #include <unistd.h>
 
@@ -293,6 +294,137 @@ static void test_box_overlap(void)
 	CHECK_EQ(bad, 0);
 }
 
+/* ------------------------------------------------------- brick sink */
+
+/* A cell of 2^k voxels (k >= 5) as a dense array of blocks. */
+struct dense_cell {
+	int k;                 /* blocks per side: 2^(k-5) */
+	uint64_t *blocks;      /* block i at i * 512 words */
+	size_t nblocks;
+	int fetched;
+};
+
+static uint64_t *dense_block(void *ctx, uint64_t key)
+{
+	struct dense_cell *c = ctx;
+	uint32_t x, y, z;
+	vd_morton3_decode(key, &x, &y, &z);
+	uint32_t n = 1u << (c->k - 5);
+	CHECK(x < n && y < n && z < n);
+	c->fetched++;
+	return c->blocks + ((size_t)(x * n + y) * n + z) * 512;
+}
+
+/* The voxels set in the cell, as grid Morton keys, into `out`. */
+static void dense_voxels(const struct dense_cell *c, const int64_t lo[3],
+			 struct vset *out)
+{
+	uint32_t n = 1u << (c->k - 5);
+	for (size_t i = 0; i < c->nblocks; i++)
+		for (int j = 0; j < 512; j++)
+			for (uint64_t bits = c->blocks[i * 512 + (size_t)j];
+			     bits; bits &= bits - 1) {
+				uint32_t m = (uint32_t)j << 6 |
+					     (uint32_t)__builtin_ctzll(bits), l[3];
+				vd_morton3_decode(m, &l[0], &l[1], &l[2]);
+				int64_t b[3] = {(int64_t)(i / n / n),
+						(int64_t)(i / n % n),
+						(int64_t)(i % n)};
+				collect(out, lo[0] + 32 * b[0] + l[0],
+					lo[1] + 32 * b[1] + l[1],
+					lo[2] + 32 * b[2] + l[2]);
+			}
+}
+
+/* vd_raster_triangle_bricks sets the voxels of the span rasterizer (itself
+ * checked against the reference above) and, for small triangles, of the
+ * reference directly: at depth 14 in a cell of 2^7 (int64 path, tabled
+ * and untabled blocks), runs across blocks, clip boxes of an octant, and
+ * at depths 4 and 8 (the __int128 path; a cell smaller than a block). */
+static void bricks_at(int L, int k, int count, int maxsize, int ref)
+{
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
+	struct dense_cell c = {.k = k < 5 ? 5 : k};
+	c.nblocks = (size_t)1 << 3 * (c.k - 5);
+	c.blocks = calloc(c.nblocks * 512, sizeof *c.blocks);
+	int bad = 0;
+	for (int i = 0; i < count && bad < 3; i++) {
+		/* a cell of the grid, and a triangle around it */
+		int64_t lo[3], hi[3], clo[3], chi[3];
+		struct vd_snapped_tri t;
+		for (int a = 0; a < 3; a++) {
+			lo[a] = k >= L ? 0 : uniform((int64_t)1 << (L - k)) << k;
+			hi[a] = lo[a] + ((int64_t)1 << k) - 1;
+			hi[a] = hi[a] > top ? top : hi[a];
+		}
+		int64_t size = 1 + uniform(maxsize);
+		int64_t ctr[3];
+		for (int a = 0; a < 3; a++)
+			ctr[a] = (lo[a] - 2 + uniform(hi[a] - lo[a] + 5)) * s +
+				 uniform(s);
+		for (int j = 0; j < 3; j++)
+			for (int a = 0; a < 3; a++) {
+				int64_t v = ctr[a] + uniform(2 * size * s + 1) -
+					    size * s;
+				if (i % 7 == 0) /* on the lattice of voxels */
+					v = v / s * s;
+				t.v[j][a] = v < 0 ? 0 : v > (top + 1) * s ?
+					    (top + 1) * s : v;
+			}
+		if (i % 11 == 0) /* a segment */
+			for (int a = 0; a < 3; a++)
+				t.v[2][a] = t.v[1][a];
+		/* clip to the cell, or to one octant of it */
+		for (int a = 0; a < 3; a++) {
+			clo[a] = lo[a], chi[a] = hi[a];
+			if (i % 3 == 0 && k > 5) {
+				int64_t half = (int64_t)1 << (k - 1);
+				clo[a] += (int64_t)(i >> a & 1) * half;
+				chi[a] = clo[a] + half - 1;
+			}
+		}
+		memset(c.blocks, 0, c.nblocks * 512 * sizeof *c.blocks);
+		struct vd_brick_sink sink = {.block = dense_block, .ctx = &c};
+		memcpy(sink.lo, lo, sizeof sink.lo);
+		vd_raster_triangle_bricks(&t, L, clo, chi, &sink);
+		struct vset got = {0}, want = {0};
+		dense_voxels(&c, lo, &got);
+		vset_finish(&got);
+		vd_raster_triangle(&t, L, clo, chi, collect, &want);
+		vset_finish(&want);
+		bad += !vset_equal(&got, &want, "bricks vs spans", morton_name);
+		if (ref && size <= 12) {
+			struct vset all = {0}, in = {0};
+			ref_voxels(&t, L, &all);
+			for (size_t q = 0; q < all.n; q++) {
+				uint32_t x, y, z;
+				vd_morton3_decode(all.v[q], &x, &y, &z);
+				if (x >= clo[0] && x <= chi[0] && y >= clo[1] &&
+				    y <= chi[1] && z >= clo[2] && z <= chi[2])
+					vset_add(&in, all.v[q]);
+			}
+			vset_finish(&in);
+			bad += !vset_equal(&got, &in, "bricks vs reference",
+					   morton_name);
+			free(all.v);
+			free(in.v);
+		}
+		free(got.v);
+		free(want.v);
+	}
+	free(c.blocks);
+	CHECK_EQ(bad, 0);
+}
+
+static void test_bricks(void)
+{
+	bricks_at(14, 7, 3000, 12, 1);   /* small: tabled, vs reference */
+	bricks_at(14, 7, 1500, 90, 0);   /* larger: untabled, clipped */
+	bricks_at(14, 8, 300, 400, 0);   /* across the cell */
+	bricks_at(8, 6, 1000, 40, 1);    /* one cell of 2^6 at depth 8 */
+	bricks_at(4, 4, 1000, 16, 1);    /* __int128, cell < block */
+}
+
 /* --------------------------------------------------------- real meshes */
 
 /* The brute-force voxel set of a whole mesh: every triangle, every voxel
@@ -496,6 +628,7 @@ int main(void)
 	RUN(test_large_and_clipped);
 	RUN(test_untabled_rows);
 	RUN(test_box_overlap);
+	RUN(test_bricks);
 	RUN(test_real_mesh_brute_force);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_resolutions_agree);

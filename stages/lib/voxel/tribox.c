@@ -19,6 +19,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 typedef __int128 i128;
 
@@ -48,20 +49,134 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 	return VD_OK;
 }
 
-/* floor and ceil without libm calls (values here are far inside int64) */
-static inline double vd_floor(double x)
-{
-	double i = (double)(int64_t)x;
-	return i - (x < i);
-}
-
-static inline double vd_ceil(double x)
-{
-	double i = (double)(int64_t)x;
-	return i + (x > i);
-}
-
 int vd_raster_table_max = 512;
+
+/* ------------------------------------------------------- brick emitter
+ * Sets a column's run straight into its block (vd_brick_sink): the
+ * Morton index of a voxel in its block is its three spread coordinates
+ * ORed, the row's part computed once per row, the column's once per
+ * column. A triangle's blocks are looked up once each, through a table
+ * over the blocks of its bounding box when that is small (a fine grid's
+ * triangles cover a few blocks, and consecutive columns alternate
+ * between them). */
+
+/* 5 bits spread to every third bit */
+static const uint16_t d5[32] = {
+	0, 1, 8, 9, 64, 65, 72, 73, 512, 513, 520, 521, 576, 577, 584, 585,
+	4096, 4097, 4104, 4105, 4160, 4161, 4168, 4169, 4608, 4609, 4616,
+	4617, 4672, 4673, 4680, 4681};
+
+enum { EMIT_TAB = 64 };
+
+struct brick_emit {
+	struct vd_brick_sink *sink;
+	int ax[3];              /* u, v, w */
+	int sh[3];              /* their Morton shifts: x 2, y 1, z 0 */
+	int64_t lo[3];          /* the cell's first voxel along u, v, w */
+	uint32_t tb[3];         /* the triangle's first block along u, v, w */
+	uint32_t nbv, nbw;      /* table strides */
+	int tabled, stop;
+	uint32_t lu, mu;        /* the row: u within the cell, spread */
+	uint32_t rowbase;       /* the row's first table entry */
+	uint32_t last[3];       /* untabled: the last block */
+	uint64_t *last_blk;
+	uint64_t *tab[EMIT_TAB];
+};
+
+static void emit_init(struct brick_emit *e, struct vd_brick_sink *sink,
+		      int u, int v, int w, const int64_t vlo[3],
+		      const int64_t vhi[3])
+{
+	e->sink = sink;
+	e->ax[0] = u, e->ax[1] = v, e->ax[2] = w;
+	uint32_t n[3];
+	for (int i = 0; i < 3; i++) {
+		int a = e->ax[i];
+		e->sh[i] = 2 - a;
+		e->lo[i] = sink->lo[a];
+		e->tb[i] = (uint32_t)(vlo[a] - sink->lo[a]) >> 5;
+		n[i] = ((uint32_t)(vhi[a] - sink->lo[a]) >> 5) - e->tb[i] + 1;
+	}
+	e->nbv = n[1], e->nbw = n[2];
+	e->tabled = (uint64_t)n[0] * n[1] * n[2] <= EMIT_TAB;
+	if (e->tabled)
+		memset(e->tab, 0, n[0] * n[1] * n[2] * sizeof *e->tab);
+	e->last_blk = NULL;
+	e->stop = 0;
+}
+
+static inline void emit_row(struct brick_emit *e, int64_t cu)
+{
+	e->lu = (uint32_t)(cu - e->lo[0]);
+	e->mu = (uint32_t)d5[e->lu & 31] << e->sh[0];
+	e->rowbase = ((e->lu >> 5) - e->tb[0]) * e->nbv * e->nbw;
+}
+
+/* The block at block coordinates (bu, bv, bw) of the cell, or NULL. */
+static uint64_t *emit_block(struct brick_emit *e, uint32_t bu, uint32_t bv,
+			    uint32_t bw)
+{
+	uint64_t **slot = NULL;
+	if (e->tabled) {
+		slot = &e->tab[((bu - e->tb[0]) * e->nbv + bv - e->tb[1]) *
+			       e->nbw + bw - e->tb[2]];
+		if (*slot)
+			return *slot;
+	} else if (e->last_blk && bu == e->last[0] && bv == e->last[1] &&
+		   bw == e->last[2]) {
+		return e->last_blk;
+	}
+	uint32_t b[3];
+	b[e->ax[0]] = bu, b[e->ax[1]] = bv, b[e->ax[2]] = bw;
+	uint64_t *blk = e->sink->block(e->sink->ctx,
+				       vd_morton3(b[0], b[1], b[2]));
+	if (!blk) {
+		e->stop = 1;
+		return NULL;
+	}
+	if (slot)
+		*slot = blk;
+	e->last[0] = bu, e->last[1] = bv, e->last[2] = bw;
+	e->last_blk = blk;
+	return blk;
+}
+
+/* A run that crosses blocks, or of an untabled triangle. */
+static void emit_run_slow(struct brick_emit *e, uint32_t lv, uint32_t lw0,
+			  uint32_t lw1)
+{
+	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
+	for (uint32_t lw = lw0; lw <= lw1; lw++) {
+		uint64_t *blk = emit_block(e, e->lu >> 5, lv >> 5, lw >> 5);
+		if (!blk)
+			return;
+		uint32_t mm = m | (uint32_t)d5[lw & 31] << e->sh[2];
+		blk[mm >> 6] |= 1ull << (mm & 63);
+	}
+}
+
+/* The voxels cv (along v) and w0..w1 (along w) of the row. */
+static inline __attribute__((always_inline)) void emit_run(struct brick_emit *e, int64_t cv, int64_t w0,
+			    int64_t w1)
+{
+	uint32_t lv = (uint32_t)(cv - e->lo[1]);
+	uint32_t lw0 = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
+	if (!e->tabled || (lw0 ^ lw1) >= 32) {
+		emit_run_slow(e, lv, lw0, lw1);
+		return;
+	}
+	uint64_t **slot = &e->tab[e->rowbase + ((lv >> 5) - e->tb[1]) *
+				  e->nbw + (lw0 >> 5) - e->tb[2]];
+	uint64_t *blk = *slot;
+	if (!blk && !(blk = emit_block(e, e->lu >> 5, lv >> 5, lw0 >> 5)))
+		return;
+	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
+	const int sw = e->sh[2];
+	for (uint32_t lw = lw0; lw <= lw1; lw++) {
+		uint32_t mm = m | (uint32_t)d5[lw & 31] << sw;
+		blk[mm >> 6] |= 1ull << (mm & 63);
+	}
+}
 
 #define RT int64_t
 #define RN(name) name##64
@@ -108,13 +223,14 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
 	return axes_overlap128(&x, zero);
 }
 
-void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
-			      const int64_t clip_lo[3],
-			      const int64_t clip_hi[3], vd_span_fn fn,
-			      void *ctx)
+/* The triangle's voxel range clipped to [clip_lo, clip_hi], the origin
+ * (vlo's low corner) and whether int64 holds the tests; 0 if empty. */
+static int raster_range(const struct vd_snapped_tri *t, int64_t s,
+			const int64_t clip_lo[3], const int64_t clip_hi[3],
+			int64_t vlo[3], int64_t vhi[3], int64_t origin[3],
+			int *small)
 {
-	const int64_t s = vd_snap_voxel(levels);
-	int64_t vlo[3], vhi[3], origin[3], extent = 0;
+	int64_t extent = 0;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
@@ -131,7 +247,7 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 		if (vhi[a] > clip_hi[a])
 			vhi[a] = clip_hi[a];
 		if (vlo[a] > vhi[a])
-			return;
+			return 0;
 		origin[a] = vlo[a] * s;
 		/* the largest relative coordinate a test will meet */
 		int64_t e = (vhi[a] + 1) * s - origin[a];
@@ -142,10 +258,40 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 		if (e > extent)
 			extent = e;
 	}
-	if (extent < ((int64_t)1 << 19))
+	*small = extent < ((int64_t)1 << 19);
+	return 1;
+}
+
+void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
+			      const int64_t clip_lo[3],
+			      const int64_t clip_hi[3], vd_span_fn fn,
+			      void *ctx)
+{
+	const int64_t s = vd_snap_voxel(levels);
+	int64_t vlo[3], vhi[3], origin[3];
+	int small;
+	if (!raster_range(t, s, clip_lo, clip_hi, vlo, vhi, origin, &small))
+		return;
+	if (small)
 		raster64(t, vlo, vhi, origin, s, fn, ctx);
 	else
 		raster128(t, vlo, vhi, origin, s, fn, ctx);
+}
+
+void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
+			       const int64_t clip_lo[3],
+			       const int64_t clip_hi[3],
+			       struct vd_brick_sink *sink)
+{
+	const int64_t s = vd_snap_voxel(levels);
+	int64_t vlo[3], vhi[3], origin[3];
+	int small;
+	if (!raster_range(t, s, clip_lo, clip_hi, vlo, vhi, origin, &small))
+		return;
+	if (small)
+		raster_bricks64(t, vlo, vhi, origin, s, sink);
+	else
+		raster_bricks128(t, vlo, vhi, origin, s, sink);
 }
 
 struct each_voxel {

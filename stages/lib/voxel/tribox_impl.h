@@ -63,35 +63,6 @@ static inline int RN(axes_overlap)(const struct RN(axes) *x, const int64_t p[3])
 	return 1;
 }
 
-/* Narrows [*lo, *hi] (voxel indices along one axis) to the voxels whose
- * low corner q = index*s - origin may satisfy lower <= a*q <= upper, from
- * a double estimate widened by a margin; the caller's exact tests decide.
- * Values here stay below 2^53 in magnitude or are divided by the largest
- * component, so the estimate errs by far less than the margin. */
-static inline void RN(narrow)(double lower, double upper, double a,
-			      double origin, double inv_s, int64_t *lo,
-			      int64_t *hi)
-{
-	if (a == 0) {
-		if (lower > 0.5 || upper < -0.5) /* integers: 0 must fit */
-			*hi = *lo - 1;
-		return;
-	}
-	double q0 = lower / a, q1 = upper / a;
-	if (a < 0) {
-		double tmp = q0;
-		q0 = q1;
-		q1 = tmp;
-	}
-	const double margin = 1.0 / 64; /* lattice steps */
-	double f0 = vd_ceil((q0 - margin + origin) * inv_s);
-	double f1 = vd_floor((q1 + margin + origin) * inv_s);
-	if (f0 > (double)*lo)
-		*lo = f0 > (double)*hi ? *hi + 1 : (int64_t)f0;
-	if (f1 < (double)*hi)
-		*hi = f1 < (double)*lo ? *lo - 1 : (int64_t)f1;
-}
-
 /* floor(a / b) for b > 0 */
 static inline RT RN(fdiv)(RT a, RT b)
 {
@@ -122,6 +93,67 @@ static inline void RN(bound)(RT b, RT A, RT lo, RT hi, int64_t *k1,
 		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
 }
 
+/* Narrows [*k1, *k2] to [c1, c2], keeping an empty result empty. */
+static inline void RN(clamp)(RT c1, RT c2, int64_t *k1, int64_t *k2)
+{
+	if (c1 > *k1)
+		*k1 = c1 > *k2 ? *k2 + 1 : (int64_t)c1;
+	if (c2 < *k2)
+		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
+}
+
+/* The constraint lo <= b + A*k <= hi of RN(bound) while b moves by d a
+ * step (a row, or a column): with A != 0, as A' k in [lo', hi'] - b'
+ * (A' = |A| > 0, the rest negated with A), b' = A' q + r kept by adding
+ * d' = A' dq + dr, so the bounds on k come without a division:
+ * ceil((lo' - b') / A') = ql - q + (rl > r), likewise floor for hi'. */
+struct RN(dda) {
+	RT A, q, r, dq, dr, ql, rl, qh, rh;
+	RT b, d, lo, hi;        /* A == 0: b itself */
+};
+
+static inline void RN(dda_init)(struct RN(dda) *x, RT A, RT b, RT d, RT lo,
+				RT hi)
+{
+	x->A = A < 0 ? -A : A;
+	if (A == 0) {
+		x->b = b, x->d = d, x->lo = lo, x->hi = hi;
+		return;
+	}
+	if (A < 0) {
+		RT t = lo;
+		lo = -hi, hi = -t, b = -b, d = -d;
+	}
+	x->q = RN(fdiv)(b, x->A), x->r = b - x->q * x->A;
+	x->dq = RN(fdiv)(d, x->A), x->dr = d - x->dq * x->A;
+	x->ql = RN(fdiv)(lo, x->A), x->rl = lo - x->ql * x->A;
+	x->qh = RN(fdiv)(hi, x->A), x->rh = hi - x->qh * x->A;
+}
+
+static inline void RN(dda_bound)(const struct RN(dda) *x, int64_t *k1,
+				 int64_t *k2)
+{
+	if (x->A == 0) {
+		if (x->b < x->lo || x->b > x->hi)
+			RN(clamp)(1, 0, k1, k2);
+		return;
+	}
+	RN(clamp)(x->ql - x->q + (x->rl > x->r), x->qh - x->q - (x->r > x->rh),
+		  k1, k2);
+}
+
+static inline void RN(dda_step)(struct RN(dda) *x)
+{
+	if (x->A == 0) {
+		x->b += x->d;
+		return;
+	}
+	x->q += x->dq;
+	x->r += x->dr;
+	if (x->r >= x->A)
+		x->r -= x->A, x->q++;
+}
+
 /* Rows of at most this many voxels (and vd_raster_table_max) have their
  * per-v bounds tabled; longer ones bound each column on its own. */
 enum { RN(VTAB) = 512 };
@@ -133,7 +165,7 @@ enum { RN(VTAB) = 512 };
  * one interval, the intersection of:
  *   - the box axes: the clip box [vlo, vhi];
  *   - the edge axes e_k x unit_w, constant along a column: per row (fixed
- *     u) they bound the range of v, and per column they are tested once;
+ *     u) they bound the range of v;
  *   - the edge axes e_k x unit_v, whose projections do not depend on v:
  *     one interval per row;
  *   - the edge axes e_k x unit_u, which do not depend on u: one interval
@@ -141,11 +173,14 @@ enum { RN(VTAB) = 512 };
  *   - the plane: its interval is found by one exact division per row and
  *     then stepped from column to column in integers (it moves by less
  *     than one voxel of w per voxel of v, since |n_v| <= |n_w|).
- * All of it is exact integer arithmetic: the same voxels as testing the
- * 13 axes on every box. */
-static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
-		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
-		       vd_span_fn fn, void *ctx)
+ * The bounds of the edge axes step from row to row (and v to v) as
+ * quotient and remainder (RN(dda)): no division after the triangle's
+ * first. All of it is exact integer arithmetic: the same voxels as
+ * testing the 13 axes on every box. */
+static inline __attribute__((always_inline)) void
+RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
+		const int64_t vhi[3], const int64_t origin[3], int64_t s,
+		vd_span_fn fn, void *ctx, struct vd_brick_sink *sink)
 {
 	int64_t t[3][3];
 	for (int k = 0; k < 3; k++)
@@ -159,6 +194,9 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		    (x.a[0][w] < 0 ? -x.a[0][w] : x.a[0][w]))
 			w = a;
 	const int u = (w + 1) % 3, v = (w + 2) % 3;
+	struct brick_emit e;
+	if (sink)
+		emit_init(&e, sink, u, v, w, vlo, vhi);
 	/* axes as lo <= a.p <= hi; col: e_k x unit_w, ru: e_k x unit_v
 	 * (per row), tv: e_k x unit_u (per v) */
 	int col[3], ru[3], tv[3];
@@ -172,97 +210,99 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		lo[j] = x.tmin[j] - x.bhi[j];
 		hi[j] = x.tmax[j] - x.blo[j];
 	}
-	RT colvstep[3];
-	for (int k = 0; k < 3; k++)
-		colvstep[k] = x.a[col[k]][v] * s;
 	const int64_t kmax = vhi[w] - vlo[w];
 	const int64_t nv = vhi[v] - vlo[v] + 1;
 	/* per v: the range of k = cw - vlo[w] the axes tv admit (origin[w]
-	 * is the low corner of voxel vlo[w], so p[w] = k * s) */
+	 * is the low corner of voxel vlo[w], so p[w] = k * s; likewise
+	 * p[v] = i * s for cv = vlo[v] + i) */
 	int64_t tv1[RN(VTAB)], tv2[RN(VTAB)];
 	const int tabled = nv <= RN(VTAB) && nv <= vd_raster_table_max;
-	if (tabled)
+	if (tabled) {
+		struct RN(dda) d[3];
+		for (int k = 0; k < 3; k++)
+			RN(dda_init)(&d[k], x.a[tv[k]][w] * s, 0,
+				     x.a[tv[k]][v] * s, lo[tv[k]], hi[tv[k]]);
 		for (int64_t i = 0; i < nv; i++) {
-			RT pv = (RT)(vlo[v] + i) * s - origin[v];
 			tv1[i] = 0, tv2[i] = kmax;
-			for (int k = 0; k < 3; k++)
-				RN(bound)(x.a[tv[k]][v] * pv, x.a[tv[k]][w] * s,
-					  lo[tv[k]], hi[tv[k]], &tv1[i], &tv2[i]);
+			for (int k = 0; k < 3; k++) {
+				RN(dda_bound)(&d[k], &tv1[i], &tv2[i]);
+				RN(dda_step)(&d[k]);
+			}
 		}
+	}
+	/* per row (fixed u, p[u] = j * s): the range of i the axes col
+	 * admit, the range of k the axes ru admit */
+	struct RN(dda) dcol[3], dru[3];
+	for (int k = 0; k < 3; k++) {
+		RN(dda_init)(&dcol[k], x.a[col[k]][v] * s, 0,
+			     x.a[col[k]][u] * s, lo[col[k]], hi[col[k]]);
+		RN(dda_init)(&dru[k], x.a[ru[k]][w] * s, 0, x.a[ru[k]][u] * s,
+			     lo[ru[k]], hi[ru[k]]);
+	}
 	/* The plane in a column: lo[0] <= b + wstep * k <= hi[0]. Negated
 	 * when wstep < 0, it reads pl <= c + P * k <= ph with P > 0,
 	 * c = sg * b. A zero normal (degenerate triangle) is a zero axis: it
-	 * passes every box. */
+	 * passes every box. With c = P qc + rc, pl = P ql + rl and
+	 * ph = P qh + rh, the range is ql - qc + (rl > rc) .. qh - qc -
+	 * (rc > rh): one division a row. */
 	const RT wstep = x.a[0][w] * s;
 	const RT P = wstep < 0 ? -wstep : wstep;
 	const RT sg = wstep < 0 ? -1 : 1;
 	const RT pl = wstep < 0 ? -hi[0] : lo[0];
 	const RT ph = wstep < 0 ? -lo[0] : hi[0];
 	const RT dc = sg * x.a[0][v] * s;
-	const double inv_s = 1.0 / (double)s;
+	RT pql = 0, prl = 0, pqh = 0, prh = 0;
+	if (P != 0) {
+		pql = RN(fdiv)(pl, P), prl = pl - pql * P;
+		pqh = RN(fdiv)(ph, P), prh = ph - pqh * P;
+	}
 	int64_t p[3];
 	for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {
 		p[u] = cu * s - origin[u];
-		int64_t v0 = vlo[v], v1 = vhi[v];
-		for (int k = 0; k < 3 && v0 <= v1; k++) {
-			const RT *ax = x.a[col[k]];
-			RT au = ax[u] * p[u];
-			RN(narrow)((double)(lo[col[k]] - au),
-				   (double)(hi[col[k]] - au),
-				   (double)ax[v], (double)origin[v], inv_s, &v0, &v1);
+		if (sink) {
+			if (e.stop)
+				return;
+			emit_row(&e, cu);
 		}
-		if (v0 > v1)
+		int64_t i0 = 0, i1 = nv - 1, r1 = 0, r2 = kmax;
+		for (int k = 0; k < 3; k++) {
+			RN(dda_bound)(&dcol[k], &i0, &i1);
+			RN(dda_step)(&dcol[k]);
+			RN(dda_bound)(&dru[k], &r1, &r2);
+			RN(dda_step)(&dru[k]);
+		}
+		if (i0 > i1 || r1 > r2)
 			continue;
-		/* the row's range of k from the axes ru */
-		int64_t r1 = 0, r2 = kmax;
-		for (int k = 0; k < 3; k++)
-			RN(bound)(x.a[ru[k]][u] * p[u], x.a[ru[k]][w] * s,
-				  lo[ru[k]], hi[ru[k]], &r1, &r2);
-		if (r1 > r2)
-			continue;
-		p[v] = v0 * s - origin[v];
-		RT cd[3];
-		for (int k = 0; k < 3; k++)
-			cd[k] = x.a[col[k]][u] * p[u] + x.a[col[k]][v] * p[v];
+		p[v] = i0 * s;
 		/* the plane's exact range of k in the first column, and the
 		 * slack e1 = c + P*k1 - pl, e2 = ph - c - P*k2 in [0, P) */
 		RT k1 = 0, k2 = kmax, e1 = 0, e2 = 0;
 		if (P != 0) {
 			RT c = sg * (x.a[0][u] * p[u] + x.a[0][v] * p[v]);
-			k1 = -RN(fdiv)(c - pl, P); /* ceil((pl - c) / P) */
-			k2 = RN(fdiv)(ph - c, P);
-			e1 = c + P * k1 - pl;
-			e2 = ph - c - P * k2;
+			RT qc = RN(fdiv)(c, P), rc = c - qc * P;
+			k1 = pql - qc + (prl > rc);
+			k2 = pqh - qc - (rc > prh);
+			e1 = rc - prl + (prl > rc ? P : 0);
+			e2 = prh - rc + (rc > prh ? P : 0);
 		}
-		for (int64_t cv = v0; cv <= v1; cv++) {
-			int skip = 0;
-			for (int k = 0; k < 3; k++) {
-				skip |= cd[k] < lo[col[k]] || cd[k] > hi[col[k]];
-				cd[k] += colvstep[k];
-			}
+		for (int64_t i = i0; i <= i1; i++) {
 			int64_t w0 = k1 > r1 ? (int64_t)k1 : r1;
 			int64_t w1 = k2 < r2 ? (int64_t)k2 : r2;
 			if (P != 0) {
-				/* step the plane's range to the next column */
+				/* step the plane's range to the next column
+				 * (|dc| <= P: one correction at most) */
 				e1 += dc;
-				if (e1 < 0)
-					k1++, e1 += P;
-				else if (e1 >= P)
-					k1--, e1 -= P;
+				RT m1 = (e1 >= P) - (e1 < 0);
+				k1 -= m1, e1 -= m1 * P;
 				e2 -= dc;
-				if (e2 < 0)
-					k2--, e2 += P;
-				else if (e2 >= P)
-					k2++, e2 -= P;
+				RT m2 = (e2 >= P) - (e2 < 0);
+				k2 += m2, e2 -= m2 * P;
 			}
-			if (skip || w0 > w1)
-				continue;
-			int64_t i = cv - vlo[v];
 			if (tabled) {
 				w0 = tv1[i] > w0 ? tv1[i] : w0;
 				w1 = tv2[i] < w1 ? tv2[i] : w1;
-			} else {
-				RT pv = (RT)cv * s - origin[v];
+			} else if (w0 <= w1) {
+				RT pv = (RT)i * s;
 				for (int k = 0; k < 3; k++)
 					RN(bound)(x.a[tv[k]][v] * pv,
 						  x.a[tv[k]][w] * s, lo[tv[k]],
@@ -270,9 +310,29 @@ static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			}
 			if (w0 > w1)
 				continue;
+			int64_t cv = vlo[v] + i;
+			if (sink) {
+				emit_run(&e, cv, vlo[w] + w0, vlo[w] + w1);
+				continue;
+			}
 			int64_t out[3];
 			out[u] = cu, out[v] = cv, out[w] = vlo[w] + w0;
 			fn(ctx, w, out[0], out[1], out[2], w1 - w0 + 1);
 		}
 	}
+}
+
+static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
+		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
+		       vd_span_fn fn, void *ctx)
+{
+	RN(raster_core)(tri, vlo, vhi, origin, s, fn, ctx, NULL);
+}
+
+static void RN(raster_bricks)(const struct vd_snapped_tri *tri,
+			      const int64_t vlo[3], const int64_t vhi[3],
+			      const int64_t origin[3], int64_t s,
+			      struct vd_brick_sink *sink)
+{
+	RN(raster_core)(tri, vlo, vhi, origin, s, NULL, NULL, sink);
 }

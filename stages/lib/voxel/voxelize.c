@@ -706,48 +706,11 @@ static void map_free(struct block_map *m)
 /* Morton spreading of 3-bit and 2-bit values. */
 static const uint16_t spread3[8] = {0, 1, 8, 9, 64, 65, 72, 73};
 
-struct raster_ctx {
-	struct block_map *map;
-	int64_t lo[3];        /* cell corner, voxels */
-	uint32_t bx, by, bz;  /* block of `blk` */
-	uint64_t *blk;
-};
-
-/* Sets a run of n voxels along `axis`: per block, the two fixed
- * coordinates' parts of the word index and bit are computed once. */
-static void set_span(void *vctx, int axis, int64_t x, int64_t y, int64_t z,
-		     int64_t n)
+/* The rasterizer's sink: blocks of the worker's map (block keys are
+ * Morton keys of block coordinates within the cell). */
+static uint64_t *sink_block(void *ctx, uint64_t key)
 {
-	struct raster_ctx *r = vctx;
-	uint32_t l[3] = {(uint32_t)(x - r->lo[0]), (uint32_t)(y - r->lo[1]),
-			 (uint32_t)(z - r->lo[2])};
-	/* Morton order: x is the high bit of each triple, z the low */
-	const int sh = 2 - axis;
-	while (n > 0) {
-		uint32_t bx = l[0] >> BLOCK_SHIFT, by = l[1] >> BLOCK_SHIFT,
-			 bz = l[2] >> BLOCK_SHIFT;
-		uint64_t *blk = r->blk;
-		if (!blk || bx != r->bx || by != r->by || bz != r->bz) {
-			blk = map_get(r->map, vd_morton3(bx, by, bz));
-			if (!blk)
-				return;
-			r->blk = blk, r->bx = bx, r->by = by, r->bz = bz;
-		}
-		unsigned wi = 0, bit = 0;
-		for (int a = 0; a < 3; a++)
-			if (a != axis) {
-				wi |= (unsigned)spread3[(l[a] >> 2) & 7] << (2 - a);
-				bit |= (unsigned)spread3[l[a] & 3] << (2 - a);
-			}
-		uint32_t lw = l[axis], end = (lw | 31) + 1;
-		if ((int64_t)(end - lw) > n)
-			end = lw + (uint32_t)n;
-		n -= end - lw;
-		for (; lw < end; lw++)
-			blk[wi | (unsigned)spread3[(lw >> 2) & 7] << sh] |=
-				1ull << (bit | (unsigned)spread3[lw & 3] << sh);
-		l[axis] = lw;
-	}
+	return map_get(ctx, key);
 }
 
 /* A voxel's colour while the cell's triangles are visited: the squared
@@ -1519,9 +1482,9 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	int shift = r->g.L - r->g.L0;
 	uint32_t c[3];
 	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
-	struct raster_ctx rc = {.map = &w->map};
+	struct vd_brick_sink sink = {.block = sink_block, .ctx = &w->map};
 	for (int a = 0; a < 3; a++)
-		rc.lo[a] = (int64_t)c[a] << shift;
+		sink.lo[a] = (int64_t)c[a] << shift;
 	FILE *f = fopen(path, "rb");
 	if (!f)
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
@@ -1564,8 +1527,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 				continue;
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
-				vd_raster_triangle_spans(&st, r->g.L, clip_lo,
-							 clip_hi, set_span, &rc);
+				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
+							  clip_hi, &sink);
 		}
 		if (!count)
 			continue;

@@ -26,6 +26,28 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 			      const int64_t clip_hi[3], vd_span_fn fn,
 			      void *ctx);
 
+/* Where vd_raster_triangle_bricks sets voxels: the 32^3-voxel blocks of a
+ * cell, each 512 words, word i the 4^3 brick of Morton index i in its
+ * block and bit j of it the voxel of Morton index j in its brick (so the
+ * voxel of Morton index m in its block is bit m & 63 of word m >> 6). */
+struct vd_brick_sink {
+	int64_t lo[3];  /* the cell's first voxel: block coordinates count
+			 * from it */
+	/* The block of Morton key `key` (of its block coordinates), to OR
+	 * voxels into; NULL drops the rest of the triangle (the caller
+	 * records why). */
+	uint64_t *(*block)(void *ctx, uint64_t key);
+	void *ctx;
+};
+
+/* The voxels of vd_raster_triangle, set in the sink's blocks (the clip
+ * box must lie inside the cell). The same voxels as the callbacks, set
+ * without one call per run: the per-voxel cost of a fine grid. */
+void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
+			       const int64_t clip_lo[3],
+			       const int64_t clip_hi[3],
+			       struct vd_brick_sink *sink);
+
 /* The longest row (in voxels) whose per-column bounds the rasterizer
  * tables once per triangle, at most 512: tests lower it to exercise the
  * untabled path. */
