@@ -32,27 +32,8 @@ COPYRIGHT=./usr/share/doc/$PACKAGE/copyright
 KNOWN_SHA256=b7b93a1133e2d91e5e35202480706094860d8fa52f261dc8cceba95a5a087faf
 
 me=fetch-boeing.sh
-die() {
-	echo "$me: $*" >&2
-	exit 1
-}
-
-case "${1:-}" in
--h | --help)
-	sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
-	exit 0
-	;;
--*)
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-	;;
-esac
-[ $# -le 1 ] || {
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-}
-
-cache=${1:-${VOXDAG_DATA:-out/data}}
+. "$(dirname "$0")/fetch-common.sh"
+fetch_args 13 "$@"
 dest=$cache/boeing777
 model=$dest/77L.ac
 

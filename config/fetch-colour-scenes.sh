@@ -44,27 +44,8 @@ fg-truman flightgear-data-models 1:2020.3.16+dfsg-1 usr/share/games/flightgear/M
 torcs-brondehach torcs-data 1.3.7+dfsg-5 usr/share/games/torcs/tracks/road/brondehach brondehach.acc 067c5a02283d40ba08c4559307af83faa3097a9defddca43af6a793af3e124b7
 '
 
-die() {
-	echo "$me: $*" >&2
-	exit 1
-}
-
-case "${1:-}" in
--h | --help)
-	sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
-	exit 0
-	;;
--*)
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-	;;
-esac
-[ $# -le 1 ] || {
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-}
-
-cache=${1:-${VOXDAG_DATA:-out/data}}
+. "$(dirname "$0")/fetch-common.sh"
+fetch_args 12 "$@"
 for tool in apt-get dpkg-deb tar sha256sum; do
 	command -v "$tool" >/dev/null 2>&1 ||
 		die "'$tool' not found; this needs a Debian-based system (apt, dpkg)"

@@ -28,27 +28,8 @@ ZIP_SHA256=4633a31330f4ac8fb1e578e910949eb6b5b2cc18c8ec9b5a7befef6bef7a63be
 OBJ_SHA256=5b4f8bc4f847aef7f0bd20bc3647f1d72843188c0a650d52ac8e0700c2e5f092
 
 me=fetch-sponza.sh
-die() {
-	echo "$me: $*" >&2
-	exit 1
-}
-
-case "${1:-}" in
--h | --help)
-	sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'
-	exit 0
-	;;
--*)
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-	;;
-esac
-[ $# -le 1 ] || {
-	echo "usage: $me [CACHE_DIR]" >&2
-	exit 2
-}
-
-cache=${1:-${VOXDAG_DATA:-out/data}}
+. "$(dirname "$0")/fetch-common.sh"
+fetch_args 21 "$@"
 dest=$cache/sponza
 model=$dest/sponza.obj
 
@@ -67,7 +48,9 @@ mkdir -p "$tmp"
 trap 'rm -rf "$tmp"' EXIT
 
 if [ -n "${SPONZA_ZIP:-}" ]; then
-	cp "$SPONZA_ZIP" "$tmp/sponza.zip" || die "cannot read '$SPONZA_ZIP'"
+	[ -f "$SPONZA_ZIP" ] && [ -r "$SPONZA_ZIP" ] ||
+		die "cannot read '$SPONZA_ZIP' (SPONZA_ZIP)"
+	cp "$SPONZA_ZIP" "$tmp/sponza.zip" || die "cannot copy '$SPONZA_ZIP'"
 	from=$SPONZA_ZIP
 else
 	command -v curl >/dev/null 2>&1 ||
