@@ -574,6 +574,7 @@ struct block_map {
 	atomic_size_t *shared; /* if set, the blocks of all the maps that
 				* share one cell, which `limit` bounds */
 	int over;            /* the limit was hit */
+	int clean;           /* its blocks are zero again (write_cell) */
 };
 
 static int map_grow(struct block_map *m)
@@ -681,13 +682,15 @@ static int map_reset(struct block_map *m)
 	}
 	for (size_t i = 0; i < m->cap; i++)
 		if (m->keys[i]) {
-			memset(m->vals[i], 0, BLOCK_BYTES);
+			if (!m->clean)
+				memset(m->vals[i], 0, BLOCK_BYTES);
 			m->spare[m->nspare++] = m->vals[i];
 			m->keys[i] = 0;
 		}
 	m->count = 0;
 	m->last_val = NULL;
 	m->over = 0;
+	m->clean = 0;
 	return VD_OK;
 }
 
@@ -882,7 +885,8 @@ struct brick_it {
 	size_t blk;
 	int qw;
 	uint64_t bits;
-	const uint64_t *words; /* the block's bricks */
+	const uint64_t *words; /* the block's masks, packed by nz_range */
+	size_t r;              /* the brick's rank in its block */
 };
 
 /* Positions `it` at brick i (< count). */
@@ -898,6 +902,7 @@ static void brick_seek(const struct brick_src *b, uint64_t i,
 			hi = mid;
 	}
 	uint64_t skip = i - b->start[lo];
+	it->r = (size_t)skip;
 	it->blk = lo;
 	it->qw = 0;
 	it->bits = b->nz[8 * lo];
@@ -923,6 +928,7 @@ static inline void brick_next(const struct brick_src *b, struct brick_it *it,
 			it->qw = 0;
 			it->blk++;
 			it->words = b->blk[it->blk];
+			it->r = 0;
 		}
 		it->bits = b->nz[8 * it->blk + it->qw];
 	}
@@ -930,7 +936,8 @@ static inline void brick_next(const struct brick_src *b, struct brick_it *it,
 	it->bits &= it->bits - 1;
 	*key = b->prefix | b->order[it->blk] << 9 | (uint64_t)j;
 	if (mask)
-		*mask = it->words[j];
+		*mask = it->words[it->r];
+	it->r++;
 }
 
 static inline void put64le(uint8_t *p, uint64_t v)
@@ -963,12 +970,15 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 		}
 		w = end + 1;
 	}
+	/* each mask is read here once, the block's last use: zeroing it
+	 * in the line just read spares map_reset a memset of the block */
 	if (w < w1) {
 		uint64_t i = w - 1 - b->count, end = w1 - 1 - b->count;
 		brick_seek(b, i, &it);
 		for (; i < end; i++, buf += 8) {
 			brick_next(b, &it, &key, &mask);
 			put64le(buf, mask);
+			((uint64_t *)it.words)[it.r - 1] = 0;
 		}
 	}
 }
@@ -997,7 +1007,7 @@ static void nz_range(void *ctx, size_t k, int worker)
 	uint64_t *counts = nj->counts[k];
 	size_t end = (k + 1) * NZ_RANGE < nj->nb ? (k + 1) * NZ_RANGE : nj->nb;
 	for (size_t i = k * NZ_RANGE; i < end; i++) {
-		const uint64_t *blk = nj->blk[i];
+		uint64_t *blk = nj->blk[i];
 		uint64_t *nz = nj->nz + 8 * i, c = 0;
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
@@ -1008,15 +1018,24 @@ static void nz_range(void *ctx, size_t k, int worker)
 		}
 		nj->start[i] = c;
 		/* keys within the block: the brick index; the bits above
-		 * are the same for all and cancel in prev ^ key */
+		 * are the same for all and cancel in prev ^ key. The masks
+		 * are packed to the block's front (the block is not read as
+		 * a grid again), so later passes read c words in a row. */
 		uint64_t prev = 1ull << 9;
+		size_t r = 0;
 		for (int q = 0; q < 8; q++)
 			for (uint64_t bits = nz[q]; bits; bits &= bits - 1) {
 				uint64_t key = (uint64_t)(64 * q +
 						__builtin_ctzll(bits));
+				uint64_t m = blk[key];
 				vd_svo_count_brick(counts, nj->L, nj->L0, 0,
-						   prev, key, blk[key]);
+						   prev, key, m);
 				prev = key;
+				if (r != key) {
+					blk[r] = m;
+					blk[key] = 0;
+				}
+				r++;
 			}
 	}
 }
@@ -1091,8 +1110,11 @@ static int write_cell(struct run *r, struct worker *w,
 	}
 	w->nz_start[nb] = count;
 	*nbricks = count;
-	if (count == 0)
+	if (count == 0) {
+		for (int q = 0; q < 8; q++)
+			cb->map[q]->clean = 1; /* no word was set */
 		return VD_OK; /* touched only by triangles outside its voxels */
+	}
 	struct brick_src src = {w->bptr, w->order, w->nz, w->nz_start, nb,
 				prefix, count};
 
@@ -1140,6 +1162,8 @@ static int write_cell(struct run *r, struct worker *w,
 		vd_chunk_writer_abort(cw);
 		return err;
 	}
+	for (int q = 0; q < 8; q++)
+		cb->map[q]->clean = 1;
 	if (hout)
 		*hout = h;
 	return vd_chunk_writer_commit(cw);
