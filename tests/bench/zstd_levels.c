@@ -1,8 +1,9 @@
 /* zstd_levels - what the chunk sections would cost at each zstd level:
  * reads chunk files, decompresses every section and compresses it again at
  * levels -5..19 (zstd's fast negative levels too), printing per section
- * kind the stored bytes and the compression and decompression speed. The chunk writer's default
- * level is chosen from this table (schemas/chunk-format.md).
+ * kind the stored bytes and the compression and decompression speed. The
+ * chunk writer's default level is chosen from this table
+ * (schemas/chunk-format.md).
  *
  * usage: zstd_levels CHUNK...   (built and run by tests/bench.sh) */
 #include "voxdag.h"
