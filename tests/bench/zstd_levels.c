@@ -1,8 +1,9 @@
 /* zstd_levels - what the chunk sections would cost at each zstd level:
  * reads chunk files, decompresses every section and compresses it again at
- * levels 1..19 (and stored), printing per section kind the stored bytes
- * and the compression and decompression speed. The chunk writer's default
- * level is chosen from this table (schemas/chunk-format.md).
+ * levels -5..19 (zstd's fast negative levels too), printing per section
+ * kind the stored bytes and the compression and decompression speed. The
+ * chunk writer's default level is chosen from this table
+ * (schemas/chunk-format.md).
  *
  * usage: zstd_levels CHUNK...   (built and run by tests/bench.sh) */
 #include "voxdag.h"
@@ -12,7 +13,7 @@
 #include <string.h>
 #include <zstd.h>
 
-static const int levels[] = {1, 2, 3, 5, 9, 19};
+static const int levels[] = {-5, -1, 1, 2, 3, 5, 9, 19};
 #define NL (int)(sizeof levels / sizeof levels[0])
 #define NTAG 5
 static const char *tags[NTAG] = {"BRKS", "DAGM", "DAGC", "DAGR", "COLS"};

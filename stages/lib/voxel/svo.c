@@ -40,40 +40,6 @@ static int brick_levels(int levels)
 	return levels >= 2 ? levels - 2 : 0;
 }
 
-void vd_svo_count_brick(uint64_t *counts, int levels, int chunk_level,
-			int first, uint64_t prev, uint64_t key, uint64_t mask)
-{
-	int L = levels, L0 = chunk_level, bl = brick_levels(L);
-	/* A node at level l < L-2 is new when the key differs from the
-	 * previous one in the bits above level l's children, bits from
-	 * 3 * (bl - l) up: so exactly the levels from the one of the highest
-	 * differing bit down (keys rise, so they differ; this runs once per
-	 * brick in voxelize and in every SVO load, where a test per level
-	 * cost a tenth of svo-to-dag). */
-	int from = L0;
-	if (!first) {
-		uint64_t x = prev ^ key;
-		int top = x ? 63 - __builtin_clzll(x) : -1;
-		from = top < 0 ? bl : bl - top / 3;
-		if (from < L0)
-			from = L0;
-	}
-	for (int l = from; l < bl; l++)
-		counts[l - L0]++;
-	if (L >= 2) {
-		counts[bl - L0]++;
-		/* the non-zero bytes of the mask: its level L-1 nodes */
-		uint64_t b = mask | mask >> 4;
-		b |= b >> 2;
-		b |= b >> 1;
-		b &= 0x0101010101010101ull;
-		counts[L - 1 - L0] += (b * 0x0101010101010101ull) >> 56;
-	} else {
-		counts[0] += 1; /* L == 1: the root is the 2x2x2 mask */
-	}
-	counts[L - L0] += (uint64_t)__builtin_popcountll(mask);
-}
-
 void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts)
 {
 	for (int l = svo->chunk_level; l <= svo->levels; l++)

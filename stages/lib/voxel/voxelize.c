@@ -574,6 +574,7 @@ struct block_map {
 	atomic_size_t *shared; /* if set, the blocks of all the maps that
 				* share one cell, which `limit` bounds */
 	int over;            /* the limit was hit */
+	int clean;           /* its blocks are zero again (write_cell) */
 };
 
 static int map_grow(struct block_map *m)
@@ -681,13 +682,15 @@ static int map_reset(struct block_map *m)
 	}
 	for (size_t i = 0; i < m->cap; i++)
 		if (m->keys[i]) {
-			memset(m->vals[i], 0, BLOCK_BYTES);
+			if (!m->clean)
+				memset(m->vals[i], 0, BLOCK_BYTES);
 			m->spare[m->nspare++] = m->vals[i];
 			m->keys[i] = 0;
 		}
 	m->count = 0;
 	m->last_val = NULL;
 	m->over = 0;
+	m->clean = 0;
 	return VD_OK;
 }
 
@@ -726,6 +729,7 @@ struct worker {
 	struct block_map map;
 	struct vd_triangle *tris;  /* bin read buffer (TRI_BATCH records) */
 	uint64_t *order;
+	uint64_t **bptr;           /* the block of order[i] */
 	size_t order_cap;
 	uint64_t *nz;              /* write_cell: non-empty bricks per block */
 	uint64_t *nz_start;        /* write_cell: bricks before each block */
@@ -813,8 +817,21 @@ static inline uint64_t *cell_block(const struct cell_blocks *cb,
 	return map_get(cb->map[key >> cb->part_shift & 7], key);
 }
 
+struct key_ptr {
+	uint64_t key;
+	uint64_t *p;
+};
+
+static int cmp_key_ptr(const void *a, const void *b)
+{
+	uint64_t x = ((const struct key_ptr *)a)->key;
+	uint64_t y = ((const struct key_ptr *)b)->key;
+	return (x > y) - (x < y);
+}
+
 /* The keys of the blocks in maps[0..n), sorted (Morton order), into
- * w->order. */
+ * w->order, and their blocks into w->bptr: the passes over the cell's
+ * bricks then walk arrays, not the hash table (a cache miss a block). */
 static int gather_blocks(struct worker *w, struct block_map *const *maps,
 			 int n, size_t *nb_out)
 {
@@ -822,18 +839,32 @@ static int gather_blocks(struct worker *w, struct block_map *const *maps,
 	for (int k = 0; k < n; k++)
 		total += maps[k]->count;
 	if (total > w->order_cap) {
-		uint64_t *o = realloc(w->order, total * sizeof *o * 2);
-		if (!o)
+		size_t cap = total * 2;
+		uint64_t *o = realloc(w->order, cap * sizeof *o);
+		if (o)
+			w->order = o;
+		uint64_t **bp = realloc(w->bptr, cap * sizeof *bp);
+		if (bp)
+			w->bptr = bp;
+		if (!o || !bp)
 			return vd_fail(VD_ERR_NOMEM, "block order");
-		w->order = o;
-		w->order_cap = total * 2;
+		w->order_cap = cap;
 	}
+	struct key_ptr *kp = malloc((total ? total : 1) * sizeof *kp);
+	if (!kp)
+		return vd_fail(VD_ERR_NOMEM, "block order");
 	size_t nb = 0;
 	for (int k = 0; k < n; k++)
 		for (size_t i = 0; i < maps[k]->cap; i++)
 			if (maps[k]->keys[i])
-				w->order[nb++] = maps[k]->keys[i] - 1;
-	qsort(w->order, nb, sizeof *w->order, cmp_u64);
+				kp[nb++] = (struct key_ptr){
+					maps[k]->keys[i] - 1, maps[k]->vals[i]};
+	qsort(kp, nb, sizeof *kp, cmp_key_ptr);
+	for (size_t i = 0; i < nb; i++) {
+		w->order[i] = kp[i].key;
+		w->bptr[i] = kp[i].p;
+	}
+	free(kp);
 	*nb_out = nb;
 	return VD_OK;
 }
@@ -844,7 +875,7 @@ static int gather_blocks(struct worker *w, struct block_map *const *maps,
  * threads (vd_chunk_writer_frames). Block i holds bricks start[i] ..
  * start[i + 1] - 1, the set bits of its 8 words nz[8i..8i+7]. */
 struct brick_src {
-	const struct cell_blocks *cb;
+	uint64_t *const *blk;     /* the block of order[i] */
 	const uint64_t *order, *nz, *start;
 	size_t nb;
 	uint64_t prefix, count;
@@ -854,7 +885,8 @@ struct brick_it {
 	size_t blk;
 	int qw;
 	uint64_t bits;
-	const uint64_t *words; /* the block's bricks */
+	const uint64_t *words; /* the block's masks, packed by nz_range */
+	size_t r;              /* the brick's rank in its block */
 };
 
 /* Positions `it` at brick i (< count). */
@@ -870,6 +902,7 @@ static void brick_seek(const struct brick_src *b, uint64_t i,
 			hi = mid;
 	}
 	uint64_t skip = i - b->start[lo];
+	it->r = (size_t)skip;
 	it->blk = lo;
 	it->qw = 0;
 	it->bits = b->nz[8 * lo];
@@ -882,10 +915,11 @@ static void brick_seek(const struct brick_src *b, uint64_t i,
 	}
 	while (skip--)
 		it->bits &= it->bits - 1;
-	it->words = cell_block(b->cb, b->order[lo]);
+	it->words = b->blk[lo];
 }
 
-/* The brick at `it` (there must be one), then steps past it. */
+/* The brick at `it` (there must be one), then steps past it; its mask
+ * only if asked (the keys come from nz[] alone: no block memory). */
 static inline void brick_next(const struct brick_src *b, struct brick_it *it,
 			      uint64_t *key, uint64_t *mask)
 {
@@ -893,20 +927,29 @@ static inline void brick_next(const struct brick_src *b, struct brick_it *it,
 		if (++it->qw == 8) {
 			it->qw = 0;
 			it->blk++;
-			it->words = cell_block(b->cb, b->order[it->blk]);
+			it->words = b->blk[it->blk];
+			it->r = 0;
 		}
 		it->bits = b->nz[8 * it->blk + it->qw];
 	}
 	int j = 64 * it->qw + __builtin_ctzll(it->bits);
 	it->bits &= it->bits - 1;
 	*key = b->prefix | b->order[it->blk] << 9 | (uint64_t)j;
-	*mask = it->words[j];
+	if (mask)
+		*mask = it->words[it->r];
+	it->r++;
 }
 
+/* One store on a little-endian machine: gcc kept the byte loop as eight
+ * stores, in the loops that write every brick's key and mask. */
 static inline void put64le(uint8_t *p, uint64_t v)
 {
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+	memcpy(p, &v, 8);
+#else
 	for (int i = 0; i < 8; i++)
 		p[i] = (uint8_t)(v >> 8 * i);
+#endif
 }
 
 /* Raw BRKS bytes [off, off + n): word 0 the count, words 1..count the key
@@ -925,42 +968,52 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 		uint64_t i = w - 1, end = w1 - 1 < b->count ? w1 - 1 : b->count;
 		brick_seek(b, i ? i - 1 : 0, &it);
 		if (i)
-			brick_next(b, &it, &prev, &mask);
+			brick_next(b, &it, &prev, NULL);
 		for (; i < end; i++, buf += 8) {
-			brick_next(b, &it, &key, &mask);
+			brick_next(b, &it, &key, NULL);
 			put64le(buf, i ? key - prev : key);
 			prev = key;
 		}
 		w = end + 1;
 	}
+	/* each mask is read here once, the block's last use: zeroing it
+	 * in the line just read spares map_reset a memset of the block */
 	if (w < w1) {
 		uint64_t i = w - 1 - b->count, end = w1 - 1 - b->count;
 		brick_seek(b, i, &it);
 		for (; i < end; i++, buf += 8) {
 			brick_next(b, &it, &key, &mask);
 			put64le(buf, mask);
+			((uint64_t *)it.words)[it.r - 1] = 0;
 		}
 	}
 }
 
 /* Which bricks of blocks [k * NZ_RANGE, ...) are non-empty, and how many
- * (into start[], made starts by the caller). */
+ * (into start[], made starts by the caller), and the range's part of the
+ * per-level counts while the block is in cache: all of them but the nodes
+ * above the blocks' level (bl - 3), which the caller adds from the keys
+ * of consecutive non-empty blocks. A block's first brick is counted as
+ * new from that level down: a previous key differing in bit 9 alone. */
 enum { NZ_RANGE = 1024 };
 
 struct nz_job {
-	const struct cell_blocks *cb;
+	uint64_t *const *blk;
 	const uint64_t *order;
 	uint64_t *nz, *start;
+	uint64_t (*counts)[VD_MAX_LEVELS + 1]; /* per range */
 	size_t nb;
+	int L, L0;
 };
 
 static void nz_range(void *ctx, size_t k, int worker)
 {
 	(void)worker;
 	struct nz_job *nj = ctx;
+	uint64_t *counts = nj->counts[k];
 	size_t end = (k + 1) * NZ_RANGE < nj->nb ? (k + 1) * NZ_RANGE : nj->nb;
 	for (size_t i = k * NZ_RANGE; i < end; i++) {
-		const uint64_t *blk = cell_block(nj->cb, nj->order[i]);
+		uint64_t *blk = nj->blk[i];
 		uint64_t *nz = nj->nz + 8 * i, c = 0;
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
@@ -970,37 +1023,26 @@ static void nz_range(void *ctx, size_t k, int worker)
 			c += (uint64_t)__builtin_popcountll(bits);
 		}
 		nj->start[i] = c;
-	}
-}
-
-/* The per-level counts of the cell's bricks in COUNT_PARTS ranges. */
-enum { COUNT_PARTS = 16 };
-
-struct count_job {
-	const struct brick_src *b;
-	int L, L0;
-	uint64_t counts[COUNT_PARTS][VD_MAX_LEVELS + 1];
-};
-
-static void count_part(void *ctx, size_t p, int worker)
-{
-	(void)worker;
-	struct count_job *cj = ctx;
-	const struct brick_src *b = cj->b;
-	uint64_t lo = b->count * p / COUNT_PARTS;
-	uint64_t hi = b->count * (p + 1) / COUNT_PARTS;
-	if (lo >= hi)
-		return;
-	struct brick_it it;
-	uint64_t prev = 0, key, mask;
-	brick_seek(b, lo ? lo - 1 : 0, &it);
-	if (lo)
-		brick_next(b, &it, &prev, &mask);
-	for (uint64_t i = lo; i < hi; i++) {
-		brick_next(b, &it, &key, &mask);
-		vd_svo_count_brick(cj->counts[p], cj->L, cj->L0, i == 0, prev,
-				   key, mask);
-		prev = key;
+		/* keys within the block: the brick index; the bits above
+		 * are the same for all and cancel in prev ^ key. The masks
+		 * are packed to the block's front (the block is not read as
+		 * a grid again), so later passes read c words in a row. */
+		uint64_t prev = 1ull << 9;
+		size_t r = 0;
+		for (int q = 0; q < 8; q++)
+			for (uint64_t bits = nz[q]; bits; bits &= bits - 1) {
+				uint64_t key = (uint64_t)(64 * q +
+						__builtin_ctzll(bits));
+				uint64_t m = blk[key];
+				vd_svo_count_brick(counts, nj->L, nj->L0, 0,
+						   prev, key, m);
+				prev = key;
+				if (r != key) {
+					blk[r] = m;
+					blk[key] = 0;
+				}
+				r++;
+			}
 	}
 }
 
@@ -1035,25 +1077,54 @@ static int write_cell(struct run *r, struct worker *w,
 	}
 	/* each block's words read once (4 KiB a block: hundreds of MB for a
 	 * large cell), on the threads; its count then becomes a start */
-	struct nz_job nj = {cb, w->order, w->nz, w->nz_start, nb};
-	int perr = vd_parallel_for((nb + NZ_RANGE - 1) / NZ_RANGE, threads,
-				   nz_range, &nj);
-	if (perr)
+	size_t nranges = (nb + NZ_RANGE - 1) / NZ_RANGE;
+	struct nz_job nj = {w->bptr, w->order, w->nz, w->nz_start,
+			    calloc(nranges ? nranges : 1, sizeof *nj.counts),
+			    nb, L, L0};
+	if (!nj.counts)
+		return vd_fail(VD_ERR_NOMEM, "brick counts");
+	int perr = vd_parallel_for(nranges, threads, nz_range, &nj);
+	if (perr) {
+		free(nj.counts);
 		return perr;
+	}
+	for (size_t p = 0; p < nranges; p++)
+		for (int l = 0; l <= k; l++)
+			counts[l] += nj.counts[p][l];
+	free(nj.counts);
+	/* the nodes above the blocks: as vd_svo_count_brick() finds them
+	 * for a block's first brick, down to where nz_range took over */
+	int bl = L >= 2 ? L - 2 : 0, first = 1;
+	uint64_t pb = 0;
 	for (size_t i = 0; i < nb; i++) {
 		uint64_t c = w->nz_start[i];
 		w->nz_start[i] = count;
 		count += c;
+		if (!c)
+			continue;
+		int from = L0;
+		if (!first) {
+			uint64_t x = (pb ^ w->order[i]) << 9;
+			from = bl - (63 - __builtin_clzll(x)) / 3;
+			if (from < L0)
+				from = L0;
+		}
+		for (int l = from; l < bl - 3; l++)
+			counts[l - L0]++;
+		pb = w->order[i];
+		first = 0;
 	}
 	w->nz_start[nb] = count;
 	*nbricks = count;
-	if (count == 0)
+	if (count == 0) {
+		for (int q = 0; q < 8; q++)
+			cb->map[q]->clean = 1; /* no word was set */
 		return VD_OK; /* touched only by triangles outside its voxels */
-	struct brick_src src = {cb, w->order, w->nz, w->nz_start, nb, prefix,
-				count};
+	}
+	struct brick_src src = {w->bptr, w->order, w->nz, w->nz_start, nb,
+				prefix, count};
 
-	/* the counts, and the digest as vd_svo_digest() computes it: one
-	 * pass in order (they need the previous brick) */
+	/* the digest as vd_svo_digest() computes it: one pass in order */
 	XXH3_state_t *xs = NULL;
 	if (hout) {
 		if (!(xs = XXH3_createState()))
@@ -1063,12 +1134,9 @@ static int write_cell(struct run *r, struct worker *w,
 	if (xs) {
 		struct brick_it it;
 		brick_seek(&src, 0, &it);
-		uint64_t prev = 0;
 		for (uint64_t i = 0; i < count; i++) {
 			uint64_t key, mask;
 			brick_next(&src, &it, &key, &mask);
-			vd_svo_count_brick(counts, L, L0, i == 0, prev, key, mask);
-			prev = key;
 			uint8_t kv[16];
 			put64le(kv, key);
 			put64le(kv + 8, mask);
@@ -1076,16 +1144,6 @@ static int write_cell(struct run *r, struct worker *w,
 		}
 		*digest = XXH3_64bits_digest(xs);
 		XXH3_freeState(xs);
-	} else {
-		/* counts add up over ranges of bricks, each started from the
-		 * brick before it */
-		struct count_job cj = {&src, L, L0, {{0}}};
-		int cerr = vd_parallel_for(COUNT_PARTS, threads, count_part, &cj);
-		if (cerr)
-			return cerr;
-		for (int p = 0; p < COUNT_PARTS; p++)
-			for (int l = 0; l <= k; l++)
-				counts[l] += cj.counts[p][l];
 	}
 
 	struct vd_chunk_header h = {0};
@@ -1110,6 +1168,8 @@ static int write_cell(struct run *r, struct worker *w,
 		vd_chunk_writer_abort(cw);
 		return err;
 	}
+	for (int q = 0; q < 8; q++)
+		cb->map[q]->clean = 1;
 	if (hout)
 		*hout = h;
 	return vd_chunk_writer_commit(cw);
@@ -1291,7 +1351,7 @@ static int colour_tables(struct run *r, struct worker *w,
 	}
 	uint64_t voxels = 0;
 	for (size_t i = 0; i < nb; i++) {
-		uint64_t *blk = cell_block(cb, w->order[i]);
+		uint64_t *blk = w->bptr[i];
 		w->blk[i] = blk;
 		w->base[i] = voxels;
 		unsigned in = 0;
@@ -2202,6 +2262,7 @@ out:
 			map_free(&r.workers[i].map);
 			free(r.workers[i].tris);
 			free(r.workers[i].order);
+		free(r.workers[i].bptr);
 			free(r.workers[i].nz);
 			free(r.workers[i].nz_start);
 			free(r.workers[i].blk);
