@@ -811,12 +811,6 @@ struct cell_blocks {
 	int part_shift;
 };
 
-static inline uint64_t *cell_block(const struct cell_blocks *cb,
-				   uint64_t key)
-{
-	return map_get(cb->map[key >> cb->part_shift & 7], key);
-}
-
 struct key_ptr {
 	uint64_t key;
 	uint64_t *p;
