@@ -25,6 +25,17 @@ static uint8_t *slurp(const char *path, size_t *n)
 	return b;
 }
 
+/* Files a and b hold the same bytes. */
+static void check_same_bytes(const char *a, const char *b)
+{
+	size_t na, nb;
+	uint8_t *ba = slurp(a, &na), *bb = slurp(b, &nb);
+	CHECK_EQ(na, nb);
+	CHECK(na == nb && memcmp(ba, bb, na) == 0);
+	free(ba);
+	free(bb);
+}
+
 /* Little-endian byte builder, written apart from chunk.c on purpose. */
 struct bytes {
 	uint8_t b[1024];
@@ -444,12 +455,7 @@ static void test_framed_sections(void)
 		snprintf(p3, sizeof p3, "%s/framed3.chk", dir);
 		write_framed(p1, raw, 1);
 		write_framed(p3, raw, 3);
-		size_t n1, n3;
-		uint8_t *b1 = slurp(p1, &n1), *b3 = slurp(p3, &n3);
-		CHECK_EQ(n1, n3);
-		CHECK(n1 == n3 && memcmp(b1, b3, n1) == 0);
-		free(b1);
-		free(b3);
+		check_same_bytes(p1, p3);
 		struct vd_chunk *c;
 		CHECK_EQ(vd_chunk_open(&c, p1, VD_KIND_ANY), VD_OK);
 		for (int threads = 1; threads <= 4; threads += 3) {
@@ -510,12 +516,7 @@ static void test_blob_same_bytes(void)
 		}
 		CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
 	}
-	size_t na, nb;
-	uint8_t *ba = slurp(pa, &na), *bb = slurp(pb, &nb);
-	CHECK_EQ(na, nb);
-	CHECK(na == nb && memcmp(ba, bb, na) == 0);
-	free(ba);
-	free(bb);
+	check_same_bytes(pa, pb);
 	free(raw);
 }
 
