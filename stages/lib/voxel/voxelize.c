@@ -105,23 +105,79 @@ static void warn_line(void *ctx, const char *line)
 
 /* ------------------------------------------------------- mesh streaming */
 
-/* Reads the mesh once, calling fn for each batch of triangles; with
- * `attr` (colours), their attributes too. */
-static int for_each_batch(struct vd_mesh *m, struct vd_triangle *buf,
-			  struct vd_tri_attr *attr,
+/* The triangles of the first pass, kept for the passes after it when
+ * they fit in `limit` bytes: each pass would otherwise read and decode the
+ * whole file again (three passes: bounds, estimate, bins). Attributes
+ * (colours) are not kept: a pass that needs them reads the file. */
+struct tri_cache {
+	struct vd_triangle *t;
+	size_t n, cap;
+	uint64_t limit;
+	int state;             /* 0: first pass to come, 1: whole, -1: unused */
+};
+
+uint64_t vd_tri_cache_max = UINT64_MAX;
+
+static void tri_cache_drop(struct tri_cache *c)
+{
+	free(c->t);
+	c->t = NULL;
+	c->n = c->cap = 0;
+	c->state = -1;
+}
+
+static void tri_cache_add(struct tri_cache *c, const struct vd_triangle *t,
+			  size_t n)
+{
+	if (c->n + n > c->cap) {
+		size_t cap = c->cap ? 2 * c->cap : TRI_BATCH;
+		while (cap < c->n + n)
+			cap *= 2;
+		if ((uint64_t)cap * sizeof *t > c->limit)
+			cap = (size_t)(c->limit / sizeof *t);
+		void *q = cap >= c->n + n ? realloc(c->t, cap * sizeof *t) : NULL;
+		if (!q) {
+			tri_cache_drop(c);
+			return;
+		}
+		c->t = q;
+		c->cap = cap;
+	}
+	memcpy(c->t + c->n, t, n * sizeof *t);
+	c->n += n;
+}
+
+/* Reads the mesh once (or its triangles from the cache), calling fn for
+ * each batch of triangles; with `attr` (colours), their attributes too. */
+static int for_each_batch(struct vd_mesh *m, struct tri_cache *c,
+			  struct vd_triangle *buf, struct vd_tri_attr *attr,
 			  int (*fn)(void *ctx, const struct vd_triangle *t,
 				    const struct vd_tri_attr *a, size_t n),
 			  void *ctx)
 {
-	int err = vd_mesh_rewind(m);
+	int err = VD_OK;
+	if (!attr && c->state == 1) {
+		for (size_t i = 0; i < c->n && !err; i += TRI_BATCH)
+			err = fn(ctx, c->t + i, NULL,
+				 c->n - i < TRI_BATCH ? c->n - i : TRI_BATCH);
+		return err;
+	}
+	int fill = !attr && c->state == 0;
+	err = vd_mesh_rewind(m);
 	while (!err) {
 		size_t n;
 		err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
 			   : vd_mesh_read(m, buf, TRI_BATCH, &n);
 		if (err || n == 0)
 			break;
+		if (fill && c->state == 0)
+			tri_cache_add(c, buf, n);
 		err = fn(ctx, buf, attr, n);
 	}
+	if (fill && c->state == 0)
+		c->state = err ? -1 : 1;
+	if (c->state < 0)
+		tri_cache_drop(c);
 	return err;
 }
 
@@ -1947,6 +2003,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	if (err)
 		return err;
 	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
+	/* a sixteenth of the budget: the plan below counts it in `base` */
+	struct tri_cache cache = {.limit = opts->mem_budget_bytes / 16};
+	if (cache.limit > vd_tri_cache_max)
+		cache.limit = vd_tri_cache_max;
 	struct vd_tri_attr *attrs = NULL;
 	struct run r = {.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct binner b = {0};
@@ -1964,7 +2024,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* 1. bounds */
 	struct bounds bd = {0};
 	progress_say(&prog, 1, "reading %s (%s)", mesh_path, vd_mesh_format(mesh));
-	err = for_each_batch(mesh, tris, NULL, bounds_batch, &bd);
+	err = for_each_batch(mesh, &cache, tris, NULL, bounds_batch, &bd);
 	if (err)
 		goto out;
 	/* the whole file has been seen: its colour sources are known, its
@@ -1997,7 +2057,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
 	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)bd.n);
-	err = for_each_batch(mesh, tris, NULL, estimate_batch, &est);
+	err = for_each_batch(mesh, &cache, tris, NULL, estimate_batch, &est);
 	if (!err)
 		err = estimate_sorted(&est, &bkeys, &nbkeys);
 	if (err)
@@ -2088,9 +2148,10 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	progress_say(&prog, 1, "binning triangles into cells of level %d "
 		     "(%d threads, budget %llu MiB)", r.g.L0, plan.threads,
 		     (unsigned long long)(opts->mem_budget_bytes >> 20));
-	err = for_each_batch(mesh, tris, attrs, bin_batch, &b);
+	err = for_each_batch(mesh, &cache, tris, attrs, bin_batch, &b);
 	if (!err)
 		err = r.colours ? flush_bins_col(&b) : flush_bins(&b);
+	tri_cache_drop(&cache); /* the bins have them now */
 	if (err)
 		goto out;
 	res->triangles_binned = b.pairs;
@@ -2270,6 +2331,7 @@ out:
 	free(est.blocks.slots);
 	free(bkeys);
 	free(tris);
+	tri_cache_drop(&cache);
 	vd_mesh_close(mesh);
 	remove_bins(outdir);
 	if (err && cleaned)

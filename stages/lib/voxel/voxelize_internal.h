@@ -53,6 +53,11 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
  * untabled path. */
 extern int vd_raster_table_max;
 
+/* The most bytes voxelize keeps of a mesh's triangles between its passes
+ * over the file (besides a sixteenth of the budget): tests set 0 (every
+ * pass reads the file) or a size a mesh overflows midway. */
+extern uint64_t vd_tri_cache_max;
+
 /* Adds one brick to streaming per-level counts (as vd_svo_count_levels):
  * `prev` is the previous brick's key, `first` says there is none. Inline:
  * voxelize's nz pass calls it for every brick. */
