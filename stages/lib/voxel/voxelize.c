@@ -491,11 +491,24 @@ static int cmp_rec_col(const void *a, const void *b)
 	return (x->index > y->index) - (x->index < y->index);
 }
 
+/* 1 if the records are in order already (one cell: a scene binned whole,
+ * where sorting hundreds of thousands of records would change nothing) */
+static int recs_sorted(const void *recs, size_t n, size_t size,
+		       int (*cmp)(const void *, const void *))
+{
+	const char *p = recs;
+	for (size_t i = 1; i < n; i++)
+		if (cmp(p + (i - 1) * size, p + i * size) > 0)
+			return 0;
+	return 1;
+}
+
 /* The colour path's flush_bins: the same files, longer records. */
 static int flush_bins_col(struct binner *b)
 {
 	char path[4096];
-	qsort(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col);
+	if (!recs_sorted(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col))
+		qsort(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col);
 	for (size_t i = 0; i < b->buffered;) {
 		uint64_t c = b->crecs[i].cell;
 		bin_path(path, sizeof path, b->dir, c);
@@ -521,7 +534,8 @@ static int flush_bins_col(struct binner *b)
 static int flush_bins(struct binner *b)
 {
 	char path[4096];
-	qsort(b->recs, b->buffered, sizeof *b->recs, cmp_rec);
+	if (!recs_sorted(b->recs, b->buffered, sizeof *b->recs, cmp_rec))
+		qsort(b->recs, b->buffered, sizeof *b->recs, cmp_rec);
 	for (size_t i = 0; i < b->buffered;) {
 		uint64_t c = b->recs[i].cell;
 		bin_path(path, sizeof path, b->dir, c);
