@@ -1440,7 +1440,8 @@ static int run_engine(struct engine *e)
 {
 	int err = VD_OK;
 	vd__sym_init();
-	vd__g48_init();
+	if (e->g48) /* ~10 ms of tables: only the 48-symmetry DAG needs them */
+		vd__g48_init();
 	for (int l = e->L - 1; l >= e->A && !err; l--) {
 		double t0 = vd_seconds();
 		if (l == e->L - 1)
