@@ -75,33 +75,48 @@ scaling() { # scaling SCENE LEVELS
 scaling stanford_dragon.ply 14
 scaling fg_terrain_reykjavik.ply 14
 
-# The whole pipeline through the runner: per stage, voxels per second per
-# core (voxels over the sum of the stage's process seconds, one thread per
-# process) and the largest process's peak memory.
-pipeline() { # pipeline NAME SCENE LEVELS (SCENE: a file in $DATA, or a path)
-	local name=bench-$1 cfg=$OUT/$1.yaml mesh=$DATA/$2
-	case $2 in */*) mesh=$2 ;; esac
-	lossless_yaml "$name" "$mesh" "$3" auto \
-		"{jobs: 2, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}" > "$cfg"
-	rm -rf "out/$name"
+# The whole pipeline through the runner, twice: on one thread (one job at a
+# time, one thread a process) and on every core (2 jobs at once; a job that
+# runs alone, as the root chain does, gets every core). Per stage: the
+# processes' seconds on one thread, voxels per second per core from them
+# (voxels over those seconds), the seconds on all cores and the speed-up;
+# the same for the whole pipeline's wall time; the largest process's peak
+# memory (all cores).
+pipeline_run() { # pipeline_run NAME MESH LEVELS JOBS -> out/NAME, wall s on stdout
+	local cfg=$OUT/$1.yaml
+	lossless_yaml "$1" "$2" "$3" auto \
+		"{jobs: $4, threads: 1, mem_budget: 8GiB, job_mem_budget: 2GiB}" > "$cfg"
+	rm -rf "out/$1"
 	local t0=$(date +%s.%N)
-	if ! out/bin/voxdag -q run "$cfg"; then
+	out/bin/voxdag -q run "$cfg" || return 1
+	awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }'
+}
+pipeline() { # pipeline NAME SCENE LEVELS (SCENE: a file in $DATA, or a path)
+	local name=bench-$1 mesh=$DATA/$2 w1 wn
+	case $2 in */*) mesh=$2 ;; esac
+	if ! w1=$(pipeline_run "$name-j1" "$mesh" "$3" 1) ||
+	   ! wn=$(pipeline_run "$name" "$mesh" "$3" "$cores"); then
 		echo "bench: pipeline $1 failed"
+		rm -rf "out/$name-j1" "out/$name"
 		return
 	fi
-	local wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
 	local vox=$(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "out/$name/report.json")
-	# every process runs one thread but voxelize, which runs several
-	local vt=$(sed -n 's/^  "threads": \([0-9]*\),*$/\1/p' "out/$name/vox/voxelize.stats.json")
-	awk -F, -v name="$1" -v vox="$vox" -v wall="$wall" -v vt="${vt:-1}" 'NR > 1 {
-		cores = $2 == "voxelize" ? vt : 1
-		printf "%-22s %-15s %9d procs %9.2f s %14.0f voxels/s/core %8.0f MiB peak\n",
-			name, $2, $3, $4, ($4 > 0 ? vox / $4 / cores : 0), $5 / 1048576 }
-		END { printf "%-22s %-15s wall %.1f s for %d voxels\n", name, "(all)", wall, vox }' \
-		"out/$name/report.csv"
+	# report.csv: job,stage,processes,seconds,peak_rss_bytes,budget_bytes
+	awk -F, -v name="$1" -v vox="$vox" -v w1="$w1" -v wn="$wn" -v cores="$cores" '
+		FNR == 1 { f++; next }
+		f == 1 { s1[$1] = $4; next }
+		{ printf "%-18s %-15s %5d procs %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx %8.0f MiB peak\n",
+			name, $2, $3, s1[$1], (s1[$1] > 0 ? vox / s1[$1] : 0), $4,
+			($4 > 0 ? s1[$1] / $4 : 0), $5 / 1048576 }
+		END { printf "%-18s %-15s %11s %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx   (wall; %d voxels, %d cores)\n",
+			name, "(all)", "", w1, vox / w1, wn, w1 / wn, vox, cores }' \
+		"out/$name-j1/report.csv" "out/$name/report.csv"
 	sed -n '/Table 2/,/^SSVDAG\/SVDAG/p' "out/$name/report.md"
-	rm -rf "out/$name"
+	rm -rf "out/$name-j1" "out/$name"
 }
+echo
+printf '%-18s %-15s %10s %11s %28s %11s %7s %13s\n' pipeline stage '' '1 thread' \
+	'voxels/s/core (1 thread)' "$cores cores" speedup 'peak memory'
 echo
 pipeline dragon-12 stanford_dragon.ply 12
 pipeline dragon-14 stanford_dragon.ply 14

@@ -242,28 +242,6 @@ int vd_chunk_writer_end(struct vd_chunk_writer *w);
 int vd_chunk_writer_section(struct vd_chunk_writer *w, uint32_t tag,
 			    const void *data, size_t n);
 
-/* A section compressed apart from its writer, on any thread: the bytes
- * vd_chunk_writer_begin/write/end would store for the same writes (same
- * zstd parameters and calls), kept in memory until vd_chunk_writer_put()
- * appends them. So a chunk's sections can be compressed in parallel and
- * the file stays byte for byte the same. Begin, write and end as for the
- * writer; after end, put it, then release it (release also after an
- * error). Errors set the calling thread's detail. */
-struct vd_chunk_blob {
-	uint32_t tag, codec;
-	uint64_t raw_size, hash;
-	uint8_t *stored;
-	size_t stored_size, cap;
-	void *zc;
-};
-int vd_chunk_blob_begin(struct vd_chunk_blob *b, uint32_t tag, int zstd_level);
-int vd_chunk_blob_write(struct vd_chunk_blob *b, const void *data, size_t n);
-int vd_chunk_blob_end(struct vd_chunk_blob *b);
-void vd_chunk_blob_release(struct vd_chunk_blob *b);
-/* Appends a finished blob as the next section (no section may be open). */
-int vd_chunk_writer_put(struct vd_chunk_writer *w,
-			const struct vd_chunk_blob *b);
-
 /* Writes section `tag` of `raw_size` raw bytes at its default level as
  * zstd frames of VD_CHUNK_FRAME_BYTES raw bytes each (the last shorter),
  * each declaring its content size, compressed on up to `threads` threads;

@@ -474,52 +474,6 @@ static void test_framed_sections(void)
 	}
 }
 
-/* Sections compressed apart (vd_chunk_blob) and put give the very bytes
- * the writer streams itself, including a stored section. */
-static void test_blob_same_bytes(void)
-{
-	enum { N = 300000 };
-	uint8_t *raw = malloc(N);
-	for (size_t i = 0; i < N; i++)
-		raw[i] = framed_byte(i);
-	char pa[600], pb[600];
-	snprintf(pa, sizeof pa, "%s/stream.chk", dir);
-	snprintf(pb, sizeof pb, "%s/blob.chk", dir);
-	struct vd_chunk_header h = tiny_header();
-	struct vd_chunk_writer *w;
-	uint32_t tags[3] = {VD_TAG('A', 'A', 'A', 'A'), VD_TAG('B', 'B', 'B', 'B'),
-			    VD_TAG('C', 'C', 'C', 'C')};
-	int levels[3] = {0, 1, -1};
-	for (int blob = 0; blob < 2; blob++) {
-		CHECK_EQ(vd_chunk_writer_open(&w, blob ? pb : pa, &h, "p"), VD_OK);
-		for (int t = 0; t < 3; t++) {
-			struct vd_chunk_blob b;
-			if (blob)
-				CHECK_EQ(vd_chunk_blob_begin(&b, tags[t], levels[t]), VD_OK);
-			else
-				CHECK_EQ(vd_chunk_writer_begin(w, tags[t], levels[t]), VD_OK);
-			/* uneven pieces, as the DAG sections write them */
-			for (size_t i = 0, step = 1; i < N; i += step, step = step * 3 + 1) {
-				size_t n = N - i < step ? N - i : step;
-				if (blob)
-					CHECK_EQ(vd_chunk_blob_write(&b, raw + i, n), VD_OK);
-				else
-					CHECK_EQ(vd_chunk_writer_write(w, raw + i, n), VD_OK);
-			}
-			if (blob) {
-				CHECK_EQ(vd_chunk_blob_end(&b), VD_OK);
-				CHECK_EQ(vd_chunk_writer_put(w, &b), VD_OK);
-				vd_chunk_blob_release(&b);
-			} else {
-				CHECK_EQ(vd_chunk_writer_end(w), VD_OK);
-			}
-		}
-		CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
-	}
-	check_same_bytes(pa, pb);
-	free(raw);
-}
-
 int main(void)
 {
 	dir = test_tmpdir("chunk");
@@ -533,6 +487,5 @@ int main(void)
 	RUN(test_transform_equal);
 	RUN(test_morton);
 	RUN(test_framed_sections);
-	RUN(test_blob_same_bytes);
 	return CHECK_DONE();
 }

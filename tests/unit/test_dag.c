@@ -520,6 +520,55 @@ static int file_copy_prefix(const char *src, const char *dst, long n)
 	return fclose(b);
 }
 
+/* Sections larger than a frame (2 MiB raw) are written as several frames:
+ * the same bytes with 1 and 3 threads, and read back, by the one-stream
+ * decoder (1 thread) and by the frame-parallel one, as the same arrays. */
+static void test_framed_sections(void)
+{
+	const char *dir = test_tmpdir("test_dag_frames");
+	char p1[600], p3[600];
+	struct vd_transform t;
+	float lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+	struct grid g;
+	make_scene(&g, 8, SC_RANDOM);
+	CHECK_EQ(vd_transform_init(&t, lo, hi, 8), VD_OK);
+	struct vd_svo s;
+	grid_to_svo(&g, 0, 0, &s);
+	for (int kind = VD_KIND_DAG; kind <= VD_KIND_SSVDAG; kind++) {
+		struct vd_dag d;
+		CHECK_EQ(vd_dag_from_svo(&d, &s, (uint32_t)kind, &opts, NULL), 0);
+		uint64_t refs = 0;
+		for (int l = 0; l < d.levels - 1; l++)
+			refs += d.lv[l].refs;
+		CHECK(refs * 4 > 2 * VD_CHUNK_FRAME_BYTES); /* DAGC: 3+ frames */
+		snprintf(p1, sizeof p1, "%s/k%d.1.dag", dir, kind);
+		snprintf(p3, sizeof p3, "%s/k%d.3.dag", dir, kind);
+		CHECK_EQ(vd_dag_save_mt(&d, &t, p1, "tool=test", 1), VD_OK);
+		CHECK_EQ(vd_dag_save_mt(&d, &t, p3, "tool=test", 3), VD_OK);
+		CHECK(files_equal(p1, p3));
+		for (int threads = 1; threads <= 2; threads++) {
+			struct vd_chunk *ch;
+			struct vd_dag e;
+			CHECK_EQ(vd_chunk_open(&ch, p3, VD_KIND_ANY), VD_OK);
+			CHECK_EQ(vd_dag_from_chunk_mt(&e, ch, VD_KIND_ANY, threads), VD_OK);
+			CHECK(counts_equal(&d, &e));
+			for (int l = 0; l < d.levels; l++) {
+				CHECK(!memcmp(d.lv[l].mask, e.lv[l].mask, d.lv[l].nodes));
+				if (l == d.levels - 1)
+					continue;
+				CHECK(!memcmp(d.lv[l].child, e.lv[l].child, d.lv[l].refs * 4));
+				if (kind == VD_KIND_SSVDAG)
+					CHECK(!memcmp(d.lv[l].refl, e.lv[l].refl, d.lv[l].refs));
+			}
+			vd_dag_release(&e);
+			vd_chunk_free(ch);
+		}
+		vd_dag_release(&d);
+	}
+	svo_free(&s);
+	grid_free(&g);
+}
+
 /* Save and load give back the same DAG; wrong kinds, truncation and a
  * corrupted reference are each refused. */
 static void test_chunk_files(void)
@@ -883,6 +932,7 @@ int main(void)
 	RUN(test_merge_errors);
 	RUN(test_edge_cases);
 	RUN(test_chunk_files);
+	RUN(test_framed_sections);
 	RUN(test_crafted_files);
 	RUN(test_real_meshes);
 	return CHECK_DONE();

@@ -1440,7 +1440,8 @@ static int run_engine(struct engine *e)
 {
 	int err = VD_OK;
 	vd__sym_init();
-	vd__g48_init();
+	if (e->g48) /* ~10 ms of tables: only the 48-symmetry DAG needs them */
+		vd__g48_init();
 	for (int l = e->L - 1; l >= e->A && !err; l--) {
 		double t0 = vd_seconds();
 		if (l == e->L - 1)
@@ -2172,78 +2173,69 @@ static uint32_t get32(const uint8_t *p)
 	       (uint32_t)p[3] << 24;
 }
 
-/* vd_dag_save's sections, as the file orders them. DAGC (4 bytes a
- * reference) is streamed into the file; DAGR (a byte a reference) may be
- * compressed apart into memory (vd_chunk_blob: the bytes the writer
- * would stream, through the same calls) and appended after it. */
-static int save_dagm(const struct vd_dag *dag, struct vd_chunk_writer *w)
-{
-	/* DAGM: the masks of levels A..L-1, level after level. */
-	int err = vd_chunk_writer_begin(w, VD_TAG_DAGM, 0);
-	for (int l = dag->chunk_level; l < dag->levels && !err; l++)
-		err = vd_chunk_writer_write(w, dag->lv[l].mask,
-					    (size_t)dag->lv[l].nodes);
-	if (!err) err = vd_chunk_writer_end(w);
-	return err;
-}
-
-static int save_dagc(const struct vd_dag *dag, struct vd_chunk_writer *w)
-{
-	/* DAGC: child indices of levels A..L-2, uint32 little-endian. */
-	int err = vd_chunk_writer_begin(w, VD_TAG_DAGC, 0);
-	enum { BATCH = 4096 };
-	uint8_t buf[4 * BATCH];
-	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++) {
-		const struct vd_dag_level *lv = &dag->lv[l];
-		for (uint64_t i = 0; i < lv->refs && !err; i += BATCH) {
-			size_t n = lv->refs - i < BATCH ? (size_t)(lv->refs - i) : BATCH;
-			for (size_t j = 0; j < n; j++)
-				put32(buf + 4 * j, lv->child[i + j]);
-			err = vd_chunk_writer_write(w, buf, 4 * n);
-		}
-	}
-	if (!err) err = vd_chunk_writer_end(w);
-	return err;
-}
-
-static int save_dagr(const struct vd_dag *dag, struct vd_chunk_blob *b)
-{
-	/* DAGR: reflections of the same references, one byte each. */
-	int err = vd_chunk_blob_begin(b, VD_TAG_DAGR, 0);
-	for (int l = dag->chunk_level; l < dag->levels - 1 && !err; l++)
-		err = vd_chunk_blob_write(b, dag->lv[l].refl,
-					  (size_t)dag->lv[l].refs);
-	if (!err) err = vd_chunk_blob_end(b);
-	return err;
-}
-
-/* After DAGM: DAGC into the file, beside the DAG's check and DAGR. */
-enum { SAVE_DAGC, SAVE_CHECK, SAVE_DAGR, SAVE_TASKS };
-
-struct save_job {
+/* vd_dag_save's sections, each the concatenation of one array of every
+ * level (DAGM: masks of levels A..L-1, a byte a node; DAGC: child indices
+ * of levels A..L-2, uint32 little-endian; DAGR: their reflections, a
+ * byte a reference), written as frames compressed on the job's threads
+ * (vd_chunk_writer_frames: the bytes do not depend on the thread count).
+ * A frame is filled from the levels it covers. */
+struct dag_stream {
 	const struct vd_dag *dag;
-	struct vd_chunk_writer *w;
-	struct vd_chunk_blob dagr;
-	int checked; /* validated already */
-	int errs[SAVE_TASKS];
-	char details[SAVE_TASKS][512];
+	uint32_t tag;
+	int size;                       /* bytes an element */
+	uint64_t start[VD_MAX_LEVELS + 1]; /* first byte of level A + i */
+	int nlev;
 };
 
-static void save_task(void *ctx, size_t i, int worker)
+static void dag_stream_init(struct dag_stream *st, const struct vd_dag *dag,
+			    uint32_t tag)
 {
-	(void)worker;
-	struct save_job *sj = ctx;
-	int err = VD_OK;
-	if (i == SAVE_DAGC)
-		err = save_dagc(sj->dag, sj->w);
-	else if (i == SAVE_CHECK)
-		err = sj->checked ? VD_OK : vd_dag_validate(sj->dag);
-	else if (sj->dag->kind != VD_KIND_DAG)
-		err = save_dagr(sj->dag, &sj->dagr);
-	sj->errs[i] = err;
-	if (err)
-		snprintf(sj->details[i], sizeof sj->details[i], "%s",
-			 vd_error_detail());
+	st->dag = dag;
+	st->tag = tag;
+	st->size = tag == VD_TAG_DAGC ? 4 : 1;
+	int last = tag == VD_TAG_DAGM ? dag->levels : dag->levels - 1;
+	st->nlev = last - dag->chunk_level;
+	st->start[0] = 0;
+	for (int i = 0; i < st->nlev; i++) {
+		const struct vd_dag_level *lv = &dag->lv[dag->chunk_level + i];
+		uint64_t n = tag == VD_TAG_DAGM ? lv->nodes : lv->refs;
+		st->start[i + 1] = st->start[i] + n * (uint64_t)st->size;
+	}
+}
+
+/* Bytes [off, off + n) of the section. Frames start at multiples of
+ * VD_CHUNK_FRAME_BYTES, a multiple of 4: no DAGC reference is split. */
+static void dag_stream_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
+{
+	const struct dag_stream *st = ctx;
+	int i = 0;
+	while (n) {
+		while (off >= st->start[i + 1])
+			i++;
+		const struct vd_dag_level *lv =
+			&st->dag->lv[st->dag->chunk_level + i];
+		uint64_t e = (off - st->start[i]) / (uint64_t)st->size;
+		size_t k = st->start[i + 1] - off < n ? (size_t)(st->start[i + 1] - off) : n;
+		if (st->tag == VD_TAG_DAGM)
+			memcpy(buf, lv->mask + e, k);
+		else if (st->tag == VD_TAG_DAGR)
+			memcpy(buf, lv->refl + e, k);
+		else
+			for (size_t j = 0; j < k / 4; j++)
+				put32(buf + 4 * j, lv->child[e + j]);
+		buf += k;
+		off += k;
+		n -= k;
+	}
+}
+
+static int save_section(const struct vd_dag *dag, struct vd_chunk_writer *w,
+			uint32_t tag, int threads)
+{
+	struct dag_stream st;
+	dag_stream_init(&st, dag, tag);
+	return vd_chunk_writer_frames(w, tag, st.start[st.nlev],
+				      dag_stream_fill, &st, threads);
 }
 
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
@@ -2255,32 +2247,18 @@ int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
 int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
 		   const char *path, const char *provenance, int threads)
 {
-	/* one thread: the check before anything is written, as ever */
-	int err = threads == 1 ? vd_dag_validate(dag) : VD_OK;
+	/* the check before anything is written */
+	int err = vd_dag_validate(dag);
 	if (err) return err;
 	struct vd_chunk_header h = {0};
 	vd_dag_header(dag, &h);
 	h.transform = *t;
 	struct vd_chunk_writer *w;
 	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
-	struct save_job *sj = calloc(1, sizeof *sj);
-	if (!sj) err = NOMEM();
-	if (!err) err = save_dagm(dag, w);
-	if (!err) {
-		sj->dag = dag;
-		sj->w = w;
-		sj->checked = threads == 1;
-		err = vd_parallel_for(SAVE_TASKS, threads, save_task, sj);
-	}
-	/* the check's error first: a bad DAG gets its own, not a section's */
-	static const int order[SAVE_TASKS] = {SAVE_CHECK, SAVE_DAGC, SAVE_DAGR};
-	for (int i = 0; i < SAVE_TASKS && !err; i++)
-		if (sj->errs[order[i]])
-			err = vd_fail(sj->errs[order[i]], "%s", sj->details[order[i]]);
+	err = save_section(dag, w, VD_TAG_DAGM, threads);
+	if (!err) err = save_section(dag, w, VD_TAG_DAGC, threads);
 	if (!err && dag->kind != VD_KIND_DAG)
-		err = vd_chunk_writer_put(w, &sj->dagr);
-	if (sj) vd_chunk_blob_release(&sj->dagr);
-	free(sj);
+		err = save_section(dag, w, VD_TAG_DAGR, threads);
 	if (err) {
 		vd_chunk_writer_abort(w);
 		return err;
@@ -2328,14 +2306,15 @@ struct read_job {
 	size_t size[3];
 	int errs[3];
 	char details[3][512];
+	int threads;
 };
 
 static void read_task(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct read_job *rj = ctx;
-	rj->errs[i] = vd_chunk_read_section(rj->c, rj->tags[i], &rj->data[i],
-					    &rj->size[i]);
+	rj->errs[i] = vd_chunk_read_section_mt(rj->c, rj->tags[i], &rj->data[i],
+					       &rj->size[i], rj->threads);
 	if (rj->errs[i])
 		snprintf(rj->details[i], sizeof rj->details[i], "%s",
 			 vd_error_detail());
@@ -2378,7 +2357,7 @@ int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
 	void *m = NULL, *cdata = NULL, *r = NULL;
 	size_t msize, csize, rsize = 0;
 	struct read_job rj = {c, {VD_TAG_DAGM, VD_TAG_DAGC, VD_TAG_DAGR},
-			      {NULL}, {0}, {0}, {{0}}};
+			      {NULL}, {0}, {0}, {{0}}, threads};
 	int err = vd_parallel_for(sym ? 3 : 2, threads, read_task, &rj);
 	for (int i = 0; i < (sym ? 3 : 2) && !err; i++)
 		if (rj.errs[i]) err = vd_fail(rj.errs[i], "%s", rj.details[i]);
