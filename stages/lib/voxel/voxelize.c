@@ -901,7 +901,7 @@ static void brick_seek(const struct brick_src *b, uint64_t i,
 	it->qw = 0;
 	it->bits = b->nz[8 * lo];
 	for (;;) {
-		uint64_t pc = (uint64_t)__builtin_popcountll(it->bits);
+		uint64_t pc = vd_popcount64(it->bits);
 		if (skip < pc)
 			break;
 		skip -= pc;
@@ -1014,7 +1014,7 @@ static void nz_range(void *ctx, size_t k, int worker)
 			for (int j = 0; j < 64; j++)
 				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
 			nz[q] = bits;
-			c += (uint64_t)__builtin_popcountll(bits);
+			c += vd_popcount64(bits);
 		}
 		nj->start[i] = c;
 		/* keys within the block: the brick index; the bits above
@@ -1299,7 +1299,7 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	if (!(word >> bit & 1))
 		return; /* likewise */
 	uint64_t rank = w->base[bi] + w->prefix[(size_t)bi * BLOCK_WORDS + wi] +
-			(uint64_t)__builtin_popcountll(word & ((1ull << bit) - 1));
+			vd_popcount64(word & ((1ull << bit) - 1));
 	struct vox_col *v = &w->vox[rank];
 	/* corners relative to the voxel's centre, in voxels: exact (lattice
 	 * integers over a power of two, less a half-integer, well inside 53
@@ -1351,7 +1351,7 @@ static int colour_tables(struct run *r, struct worker *w,
 		unsigned in = 0;
 		for (int j = 0; j < BLOCK_WORDS; j++) {
 			w->prefix[i * BLOCK_WORDS + (size_t)j] = (uint16_t)in;
-			in += (unsigned)__builtin_popcountll(blk[j]);
+			in += (unsigned)vd_popcount64(blk[j]);
 		}
 		voxels += in;
 	}
