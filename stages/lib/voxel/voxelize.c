@@ -54,6 +54,7 @@ enum {
 	 * pages of a slab not yet used stay unmapped, so memory still
 	 * follows the blocks in use. */
 	SLAB_BLOCKS = 64,
+	MAP_RECENT = 512,                 /* block_map's recent[] */
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
 	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
@@ -570,6 +571,11 @@ struct block_map {
 	size_t slab_used;    /* blocks taken from the last slab */
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
+	/* blocks recently looked up, by the key's low bits (the block's
+	 * low coordinate bits): a triangle's blocks are mostly those of the
+	 * triangles just before it, and the table's probe costs a cache miss
+	 * in keys[] and another in vals[] */
+	struct map_recent { uint64_t key1; uint64_t *val; } recent[MAP_RECENT];
 	size_t limit;        /* blocks allowed by the budget */
 	atomic_size_t *shared; /* if set, the blocks of all the maps that
 				* share one cell, which `limit` bounds */
@@ -633,12 +639,18 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 	if (m->last_val && m->last_key == key)
 		return m->last_val;
 	uint64_t k1 = key + 1;
+	struct map_recent *rc = &m->recent[key & (MAP_RECENT - 1)];
+	if (rc->key1 == k1) {
+		m->last_key = key;
+		return m->last_val = rc->val;
+	}
 	size_t j = m->cap ? mix(k1) & (m->cap - 1) : 0;
 	if (m->cap) {
 		while (m->keys[j]) {
 			if (m->keys[j] == k1) {
 				m->last_key = key;
-				return m->last_val = m->vals[j];
+				rc->key1 = k1;
+				return rc->val = m->last_val = m->vals[j];
 			}
 			j = (j + 1) & (m->cap - 1);
 		}
@@ -666,7 +678,8 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 	m->vals[j] = blk;
 	m->count++;
 	m->last_key = key;
-	return m->last_val = blk;
+	rc->key1 = k1;
+	return rc->val = m->last_val = blk;
 }
 
 /* Returns every block to the spare list, zeroed, and empties the map. */
@@ -689,6 +702,7 @@ static int map_reset(struct block_map *m)
 		}
 	m->count = 0;
 	m->last_val = NULL;
+	memset(m->recent, 0, sizeof m->recent);
 	m->over = 0;
 	m->clean = 0;
 	return VD_OK;
