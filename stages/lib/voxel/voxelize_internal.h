@@ -53,6 +53,10 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
  * untabled path. */
 extern int vd_raster_table_max;
 
+/* Sorts a[0..n) by bits [lo, lo + bits) of each value (LSD radix, 8 bits
+ * a pass, `tmp` as long as `a`), keeping the order of equal keys. */
+void vd_sort_keys(uint64_t *a, uint64_t *tmp, size_t n, int lo, int bits);
+
 /* Population count: the instruction where the build targets it, else the
  * bit trick, inline (on a plain x86-64 build __builtin_popcountll is a
  * libgcc call, once per brick or block word). */
