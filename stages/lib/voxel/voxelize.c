@@ -1069,10 +1069,23 @@ static void nz_range(void *ctx, size_t k, int worker)
 	for (size_t i = k * NZ_RANGE; i < end; i++) {
 		uint64_t *blk = nj->blk[i];
 		uint64_t *nz = nj->nz + 8 * i, c = 0;
+		/* the next block's lines on their way while this one is
+		 * scanned: blocks lie anywhere in the slabs, a page each, so
+		 * the hardware's prefetch starts late on every one */
+		if (i + 1 < end)
+			for (int o = 0; o < BLOCK_WORDS; o += 8)
+				__builtin_prefetch(nj->blk[i + 1] + o);
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
-			for (int j = 0; j < 64; j++)
-				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			for (int j = 0; j < 64; j += 8) {
+				/* a line at a time: most are empty */
+				const uint64_t *l = blk + 64 * q + j;
+				if (!(l[0] | l[1] | l[2] | l[3] | l[4] | l[5] |
+				      l[6] | l[7]))
+					continue;
+				for (int t = 0; t < 8; t++)
+					bits |= (uint64_t)(l[t] != 0) << (j + t);
+			}
 			nz[q] = bits;
 			c += vd_popcount64(bits);
 		}
@@ -1671,6 +1684,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 			  3 * (shift > ksh ? shift - ksh : 0));
 		for (size_t o = 0; o < n && !err && !w->map.over; o++) {
 			size_t i = (size_t)(ord[o] & 0xffff);
+			if (o + 4 < n) /* the batch is 2.4 MB: past L2 */
+				__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff) + off);
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
 			memcpy(t.v, rb + rec * i + off, sizeof t.v);
