@@ -785,7 +785,7 @@ struct vox_col {
 
 struct worker {
 	struct block_map map;
-	struct vd_triangle *tris;  /* bin read buffer (RASTER_BATCH records) */
+	struct vd_triangle *tris;  /* bin read buffer (raster_batch() records) */
 	uint64_t *order_tri;       /* raster_bin: the batch's order, 2 *
 				    * RASTER_BATCH (keys, the sort's spare) */
 	uint64_t *order;
@@ -1616,6 +1616,14 @@ void vd_sort_keys(uint64_t *a, uint64_t *tmp, size_t n, int lo, int bits)
 		memcpy(tmp, a, n * sizeof *a); /* back into the caller's */
 }
 
+/* Triangles raster_bin reads at a time: fewer with colours, whose
+ * records are more than twice as long, so the buffer stays a small part
+ * of WORKER_OVERHEAD. */
+static size_t raster_batch(const struct run *r)
+{
+	return r->colours ? TRI_BATCH : RASTER_BATCH;
+}
+
 /* Rasterizes the triangles of `cell`'s bin (at `path`) into w's map,
  * clipped to [clip_lo, clip_hi]: the whole cell, or one octant of a
  * split cell. `count`: this pass counts the triangles for the progress
@@ -1665,7 +1673,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	int err = VD_OK;
 	size_t n;
 	while (!err && !w->map.over &&
-	       (n = fread(w->tris, rec, RASTER_BATCH, f)) > 0) {
+	       (n = fread(w->tris, rec, raster_batch(r), f)) > 0) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		uint64_t *ord = w->order_tri;
 		for (size_t i = 0; i < n; i++) {
@@ -2288,8 +2296,9 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	}
 	r.nworkers = nw;
 	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
+	rec_bytes *= raster_batch(&r); /* colour_pass reads TRI_BATCH */
 	for (int i = 0; i < nw; i++)
-		if (!(r.workers[i].tris = malloc(RASTER_BATCH * rec_bytes)) ||
+		if (!(r.workers[i].tris = malloc(rec_bytes)) ||
 		    !(r.workers[i].order_tri = malloc(2 * RASTER_BATCH *
 					sizeof *r.workers[i].order_tri))) {
 			err = vd_fail(VD_ERR_NOMEM, "workers");
