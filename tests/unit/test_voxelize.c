@@ -425,6 +425,31 @@ static void test_bricks(void)
 	bricks_at(4, 4, 1000, 16, 1);    /* __int128, cell < block */
 }
 
+/* vd_sort_keys (raster_bin's triangle order) against qsort: keys of 0 to
+ * 41 bits above 16 bits of rising index, so a stable sort by the key is
+ * the sort by the whole value; odd and even numbers of passes. */
+static void test_sort_keys(void)
+{
+	enum { N = 5000 };
+	static uint64_t a[N], tmp[N], want[N];
+	int bad = 0;
+	for (int bits = 0; bits <= 41; bits += 1 + bits / 4) {
+		size_t n = bits == 9 ? 1 : 1 + (size_t)uniform(N);
+		for (size_t i = 0; i < n; i++) {
+			/* few distinct keys at times: many ties */
+			uint64_t k = (uint64_t)uniform((int64_t)1 << 40);
+			if (bits % 3 == 0)
+				k %= 7;
+			k &= bits ? ~0ull >> (64 - bits) : 0;
+			a[i] = want[i] = k << 16 | i;
+		}
+		vd_sort_keys(a, tmp, n, 16, bits);
+		qsort(want, n, sizeof *want, vset_cmp_u64);
+		bad += memcmp(a, want, n * sizeof *a) != 0;
+	}
+	CHECK_EQ(bad, 0);
+}
+
 /* --------------------------------------------------------- real meshes */
 
 /* The brute-force voxel set of a whole mesh: every triangle, every voxel
@@ -638,6 +663,7 @@ int main(void)
 	RUN(test_untabled_rows);
 	RUN(test_box_overlap);
 	RUN(test_bricks);
+	RUN(test_sort_keys);
 	RUN(test_real_mesh_brute_force);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_resolutions_agree);

@@ -887,10 +887,25 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 				return e;
 			const unsigned char *p = r->buf + r->pos;
 			m->poly_n = 0;
-			for (int64_t j = 0; j < n; j++, p += size)
-				if ((e = vd_ply_corner(m,
-					vd_ply_decode_int(p, pr->type, be))))
-					return e;
+			if (!be && (pr->type == PLY_I32 || pr->type == PLY_U32)) {
+				/* the usual face list, without a decode call a
+				 * corner (a sixth of reading the terrain) */
+				for (int64_t j = 0; j < n; j++, p += 4) {
+					uint32_t u;
+					memcpy(&u, p, 4);
+					int64_t idx = pr->type == PLY_I32 ?
+						(int64_t)(int32_t)u : (int64_t)u;
+					if (idx >= 0 && (uint64_t)idx < m->nverts)
+						m->poly[m->poly_n++] = u;
+					else if ((e = vd_ply_corner(m, idx)))
+						return e;
+				}
+			} else {
+				for (int64_t j = 0; j < n; j++, p += size)
+					if ((e = vd_ply_corner(m,
+						vd_ply_decode_int(p, pr->type, be))))
+						return e;
+			}
 			r->pos += (size_t)n * size;
 			continue;
 		}

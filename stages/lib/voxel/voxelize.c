@@ -49,11 +49,13 @@ enum {
 	BLOCK_COST = BLOCK_BYTES + 48,    /* with malloc and map overhead */
 	MAX_CHUNK_LEVEL = 7,              /* 2M cells: per-cell arrays stay small */
 	TRI_BATCH = 16384,
+	RASTER_BATCH = 65536,             /* raster_bin's: indices of 16 bits */
 	/* Blocks are allocated in slabs: one calloc per 64 blocks, not one
 	 * per block (a block allocation cost as much as rasterizing it);
 	 * pages of a slab not yet used stay unmapped, so memory still
 	 * follows the blocks in use. */
 	SLAB_BLOCKS = 64,
+	MAP_RECENT = 512,                 /* block_map's recent[] */
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
 	 * slots (8 bytes each) and rank tables, planned for 2048 voxels a
@@ -295,6 +297,9 @@ struct estimate {
 	int raster_coarse;     /* `coarse` when the current raster began */
 	size_t max_keys;
 	int err;
+	/* keys added lately, +1 (by their low bits): consecutive triangles
+	 * share most of their blocks, and the set's probe is a cache miss */
+	uint64_t recent[256];
 };
 
 /* Replaces every key by its parent, until the set is at most half full. */
@@ -319,9 +324,15 @@ static int estimate_coarsen(struct estimate *e)
 
 static int estimate_add(struct estimate *e, uint64_t key)
 {
+	uint64_t *rc = &e->recent[key & 255];
+	if (*rc == key + 1)
+		return VD_OK;
 	int err = keyset_add(&e->blocks, key);
-	if (!err && e->blocks.count >= e->max_keys)
+	*rc = key + 1;
+	if (!err && e->blocks.count >= e->max_keys) {
 		err = estimate_coarsen(e);
+		memset(e->recent, 0, sizeof e->recent); /* keys of before */
+	}
 	return err;
 }
 
@@ -529,13 +540,46 @@ static int flush_bins_col(struct binner *b)
 	return VD_OK;
 }
 
+/* Groups the records by cell (any order within a cell: the geometry
+ * path ORs voxels). Few cells: in place, by counting (qsort of the
+ * dragon's records took a tenth of its binning); else qsort. */
+enum { BUCKET_CELLS = 4096 };
+
+static void sort_recs(struct bin_rec *r, size_t n, size_t ncell)
+{
+	if (ncell > BUCKET_CELLS) {
+		qsort(r, n, sizeof *r, cmp_rec);
+		return;
+	}
+	size_t next[BUCKET_CELLS], end[BUCKET_CELLS];
+	memset(end, 0, ncell * sizeof *end);
+	for (size_t i = 0; i < n; i++)
+		end[r[i].cell]++;
+	for (size_t c = 0, at = 0; c < ncell; c++) {
+		next[c] = at;
+		at += end[c];
+		end[c] = at;
+	}
+	/* each record is moved straight to its cell's next free place */
+	for (size_t c = 0; c < ncell; c++)
+		while (next[c] < end[c]) {
+			uint64_t d = r[next[c]].cell;
+			if (d == c) {
+				next[c]++;
+				continue;
+			}
+			struct bin_rec t = r[next[d]];
+			r[next[d]++] = r[next[c]];
+			r[next[c]] = t;
+		}
+}
+
 /* Bins are scratch files read back by this same process, so they hold the
  * floats as they lie in memory; they are never a format. */
 static int flush_bins(struct binner *b)
 {
 	char path[4096];
-	if (!recs_sorted(b->recs, b->buffered, sizeof *b->recs, cmp_rec))
-		qsort(b->recs, b->buffered, sizeof *b->recs, cmp_rec);
+	sort_recs(b->recs, b->buffered, (size_t)1 << 3 * b->g.L0);
 	for (size_t i = 0; i < b->buffered;) {
 		uint64_t c = b->recs[i].cell;
 		bin_path(path, sizeof path, b->dir, c);
@@ -640,6 +684,11 @@ struct block_map {
 	size_t slab_used;    /* blocks taken from the last slab */
 	uint64_t last_key;   /* one-entry cache: consecutive voxels */
 	uint64_t *last_val;
+	/* blocks recently looked up, by the key's low bits (the block's
+	 * low coordinate bits): a triangle's blocks are mostly those of the
+	 * triangles just before it, and the table's probe costs a cache miss
+	 * in keys[] and another in vals[] */
+	struct map_recent { uint64_t key1; uint64_t *val; } recent[MAP_RECENT];
 	size_t limit;        /* blocks allowed by the budget */
 	atomic_size_t *shared; /* if set, the blocks of all the maps that
 				* share one cell, which `limit` bounds */
@@ -703,12 +752,18 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 	if (m->last_val && m->last_key == key)
 		return m->last_val;
 	uint64_t k1 = key + 1;
+	struct map_recent *rc = &m->recent[key & (MAP_RECENT - 1)];
+	if (rc->key1 == k1) {
+		m->last_key = key;
+		return m->last_val = rc->val;
+	}
 	size_t j = m->cap ? mix(k1) & (m->cap - 1) : 0;
 	if (m->cap) {
 		while (m->keys[j]) {
 			if (m->keys[j] == k1) {
 				m->last_key = key;
-				return m->last_val = m->vals[j];
+				rc->key1 = k1;
+				return rc->val = m->last_val = m->vals[j];
 			}
 			j = (j + 1) & (m->cap - 1);
 		}
@@ -736,7 +791,8 @@ static uint64_t *map_get(struct block_map *m, uint64_t key)
 	m->vals[j] = blk;
 	m->count++;
 	m->last_key = key;
-	return m->last_val = blk;
+	rc->key1 = k1;
+	return rc->val = m->last_val = blk;
 }
 
 /* Returns every block to the spare list, zeroed, and empties the map. */
@@ -759,6 +815,7 @@ static int map_reset(struct block_map *m)
 		}
 	m->count = 0;
 	m->last_val = NULL;
+	memset(m->recent, 0, sizeof m->recent);
 	m->over = 0;
 	m->clean = 0;
 	return VD_OK;
@@ -797,7 +854,9 @@ struct vox_col {
 
 struct worker {
 	struct block_map map;
-	struct vd_triangle *tris;  /* bin read buffer (TRI_BATCH records) */
+	struct vd_triangle *tris;  /* bin read buffer (raster_batch() records) */
+	uint64_t *order_tri;       /* raster_bin: the batch's order, 2 *
+				    * RASTER_BATCH (keys, the sort's spare) */
 	uint64_t *order;
 	uint64_t **bptr;           /* the block of order[i] */
 	size_t order_cap;
@@ -971,7 +1030,7 @@ static void brick_seek(const struct brick_src *b, uint64_t i,
 	it->qw = 0;
 	it->bits = b->nz[8 * lo];
 	for (;;) {
-		uint64_t pc = (uint64_t)__builtin_popcountll(it->bits);
+		uint64_t pc = vd_popcount64(it->bits);
 		if (skip < pc)
 			break;
 		skip -= pc;
@@ -1079,12 +1138,25 @@ static void nz_range(void *ctx, size_t k, int worker)
 	for (size_t i = k * NZ_RANGE; i < end; i++) {
 		uint64_t *blk = nj->blk[i];
 		uint64_t *nz = nj->nz + 8 * i, c = 0;
+		/* the next block's lines on their way while this one is
+		 * scanned: blocks lie anywhere in the slabs, a page each, so
+		 * the hardware's prefetch starts late on every one */
+		if (i + 1 < end)
+			for (int o = 0; o < BLOCK_WORDS; o += 8)
+				__builtin_prefetch(nj->blk[i + 1] + o);
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
-			for (int j = 0; j < 64; j++)
-				bits |= (uint64_t)(blk[64 * q + j] != 0) << j;
+			for (int j = 0; j < 64; j += 8) {
+				/* a line at a time: most are empty */
+				const uint64_t *l = blk + 64 * q + j;
+				if (!(l[0] | l[1] | l[2] | l[3] | l[4] | l[5] |
+				      l[6] | l[7]))
+					continue;
+				for (int t = 0; t < 8; t++)
+					bits |= (uint64_t)(l[t] != 0) << (j + t);
+			}
 			nz[q] = bits;
-			c += (uint64_t)__builtin_popcountll(bits);
+			c += vd_popcount64(bits);
 		}
 		nj->start[i] = c;
 		/* keys within the block: the brick index; the bits above
@@ -1369,7 +1441,7 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	if (!(word >> bit & 1))
 		return; /* likewise */
 	uint64_t rank = w->base[bi] + w->prefix[(size_t)bi * BLOCK_WORDS + wi] +
-			(uint64_t)__builtin_popcountll(word & ((1ull << bit) - 1));
+			vd_popcount64(word & ((1ull << bit) - 1));
 	struct vox_col *v = &w->vox[rank];
 	/* corners relative to the voxel's centre, in voxels: exact (lattice
 	 * integers over a power of two, less a half-integer, well inside 53
@@ -1421,7 +1493,7 @@ static int colour_tables(struct run *r, struct worker *w,
 		unsigned in = 0;
 		for (int j = 0; j < BLOCK_WORDS; j++) {
 			w->prefix[i * BLOCK_WORDS + (size_t)j] = (uint16_t)in;
-			in += (unsigned)__builtin_popcountll(blk[j]);
+			in += (unsigned)vd_popcount64(blk[j]);
 		}
 		voxels += in;
 	}
@@ -1595,6 +1667,32 @@ static int finish_cell(struct run *r, struct worker *w,
 	return err;
 }
 
+void vd_sort_keys(uint64_t *a, uint64_t *tmp, size_t n, int lo, int bits)
+{
+	for (int sh = lo; sh < lo + bits; sh += 8) {
+		size_t cnt[257] = {0};
+		for (size_t i = 0; i < n; i++)
+			cnt[(a[i] >> sh & 255) + 1]++;
+		for (int d = 0; d < 256; d++)
+			cnt[d + 1] += cnt[d];
+		for (size_t i = 0; i < n; i++)
+			tmp[cnt[a[i] >> sh & 255]++] = a[i];
+		uint64_t *t = a;
+		a = tmp;
+		tmp = t;
+	}
+	if (((bits + 7) / 8) & 1)
+		memcpy(tmp, a, n * sizeof *a); /* back into the caller's */
+}
+
+/* Triangles raster_bin reads at a time: fewer with colours, whose
+ * records are more than twice as long, so the buffer stays a small part
+ * of WORKER_OVERHEAD. */
+static size_t raster_batch(const struct run *r)
+{
+	return r->colours ? TRI_BATCH : RASTER_BATCH;
+}
+
 /* Rasterizes the triangles of `cell`'s bin (at `path`) into w's map,
  * clipped to [clip_lo, clip_hi]: the whole cell, or one octant of a
  * split cell. `count`: this pass counts the triangles for the progress
@@ -1629,12 +1727,42 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 		wlo[a] = r->g.tr.origin[a] + (double)(clip_lo[a] - 1) * vs;
 		whi[a] = r->g.tr.origin[a] + (double)(clip_hi[a] + 2) * vs;
 	}
+	/* the batch is rasterized in the Morton order of its triangles'
+	 * first corners (blocks of 2^ksh voxels, 10 bits an axis at most),
+	 * so the triangles that share a block come together while its
+	 * lines are in cache: a mesh's own order returns to a block
+	 * after a whole strip of others (a tenth of the terrain's time was
+	 * the misses of setting voxels) */
+	int ksh = BLOCK_SHIFT;
+	if (shift - ksh > 10)
+		ksh = shift - 10;
+	const double kscale = (double)((int64_t)1 << r->g.L) /
+			      (double)r->g.tr.root_side / (double)((int64_t)1 << ksh);
+	const uint32_t kmax = shift > ksh ? (1u << (shift - ksh)) - 1 : 0;
 	int err = VD_OK;
 	size_t n;
 	while (!err && !w->map.over &&
-	       (n = fread(w->tris, rec, TRI_BATCH, f)) > 0) {
+	       (n = fread(w->tris, rec, raster_batch(r), f)) > 0) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
-		for (size_t i = 0; i < n && !err && !w->map.over; i++) {
+		uint64_t *ord = w->order_tri;
+		for (size_t i = 0; i < n; i++) {
+			float v0[3];
+			uint32_t q[3];
+			memcpy(v0, rb + rec * i + off, sizeof v0);
+			for (int a = 0; a < 3; a++) {
+				double g = ((double)v0[a] - r->g.tr.origin[a]) *
+					   kscale - (double)(sink.lo[a] >> ksh);
+				q[a] = !(g > 0) ? 0 : g >= (double)kmax ? kmax :
+				       (uint32_t)g;
+			}
+			ord[i] = vd_morton3(q[0], q[1], q[2]) << 16 | i;
+		}
+		vd_sort_keys(ord, ord + RASTER_BATCH, n, 16,
+			  3 * (shift > ksh ? shift - ksh : 0));
+		for (size_t o = 0; o < n && !err && !w->map.over; o++) {
+			size_t i = (size_t)(ord[o] & 0xffff);
+			if (o + 4 < n) /* the batch is 2.4 MB: past L2 */
+				__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff) + off);
 			struct vd_triangle t;
 			struct vd_snapped_tri st;
 			memcpy(t.v, rb + rec * i + off, sizeof t.v);
@@ -2242,8 +2370,11 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	}
 	r.nworkers = nw;
 	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
+	rec_bytes *= raster_batch(&r); /* colour_pass reads TRI_BATCH */
 	for (int i = 0; i < nw; i++)
-		if (!(r.workers[i].tris = malloc(TRI_BATCH * rec_bytes))) {
+		if (!(r.workers[i].tris = malloc(rec_bytes)) ||
+		    !(r.workers[i].order_tri = malloc(2 * RASTER_BATCH *
+					sizeof *r.workers[i].order_tri))) {
 			err = vd_fail(VD_ERR_NOMEM, "workers");
 			goto out;
 		}
@@ -2330,6 +2461,7 @@ out:
 		for (int i = 0; i < r.nworkers; i++) {
 			map_free(&r.workers[i].map);
 			free(r.workers[i].tris);
+			free(r.workers[i].order_tri);
 			free(r.workers[i].order);
 		free(r.workers[i].bptr);
 			free(r.workers[i].nz);

@@ -58,6 +58,25 @@ extern int vd_raster_table_max;
  * pass reads the file) or a size a mesh overflows midway. */
 extern uint64_t vd_tri_cache_max;
 
+/* Sorts a[0..n) by bits [lo, lo + bits) of each value (LSD radix, 8 bits
+ * a pass, `tmp` as long as `a`), keeping the order of equal keys. */
+void vd_sort_keys(uint64_t *a, uint64_t *tmp, size_t n, int lo, int bits);
+
+/* Population count: the instruction where the build targets it, else the
+ * bit trick, inline (on a plain x86-64 build __builtin_popcountll is a
+ * libgcc call, once per brick or block word). */
+static inline uint64_t vd_popcount64(uint64_t v)
+{
+#ifdef __POPCNT__
+	return (uint64_t)__builtin_popcountll(v);
+#else
+	v -= v >> 1 & 0x5555555555555555ull;
+	v = (v & 0x3333333333333333ull) + (v >> 2 & 0x3333333333333333ull);
+	v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0full;
+	return v * 0x0101010101010101ull >> 56;
+#endif
+}
+
 /* Adds one brick to streaming per-level counts (as vd_svo_count_levels):
  * `prev` is the previous brick's key, `first` says there is none. Inline:
  * voxelize's nz pass calls it for every brick. */
@@ -94,7 +113,7 @@ static inline void vd_svo_count_brick(uint64_t *counts, int levels,
 	} else {
 		counts[0] += 1; /* L == 1: the root is the 2x2x2 mask */
 	}
-	counts[L - L0] += (uint64_t)__builtin_popcountll(mask);
+	counts[L - L0] += vd_popcount64(mask);
 }
 
 /* Writes n bricks (keys strictly increasing) as an SVO chunk at `path`
