@@ -12,7 +12,11 @@
  * point near the triangle and extent E (snapped units), edge axes have
  * components <= E, normals <= 2E^2, projections <= 3*2E^2*E. int64 holds
  * that for E < 2^19 (2^(L-5) voxels at depth L); larger triangles use
- * __int128 (E < 2^40).
+ * __int128 (E < 2^40) for those products, but step their rows and columns
+ * in int64 when the quotients, remainders and divisors fit (below 2^61:
+ * every triangle inside the cube once L >= 13; they are bounded by the
+ * extent in voxels and by |n| s <= 2E^2 s), which is where their time
+ * goes; the rest (triangles reaching far outside the cube) stay __int128.
  */
 #include "voxdag.h"
 #include "voxel/voxelize_internal.h"
@@ -49,7 +53,7 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 	return VD_OK;
 }
 
-int vd_raster_table_max = 512;
+int vd_raster_table_max = 1 << 16;
 
 /* ------------------------------------------------------- brick emitter
  * Sets a column's run straight into its block (vd_brick_sink): the
@@ -179,14 +183,25 @@ static inline __attribute__((always_inline)) void emit_run(struct brick_emit *e,
 }
 
 #define RT int64_t
+#define ST int64_t
 #define RN(name) name##64
 #include "voxel/tribox_impl.h"
 #undef RT
+#undef ST
 #undef RN
 #define RT i128
+#define ST int64_t
+#define RN(name) name##128s
+#include "voxel/tribox_impl.h"
+#undef RT
+#undef ST
+#undef RN
+#define RT i128
+#define ST i128
 #define RN(name) name##128
 #include "voxel/tribox_impl.h"
 #undef RT
+#undef ST
 #undef RN
 
 static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
@@ -274,7 +289,7 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 		return;
 	if (small)
 		raster64(t, vlo, vhi, origin, s, fn, ctx);
-	else
+	else if (!raster128s(t, vlo, vhi, origin, s, fn, ctx))
 		raster128(t, vlo, vhi, origin, s, fn, ctx);
 }
 
@@ -290,7 +305,7 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
 		return;
 	if (small)
 		raster_bricks64(t, vlo, vhi, origin, s, sink);
-	else
+	else if (!raster_bricks128s(t, vlo, vhi, origin, s, sink))
 		raster_bricks128(t, vlo, vhi, origin, s, sink);
 }
 
