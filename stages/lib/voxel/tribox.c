@@ -116,20 +116,11 @@ static inline void emit_row(struct brick_emit *e, int64_t cu)
 	e->rowbase = ((e->lu >> 5) - e->tb[0]) * e->nbv * e->nbw;
 }
 
-/* The block at block coordinates (bu, bv, bw) of the cell, or NULL. */
-static uint64_t *emit_block(struct brick_emit *e, uint32_t bu, uint32_t bv,
-			    uint32_t bw)
+/* The block at block coordinates (bu, bv, bw) of the cell from the sink,
+ * remembered; NULL stops the triangle. */
+static uint64_t *emit_fetch(struct brick_emit *e, uint64_t **slot,
+			    uint32_t bu, uint32_t bv, uint32_t bw)
 {
-	uint64_t **slot = NULL;
-	if (e->tabled) {
-		slot = &e->tab[((bu - e->tb[0]) * e->nbv + bv - e->tb[1]) *
-			       e->nbw + bw - e->tb[2]];
-		if (*slot)
-			return *slot;
-	} else if (e->last_blk && bu == e->last[0] && bv == e->last[1] &&
-		   bw == e->last[2]) {
-		return e->last_blk;
-	}
 	uint32_t b[3];
 	b[e->ax[0]] = bu, b[e->ax[1]] = bv, b[e->ax[2]] = bw;
 	uint64_t *blk = e->sink->block(e->sink->ctx,
@@ -145,40 +136,39 @@ static uint64_t *emit_block(struct brick_emit *e, uint32_t bu, uint32_t bv,
 	return blk;
 }
 
-/* A run that crosses blocks, or of an untabled triangle. */
-static void emit_run_slow(struct brick_emit *e, uint32_t lv, uint32_t lw0,
-			  uint32_t lw1)
-{
-	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
-	for (uint32_t lw = lw0; lw <= lw1; lw++) {
-		uint64_t *blk = emit_block(e, e->lu >> 5, lv >> 5, lw >> 5);
-		if (!blk)
-			return;
-		uint32_t mm = m | (uint32_t)d5[lw & 31] << e->sh[2];
-		blk[mm >> 6] |= 1ull << (mm & 63);
-	}
-}
-
-/* The voxels cv (along v) and w0..w1 (along w) of the row. */
-static inline __attribute__((always_inline)) void emit_run(struct brick_emit *e, int64_t cv, int64_t w0,
-			    int64_t w1)
+/* The voxels cv (along v) and w0..w1 (along w) of the row, a block at a
+ * time: through the table, or (an untabled triangle) the last block,
+ * which the next column mostly shares. */
+static inline __attribute__((always_inline)) void
+emit_run(struct brick_emit *e, int64_t cv, int64_t w0, int64_t w1)
 {
 	uint32_t lv = (uint32_t)(cv - e->lo[1]);
-	uint32_t lw0 = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
-	if (!e->tabled || (lw0 ^ lw1) >= 32) {
-		emit_run_slow(e, lv, lw0, lw1);
-		return;
-	}
-	uint64_t **slot = &e->tab[e->rowbase + ((lv >> 5) - e->tb[1]) *
-				  e->nbw + (lw0 >> 5) - e->tb[2]];
-	uint64_t *blk = *slot;
-	if (!blk && !(blk = emit_block(e, e->lu >> 5, lv >> 5, lw0 >> 5)))
-		return;
+	uint32_t lw = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
 	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
+	const uint32_t bu = e->lu >> 5, bv = lv >> 5;
 	const int sw = e->sh[2];
-	for (uint32_t lw = lw0; lw <= lw1; lw++) {
-		uint32_t mm = m | (uint32_t)d5[lw & 31] << sw;
-		blk[mm >> 6] |= 1ull << (mm & 63);
+	for (;;) {
+		uint32_t bw = lw >> 5, end = lw | 31;
+		uint64_t **slot = NULL, *blk;
+		if (e->tabled) {
+			slot = &e->tab[e->rowbase + (bv - e->tb[1]) * e->nbw +
+				       bw - e->tb[2]];
+			blk = *slot;
+		} else {
+			blk = e->last_blk && bu == e->last[0] &&
+			      bv == e->last[1] && bw == e->last[2] ?
+			      e->last_blk : NULL;
+		}
+		if (!blk && !(blk = emit_fetch(e, slot, bu, bv, bw)))
+			return;
+		if (end > lw1)
+			end = lw1;
+		for (; lw <= end; lw++) {
+			uint32_t mm = m | (uint32_t)d5[lw & 31] << sw;
+			blk[mm >> 6] |= 1ull << (mm & 63);
+		}
+		if (lw > lw1)
+			return;
 	}
 }
 
