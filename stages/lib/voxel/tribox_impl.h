@@ -190,13 +190,14 @@ enum { RN(VTAB) = 512 };
  *   - the edge axes e_k x unit_u, which do not depend on u: one interval
  *     per v, tabled once per triangle (or stepped along each row from its
  *     first column, for rows longer than the table);
- *   - the plane: its interval is found by one exact division per row and
- *     then stepped from column to column in integers (it moves by less
- *     than one voxel of w per voxel of v, since |n_v| <= |n_w|).
+ *   - the plane: its interval is found once per row (a double estimate
+ *     and one exact correction) and then stepped from column to column in
+ *     integers (it moves by less than one voxel of w per voxel of v,
+ *     since |n_v| <= |n_w|).
  * The bounds of the edge axes step from row to row (and v to v) as
  * quotient and remainder (RN(dda)): no division after the triangle's
- * first. All of it is exact integer arithmetic: the same voxels as
- * testing the 13 axes on every box. Returns 0, having visited nothing,
+ * first but three per untabled row. All of it is exact integer
+ * arithmetic: the same voxels as testing the 13 axes on every box. Returns 0, having visited nothing,
  * when the stepping state does not fit ST. */
 static inline __attribute__((always_inline)) int
 RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
