@@ -269,11 +269,12 @@ static void test_large_and_clipped(void)
  * one: the same voxels through that path. */
 static void test_untabled_rows(void)
 {
+	int max = vd_raster_table_max;
 	vd_raster_table_max = 0;
 	random_triangles_at(4, 3000);
 	random_triangles_at(14, 3000);
 	test_large_and_clipped();
-	vd_raster_table_max = 512;
+	vd_raster_table_max = max;
 }
 
 static void test_box_overlap(void)
@@ -447,6 +448,156 @@ static void test_sort_keys(void)
 		qsort(want, n, sizeof *want, vset_cmp_u64);
 		bad += memcmp(a, want, n * sizeof *a) != 0;
 	}
+	CHECK_EQ(bad, 0);
+}
+
+/* ------------------------------------------------- large triangles */
+
+/* The voxels of the triangle in the box [lo, hi] (inside the grid): the
+ * span rasterizer, and the reference on every voxel of the box. */
+static int box_agrees(const struct vd_snapped_tri *t, int L,
+		      const int64_t lo[3], const int64_t hi[3],
+		      const char *what)
+{
+	const int64_t s = vd_snap_voxel(L);
+	struct vset got = {0}, want = {0};
+	vd_raster_triangle(t, L, lo, hi, collect, &got);
+	size_t raw = got.n;
+	vset_finish(&got);
+	for (int64_t x = lo[0]; x <= hi[0]; x++)
+		for (int64_t y = lo[1]; y <= hi[1]; y++)
+			for (int64_t z = lo[2]; z <= hi[2]; z++) {
+				int64_t b[3] = {x * s, y * s, z * s};
+				if (ref_overlap(t->v, b, s))
+					collect(&want, x, y, z);
+			}
+	vset_finish(&want);
+	int ok = raw == got.n && vset_equal(&got, &want, what, morton_name);
+	free(got.v);
+	free(want.v);
+	return ok;
+}
+
+/* The voxel (clamped to the grid) of a random point of the triangle whose
+ * weight of vertex 0 is at most b0max, and the triangle's dominant normal
+ * axis. */
+static int point_on(const struct vd_snapped_tri *t, int L, double b0max,
+		    int64_t c[3])
+{
+	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
+	double b0 = b0max * (double)uniform(1 << 20) / (1 << 20);
+	double b1 = (1 - b0) * (double)uniform(1 << 20) / (1 << 20);
+	double b2 = 1 - b0 - b1;
+	for (int a = 0; a < 3; a++) {
+		double p = b0 * (double)t->v[0][a] + b1 * (double)t->v[1][a] +
+			   b2 * (double)t->v[2][a];
+		c[a] = (int64_t)(p / (double)s);
+		c[a] = c[a] < 0 ? 0 : c[a] > top ? top : c[a];
+	}
+	i128 e1[3], e2[3], n[3];
+	for (int a = 0; a < 3; a++) {
+		e1[a] = (i128)t->v[1][a] - t->v[0][a];
+		e2[a] = (i128)t->v[2][a] - t->v[0][a];
+	}
+	cross(e1, e2, n);
+	int w = 0;
+	for (int a = 1; a < 3; a++)
+		if ((n[a] < 0 ? -n[a] : n[a]) > (n[w] < 0 ? -n[w] : n[w]))
+			w = a;
+	return w;
+}
+
+/* [c - below, c + above] along one axis, inside the grid */
+static void box_axis(int64_t c, int64_t below, int64_t above, int L,
+		     int64_t *lo, int64_t *hi)
+{
+	const int64_t top = ((int64_t)1 << L) - 1;
+	*lo = c - below < 0 ? 0 : c - below;
+	*hi = c + above > top ? top : c + above;
+}
+
+/* Triangles across the cube at depths 16..21 (extents of 2^19 snapped
+ * units and more: an __int128 setup, int64 stepping), and triangles
+ * reaching 2^38 units outside the cube (all __int128): small boxes
+ * around a point of each, every voxel against the reference, through
+ * the stack table, rows of 600 voxels through the heap table and with
+ * no table, 600 rows (each with its plane estimate), and the brick
+ * sink. */
+static void test_large_triangles(void)
+{
+	const int max = vd_raster_table_max;
+	struct dense_cell cell = {.k = 5, .nblocks = 1};
+	cell.blocks = calloc(512, sizeof *cell.blocks);
+	int bad = 0;
+	for (int i = 0; i < 120 && bad < 3; i++) {
+		const int far = i % 3 == 2;
+		const int L = far ? 10 + (int)uniform(7) : 16 + i % 6;
+		const int64_t s = vd_snap_voxel(L), side = s << L;
+		struct vd_snapped_tri t;
+		random_triangle(&t, L, i % 4 < 2 ? 0 : i % 4 == 2 ? 2 : 4);
+		if (i % 3 == 1) {
+			/* edges of long multiples of small lattice steps: a
+			 * normal of small integers times a large factor, so
+			 * the plane often meets voxel corners exactly (where
+			 * the per-row estimate is most likely off by one) */
+			int64_t m1 = 1 + uniform((int64_t)1 << (L - 2)),
+				m2 = 1 + uniform((int64_t)1 << (L - 2));
+			for (int a = 0; a < 3; a++) {
+				t.v[0][a] = uniform((int64_t)1 << (L - 1)) * s;
+				t.v[1][a] = t.v[0][a] + m1 * (uniform(7) - 3) * s;
+				t.v[2][a] = t.v[0][a] + m2 * (uniform(7) - 3) * s;
+				for (int k = 1; k < 3; k++)
+					t.v[k][a] = t.v[k][a] < 0 ? 0 :
+						    t.v[k][a] > side ? side :
+						    t.v[k][a];
+			}
+		}
+		if (far) { /* one vertex far outside, on any side */
+			int a = (int)uniform(3);
+			t.v[0][a] = uniform(2) ? -((int64_t)1 << 38) :
+				    side + ((int64_t)1 << 38);
+		}
+		int64_t c[3], lo[3], hi[3];
+		/* far: a point within the cube */
+		int w = point_on(&t, L, far ? 0x1p-16 : 1, c);
+		int u = (w + 1) % 3, v = (w + 2) % 3;
+		/* the small box, inside c's block of 32^3 voxels */
+		for (int a = 0; a < 3; a++) {
+			box_axis(c[a], 4, 4, L, &lo[a], &hi[a]);
+			int64_t b = c[a] & ~(int64_t)31;
+			lo[a] = lo[a] < b ? b : lo[a];
+			hi[a] = hi[a] > b + 31 ? b + 31 : hi[a];
+		}
+		bad += !box_agrees(&t, L, lo, hi, "large triangle, small box");
+		struct vd_brick_sink sink = {.block = dense_block, .ctx = &cell};
+		for (int a = 0; a < 3; a++)
+			sink.lo[a] = c[a] & ~(int64_t)31;
+		memset(cell.blocks, 0, 512 * sizeof *cell.blocks);
+		vd_raster_triangle_bricks(&t, L, lo, hi, &sink);
+		struct vset got = {0}, want = {0};
+		dense_voxels(&cell, sink.lo, &got);
+		vset_finish(&got);
+		vd_raster_triangle(&t, L, lo, hi, collect, &want);
+		vset_finish(&want);
+		bad += !vset_equal(&got, &want, "large triangle, bricks",
+				   morton_name);
+		free(got.v);
+		free(want.v);
+		/* long rows: 600 voxels along v, 5 along u and w */
+		for (int a = 0; a < 3; a++)
+			box_axis(c[a], a == v ? 300 : 2, a == v ? 300 : 2, L,
+				 &lo[a], &hi[a]);
+		bad += !box_agrees(&t, L, lo, hi, "large triangle, heap table");
+		vd_raster_table_max = 0;
+		bad += !box_agrees(&t, L, lo, hi, "large triangle, no table");
+		vd_raster_table_max = max;
+		/* many rows: 600 voxels along u */
+		for (int a = 0; a < 3; a++)
+			box_axis(c[a], a == u ? 300 : 1, a == u ? 300 : 1, L,
+				 &lo[a], &hi[a]);
+		bad += !box_agrees(&t, L, lo, hi, "large triangle, many rows");
+	}
+	free(cell.blocks);
 	CHECK_EQ(bad, 0);
 }
 
@@ -664,6 +815,7 @@ int main(void)
 	RUN(test_box_overlap);
 	RUN(test_bricks);
 	RUN(test_sort_keys);
+	RUN(test_large_triangles);
 	RUN(test_real_mesh_brute_force);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_resolutions_agree);

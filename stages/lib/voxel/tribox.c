@@ -12,7 +12,11 @@
  * point near the triangle and extent E (snapped units), edge axes have
  * components <= E, normals <= 2E^2, projections <= 3*2E^2*E. int64 holds
  * that for E < 2^19 (2^(L-5) voxels at depth L); larger triangles use
- * __int128 (E < 2^40).
+ * __int128 (E < 2^40) for those products, but step their rows and columns
+ * in int64 when the quotients, remainders and divisors fit (below 2^61:
+ * every triangle inside the cube once L >= 13; they are bounded by the
+ * extent in voxels and by |n| s <= 2E^2 s), which is where their time
+ * goes; the rest (triangles reaching far outside the cube) stay __int128.
  */
 #include "voxdag.h"
 #include "voxel/voxelize_internal.h"
@@ -49,7 +53,7 @@ int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 	return VD_OK;
 }
 
-int vd_raster_table_max = 512;
+int vd_raster_table_max = 1 << 16;
 
 /* ------------------------------------------------------- brick emitter
  * Sets a column's run straight into its block (vd_brick_sink): the
@@ -112,20 +116,11 @@ static inline void emit_row(struct brick_emit *e, int64_t cu)
 	e->rowbase = ((e->lu >> 5) - e->tb[0]) * e->nbv * e->nbw;
 }
 
-/* The block at block coordinates (bu, bv, bw) of the cell, or NULL. */
-static uint64_t *emit_block(struct brick_emit *e, uint32_t bu, uint32_t bv,
-			    uint32_t bw)
+/* The block at block coordinates (bu, bv, bw) of the cell from the sink,
+ * remembered; NULL stops the triangle. */
+static uint64_t *emit_fetch(struct brick_emit *e, uint64_t **slot,
+			    uint32_t bu, uint32_t bv, uint32_t bw)
 {
-	uint64_t **slot = NULL;
-	if (e->tabled) {
-		slot = &e->tab[((bu - e->tb[0]) * e->nbv + bv - e->tb[1]) *
-			       e->nbw + bw - e->tb[2]];
-		if (*slot)
-			return *slot;
-	} else if (e->last_blk && bu == e->last[0] && bv == e->last[1] &&
-		   bw == e->last[2]) {
-		return e->last_blk;
-	}
 	uint32_t b[3];
 	b[e->ax[0]] = bu, b[e->ax[1]] = bv, b[e->ax[2]] = bw;
 	uint64_t *blk = e->sink->block(e->sink->ctx,
@@ -141,52 +136,62 @@ static uint64_t *emit_block(struct brick_emit *e, uint32_t bu, uint32_t bv,
 	return blk;
 }
 
-/* A run that crosses blocks, or of an untabled triangle. */
-static void emit_run_slow(struct brick_emit *e, uint32_t lv, uint32_t lw0,
-			  uint32_t lw1)
-{
-	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
-	for (uint32_t lw = lw0; lw <= lw1; lw++) {
-		uint64_t *blk = emit_block(e, e->lu >> 5, lv >> 5, lw >> 5);
-		if (!blk)
-			return;
-		uint32_t mm = m | (uint32_t)d5[lw & 31] << e->sh[2];
-		blk[mm >> 6] |= 1ull << (mm & 63);
-	}
-}
-
-/* The voxels cv (along v) and w0..w1 (along w) of the row. */
-static inline __attribute__((always_inline)) void emit_run(struct brick_emit *e, int64_t cv, int64_t w0,
-			    int64_t w1)
+/* The voxels cv (along v) and w0..w1 (along w) of the row, a block at a
+ * time: through the table, or (an untabled triangle) the last block,
+ * which the next column mostly shares. */
+static inline __attribute__((always_inline)) void
+emit_run(struct brick_emit *e, int64_t cv, int64_t w0, int64_t w1)
 {
 	uint32_t lv = (uint32_t)(cv - e->lo[1]);
-	uint32_t lw0 = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
-	if (!e->tabled || (lw0 ^ lw1) >= 32) {
-		emit_run_slow(e, lv, lw0, lw1);
-		return;
-	}
-	uint64_t **slot = &e->tab[e->rowbase + ((lv >> 5) - e->tb[1]) *
-				  e->nbw + (lw0 >> 5) - e->tb[2]];
-	uint64_t *blk = *slot;
-	if (!blk && !(blk = emit_block(e, e->lu >> 5, lv >> 5, lw0 >> 5)))
-		return;
+	uint32_t lw = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
 	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
+	const uint32_t bu = e->lu >> 5, bv = lv >> 5;
 	const int sw = e->sh[2];
-	for (uint32_t lw = lw0; lw <= lw1; lw++) {
-		uint32_t mm = m | (uint32_t)d5[lw & 31] << sw;
-		blk[mm >> 6] |= 1ull << (mm & 63);
+	for (;;) {
+		uint32_t bw = lw >> 5, end = lw | 31;
+		uint64_t **slot = NULL, *blk;
+		if (e->tabled) {
+			slot = &e->tab[e->rowbase + (bv - e->tb[1]) * e->nbw +
+				       bw - e->tb[2]];
+			blk = *slot;
+		} else {
+			blk = e->last_blk && bu == e->last[0] &&
+			      bv == e->last[1] && bw == e->last[2] ?
+			      e->last_blk : NULL;
+		}
+		if (!blk && !(blk = emit_fetch(e, slot, bu, bv, bw)))
+			return;
+		if (end > lw1)
+			end = lw1;
+		for (; lw <= end; lw++) {
+			uint32_t mm = m | (uint32_t)d5[lw & 31] << sw;
+			blk[mm >> 6] |= 1ull << (mm & 63);
+		}
+		if (lw > lw1)
+			return;
 	}
 }
 
 #define RT int64_t
+#define ST int64_t
 #define RN(name) name##64
 #include "voxel/tribox_impl.h"
 #undef RT
+#undef ST
 #undef RN
 #define RT i128
+#define ST int64_t
+#define RN(name) name##128s
+#include "voxel/tribox_impl.h"
+#undef RT
+#undef ST
+#undef RN
+#define RT i128
+#define ST i128
 #define RN(name) name##128
 #include "voxel/tribox_impl.h"
 #undef RT
+#undef ST
 #undef RN
 
 static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
@@ -274,7 +279,7 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 		return;
 	if (small)
 		raster64(t, vlo, vhi, origin, s, fn, ctx);
-	else
+	else if (!raster128s(t, vlo, vhi, origin, s, fn, ctx))
 		raster128(t, vlo, vhi, origin, s, fn, ctx);
 }
 
@@ -290,7 +295,7 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
 		return;
 	if (small)
 		raster_bricks64(t, vlo, vhi, origin, s, sink);
-	else
+	else if (!raster_bricks128s(t, vlo, vhi, origin, s, sink))
 		raster_bricks128(t, vlo, vhi, origin, s, sink);
 }
 

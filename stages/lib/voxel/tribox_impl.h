@@ -1,8 +1,14 @@
 /* tribox_impl.h - the separating axes and the rasterizer, written once for
- * an integer type. tribox.c includes it twice: with RT = int64_t for small
- * triangles, RT = __int128 for large ones (see the bounds in tribox.c).
+ * two integer types: RT for the axes and the per-triangle and per-row setup
+ * (products of coordinates), ST for the state stepped from row to row and
+ * column to column (quotients and remainders, which stay near the extent
+ * in voxels and the divisors). tribox.c includes it three times: RT = ST =
+ * int64_t for small triangles; RT = __int128, ST = int64_t for large ones
+ * whose stepping state fits int64 (every triangle inside the cube at the
+ * depths that have large triangles); RT = ST = __int128 for the rest (see
+ * the bounds in tribox.c).
  *
- * Define before including: RT (the type) and RN(name) (a name suffix).
+ * Define before including: RT, ST and RN(name) (a name suffix).
  */
 
 /* The normal (axis 0) and the 9 edge axes e_k x unit_a (axis 1 + 3k + a),
@@ -64,37 +70,28 @@ static inline int RN(axes_overlap)(const struct RN(axes) *x, const int64_t p[3])
 }
 
 /* floor(a / b) for b > 0 */
-static inline RT RN(fdiv)(RT a, RT b)
+static inline RT RN(wdiv)(RT a, RT b)
 {
 	RT q = a / b;
 	return q - (a % b != 0 && a < 0);
 }
 
-/* Narrows [*k1, *k2] to the integers k with lo <= b + A*k <= hi, exactly
- * (an empty result has *k1 > *k2 and stays empty under more narrowing). */
-static inline void RN(bound)(RT b, RT A, RT lo, RT hi, int64_t *k1,
-			     int64_t *k2)
+static inline ST RN(fdiv)(ST a, ST b)
 {
-	RT c1, c2;
-	if (A == 0) {
-		if (b >= lo && b <= hi)
-			return;
-		c1 = 1, c2 = 0;
-	} else if (A > 0) {
-		c1 = -RN(fdiv)(b - lo, A); /* ceil((lo - b) / A) */
-		c2 = RN(fdiv)(hi - b, A);
-	} else {
-		c1 = -RN(fdiv)(hi - b, -A); /* ceil((b - hi) / -A) */
-		c2 = RN(fdiv)(b - lo, -A);
-	}
-	if (c1 > *k1)
-		*k1 = c1 > *k2 ? *k2 + 1 : (int64_t)c1;
-	if (c2 < *k2)
-		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
+	ST q = a / b;
+	return q - (a % b != 0 && a < 0);
+}
+
+/* 1 if ST holds v with room for the sums of a few such values: |v| < 2^61
+ * (always when ST is RT, whose bounds tribox.c checks). */
+static inline int RN(fits)(RT v)
+{
+	return sizeof(ST) == sizeof(RT) ||
+	       (v > -((RT)1 << 61) && v < ((RT)1 << 61));
 }
 
 /* Narrows [*k1, *k2] to [c1, c2], keeping an empty result empty. */
-static inline void RN(clamp)(RT c1, RT c2, int64_t *k1, int64_t *k2)
+static inline void RN(clamp)(ST c1, ST c2, int64_t *k1, int64_t *k2)
 {
 	if (c1 > *k1)
 		*k1 = c1 > *k2 ? *k2 + 1 : (int64_t)c1;
@@ -102,32 +99,53 @@ static inline void RN(clamp)(RT c1, RT c2, int64_t *k1, int64_t *k2)
 		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
 }
 
-/* The constraint lo <= b + A*k <= hi of RN(bound) while b moves by d a
- * step (a row, or a column): with A != 0, as A' k in [lo', hi'] - b'
+/* The integers k with lo <= b + A*k <= hi (exactly; an empty result has
+ * k1 > k2 and stays empty under more narrowing) while b moves by d a step
+ * (a row, or a column) from 0: with A != 0, as A' k in [lo', hi'] - b'
  * (A' = |A| > 0, the rest negated with A), b' = A' q + r kept by adding
  * d' = A' dq + dr, so the bounds on k come without a division:
  * ceil((lo' - b') / A') = ql - q + (rl > r), likewise floor for hi'. */
 struct RN(dda) {
-	RT A, q, r, dq, dr, ql, rl, qh, rh;
-	RT b, d, lo, hi;        /* A == 0: b itself */
+	ST A, q, r, dq, dr, ql, rl, qh, rh;
+	ST b, d, lo, hi;        /* A == 0: b itself; d: d' */
 };
 
-static inline void RN(dda_init)(struct RN(dda) *x, RT A, RT b, RT d, RT lo,
-				RT hi)
+/* 0 (and nothing set) when the state of n steps may not fit ST. */
+static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
+			       RT whi, int64_t n)
 {
+	if (sizeof(ST) < sizeof(RT) &&
+	    (!RN(fits)(wA) || !RN(fits)(wlo) || !RN(fits)(whi) ||
+	     !RN(fits)((wd < 0 ? -wd : wd) * (n + 1))))
+		return 0;
+	ST A = (ST)wA, d = (ST)wd, lo = (ST)wlo, hi = (ST)whi;
 	x->A = A < 0 ? -A : A;
 	if (A == 0) {
-		x->b = b, x->d = d, x->lo = lo, x->hi = hi;
-		return;
+		x->b = 0, x->d = d, x->lo = lo, x->hi = hi;
+		return 1;
 	}
 	if (A < 0) {
-		RT t = lo;
-		lo = -hi, hi = -t, b = -b, d = -d;
+		ST t = lo;
+		lo = -hi, hi = -t, d = -d;
 	}
-	x->q = RN(fdiv)(b, x->A), x->r = b - x->q * x->A;
+	x->q = 0, x->r = 0, x->d = d;
 	x->dq = RN(fdiv)(d, x->A), x->dr = d - x->dq * x->A;
 	x->ql = RN(fdiv)(lo, x->A), x->rl = lo - x->ql * x->A;
 	x->qh = RN(fdiv)(hi, x->A), x->rh = hi - x->qh * x->A;
+	return 1;
+}
+
+/* *x as x0 after m steps (m <= n of RN(dda_init)): one division. */
+static inline void RN(dda_at)(struct RN(dda) *x, const struct RN(dda) *x0,
+			      int64_t m)
+{
+	*x = *x0;
+	if (x->A == 0) {
+		x->b = x->d * m;
+		return;
+	}
+	x->q = RN(fdiv)(x->d * m, x->A);
+	x->r = x->d * m - x->q * x->A;
 }
 
 static inline void RN(dda_bound)(const struct RN(dda) *x, int64_t *k1,
@@ -154,8 +172,9 @@ static inline void RN(dda_step)(struct RN(dda) *x)
 		x->r -= x->A, x->q++;
 }
 
-/* Rows of at most this many voxels (and vd_raster_table_max) have their
- * per-v bounds tabled; longer ones bound each column on its own. */
+/* Rows of at most this many voxels have their per-v bounds tabled on the
+ * stack, longer ones (up to vd_raster_table_max) on the heap; without a
+ * table (or memory), a row steps them from its first column. */
 enum { RN(VTAB) = 512 };
 
 /* Visits every voxel of [vlo, vhi] that the triangle overlaps, as runs
@@ -169,15 +188,18 @@ enum { RN(VTAB) = 512 };
  *   - the edge axes e_k x unit_v, whose projections do not depend on v:
  *     one interval per row;
  *   - the edge axes e_k x unit_u, which do not depend on u: one interval
- *     per v, tabled once per triangle;
- *   - the plane: its interval is found by one exact division per row and
- *     then stepped from column to column in integers (it moves by less
- *     than one voxel of w per voxel of v, since |n_v| <= |n_w|).
+ *     per v, tabled once per triangle (or stepped along each row from its
+ *     first column, for rows longer than the table);
+ *   - the plane: its interval is found once per row (a double estimate
+ *     and one exact correction) and then stepped from column to column in
+ *     integers (it moves by less than one voxel of w per voxel of v,
+ *     since |n_v| <= |n_w|).
  * The bounds of the edge axes step from row to row (and v to v) as
  * quotient and remainder (RN(dda)): no division after the triangle's
- * first. All of it is exact integer arithmetic: the same voxels as
- * testing the 13 axes on every box. */
-static inline __attribute__((always_inline)) void
+ * first but three per untabled row. All of it is exact integer
+ * arithmetic: the same voxels as testing the 13 axes on every box. Returns 0, having visited nothing,
+ * when the stepping state does not fit ST. */
+static inline __attribute__((always_inline)) int
 RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		const int64_t vhi[3], const int64_t origin[3], int64_t s,
 		vd_span_fn fn, void *ctx, struct vd_brick_sink *sink)
@@ -194,9 +216,6 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		    (x.a[0][w] < 0 ? -x.a[0][w] : x.a[0][w]))
 			w = a;
 	const int u = (w + 1) % 3, v = (w + 2) % 3;
-	struct brick_emit e;
-	if (sink)
-		emit_init(&e, sink, u, v, w, vlo, vhi);
 	/* axes as lo <= a.p <= hi; col: e_k x unit_w, ru: e_k x unit_v
 	 * (per row), tv: e_k x unit_u (per v) */
 	int col[3], ru[3], tv[3];
@@ -211,57 +230,75 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		hi[j] = x.tmax[j] - x.blo[j];
 	}
 	const int64_t kmax = vhi[w] - vlo[w];
-	const int64_t nv = vhi[v] - vlo[v] + 1;
+	const int64_t nu = vhi[u] - vlo[u] + 1, nv = vhi[v] - vlo[v] + 1;
 	/* per v: the range of k = cw - vlo[w] the axes tv admit (origin[w]
 	 * is the low corner of voxel vlo[w], so p[w] = k * s; likewise
 	 * p[v] = i * s for cv = vlo[v] + i) */
-	int64_t tv1[RN(VTAB)], tv2[RN(VTAB)];
-	const int tabled = nv <= RN(VTAB) && nv <= vd_raster_table_max;
-	if (tabled) {
-		struct RN(dda) d[3];
-		for (int k = 0; k < 3; k++)
-			RN(dda_init)(&d[k], x.a[tv[k]][w] * s, 0,
-				     x.a[tv[k]][v] * s, lo[tv[k]], hi[tv[k]]);
-		for (int64_t i = 0; i < nv; i++) {
-			tv1[i] = 0, tv2[i] = kmax;
-			for (int k = 0; k < 3; k++) {
-				RN(dda_bound)(&d[k], &tv1[i], &tv2[i]);
-				RN(dda_step)(&d[k]);
-			}
-		}
-	}
+	struct RN(dda) dtv[3];
+	for (int k = 0; k < 3; k++)
+		if (!RN(dda_init)(&dtv[k], x.a[tv[k]][w] * s,
+				  x.a[tv[k]][v] * s, lo[tv[k]], hi[tv[k]], nv))
+			return 0;
 	/* per row (fixed u, p[u] = j * s): the range of i the axes col
 	 * admit, the range of k the axes ru admit */
 	struct RN(dda) dcol[3], dru[3];
-	for (int k = 0; k < 3; k++) {
-		RN(dda_init)(&dcol[k], x.a[col[k]][v] * s, 0,
-			     x.a[col[k]][u] * s, lo[col[k]], hi[col[k]]);
-		RN(dda_init)(&dru[k], x.a[ru[k]][w] * s, 0, x.a[ru[k]][u] * s,
-			     lo[ru[k]], hi[ru[k]]);
-	}
+	for (int k = 0; k < 3; k++)
+		if (!RN(dda_init)(&dcol[k], x.a[col[k]][v] * s,
+				  x.a[col[k]][u] * s, lo[col[k]], hi[col[k]],
+				  nu) ||
+		    !RN(dda_init)(&dru[k], x.a[ru[k]][w] * s,
+				  x.a[ru[k]][u] * s, lo[ru[k]], hi[ru[k]], nu))
+			return 0;
 	/* The plane in a column: lo[0] <= b + wstep * k <= hi[0]. Negated
 	 * when wstep < 0, it reads pl <= c + P * k <= ph with P > 0,
 	 * c = sg * b. A zero normal (degenerate triangle) is a zero axis: it
 	 * passes every box. With c = P qc + rc, pl = P ql + rl and
 	 * ph = P qh + rh, the range is ql - qc + (rl > rc) .. qh - qc -
-	 * (rc > rh): one division a row. */
+	 * (rc > rh). c needs RT, but c / P = sg (n_u j + n_v i) / |n_w|
+	 * (row j, column i) is within the rows and columns (|n_u|, |n_v| <=
+	 * |n_w|): a double estimate of qc, then the exact remainder and one
+	 * correction, instead of a division a row. */
 	const RT wstep = x.a[0][w] * s;
-	const RT P = wstep < 0 ? -wstep : wstep;
+	const RT wP = wstep < 0 ? -wstep : wstep;
 	const RT sg = wstep < 0 ? -1 : 1;
 	const RT pl = wstep < 0 ? -hi[0] : lo[0];
 	const RT ph = wstep < 0 ? -lo[0] : hi[0];
-	const RT dc = sg * x.a[0][v] * s;
-	RT pql = 0, prl = 0, pqh = 0, prh = 0;
-	if (P != 0) {
-		pql = RN(fdiv)(pl, P), prl = pl - pql * P;
-		pqh = RN(fdiv)(ph, P), prh = ph - pqh * P;
+	RT pql = 0, pqh = 0;
+	double fu = 0, fv = 0;
+	if (wP != 0) {
+		pql = RN(wdiv)(pl, wP), pqh = RN(wdiv)(ph, wP);
+		if (!RN(fits)(wP) || !RN(fits)(pql) || !RN(fits)(pqh))
+			return 0;
+		const double n = (double)(sg * x.a[0][w]);
+		fu = (double)(sg * x.a[0][u]) / n;
+		fv = (double)(sg * x.a[0][v]) / n;
 	}
+	/* e1, e2 + dc stay within (-P, 2P) */
+	const ST P = (ST)wP, dc = (ST)(sg * x.a[0][v] * s);
+	const ST prl = (ST)(pl - pql * wP), prh = (ST)(ph - pqh * wP);
+	struct brick_emit e;
+	if (sink)
+		emit_init(&e, sink, u, v, w, vlo, vhi);
+	int64_t tvs[2 * RN(VTAB)], *tv1 = tvs, *heap = NULL;
+	int tabled = nv <= vd_raster_table_max;
+	if (tabled && nv > RN(VTAB))
+		tabled = (tv1 = heap = malloc(2 * (size_t)nv * sizeof *heap)) != NULL;
+	int64_t *tv2 = tv1 + nv;
+	if (tabled)
+		for (int64_t i = 0; i < nv; i++) {
+			tv1[i] = 0, tv2[i] = kmax;
+			for (int k = 0; k < 3; k++) {
+				RN(dda_bound)(&dtv[k], &tv1[i], &tv2[i]);
+				RN(dda_step)(&dtv[k]);
+			}
+		}
 	int64_t p[3];
-	for (int64_t cu = vlo[u]; cu <= vhi[u]; cu++) {
-		p[u] = cu * s - origin[u];
+	for (int64_t j = 0; j < nu; j++) {
+		const int64_t cu = vlo[u] + j;
+		p[u] = j * s;
 		if (sink) {
 			if (e.stop)
-				return;
+				break;
 			emit_row(&e, cu);
 		}
 		int64_t i0 = 0, i1 = nv - 1, r1 = 0, r2 = kmax;
@@ -276,15 +313,27 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		p[v] = i0 * s;
 		/* the plane's exact range of k in the first column, and the
 		 * slack e1 = c + P*k1 - pl, e2 = ph - c - P*k2 in [0, P) */
-		RT k1 = 0, k2 = kmax, e1 = 0, e2 = 0;
+		ST k1 = 0, k2 = kmax, e1 = 0, e2 = 0;
 		if (P != 0) {
+			/* g is c / P within (nu + nv) 2^-50, so
+			 * floor(g - 1/2) is qc or qc - 1 */
 			RT c = sg * (x.a[0][u] * p[u] + x.a[0][v] * p[v]);
-			RT qc = RN(fdiv)(c, P), rc = c - qc * P;
-			k1 = pql - qc + (prl > rc);
-			k2 = pqh - qc - (rc > prh);
+			double g = (double)j * fu + (double)i0 * fv - 0.5;
+			int64_t qc = (int64_t)g;
+			qc -= (double)qc > g;
+			RT wrc = c - (RT)qc * wP;
+			if (wrc >= wP)
+				wrc -= wP, qc++;
+			ST rc = (ST)wrc;
+			k1 = (ST)pql - qc + (prl > rc);
+			k2 = (ST)pqh - qc - (rc > prh);
 			e1 = rc - prl + (prl > rc ? P : 0);
 			e2 = prh - rc + (rc > prh ? P : 0);
 		}
+		struct RN(dda) dt[3];
+		if (!tabled)
+			for (int k = 0; k < 3; k++)
+				RN(dda_at)(&dt[k], &dtv[k], i0);
 		for (int64_t i = i0; i <= i1; i++) {
 			int64_t w0 = k1 > r1 ? (int64_t)k1 : r1;
 			int64_t w1 = k2 < r2 ? (int64_t)k2 : r2;
@@ -292,21 +341,20 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				/* step the plane's range to the next column
 				 * (|dc| <= P: one correction at most) */
 				e1 += dc;
-				RT m1 = (e1 >= P) - (e1 < 0);
+				ST m1 = (e1 >= P) - (e1 < 0);
 				k1 -= m1, e1 -= m1 * P;
 				e2 -= dc;
-				RT m2 = (e2 >= P) - (e2 < 0);
+				ST m2 = (e2 >= P) - (e2 < 0);
 				k2 += m2, e2 -= m2 * P;
 			}
 			if (tabled) {
 				w0 = tv1[i] > w0 ? tv1[i] : w0;
 				w1 = tv2[i] < w1 ? tv2[i] : w1;
-			} else if (w0 <= w1) {
-				RT pv = (RT)i * s;
-				for (int k = 0; k < 3; k++)
-					RN(bound)(x.a[tv[k]][v] * pv,
-						  x.a[tv[k]][w] * s, lo[tv[k]],
-						  hi[tv[k]], &w0, &w1);
+			} else {
+				for (int k = 0; k < 3; k++) {
+					RN(dda_bound)(&dt[k], &w0, &w1);
+					RN(dda_step)(&dt[k]);
+				}
 			}
 			if (w0 > w1)
 				continue;
@@ -320,19 +368,21 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			fn(ctx, w, out[0], out[1], out[2], w1 - w0 + 1);
 		}
 	}
+	free(heap);
+	return 1;
 }
 
-static void RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
-		       const int64_t vhi[3], const int64_t origin[3], int64_t s,
-		       vd_span_fn fn, void *ctx)
+static int RN(raster)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
+		      const int64_t vhi[3], const int64_t origin[3], int64_t s,
+		      vd_span_fn fn, void *ctx)
 {
-	RN(raster_core)(tri, vlo, vhi, origin, s, fn, ctx, NULL);
+	return RN(raster_core)(tri, vlo, vhi, origin, s, fn, ctx, NULL);
 }
 
-static void RN(raster_bricks)(const struct vd_snapped_tri *tri,
-			      const int64_t vlo[3], const int64_t vhi[3],
-			      const int64_t origin[3], int64_t s,
-			      struct vd_brick_sink *sink)
+static int RN(raster_bricks)(const struct vd_snapped_tri *tri,
+			     const int64_t vlo[3], const int64_t vhi[3],
+			     const int64_t origin[3], int64_t s,
+			     struct vd_brick_sink *sink)
 {
-	RN(raster_core)(tri, vlo, vhi, origin, s, NULL, NULL, sink);
+	return RN(raster_core)(tri, vlo, vhi, origin, s, NULL, NULL, sink);
 }

@@ -49,8 +49,8 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
 			       struct vd_brick_sink *sink);
 
 /* The longest row (in voxels) whose per-column bounds the rasterizer
- * tables once per triangle, at most 512: tests lower it to exercise the
- * untabled path. */
+ * tables once per triangle (2^16; rows over 512 voxels on the heap): tests
+ * set it to 0 to exercise the untabled path. */
 extern int vd_raster_table_max;
 
 /* The most bytes voxelize keeps of a mesh's triangles between its passes
