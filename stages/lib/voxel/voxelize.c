@@ -1745,38 +1745,39 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	       (n = fread(w->tris, rec, raster_batch(r), f)) > 0) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		uint64_t *ord = w->order_tri;
+		size_t m = 0; /* triangles kept: an octant keeps about 1/8 */
 		for (size_t i = 0; i < n; i++) {
-			float v0[3];
-			uint32_t q[3];
-			memcpy(v0, rb + rec * i + off, sizeof v0);
-			for (int a = 0; a < 3; a++) {
-				double g = ((double)v0[a] - r->g.tr.origin[a]) *
-					   kscale - (double)(sink.lo[a] >> ksh);
-				q[a] = !(g > 0) ? 0 : g >= (double)kmax ? kmax :
-				       (uint32_t)g;
-			}
-			ord[i] = vd_morton3(q[0], q[1], q[2]) << 16 | i;
-		}
-		vd_sort_keys(ord, ord + RASTER_BATCH, n, 16,
-			  3 * (shift > ksh ? shift - ksh : 0));
-		for (size_t o = 0; o < n && !err && !w->map.over; o++) {
-			size_t i = (size_t)(ord[o] & 0xffff);
-			if (o + 4 < n) /* the batch is 2.4 MB: past L2 */
-				__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff) + off);
-			struct vd_triangle t;
-			struct vd_snapped_tri st;
-			memcpy(t.v, rb + rec * i + off, sizeof t.v);
+			float v[3][3];
+			memcpy(v, rb + rec * i + off, sizeof v);
 			int miss = 0;
 			for (int a = 0; a < 3; a++) {
-				float mn = t.v[0][a], mx = t.v[0][a];
+				float mn = v[0][a], mx = v[0][a];
 				for (int k = 1; k < 3; k++) {
-					mn = t.v[k][a] < mn ? t.v[k][a] : mn;
-					mx = t.v[k][a] > mx ? t.v[k][a] : mx;
+					mn = v[k][a] < mn ? v[k][a] : mn;
+					mx = v[k][a] > mx ? v[k][a] : mx;
 				}
 				miss |= (double)mx < wlo[a] || (double)mn > whi[a];
 			}
 			if (miss)
 				continue;
+			uint32_t q[3];
+			for (int a = 0; a < 3; a++) {
+				double g = ((double)v[0][a] - r->g.tr.origin[a]) *
+					   kscale - (double)(sink.lo[a] >> ksh);
+				q[a] = !(g > 0) ? 0 : g >= (double)kmax ? kmax :
+				       (uint32_t)g;
+			}
+			ord[m++] = vd_morton3(q[0], q[1], q[2]) << 16 | i;
+		}
+		vd_sort_keys(ord, ord + RASTER_BATCH, m, 16,
+			  3 * (shift > ksh ? shift - ksh : 0));
+		for (size_t o = 0; o < m && !err && !w->map.over; o++) {
+			size_t i = (size_t)(ord[o] & 0xffff);
+			if (o + 4 < m) /* the batch is 2.4 MB: past L2 */
+				__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff) + off);
+			struct vd_triangle t;
+			struct vd_snapped_tri st;
+			memcpy(t.v, rb + rec * i + off, sizeof t.v);
 			err = vd_snap_triangle(&st, &t, &r->g.tr);
 			if (!err)
 				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
