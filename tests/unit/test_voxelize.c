@@ -634,7 +634,9 @@ static void ref_mesh(const char *mesh, int L, struct vset *out)
 }
 
 /* With the triangles kept between passes over the file, with none kept,
- * and with a cache the mesh overflows after its first batch. */
+ * and with a cache the mesh overflows after its first batch; in cells
+ * from the budget and in one cell (L0 = 0: with the whole mesh kept, its
+ * triangles are rasterized from memory, without a bin file). */
 static void test_real_mesh_brute_force(void)
 {
 	static const uint64_t cache_max[3] = {UINT64_MAX, 0,
@@ -644,9 +646,10 @@ static void test_real_mesh_brute_force(void)
 		int n;
 		ref_mesh("tests/data/bunny.ply", L, &want);
 		CHECK(want.n > 1000);
-		for (int c = 0; c < 3; c++) {
-			vd_tri_cache_max = cache_max[c];
-			CHECK_EQ(test_voxelize("tests/data/bunny.ply", L, -1, dir, NULL), VD_OK);
+		for (int c = 0; c < 6; c++) {
+			vd_tri_cache_max = cache_max[c % 3];
+			CHECK_EQ(test_voxelize("tests/data/bunny.ply", L,
+					       c < 3 ? -1 : 0, dir, NULL), VD_OK);
 			CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &got, &n), VD_OK);
 			CHECK(vset_equal(&got, &want, "bunny", morton_name));
 			free(got.v);

@@ -467,6 +467,8 @@ struct bin_rec_col {
 /* Bytes of one triangle in a bin file. */
 #define BIN_BYTES_GEOM (sizeof(float) * 9)
 #define BIN_BYTES_COL (sizeof(struct bin_rec_col) - sizeof(uint64_t))
+_Static_assert(sizeof(struct vd_triangle) == BIN_BYTES_GEOM,
+	       "a geometry bin's record is a vd_triangle (run.mem_tris)");
 
 struct binner {
 	const struct vd_triangle *tri; /* being binned by bin_cell */
@@ -884,6 +886,10 @@ struct run {
 	const char *outdir;
 	const struct vd_voxelize_opts *opts;
 	int colours;             /* bins hold bin_rec_col; write .col chunks */
+	/* one cell (L0 = 0) and the whole mesh in the triangle cache: the
+	 * cell's triangles are read from there, and no bin is written */
+	const struct vd_triangle *mem_tris;
+	size_t mem_n;
 	struct vd_mesh *mesh;    /* for its textures (read only by now) */
 	uint64_t worker_bytes;   /* each worker's share of the budget */
 	struct cell_job *jobs;
@@ -1707,8 +1713,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	struct vd_brick_sink sink = {.block = sink_block, .ctx = &w->map};
 	for (int a = 0; a < 3; a++)
 		sink.lo[a] = (int64_t)c[a] << shift;
-	FILE *f = fopen(path, "rb");
-	if (!f)
+	FILE *f = NULL;
+	if (!r->mem_tris && !(f = fopen(path, "rb")))
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
 			       strerror(errno));
 	/* with colours a record is bin_rec_col after its cell: index,
@@ -1740,10 +1746,20 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 			      (double)r->g.tr.root_side / (double)((int64_t)1 << ksh);
 	const uint32_t kmax = shift > ksh ? (1u << (shift - ksh)) - 1 : 0;
 	int err = VD_OK;
-	size_t n;
-	while (!err && !w->map.over &&
-	       (n = fread(w->tris, rec, raster_batch(r), f)) > 0) {
+	size_t n, at = 0;
+	while (!err && !w->map.over) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
+		if (f) {
+			n = fread(w->tris, rec, raster_batch(r), f);
+		} else {
+			/* a bin's record is a vd_triangle (BIN_BYTES_GEOM) */
+			n = r->mem_n - at < RASTER_BATCH ? r->mem_n - at
+							 : RASTER_BATCH;
+			rb = (const unsigned char *)(r->mem_tris + at);
+			at += n;
+		}
+		if (n == 0)
+			break;
 		uint64_t *ord = w->order_tri;
 		size_t m = 0; /* triangles kept: an octant keeps about 1/8 */
 		for (size_t i = 0; i < n; i++) {
@@ -1795,9 +1811,10 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 			     atomic_load(&r->done), r->njobs,
 			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
 	}
-	if (!err && ferror(f))
+	if (f && !err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
-	fclose(f);
+	if (f)
+		fclose(f);
 	if (!err && w->map.over)
 		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
 			      "MiB, the budget's share per %s (%zu blocks of "
@@ -2276,6 +2293,19 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	cleaned = 1;
 	b.g = r.g;
 	b.dir = outdir;
+	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
+	if (!b.totals) {
+		err = vd_fail(VD_ERR_NOMEM, "bins");
+		goto out;
+	}
+	if (!r.colours && r.g.L0 == 0 && cache.state == 1) {
+		/* One cell, the mesh in memory: it is the bin. (Every
+		 * triangle is inside the bounds' cube, as a bin would hold.) */
+		r.mem_tris = cache.t;
+		r.mem_n = cache.n;
+		b.totals[0] = b.pairs = cache.n;
+		goto binned;
+	}
 	if (r.colours) {
 		b.cap = bin_bytes / sizeof *b.crecs;
 		b.crecs = malloc(b.cap * sizeof *b.crecs);
@@ -2283,8 +2313,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		b.cap = bin_bytes / sizeof *b.recs;
 		b.recs = malloc(b.cap * sizeof *b.recs);
 	}
-	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
-	if (!(b.recs || b.crecs) || !b.totals) {
+	if (!(b.recs || b.crecs)) {
 		err = vd_fail(VD_ERR_NOMEM, "bins");
 		goto out;
 	}
@@ -2297,6 +2326,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	tri_cache_drop(&cache); /* the bins have them now */
 	if (err)
 		goto out;
+binned:
 	res->triangles_binned = b.pairs;
 	res->seconds_bin += vd_seconds() - t1;
 
