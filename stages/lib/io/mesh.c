@@ -853,10 +853,11 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		if (v) {
 			const unsigned char *p = r->buf + r->pos;
 			for (size_t i = 0; i < el->nprops; i++) {
-				int k = m->vslot[i];
-				if (k >= 0)
-					v[k] = vd_to_f32(vd_ply_decode(
-						p, el->props[i].type, be));
+				int k = m->vslot[i], t = el->props[i].type;
+				if (k >= 0 && t == PLY_F32 && !be)
+					memcpy(&v[k], p, 4); /* as it is */
+				else if (k >= 0)
+					v[k] = vd_to_f32(vd_ply_decode(p, t, be));
 				p += vd_ply_size[el->props[i].type];
 			}
 		}

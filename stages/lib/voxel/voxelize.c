@@ -192,17 +192,20 @@ static int bounds_batch(void *ctx, const struct vd_triangle *t,
 			const struct vd_tri_attr *attr, size_t n)
 {
 	struct bounds *b = ctx;
+	float lo[3], hi[3];
+	for (int a = 0; a < 3; a++) {
+		lo[a] = b->n ? b->lo[a] : t[0].v[0][a];
+		hi[a] = b->n ? b->hi[a] : t[0].v[0][a];
+	}
 	for (size_t i = 0; i < n; i++)
 		for (int k = 0; k < 3; k++)
 			for (int a = 0; a < 3; a++) {
 				float v = t[i].v[k][a];
-				if (b->n == 0 && i == 0 && k == 0)
-					b->lo[a] = b->hi[a] = v;
-				if (v < b->lo[a])
-					b->lo[a] = v;
-				if (v > b->hi[a])
-					b->hi[a] = v;
+				lo[a] = v < lo[a] ? v : lo[a];
+				hi[a] = v > hi[a] ? v : hi[a];
 			}
+	memcpy(b->lo, lo, sizeof lo);
+	memcpy(b->hi, hi, sizeof hi);
 	b->n += n;
 	return VD_OK;
 }
