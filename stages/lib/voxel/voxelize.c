@@ -1630,6 +1630,10 @@ struct split_cell {
 	int owner[8];         /* the worker that did each octant */
 	char path[4096];      /* the cell's bin */
 	size_t nb;            /* its blocks (colour pass) */
+	/* the triangles in memory (run.mem_tris): those that may reach
+	 * octant k are sel[sel_at[k] .. sel_at[k + 1]) */
+	uint32_t *sel;
+	size_t sel_at[9];
 };
 
 static int colour_split(struct run *r, struct split_cell *sc,
@@ -1697,18 +1701,52 @@ void vd_sort_keys(uint64_t *a, uint64_t *tmp, size_t n, int lo, int bits)
 /* Triangles raster_bin reads at a time: fewer with colours, whose
  * records are more than twice as long, so the buffer stays a small part
  * of WORKER_OVERHEAD. */
+/* The clip box in world units, a voxel wider on every side: a triangle
+ * whose bounds miss it cannot reach the clip box (snapping moves a vertex
+ * by far less than a voxel), so it is not snapped and clipped only to be
+ * dropped, which an octant of a split cell would do for 7 of every 8
+ * triangles. */
+static void clip_world(const struct run *r, const int64_t clip_lo[3],
+		       const int64_t clip_hi[3], double wlo[3], double whi[3])
+{
+	const double vs = (double)r->g.tr.root_side / (double)((int64_t)1 << r->g.L);
+	for (int a = 0; a < 3; a++) {
+		wlo[a] = r->g.tr.origin[a] + (double)(clip_lo[a] - 1) * vs;
+		whi[a] = r->g.tr.origin[a] + (double)(clip_hi[a] + 2) * vs;
+	}
+}
+
+/* 1 if the triangle's bounds miss the box of clip_world. NaN bounds miss
+ * nothing: such a triangle goes on to the snap, which rejects it. */
+static inline int tri_misses(const float v[3][3], const double wlo[3],
+			     const double whi[3])
+{
+	int miss = 0;
+	for (int a = 0; a < 3; a++) {
+		float mn = v[0][a], mx = v[0][a];
+		for (int k = 1; k < 3; k++) {
+			mn = v[k][a] < mn ? v[k][a] : mn;
+			mx = v[k][a] > mx ? v[k][a] : mx;
+		}
+		miss |= (double)mx < wlo[a] || (double)mn > whi[a];
+	}
+	return miss;
+}
+
 static size_t raster_batch(const struct run *r)
 {
 	return r->colours ? TRI_BATCH : RASTER_BATCH;
 }
 
-/* Rasterizes the triangles of `cell`'s bin (at `path`) into w's map,
- * clipped to [clip_lo, clip_hi]: the whole cell, or one octant of a
- * split cell. `count`: this pass counts the triangles for the progress
- * line (a split cell's octants all read them; one counts). */
+/* Rasterizes the triangles of `cell`'s bin (at `path`, or r->mem_tris)
+ * into w's map, clipped to [clip_lo, clip_hi]: the whole cell, or one
+ * octant of a split cell. With `sel`, only mem_tris[sel[0..nsel)] (those
+ * that may reach the octant). `count`: this pass counts the triangles for
+ * the progress line (a split cell's octants all read them; one counts). */
 static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
-		      const char *path, const int64_t clip_lo[3],
-		      const int64_t clip_hi[3], int count)
+		      const char *path, const uint32_t *sel, size_t nsel,
+		      const int64_t clip_lo[3], const int64_t clip_hi[3],
+		      int count)
 {
 	int shift = r->g.L - r->g.L0;
 	uint32_t c[3];
@@ -1724,18 +1762,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	 * then the corners */
 	size_t rec = r->colours ? BIN_BYTES_COL : BIN_BYTES_GEOM;
 	size_t off = r->colours ? sizeof(uint64_t) : 0;
-	/* The clip box in world units, a voxel wider on every side: a
-	 * triangle whose bounds miss it cannot reach the clip box (snapping
-	 * moves a vertex by far less than a voxel), so it is not snapped and
-	 * clipped only to be dropped, which an octant of a split cell would do
-	 * for 7 of every 8 triangles. NaN bounds miss nothing: such a triangle
-	 * goes on to the snap, which rejects it. */
-	const double vs = (double)r->g.tr.root_side / (double)((int64_t)1 << r->g.L);
 	double wlo[3], whi[3];
-	for (int a = 0; a < 3; a++) {
-		wlo[a] = r->g.tr.origin[a] + (double)(clip_lo[a] - 1) * vs;
-		whi[a] = r->g.tr.origin[a] + (double)(clip_hi[a] + 2) * vs;
-	}
+	clip_world(r, clip_lo, clip_hi, wlo, whi);
 	/* the batch is rasterized in the Morton order of its triangles'
 	 * first corners (blocks of 2^ksh voxels, 10 bits an axis at most),
 	 * so the triangles that share a block come together while its
@@ -1754,6 +1782,12 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		if (f) {
 			n = fread(w->tris, rec, raster_batch(r), f);
+		} else if (sel) {
+			n = nsel - at < RASTER_BATCH ? nsel - at : RASTER_BATCH;
+			struct vd_triangle *to = w->tris;
+			for (size_t i = 0; i < n; i++)
+				to[i] = r->mem_tris[sel[at + i]];
+			at += n;
 		} else {
 			/* a bin's record is a vd_triangle (BIN_BYTES_GEOM) */
 			n = r->mem_n - at < RASTER_BATCH ? r->mem_n - at
@@ -1768,16 +1802,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 		for (size_t i = 0; i < n; i++) {
 			float v[3][3];
 			memcpy(v, rb + rec * i + off, sizeof v);
-			int miss = 0;
-			for (int a = 0; a < 3; a++) {
-				float mn = v[0][a], mx = v[0][a];
-				for (int k = 1; k < 3; k++) {
-					mn = v[k][a] < mn ? v[k][a] : mn;
-					mx = v[k][a] > mx ? v[k][a] : mx;
-				}
-				miss |= (double)mx < wlo[a] || (double)mn > whi[a];
-			}
-			if (miss)
+			if (tri_misses(v, wlo, whi))
 				continue;
 			uint32_t q[3];
 			for (int a = 0; a < 3; a++) {
@@ -1845,7 +1870,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 
 	char path[4096];
 	bin_path(path, sizeof path, r->outdir, cell);
-	int err = raster_bin(r, w, cell, path, lo, hi, 1);
+	int err = raster_bin(r, w, cell, path, NULL, 0, lo, hi, 1);
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
 	for (int k = 0; k < 8; k++)
@@ -1890,8 +1915,10 @@ static void octant_task(void *ctx, size_t k, int worker)
 		return;
 	int64_t plo[3], phi[3];
 	octant_box(sc, k, plo, phi);
-	int err = raster_bin(r, &r->workers[worker], sc->cell, sc->path, plo,
-			     phi, k == 0);
+	int err = raster_bin(r, &r->workers[worker], sc->cell, sc->path,
+			     sc->sel ? sc->sel + sc->sel_at[k] : NULL,
+			     sc->sel ? sc->sel_at[k + 1] - sc->sel_at[k] : 0,
+			     plo, phi, k == 0);
 	if (err)
 		run_fail(r, err);
 }
@@ -1932,6 +1959,63 @@ static int colour_split(struct run *r, struct split_cell *sc,
 	return err;
 }
 
+/* A split cell rasterized from memory: the triangles that may reach each
+ * octant (raster_bin's test, with the bounds of a triangle found once),
+ * listed once instead of all eight octants testing every triangle. When
+ * the list cannot be made, sc->sel stays NULL and the octants test. */
+static void select_octants(struct split_cell *sc)
+{
+	const struct run *r = sc->r;
+	size_t n = r->mem_n;
+	if (!r->mem_tris || n > UINT32_MAX)
+		return;
+	/* per axis, the low half's box (octant 0) and the high half's (7) */
+	double wlo[2][3], whi[2][3];
+	for (int h = 0; h < 2; h++) {
+		int64_t plo[3], phi[3];
+		octant_box(sc, h ? 7 : 0, plo, phi);
+		clip_world(r, plo, phi, wlo[h], whi[h]);
+	}
+	uint8_t *mask = malloc(n ? n : 1);
+	if (!mask)
+		return;
+	size_t cnt[8] = {0};
+	for (size_t i = 0; i < n; i++) {
+		const struct vd_triangle *t = &r->mem_tris[i];
+		unsigned in[3]; /* bit h: reaches half h of the axis */
+		for (int a = 0; a < 3; a++) {
+			float mn = t->v[0][a], mx = t->v[0][a];
+			for (int k = 1; k < 3; k++) {
+				mn = t->v[k][a] < mn ? t->v[k][a] : mn;
+				mx = t->v[k][a] > mx ? t->v[k][a] : mx;
+			}
+			in[a] = 0;
+			for (int h = 0; h < 2; h++)
+				in[a] |= (unsigned)!((double)mx < wlo[h][a] ||
+						     (double)mn > whi[h][a]) << h;
+		}
+		unsigned m = 0;
+		for (int k = 0; k < 8; k++) /* Morton: x is k's high bit */
+			m |= (in[0] >> (k >> 2 & 1) & in[1] >> (k >> 1 & 1) &
+			      in[2] >> (k & 1) & 1u) << k;
+		mask[i] = (uint8_t)m;
+		for (int k = 0; k < 8; k++)
+			cnt[k] += m >> k & 1;
+	}
+	size_t at[9] = {0};
+	for (int k = 0; k < 8; k++)
+		at[k + 1] = at[k] + cnt[k];
+	sc->sel = malloc((at[8] ? at[8] : 1) * sizeof *sc->sel);
+	if (sc->sel) {
+		memcpy(sc->sel_at, at, sizeof at);
+		for (size_t i = 0; i < n; i++)
+			for (int k = 0; k < 8; k++)
+				if (mask[i] >> k & 1)
+					sc->sel[at[k]++] = (uint32_t)i;
+	}
+	free(mask);
+}
+
 static int split_cell(struct run *r, uint64_t cell)
 {
 	int shift = r->g.L - r->g.L0;
@@ -1948,7 +2032,10 @@ static int split_cell(struct run *r, uint64_t cell)
 		r->workers[i].map.limit = r->block_limit;
 		r->workers[i].map.shared = &r->split_blocks;
 	}
+	select_octants(&sc);
 	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
+	free(sc.sel);
+	sc.sel = NULL;
 	struct block_map *maps[8];
 	struct cell_blocks cb = {.part_shift = 3 * (shift - 1 - BLOCK_SHIFT)};
 	int nmaps = 0;
