@@ -420,6 +420,9 @@ static void bricks_at(int L, int k, int count, int maxsize, int ref)
 static void test_bricks(void)
 {
 	bricks_at(14, 7, 3000, 12, 1);   /* small: tabled, vs reference */
+	bricks_at(14, 7, 4000, 2, 1);    /* tiny: runs of 1-3 voxels set as
+					  * masks, across groups of 4 and
+					  * blocks, every axis and slope */
 	bricks_at(14, 7, 1500, 90, 0);   /* larger: untabled, clipped */
 	bricks_at(14, 8, 300, 400, 0);   /* across the cell */
 	bricks_at(8, 6, 1000, 40, 1);    /* one cell of 2^6 at depth 8 */

@@ -72,6 +72,31 @@ static const uint16_t d5[32] = {
 
 enum { EMIT_TAB = 64 };
 
+/* A column's run is mostly 1 to 3 voxels (the plane crosses a column
+ * of the axis where the normal is largest in at most 3): within two
+ * aligned groups of 4 along w, one word of a brick each. For the run
+ * a..j of voxels from the first group's (a <= j < 8), row sh (the Morton
+ * shift of w) of run_mask1, entry 8 a + j, has the bits of its voxels in
+ * the first group's word; of run_mask2, entry j, those in the second's. */
+static const uint64_t run_mask1[3][32] = {
+	{0x1, 0x3, 0x103, 0x303, 0x303, 0x303, 0x303, 0x303, 0, 0x2, 0x102,
+	 0x302, 0x302, 0x302, 0x302, 0x302, 0, 0, 0x100, 0x300, 0x300, 0x300,
+	 0x300, 0x300, 0, 0, 0, 0x200, 0x200, 0x200, 0x200, 0x200},
+	{0x1, 0x5, 0x10005, 0x50005, 0x50005, 0x50005, 0x50005, 0x50005, 0,
+	 0x4, 0x10004, 0x50004, 0x50004, 0x50004, 0x50004, 0x50004, 0, 0,
+	 0x10000, 0x50000, 0x50000, 0x50000, 0x50000, 0x50000, 0, 0, 0,
+	 0x40000, 0x40000, 0x40000, 0x40000, 0x40000},
+	{0x1, 0x11, 0x100000011, 0x1100000011, 0x1100000011, 0x1100000011,
+	 0x1100000011, 0x1100000011, 0, 0x10, 0x100000010, 0x1100000010,
+	 0x1100000010, 0x1100000010, 0x1100000010, 0x1100000010, 0, 0,
+	 0x100000000, 0x1100000000, 0x1100000000, 0x1100000000, 0x1100000000,
+	 0x1100000000, 0, 0, 0, 0x1000000000, 0x1000000000, 0x1000000000,
+	 0x1000000000, 0x1000000000}};
+static const uint64_t run_mask2[3][8] = {
+	{0, 0, 0, 0, 0x1, 0x3, 0x103, 0x303},
+	{0, 0, 0, 0, 0x1, 0x5, 0x10005, 0x50005},
+	{0, 0, 0, 0, 0x1, 0x11, 0x100000011, 0x1100000011}};
+
 struct brick_emit {
 	struct vd_brick_sink *sink;
 	int ax[3];              /* u, v, w */
@@ -136,14 +161,12 @@ static uint64_t *emit_fetch(struct brick_emit *e, uint64_t **slot,
 	return blk;
 }
 
-/* The voxels cv (along v) and w0..w1 (along w) of the row, a block at a
- * time: through the table, or (an untabled triangle) the last block,
- * which the next column mostly shares. */
+/* The voxels lv (along v) and lw..lw1 (along w, both within the cell) of
+ * the row, a block at a time: through the table, or (an untabled
+ * triangle) the last block, which the next column mostly shares. */
 static inline __attribute__((always_inline)) void
-emit_run(struct brick_emit *e, int64_t cv, int64_t w0, int64_t w1)
+emit_run(struct brick_emit *e, uint32_t lv, uint32_t lw, uint32_t lw1)
 {
-	uint32_t lv = (uint32_t)(cv - e->lo[1]);
-	uint32_t lw = (uint32_t)(w0 - e->lo[2]), lw1 = (uint32_t)(w1 - e->lo[2]);
 	uint32_t m = e->mu | (uint32_t)d5[lv & 31] << e->sh[1];
 	const uint32_t bu = e->lu >> 5, bv = lv >> 5;
 	const int sw = e->sh[2];
@@ -170,6 +193,23 @@ emit_run(struct brick_emit *e, int64_t cv, int64_t w0, int64_t w1)
 		if (lw > lw1)
 			return;
 	}
+}
+
+/* Per v of a triangle (one column of each row): the range of w the
+ * axes e_k x unit_u admit (lo > hi: none); for the brick emitter, the
+ * column's spread v within its block, shifted into place (m), and its
+ * row of blocks' offset in the emitter's table (blk). kmax < 2^21. */
+struct col_tab {
+	int32_t lo, hi;
+	uint32_t m, blk;
+};
+
+/* emit_run out of the way of a loop whose runs mostly take masks */
+static __attribute__((noinline)) void emit_run_cold(struct brick_emit *e,
+						    uint32_t lv, uint32_t lw,
+						    uint32_t lw1)
+{
+	emit_run(e, lv, lw, lw1);
 }
 
 #define RT int64_t

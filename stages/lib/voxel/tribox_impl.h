@@ -36,25 +36,27 @@ static void RN(axes_init)(struct RN(axes) *x, const int64_t t[3][3], int64_t s)
 		ax[3] = -e[k][2], ax[4] = 0, ax[5] = e[k][0];
 		ax[6] = e[k][1], ax[7] = -e[k][0], ax[8] = 0;
 	}
+	/* minima, maxima and signs as selects, not branches: a small
+	 * triangle's setup mispredicted some 30 of them */
 	for (int j = 0; j < 10; j++) {
-		RT lo = 0, hi = 0;
-		for (int k = 0; k < 3; k++) {
-			RT d = x->a[j][0] * t[k][0] + x->a[j][1] * t[k][1] +
+		RT d[3];
+		for (int k = 0; k < 3; k++)
+			d[k] = x->a[j][0] * t[k][0] + x->a[j][1] * t[k][1] +
 			       x->a[j][2] * t[k][2];
-			if (k == 0 || d < lo)
-				lo = d;
-			if (k == 0 || d > hi)
-				hi = d;
-		}
+		RT lo = d[1] < d[0] ? d[1] : d[0];
+		RT hi = d[1] > d[0] ? d[1] : d[0];
+		lo = d[2] < lo ? d[2] : lo;
+		hi = d[2] > hi ? d[2] : hi;
 		x->tmin[j] = lo;
 		x->tmax[j] = hi;
-		x->blo[j] = x->bhi[j] = 0;
+		RT bl = 0, bh = 0;
 		for (int i = 0; i < 3; i++) {
-			if (x->a[j][i] < 0)
-				x->blo[j] += x->a[j][i] * s;
-			else
-				x->bhi[j] += x->a[j][i] * s;
+			RT c = x->a[j][i] * s;
+			bl += c < 0 ? c : 0;
+			bh += c > 0 ? c : 0;
 		}
+		x->blo[j] = bl;
+		x->bhi[j] = bh;
 	}
 }
 
@@ -93,10 +95,12 @@ static inline int RN(fits)(RT v)
 /* Narrows [*k1, *k2] to [c1, c2], keeping an empty result empty. */
 static inline void RN(clamp)(ST c1, ST c2, int64_t *k1, int64_t *k2)
 {
-	if (c1 > *k1)
-		*k1 = c1 > *k2 ? *k2 + 1 : (int64_t)c1;
-	if (c2 < *k2)
-		*k2 = c2 < *k1 ? *k1 - 1 : (int64_t)c2;
+	/* as max(k1, min(c1, k2 + 1)), min(k2, max(c2, k1 - 1)): no
+	 * branches (k1 <= k2 + 1 holds throughout) */
+	int64_t a = c1 < *k2 + 1 ? (int64_t)c1 : *k2 + 1;
+	*k1 = a > *k1 ? a : *k1;
+	int64_t b = c2 > *k1 - 1 ? (int64_t)c2 : *k1 - 1;
+	*k2 = b < *k2 ? b : *k2;
 }
 
 /* The integers k with lo <= b + A*k <= hi (exactly; an empty result has
@@ -166,10 +170,73 @@ static inline void RN(dda_step)(struct RN(dda) *x)
 		x->b += x->d;
 		return;
 	}
-	x->q += x->dq;
 	x->r += x->dr;
-	if (x->r >= x->A)
-		x->r -= x->A, x->q++;
+	ST over = -(ST)(x->r >= x->A);  /* no branch: rows toss coins */
+	x->r -= x->A & over;
+	x->q += x->dq - over;
+}
+
+/* The columns i..i1 of a row of a triangle whose blocks and per-v bounds
+ * are tabled and whose plane is not degenerate (P > 0), w being axis W (a
+ * constant, so the Morton shifts and masks are): the loop of
+ * raster_core's columns, in fewer instructions and mispredicted branches
+ * (most of the time of a fine grid):
+ *   - the plane's range [k1, k2] from one remainder: with e1 = c + P k1
+ *     - pl in [0, P) and ph - pl = P Dq + Dr (0 <= Dr < P), k2 = k1 + Dq
+ *     - (e1 > Dr); from column to column e1 moves by dc, in [-P, P], so
+ *     by dcp = dc + P kd in [0, P] (kd = 1 when dc < 0) while k1 moves by
+ *     kd, and one conditional subtraction of P corrects it;
+ *   - a run within two aligned groups of 4 voxels of one block (nearly
+ *     all) set as two masks (run_mask1, run_mask2), without a loop whose
+ *     exit the branch predictor cannot guess; the rest through
+ *     emit_run_cold.
+ * offw: the cell's coordinate of the triangle's voxel 0 along w. */
+static inline __attribute__((always_inline)) void
+RN(brick_cols)(struct brick_emit *e, int64_t i, int64_t i1, ST k1, ST e1,
+	       ST P, ST dcp, ST kd, ST Dq, ST Dr, int64_t r1, int64_t r2,
+	       const struct col_tab *ct, uint32_t offv, uint32_t offw,
+	       const int W)
+{
+	const int shw = 2 - W;
+	const uint64_t *rm1 = run_mask1[shw], *rm2 = run_mask2[shw];
+	const uint32_t mu = e->mu, bu = e->lu >> 5;
+	/* block (bv, bw) of the row is entry tb + bv nbw + bw (mod 2^32) */
+	const uint32_t tb = e->rowbase - e->tb[1] * e->nbw - e->tb[2];
+	for (; i <= i1; i++) {
+		ST k2 = k1 + Dq - (e1 > Dr);
+		int64_t w0 = k1 > r1 ? (int64_t)k1 : r1;
+		int64_t w1 = k2 < r2 ? (int64_t)k2 : r2;
+		e1 += dcp;
+		ST over = -(ST)(e1 >= P);      /* no branch: a coin toss */
+		e1 -= P & over;
+		k1 += kd + over;
+		const struct col_tab c = ct[i];
+		w0 = c.lo > w0 ? c.lo : w0;
+		w1 = c.hi < w1 ? c.hi : w1;
+		if (w0 > w1)
+			continue;
+		uint32_t lw = (uint32_t)w0 + offw, lw1 = (uint32_t)w1 + offw;
+		/* j: lw1 from lw's group; one test for j > 7 or another
+		 * block */
+		uint32_t j = lw1 - (lw & ~3u);
+		if ((j | (lw ^ lw1) >> 2) > 7) {
+			emit_run_cold(e, (uint32_t)i + offv, lw, lw1);
+			if (e->stop)
+				return;
+			continue;
+		}
+		uint64_t **slot = &e->tab[tb + c.blk + (lw >> 5)];
+		uint64_t *blk = *slot;
+		if (!blk && !(blk = emit_fetch(e, slot, bu,
+					       ((uint32_t)i + offv) >> 5,
+					       lw >> 5)))
+			return;
+		uint32_t m = mu | c.m;
+		uint32_t b1 = m | (uint32_t)d5[lw & 28] << shw;
+		uint32_t b2 = m | (uint32_t)d5[lw1 & 28] << shw;
+		blk[b1 >> 6] |= rm1[(lw & 3) << 3 | j] << (b1 & 63);
+		blk[b2 >> 6] |= rm2[j] << (b2 & 63);
+	}
 }
 
 /* Rows of at most this many voxels have their per-v bounds tabled on the
@@ -279,19 +346,28 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	struct brick_emit e;
 	if (sink)
 		emit_init(&e, sink, u, v, w, vlo, vhi);
-	int64_t tvs[2 * RN(VTAB)], *tv1 = tvs, *heap = NULL;
+	struct col_tab cts[RN(VTAB)], *ct = cts, *heap = NULL;
 	int tabled = nv <= vd_raster_table_max;
 	if (tabled && nv > RN(VTAB))
-		tabled = (tv1 = heap = malloc(2 * (size_t)nv * sizeof *heap)) != NULL;
-	int64_t *tv2 = tv1 + nv;
+		tabled = (ct = heap = malloc((size_t)nv * sizeof *heap)) != NULL;
 	if (tabled)
 		for (int64_t i = 0; i < nv; i++) {
-			tv1[i] = 0, tv2[i] = kmax;
+			int64_t t1 = 0, t2 = kmax;
 			for (int k = 0; k < 3; k++) {
-				RN(dda_bound)(&dtv[k], &tv1[i], &tv2[i]);
+				RN(dda_bound)(&dtv[k], &t1, &t2);
 				RN(dda_step)(&dtv[k]);
 			}
+			ct[i].lo = (int32_t)t1, ct[i].hi = (int32_t)t2;
+			if (sink) {
+				uint32_t lv = (uint32_t)(vlo[v] - e.lo[1] + i);
+				ct[i].m = (uint32_t)d5[lv & 31] << e.sh[1];
+				ct[i].blk = (lv >> 5) * e.nbw;
+			}
 		}
+	/* brick_cols: the plane's thickness, and its step made >= 0 */
+	const ST Dq = (ST)pqh - (ST)pql - (prl > prh);
+	const ST Dr = prh - prl + (prl > prh ? P : 0);
+	const ST kd = dc < 0, dcp = dc < 0 ? dc + P : dc;
 	int64_t p[3];
 	for (int64_t j = 0; j < nu; j++) {
 		const int64_t cu = vlo[u] + j;
@@ -330,6 +406,20 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			e1 = rc - prl + (prl > rc ? P : 0);
 			e2 = prh - rc + (rc > prh ? P : 0);
 		}
+		if (sink && tabled && e.tabled && P != 0) {
+			const uint32_t ov = (uint32_t)(vlo[v] - e.lo[1]);
+			const uint32_t ow = (uint32_t)(vlo[w] - e.lo[2]);
+			if (w == 0)
+				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
+					       Dr, r1, r2, ct, ov, ow, 0);
+			else if (w == 1)
+				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
+					       Dr, r1, r2, ct, ov, ow, 1);
+			else
+				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
+					       Dr, r1, r2, ct, ov, ow, 2);
+			continue;
+		}
 		struct RN(dda) dt[3];
 		if (!tabled)
 			for (int k = 0; k < 3; k++)
@@ -348,8 +438,8 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				k2 += m2, e2 -= m2 * P;
 			}
 			if (tabled) {
-				w0 = tv1[i] > w0 ? tv1[i] : w0;
-				w1 = tv2[i] < w1 ? tv2[i] : w1;
+				w0 = ct[i].lo > w0 ? ct[i].lo : w0;
+				w1 = ct[i].hi < w1 ? ct[i].hi : w1;
 			} else {
 				for (int k = 0; k < 3; k++) {
 					RN(dda_bound)(&dt[k], &w0, &w1);
@@ -360,7 +450,9 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				continue;
 			int64_t cv = vlo[v] + i;
 			if (sink) {
-				emit_run(&e, cv, vlo[w] + w0, vlo[w] + w1);
+				emit_run(&e, (uint32_t)(cv - e.lo[1]),
+					 (uint32_t)(vlo[w] + w0 - e.lo[2]),
+					 (uint32_t)(vlo[w] + w1 - e.lo[2]));
 				continue;
 			}
 			int64_t out[3];
