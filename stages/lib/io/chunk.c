@@ -189,7 +189,8 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
  * sections are kept, and read again, as the pipeline's results. */
 static int default_level(uint32_t tag)
 {
-	return tag == VD_TAG_BRKS ? 1 : 3;
+	return tag == VD_TAG_BRKS || tag == VD_TAG_DAGM || tag == VD_TAG_DAGC ||
+	       tag == VD_TAG_DAGR ? 1 : 3;
 }
 
 /* zstd_level < 0 stores the section uncompressed (used for short text). */
