@@ -1695,9 +1695,15 @@ static inline uint64_t popcount64(uint64_t v)
 	return v * 0x0101010101010101ULL >> 56;
 }
 
-int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+/* vd_dag_from_svo; `counts`, when not NULL, are the per-level counts of
+ * the chunk header `svo` was read from by vd_svo_from_chunk, which has
+ * checked the bricks (increasing, non-empty, inside the cell) and these
+ * counts against them: the pass below that checks and counts them again
+ * is then skipped where the counts hold what it counts (it was a serial
+ * twentieth of svo-to-dag). */
+static int from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		    uint32_t kind, const struct vd_dag_opts *opts,
-		    struct vd_dag_stats *stats)
+		    struct vd_dag_stats *stats, const uint64_t *counts)
 {
 	memset(dag, 0, sizeof *dag);
 	int err = check_kind_out(kind);
@@ -1711,7 +1717,13 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 			       svo->cell_morton, L0);
 	/* The bricks must be strictly increasing, non-empty and in the cell. */
 	uint64_t voxels = 0, leaves = 0, parents = 0;
-	for (size_t i = 0; i < svo->count; i++) {
+	int known = counts && L >= 3 && L0 <= L - 3;
+	if (known) {
+		voxels = counts[L - L0];
+		leaves = counts[L - 1 - L0];
+		parents = counts[L - 3 - L0];
+	}
+	for (size_t i = 0; i < svo->count && !known; i++) {
 		uint64_t k = svo->keys[i], v = svo->masks[i];
 		for (unsigned c = 0; c < 8; c++) leaves += (v >> 8 * c & 0xff) != 0;
 		parents += i == 0 || k >> 3 != svo->keys[i - 1] >> 3;
@@ -1749,6 +1761,13 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 	err = run_engine(&e);
 	if (stats) stats->seconds_build = vd_seconds() - t0;
 	return err;
+}
+
+int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		    uint32_t kind, const struct vd_dag_opts *opts,
+		    struct vd_dag_stats *stats)
+{
+	return from_svo(dag, svo, kind, opts, stats, NULL);
 }
 
 struct part_ref {
@@ -2561,11 +2580,13 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot build the DAG of", in);
 		}
 		struct vd_svo svo;
+		uint64_t counts[VD_MAX_LEVELS + 1];
+		memcpy(counts, h->level_nodes, sizeof counts);
 		err = vd_svo_from_chunk_mt(&svo, c, o->threads);
 		vd_chunk_free(c);
 		if (err) return reword(err, "cannot read", in);
 		t_load = vd_seconds() - t0;
-		err = vd_dag_from_svo(&out, &svo, VD_KIND_DAG, o, &st);
+		err = from_svo(&out, &svo, VD_KIND_DAG, o, &st, counts);
 		vd_svo_release(&svo);
 		if (err) {
 			vd_dag_release(&out);
