@@ -510,6 +510,9 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 				int f = k ? VD_ENC_SSVDAG : VD_ENC_ESVDAG;
 				CHECK_EQ(vd_enc_build(&e, f, &cut, NULL), VD_OK);
 				CHECK(enc_equals_svo(&e, &low));
+				/* the row counts the compact sizes without
+				 * encoding: the encoding's own size */
+				CHECK_EQ(r1.bytes[f], vd_enc_size_bytes(&e));
 				vd_enc_release(&e);
 				/* word formats: the size only depends on the DAG */
 				int w = k ? VD_ENC_USSVDAG : VD_ENC_SVDAG;

@@ -150,15 +150,19 @@ static uint64_t dag_total_nodes(const struct vd_dag *d)
 	return n;
 }
 
-static int build_words(struct vd_enc *e, const struct vd_dag *d)
+/* `count_only`: word_count and the other counts, no words (the size of a
+ * words format depends on the DAG's counts alone). */
+static int build_words(struct vd_enc *e, const struct vd_dag *d,
+		       int count_only)
 {
 	int L = d->levels, sym = e->format == VD_ENC_USSVDAG;
 	if (!d->lv[0].nodes) {
 		/* empty scene: one empty root word, no nodes counted */
-		e->words = calloc(1, 4);
-		if (!e->words) return NOMEM();
 		e->word_count = 1;
 		e->first_leaf_word = L == 1 ? 0 : 1;
+		if (count_only) return VD_OK;
+		e->words = calloc(1, 4);
+		if (!e->words) return NOMEM();
 		return VD_OK;
 	}
 	uint64_t w = 0, first_leaf = 0;
@@ -171,6 +175,12 @@ static int build_words(struct vd_enc *e, const struct vd_dag *d)
 			       "words; its word indices address %" PRIu64,
 			       vd_enc_format_name(e->format), w,
 			       vd__enc_max_words);
+	if (count_only) {
+		e->word_count = (uint32_t)w;
+		e->first_leaf_word = (uint32_t)first_leaf;
+		e->node_count = (uint32_t)dag_total_nodes(d);
+		return VD_OK;
+	}
 	e->words = malloc(w * 4);
 	uint64_t *pos = malloc(((size_t)d->lv[0].nodes + 1) * 8);
 	if (!e->words || !pos) {
@@ -283,7 +293,11 @@ static uint32_t unpack_ptr(int format, unsigned tag, const uint16_t *w,
 					 : vd__enc_unpack_ptr(tag, w, m);
 }
 
-static int build_compact(struct vd_enc *e, const struct vd_dag *d)
+/* `count_only`: the addresses and sizes only (inner_count, leaf_bytes,
+ * level_offsets), no inner words and no leaves, for the tables' rows,
+ * which need vd_enc_size_bytes() and nothing else. The same checks. */
+static int build_compact(struct vd_enc *e, const struct vd_dag *d,
+			 int count_only)
 {
 	const uint64_t max_addr = max_address(e->format);
 	int L = d->levels, err = VD_OK;
@@ -292,11 +306,12 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 	if (!e->level_offsets) return NOMEM();
 	if (!d->lv[0].nodes) {
 		/* empty scene: one empty root header, no bricks */
+		e->inner_count = 1;
+		for (int l = 1; l < L - 2; l++) e->level_offsets[l] = 1;
+		if (count_only) return VD_OK;
 		e->inner = calloc(1, 2);
 		e->leaves = malloc(1);
 		if (!e->inner || !e->leaves) return NOMEM();
-		e->inner_count = 1;
-		for (int l = 1; l < L - 2; l++) e->level_offsets[l] = 1;
 		return VD_OK;
 	}
 	uint16_t *buf[VD_MAX_LEVELS] = {0};
@@ -321,12 +336,17 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					      vd__enc_max_bricks : max_addr);
 				goto out;
 			}
+			e->leaf_bytes = (uint32_t)(n * 8);
+			if (count_only) {
+				for (uint64_t k = 0; k < n; k++)
+					addr[order[k]] = (uint32_t)k;
+				goto next;
+			}
 			e->leaves = malloc(n * 8);
 			if (!e->leaves) {
 				err = NOMEM();
 				goto out;
 			}
-			e->leaf_bytes = (uint32_t)(n * 8);
 			for (uint64_t k = 0; k < n; k++) {
 				uint32_t i = order[k];
 				addr[i] = (uint32_t)k;
@@ -335,14 +355,17 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					e->leaves[8 * k + b] = (uint8_t)(v >> 8 * b);
 			}
 		} else {
-			/* at most 17 uint16 per node */
-			cap[l] = n * 17 + 1;
-			buf[l] = malloc(cap[l] * 2);
-			if (!buf[l]) {
+			/* at most 17 uint16 per node; counted, a scratch
+			 * node (the words are not kept) */
+			uint16_t scratch[17];
+			cap[l] = count_only ? 0 : n * 17 + 1;
+			buf[l] = count_only ? NULL : malloc(cap[l] * 2);
+			if (!count_only && !buf[l]) {
 				err = NOMEM();
 				goto out;
 			}
-			uint16_t *b = buf[l];
+			uint16_t *b = count_only ? scratch : buf[l];
+			uint64_t base = 0; /* at of b[0] */
 			uint64_t at = 0;
 			for (uint64_t k = 0; k < n; k++) {
 				uint32_t i = order[k];
@@ -356,6 +379,7 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					goto out;
 				}
 				addr[i] = (uint32_t)at;
+				if (count_only) base = at;
 				uint64_t h = at++;
 				unsigned head = 0;
 				uint64_t j = lv->first[i + 1];
@@ -367,13 +391,14 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					unsigned tag = pack_ptr(e->format,
 								addr_below[lv->child[j]], m, w);
 					head |= tag << 2 * s;
-					b[at++] = w[0];
-					if (tag > 1) b[at++] = w[1];
+					b[at++ - base] = w[0];
+					if (tag > 1) b[at++ - base] = w[1];
 				}
-				b[h] = (uint16_t)head;
+				b[h - base] = (uint16_t)head;
 			}
 			len[l] = at;
 		}
+	next:
 		free(order);
 		order = NULL;
 		free(addr_below);
@@ -392,6 +417,8 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 			      total, vd_enc_format_name(e->format));
 		goto out;
 	}
+	e->inner_count = (uint32_t)total;
+	if (count_only) goto done;
 	e->inner = malloc(total * 2);
 	if (!e->inner) {
 		err = NOMEM();
@@ -399,7 +426,7 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 	}
 	for (int l = 0; l < L - 2; l++)
 		memcpy(e->inner + e->level_offsets[l], buf[l], len[l] * 2);
-	e->inner_count = (uint32_t)total;
+done:
 	e->node_count = (uint32_t)dag_total_nodes(d);
 out:
 	for (int l = 0; l < L; l++) free(buf[l]);
@@ -409,8 +436,10 @@ out:
 	return err;
 }
 
-int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
-		 const struct vd_transform *t)
+/* vd_enc_build, or with `count_only` its vd_enc_size_bytes() and counts
+ * without the encoding itself (no words, inner words or leaves). */
+static int enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		     const struct vd_transform *t, int count_only)
 {
 	memset(e, 0, sizeof *e);
 	if (format < 0 || format >= VD_ENC_ALL_)
@@ -445,9 +474,16 @@ int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
 		memcpy(e->bbox_max, t->bbox_max, sizeof e->bbox_max);
 		e->root_side = t->root_side;
 	}
-	int err = vd_enc_format_compact(format) ? build_compact(e, dag)
-						: build_words(e, dag);
+	int err = vd_enc_format_compact(format)
+		  ? build_compact(e, dag, count_only)
+		  : build_words(e, dag, count_only);
 	return err;
+}
+
+int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		 const struct vd_transform *t)
+{
+	return enc_build(e, format, dag, t, 0);
 }
 
 uint64_t vd_enc_size_bytes(const struct vd_enc *e)
@@ -1139,7 +1175,7 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 			continue;
 		}
 		struct vd_enc e;
-		err = vd_enc_build(&e, f, use[source_of(f)], NULL);
+		err = enc_build(&e, f, use[source_of(f)], NULL, 1);
 		if (!err) {
 			row->bytes[f] = vd_enc_size_bytes(&e);
 			row->has[f] = 1;
