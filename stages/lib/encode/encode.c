@@ -1112,11 +1112,14 @@ static int source_of(int format)
  * the encode stage has just built them for its files. `counts`, when not
  * NULL, holds vd_enc_svo_counts() of the dag, the ssvdag and the ssvdag48
  * (rows of 3 x (VD_MAX_LEVELS + 1), a row for each source given): a pass
- * over the whole DAG each, otherwise made again for every row and cut. */
+ * over the whole DAG each, otherwise made again for every row and cut.
+ * `only` is the source whose nodes and bytes are computed (0 dag, 1
+ * ssvdag, 2 ssvdag48; the others' stay 0): a row is three tasks, joined
+ * by row_join. */
 static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
 		     struct vd_enc_row *row, const uint64_t *sizes,
-		     const uint64_t (*counts)[VD_MAX_LEVELS + 1])
+		     const uint64_t (*counts)[VD_MAX_LEVELS + 1], int only)
 {
 	memset(row, 0, sizeof *row);
 	row->levels = levels;
@@ -1152,7 +1155,7 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	struct vd_dag cuts[3];
 	memset(cuts, 0, sizeof cuts);
 	for (int k = 0; k < 3 && !err; k++) {
-		if (!src[k]) continue;
+		if (!src[k] || k != only) continue;
 		if (levels == dag->levels) {
 			use[k] = src[k];
 		} else {
@@ -1162,7 +1165,7 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		}
 	}
 	if (!err) {
-		row->dag_nodes = dag_total_nodes(use[0]);
+		row->dag_nodes = use[0] ? dag_total_nodes(use[0]) : 0;
 		row->ssvdag_nodes = use[1] ? dag_total_nodes(use[1]) : 0;
 		row->ssvdag48_nodes = use[2] ? dag_total_nodes(use[2]) : 0;
 	}
@@ -1186,11 +1189,38 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	return err;
 }
 
+/* A row from its three sources' parts (table_row with `only` 0, 1, 2). */
+static void row_join(struct vd_enc_row *out, const struct vd_enc_row p[3])
+{
+	struct vd_enc_row row = p[0];
+	row.ssvdag_nodes = p[1].ssvdag_nodes;
+	row.ssvdag48_nodes = p[2].ssvdag48_nodes;
+	for (int f = 0; f < VD_ENC_ALL_; f++) {
+		int k = source_of(f);
+		row.bytes[f] = p[k].bytes[f];
+		row.has[f] = p[k].has[f];
+	}
+	*out = row;
+}
+
+/* As the encode stage computes it, one source at a time, so the tests of
+ * this function check the stage's rows too. */
 int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
 		     struct vd_enc_row *row)
 {
-	return table_row(dag, ssvdag, ssvdag48, levels, row, NULL, NULL);
+	const struct vd_dag *src[3] = {dag, ssvdag, ssvdag48};
+	struct vd_enc_row p[3];
+	memset(p, 0, sizeof p);
+	memset(row, 0, sizeof *row);
+	for (int k = 0; k < 3; k++) {
+		if (k > 0 && !src[k]) continue;
+		int err = table_row(dag, ssvdag, ssvdag48, levels, &p[k], NULL,
+				    NULL, k);
+		if (err) return err;
+	}
+	row_join(row, p);
+	return VD_OK;
 }
 
 /* ------------------------------------------------------------- timings */
@@ -1601,17 +1631,25 @@ struct row_job {
 	char (*details)[512];
 };
 
-static void row_worker(void *ctx, size_t i, int worker)
+/* Task t is row t / 3 of source t % 3: the full-resolution cut of the
+ * dag is most of the tables' work, so a task a row would leave a thread
+ * idle while one works through it. */
+static void row_worker(void *ctx, size_t t, int worker)
 {
 	(void)worker;
 	struct row_job *r = ctx;
+	const struct vd_dag *src[3] = {r->dag, r->ssvdag, r->ssvdag48};
+	size_t i = t / 3;
+	int k = (int)(t % 3);
+	if (!src[k]) return;
 	int err = table_row(r->dag, r->ssvdag, r->ssvdag48,
-			    r->dag->levels - (int)i, &r->rows[i], r->sizes,
-			    r->counts);
-	r->errs[i] = err;
-	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
+			    r->dag->levels - (int)i, &r->rows[t], r->sizes,
+			    r->counts, k);
+	r->errs[t] = err;
+	if (err) snprintf(r->details[t], sizeof r->details[t], "%s",
 			  vd_error_detail());
 }
+
 
 
 /* The encodings' files, one per format, built and written in parallel
@@ -1754,9 +1792,9 @@ int vd_enc_run(const struct vd_enc_job *job)
 
 	int lo = job->min_level < 1 ? 1 : job->min_level;
 	size_t nrows = dag.levels >= lo ? (size_t)(dag.levels - lo + 1) : 1;
-	rows = calloc(nrows, sizeof *rows);
-	errs = calloc(nrows, sizeof *errs);
-	details = calloc(nrows, sizeof *details);
+	rows = calloc(3 * nrows, sizeof *rows);
+	errs = calloc(3 * nrows, sizeof *errs);
+	details = calloc(3 * nrows, sizeof *details);
 	if (!rows || !errs || !details) {
 		err = NOMEM();
 		goto out;
@@ -1767,15 +1805,16 @@ int vd_enc_run(const struct vd_enc_job *job)
 	if (err) goto out;
 	struct row_job rj = {&dag, src[1], src[2], bytes, counts, rows, errs,
 			     details};
-	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
+	if ((err = vd_parallel_for(3 * nrows, job->threads, row_worker, &rj)))
 		goto out;
-	for (size_t i = 0; i < nrows; i++)
-		if (errs[i]) {
-			err = vd_fail(errs[i], "cannot compute the %llu^3 row: "
-				      "%s: %s", 1ull << rows[i].levels,
-				      vd_strerror(errs[i]), details[i]);
+	for (size_t t = 0; t < 3 * nrows; t++)
+		if (errs[t]) {
+			err = vd_fail(errs[t], "cannot compute the %llu^3 row: "
+				      "%s: %s", 1ull << rows[t].levels,
+				      vd_strerror(errs[t]), details[t]);
 			goto out;
 		}
+	for (size_t i = 0; i < nrows; i++) row_join(&rows[i], &rows[3 * i]);
 	if ((err = vd_enc_write_tables(dir, name, rows, nrows, &tm,
 				       t_enc))) {
 		err = reword(err, "cannot write the tables in", job->outdir);
