@@ -1965,7 +1965,7 @@ static int expand_node(const struct expander *x, int l, uint64_t node,
 	for (unsigned p = 0; p < 8; p++) {
 		unsigned s = p ^ a;
 		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
 		uint32_t c = lv->child[j];
 		unsigned ca = a ^ (lv->refl ? lv->refl[j] : 0u);
 		int err;
@@ -1994,7 +1994,7 @@ static int expand_node48(const struct expander *x, int l, uint64_t node,
 	for (unsigned p = 0; p < 8; p++) {
 		unsigned s = back[p];
 		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
 		uint32_t c = lv->child[j];
 		unsigned ca = vd__g48_comp[a][lv->refl[j]];
 		int err;
@@ -2124,7 +2124,7 @@ int vd_dag_validate(const struct vd_dag *d)
 					       PRIu64 ": references start at %"
 					       PRIu64 ", expected %" PRIu64, l, i,
 					       lv->first[i], j);
-			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+			j += (uint64_t)pop8(lv->mask[i]);
 		}
 		if (lv->first[lv->nodes] != j || lv->refs != j)
 			return vd_fail(VD_ERR_CORRUPT, "level %d: %" PRIu64
@@ -2181,9 +2181,14 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
 
 /* ----------------------------------------------------------- chunk files */
 
+/* Spelled out, the form GCC merges into one store (the loop it left as
+ * 4 variable shifts and byte stores, for every reference written). */
 static void put32(uint8_t *p, uint32_t v)
 {
-	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+	p[0] = (uint8_t)v;
+	p[1] = (uint8_t)(v >> 8);
+	p[2] = (uint8_t)(v >> 16);
+	p[3] = (uint8_t)(v >> 24);
 }
 
 static uint32_t get32(const uint8_t *p)
@@ -2294,7 +2299,7 @@ static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
 	uint64_t *below = malloc((size_t)(d->lv[L - 1].nodes ? d->lv[L - 1].nodes : 1) * 8);
 	if (!below) return NOMEM();
 	for (uint64_t i = 0; i < d->lv[L - 1].nodes; i++)
-		below[i] = (uint64_t)__builtin_popcount(d->lv[L - 1].mask[i]);
+		below[i] = (uint64_t)pop8(d->lv[L - 1].mask[i]);
 	for (int l = L - 2; l >= A; l--) {
 		const struct vd_dag_level *lv = &d->lv[l];
 		uint64_t *cur = malloc((size_t)(lv->nodes ? lv->nodes : 1) * 8);
@@ -2412,7 +2417,7 @@ int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
 		uint64_t j = 0;
 		for (uint64_t i = 0; i < lv->nodes; i++) {
 			lv->first[i] = j;
-			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+			j += (uint64_t)pop8(lv->mask[i]);
 		}
 		lv->first[lv->nodes] = j;
 		lv->refs = j;
