@@ -2258,6 +2258,11 @@ static int save_section(const struct vd_dag *dag, struct vd_chunk_writer *w,
 {
 	struct dag_stream st;
 	dag_stream_init(&st, dag, tag);
+	/* child indices as byte planes (codec 2): their high bytes change
+	 * slowly, so zstd stores them in less time and space */
+	if (tag == VD_TAG_DAGC)
+		return vd_chunk_writer_frames4(w, tag, st.start[st.nlev],
+					       dag_stream_fill, &st, threads);
 	return vd_chunk_writer_frames(w, tag, st.start[st.nlev],
 				      dag_stream_fill, &st, threads);
 }
