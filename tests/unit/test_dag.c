@@ -712,6 +712,16 @@ static void test_chunk_files(void)
 	CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
 	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_ERR_CORRUPT);
 	d.lv[0].child[0] = 0;
+	/* a brick that is not what its leaf masks say, first or last */
+	CHECK_EQ(vd_dag_validate(&d), VD_OK);
+	uint64_t nb = d.lv[d.levels - 2].nodes;
+	for (uint64_t at = 0; at < nb; at += nb - 1 ? nb - 1 : 1) {
+		d.bricks[at] ^= 1ull << 63;
+		CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
+		CHECK(strstr(vd_error_detail(), "disagrees with its masks") != NULL);
+		d.bricks[at] ^= 1ull << 63;
+	}
+	CHECK_EQ(vd_dag_validate(&d), VD_OK);
 	d.voxels++;
 	snprintf(path, sizeof path, "%s/badcount.dag", dir);
 	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_OK);
