@@ -18,6 +18,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <jansson.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -60,14 +61,28 @@ static inline unsigned symvox_bit(unsigned b)
 	return 16 * x + 4 * y + z;
 }
 
+/* to_symvox[k][m]: the SymVox bits of byte k of a Morton brick being m;
+ * a brick is 8 lookups (a loop over its set bits was 4% of encode). */
+static uint64_t to_symvox[8][256];
+static pthread_once_t to_symvox_once = PTHREAD_ONCE_INIT;
+
+static void to_symvox_init(void)
+{
+	for (unsigned k = 0; k < 8; k++)
+		for (unsigned m = 0; m < 256; m++) {
+			uint64_t out = 0;
+			for (unsigned b = 0; b < 8; b++)
+				if (m >> b & 1) out |= 1ull << symvox_bit(8 * k + b);
+			to_symvox[k][m] = out;
+		}
+}
+
 uint64_t vd__enc_brick_to_symvox(uint64_t v)
 {
+	pthread_once(&to_symvox_once, to_symvox_init);
 	uint64_t out = 0;
-	while (v) {
-		unsigned b = (unsigned)__builtin_ctzll(v);
-		v &= v - 1;
-		out |= 1ull << symvox_bit(b);
-	}
+	for (unsigned k = 0; k < 8; k++)
+		out |= to_symvox[k][v >> 8 * k & 0xff];
 	return out;
 }
 
