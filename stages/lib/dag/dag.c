@@ -532,6 +532,12 @@ static int svo_bricks(struct engine *e, struct bset *b, int asis,
 	size_t nr = range_count(e, n);
 	int err;
 	if (nr == 1) {
+		/* one element a brick: sized once, not grown by halves */
+		if (nf->cap < nf->n + n) {
+			if ((err = grow((void **)&nf->e, nf->n + n, sizeof *nf->e)))
+				return err;
+			nf->cap = nf->n + n;
+		}
 		for (uint64_t i = 0; i < n; i++) {
 			uint32_t id;
 			uint8_t r;
