@@ -522,57 +522,93 @@ static uint64_t file_bytes(const struct vd_enc *e)
 				       VD_ENC_HEADER_BYTES_WORDS);
 }
 
-static int serialize(const struct vd_enc *e, uint8_t **out, size_t *size)
+/* The file is written through a buffer of this many bytes, not built
+ * whole in memory first (that copy was as large as the file, per file
+ * written at once). */
+#define SAVE_BUF (1u << 18)
+
+struct sink {
+	FILE *f;
+	uint8_t *b;
+	size_t n;
+	uint64_t total;
+	int bad;
+};
+
+static void sink_flush(struct sink *k)
 {
-	size_t n = (size_t)file_bytes(e);
-	uint8_t *b = malloc(n), *p = b;
-	if (!b) return NOMEM();
+	if (k->n && !k->bad && fwrite(k->b, 1, k->n, k->f) != k->n) k->bad = 1;
+	k->total += k->n;
+	k->n = 0;
+}
+
+/* Room for `need` (at most SAVE_BUF) more bytes at k->b + k->n. */
+static uint8_t *sink_room(struct sink *k, size_t need)
+{
+	if (k->n + need > SAVE_BUF) sink_flush(k);
+	return k->b + k->n;
+}
+
+/* The file's bytes (schemas/encodings.md) into k. */
+static void serialize(const struct vd_enc *e, struct sink *k)
+{
+	uint8_t *p = sink_room(k, 36);
 	for (int i = 0; i < 3; i++) putf(p + 4 * i, e->bbox_min[i]);
 	for (int i = 0; i < 3; i++) putf(p + 12 + 4 * i, e->bbox_max[i]);
 	putf(p + 24, e->root_side);
 	put32(p + 28, e->levels);
 	put32(p + 32, e->node_count);
-	p += 36;
+	k->n += 36;
 	if (vd_enc_format_compact(e->format)) {
-		put32(p, e->inner_count);
-		p += 4;
-		for (uint32_t i = 0; i < e->inner_count; i++, p += 2)
-			put16(p, e->inner[i]);
-		put32(p, e->leaf_bytes);
-		p += 4;
-		memcpy(p, e->leaves, e->leaf_bytes);
-		p += e->leaf_bytes;
-		put32(p, e->level_count);
-		p += 4;
-		for (uint32_t i = 0; i < e->level_count; i++, p += 4)
-			put32(p, e->level_offsets[i]);
+		put32(sink_room(k, 4), e->inner_count);
+		k->n += 4;
+		for (uint32_t i = 0; i < e->inner_count;) {
+			p = sink_room(k, SAVE_BUF / 2);
+			uint32_t m = e->inner_count - i < SAVE_BUF / 4 ?
+				     e->inner_count - i : SAVE_BUF / 4;
+			for (uint32_t q = 0; q < m; q++) put16(p + 2 * q, e->inner[i + q]);
+			k->n += 2 * (size_t)m;
+			i += m;
+		}
+		put32(sink_room(k, 4), e->leaf_bytes);
+		k->n += 4;
+		sink_flush(k);
+		if (e->leaf_bytes && !k->bad &&
+		    fwrite(e->leaves, 1, e->leaf_bytes, k->f) != e->leaf_bytes)
+			k->bad = 1;
+		k->total += e->leaf_bytes;
+		put32(sink_room(k, 4), e->level_count);
+		k->n += 4;
+		for (uint32_t i = 0; i < e->level_count; i++) {
+			put32(sink_room(k, 4), e->level_offsets[i]);
+			k->n += 4;
+		}
 	} else {
+		p = sink_room(k, 8);
 		put32(p, e->first_leaf_word);
 		put32(p + 4, e->word_count);
-		p += 8;
-		for (uint32_t i = 0; i < e->word_count; i++, p += 4)
-			put32(p, e->words[i]);
+		k->n += 8;
+		for (uint32_t i = 0; i < e->word_count;) {
+			p = sink_room(k, SAVE_BUF / 2);
+			uint32_t m = e->word_count - i < SAVE_BUF / 8 ?
+				     e->word_count - i : SAVE_BUF / 8;
+			for (uint32_t q = 0; q < m; q++) put32(p + 4 * q, e->words[i + q]);
+			k->n += 4 * (size_t)m;
+			i += m;
+		}
 	}
-	if ((size_t)(p - b) != n) {
-		free(b);
-		return vd_fail(VD_ERR_INTERNAL, "encode.c: serialized %zu of "
-			       "%zu bytes", (size_t)(p - b), n);
-	}
-	*out = b;
-	*size = n;
-	return VD_OK;
+	sink_flush(k);
 }
 
 int vd_enc_save(const struct vd_enc *e, const char *path)
 {
-	uint8_t *b = NULL;
-	size_t n = 0;
-	int err = serialize(e, &b, &n);
-	if (err) return err;
+	int err = VD_OK;
 	size_t tl = strlen(path) + 32;
 	char *tmp = malloc(tl);
-	if (!tmp) {
-		free(b);
+	uint8_t *buf = malloc(SAVE_BUF);
+	if (!tmp || !buf) {
+		free(tmp);
+		free(buf);
 		return NOMEM();
 	}
 	snprintf(tmp, tl, "%s.tmp.%ld", path, (long)getpid());
@@ -581,8 +617,9 @@ int vd_enc_save(const struct vd_enc *e, const char *path)
 		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
 			      strerror(errno));
 	} else {
-		int bad = fwrite(b, 1, n, f) != n || fflush(f) != 0 ||
-			  fsync(fileno(f)) != 0;
+		struct sink k = {f, buf, 0, 0, 0};
+		serialize(e, &k);
+		int bad = k.bad || fflush(f) != 0 || fsync(fileno(f)) != 0;
 		int e1 = errno;
 		if (fclose(f) != 0 && !bad) {
 			bad = 1;
@@ -591,12 +628,16 @@ int vd_enc_save(const struct vd_enc *e, const char *path)
 		if (bad)
 			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
 				      strerror(e1));
+		else if (k.total != file_bytes(e))
+			err = vd_fail(VD_ERR_INTERNAL, "encode.c: wrote %" PRIu64
+				      " of %" PRIu64 " bytes", k.total,
+				      file_bytes(e));
 		else
 			err = vd_replace_file(tmp, path);
 		if (err) unlink(tmp);
 	}
 	free(tmp);
-	free(b);
+	free(buf);
 	return err;
 }
 
