@@ -257,6 +257,20 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 					uint8_t *buf, size_t n),
 			   void *ctx, int threads);
 
+/* vd_chunk_writer_frames for an array of 4-byte little-endian elements
+ * (`raw_size` a multiple of 4, else VD_ERR_ARG), stored with codec 2: each
+ * frame's elements split into 4 byte planes (all first bytes, then all
+ * second bytes, ...) before zstd. Slowly varying indices then leave the
+ * high planes nearly constant: on DAG child indices zstd level 1 runs 2-3x
+ * faster and stores 20% fewer bytes. Readers undo it
+ * (vd_chunk_read_section gives the raw bytes); readers before codec 2
+ * refuse the file ("codec 2"). */
+int vd_chunk_writer_frames4(struct vd_chunk_writer *w, uint32_t tag,
+			    uint64_t raw_size,
+			    void (*fill)(void *ctx, uint64_t offset,
+					 uint8_t *buf, size_t n),
+			    void *ctx, int threads);
+
 /* Replaces the per-level counts of the header (they are often known only
  * after the sections are written). `level_count` must equal the one given
  * at open. */

@@ -429,33 +429,68 @@ static void framed_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 		buf[i] = framed_byte(off + i);
 }
 
-static void write_framed(const char *path, uint64_t raw, int threads)
+static void write_framed(const char *path, uint64_t raw, int threads,
+			 int planes)
 {
 	struct vd_chunk_header h = tiny_header();
 	struct vd_chunk_writer *w;
 	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
-	CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw, framed_fill, NULL,
-					threads), VD_OK);
+	if (planes)
+		CHECK_EQ(vd_chunk_writer_frames4(w, VD_TAG_BRKS, raw, framed_fill,
+						 NULL, threads), VD_OK);
+	else
+		CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw, framed_fill,
+						NULL, threads), VD_OK);
 	CHECK_EQ(vd_chunk_writer_section(w, VD_TAG('T', 'A', 'I', 'L'), "x", 1),
 		 VD_OK);
 	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
 }
 
+/* The codec field of the section tagged BRKS in file `path`. */
+static uint32_t brks_codec(const char *path)
+{
+	FILE *f = fopen(path, "rb");
+	static uint8_t b[1 << 12];
+	size_t n = f ? fread(b, 1, sizeof b, f) : 0;
+	if (f) fclose(f);
+	for (size_t i = 0; i + 8 <= n; i++)
+		if (!memcmp(b + i, "BRKS", 4))
+			return (uint32_t)b[i + 4] | (uint32_t)b[i + 5] << 8 |
+			       (uint32_t)b[i + 6] << 16 | (uint32_t)b[i + 7] << 24;
+	return UINT32_MAX;
+}
+
 /* A section written as several zstd frames: the same file whatever the
  * thread count, read back exactly by the serial reader (concatenated
- * frames are one zstd stream to ZSTD_decompress) and the parallel one. */
+ * frames are one zstd stream to ZSTD_decompress) and the parallel one.
+ * With planes (codec 2, 4-byte elements as byte planes a frame) too: the
+ * bytes read back are the raw ones, on the one-frame path (a copy of the
+ * whole) and the parallel one. */
 static void test_framed_sections(void)
 {
-	uint64_t sizes[] = {0, 1, VD_CHUNK_FRAME_BYTES,
+	uint64_t sizes[] = {0, 1, 4, VD_CHUNK_FRAME_BYTES,
 			    2 * (uint64_t)VD_CHUNK_FRAME_BYTES + 8 * 12345};
-	for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++) {
-		uint64_t raw = sizes[k];
+	for (size_t k = 0; k < 2 * sizeof sizes / sizeof *sizes; k++) {
+		uint64_t raw = sizes[k / 2];
+		int planes = k % 2;
 		char p1[600], p3[600];
 		snprintf(p1, sizeof p1, "%s/framed1.chk", dir);
 		snprintf(p3, sizeof p3, "%s/framed3.chk", dir);
-		write_framed(p1, raw, 1);
-		write_framed(p3, raw, 3);
+		if (planes && raw % 4) {
+			/* not 4-byte elements: refused, nothing written */
+			struct vd_chunk_header h = tiny_header();
+			struct vd_chunk_writer *w;
+			CHECK_EQ(vd_chunk_writer_open(&w, p1, &h, NULL), VD_OK);
+			CHECK_EQ(vd_chunk_writer_frames4(w, VD_TAG_BRKS, raw,
+							 framed_fill, NULL, 1),
+				 VD_ERR_ARG);
+			vd_chunk_writer_abort(w);
+			continue;
+		}
+		write_framed(p1, raw, 1, planes);
+		write_framed(p3, raw, 3, planes);
 		check_same_bytes(p1, p3);
+		CHECK_EQ(brks_codec(p1), planes ? 2u : 1u);
 		struct vd_chunk *c;
 		CHECK_EQ(vd_chunk_open(&c, p1, VD_KIND_ANY), VD_OK);
 		for (int threads = 1; threads <= 4; threads += 3) {

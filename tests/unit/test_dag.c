@@ -571,6 +571,18 @@ static void test_framed_sections(void)
 
 /* Save and load give back the same DAG; wrong kinds, truncation and a
  * corrupted reference are each refused. */
+/* A whole small file as a NUL-terminated string, or NULL. */
+static char *read_text(const char *path)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f) return NULL;
+	char *t = calloc(1, 1 << 16);
+	size_t n = t ? fread(t, 1, (1 << 16) - 1, f) : 0;
+	(void)n;
+	fclose(f);
+	return t;
+}
+
 static void test_chunk_files(void)
 {
 	const char *dir = test_tmpdir("test_dag");
@@ -638,6 +650,41 @@ static void test_chunk_files(void)
 				 VD_ERR_WRONG_KIND);
 			CHECK(strstr(vd_error_detail(), "svo") != NULL);
 			vd_dag_release(&e);
+			/* the stage run takes the voxel, leaf and parent
+			 * counts from the SVO file's header (L >= 3 here)
+			 * instead of counting them: the same DAG and input
+			 * statistics as vd_dag_from_svo */
+			if (kind == VD_KIND_DAG) {
+				char out[700], stats[800], *text;
+				snprintf(out, sizeof out, "%s.run.dag", cut);
+				const char *in[1] = {cut};
+				struct vd_dag_job job = {.tool = "svo-to-dag",
+					.kind = VD_KIND_DAG, .to_level = -1,
+					.inputs = in, .n_inputs = 1,
+					.output = out, .opts = opts, .quiet = 1};
+				CHECK_EQ(vd_dag_run(&job), VD_OK);
+				CHECK_EQ(vd_dag_load(&e, NULL, out, VD_KIND_DAG), VD_OK);
+				CHECK(counts_equal(&d, &e));
+				CHECK_EQ(e.voxels, d.voxels);
+				for (int l = L0; l < L - 1 && d.lv[L0].nodes; l++)
+					CHECK(!memcmp(d.lv[l].child, e.lv[l].child,
+						      d.lv[l].refs * 4));
+				vd_dag_release(&e);
+				struct vd_dag_stats ds;
+				struct vd_dag f;
+				CHECK_EQ(vd_dag_from_svo(&f, &s, VD_KIND_DAG, &opts, &ds), VD_OK);
+				vd_dag_release(&f);
+				snprintf(stats, sizeof stats, "%s.stats.json", out);
+				text = read_text(stats);
+				char want[120];
+				snprintf(want, sizeof want, "\"input_voxels\": %" PRIu64
+					 ",", ds.input_voxels);
+				CHECK(text && strstr(text, want) != NULL);
+				snprintf(want, sizeof want, "\"memory_estimate_bytes\": %"
+					 PRIu64 ",", ds.memory_estimate_bytes);
+				CHECK(text && strstr(text, want) != NULL);
+				free(text);
+			}
 			/* every cut of the file is an error, never a DAG */
 			FILE *f = fopen(path, "rb");
 			fseek(f, 0, SEEK_END);
@@ -665,6 +712,16 @@ static void test_chunk_files(void)
 	CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
 	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_ERR_CORRUPT);
 	d.lv[0].child[0] = 0;
+	/* a brick that is not what its leaf masks say, first or last */
+	CHECK_EQ(vd_dag_validate(&d), VD_OK);
+	uint64_t nb = d.lv[d.levels - 2].nodes;
+	for (uint64_t at = 0; at < nb; at += nb - 1 ? nb - 1 : 1) {
+		d.bricks[at] ^= 1ull << 63;
+		CHECK_EQ(vd_dag_validate(&d), VD_ERR_CORRUPT);
+		CHECK(strstr(vd_error_detail(), "disagrees with its masks") != NULL);
+		d.bricks[at] ^= 1ull << 63;
+	}
+	CHECK_EQ(vd_dag_validate(&d), VD_OK);
 	d.voxels++;
 	snprintf(path, sizeof path, "%s/badcount.dag", dir);
 	CHECK_EQ(vd_dag_save(&d, &t, path, NULL), VD_OK);

@@ -84,8 +84,21 @@ static void test_brick_layout(void)
 		CHECK_EQ(vd__enc_brick_to_symvox(morton), 1ull << v[i].bit);
 		CHECK_EQ(vd__enc_brick_from_symvox(1ull << v[i].bit), morton);
 	}
+	/* every voxel on its own, and bricks as the union of their voxels
+	 * (the SymVox bit of Morton bit 4x' + 2y' + z' with x' = x & 1...) */
+	uint64_t one[64];
+	for (unsigned b = 0; b < 64; b++) {
+		uint32_t x = (b >> 4 & 2) | (b >> 2 & 1), y = (b >> 3 & 2) | (b >> 1 & 1),
+			 z = (b >> 2 & 2) | (b & 1);
+		CHECK_EQ(ref_morton(x, y, z, 2), b);
+		one[b] = vd__enc_brick_to_symvox(1ull << b);
+		CHECK_EQ(one[b], 1ull << (16 * x + 4 * y + z));
+	}
 	for (int i = 0; i < 1000; i++) {
-		uint64_t b = rnd();
+		uint64_t b = rnd(), want = 0;
+		for (unsigned k = 0; k < 64; k++)
+			if (b >> k & 1) want |= one[k];
+		CHECK_EQ(vd__enc_brick_to_symvox(b), want);
 		CHECK_EQ(vd__enc_brick_from_symvox(vd__enc_brick_to_symvox(b)), b);
 	}
 }
@@ -510,6 +523,9 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 				int f = k ? VD_ENC_SSVDAG : VD_ENC_ESVDAG;
 				CHECK_EQ(vd_enc_build(&e, f, &cut, NULL), VD_OK);
 				CHECK(enc_equals_svo(&e, &low));
+				/* the row counts the compact sizes without
+				 * encoding: the encoding's own size */
+				CHECK_EQ(r1.bytes[f], vd_enc_size_bytes(&e));
 				vd_enc_release(&e);
 				/* word formats: the size only depends on the DAG */
 				int w = k ? VD_ENC_USSVDAG : VD_ENC_SVDAG;

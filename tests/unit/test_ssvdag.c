@@ -3,6 +3,7 @@
  * force over all 8 reflections of every subtree's voxels, lossless
  * expansion, and the DAG -> SSVDAG path equal to the direct one. */
 #include "dag_test_util.h"
+#include "dag/dag_internal.h"
 
 static struct vd_dag_opts opts = {1, 0, NULL};
 
@@ -20,6 +21,65 @@ static unsigned coord_reflect8(unsigned v, unsigned m)
 					out |= 1u << (4 * X + 2 * Y + Z);
 				}
 	return out;
+}
+
+/* vd__node_canon against its definition: every reflection x of the node
+ * keyed (mask reflected by x, then per slot the child's reference with its
+ * reflection r ^ x normalized), the largest key kept, the smallest x
+ * giving it, and the invariance set the x giving the same key, relative
+ * to it. Children share ids and invariance sets often, so ties occur. */
+static void test_node_canon_definition(void)
+{
+	vd__sym_init();
+	for (int it = 0; it < 200000; it++) {
+		unsigned mask = (unsigned)(rnd() % 255) + 1;
+		uint32_t id[8];
+		uint8_t r[8], g[8];
+		for (int p = 0; p < 8; p++) {
+			id[p] = (uint32_t)(rnd() % 3);
+			r[p] = (uint8_t)(rnd() % 8);
+			/* an invariance set: a subgroup of the 8 (closed) */
+			static const uint8_t sub[] = {0x01, 0x03, 0x05, 0x11,
+						      0x09, 0x0f, 0x33, 0x55,
+						      0xff, 0x41, 0x21, 0x81};
+			g[p] = sub[rnd() % sizeof sub];
+		}
+		uint64_t best[9] = {0}, key[9];
+		unsigned bm = 0, same = 0;
+		int k = 0;
+		for (unsigned x = 0; x < 8; x++) {
+			uint64_t c[9];
+			unsigned mx = vd_mask_reflect((uint8_t)mask, x);
+			int j = 0;
+			c[0] = mx;
+			for (unsigned q = 0; q < 8; q++)
+				if (mx >> q & 1) {
+					unsigned p = q ^ x;
+					c[++j] = VD_REF(id[p], vd__refl_norm[g[p]][r[p] ^ x]);
+				}
+			k = j;
+			int cmp = x == 0 ? 1 : 0;
+			for (int i = 0; i <= j && !cmp; i++)
+				if (c[i] != best[i]) cmp = c[i] > best[i] ? 1 : -1;
+			if (cmp > 0) {
+				memcpy(best, c, sizeof c);
+				bm = x;
+				same = 1u << x;
+			} else if (cmp == 0) {
+				same |= 1u << x;
+			}
+		}
+		unsigned gi = 0;
+		for (unsigned x = 0; x < 8; x++)
+			if (same >> x & 1) gi |= 1u << (x ^ bm);
+		uint8_t m = 99, inv = 0;
+		int n = vd__node_canon(1, 0, mask, id, r, g, key, &m, &inv);
+		CHECK_EQ(n, k);
+		CHECK(!memcmp(key, best, sizeof(uint64_t) * (size_t)(k + 1)));
+		CHECK_EQ(m, bm);
+		CHECK_EQ(inv, gi);
+		if (check_failed_) break;
+	}
 }
 
 static void test_leaf_table(void)
@@ -227,6 +287,7 @@ static void test_merge_of_reflected_parts(void)
 
 int main(void)
 {
+	RUN(test_node_canon_definition);
 	RUN(test_leaf_table);
 	RUN(test_brick_reflect);
 	RUN(test_lossless);

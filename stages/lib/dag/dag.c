@@ -411,10 +411,9 @@ static inline uint8_t ref_mask(uint32_t kind, uint8_t m, unsigned t)
 					: vd_mask_reflect(m, t & 7);
 }
 
-/* The brick value of node i on level L-2 of part d (unreflected). */
-static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
+/* The brick value of node i on level L-2 of d from its leaf masks. */
+static uint64_t mask_brick(const struct vd_dag *d, uint64_t i)
 {
-	if (d->bricks) return d->bricks[i];
 	int L = d->levels;
 	const struct vd_dag_level *lv = &d->lv[L - 2];
 	uint64_t v = 0, j = lv->first[i];
@@ -426,6 +425,12 @@ static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
 		j++;
 	}
 	return v;
+}
+
+/* The brick value of node i on level L-2 of part d (unreflected). */
+static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
+{
+	return d->bricks ? d->bricks[i] : mask_brick(d, i);
 }
 
 static inline int brick_add(struct engine *e, struct bset *b, uint64_t v,
@@ -527,6 +532,12 @@ static int svo_bricks(struct engine *e, struct bset *b, int asis,
 	size_t nr = range_count(e, n);
 	int err;
 	if (nr == 1) {
+		/* one element a brick: sized once, not grown by halves */
+		if (nf->cap < nf->n + n) {
+			if ((err = grow((void **)&nf->e, nf->n + n, sizeof *nf->e)))
+				return err;
+			nf->cap = nf->n + n;
+		}
 		for (uint64_t i = 0; i < n; i++) {
 			uint32_t id;
 			uint8_t r;
@@ -1695,9 +1706,15 @@ static inline uint64_t popcount64(uint64_t v)
 	return v * 0x0101010101010101ULL >> 56;
 }
 
-int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+/* vd_dag_from_svo; `counts`, when not NULL, are the per-level counts of
+ * the chunk header `svo` was read from by vd_svo_from_chunk, which has
+ * checked the bricks (increasing, non-empty, inside the cell) and these
+ * counts against them: the pass below that checks and counts them again
+ * is then skipped where the counts hold what it counts (it was a serial
+ * twentieth of svo-to-dag). */
+static int from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		    uint32_t kind, const struct vd_dag_opts *opts,
-		    struct vd_dag_stats *stats)
+		    struct vd_dag_stats *stats, const uint64_t *counts)
 {
 	memset(dag, 0, sizeof *dag);
 	int err = check_kind_out(kind);
@@ -1711,7 +1728,13 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 			       svo->cell_morton, L0);
 	/* The bricks must be strictly increasing, non-empty and in the cell. */
 	uint64_t voxels = 0, leaves = 0, parents = 0;
-	for (size_t i = 0; i < svo->count; i++) {
+	int known = counts && L >= 3 && L0 <= L - 3;
+	if (known) {
+		voxels = counts[L - L0];
+		leaves = counts[L - 1 - L0];
+		parents = counts[L - 3 - L0];
+	}
+	for (size_t i = 0; i < svo->count && !known; i++) {
 		uint64_t k = svo->keys[i], v = svo->masks[i];
 		for (unsigned c = 0; c < 8; c++) leaves += (v >> 8 * c & 0xff) != 0;
 		parents += i == 0 || k >> 3 != svo->keys[i - 1] >> 3;
@@ -1749,6 +1772,13 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 	err = run_engine(&e);
 	if (stats) stats->seconds_build = vd_seconds() - t0;
 	return err;
+}
+
+int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		    uint32_t kind, const struct vd_dag_opts *opts,
+		    struct vd_dag_stats *stats)
+{
+	return from_svo(dag, svo, kind, opts, stats, NULL);
 }
 
 struct part_ref {
@@ -1946,7 +1976,7 @@ static int expand_node(const struct expander *x, int l, uint64_t node,
 	for (unsigned p = 0; p < 8; p++) {
 		unsigned s = p ^ a;
 		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
 		uint32_t c = lv->child[j];
 		unsigned ca = a ^ (lv->refl ? lv->refl[j] : 0u);
 		int err;
@@ -1975,7 +2005,7 @@ static int expand_node48(const struct expander *x, int l, uint64_t node,
 	for (unsigned p = 0; p < 8; p++) {
 		unsigned s = back[p];
 		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)__builtin_popcount(mk & ((1u << s) - 1));
+		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
 		uint32_t c = lv->child[j];
 		unsigned ca = vd__g48_comp[a][lv->refl[j]];
 		int err;
@@ -2105,7 +2135,7 @@ int vd_dag_validate(const struct vd_dag *d)
 					       PRIu64 ": references start at %"
 					       PRIu64 ", expected %" PRIu64, l, i,
 					       lv->first[i], j);
-			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+			j += (uint64_t)pop8(lv->mask[i]);
 		}
 		if (lv->first[lv->nodes] != j || lv->refs != j)
 			return vd_fail(VD_ERR_CORRUPT, "level %d: %" PRIu64
@@ -2138,9 +2168,8 @@ int vd_dag_validate(const struct vd_dag *d)
 		if (!d->bricks)
 			return vd_fail(VD_ERR_INTERNAL, "dag.c: bricks missing");
 		for (uint64_t i = 0; i < d->lv[L - 2].nodes; i++) {
-			struct vd_dag tmp = *d;
-			tmp.bricks = NULL;
-			if (part_brick(&tmp, i) != d->bricks[i])
+			/* (it copied the whole struct vd_dag a brick) */
+			if (mask_brick(d, i) != d->bricks[i])
 				return vd_fail(VD_ERR_CORRUPT, "brick %" PRIu64
 					       " disagrees with its masks", i);
 		}
@@ -2162,9 +2191,14 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
 
 /* ----------------------------------------------------------- chunk files */
 
+/* Spelled out, the form GCC merges into one store (the loop it left as
+ * 4 variable shifts and byte stores, for every reference written). */
 static void put32(uint8_t *p, uint32_t v)
 {
-	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+	p[0] = (uint8_t)v;
+	p[1] = (uint8_t)(v >> 8);
+	p[2] = (uint8_t)(v >> 16);
+	p[3] = (uint8_t)(v >> 24);
 }
 
 static uint32_t get32(const uint8_t *p)
@@ -2234,6 +2268,11 @@ static int save_section(const struct vd_dag *dag, struct vd_chunk_writer *w,
 {
 	struct dag_stream st;
 	dag_stream_init(&st, dag, tag);
+	/* child indices as byte planes (codec 2): their high bytes change
+	 * slowly, so zstd stores them in less time and space */
+	if (tag == VD_TAG_DAGC)
+		return vd_chunk_writer_frames4(w, tag, st.start[st.nlev],
+					       dag_stream_fill, &st, threads);
 	return vd_chunk_writer_frames(w, tag, st.start[st.nlev],
 				      dag_stream_fill, &st, threads);
 }
@@ -2275,7 +2314,7 @@ static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
 	uint64_t *below = malloc((size_t)(d->lv[L - 1].nodes ? d->lv[L - 1].nodes : 1) * 8);
 	if (!below) return NOMEM();
 	for (uint64_t i = 0; i < d->lv[L - 1].nodes; i++)
-		below[i] = (uint64_t)__builtin_popcount(d->lv[L - 1].mask[i]);
+		below[i] = (uint64_t)pop8(d->lv[L - 1].mask[i]);
 	for (int l = L - 2; l >= A; l--) {
 		const struct vd_dag_level *lv = &d->lv[l];
 		uint64_t *cur = malloc((size_t)(lv->nodes ? lv->nodes : 1) * 8);
@@ -2393,7 +2432,7 @@ int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
 		uint64_t j = 0;
 		for (uint64_t i = 0; i < lv->nodes; i++) {
 			lv->first[i] = j;
-			j += (uint64_t)__builtin_popcount(lv->mask[i]);
+			j += (uint64_t)pop8(lv->mask[i]);
 		}
 		lv->first[lv->nodes] = j;
 		lv->refs = j;
@@ -2561,11 +2600,13 @@ int vd_dag_run(const struct vd_dag_job *job)
 			return reword(err, "cannot build the DAG of", in);
 		}
 		struct vd_svo svo;
+		uint64_t counts[VD_MAX_LEVELS + 1];
+		memcpy(counts, h->level_nodes, sizeof counts);
 		err = vd_svo_from_chunk_mt(&svo, c, o->threads);
 		vd_chunk_free(c);
 		if (err) return reword(err, "cannot read", in);
 		t_load = vd_seconds() - t0;
-		err = vd_dag_from_svo(&out, &svo, VD_KIND_DAG, o, &st);
+		err = from_svo(&out, &svo, VD_KIND_DAG, o, &st, counts);
 		vd_svo_release(&svo);
 		if (err) {
 			vd_dag_release(&out);

@@ -11,6 +11,9 @@
 
 uint8_t vd__refl_norm[256][8];
 static struct vd_leaf_class leaf_table[256];
+/* top_set[v]: the reflections x giving the largest reflected mask
+ * vd_mask_reflect(v, x) (leaf_table[v].canon). */
+static uint8_t top_set[256];
 static pthread_once_t sym_once = PTHREAD_ONCE_INIT;
 
 static void sym_init_once(void)
@@ -37,6 +40,9 @@ static void sym_init_once(void)
 		leaf_table[v].canon = (uint8_t)best;
 		leaf_table[v].refl = (uint8_t)bm;
 		leaf_table[v].inv = (uint8_t)inv;
+		for (unsigned m = 0; m < 8; m++)
+			if (vd_mask_reflect((uint8_t)v, m) == best)
+				top_set[v] |= (uint8_t)(1u << m);
 	}
 }
 
@@ -72,15 +78,33 @@ int vd__node_canon(int sym, int asis, unsigned mask, const uint32_t id[8],
 		*inv = 1;
 		return k;
 	}
-	/* Try the other 7 reflections; `same` collects those whose key equals
-	 * the best so far. */
-	unsigned best_m = 0, same = 1;
-	for (unsigned x = 1; x < 8; x++) {
+	/* The key's first entry is the reflected mask, so only the
+	 * reflections giving the largest mask (top_set) can give the largest
+	 * key: the others are never tried (most masks have one). The first of
+	 * them starts as the best; `same` collects those whose key equals the
+	 * best so far. */
+	unsigned top = top_set[mask & 0xff], best_m = 0, same = 1;
+	if (!(top & 1)) {
+		best_m = (unsigned)__builtin_ctz(top);
+		top &= top - 1;
+		same = 1u << best_m;
+		unsigned mx = vd_mask_reflect((uint8_t)mask, best_m);
+		int j = 0;
+		key[0] = mx;
+		for (unsigned q = 0; q < 8; q++) {
+			if (!(mx >> q & 1)) continue;
+			unsigned p = q ^ best_m;
+			key[++j] = VD_REF(id[p], vd__refl_norm[g[p]][r[p] ^ best_m]);
+		}
+	} else {
+		top &= ~1u;
+	}
+	for (; top; top &= top - 1) {
+		unsigned x = (unsigned)__builtin_ctz(top);
 		uint64_t cand[9];
 		unsigned mx = vd_mask_reflect((uint8_t)mask, x);
-		if (mx < key[0]) continue;
 		cand[0] = mx;
-		int j = 0, cmp = mx > key[0]; /* 1 greater, -1 smaller */
+		int j = 0, cmp = 0; /* 1 greater, -1 smaller; masks equal */
 		for (unsigned q = 0; q < 8 && cmp >= 0; q++) {
 			if (!(mx >> q & 1)) continue;
 			unsigned p = q ^ x;

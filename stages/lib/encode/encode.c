@@ -18,6 +18,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <jansson.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -60,14 +61,28 @@ static inline unsigned symvox_bit(unsigned b)
 	return 16 * x + 4 * y + z;
 }
 
+/* to_symvox[k][m]: the SymVox bits of byte k of a Morton brick being m;
+ * a brick is 8 lookups (a loop over its set bits was 4% of encode). */
+static uint64_t to_symvox[8][256];
+static pthread_once_t to_symvox_once = PTHREAD_ONCE_INIT;
+
+static void to_symvox_init(void)
+{
+	for (unsigned k = 0; k < 8; k++)
+		for (unsigned m = 0; m < 256; m++) {
+			uint64_t out = 0;
+			for (unsigned b = 0; b < 8; b++)
+				if (m >> b & 1) out |= 1ull << symvox_bit(8 * k + b);
+			to_symvox[k][m] = out;
+		}
+}
+
 uint64_t vd__enc_brick_to_symvox(uint64_t v)
 {
+	pthread_once(&to_symvox_once, to_symvox_init);
 	uint64_t out = 0;
-	while (v) {
-		unsigned b = (unsigned)__builtin_ctzll(v);
-		v &= v - 1;
-		out |= 1ull << symvox_bit(b);
-	}
+	for (unsigned k = 0; k < 8; k++)
+		out |= to_symvox[k][v >> 8 * k & 0xff];
 	return out;
 }
 
@@ -91,9 +106,14 @@ static void put16(uint8_t *p, uint16_t v)
 	p[1] = (uint8_t)(v >> 8);
 }
 
+/* Spelled out, the form GCC merges into one store (the loop it left as
+ * 4 variable shifts and byte stores, for every reference written). */
 static void put32(uint8_t *p, uint32_t v)
 {
-	for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i);
+	p[0] = (uint8_t)v;
+	p[1] = (uint8_t)(v >> 8);
+	p[2] = (uint8_t)(v >> 16);
+	p[3] = (uint8_t)(v >> 24);
 }
 
 static uint16_t get16(const uint8_t *p)
@@ -134,6 +154,15 @@ void vd_enc_release(struct vd_enc *e)
 	memset(e, 0, sizeof *e);
 }
 
+/* Bits set in a child mask; the builtin is a libgcc call without
+ * -mpopcnt (it showed in encode's profile). */
+static inline unsigned pop8(unsigned m)
+{
+	m -= m >> 1 & 0x55;
+	m = (m & 0x33) + (m >> 2 & 0x33);
+	return (m + (m >> 4)) & 0x0f;
+}
+
 static uint64_t dag_total_nodes(const struct vd_dag *d)
 {
 	uint64_t n = 0;
@@ -141,15 +170,19 @@ static uint64_t dag_total_nodes(const struct vd_dag *d)
 	return n;
 }
 
-static int build_words(struct vd_enc *e, const struct vd_dag *d)
+/* `count_only`: word_count and the other counts, no words (the size of a
+ * words format depends on the DAG's counts alone). */
+static int build_words(struct vd_enc *e, const struct vd_dag *d,
+		       int count_only)
 {
 	int L = d->levels, sym = e->format == VD_ENC_USSVDAG;
 	if (!d->lv[0].nodes) {
 		/* empty scene: one empty root word, no nodes counted */
-		e->words = calloc(1, 4);
-		if (!e->words) return NOMEM();
 		e->word_count = 1;
 		e->first_leaf_word = L == 1 ? 0 : 1;
+		if (count_only) return VD_OK;
+		e->words = calloc(1, 4);
+		if (!e->words) return NOMEM();
 		return VD_OK;
 	}
 	uint64_t w = 0, first_leaf = 0;
@@ -162,6 +195,12 @@ static int build_words(struct vd_enc *e, const struct vd_dag *d)
 			       "words; its word indices address %" PRIu64,
 			       vd_enc_format_name(e->format), w,
 			       vd__enc_max_words);
+	if (count_only) {
+		e->word_count = (uint32_t)w;
+		e->first_leaf_word = (uint32_t)first_leaf;
+		e->node_count = (uint32_t)dag_total_nodes(d);
+		return VD_OK;
+	}
 	e->words = malloc(w * 4);
 	uint64_t *pos = malloc(((size_t)d->lv[0].nodes + 1) * 8);
 	if (!e->words || !pos) {
@@ -174,7 +213,7 @@ static int build_words(struct vd_enc *e, const struct vd_dag *d)
 		const struct vd_dag_level *lv = &d->lv[l];
 		uint64_t next = start;
 		for (uint64_t i = 0; i < lv->nodes; i++)
-			next += 1 + (l < L - 1 ? (uint64_t)__builtin_popcount(lv->mask[i]) : 0);
+			next += 1 + (l < L - 1 ? (uint64_t)pop8(lv->mask[i]) : 0);
 		uint64_t *npos = NULL;
 		if (l < L - 1) {
 			const struct vd_dag_level *below = &d->lv[l + 1];
@@ -186,7 +225,7 @@ static int build_words(struct vd_enc *e, const struct vd_dag *d)
 			uint64_t p = next;
 			for (uint64_t i = 0; i < below->nodes; i++) {
 				npos[i] = p;
-				p += 1 + (l + 1 < L - 1 ? (uint64_t)__builtin_popcount(below->mask[i]) : 0);
+				p += 1 + (l + 1 < L - 1 ? (uint64_t)pop8(below->mask[i]) : 0);
 			}
 		}
 		uint64_t at = start;
@@ -274,7 +313,11 @@ static uint32_t unpack_ptr(int format, unsigned tag, const uint16_t *w,
 					 : vd__enc_unpack_ptr(tag, w, m);
 }
 
-static int build_compact(struct vd_enc *e, const struct vd_dag *d)
+/* `count_only`: the addresses and sizes only (inner_count, leaf_bytes,
+ * level_offsets), no inner words and no leaves, for the tables' rows,
+ * which need vd_enc_size_bytes() and nothing else. The same checks. */
+static int build_compact(struct vd_enc *e, const struct vd_dag *d,
+			 int count_only)
 {
 	const uint64_t max_addr = max_address(e->format);
 	int L = d->levels, err = VD_OK;
@@ -283,11 +326,12 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 	if (!e->level_offsets) return NOMEM();
 	if (!d->lv[0].nodes) {
 		/* empty scene: one empty root header, no bricks */
+		e->inner_count = 1;
+		for (int l = 1; l < L - 2; l++) e->level_offsets[l] = 1;
+		if (count_only) return VD_OK;
 		e->inner = calloc(1, 2);
 		e->leaves = malloc(1);
 		if (!e->inner || !e->leaves) return NOMEM();
-		e->inner_count = 1;
-		for (int l = 1; l < L - 2; l++) e->level_offsets[l] = 1;
 		return VD_OK;
 	}
 	uint16_t *buf[VD_MAX_LEVELS] = {0};
@@ -312,12 +356,17 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					      vd__enc_max_bricks : max_addr);
 				goto out;
 			}
+			e->leaf_bytes = (uint32_t)(n * 8);
+			if (count_only) {
+				for (uint64_t k = 0; k < n; k++)
+					addr[order[k]] = (uint32_t)k;
+				goto next;
+			}
 			e->leaves = malloc(n * 8);
 			if (!e->leaves) {
 				err = NOMEM();
 				goto out;
 			}
-			e->leaf_bytes = (uint32_t)(n * 8);
 			for (uint64_t k = 0; k < n; k++) {
 				uint32_t i = order[k];
 				addr[i] = (uint32_t)k;
@@ -326,14 +375,17 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					e->leaves[8 * k + b] = (uint8_t)(v >> 8 * b);
 			}
 		} else {
-			/* at most 17 uint16 per node */
-			cap[l] = n * 17 + 1;
-			buf[l] = malloc(cap[l] * 2);
-			if (!buf[l]) {
+			/* at most 17 uint16 per node; counted, a scratch
+			 * node (the words are not kept) */
+			uint16_t scratch[17];
+			cap[l] = count_only ? 0 : n * 17 + 1;
+			buf[l] = count_only ? NULL : malloc(cap[l] * 2);
+			if (!count_only && !buf[l]) {
 				err = NOMEM();
 				goto out;
 			}
-			uint16_t *b = buf[l];
+			uint16_t *b = count_only ? scratch : buf[l];
+			uint64_t base = 0; /* at of b[0] */
 			uint64_t at = 0;
 			for (uint64_t k = 0; k < n; k++) {
 				uint32_t i = order[k];
@@ -347,6 +399,7 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					goto out;
 				}
 				addr[i] = (uint32_t)at;
+				if (count_only) base = at;
 				uint64_t h = at++;
 				unsigned head = 0;
 				uint64_t j = lv->first[i + 1];
@@ -358,13 +411,14 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 					unsigned tag = pack_ptr(e->format,
 								addr_below[lv->child[j]], m, w);
 					head |= tag << 2 * s;
-					b[at++] = w[0];
-					if (tag > 1) b[at++] = w[1];
+					b[at++ - base] = w[0];
+					if (tag > 1) b[at++ - base] = w[1];
 				}
-				b[h] = (uint16_t)head;
+				b[h - base] = (uint16_t)head;
 			}
 			len[l] = at;
 		}
+	next:
 		free(order);
 		order = NULL;
 		free(addr_below);
@@ -383,6 +437,8 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 			      total, vd_enc_format_name(e->format));
 		goto out;
 	}
+	e->inner_count = (uint32_t)total;
+	if (count_only) goto done;
 	e->inner = malloc(total * 2);
 	if (!e->inner) {
 		err = NOMEM();
@@ -390,7 +446,7 @@ static int build_compact(struct vd_enc *e, const struct vd_dag *d)
 	}
 	for (int l = 0; l < L - 2; l++)
 		memcpy(e->inner + e->level_offsets[l], buf[l], len[l] * 2);
-	e->inner_count = (uint32_t)total;
+done:
 	e->node_count = (uint32_t)dag_total_nodes(d);
 out:
 	for (int l = 0; l < L; l++) free(buf[l]);
@@ -400,8 +456,10 @@ out:
 	return err;
 }
 
-int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
-		 const struct vd_transform *t)
+/* vd_enc_build, or with `count_only` its vd_enc_size_bytes() and counts
+ * without the encoding itself (no words, inner words or leaves). */
+static int enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		     const struct vd_transform *t, int count_only)
 {
 	memset(e, 0, sizeof *e);
 	if (format < 0 || format >= VD_ENC_ALL_)
@@ -436,9 +494,16 @@ int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
 		memcpy(e->bbox_max, t->bbox_max, sizeof e->bbox_max);
 		e->root_side = t->root_side;
 	}
-	int err = vd_enc_format_compact(format) ? build_compact(e, dag)
-						: build_words(e, dag);
+	int err = vd_enc_format_compact(format)
+		  ? build_compact(e, dag, count_only)
+		  : build_words(e, dag, count_only);
 	return err;
+}
+
+int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
+		 const struct vd_transform *t)
+{
+	return enc_build(e, format, dag, t, 0);
 }
 
 uint64_t vd_enc_size_bytes(const struct vd_enc *e)
@@ -457,57 +522,93 @@ static uint64_t file_bytes(const struct vd_enc *e)
 				       VD_ENC_HEADER_BYTES_WORDS);
 }
 
-static int serialize(const struct vd_enc *e, uint8_t **out, size_t *size)
+/* The file is written through a buffer of this many bytes, not built
+ * whole in memory first (that copy was as large as the file, per file
+ * written at once). */
+#define SAVE_BUF (1u << 18)
+
+struct sink {
+	FILE *f;
+	uint8_t *b;
+	size_t n;
+	uint64_t total;
+	int bad;
+};
+
+static void sink_flush(struct sink *k)
 {
-	size_t n = (size_t)file_bytes(e);
-	uint8_t *b = malloc(n), *p = b;
-	if (!b) return NOMEM();
+	if (k->n && !k->bad && fwrite(k->b, 1, k->n, k->f) != k->n) k->bad = 1;
+	k->total += k->n;
+	k->n = 0;
+}
+
+/* Room for `need` (at most SAVE_BUF) more bytes at k->b + k->n. */
+static uint8_t *sink_room(struct sink *k, size_t need)
+{
+	if (k->n + need > SAVE_BUF) sink_flush(k);
+	return k->b + k->n;
+}
+
+/* The file's bytes (schemas/encodings.md) into k. */
+static void serialize(const struct vd_enc *e, struct sink *k)
+{
+	uint8_t *p = sink_room(k, 36);
 	for (int i = 0; i < 3; i++) putf(p + 4 * i, e->bbox_min[i]);
 	for (int i = 0; i < 3; i++) putf(p + 12 + 4 * i, e->bbox_max[i]);
 	putf(p + 24, e->root_side);
 	put32(p + 28, e->levels);
 	put32(p + 32, e->node_count);
-	p += 36;
+	k->n += 36;
 	if (vd_enc_format_compact(e->format)) {
-		put32(p, e->inner_count);
-		p += 4;
-		for (uint32_t i = 0; i < e->inner_count; i++, p += 2)
-			put16(p, e->inner[i]);
-		put32(p, e->leaf_bytes);
-		p += 4;
-		memcpy(p, e->leaves, e->leaf_bytes);
-		p += e->leaf_bytes;
-		put32(p, e->level_count);
-		p += 4;
-		for (uint32_t i = 0; i < e->level_count; i++, p += 4)
-			put32(p, e->level_offsets[i]);
+		put32(sink_room(k, 4), e->inner_count);
+		k->n += 4;
+		for (uint32_t i = 0; i < e->inner_count;) {
+			p = sink_room(k, SAVE_BUF / 2);
+			uint32_t m = e->inner_count - i < SAVE_BUF / 4 ?
+				     e->inner_count - i : SAVE_BUF / 4;
+			for (uint32_t q = 0; q < m; q++) put16(p + 2 * q, e->inner[i + q]);
+			k->n += 2 * (size_t)m;
+			i += m;
+		}
+		put32(sink_room(k, 4), e->leaf_bytes);
+		k->n += 4;
+		sink_flush(k);
+		if (e->leaf_bytes && !k->bad &&
+		    fwrite(e->leaves, 1, e->leaf_bytes, k->f) != e->leaf_bytes)
+			k->bad = 1;
+		k->total += e->leaf_bytes;
+		put32(sink_room(k, 4), e->level_count);
+		k->n += 4;
+		for (uint32_t i = 0; i < e->level_count; i++) {
+			put32(sink_room(k, 4), e->level_offsets[i]);
+			k->n += 4;
+		}
 	} else {
+		p = sink_room(k, 8);
 		put32(p, e->first_leaf_word);
 		put32(p + 4, e->word_count);
-		p += 8;
-		for (uint32_t i = 0; i < e->word_count; i++, p += 4)
-			put32(p, e->words[i]);
+		k->n += 8;
+		for (uint32_t i = 0; i < e->word_count;) {
+			p = sink_room(k, SAVE_BUF / 2);
+			uint32_t m = e->word_count - i < SAVE_BUF / 8 ?
+				     e->word_count - i : SAVE_BUF / 8;
+			for (uint32_t q = 0; q < m; q++) put32(p + 4 * q, e->words[i + q]);
+			k->n += 4 * (size_t)m;
+			i += m;
+		}
 	}
-	if ((size_t)(p - b) != n) {
-		free(b);
-		return vd_fail(VD_ERR_INTERNAL, "encode.c: serialized %zu of "
-			       "%zu bytes", (size_t)(p - b), n);
-	}
-	*out = b;
-	*size = n;
-	return VD_OK;
+	sink_flush(k);
 }
 
 int vd_enc_save(const struct vd_enc *e, const char *path)
 {
-	uint8_t *b = NULL;
-	size_t n = 0;
-	int err = serialize(e, &b, &n);
-	if (err) return err;
+	int err = VD_OK;
 	size_t tl = strlen(path) + 32;
 	char *tmp = malloc(tl);
-	if (!tmp) {
-		free(b);
+	uint8_t *buf = malloc(SAVE_BUF);
+	if (!tmp || !buf) {
+		free(tmp);
+		free(buf);
 		return NOMEM();
 	}
 	snprintf(tmp, tl, "%s.tmp.%ld", path, (long)getpid());
@@ -516,8 +617,9 @@ int vd_enc_save(const struct vd_enc *e, const char *path)
 		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
 			      strerror(errno));
 	} else {
-		int bad = fwrite(b, 1, n, f) != n || fflush(f) != 0 ||
-			  fsync(fileno(f)) != 0;
+		struct sink k = {f, buf, 0, 0, 0};
+		serialize(e, &k);
+		int bad = k.bad || fflush(f) != 0 || fsync(fileno(f)) != 0;
 		int e1 = errno;
 		if (fclose(f) != 0 && !bad) {
 			bad = 1;
@@ -526,12 +628,16 @@ int vd_enc_save(const struct vd_enc *e, const char *path)
 		if (bad)
 			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
 				      strerror(e1));
+		else if (k.total != file_bytes(e))
+			err = vd_fail(VD_ERR_INTERNAL, "encode.c: wrote %" PRIu64
+				      " of %" PRIu64 " bytes", k.total,
+				      file_bytes(e));
 		else
 			err = vd_replace_file(tmp, path);
 		if (err) unlink(tmp);
 	}
 	free(tmp);
-	free(b);
+	free(buf);
 	return err;
 }
 
@@ -594,7 +700,7 @@ static int check_words_node(struct checker *k, uint64_t at, int l)
 		if ((h >> 8 * a & 0xff) & ~mask)
 			return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": mirror "
 				       "bits 0x%08x of absent children", at, h);
-	unsigned np = (unsigned)__builtin_popcount(mask);
+	unsigned np = (unsigned)pop8(mask);
 	if (at + np >= e->word_count)
 		return vd_fail(VD_ERR_CORRUPT, "word %" PRIu64 ": %u pointers "
 			       "run past the %u words", at, np, e->word_count);
@@ -896,7 +1002,7 @@ int vd_enc_child(const struct vd_enc *e, const struct vd_enc_node *n,
 	}
 	uint32_t h = e->words[n->at];
 	if (!(h >> s & 1)) return 0;
-	unsigned idx = (unsigned)__builtin_popcount((h & 0xff) >> s);
+	unsigned idx = (unsigned)pop8((h & 0xff) >> s);
 	unsigned m = (h >> (8 + s) & 1) << 2 | (h >> (16 + s) & 1) << 1 |
 		     (h >> (24 + s) & 1);
 	child->level = n->level + 1;
@@ -983,7 +1089,7 @@ int vd_enc_svo_counts(const struct vd_dag *d,
 		uint64_t below = 0;
 		for (uint64_t i = 0; i < lv->nodes; i++) {
 			svo_nodes[l] += occ[i];
-			below += occ[i] * (uint64_t)__builtin_popcount(lv->mask[i]);
+			below += occ[i] * (uint64_t)pop8(lv->mask[i]);
 		}
 		if (l == L - 1) {
 			svo_nodes[L] = below; /* the voxels */
@@ -1004,7 +1110,10 @@ int vd_enc_svo_counts(const struct vd_dag *d,
 	return VD_OK;
 }
 
-int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
+/* vd_enc_cut given `counts`, vd_enc_svo_counts() of `dag`, or NULL: the
+ * table rows count the SVO of each source once, not once a cut. */
+static int cut(const struct vd_dag *dag, int levels, const uint64_t *counts,
+	       struct vd_dag *out)
 {
 	memset(out, 0, sizeof *out);
 	int L = dag->levels;
@@ -1014,9 +1123,12 @@ int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
 	if (levels < 1 || levels > L)
 		return vd_fail(VD_ERR_RANGE, "cut depth %d out of 1..%d",
 			       levels, L);
-	uint64_t counts[VD_MAX_LEVELS + 1];
-	int err = vd_enc_svo_counts(dag, counts);
-	if (err) return err;
+	uint64_t own[VD_MAX_LEVELS + 1];
+	int err = VD_OK;
+	if (!counts) {
+		if ((err = vd_enc_svo_counts(dag, own))) return err;
+		counts = own;
+	}
 	if (!dag->lv[0].nodes) {
 		out->kind = dag->kind;
 		out->levels = levels;
@@ -1044,6 +1156,11 @@ int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
 	return err;
 }
 
+int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
+{
+	return cut(dag, levels, NULL, out);
+}
+
 /* src[] / use[] index of a format's DAG: 0 dag, 1 ssvdag, 2 ssvdag48. */
 static int source_of(int format)
 {
@@ -1053,10 +1170,17 @@ static int source_of(int format)
 /* vd_enc_table_row; `sizes`, when not NULL, are vd_enc_size_bytes() of the
  * encodings of the uncut DAGs (VD_ENC_ALL_ entries, 0 for one not built),
  * taken for the full-resolution row instead of encoding everything again:
- * the encode stage has just built them for its files. */
+ * the encode stage has just built them for its files. `counts`, when not
+ * NULL, holds vd_enc_svo_counts() of the dag, the ssvdag and the ssvdag48
+ * (rows of 3 x (VD_MAX_LEVELS + 1), a row for each source given): a pass
+ * over the whole DAG each, otherwise made again for every row and cut.
+ * `only` is the source whose nodes and bytes are computed (0 dag, 1
+ * ssvdag, 2 ssvdag48; the others' stay 0): a row is three tasks, joined
+ * by row_join. */
 static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
-		     struct vd_enc_row *row, const uint64_t *sizes)
+		     struct vd_enc_row *row, const uint64_t *sizes,
+		     const uint64_t (*counts)[VD_MAX_LEVELS + 1], int only)
 {
 	memset(row, 0, sizeof *row);
 	row->levels = levels;
@@ -1082,25 +1206,27 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	}
 	row->has_ssvdag = ssvdag != NULL;
 	row->has_ssvdag48 = ssvdag48 != NULL;
-	uint64_t counts[VD_MAX_LEVELS + 1];
-	int err = vd_enc_svo_counts(dag, counts);
+	uint64_t own[VD_MAX_LEVELS + 1];
+	const uint64_t *dc = counts ? counts[0] : own;
+	int err = counts ? VD_OK : vd_enc_svo_counts(dag, own);
 	if (err) return err;
-	row->voxels = counts[levels];
-	for (int l = 0; l < levels; l++) row->svo_nodes += counts[l];
+	row->voxels = dc[levels];
+	for (int l = 0; l < levels; l++) row->svo_nodes += dc[l];
 	row->svo_bytes = row->svo_nodes;
-	struct vd_dag cut[3];
-	memset(cut, 0, sizeof cut);
+	struct vd_dag cuts[3];
+	memset(cuts, 0, sizeof cuts);
 	for (int k = 0; k < 3 && !err; k++) {
-		if (!src[k]) continue;
+		if (!src[k] || k != only) continue;
 		if (levels == dag->levels) {
 			use[k] = src[k];
 		} else {
-			err = vd_enc_cut(src[k], levels, &cut[k]);
-			use[k] = &cut[k];
+			err = cut(src[k], levels, counts ? counts[k] : NULL,
+				  &cuts[k]);
+			use[k] = &cuts[k];
 		}
 	}
 	if (!err) {
-		row->dag_nodes = dag_total_nodes(use[0]);
+		row->dag_nodes = use[0] ? dag_total_nodes(use[0]) : 0;
 		row->ssvdag_nodes = use[1] ? dag_total_nodes(use[1]) : 0;
 		row->ssvdag48_nodes = use[2] ? dag_total_nodes(use[2]) : 0;
 	}
@@ -1113,22 +1239,49 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 			continue;
 		}
 		struct vd_enc e;
-		err = vd_enc_build(&e, f, use[source_of(f)], NULL);
+		err = enc_build(&e, f, use[source_of(f)], NULL, 1);
 		if (!err) {
 			row->bytes[f] = vd_enc_size_bytes(&e);
 			row->has[f] = 1;
 		}
 		vd_enc_release(&e);
 	}
-	for (int k = 0; k < 3; k++) vd_dag_release(&cut[k]);
+	for (int k = 0; k < 3; k++) vd_dag_release(&cuts[k]);
 	return err;
 }
 
+/* A row from its three sources' parts (table_row with `only` 0, 1, 2). */
+static void row_join(struct vd_enc_row *out, const struct vd_enc_row p[3])
+{
+	struct vd_enc_row row = p[0];
+	row.ssvdag_nodes = p[1].ssvdag_nodes;
+	row.ssvdag48_nodes = p[2].ssvdag48_nodes;
+	for (int f = 0; f < VD_ENC_ALL_; f++) {
+		int k = source_of(f);
+		row.bytes[f] = p[k].bytes[f];
+		row.has[f] = p[k].has[f];
+	}
+	*out = row;
+}
+
+/* As the encode stage computes it, one source at a time, so the tests of
+ * this function check the stage's rows too. */
 int vd_enc_table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		     const struct vd_dag *ssvdag48, int levels,
 		     struct vd_enc_row *row)
 {
-	return table_row(dag, ssvdag, ssvdag48, levels, row, NULL);
+	const struct vd_dag *src[3] = {dag, ssvdag, ssvdag48};
+	struct vd_enc_row p[3];
+	memset(p, 0, sizeof p);
+	memset(row, 0, sizeof *row);
+	for (int k = 0; k < 3; k++) {
+		if (k > 0 && !src[k]) continue;
+		int err = table_row(dag, ssvdag, ssvdag48, levels, &p[k], NULL,
+				    NULL, k);
+		if (err) return err;
+	}
+	row_join(row, p);
+	return VD_OK;
 }
 
 /* ------------------------------------------------------------- timings */
@@ -1533,21 +1686,31 @@ static int decode_roots(struct roots_job *rj, int threads)
 struct row_job {
 	const struct vd_dag *dag, *ssvdag, *ssvdag48;
 	const uint64_t *sizes; /* of the files just written */
+	const uint64_t (*counts)[VD_MAX_LEVELS + 1]; /* per source */
 	struct vd_enc_row *rows;
 	int *errs;
 	char (*details)[512];
 };
 
-static void row_worker(void *ctx, size_t i, int worker)
+/* Task t is row t / 3 of source t % 3: the full-resolution cut of the
+ * dag is most of the tables' work, so a task a row would leave a thread
+ * idle while one works through it. */
+static void row_worker(void *ctx, size_t t, int worker)
 {
 	(void)worker;
 	struct row_job *r = ctx;
+	const struct vd_dag *src[3] = {r->dag, r->ssvdag, r->ssvdag48};
+	size_t i = t / 3;
+	int k = (int)(t % 3);
+	if (!src[k]) return;
 	int err = table_row(r->dag, r->ssvdag, r->ssvdag48,
-			    r->dag->levels - (int)i, &r->rows[i], r->sizes);
-	r->errs[i] = err;
-	if (err) snprintf(r->details[i], sizeof r->details[i], "%s",
+			    r->dag->levels - (int)i, &r->rows[t], r->sizes,
+			    r->counts, k);
+	r->errs[t] = err;
+	if (err) snprintf(r->details[t], sizeof r->details[t], "%s",
 			  vd_error_detail());
 }
+
 
 
 /* The encodings' files, one per format, built and written in parallel
@@ -1690,23 +1853,29 @@ int vd_enc_run(const struct vd_enc_job *job)
 
 	int lo = job->min_level < 1 ? 1 : job->min_level;
 	size_t nrows = dag.levels >= lo ? (size_t)(dag.levels - lo + 1) : 1;
-	rows = calloc(nrows, sizeof *rows);
-	errs = calloc(nrows, sizeof *errs);
-	details = calloc(nrows, sizeof *details);
+	rows = calloc(3 * nrows, sizeof *rows);
+	errs = calloc(3 * nrows, sizeof *errs);
+	details = calloc(3 * nrows, sizeof *details);
 	if (!rows || !errs || !details) {
 		err = NOMEM();
 		goto out;
 	}
-	struct row_job rj = {&dag, src[1], src[2], bytes, rows, errs, details};
-	if ((err = vd_parallel_for(nrows, job->threads, row_worker, &rj)))
+	uint64_t counts[3][VD_MAX_LEVELS + 1];
+	for (int k = 0; k < 3 && !err; k++)
+		if (src[k]) err = vd_enc_svo_counts(src[k], counts[k]);
+	if (err) goto out;
+	struct row_job rj = {&dag, src[1], src[2], bytes, counts, rows, errs,
+			     details};
+	if ((err = vd_parallel_for(3 * nrows, job->threads, row_worker, &rj)))
 		goto out;
-	for (size_t i = 0; i < nrows; i++)
-		if (errs[i]) {
-			err = vd_fail(errs[i], "cannot compute the %llu^3 row: "
-				      "%s: %s", 1ull << rows[i].levels,
-				      vd_strerror(errs[i]), details[i]);
+	for (size_t t = 0; t < 3 * nrows; t++)
+		if (errs[t]) {
+			err = vd_fail(errs[t], "cannot compute the %llu^3 row: "
+				      "%s: %s", 1ull << rows[t].levels,
+				      vd_strerror(errs[t]), details[t]);
 			goto out;
 		}
+	for (size_t i = 0; i < nrows; i++) row_join(&rows[i], &rows[3 * i]);
 	if ((err = vd_enc_write_tables(dir, name, rows, nrows, &tm,
 				       t_enc))) {
 		err = reword(err, "cannot write the tables in", job->outdir);

@@ -28,6 +28,7 @@ enum {
 	FOOTER = 24,
 	CODEC_STORED = 0,
 	CODEC_ZSTD = 1,
+	CODEC_ZSTD_PLANES4 = 2, /* zstd frames of 4 byte planes (frames4) */
 	/* Header sizes beyond this are corrupt, not a future extension. */
 	HEADER_MAX = 4096,
 };
@@ -189,7 +190,8 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
  * sections are kept, and read again, as the pipeline's results. */
 static int default_level(uint32_t tag)
 {
-	return tag == VD_TAG_BRKS ? 1 : 3;
+	return tag == VD_TAG_BRKS || tag == VD_TAG_DAGM || tag == VD_TAG_DAGC ||
+	       tag == VD_TAG_DAGR ? 1 : 3;
 }
 
 /* zstd_level < 0 stores the section uncompressed (used for short text). */
@@ -310,6 +312,30 @@ int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
 	return VD_OK;
 }
 
+/* Codec 2: the n bytes (4-byte elements) of a frame as 4 planes, byte p
+ * of element i at p * n/4 + i, and back. */
+static void planes4(uint8_t *dst, const uint8_t *src, size_t n)
+{
+	size_t k = n / 4;
+	for (size_t i = 0; i < k; i++) {
+		dst[i] = src[4 * i];
+		dst[k + i] = src[4 * i + 1];
+		dst[2 * k + i] = src[4 * i + 2];
+		dst[3 * k + i] = src[4 * i + 3];
+	}
+}
+
+static void unplanes4(uint8_t *dst, const uint8_t *src, size_t n)
+{
+	size_t k = n / 4;
+	for (size_t i = 0; i < k; i++) {
+		dst[4 * i] = src[i];
+		dst[4 * i + 1] = src[k + i];
+		dst[4 * i + 2] = src[2 * k + i];
+		dst[4 * i + 3] = src[3 * k + i];
+	}
+}
+
 /* A framed section: frames of VD_CHUNK_FRAME_BYTES raw bytes (the last one
  * shorter), each its own zstd frame with its content size, so readers can
  * decompress them in parallel. The frame size is fixed, not derived from
@@ -319,7 +345,9 @@ struct frame_job {
 	void *ctx;
 	uint64_t raw_size, first; /* frame index of out[0] */
 	int level;
-	uint8_t **raw;            /* per worker, VD_CHUNK_FRAME_BYTES */
+	int planes;               /* codec 2: 4 byte planes a frame */
+	uint8_t **raw;            /* per worker, VD_CHUNK_FRAME_BYTES (twice
+				     with planes: raw, then its planes) */
 	ZSTD_CCtx **zc;           /* per worker */
 	uint8_t **out;            /* per frame of the batch */
 	size_t *out_size, out_cap;
@@ -338,16 +366,22 @@ static void frame_worker(void *ctx, size_t i, int worker)
 	size_t n = fj->raw_size - off < VD_CHUNK_FRAME_BYTES ?
 		   (size_t)(fj->raw_size - off) : VD_CHUNK_FRAME_BYTES;
 	if (!fj->raw[worker])
-		fj->raw[worker] = malloc(VD_CHUNK_FRAME_BYTES);
+		fj->raw[worker] = malloc((fj->planes ? 2 : 1) *
+					 (size_t)VD_CHUNK_FRAME_BYTES);
 	if (!fj->zc[worker])
 		fj->zc[worker] = ZSTD_createCCtx();
 	if (!fj->raw[worker] || !fj->zc[worker]) {
 		fj->errs[i] = VD_ERR_NOMEM;
 		return;
 	}
-	fj->fill(fj->ctx, off, fj->raw[worker], n);
+	uint8_t *in = fj->raw[worker];
+	fj->fill(fj->ctx, off, in, n);
+	if (fj->planes) {
+		planes4(in + VD_CHUNK_FRAME_BYTES, in, n);
+		in += VD_CHUNK_FRAME_BYTES;
+	}
 	size_t r = ZSTD_compressCCtx(fj->zc[worker], fj->out[i], fj->out_cap,
-				     fj->raw[worker], n, fj->level);
+				     in, n, fj->level);
 	if (ZSTD_isError(r)) {
 		fj->errs[i] = VD_ERR_COMPRESS;
 		return;
@@ -355,14 +389,18 @@ static void frame_worker(void *ctx, size_t i, int worker)
 	fj->out_size[i] = r;
 }
 
-int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
-			   uint64_t raw_size,
-			   void (*fill)(void *ctx, uint64_t offset,
-					uint8_t *buf, size_t n),
-			   void *ctx, int threads)
+static int writer_frames(struct vd_chunk_writer *w, uint32_t tag,
+			 uint64_t raw_size,
+			 void (*fill)(void *ctx, uint64_t offset,
+				      uint8_t *buf, size_t n),
+			 void *ctx, int threads, int planes)
 {
 	if (w->failed || w->in_section)
 		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
+	if (planes && raw_size % 4)
+		return vd_fail(VD_ERR_ARG, "section '%.4s' of %llu bytes is not "
+			       "4-byte elements", (const char *)&tag,
+			       (unsigned long long)raw_size);
 	if (threads < 1)
 		threads = vd_hardware_threads();
 	/* frames in flight: a few per thread keeps the threads busy to the
@@ -372,7 +410,7 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 			   VD_CHUNK_FRAME_BYTES;
 	int nw = threads + 1; /* TBB's worker index: 0..threads-1 */
 	struct frame_job fj = {fill, ctx, raw_size, 0, default_level(tag),
-			       calloc((size_t)nw, sizeof(uint8_t *)),
+			       planes, calloc((size_t)nw, sizeof(uint8_t *)),
 			       calloc((size_t)nw, sizeof(ZSTD_CCtx *)),
 			       calloc(batch, sizeof(uint8_t *)),
 			       calloc(batch, sizeof(size_t)),
@@ -408,7 +446,7 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 	}
 	if (!err) {
 		put32(hdr, tag);
-		put32(hdr + 4, CODEC_ZSTD);
+		put32(hdr + 4, planes ? CODEC_ZSTD_PLANES4 : CODEC_ZSTD);
 		put64(hdr + 8, raw_size);
 		put64(hdr + 16, stored);
 		put64(hdr + 24, XXH3_64bits_digest(w->hash));
@@ -434,6 +472,24 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 	free(fj.out_size);
 	free(fj.errs);
 	return err;
+}
+
+int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
+			   uint64_t raw_size,
+			   void (*fill)(void *ctx, uint64_t offset,
+					uint8_t *buf, size_t n),
+			   void *ctx, int threads)
+{
+	return writer_frames(w, tag, raw_size, fill, ctx, threads, 0);
+}
+
+int vd_chunk_writer_frames4(struct vd_chunk_writer *w, uint32_t tag,
+			    uint64_t raw_size,
+			    void (*fill)(void *ctx, uint64_t offset,
+					 uint8_t *buf, size_t n),
+			    void *ctx, int threads)
+{
+	return writer_frames(w, tag, raw_size, fill, ctx, threads, 1);
 }
 
 /* fsync the directory holding `path` so the rename survives a crash. */
@@ -708,9 +764,13 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 		uint64_t want = get64(b + s->offset - 8);
 		if (XXH3_64bits(b + s->offset, s->stored_size) != want)
 			return vd_fail(VD_ERR_CHECKSUM, "section %u", i + 1);
-		if (s->codec > CODEC_ZSTD)
+		if (s->codec > CODEC_ZSTD_PLANES4)
 			return vd_fail(VD_ERR_UNSUPPORTED, "section %u has "
 				       "codec %u", i + 1, s->codec);
+		if (s->codec == CODEC_ZSTD_PLANES4 && s->raw_size % 4)
+			return vd_fail(VD_ERR_CORRUPT, "section %u: codec 2 "
+				       "of %llu bytes", i + 1,
+				       (unsigned long long)s->raw_size);
 		if (s->codec == CODEC_STORED && s->raw_size != s->stored_size)
 			return vd_fail(VD_ERR_CORRUPT, "section %u sizes", i + 1);
 	}
@@ -877,6 +937,100 @@ static void dframe_worker(void *ctx, size_t i, int worker)
 	j->bad[i] = ZSTD_isError(r) || r != f->dst_size;
 }
 
+/* Codec 2 frames, each decompressed into its worker's scratch frame and
+ * put back from its planes into place. */
+struct pframe_job {
+	const uint8_t *src;
+	uint8_t *dst;
+	const struct dframe *f;
+	int *bad;
+	uint8_t **scratch; /* per worker */
+	int nworkers;
+};
+
+static void pframe_worker(void *ctx, size_t i, int worker)
+{
+	struct pframe_job *j = ctx;
+	const struct dframe *f = &j->f[i];
+	j->bad[i] = 1;
+	if (worker < 0 || worker >= j->nworkers)
+		return;
+	if (!j->scratch[worker] &&
+	    !(j->scratch[worker] = malloc(VD_CHUNK_FRAME_BYTES)))
+		return;
+	size_t r = ZSTD_decompress(j->scratch[worker], f->dst_size,
+				   j->src + f->src, f->src_size);
+	if (ZSTD_isError(r) || r != f->dst_size)
+		return;
+	unplanes4(j->dst + f->dst, j->scratch[worker], f->dst_size);
+	j->bad[i] = 0;
+}
+
+/* Section s of codec 2 into buf (raw_size bytes). The frames written by
+ * vd_chunk_writer_frames4 are each one plane group: decompressed in
+ * parallel through a frame of scratch each. Any other framing (one frame,
+ * for a section of one group) goes through a copy of the whole. */
+static int read_planes(const struct vd_chunk *c, const struct section *s,
+		       uint8_t *buf, int threads)
+{
+	const uint8_t *src = c->image + s->offset;
+	uint64_t raw = s->raw_size;
+	struct dframe *fr = NULL;
+	size_t nf = list_frames(src, s->stored_size, raw, &fr);
+	for (size_t i = 0; i < nf; i++) {
+		uint64_t at = (uint64_t)i * VD_CHUNK_FRAME_BYTES;
+		if (fr[i].dst != at || fr[i].dst_size != (raw - at <
+		    VD_CHUNK_FRAME_BYTES ? raw - at : VD_CHUNK_FRAME_BYTES)) {
+			nf = 0;
+			break;
+		}
+	}
+	int err = VD_OK;
+	if (nf) {
+		int nw = threads + 1; /* TBB's worker index: 0..threads-1 */
+		int *bad = calloc(nf, sizeof *bad);
+		uint8_t **scratch = calloc((size_t)nw, sizeof *scratch);
+		if (!bad || !scratch) {
+			err = vd_fail(VD_ERR_NOMEM, "section '%.4s'",
+				      (const char *)&s->tag);
+		} else {
+			struct pframe_job j = {src, buf, fr, bad, scratch, nw};
+			err = vd_parallel_for(nf, threads, pframe_worker, &j);
+			for (size_t i = 0; i < nf && !err; i++)
+				if (bad[i])
+					err = vd_fail(VD_ERR_CORRUPT, "section "
+						      "'%.4s' frame %zu does "
+						      "not decompress to its "
+						      "size", (const char *)&s->tag,
+						      i + 1);
+		}
+		for (int i = 0; scratch && i < nw; i++)
+			free(scratch[i]);
+		free(scratch);
+		free(bad);
+		free(fr);
+		return err;
+	}
+	free(fr);
+	uint8_t *tmp = malloc(raw ? (size_t)raw : 1);
+	if (!tmp)
+		return vd_fail(VD_ERR_NOMEM, "section '%.4s' of %llu bytes",
+			       (const char *)&s->tag, (unsigned long long)raw);
+	size_t n = ZSTD_decompress(tmp, (size_t)raw, src, s->stored_size);
+	if (ZSTD_isError(n) || n != raw) {
+		err = vd_fail(VD_ERR_CORRUPT, "section '%.4s' does not "
+			      "decompress to its size: %s", (const char *)&s->tag,
+			      ZSTD_isError(n) ? ZSTD_getErrorName(n)
+					      : "size differs");
+	} else {
+		for (uint64_t at = 0; at < raw; at += VD_CHUNK_FRAME_BYTES)
+			unplanes4(buf + at, tmp + at, raw - at < VD_CHUNK_FRAME_BYTES
+				  ? (size_t)(raw - at) : VD_CHUNK_FRAME_BYTES);
+	}
+	free(tmp);
+	return err;
+}
+
 int vd_chunk_read_section(const struct vd_chunk *c, uint32_t tag,
 			  void **data, size_t *size)
 {
@@ -899,12 +1053,18 @@ int vd_chunk_read_section_mt(const struct vd_chunk *c, uint32_t tag,
 		return vd_fail(VD_ERR_NOMEM, "section '%.4s' of %llu bytes",
 			       (const char *)&tag,
 			       (unsigned long long)s->raw_size);
+	if (threads < 1)
+		threads = vd_hardware_threads();
 	if (s->codec == CODEC_STORED) {
 		memcpy(buf, c->image + s->offset, s->raw_size);
+	} else if (s->codec == CODEC_ZSTD_PLANES4) {
+		int err = read_planes(c, s, buf, threads);
+		if (err) {
+			free(buf);
+			return err;
+		}
 	} else {
 		struct dframe *fr = NULL;
-		if (threads < 1)
-			threads = vd_hardware_threads();
 		size_t nf = threads > 1 ? list_frames(c->image + s->offset,
 						      s->stored_size,
 						      s->raw_size, &fr) : 0;
