@@ -187,7 +187,7 @@ static inline void RN(dda_step)(struct RN(dda) *x)
  *     by dcp = dc + P kd in [0, P] (kd = 1 when dc < 0) while k1 moves by
  *     kd, and one conditional subtraction of P corrects it;
  *   - a run within two aligned groups of 4 voxels of one block (nearly
- *     all) set as two masks (run_mask1, run_mask2), without a loop whose
+ *     all) set as two masks (run_tabs), without a loop whose
  *     exit the branch predictor cannot guess; the rest through
  *     emit_run_cold.
  * offw: the cell's coordinate of the triangle's voxel 0 along w. */
@@ -198,7 +198,7 @@ RN(brick_cols)(struct brick_emit *e, int64_t i, int64_t i1, ST k1, ST e1,
 	       const int W)
 {
 	const int shw = 2 - W;
-	const uint64_t *rm1 = run_mask1[shw], *rm2 = run_mask2[shw];
+	const struct run_tab *rt = &run_tabs[shw];
 	const uint32_t mu = e->mu, bu = e->lu >> 5;
 	/* block (bv, bw) of the row is entry tb + bv nbw + bw (mod 2^32) */
 	const uint32_t tb = e->rowbase - e->tb[1] * e->nbw - e->tb[2];
@@ -232,10 +232,10 @@ RN(brick_cols)(struct brick_emit *e, int64_t i, int64_t i1, ST k1, ST e1,
 					       lw >> 5)))
 			return;
 		uint32_t m = mu | c.m;
-		uint32_t b1 = m | (uint32_t)d5[lw & 28] << shw;
-		uint32_t b2 = m | (uint32_t)d5[lw1 & 28] << shw;
-		blk[b1 >> 6] |= rm1[(lw & 3) << 3 | j] << (b1 & 63);
-		blk[b2 >> 6] |= rm2[j] << (b2 & 63);
+		uint32_t b1 = m | rt->g[lw >> 2 & 7];
+		uint32_t b2 = m | rt->g[lw1 >> 2 & 7];
+		blk[b1 >> 6] |= rt->m1[(lw & 3) << 3 | j] << (b1 & 63);
+		blk[b2 >> 6] |= rt->m2[j] << (b2 & 63);
 	}
 }
 
