@@ -549,6 +549,25 @@ static uint8_t *sink_room(struct sink *k, size_t need)
 	return k->b + k->n;
 }
 
+/* n little-endian words through the buffer: a16's 16-bit ones, or else
+ * a32's 32-bit ones. */
+static void sink_words(struct sink *k, const uint16_t *a16,
+		       const uint32_t *a32, uint32_t n)
+{
+	size_t width = a16 ? 2 : 4, per = SAVE_BUF / 2 / width;
+	for (uint32_t i = 0; i < n;) {
+		uint8_t *p = sink_room(k, SAVE_BUF / 2);
+		uint32_t m = n - i < per ? n - i : (uint32_t)per;
+		for (uint32_t q = 0; q < m; q++, p += width)
+			if (a16)
+				put16(p, a16[i + q]);
+			else
+				put32(p, a32[i + q]);
+		k->n += width * m;
+		i += m;
+	}
+}
+
 /* The file's bytes (schemas/encodings.md) into k. */
 static void serialize(const struct vd_enc *e, struct sink *k)
 {
@@ -562,14 +581,7 @@ static void serialize(const struct vd_enc *e, struct sink *k)
 	if (vd_enc_format_compact(e->format)) {
 		put32(sink_room(k, 4), e->inner_count);
 		k->n += 4;
-		for (uint32_t i = 0; i < e->inner_count;) {
-			p = sink_room(k, SAVE_BUF / 2);
-			uint32_t m = e->inner_count - i < SAVE_BUF / 4 ?
-				     e->inner_count - i : SAVE_BUF / 4;
-			for (uint32_t q = 0; q < m; q++) put16(p + 2 * q, e->inner[i + q]);
-			k->n += 2 * (size_t)m;
-			i += m;
-		}
+		sink_words(k, e->inner, NULL, e->inner_count);
 		put32(sink_room(k, 4), e->leaf_bytes);
 		k->n += 4;
 		sink_flush(k);
@@ -588,14 +600,7 @@ static void serialize(const struct vd_enc *e, struct sink *k)
 		put32(p, e->first_leaf_word);
 		put32(p + 4, e->word_count);
 		k->n += 8;
-		for (uint32_t i = 0; i < e->word_count;) {
-			p = sink_room(k, SAVE_BUF / 2);
-			uint32_t m = e->word_count - i < SAVE_BUF / 8 ?
-				     e->word_count - i : SAVE_BUF / 8;
-			for (uint32_t q = 0; q < m; q++) put32(p + 4 * q, e->words[i + q]);
-			k->n += 4 * (size_t)m;
-			i += m;
-		}
+		sink_words(k, NULL, e->words, e->word_count);
 	}
 	sink_flush(k);
 }
