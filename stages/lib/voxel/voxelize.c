@@ -8,7 +8,10 @@
  *   3. binning: every triangle is appended to the bin file of each cell it
  *      overlaps (bounded in-memory buffers, flushed to disk);
  * then each cell's bin is rasterized in core, in parallel, and written as
- * one SVO chunk.
+ * one SVO chunk. The first pass keeps the triangles in memory when they fit
+ * in a sixteenth of the budget, and the later passes replay them instead of
+ * reading the file again; with one cell (L0 = 0) and no colours, that copy
+ * is the cell's bin and no bin file is written.
  *
  * In core, a cell is a hash map of 32^3-voxel blocks allocated when a
  * triangle first touches them, each 512 bricks in Morton order, so memory
