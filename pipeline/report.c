@@ -556,6 +556,8 @@ int report_write(const struct plan *p)
 		if (job_budget(j) > r->budget)
 			r->budget = job_budget(j);
 		double secs = json_get(root, "seconds", "total");
+		if (secs == 0) /* encode and colorize: a flat total */
+			secs = json_get(root, NULL, "seconds_total");
 		enum stage_type t = c->jobs_decl[j->decl].stage->type;
 		size_t nops;
 		if (t == STAGE_LOSSY) /* its phases, the check of its count too */
