@@ -249,27 +249,22 @@ int vd_chunk_writer_section(struct vd_chunk_writer *w, uint32_t tag,
  * buf, from any thread (offset is a multiple of VD_CHUNK_FRAME_BYTES). The
  * frame size is fixed, so the file does not depend on `threads`; readers
  * decompress the frames in parallel (vd_chunk_read_section_mt). Memory:
- * about 3 * threads frames. No section may be open. */
+ * about 3 * threads frames. No section may be open.
+ *
+ * With `planes`, the raw bytes are an array of 4-byte little-endian
+ * elements (`raw_size` a multiple of 4, else VD_ERR_ARG), stored with
+ * codec 2: each frame's elements split into 4 byte planes (all first
+ * bytes, then all second bytes, ...) before zstd. Slowly varying indices
+ * then leave the high planes nearly constant: on DAG child indices zstd
+ * level 1 runs 2-3x faster and stores 20% fewer bytes. Readers undo it
+ * (vd_chunk_read_section gives the raw bytes); readers before codec 2
+ * refuse the file ("codec 2"). */
 #define VD_CHUNK_FRAME_BYTES (2u << 20)
 int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 			   uint64_t raw_size,
 			   void (*fill)(void *ctx, uint64_t offset,
 					uint8_t *buf, size_t n),
-			   void *ctx, int threads);
-
-/* vd_chunk_writer_frames for an array of 4-byte little-endian elements
- * (`raw_size` a multiple of 4, else VD_ERR_ARG), stored with codec 2: each
- * frame's elements split into 4 byte planes (all first bytes, then all
- * second bytes, ...) before zstd. Slowly varying indices then leave the
- * high planes nearly constant: on DAG child indices zstd level 1 runs 2-3x
- * faster and stores 20% fewer bytes. Readers undo it
- * (vd_chunk_read_section gives the raw bytes); readers before codec 2
- * refuse the file ("codec 2"). */
-int vd_chunk_writer_frames4(struct vd_chunk_writer *w, uint32_t tag,
-			    uint64_t raw_size,
-			    void (*fill)(void *ctx, uint64_t offset,
-					 uint8_t *buf, size_t n),
-			    void *ctx, int threads);
+			   void *ctx, int threads, int planes);
 
 /* Replaces the per-level counts of the header (they are often known only
  * after the sections are written). `level_count` must equal the one given

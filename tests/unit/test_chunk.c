@@ -435,12 +435,8 @@ static void write_framed(const char *path, uint64_t raw, int threads,
 	struct vd_chunk_header h = tiny_header();
 	struct vd_chunk_writer *w;
 	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
-	if (planes)
-		CHECK_EQ(vd_chunk_writer_frames4(w, VD_TAG_BRKS, raw, framed_fill,
-						 NULL, threads), VD_OK);
-	else
-		CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw, framed_fill,
-						NULL, threads), VD_OK);
+	CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw, framed_fill,
+					NULL, threads, planes), VD_OK);
 	CHECK_EQ(vd_chunk_writer_section(w, VD_TAG('T', 'A', 'I', 'L'), "x", 1),
 		 VD_OK);
 	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
@@ -481,8 +477,8 @@ static void test_framed_sections(void)
 			struct vd_chunk_header h = tiny_header();
 			struct vd_chunk_writer *w;
 			CHECK_EQ(vd_chunk_writer_open(&w, p1, &h, NULL), VD_OK);
-			CHECK_EQ(vd_chunk_writer_frames4(w, VD_TAG_BRKS, raw,
-							 framed_fill, NULL, 1),
+			CHECK_EQ(vd_chunk_writer_frames(w, VD_TAG_BRKS, raw,
+							framed_fill, NULL, 1, 1),
 				 VD_ERR_ARG);
 			vd_chunk_writer_abort(w);
 			continue;

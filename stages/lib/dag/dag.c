@@ -2270,11 +2270,9 @@ static int save_section(const struct vd_dag *dag, struct vd_chunk_writer *w,
 	dag_stream_init(&st, dag, tag);
 	/* child indices as byte planes (codec 2): their high bytes change
 	 * slowly, so zstd stores them in less time and space */
-	if (tag == VD_TAG_DAGC)
-		return vd_chunk_writer_frames4(w, tag, st.start[st.nlev],
-					       dag_stream_fill, &st, threads);
 	return vd_chunk_writer_frames(w, tag, st.start[st.nlev],
-				      dag_stream_fill, &st, threads);
+				      dag_stream_fill, &st, threads,
+				      tag == VD_TAG_DAGC);
 }
 
 int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,

@@ -28,7 +28,7 @@ enum {
 	FOOTER = 24,
 	CODEC_STORED = 0,
 	CODEC_ZSTD = 1,
-	CODEC_ZSTD_PLANES4 = 2, /* zstd frames of 4 byte planes (frames4) */
+	CODEC_ZSTD_PLANES4 = 2, /* zstd frames of 4 byte planes */
 	/* Header sizes beyond this are corrupt, not a future extension. */
 	HEADER_MAX = 4096,
 };
@@ -389,11 +389,11 @@ static void frame_worker(void *ctx, size_t i, int worker)
 	fj->out_size[i] = r;
 }
 
-static int writer_frames(struct vd_chunk_writer *w, uint32_t tag,
-			 uint64_t raw_size,
-			 void (*fill)(void *ctx, uint64_t offset,
-				      uint8_t *buf, size_t n),
-			 void *ctx, int threads, int planes)
+int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
+			   uint64_t raw_size,
+			   void (*fill)(void *ctx, uint64_t offset,
+					uint8_t *buf, size_t n),
+			   void *ctx, int threads, int planes)
 {
 	if (w->failed || w->in_section)
 		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
@@ -472,24 +472,6 @@ static int writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 	free(fj.out_size);
 	free(fj.errs);
 	return err;
-}
-
-int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
-			   uint64_t raw_size,
-			   void (*fill)(void *ctx, uint64_t offset,
-					uint8_t *buf, size_t n),
-			   void *ctx, int threads)
-{
-	return writer_frames(w, tag, raw_size, fill, ctx, threads, 0);
-}
-
-int vd_chunk_writer_frames4(struct vd_chunk_writer *w, uint32_t tag,
-			    uint64_t raw_size,
-			    void (*fill)(void *ctx, uint64_t offset,
-					 uint8_t *buf, size_t n),
-			    void *ctx, int threads)
-{
-	return writer_frames(w, tag, raw_size, fill, ctx, threads, 1);
 }
 
 /* fsync the directory holding `path` so the rename survives a crash. */
@@ -967,7 +949,7 @@ static void pframe_worker(void *ctx, size_t i, int worker)
 }
 
 /* Section s of codec 2 into buf (raw_size bytes). The frames written by
- * vd_chunk_writer_frames4 are each one plane group: decompressed in
+ * vd_chunk_writer_frames with planes are each one plane group: decompressed in
  * parallel through a frame of scratch each. Any other framing (one frame,
  * for a section of one group) goes through a copy of the whole. */
 static int read_planes(const struct vd_chunk *c, const struct section *s,

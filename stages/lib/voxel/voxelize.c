@@ -1311,7 +1311,7 @@ static int write_cell(struct run *r, struct worker *w,
 	if (err)
 		return err;
 	err = vd_chunk_writer_frames(cw, VD_TAG_BRKS, 8 + 16 * count,
-				     brick_fill, &src, threads);
+				     brick_fill, &src, threads, 0);
 	if (err) {
 		vd_chunk_writer_abort(cw);
 		return err;
