@@ -208,7 +208,8 @@ emit_run(struct brick_emit *e, uint32_t lv, uint32_t lw, uint32_t lw1)
  * row of blocks' offset in the emitter's table (blk). kmax < 2^21. */
 struct col_tab {
 	int32_t lo, hi;
-	uint32_t m, blk;
+	uint32_t m;
+	int32_t blk;
 };
 
 /* emit_run out of the way of a loop whose runs mostly take masks */

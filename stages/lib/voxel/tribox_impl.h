@@ -190,48 +190,49 @@ static inline void RN(dda_step)(struct RN(dda) *x)
  *     all) set as two masks (run_tabs), without a loop whose
  *     exit the branch predictor cannot guess; the rest through
  *     emit_run_cold.
- * offw: the cell's coordinate of the triangle's voxel 0 along w. */
+ * The columns are c..cend of the table ct, whose bounds, like k1, r1 and
+ * r2, are in the cell's coordinates along w; offv: the cell's coordinate
+ * of the triangle's column 0 along v. KD (kd, 0 or 1) is a constant, like
+ * W: the loop then keeps its state in registers. */
 static inline __attribute__((always_inline)) void
-RN(brick_cols)(struct brick_emit *e, int64_t i, int64_t i1, ST k1, ST e1,
-	       ST P, ST dcp, ST kd, ST Dq, ST Dr, int64_t r1, int64_t r2,
-	       const struct col_tab *ct, uint32_t offv, uint32_t offw,
-	       const int W)
+RN(brick_cols)(struct brick_emit *e, const struct col_tab *c,
+	       const struct col_tab *cend, ST k1, ST e1, ST P, ST dcp, ST Dq,
+	       ST Dr, int64_t r1, int64_t r2, const struct col_tab *ct,
+	       uint32_t offv, const int W, const int KD)
 {
 	const int shw = 2 - W;
 	const struct run_tab *rt = &run_tabs[shw];
 	const uint32_t mu = e->mu, bu = e->lu >> 5;
-	/* block (bv, bw) of the row is entry tb + bv nbw + bw (mod 2^32) */
-	const uint32_t tb = e->rowbase - e->tb[1] * e->nbw - e->tb[2];
-	for (; i <= i1; i++) {
+	uint64_t **const tab = e->tab + e->rowbase;
+	for (; c <= cend; c++) {
 		ST k2 = k1 + Dq - (e1 > Dr);
 		int64_t w0 = k1 > r1 ? (int64_t)k1 : r1;
 		int64_t w1 = k2 < r2 ? (int64_t)k2 : r2;
 		e1 += dcp;
 		ST over = -(ST)(e1 >= P);      /* no branch: a coin toss */
 		e1 -= P & over;
-		k1 += kd + over;
-		const struct col_tab c = ct[i];
-		w0 = c.lo > w0 ? c.lo : w0;
-		w1 = c.hi < w1 ? c.hi : w1;
+		k1 += KD + over;
+		w0 = c->lo > w0 ? c->lo : w0;
+		w1 = c->hi < w1 ? c->hi : w1;
 		if (w0 > w1)
 			continue;
-		uint32_t lw = (uint32_t)w0 + offw, lw1 = (uint32_t)w1 + offw;
+		uint32_t lw = (uint32_t)w0, lw1 = (uint32_t)w1;
 		/* j: lw1 from lw's group; one test for j > 7 or another
 		 * block */
 		uint32_t j = lw1 - (lw & ~3u);
 		if ((j | (lw ^ lw1) >> 2) > 7) {
-			emit_run_cold(e, (uint32_t)i + offv, lw, lw1);
+			emit_run_cold(e, (uint32_t)(c - ct) + offv, lw, lw1);
 			if (e->stop)
 				return;
 			continue;
 		}
-		uint64_t **slot = &e->tab[tb + c.blk + (lw >> 5)];
+		uint64_t **slot = &tab[c->blk + (int32_t)(lw >> 5)];
 		uint64_t *blk = *slot;
 		if (!blk && !(blk = emit_fetch(e, slot, bu,
-					       ((uint32_t)i + offv) >> 5,
+					       ((uint32_t)(c - ct) + offv) >> 5,
 					       lw >> 5)))
 			return;
-		uint32_t m = mu | c.m;
+		uint32_t m = mu | c->m;
 		uint32_t b1 = m | rt->g[lw >> 2 & 7];
 		uint32_t b2 = m | rt->g[lw1 >> 2 & 7];
 		blk[b1 >> 6] |= rt->m1[(lw & 3) << 3 | j] << (b1 & 63);
@@ -350,6 +351,10 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	int tabled = nv <= vd_raster_table_max;
 	if (tabled && nv > RN(VTAB))
 		tabled = (ct = heap = malloc((size_t)nv * sizeof *heap)) != NULL;
+	/* brick_cols's triangles table their bounds in the cell's
+	 * coordinates along w */
+	const int bricks = sink && tabled && e.tabled && wP != 0;
+	const int64_t ctoff = bricks ? vlo[w] - e.lo[2] : 0;
 	if (tabled)
 		for (int64_t i = 0; i < nv; i++) {
 			int64_t t1 = 0, t2 = kmax;
@@ -357,11 +362,14 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				RN(dda_bound)(&dtv[k], &t1, &t2);
 				RN(dda_step)(&dtv[k]);
 			}
-			ct[i].lo = (int32_t)t1, ct[i].hi = (int32_t)t2;
+			ct[i].lo = (int32_t)(t1 + ctoff);
+			ct[i].hi = (int32_t)(t2 + ctoff);
 			if (sink) {
 				uint32_t lv = (uint32_t)(vlo[v] - e.lo[1] + i);
 				ct[i].m = (uint32_t)d5[lv & 31] << e.sh[1];
-				ct[i].blk = (lv >> 5) * e.nbw;
+				/* exact for a tabled triangle */
+				ct[i].blk = (int32_t)(((lv >> 5) - e.tb[1]) *
+						      e.nbw - e.tb[2]);
 			}
 		}
 	/* brick_cols: the plane's thickness, and its step made >= 0 */
@@ -406,18 +414,28 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			e1 = rc - prl + (prl > rc ? P : 0);
 			e2 = prh - rc + (rc > prh ? P : 0);
 		}
-		if (sink && tabled && e.tabled && P != 0) {
+		if (bricks) {
 			const uint32_t ov = (uint32_t)(vlo[v] - e.lo[1]);
-			const uint32_t ow = (uint32_t)(vlo[w] - e.lo[2]);
-			if (w == 0)
-				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
-					       Dr, r1, r2, ct, ov, ow, 0);
+			const struct col_tab *c = ct + i0, *cend = ct + i1;
+			k1 += ctoff, r1 += ctoff, r2 += ctoff;
+			if (w == 0 && kd)
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 0, 1);
+			else if (w == 0)
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 0, 0);
+			else if (w == 1 && kd)
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 1, 1);
 			else if (w == 1)
-				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
-					       Dr, r1, r2, ct, ov, ow, 1);
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 1, 0);
+			else if (kd)
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 2, 1);
 			else
-				RN(brick_cols)(&e, i0, i1, k1, e1, P, dcp, kd, Dq,
-					       Dr, r1, r2, ct, ov, ow, 2);
+				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
+					       r1, r2, ct, ov, 2, 0);
 			continue;
 		}
 		struct RN(dda) dt[3];
