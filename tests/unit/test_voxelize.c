@@ -812,6 +812,18 @@ static void test_underworks_vs_symvox(void)
 	free(got.v);
 }
 
+/* The rasterizer's tests again without the x86-64-v3 build of small
+ * triangles (where the processor has it, the tests above ran it). */
+static void test_plain_rasterizer(void)
+{
+	vd_raster_simd = 0;
+	test_random_triangles();
+	test_untabled_rows();
+	test_bricks();
+	test_large_triangles();
+	vd_raster_simd = 1;
+}
+
 int main(void)
 {
 	dir = test_tmpdir("voxelize");
@@ -823,6 +835,7 @@ int main(void)
 	RUN(test_sort_keys);
 	RUN(test_large_triangles);
 	RUN(test_real_mesh_brute_force);
+	RUN(test_plain_rasterizer);
 	RUN(test_chunked_equals_monolithic);
 	RUN(test_resolutions_agree);
 	RUN(test_underworks_vs_symvox);

@@ -242,6 +242,39 @@ static __attribute__((noinline)) void emit_run_cold(struct brick_emit *e,
 #undef ST
 #undef RN
 
+/* Small triangles once more for x86-64-v3 (AVX2, BMI2): the stepping
+ * states of rows and columns in vector lanes, shifts without the count
+ * in cl. Chosen at run time, when the processor has it. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define RASTER_V3 1
+#pragma GCC push_options
+#pragma GCC target("arch=x86-64-v3")
+#define RN_VEC
+#define RT int64_t
+#define ST int64_t
+#define RN(name) name##64v
+#include "voxel/tribox_impl.h"
+#undef RT
+#undef ST
+#undef RN
+#undef RN_VEC
+#pragma GCC pop_options
+#else
+#define RASTER_V3 0
+#endif
+
+int vd_raster_simd = 1;
+
+/* 1 when small triangles take raster64v */
+static int raster_v3(void)
+{
+#if RASTER_V3
+	return vd_raster_simd && __builtin_cpu_supports("x86-64-v3");
+#else
+	return 0;
+#endif
+}
+
 static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
 {
 	int64_t q = a / b;
@@ -325,8 +358,15 @@ void vd_raster_triangle_spans(const struct vd_snapped_tri *t, int levels,
 	int small;
 	if (!raster_range(t, s, clip_lo, clip_hi, vlo, vhi, origin, &small))
 		return;
-	if (small)
+	if (small) {
+#if RASTER_V3
+		if (raster_v3()) {
+			raster64v(t, vlo, vhi, origin, s, fn, ctx);
+			return;
+		}
+#endif
 		raster64(t, vlo, vhi, origin, s, fn, ctx);
+	}
 	else if (!raster128s(t, vlo, vhi, origin, s, fn, ctx))
 		raster128(t, vlo, vhi, origin, s, fn, ctx);
 }
@@ -341,8 +381,15 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
 	int small;
 	if (!raster_range(t, s, clip_lo, clip_hi, vlo, vhi, origin, &small))
 		return;
-	if (small)
+	if (small) {
+#if RASTER_V3
+		if (raster_v3()) {
+			raster_bricks64v(t, vlo, vhi, origin, s, sink);
+			return;
+		}
+#endif
 		raster_bricks64(t, vlo, vhi, origin, s, sink);
+	}
 	else if (!raster_bricks128s(t, vlo, vhi, origin, s, sink))
 		raster_bricks128(t, vlo, vhi, origin, s, sink);
 }

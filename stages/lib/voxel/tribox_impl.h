@@ -2,13 +2,15 @@
  * two integer types: RT for the axes and the per-triangle and per-row setup
  * (products of coordinates), ST for the state stepped from row to row and
  * column to column (quotients and remainders, which stay near the extent
- * in voxels and the divisors). tribox.c includes it three times: RT = ST =
- * int64_t for small triangles; RT = __int128, ST = int64_t for large ones
- * whose stepping state fits int64 (every triangle inside the cube at the
- * depths that have large triangles); RT = ST = __int128 for the rest (see
- * the bounds in tribox.c).
+ * in voxels and the divisors). tribox.c includes it four times: RT = ST =
+ * int64_t for small triangles, twice (once built for x86-64-v3, with
+ * RN_VEC); RT = __int128, ST = int64_t for large ones whose stepping state
+ * fits int64 (every triangle inside the cube at the depths that have large
+ * triangles); RT = ST = __int128 for the rest (see the bounds in
+ * tribox.c).
  *
- * Define before including: RT, ST and RN(name) (a name suffix).
+ * Define before including: RT, ST and RN(name) (a name suffix); RN_VEC
+ * (ST = int64_t only) to step three states at once in a vector.
  */
 
 /* The normal (axis 0) and the 9 edge axes e_k x unit_a (axis 1 + 3k + a),
@@ -105,13 +107,18 @@ static inline void RN(clamp)(ST c1, ST c2, int64_t *k1, int64_t *k2)
 
 /* The integers k with lo <= b + A*k <= hi (exactly; an empty result has
  * k1 > k2 and stays empty under more narrowing) while b moves by d a step
- * (a row, or a column) from 0: with A != 0, as A' k in [lo', hi'] - b'
- * (A' = |A| > 0, the rest negated with A), b' = A' q + r kept by adding
- * d' = A' dq + dr, so the bounds on k come without a division:
- * ceil((lo' - b') / A') = ql - q + (rl > r), likewise floor for hi'. */
+ * (a row, or a column) from 0: as A' k in [lo', hi'] - b' (A' = |A| > 0,
+ * the rest negated with A), b' = A' q + r kept by adding d' = A' dq + dr,
+ * so the bounds on k come without a division: ceil((lo' - b') / A') =
+ * ql - q + (rl > r), likewise floor for hi'. With A = 0 the condition
+ * does not depend on k but on the step alone: it holds for the steps
+ * s1..s2, found once, and the stepping bounds nothing (A' = 1, k within
+ * +-2^60), so that the steps have no case of their own. */
 struct RN(dda) {
 	ST A, q, r, dq, dr, ql, rl, qh, rh;
-	ST b, d, lo, hi;        /* A == 0: b itself; d: d' */
+	ST d;                   /* d' */
+	int64_t s1, s2;         /* the steps 0..n the condition can hold */
+	int noop;               /* A = 0: the stepping bounds nothing */
 };
 
 /* 0 (and nothing set) when the state of n steps may not fit ST. */
@@ -122,12 +129,24 @@ static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
 	    (!RN(fits)(wA) || !RN(fits)(wlo) || !RN(fits)(whi) ||
 	     !RN(fits)((wd < 0 ? -wd : wd) * (n + 1))))
 		return 0;
+	x->s1 = 0, x->s2 = n;
+	x->noop = wA == 0;
+	if (wA == 0) {
+		/* lo <= d s <= hi */
+		RT s1 = 0, s2 = n;
+		if (wd > 0)
+			s1 = -RN(wdiv)(-wlo, wd), s2 = RN(wdiv)(whi, wd);
+		else if (wd < 0)
+			s1 = -RN(wdiv)(whi, -wd), s2 = RN(wdiv)(-wlo, -wd);
+		else if (wlo > 0 || whi < 0)   /* (a zero axis: never) */
+			s1 = 1, s2 = 0;
+		x->s1 = s1 < 0 ? 0 : s1 > n ? n + 1 : (int64_t)s1;
+		x->s2 = s2 > n ? n : s2 < 0 ? -1 : (int64_t)s2;
+		wA = 1, wd = 0;
+		wlo = -((RT)1 << 60), whi = (RT)1 << 60;
+	}
 	ST A = (ST)wA, d = (ST)wd, lo = (ST)wlo, hi = (ST)whi;
 	x->A = A < 0 ? -A : A;
-	if (A == 0) {
-		x->b = 0, x->d = d, x->lo = lo, x->hi = hi;
-		return 1;
-	}
 	if (A < 0) {
 		ST t = lo;
 		lo = -hi, hi = -t, d = -d;
@@ -144,10 +163,6 @@ static inline void RN(dda_at)(struct RN(dda) *x, const struct RN(dda) *x0,
 			      int64_t m)
 {
 	*x = *x0;
-	if (x->A == 0) {
-		x->b = x->d * m;
-		return;
-	}
 	x->q = RN(fdiv)(x->d * m, x->A);
 	x->r = x->d * m - x->q * x->A;
 }
@@ -155,26 +170,108 @@ static inline void RN(dda_at)(struct RN(dda) *x, const struct RN(dda) *x0,
 static inline void RN(dda_bound)(const struct RN(dda) *x, int64_t *k1,
 				 int64_t *k2)
 {
-	if (x->A == 0) {
-		if (x->b < x->lo || x->b > x->hi)
-			RN(clamp)(1, 0, k1, k2);
-		return;
-	}
 	RN(clamp)(x->ql - x->q + (x->rl > x->r), x->qh - x->q - (x->r > x->rh),
 		  k1, k2);
 }
 
 static inline void RN(dda_step)(struct RN(dda) *x)
 {
-	if (x->A == 0) {
-		x->b += x->d;
-		return;
-	}
 	x->r += x->dr;
 	ST over = -(ST)(x->r >= x->A);  /* no branch: rows toss coins */
 	x->r -= x->A & over;
 	x->q += x->dq - over;
 }
+
+/* The steps three stepping states all admit. */
+static inline void RN(dda_steps)(const struct RN(dda) x[3], int64_t *s1,
+				 int64_t *s2)
+{
+	*s1 = x[0].s1, *s2 = x[0].s2;
+	for (int k = 1; k < 3; k++) {
+		*s1 = x[k].s1 > *s1 ? x[k].s1 : *s1;
+		*s2 = x[k].s2 < *s2 ? x[k].s2 : *s2;
+	}
+}
+
+/* Three stepping states at once, bounding one range: *k1 and *k2 only
+ * narrow, to their exact intersection, which the caller finds empty when
+ * *k1 > *k2 (they are then not bounded). With ST = int64_t, in the lanes
+ * of a vector (the fourth bounds nothing): the three states of a row or a
+ * column cost a few vector instructions instead of some 100. */
+#ifdef RN_VEC
+typedef ST RN(v4) __attribute__((vector_size(4 * sizeof(ST))));
+struct RN(dda3) {
+	RN(v4) A, q, r, dq, dr, ql, rl, qh, rh;
+};
+
+static inline void RN(dda3_init)(struct RN(dda3) *g,
+				 const struct RN(dda) x[3])
+{
+	const ST big = (ST)1 << 60;
+	g->A = (RN(v4)){x[0].A, x[1].A, x[2].A, 1};
+	g->q = (RN(v4)){x[0].q, x[1].q, x[2].q, 0};
+	g->r = (RN(v4)){x[0].r, x[1].r, x[2].r, 0};
+	g->dq = (RN(v4)){x[0].dq, x[1].dq, x[2].dq, 0};
+	g->dr = (RN(v4)){x[0].dr, x[1].dr, x[2].dr, 0};
+	g->ql = (RN(v4)){x[0].ql, x[1].ql, x[2].ql, -big};
+	g->rl = (RN(v4)){x[0].rl, x[1].rl, x[2].rl, 0};
+	g->qh = (RN(v4)){x[0].qh, x[1].qh, x[2].qh, big};
+	g->rh = (RN(v4)){x[0].rh, x[1].rh, x[2].rh, 0};
+}
+
+static inline void RN(dda3_bound)(const struct RN(dda3) *g, int64_t *k1,
+				  int64_t *k2)
+{
+	/* a comparison is -1 where it holds */
+	RN(v4) c1 = g->ql - g->q - (g->rl > g->r);
+	RN(v4) c2 = g->qh - g->q + (g->r > g->rh);
+	RN(v4) s1 = __builtin_shuffle(c1, (RN(v4)){2, 3, 0, 1});
+	RN(v4) s2 = __builtin_shuffle(c2, (RN(v4)){2, 3, 0, 1});
+	RN(v4) m1 = c1 > s1, m2 = c2 < s2;
+	c1 = (c1 & m1) | (s1 & ~m1);
+	c2 = (c2 & m2) | (s2 & ~m2);
+	int64_t a = c1[0] > c1[1] ? c1[0] : c1[1];
+	int64_t b = c2[0] < c2[1] ? c2[0] : c2[1];
+	*k1 = a > *k1 ? a : *k1;
+	*k2 = b < *k2 ? b : *k2;
+}
+
+static inline void RN(dda3_step)(struct RN(dda3) *g)
+{
+	g->r += g->dr;
+	RN(v4) over = g->r >= g->A;
+	g->r -= g->A & over;
+	g->q += g->dq - over;
+}
+#else
+/* without vectors, the states that bound something (A != 0) */
+struct RN(dda3) {
+	struct RN(dda) x[3];
+	int n;
+};
+
+static inline void RN(dda3_init)(struct RN(dda3) *g,
+				 const struct RN(dda) x[3])
+{
+	g->n = 0;
+	for (int k = 0; k < 3; k++)
+		if (!x[k].noop)
+			g->x[g->n++] = x[k];
+}
+
+static inline void RN(dda3_bound)(const struct RN(dda3) *g, int64_t *k1,
+				  int64_t *k2)
+{
+	for (int k = 0; k < g->n; k++)
+		RN(dda_bound)(&g->x[k], k1, k2);
+}
+
+static inline void RN(dda3_step)(struct RN(dda3) *g)
+{
+	for (int k = 0; k < g->n; k++)
+		RN(dda_step)(&g->x[k]);
+}
+#endif
 
 /* The columns i..i1 of a row of a triangle whose blocks and per-v bounds
  * are tabled and whose plane is not degenerate (P > 0), w being axis W (a
@@ -355,13 +452,24 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	 * coordinates along w */
 	const int bricks = sink && tabled && e.tabled && wP != 0;
 	const int64_t ctoff = bricks ? vlo[w] - e.lo[2] : 0;
-	if (tabled)
+	/* the columns (v) and rows (u) that axes with A = 0 admit */
+	int64_t vs1, vs2, us1, us2, s1, s2;
+	RN(dda_steps)(dtv, &vs1, &vs2);
+	RN(dda_steps)(dcol, &us1, &us2);
+	RN(dda_steps)(dru, &s1, &s2);
+	us1 = s1 > us1 ? s1 : us1;
+	us2 = s2 < us2 ? s2 : us2;
+	if (tabled) {
+		struct RN(dda3) g;
+		RN(dda3_init)(&g, dtv);
 		for (int64_t i = 0; i < nv; i++) {
 			int64_t t1 = 0, t2 = kmax;
-			for (int k = 0; k < 3; k++) {
-				RN(dda_bound)(&dtv[k], &t1, &t2);
-				RN(dda_step)(&dtv[k]);
-			}
+			RN(dda3_bound)(&g, &t1, &t2);
+			RN(dda3_step)(&g);
+			/* empty: t1 > t2, within int32 */
+			t1 = i < vs1 || i > vs2 ? kmax + 1 : t1;
+			t1 = t1 > kmax + 1 ? kmax + 1 : t1;
+			t2 = t2 < -1 ? -1 : t2;
 			ct[i].lo = (int32_t)(t1 + ctoff);
 			ct[i].hi = (int32_t)(t2 + ctoff);
 			if (sink) {
@@ -372,10 +480,14 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 						      e.nbw - e.tb[2]);
 			}
 		}
+	}
 	/* brick_cols: the plane's thickness, and its step made >= 0 */
 	const ST Dq = (ST)pqh - (ST)pql - (prl > prh);
 	const ST Dr = prh - prl + (prl > prh ? P : 0);
 	const ST kd = dc < 0, dcp = dc < 0 ? dc + P : dc;
+	struct RN(dda3) gcol, gru;
+	RN(dda3_init)(&gcol, dcol);
+	RN(dda3_init)(&gru, dru);
 	int64_t p[3];
 	for (int64_t j = 0; j < nu; j++) {
 		const int64_t cu = vlo[u] + j;
@@ -386,13 +498,11 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			emit_row(&e, cu);
 		}
 		int64_t i0 = 0, i1 = nv - 1, r1 = 0, r2 = kmax;
-		for (int k = 0; k < 3; k++) {
-			RN(dda_bound)(&dcol[k], &i0, &i1);
-			RN(dda_step)(&dcol[k]);
-			RN(dda_bound)(&dru[k], &r1, &r2);
-			RN(dda_step)(&dru[k]);
-		}
-		if (i0 > i1 || r1 > r2)
+		RN(dda3_bound)(&gcol, &i0, &i1);
+		RN(dda3_step)(&gcol);
+		RN(dda3_bound)(&gru, &r1, &r2);
+		RN(dda3_step)(&gru);
+		if (i0 > i1 || r1 > r2 || j < us1 || j > us2)
 			continue;
 		p[v] = i0 * s;
 		/* the plane's exact range of k in the first column, and the
@@ -463,6 +573,8 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 					RN(dda_bound)(&dt[k], &w0, &w1);
 					RN(dda_step)(&dt[k]);
 				}
+				if (i < vs1 || i > vs2)
+					continue;
 			}
 			if (w0 > w1)
 				continue;

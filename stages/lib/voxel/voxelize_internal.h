@@ -53,6 +53,11 @@ void vd_raster_triangle_bricks(const struct vd_snapped_tri *t, int levels,
  * set it to 0 to exercise the untabled path. */
 extern int vd_raster_table_max;
 
+/* Whether small triangles take the rasterizer built for x86-64-v3 (AVX2)
+ * when the processor has it (1, the default): tests set 0 to compare the
+ * other with the brute-force reference too. */
+extern int vd_raster_simd;
+
 /* The most bytes voxelize keeps of a mesh's triangles between its passes
  * over the file (besides a sixteenth of the budget): tests set 0 (every
  * pass reads the file) or a size a mesh overflows midway. */
