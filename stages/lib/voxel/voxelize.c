@@ -951,6 +951,9 @@ struct run {
 	size_t mem_n;
 	struct tri_cache *mem_cache; /* holds mem_tris: dropped once the
 				      * cell is rasterized (tri_cache_done) */
+	int mem_once;            /* mem_tris are read once, in order (no
+				  * split cell): raster_bin releases them
+				  * as it goes */
 	struct vd_mesh *mesh;    /* for its textures (read only by now) */
 	uint64_t worker_bytes;   /* each worker's share of the budget */
 	struct cell_job *jobs;
@@ -997,6 +1000,17 @@ static void run_fail(struct run *r, int err)
 	}
 	atomic_store(&r->failed, 1);
 	pthread_mutex_unlock(&r->lock);
+}
+
+/* The one cell rasterized from memory is rasterized: its triangles
+ * (the terrain's: 50 MB) go before its bricks are written. */
+static void tri_cache_done(struct run *r)
+{
+	if (!r->mem_tris)
+		return;
+	tri_cache_drop(r->mem_cache);
+	r->mem_tris = NULL;
+	r->mem_n = 0;
 }
 
 /* Where a cell's blocks are: one worker's map, or, for a cell whose
@@ -1812,6 +1826,21 @@ static inline int tri_misses(const float v[3][3], const double wlo[3],
 	return miss;
 }
 
+/* Gives back the whole pages of mem_tris before triangle `at`, from
+ * *released (bytes) on: the last blocks of a cell are made while its first
+ * triangles are no longer needed, and the end of its rasterization is the
+ * run's peak (the terrain at 2^14: 50 MB of triangles beside 510 MB of
+ * blocks). The pages read as zeros after: nothing reads them again. */
+static void release_tris(const struct run *r, size_t at, uintptr_t *released)
+{
+	const uintptr_t page = 4096;
+	uintptr_t base = (uintptr_t)r->mem_tris;
+	uintptr_t lo = (base + *released + page - 1) & ~(page - 1);
+	uintptr_t hi = (base + at * sizeof *r->mem_tris) & ~(page - 1);
+	if (hi > lo && !madvise((void *)lo, hi - lo, MADV_DONTNEED))
+		*released = hi - base;
+}
+
 static size_t raster_batch(const struct run *r)
 {
 	return r->colours ? TRI_BATCH : RASTER_BATCH;
@@ -1857,6 +1886,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	const uint32_t kmax = shift > ksh ? (1u << (shift - ksh)) - 1 : 0;
 	int err = VD_OK;
 	size_t n, at = 0;
+	uintptr_t released = 0; /* bytes of mem_tris given back */
 	while (!err && !w->map.over) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		if (f) {
@@ -1906,6 +1936,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
 							  clip_hi, &sink);
 		}
+		if (r->mem_once && !f && !sel)
+			release_tris(r, at, &released);
 		if (!count)
 			continue;
 		/* progress inside a cell: large cells take minutes */
@@ -1950,6 +1982,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	char path[4096];
 	bin_path(path, sizeof path, r->outdir, cell);
 	int err = raster_bin(r, w, cell, path, NULL, 0, lo, hi, 1);
+	tri_cache_done(r); /* one cell: this one */
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
 	for (int k = 0; k < 8; k++)
@@ -2113,6 +2146,7 @@ static int split_cell(struct run *r, uint64_t cell)
 	}
 	select_octants(&sc);
 	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
+	tri_cache_done(r);
 	free(sc.sel);
 	sc.sel = NULL;
 	struct block_map *maps[8];
@@ -2472,6 +2506,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		 * triangle is inside the bounds' cube, as a bin would hold.) */
 		r.mem_tris = cache.t;
 		r.mem_n = cache.n;
+		r.mem_cache = &cache;
 		b.totals[0] = b.pairs = cache.n;
 		goto binned;
 	}
@@ -2563,6 +2598,7 @@ binned:
 			r.worker_bytes = (uint64_t)limit * block_cost;
 		}
 	}
+	r.mem_once = !split;
 	r.workers = calloc((size_t)nw, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");
