@@ -1384,7 +1384,35 @@ static int vd_ply_open(struct vd_mesh *m)
 		}
 		m->stats.vertices = ve->count;
 		int col = m->vfloats == 4;
-		for (uint64_t j = 0; j < ve->count; j++) {
+		/* the usual binary record, fixed size with float x y z and
+		 * no colours read: the floats are copied from their offsets,
+		 * without vd_ply_bin_item's walk over every property (most
+		 * of reading the terrain's 1.2M vertices) */
+		size_t off[3], at = 0;
+		int fast = m->kind == MESH_PLY_LE && ve->fixed && !col;
+		for (size_t q = 0; fast && q < ve->nprops; q++) {
+			int k = m->vslot[q];
+			if (k >= 0 && ve->props[q].type != PLY_F32)
+				fast = 0;
+			else if (k >= 0)
+				off[k] = at;
+			at += vd_ply_size[ve->props[q].type];
+		}
+		for (uint64_t j = 0; fast && j < ve->count; j++) {
+			float v[3];
+			struct vd_rd *r = &m->r;
+			if ((e = vd_rd_need(r, ve->min_bytes)))
+				return vd_ply_truncated(m, e, ve->name, j,
+							ve->count);
+			const unsigned char *p = r->buf + r->pos;
+			memcpy(&v[0], p + off[0], 4);
+			memcpy(&v[1], p + off[1], 4);
+			memcpy(&v[2], p + off[2], 4);
+			r->pos += ve->min_bytes;
+			if ((e = vd_mesh_push_vertex_rgb(m, v, NULL)))
+				return e;
+		}
+		for (uint64_t j = 0; !fast && j < ve->count; j++) {
 			float v[6];
 			uint8_t rgb[3];
 			if ((e = vd_ply_item(m, ve, v, 0, j)))
