@@ -864,6 +864,28 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		r->pos += el->min_bytes;
 		return VD_OK;
 	}
+	/* the usual face, alone in its element: a byte 3 and three 32-bit
+	 * indices in range, taken in one go (else the walk below, which
+	 * reads the same bytes and says what is wrong) */
+	if (face && !be && el->nprops == 1 && m->ilist == 0 &&
+	    (el->props[0].count == PLY_U8 || el->props[0].count == PLY_I8) &&
+	    (el->props[0].type == PLY_I32 || el->props[0].type == PLY_U32) &&
+	    m->poly_cap >= 3 && r->len - r->pos >= 13 &&
+	    r->buf[r->pos] == 3) {
+		uint32_t u[3];
+		memcpy(u, r->buf + r->pos + 1, sizeof u);
+		uint32_t top = el->props[0].type == PLY_I32 ? INT32_MAX
+							     : UINT32_MAX;
+		int ok = 1;
+		for (int k = 0; k < 3; k++)
+			ok &= u[k] <= top && u[k] < m->nverts;
+		if (ok) {
+			memcpy(m->poly, u, sizeof u);
+			m->poly_n = 3;
+			r->pos += 13;
+			return VD_OK;
+		}
+	}
 	for (size_t i = 0; i < el->nprops; i++) {
 		const struct vd_ply_prop *pr = &el->props[i];
 		size_t size = vd_ply_size[pr->type];
