@@ -58,10 +58,9 @@ enum {
 	 * per block (a block allocation cost as much as rasterizing it);
 	 * pages of a slab not yet used stay unmapped, so memory still
 	 * follows the blocks in use. Past SMALL_SLABS of them (8 MiB), a
-	 * slab is 2 MiB mapped whole (BIG_SLAB_BLOCKS): see slab_alloc. */
+	 * slab is mapped and made whole at once: see slab_alloc. */
 	SLAB_BLOCKS = 64,
 	SMALL_SLABS = 32,
-	BIG_SLAB_BLOCKS = 512,
 	MAP_RECENT = 512,                 /* block_map's recent[] */
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
@@ -751,26 +750,20 @@ static int map_grow(struct block_map *m)
 	return VD_OK;
 }
 
-/* Blocks in slab i: the first slabs small, so a map of a few blocks
- * stays small, then 2 MiB. */
-static size_t slab_blocks(size_t i)
-{
-	return i < SMALL_SLABS ? SLAB_BLOCKS : BIG_SLAB_BLOCKS;
-}
-
 /* Slab i, zeroed. A large cell's blocks are hundreds of MB, each page
  * faulted in once by the rasterizer's first store (the terrain at 2^14:
  * 130k blocks, 150k faults). From slab SMALL_SLABS on, a slab is its own
- * 2 MiB mapping, its pages made at once by one madvise: the kernel's
- * work a page stays, the trap a page goes (a sixth of the system time),
- * and blocks are page-aligned (a calloc'd slab spans one page more).
- * At most a slab's 2 MiB is held beyond the blocks in use. (Huge pages
+ * mapping, its pages made at once by one madvise: the kernel's work a
+ * page stays, the trap a page goes (a sixth of the system time), and
+ * blocks are page-aligned (a calloc'd slab spans one page more). At most
+ * a slab (256 KiB) is held beyond the blocks in use: 2 MiB slabs held
+ * up to 2 MiB more, 1.5% of the cruiser's peak at 2^12. (Huge pages
  * instead, MADV_HUGEPAGE, tripled the system time on this VM.) */
 static uint64_t *slab_alloc(size_t i)
 {
 	if (i < SMALL_SLABS)
 		return calloc((size_t)SLAB_BLOCKS * BLOCK_WORDS, sizeof(uint64_t));
-	size_t bytes = (size_t)BIG_SLAB_BLOCKS * BLOCK_BYTES;
+	size_t bytes = (size_t)SLAB_BLOCKS * BLOCK_BYTES;
 	char *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE,
 		       MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
 	if (p == MAP_FAILED)
@@ -786,7 +779,7 @@ static void slab_free(uint64_t *slab, size_t i)
 	if (i < SMALL_SLABS)
 		free(slab);
 	else if (slab)
-		munmap(slab, (size_t)BIG_SLAB_BLOCKS * BLOCK_BYTES);
+		munmap(slab, (size_t)SLAB_BLOCKS * BLOCK_BYTES);
 }
 
 /* A zeroed block: a spare one, or the next of the current slab. */
@@ -794,7 +787,7 @@ static uint64_t *map_new_block(struct block_map *m)
 {
 	if (m->nspare)
 		return m->spare[--m->nspare];
-	if (!m->nslabs || m->slab_used == slab_blocks(m->nslabs - 1)) {
+	if (!m->nslabs || m->slab_used == SLAB_BLOCKS) {
 		if (m->nslabs == m->slabs_cap) {
 			size_t cap = m->slabs_cap ? 2 * m->slabs_cap : 16;
 			uint64_t **sl = realloc(m->slabs, cap * sizeof *sl);
