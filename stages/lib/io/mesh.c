@@ -864,6 +864,28 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		r->pos += el->min_bytes;
 		return VD_OK;
 	}
+	/* the usual face, alone in its element: a byte 3 and three 32-bit
+	 * indices in range, taken in one go (else the walk below, which
+	 * reads the same bytes and says what is wrong) */
+	if (face && !be && el->nprops == 1 && m->ilist == 0 &&
+	    (el->props[0].count == PLY_U8 || el->props[0].count == PLY_I8) &&
+	    (el->props[0].type == PLY_I32 || el->props[0].type == PLY_U32) &&
+	    m->poly_cap >= 3 && r->len - r->pos >= 13 &&
+	    r->buf[r->pos] == 3) {
+		uint32_t u[3];
+		memcpy(u, r->buf + r->pos + 1, sizeof u);
+		uint32_t top = el->props[0].type == PLY_I32 ? INT32_MAX
+							     : UINT32_MAX;
+		int ok = 1;
+		for (int k = 0; k < 3; k++)
+			ok &= u[k] <= top && u[k] < m->nverts;
+		if (ok) {
+			memcpy(m->poly, u, sizeof u);
+			m->poly_n = 3;
+			r->pos += 13;
+			return VD_OK;
+		}
+	}
 	for (size_t i = 0; i < el->nprops; i++) {
 		const struct vd_ply_prop *pr = &el->props[i];
 		size_t size = vd_ply_size[pr->type];
@@ -1384,7 +1406,35 @@ static int vd_ply_open(struct vd_mesh *m)
 		}
 		m->stats.vertices = ve->count;
 		int col = m->vfloats == 4;
-		for (uint64_t j = 0; j < ve->count; j++) {
+		/* the usual binary record, fixed size with float x y z and
+		 * no colours read: the floats are copied from their offsets,
+		 * without vd_ply_bin_item's walk over every property (most
+		 * of reading the terrain's 1.2M vertices) */
+		size_t off[3], at = 0;
+		int fast = m->kind == MESH_PLY_LE && ve->fixed && !col;
+		for (size_t q = 0; fast && q < ve->nprops; q++) {
+			int k = m->vslot[q];
+			if (k >= 0 && ve->props[q].type != PLY_F32)
+				fast = 0;
+			else if (k >= 0)
+				off[k] = at;
+			at += vd_ply_size[ve->props[q].type];
+		}
+		for (uint64_t j = 0; fast && j < ve->count; j++) {
+			float v[3];
+			struct vd_rd *r = &m->r;
+			if ((e = vd_rd_need(r, ve->min_bytes)))
+				return vd_ply_truncated(m, e, ve->name, j,
+							ve->count);
+			const unsigned char *p = r->buf + r->pos;
+			memcpy(&v[0], p + off[0], 4);
+			memcpy(&v[1], p + off[1], 4);
+			memcpy(&v[2], p + off[2], 4);
+			r->pos += ve->min_bytes;
+			if ((e = vd_mesh_push_vertex_rgb(m, v, NULL)))
+				return e;
+		}
+		for (uint64_t j = 0; !fast && j < ve->count; j++) {
 			float v[6];
 			uint8_t rgb[3];
 			if ((e = vd_ply_item(m, ve, v, 0, j)))

@@ -40,6 +40,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <math.h>
@@ -56,8 +57,10 @@ enum {
 	/* Blocks are allocated in slabs: one calloc per 64 blocks, not one
 	 * per block (a block allocation cost as much as rasterizing it);
 	 * pages of a slab not yet used stay unmapped, so memory still
-	 * follows the blocks in use. */
+	 * follows the blocks in use. Past SMALL_SLABS of them (8 MiB), a
+	 * slab is mapped and made whole at once: see slab_alloc. */
 	SLAB_BLOCKS = 64,
+	SMALL_SLABS = 32,
 	MAP_RECENT = 512,                 /* block_map's recent[] */
 	WORKER_OVERHEAD = 8 << 20,        /* zstd, batches, stack */
 	/* With colours, a block's share also pays for its voxels' colour
@@ -195,20 +198,24 @@ static int bounds_batch(void *ctx, const struct vd_triangle *t,
 			const struct vd_tri_attr *attr, size_t n)
 {
 	struct bounds *b = ctx;
-	float lo[3], hi[3];
-	for (int a = 0; a < 3; a++) {
-		lo[a] = b->n ? b->lo[a] : t[0].v[0][a];
-		hi[a] = b->n ? b->hi[a] : t[0].v[0][a];
-	}
+	/* six scalars, not arrays indexed by axis: gcc kept those in
+	 * memory, 120 instructions a triangle */
+	const float *f = t[0].v[0];
+	float lx = b->n ? b->lo[0] : f[0], hx = b->n ? b->hi[0] : f[0];
+	float ly = b->n ? b->lo[1] : f[1], hy = b->n ? b->hi[1] : f[1];
+	float lz = b->n ? b->lo[2] : f[2], hz = b->n ? b->hi[2] : f[2];
 	for (size_t i = 0; i < n; i++)
-		for (int k = 0; k < 3; k++)
-			for (int a = 0; a < 3; a++) {
-				float v = t[i].v[k][a];
-				lo[a] = v < lo[a] ? v : lo[a];
-				hi[a] = v > hi[a] ? v : hi[a];
-			}
-	memcpy(b->lo, lo, sizeof lo);
-	memcpy(b->hi, hi, sizeof hi);
+		for (int k = 0; k < 3; k++) {
+			const float *v = t[i].v[k];
+			lx = v[0] < lx ? v[0] : lx;
+			hx = v[0] > hx ? v[0] : hx;
+			ly = v[1] < ly ? v[1] : ly;
+			hy = v[1] > hy ? v[1] : hy;
+			lz = v[2] < lz ? v[2] : lz;
+			hz = v[2] > hz ? v[2] : hz;
+		}
+	b->lo[0] = lx, b->lo[1] = ly, b->lo[2] = lz;
+	b->hi[0] = hx, b->hi[1] = hy, b->hi[2] = hz;
 	b->n += n;
 	return VD_OK;
 }
@@ -226,6 +233,9 @@ static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 			   int64_t lo[3], int64_t hi[3])
 {
 	const int64_t s = vd_snap_voxel(L), top = ((int64_t)1 << L) - 1;
+	/* s is 2^sh: shifts of the non-negative values, not six 64-bit
+	 * divisions a triangle (3% of the terrain's CPU at 2^14) */
+	const int sh = VD_SNAP_ROOT_BITS - L;
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
@@ -233,8 +243,8 @@ static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 			mx = t->v[k][a] > mx ? t->v[k][a] : mx;
 		}
 		/* closed voxels: i touches [i*s, (i+1)*s] */
-		lo[a] = (mn + s - 1 >= 0 ? (mn + s - 1) / s : -1) - 1;
-		hi[a] = mx >= 0 ? mx / s : -1;
+		lo[a] = (mn + s - 1 >= 0 ? (mn + s - 1) >> sh : -1) - 1;
+		hi[a] = mx >= 0 ? mx >> sh : -1;
 		lo[a] = lo[a] < 0 ? 0 : lo[a];
 		hi[a] = hi[a] > top ? top : hi[a];
 		if (lo[a] > hi[a])
@@ -414,7 +424,16 @@ static int estimate_sorted(struct estimate *e, uint64_t **keys, size_t *n)
 			k[m++] = e->blocks.slots[i] - 1;
 	free(e->blocks.slots);
 	e->blocks.slots = NULL;
-	qsort(k, m, sizeof *k, cmp_u64);
+	/* radix, on the bits the keys use: qsort's calls were most of it */
+	uint64_t all = 0;
+	for (size_t i = 0; i < m; i++)
+		all |= k[i];
+	uint64_t *tmp = m > 1 ? malloc(m * sizeof *tmp) : NULL;
+	if (tmp)
+		vd_sort_keys(k, tmp, m, 0, all ? 64 - __builtin_clzll(all) : 1);
+	else
+		qsort(k, m, sizeof *k, cmp_u64);
+	free(tmp);
 	*keys = k;
 	*n = m;
 	return VD_OK;
@@ -731,6 +750,38 @@ static int map_grow(struct block_map *m)
 	return VD_OK;
 }
 
+/* Slab i, zeroed. A large cell's blocks are hundreds of MB, each page
+ * faulted in once by the rasterizer's first store (the terrain at 2^14:
+ * 130k blocks, 150k faults). From slab SMALL_SLABS on, a slab is its own
+ * mapping, its pages made at once by one madvise: the kernel's work a
+ * page stays, the trap a page goes (a sixth of the system time), and
+ * blocks are page-aligned (a calloc'd slab spans one page more). At most
+ * a slab (256 KiB) is held beyond the blocks in use: 2 MiB slabs held
+ * up to 2 MiB more, 1.5% of the cruiser's peak at 2^12. (Huge pages
+ * instead, MADV_HUGEPAGE, tripled the system time on this VM.) */
+static uint64_t *slab_alloc(size_t i)
+{
+	if (i < SMALL_SLABS)
+		return calloc((size_t)SLAB_BLOCKS * BLOCK_WORDS, sizeof(uint64_t));
+	size_t bytes = (size_t)SLAB_BLOCKS * BLOCK_BYTES;
+	char *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE,
+		       MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+	if (p == MAP_FAILED)
+		return NULL;
+#ifdef MADV_POPULATE_WRITE
+	(void)madvise(p, bytes, MADV_POPULATE_WRITE);
+#endif
+	return (uint64_t *)p;
+}
+
+static void slab_free(uint64_t *slab, size_t i)
+{
+	if (i < SMALL_SLABS)
+		free(slab);
+	else if (slab)
+		munmap(slab, (size_t)SLAB_BLOCKS * BLOCK_BYTES);
+}
+
 /* A zeroed block: a spare one, or the next of the current slab. */
 static uint64_t *map_new_block(struct block_map *m)
 {
@@ -745,8 +796,7 @@ static uint64_t *map_new_block(struct block_map *m)
 			m->slabs = sl;
 			m->slabs_cap = cap;
 		}
-		uint64_t *slab = calloc((size_t)SLAB_BLOCKS * BLOCK_WORDS,
-					sizeof *slab);
+		uint64_t *slab = slab_alloc(m->nslabs);
 		if (!slab)
 			return NULL;
 		m->slabs[m->nslabs++] = slab;
@@ -833,7 +883,7 @@ static void map_free(struct block_map *m)
 {
 	map_reset(m);
 	for (size_t i = 0; i < m->nslabs; i++)
-		free(m->slabs[i]);
+		slab_free(m->slabs[i], i);
 	free(m->slabs);
 	free(m->spare);
 	free(m->keys);
@@ -896,6 +946,11 @@ struct run {
 	 * cell's triangles are read from there, and no bin is written */
 	const struct vd_triangle *mem_tris;
 	size_t mem_n;
+	struct tri_cache *mem_cache; /* holds mem_tris: dropped once the
+				      * cell is rasterized (tri_cache_done) */
+	int mem_once;            /* mem_tris are read once, in order (no
+				  * split cell): raster_bin releases them
+				  * as it goes */
 	struct vd_mesh *mesh;    /* for its textures (read only by now) */
 	uint64_t worker_bytes;   /* each worker's share of the budget */
 	struct cell_job *jobs;
@@ -944,6 +999,17 @@ static void run_fail(struct run *r, int err)
 	pthread_mutex_unlock(&r->lock);
 }
 
+/* The one cell rasterized from memory is rasterized: its triangles
+ * (the terrain's: 50 MB) go before its bricks are written. */
+static void tri_cache_done(struct run *r)
+{
+	if (!r->mem_tris)
+		return;
+	tri_cache_drop(r->mem_cache);
+	r->mem_tris = NULL;
+	r->mem_n = 0;
+}
+
 /* Where a cell's blocks are: one worker's map, or, for a cell whose
  * octants were rasterized by several workers (split_cell), the map of
  * the worker that did each octant (block key >> part_shift). */
@@ -952,16 +1018,34 @@ struct cell_blocks {
 	int part_shift;
 };
 
-struct key_ptr {
-	uint64_t key;
-	uint64_t *p;
-};
-
-static int cmp_key_ptr(const void *a, const void *b)
+/* Sorts keys k[0..n) and their pointers p[] by key (LSD radix, 8 bits a
+ * pass over the `bits` low bits), with tk[] and tp[] as long as them. */
+static void sort_key_ptrs(uint64_t *k, uint64_t **p, uint64_t *tk,
+			  uint64_t **tp, size_t n, int bits)
 {
-	uint64_t x = ((const struct key_ptr *)a)->key;
-	uint64_t y = ((const struct key_ptr *)b)->key;
-	return (x > y) - (x < y);
+	int odd = 0;
+	for (int sh = 0; sh < bits; sh += 8, odd ^= 1) {
+		size_t cnt[257] = {0};
+		for (size_t i = 0; i < n; i++)
+			cnt[(k[i] >> sh & 255) + 1]++;
+		for (int d = 0; d < 256; d++)
+			cnt[d + 1] += cnt[d];
+		for (size_t i = 0; i < n; i++) {
+			size_t j = cnt[k[i] >> sh & 255]++;
+			tk[j] = k[i];
+			tp[j] = p[i];
+		}
+		uint64_t *t = k;
+		k = tk;
+		tk = t;
+		uint64_t **u = p;
+		p = tp;
+		tp = u;
+	}
+	if (odd) { /* back into the caller's */
+		memcpy(tk, k, n * sizeof *k);
+		memcpy(tp, p, n * sizeof *p);
+	}
 }
 
 /* The keys of the blocks in maps[0..n), sorted (Morton order), into
@@ -985,21 +1069,24 @@ static int gather_blocks(struct worker *w, struct block_map *const *maps,
 			return vd_fail(VD_ERR_NOMEM, "block order");
 		w->order_cap = cap;
 	}
-	struct key_ptr *kp = malloc((total ? total : 1) * sizeof *kp);
-	if (!kp)
+	/* the sort's spare arrays: the size of the key_ptr pairs of before */
+	uint64_t *tk = malloc((total ? total : 1) * 2 * sizeof *tk);
+	if (!tk)
 		return vd_fail(VD_ERR_NOMEM, "block order");
 	size_t nb = 0;
+	uint64_t all = 0;
 	for (int k = 0; k < n; k++)
 		for (size_t i = 0; i < maps[k]->cap; i++)
-			if (maps[k]->keys[i])
-				kp[nb++] = (struct key_ptr){
-					maps[k]->keys[i] - 1, maps[k]->vals[i]};
-	qsort(kp, nb, sizeof *kp, cmp_key_ptr);
-	for (size_t i = 0; i < nb; i++) {
-		w->order[i] = kp[i].key;
-		w->bptr[i] = kp[i].p;
-	}
-	free(kp);
+			if (maps[k]->keys[i]) {
+				w->order[nb] = maps[k]->keys[i] - 1;
+				w->bptr[nb++] = maps[k]->vals[i];
+				all |= maps[k]->keys[i] - 1;
+			}
+	/* radix on the bits the keys use (keys are distinct: any sort
+	 * gives this order); qsort's calls cost more */
+	sort_key_ptrs(w->order, w->bptr, tk, (uint64_t **)(tk + nb), nb,
+		      all ? 64 - __builtin_clzll(all) : 0);
+	free(tk);
 	*nb_out = nb;
 	return VD_OK;
 }
@@ -1151,16 +1238,18 @@ static void nz_range(void *ctx, size_t k, int worker)
 		uint64_t *blk = nj->blk[i];
 		uint64_t *nz = nj->nz + 8 * i, c = 0;
 		/* the next block's lines on their way while this one is
-		 * scanned: blocks lie anywhere in the slabs, a page each, so
-		 * the hardware's prefetch starts late on every one */
-		if (i + 1 < end)
-			for (int o = 0; o < BLOCK_WORDS; o += 8)
-				__builtin_prefetch(nj->blk[i + 1] + o);
+		 * scanned, a line for each line read: blocks lie anywhere in
+		 * the slabs, a page each, so the hardware's prefetch starts
+		 * late on every one (the 64 prefetches issued at once before
+		 * the scan stalled on the full line buffers: a quarter of
+		 * nz_range's time) */
+		const uint64_t *next = i + 1 < end ? nj->blk[i + 1] : blk;
 		for (int q = 0; q < 8; q++) {
 			uint64_t bits = 0;
 			for (int j = 0; j < 64; j += 8) {
 				/* a line at a time: most are empty */
 				const uint64_t *l = blk + 64 * q + j;
+				__builtin_prefetch(next + 64 * q + j);
 				if (!(l[0] | l[1] | l[2] | l[3] | l[4] | l[5] |
 				      l[6] | l[7]))
 					continue;
@@ -1736,6 +1825,21 @@ static inline int tri_misses(const float v[3][3], const double wlo[3],
 	return miss;
 }
 
+/* Gives back the whole pages of mem_tris before triangle `at`, from
+ * *released (bytes) on: the last blocks of a cell are made while its first
+ * triangles are no longer needed, and the end of its rasterization is the
+ * run's peak (the terrain at 2^14: 50 MB of triangles beside 510 MB of
+ * blocks). The pages read as zeros after: nothing reads them again. */
+static void release_tris(const struct run *r, size_t at, uintptr_t *released)
+{
+	const uintptr_t page = 4096;
+	uintptr_t base = (uintptr_t)r->mem_tris;
+	uintptr_t lo = (base + *released + page - 1) & ~(page - 1);
+	uintptr_t hi = (base + at * sizeof *r->mem_tris) & ~(page - 1);
+	if (hi > lo && !madvise((void *)lo, hi - lo, MADV_DONTNEED))
+		*released = hi - base;
+}
+
 static size_t raster_batch(const struct run *r)
 {
 	return r->colours ? TRI_BATCH : RASTER_BATCH;
@@ -1781,6 +1885,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 	const uint32_t kmax = shift > ksh ? (1u << (shift - ksh)) - 1 : 0;
 	int err = VD_OK;
 	size_t n, at = 0;
+	uintptr_t released = 0; /* bytes of mem_tris given back */
 	while (!err && !w->map.over) {
 		const unsigned char *rb = (const unsigned char *)w->tris;
 		if (f) {
@@ -1830,6 +1935,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
 							  clip_hi, &sink);
 		}
+		if (r->mem_once && !f && !sel)
+			release_tris(r, at, &released);
 		if (!count)
 			continue;
 		/* progress inside a cell: large cells take minutes */
@@ -1874,6 +1981,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	char path[4096];
 	bin_path(path, sizeof path, r->outdir, cell);
 	int err = raster_bin(r, w, cell, path, NULL, 0, lo, hi, 1);
+	tri_cache_done(r); /* one cell: this one */
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
 	for (int k = 0; k < 8; k++)
@@ -2037,6 +2145,7 @@ static int split_cell(struct run *r, uint64_t cell)
 	}
 	select_octants(&sc);
 	int err = vd_parallel_for(8, r->nworkers, octant_task, &sc);
+	tri_cache_done(r);
 	free(sc.sel);
 	sc.sel = NULL;
 	struct block_map *maps[8];
@@ -2396,6 +2505,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		 * triangle is inside the bounds' cube, as a bin would hold.) */
 		r.mem_tris = cache.t;
 		r.mem_n = cache.n;
+		r.mem_cache = &cache;
 		b.totals[0] = b.pairs = cache.n;
 		goto binned;
 	}
@@ -2487,6 +2597,7 @@ binned:
 			r.worker_bytes = (uint64_t)limit * block_cost;
 		}
 	}
+	r.mem_once = !split;
 	r.workers = calloc((size_t)nw, sizeof *r.workers);
 	if (!r.workers) {
 		err = vd_fail(VD_ERR_NOMEM, "workers");
