@@ -424,16 +424,7 @@ static int estimate_sorted(struct estimate *e, uint64_t **keys, size_t *n)
 			k[m++] = e->blocks.slots[i] - 1;
 	free(e->blocks.slots);
 	e->blocks.slots = NULL;
-	/* radix, on the bits the keys use: qsort's calls were most of it */
-	uint64_t all = 0;
-	for (size_t i = 0; i < m; i++)
-		all |= k[i];
-	uint64_t *tmp = m > 1 ? malloc(m * sizeof *tmp) : NULL;
-	if (tmp)
-		vd_sort_keys(k, tmp, m, 0, all ? 64 - __builtin_clzll(all) : 1);
-	else
-		qsort(k, m, sizeof *k, cmp_u64);
-	free(tmp);
+	qsort(k, m, sizeof *k, cmp_u64);
 	*keys = k;
 	*n = m;
 	return VD_OK;
@@ -1018,34 +1009,16 @@ struct cell_blocks {
 	int part_shift;
 };
 
-/* Sorts keys k[0..n) and their pointers p[] by key (LSD radix, 8 bits a
- * pass over the `bits` low bits), with tk[] and tp[] as long as them. */
-static void sort_key_ptrs(uint64_t *k, uint64_t **p, uint64_t *tk,
-			  uint64_t **tp, size_t n, int bits)
+struct key_ptr {
+	uint64_t key;
+	uint64_t *p;
+};
+
+static int cmp_key_ptr(const void *a, const void *b)
 {
-	int odd = 0;
-	for (int sh = 0; sh < bits; sh += 8, odd ^= 1) {
-		size_t cnt[257] = {0};
-		for (size_t i = 0; i < n; i++)
-			cnt[(k[i] >> sh & 255) + 1]++;
-		for (int d = 0; d < 256; d++)
-			cnt[d + 1] += cnt[d];
-		for (size_t i = 0; i < n; i++) {
-			size_t j = cnt[k[i] >> sh & 255]++;
-			tk[j] = k[i];
-			tp[j] = p[i];
-		}
-		uint64_t *t = k;
-		k = tk;
-		tk = t;
-		uint64_t **u = p;
-		p = tp;
-		tp = u;
-	}
-	if (odd) { /* back into the caller's */
-		memcpy(tk, k, n * sizeof *k);
-		memcpy(tp, p, n * sizeof *p);
-	}
+	uint64_t x = ((const struct key_ptr *)a)->key;
+	uint64_t y = ((const struct key_ptr *)b)->key;
+	return (x > y) - (x < y);
 }
 
 /* The keys of the blocks in maps[0..n), sorted (Morton order), into
@@ -1069,24 +1042,21 @@ static int gather_blocks(struct worker *w, struct block_map *const *maps,
 			return vd_fail(VD_ERR_NOMEM, "block order");
 		w->order_cap = cap;
 	}
-	/* the sort's spare arrays: the size of the key_ptr pairs of before */
-	uint64_t *tk = malloc((total ? total : 1) * 2 * sizeof *tk);
-	if (!tk)
+	struct key_ptr *kp = malloc((total ? total : 1) * sizeof *kp);
+	if (!kp)
 		return vd_fail(VD_ERR_NOMEM, "block order");
 	size_t nb = 0;
-	uint64_t all = 0;
 	for (int k = 0; k < n; k++)
 		for (size_t i = 0; i < maps[k]->cap; i++)
-			if (maps[k]->keys[i]) {
-				w->order[nb] = maps[k]->keys[i] - 1;
-				w->bptr[nb++] = maps[k]->vals[i];
-				all |= maps[k]->keys[i] - 1;
-			}
-	/* radix on the bits the keys use (keys are distinct: any sort
-	 * gives this order); qsort's calls cost more */
-	sort_key_ptrs(w->order, w->bptr, tk, (uint64_t **)(tk + nb), nb,
-		      all ? 64 - __builtin_clzll(all) : 0);
-	free(tk);
+			if (maps[k]->keys[i])
+				kp[nb++] = (struct key_ptr){
+					maps[k]->keys[i] - 1, maps[k]->vals[i]};
+	qsort(kp, nb, sizeof *kp, cmp_key_ptr);
+	for (size_t i = 0; i < nb; i++) {
+		w->order[i] = kp[i].key;
+		w->bptr[i] = kp[i].p;
+	}
+	free(kp);
 	*nb_out = nb;
 	return VD_OK;
 }
