@@ -265,15 +265,13 @@ static __attribute__((noinline)) void emit_run_cold(struct brick_emit *e,
 
 int vd_raster_simd = 1;
 
+#if RASTER_V3
 /* 1 when small triangles take raster64v */
 static int raster_v3(void)
 {
-#if RASTER_V3
 	return vd_raster_simd && __builtin_cpu_supports("x86-64-v3");
-#else
-	return 0;
-#endif
 }
+#endif
 
 static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
 {
