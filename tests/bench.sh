@@ -34,7 +34,7 @@ run() { # run SCENE LEVELS BUDGET
 	awk -v sc="$scene" -v L="$L" -v l0="$(get chunk_level)" -v th="$threads" \
 		-v vox="$(get voxels)" -v t="$secs" -v tri="$(get triangles_read)" \
 		-v kb="$(cat "$OUT/time")" -v cores="$cores" 'BEGIN {
-		printf "%-26s %5d %5d %8d %12d %8.2f %14.0f %14.0f %10.0f\n",
+		printf "%-26s %5d %5d %8d %12.0f %8.2f %14.0f %14.0f %10.0f\n",
 			sc, L, l0, th, vox, t, tri / t, vox / t / (th < cores ? th : cores), kb / 1024 }'
 	rm -rf "$dir"
 }
@@ -69,7 +69,7 @@ scaling() { # scaling SCENE LEVELS
 	done
 	awk -v sc="$1" -v L="$2" -v vox="$vox" -v c="${cpu[1]}" -v w1="${wall[1]}" \
 		-v wn="${wall[$cores]}" -v load="$(cut -d' ' -f1 /proc/loadavg)" 'BEGIN {
-		printf "%-26s %3d %12d %9.2f %16.0f %9.2f %9.2f %7.2fx  %s\n",
+		printf "%-26s %3d %12.0f %9.2f %16.0f %9.2f %9.2f %7.2fx  %s\n",
 			sc, L, vox, c, vox / c, w1, wn, w1 / wn, load }'
 }
 scaling stanford_dragon.ply 14
@@ -81,7 +81,10 @@ scaling fg_terrain_reykjavik.ply 14
 # processes' seconds on one thread, voxels per second per core from them
 # (voxels over those seconds), the seconds on all cores and the speed-up;
 # the same for the whole pipeline's wall time; the largest process's peak
-# memory (all cores).
+# memory (all cores). A stage's seconds are its processes' summed, so a
+# stage of many processes (one per cell) shows a speed-up near 1 even
+# when they ran two at a time: its gain is in the pipeline's wall time.
+# Counts print with %.0f: mawk's %d stops at 2^31 - 1.
 pipeline_run() { # pipeline_run NAME MESH LEVELS JOBS -> out/NAME, wall s on stdout
 	local cfg=$OUT/$1.yaml
 	lossless_yaml "$1" "$2" "$3" auto \
@@ -108,7 +111,7 @@ pipeline() { # pipeline NAME SCENE LEVELS (SCENE: a file in $DATA, or a path)
 		{ printf "%-18s %-15s %5d procs %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx %8.0f MiB peak\n",
 			name, $2, $3, s1[$1], (s1[$1] > 0 ? vox / s1[$1] : 0), $4,
 			($4 > 0 ? s1[$1] / $4 : 0), $5 / 1048576 }
-		END { printf "%-18s %-15s %11s %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx   (wall; %d voxels, %d cores)\n",
+		END { printf "%-18s %-15s %11s %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx   (wall; %.0f voxels, %d cores)\n",
 			name, "(all)", "", w1, vox / w1, wn, w1 / wn, vox, cores }' \
 		"out/$name-j1/report.csv" "out/$name/report.csv"
 	sed -n '/Table 2/,/^SSVDAG\/SVDAG/p' "out/$name/report.md"
