@@ -24,6 +24,13 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+/* small triangles have a second build for x86-64-v3 (see raster64v) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define RASTER_V3 1
+#include <immintrin.h>
+#else
+#define RASTER_V3 0
+#endif
 
 typedef __int128 i128;
 
@@ -103,6 +110,29 @@ static const struct run_tab run_tabs[3] = {
 	  0x1000000000, 0x1000000000},
 	 {0, 0, 0, 0, 0x1, 0x11, 0x100000011, 0x1100000011},
 	 {0, 256, 2048, 2304, 16384, 16640, 18432, 18688}}};
+
+#if RASTER_V3
+/* For raster64v's quads of columns (brick_quads): a row's 4 columns of
+ * an aligned group of 4 along v and the 8 voxels of two groups of 4
+ * along w make two 16-bit planes (v, w) of two words, in the order of
+ * their bits in a word: Morton order of (v, w), w the low bit unless the
+ * Morton shift of v is lower (w = x). The table of a plane's order
+ * (w_low 0 or 1): runs[j], the bits of w = 0..j-1 in column 0 (w 4..7 in
+ * the high half), so a run a..b is runs[b + 1] - runs[a]; v[l], column
+ * l's shift. quad_m0[W]: the 16 bits of a word with u's bits 0, W the
+ * axis w, that a plane is deposited into (pdep). */
+struct quad_tab {
+	int32_t runs[9];
+	int32_t v[4];
+};
+static const struct quad_tab quad_tabs[2] = {
+	{{0x0, 0x1, 0x5, 0x105, 0x505, 0x10505, 0x50505, 0x1050505,
+	  0x5050505}, {0, 1, 4, 5}},
+	{{0x0, 0x1, 0x3, 0x13, 0x33, 0x10033, 0x30033, 0x130033, 0x330033},
+	 {0, 2, 8, 10}}};
+static const uint64_t quad_m0[3] = {0x333300003333, 0x55005500550055,
+				    0xf0f0f0f};
+#endif
 
 struct brick_emit {
 	struct vd_brick_sink *sink;
@@ -245,8 +275,7 @@ static __attribute__((noinline)) void emit_run_cold(struct brick_emit *e,
 /* Small triangles once more for x86-64-v3 (AVX2, BMI2): the stepping
  * states of rows and columns in vector lanes, shifts without the count
  * in cl. Chosen at run time, when the processor has it. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define RASTER_V3 1
+#if RASTER_V3
 #pragma GCC push_options
 #pragma GCC target("arch=x86-64-v3")
 #define RN_VEC
@@ -259,8 +288,6 @@ static __attribute__((noinline)) void emit_run_cold(struct brick_emit *e,
 #undef RN
 #undef RN_VEC
 #pragma GCC pop_options
-#else
-#define RASTER_V3 0
 #endif
 
 int vd_raster_simd = 1;

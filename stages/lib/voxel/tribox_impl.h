@@ -337,6 +337,149 @@ RN(brick_cols)(struct brick_emit *e, const struct col_tab *c,
 	}
 }
 
+#ifdef RN_VEC
+/* brick_quads's steps of the plane's range by m = 0..4 columns (from
+ * brick_cols's k1, e1): m dcp = P q[m] + r[m], 0 <= r[m] < P, so k1
+ * moves by m kd - q[m] - (e1 + r[m] >= P); in lanes, kq[m] = m kd -
+ * q[m] and rl[m] = r[m] (m < 4). */
+struct RN(quad) {
+	int64_t q[5], r[5];
+	__m256i rl;
+	__m128i kq;
+};
+
+static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd)
+{
+	qd->q[0] = 0, qd->r[0] = 0;
+	for (int m = 1; m <= 4; m++) {
+		ST r = qd->r[m - 1] + dcp, q = qd->q[m - 1];
+		if (r >= P)
+			r -= P, q++;
+		qd->q[m] = q, qd->r[m] = r;
+	}
+	qd->rl = _mm256_setr_epi64x(0, qd->r[1], qd->r[2], qd->r[3]);
+	qd->kq = _mm_setr_epi32(0, (int32_t)(kd - qd->q[1]),
+				(int32_t)(2 * kd - qd->q[2]),
+				(int32_t)(3 * kd - qd->q[3]));
+}
+
+/* brick_cols's columns i0..i1 four at a time: the aligned groups of 4
+ * columns along v (the cell's coordinate ov + i), which share their
+ * words of a block. A group's plane ranges come in int64 lanes (the
+ * remainders) and int32 lanes (the bounds, in the cell's coordinates
+ * along w: lo and hi, the per-v table, indexed from -4 to i1 + 3, r1 and
+ * r2 the row's); when the group's runs lie within two groups of 4
+ * voxels along w of one block (nearly always), their bits are two
+ * 16-bit planes (quad_tabs), deposited into their two words by pdep,
+ * else each column's run goes through emit_run. */
+static inline __attribute__((always_inline)) void
+RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
+		const struct RN(quad) *qd, int64_t i0, int64_t i1, ST k1,
+		ST e1, ST P, ST Dq, ST Dr, int64_t r1, int64_t r2, ST kd,
+		uint32_t ov, const int W)
+{
+	const int shw = 2 - W, shv = 2 - (W + 2) % 3;
+	const struct run_tab *rt = &run_tabs[shw];
+	const struct quad_tab *qt = &quad_tabs[shw < shv];
+	const __m256i ta = _mm256_loadu_si256((const __m256i *)qt->runs);
+	const __m256i tb = _mm256_loadu_si256((const __m256i *)(qt->runs + 1));
+	const __m128i pv = _mm_loadu_si128((const __m128i *)qt->v);
+	const uint32_t mu = e->mu, bu = e->lu >> 5;
+	const uint64_t masku = quad_m0[W] << (mu & 63);
+	uint64_t **const tab = e->tab + e->rowbase;
+	/* back to the group's first column (before i0: its lanes are
+	 * masked) */
+	const int64_t d = (ov + i0) & 3;
+	int64_t iq = i0 - d;
+	ST eb = e1 - qd->r[d];
+	ST neg = eb < 0;
+	eb += P & -neg;
+	ST kb = k1 - d * kd + qd->q[d] + neg;
+	const __m256i pm1 = _mm256_set1_epi64x(P - 1), pv4 = _mm256_set1_epi64x(P);
+	const __m256i drv = _mm256_set1_epi64x(Dr);
+	const __m256i pack = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+	const __m128i r1v = _mm_set1_epi32((int32_t)r1);
+	const __m128i r2v = _mm_set1_epi32((int32_t)r2);
+	const __m128i i0v = _mm_set1_epi32((int32_t)i0);
+	const __m128i i1v = _mm_set1_epi32((int32_t)i1);
+	const __m128i dqv = _mm_set1_epi32((int32_t)Dq);
+	const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
+	for (; iq <= i1; iq += 4) {
+		/* the lanes' remainders, reduced, and the range of k */
+		__m256i E = _mm256_add_epi64(_mm256_set1_epi64x(eb), qd->rl);
+		__m256i ge = _mm256_cmpgt_epi64(E, pm1);
+		E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
+		__m256i gt = _mm256_cmpgt_epi64(E, drv);
+		__m256i c = _mm256_permutevar8x32_epi32(
+			_mm256_blend_epi32(ge, gt, 0xaa), pack);
+		__m128i K1 = _mm_add_epi32(_mm_add_epi32(
+			_mm_set1_epi32((int32_t)kb), qd->kq),
+			_mm256_castsi256_si128(c));
+		__m128i K2 = _mm_add_epi32(_mm_add_epi32(K1, dqv),
+					   _mm256_extracti128_si256(c, 1));
+		{
+			ST ea = eb + qd->r[4];
+			ST over = ea >= P;
+			eb = ea - (P & -over);
+			kb += 4 * kd - qd->q[4] - over;
+		}
+		__m128i w0 = _mm_max_epi32(_mm_max_epi32(K1, r1v),
+			_mm_loadu_si128((const __m128i *)(lo + iq)));
+		__m128i w1 = _mm_min_epi32(_mm_min_epi32(K2, r2v),
+			_mm_loadu_si128((const __m128i *)(hi + iq)));
+		__m128i idx = _mm_add_epi32(_mm_set1_epi32((int32_t)iq), lane);
+		__m128i emp = _mm_or_si128(_mm_cmpgt_epi32(w0, w1),
+			_mm_or_si128(_mm_cmpgt_epi32(i0v, idx),
+				     _mm_cmpgt_epi32(idx, i1v)));
+		int em = _mm_movemask_ps(_mm_castsi128_ps(emp));
+		if (em == 15)
+			continue;
+		__m128i a = _mm_blendv_epi8(w0, _mm_set1_epi32(INT32_MAX), emp);
+		__m128i b = _mm_blendv_epi8(w1, _mm_set1_epi32(INT32_MIN), emp);
+		a = _mm_min_epi32(a, _mm_shuffle_epi32(a, 0x4e));
+		a = _mm_min_epi32(a, _mm_shuffle_epi32(a, 0xb1));
+		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0x4e));
+		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0xb1));
+		const uint32_t lw = (uint32_t)_mm_cvtsi128_si32(a) & ~3u;
+		const uint32_t lw1 = (uint32_t)_mm_cvtsi128_si32(b);
+		const uint32_t lv = ov + (uint32_t)iq;
+		/* past the two groups, or the second in the next block */
+		if (lw1 - lw > 7 || ((lw & 31) == 28 && lw1 - lw > 3)) {
+			int32_t x0[4], x1[4];
+			_mm_storeu_si128((__m128i *)x0, w0);
+			_mm_storeu_si128((__m128i *)x1, w1);
+			for (int l = 0; l < 4; l++)
+				if (!(em >> l & 1)) {
+					emit_run_cold(e, lv + l, (uint32_t)x0[l],
+						      (uint32_t)x1[l]);
+					if (e->stop)
+						return;
+				}
+			continue;
+		}
+		const __m256i lwv = _mm256_castsi128_si256(
+			_mm_set1_epi32((int32_t)lw));
+		__m128i m = _mm_sub_epi32(
+			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(tb,
+				_mm256_sub_epi32(_mm256_castsi128_si256(w1), lwv))),
+			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ta,
+				_mm256_sub_epi32(_mm256_castsi128_si256(w0), lwv))));
+		m = _mm_sllv_epi32(_mm_andnot_si128(emp, m), pv);
+		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0x4e));
+		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0xb1));
+		const uint32_t x = (uint32_t)_mm_cvtsi128_si32(m);
+		uint64_t **slot = &tab[(int32_t)(((lv >> 5) - e->tb[1]) * e->nbw -
+						 e->tb[2] + (lw >> 5))];
+		uint64_t *blk = *slot;
+		if (!blk && !(blk = emit_fetch(e, slot, bu, lv >> 5, lw >> 5)))
+			return;
+		const uint32_t mb = mu | (uint32_t)d5[lv & 31] << shv;
+		blk[(mb | rt->g[lw >> 2 & 7]) >> 6] |= _pdep_u64(x & 0xffff, masku);
+		blk[(mb | rt->g[((lw >> 2) + 1) & 7]) >> 6] |= _pdep_u64(x >> 16, masku);
+	}
+}
+#endif
+
 /* Rows of at most this many voxels have their per-v bounds tabled on the
  * stack, longer ones (up to vd_raster_table_max) on the heap; without a
  * table (or memory), a row steps them from its first column. */
@@ -452,6 +595,16 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	 * coordinates along w */
 	const int bricks = sink && tabled && e.tabled && wP != 0;
 	const int64_t ctoff = bricks ? vlo[w] - e.lo[2] : 0;
+#ifdef RN_VEC
+	/* brick_quads: the per-v bounds as two arrays, from -4 to nv + 3 */
+	const int quads = bricks && nv <= RN(VTAB);
+	int32_t qlo[RN(VTAB) + 8], qhi[RN(VTAB) + 8];
+	if (quads)
+		for (int k = 0; k < 4; k++) {
+			qlo[k] = qhi[k] = 0;
+			qlo[nv + 4 + k] = qhi[nv + 4 + k] = 0;
+		}
+#endif
 	/* the columns (v) and rows (u) that axes with A = 0 admit */
 	int64_t vs1, vs2, us1, us2, s1, s2;
 	RN(dda_steps)(dtv, &vs1, &vs2);
@@ -472,6 +625,10 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			t2 = t2 < -1 ? -1 : t2;
 			ct[i].lo = (int32_t)(t1 + ctoff);
 			ct[i].hi = (int32_t)(t2 + ctoff);
+#ifdef RN_VEC
+			qlo[i + 4] = ct[i].lo;
+			qhi[i + 4] = ct[i].hi;
+#endif
 			if (sink) {
 				uint32_t lv = (uint32_t)(vlo[v] - e.lo[1] + i);
 				ct[i].m = (uint32_t)d5[lv & 31] << e.sh[1];
@@ -485,6 +642,11 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	const ST Dq = (ST)pqh - (ST)pql - (prl > prh);
 	const ST Dr = prh - prl + (prl > prh ? P : 0);
 	const ST kd = dc < 0, dcp = dc < 0 ? dc + P : dc;
+#ifdef RN_VEC
+	struct RN(quad) qd;
+	if (quads)
+		RN(quad_init)(&qd, P, dcp, kd);
+#endif
 	struct RN(dda3) gcol, gru;
 	RN(dda3_init)(&gcol, dcol);
 	RN(dda3_init)(&gru, dru);
@@ -528,6 +690,24 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			const uint32_t ov = (uint32_t)(vlo[v] - e.lo[1]);
 			const struct col_tab *c = ct + i0, *cend = ct + i1;
 			k1 += ctoff, r1 += ctoff, r2 += ctoff;
+#ifdef RN_VEC
+			if (quads) {
+				const int32_t *ql = qlo + 4, *qh = qhi + 4;
+				if (w == 0)
+					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
+							e1, P, Dq, Dr, r1, r2, kd,
+							ov, 0);
+				else if (w == 1)
+					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
+							e1, P, Dq, Dr, r1, r2, kd,
+							ov, 1);
+				else
+					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
+							e1, P, Dq, Dr, r1, r2, kd,
+							ov, 2);
+				continue;
+			}
+#endif
 			if (w == 0 && kd)
 				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
 					       r1, r2, ct, ov, 0, 1);
