@@ -365,13 +365,14 @@ static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd)
 
 /* brick_cols's columns i0..i1 four at a time: the aligned groups of 4
  * columns along v (the cell's coordinate ov + i), which share their
- * words of a block. A group's plane ranges come in int64 lanes (the
- * remainders) and int32 lanes (the bounds, in the cell's coordinates
- * along w: lo and hi, the per-v table, indexed from -4 to i1 + 3, r1 and
- * r2 the row's); when the group's runs lie within two groups of 4
- * voxels along w of one block (nearly always), their bits are two
- * 16-bit planes (quad_tabs), deposited into their two words by pdep,
- * else each column's run goes through emit_run. */
+ * words of a block. Each lane steps its column's plane range by 4
+ * columns a group (remainders in int64 lanes, the rest in int32 lanes,
+ * in the cell's coordinates along w like lo and hi, the per-v table,
+ * indexed from -4 to i1 + 3, and r1 and r2, the row's). When the
+ * group's runs lie within two groups of 4 voxels along w (nearly
+ * always), their bits are two 16-bit planes (quad_tabs), deposited into
+ * their two words by pdep, else each column's run goes through
+ * emit_run. */
 static inline __attribute__((always_inline)) void
 RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 		const struct RN(quad) *qd, int64_t i0, int64_t i1, ST k1,
@@ -384,67 +385,74 @@ RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 	const __m256i ta = _mm256_loadu_si256((const __m256i *)qt->runs);
 	const __m256i tb = _mm256_loadu_si256((const __m256i *)(qt->runs + 1));
 	const __m128i pv = _mm_loadu_si128((const __m128i *)qt->v);
-	const uint32_t mu = e->mu, bu = e->lu >> 5;
+	const __m256i pack = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+	const uint32_t mu = e->mu, bu = e->lu >> 5, nbw = e->nbw;
 	const uint64_t masku = quad_m0[W] << (mu & 63);
-	uint64_t **const tab = e->tab + e->rowbase;
-	/* back to the group's first column (before i0: its lanes are
-	 * masked) */
+	/* the table's entry of block (v, w) of the row: ib + v nbw + w */
+	const int32_t ib = (int32_t)(e->rowbase - e->tb[1] * nbw - e->tb[2]);
+	/* the first group's lanes: l - d steps from column i0 (lanes before
+	 * i0 are masked, like those past i1) */
 	const int64_t d = (ov + i0) & 3;
 	int64_t iq = i0 - d;
 	ST eb = e1 - qd->r[d];
 	ST neg = eb < 0;
 	eb += P & -neg;
-	ST kb = k1 - d * kd + qd->q[d] + neg;
-	const __m256i pm1 = _mm256_set1_epi64x(P - 1), pv4 = _mm256_set1_epi64x(P);
+	const ST kb = k1 - d * kd + qd->q[d] + neg;
+	const __m256i pm1 = _mm256_set1_epi64x(P - 1);
+	const __m256i pv4 = _mm256_set1_epi64x(P);
 	const __m256i drv = _mm256_set1_epi64x(Dr);
-	const __m256i pack = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+	const __m256i r4v = _mm256_set1_epi64x(qd->r[4]);
+	const __m128i kq4 = _mm_set1_epi32((int32_t)(4 * kd - qd->q[4]));
 	const __m128i r1v = _mm_set1_epi32((int32_t)r1);
 	const __m128i r2v = _mm_set1_epi32((int32_t)r2);
-	const __m128i i0v = _mm_set1_epi32((int32_t)i0);
-	const __m128i i1v = _mm_set1_epi32((int32_t)i1);
 	const __m128i dqv = _mm_set1_epi32((int32_t)Dq);
-	const __m128i lane = _mm_setr_epi32(0, 1, 2, 3);
+	/* lane l's column less i0, and i1 - i0, both biased by 2^31 so that
+	 * one signed comparison finds the lanes outside i0..i1 */
+	const __m128i four = _mm_set1_epi32(4);
+	const __m128i nlim = _mm_set1_epi32((int32_t)((uint32_t)(i1 - i0) ^
+						     0x80000000u));
+	__m128i tv = _mm_add_epi32(_mm_setr_epi32(0, 1, 2, 3),
+				   _mm_set1_epi32((int32_t)(0x80000000u -
+							    (uint32_t)d)));
+	/* lane l's remainder, reduced, and k1 */
+	__m256i E = _mm256_add_epi64(_mm256_set1_epi64x(eb), qd->rl);
+	__m256i ge = _mm256_cmpgt_epi64(E, pm1);
+	E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
+	__m128i K1 = _mm_add_epi32(_mm_add_epi32(_mm_set1_epi32((int32_t)kb),
+						 qd->kq),
+		_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge, pack)));
 	for (; iq <= i1; iq += 4) {
-		/* the lanes' remainders, reduced, and the range of k */
-		__m256i E = _mm256_add_epi64(_mm256_set1_epi64x(eb), qd->rl);
-		__m256i ge = _mm256_cmpgt_epi64(E, pm1);
-		E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
 		__m256i gt = _mm256_cmpgt_epi64(E, drv);
-		__m256i c = _mm256_permutevar8x32_epi32(
-			_mm256_blend_epi32(ge, gt, 0xaa), pack);
-		__m128i K1 = _mm_add_epi32(_mm_add_epi32(
-			_mm_set1_epi32((int32_t)kb), qd->kq),
-			_mm256_castsi256_si128(c));
 		__m128i K2 = _mm_add_epi32(_mm_add_epi32(K1, dqv),
-					   _mm256_extracti128_si256(c, 1));
-		{
-			ST ea = eb + qd->r[4];
-			ST over = ea >= P;
-			eb = ea - (P & -over);
-			kb += 4 * kd - qd->q[4] - over;
-		}
+			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(gt,
+									 pack)));
 		__m128i w0 = _mm_max_epi32(_mm_max_epi32(K1, r1v),
 			_mm_loadu_si128((const __m128i *)(lo + iq)));
 		__m128i w1 = _mm_min_epi32(_mm_min_epi32(K2, r2v),
 			_mm_loadu_si128((const __m128i *)(hi + iq)));
-		__m128i idx = _mm_add_epi32(_mm_set1_epi32((int32_t)iq), lane);
 		__m128i emp = _mm_or_si128(_mm_cmpgt_epi32(w0, w1),
-			_mm_or_si128(_mm_cmpgt_epi32(i0v, idx),
-				     _mm_cmpgt_epi32(idx, i1v)));
+					   _mm_cmpgt_epi32(tv, nlim));
+		/* the next group */
+		tv = _mm_add_epi32(tv, four);
+		E = _mm256_add_epi64(E, r4v);
+		ge = _mm256_cmpgt_epi64(E, pm1);
+		E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
+		K1 = _mm_add_epi32(_mm_add_epi32(K1, kq4),
+			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge,
+									 pack)));
 		int em = _mm_movemask_ps(_mm_castsi128_ps(emp));
 		if (em == 15)
 			continue;
-		__m128i a = _mm_blendv_epi8(w0, _mm_set1_epi32(INT32_MAX), emp);
-		__m128i b = _mm_blendv_epi8(w1, _mm_set1_epi32(INT32_MIN), emp);
-		a = _mm_min_epi32(a, _mm_shuffle_epi32(a, 0x4e));
-		a = _mm_min_epi32(a, _mm_shuffle_epi32(a, 0xb1));
+		/* the runs' first and last w, empty lanes aside (w >= 0) */
+		__m128i a = _mm_or_si128(w0, emp), b = _mm_andnot_si128(emp, w1);
+		a = _mm_min_epu32(a, _mm_shuffle_epi32(a, 0x4e));
+		a = _mm_min_epu32(a, _mm_shuffle_epi32(a, 0xb1));
 		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0x4e));
 		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0xb1));
 		const uint32_t lw = (uint32_t)_mm_cvtsi128_si32(a) & ~3u;
 		const uint32_t lw1 = (uint32_t)_mm_cvtsi128_si32(b);
 		const uint32_t lv = ov + (uint32_t)iq;
-		/* past the two groups, or the second in the next block */
-		if (lw1 - lw > 7 || ((lw & 31) == 28 && lw1 - lw > 3)) {
+		if (lw1 - lw > 7) {
 			int32_t x0[4], x1[4];
 			_mm_storeu_si128((__m128i *)x0, w0);
 			_mm_storeu_si128((__m128i *)x1, w1);
@@ -468,14 +476,23 @@ RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0x4e));
 		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0xb1));
 		const uint32_t x = (uint32_t)_mm_cvtsi128_si32(m);
-		uint64_t **slot = &tab[(int32_t)(((lv >> 5) - e->tb[1]) * e->nbw -
-						 e->tb[2] + (lw >> 5))];
-		uint64_t *blk = *slot;
+		uint64_t **slot = &e->tab[ib + (int32_t)((lv >> 5) * nbw +
+							 (lw >> 5))];
+		uint64_t *blk = *slot, *blk2;
 		if (!blk && !(blk = emit_fetch(e, slot, bu, lv >> 5, lw >> 5)))
+			return;
+		/* the second group: in the next block past w = 31 (when it
+		 * has no voxels, an OR of 0 into the first group's block) */
+		blk2 = blk;
+		if ((lw & 31) == 28 && lw1 - lw > 3 &&
+		    !(blk2 = slot[1]) &&
+		    !(blk2 = emit_fetch(e, slot + 1, bu, lv >> 5,
+					(lw >> 5) + 1)))
 			return;
 		const uint32_t mb = mu | (uint32_t)d5[lv & 31] << shv;
 		blk[(mb | rt->g[lw >> 2 & 7]) >> 6] |= _pdep_u64(x & 0xffff, masku);
-		blk[(mb | rt->g[((lw >> 2) + 1) & 7]) >> 6] |= _pdep_u64(x >> 16, masku);
+		blk2[(mb | rt->g[((lw >> 2) + 1) & 7]) >> 6] |=
+			_pdep_u64(x >> 16, masku);
 	}
 }
 #endif
@@ -623,12 +640,15 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			t1 = i < vs1 || i > vs2 ? kmax + 1 : t1;
 			t1 = t1 > kmax + 1 ? kmax + 1 : t1;
 			t2 = t2 < -1 ? -1 : t2;
+#ifdef RN_VEC
+			if (quads) {
+				qlo[i + 4] = (int32_t)(t1 + ctoff);
+				qhi[i + 4] = (int32_t)(t2 + ctoff);
+				continue;
+			}
+#endif
 			ct[i].lo = (int32_t)(t1 + ctoff);
 			ct[i].hi = (int32_t)(t2 + ctoff);
-#ifdef RN_VEC
-			qlo[i + 4] = ct[i].lo;
-			qhi[i + 4] = ct[i].hi;
-#endif
 			if (sink) {
 				uint32_t lv = (uint32_t)(vlo[v] - e.lo[1] + i);
 				ct[i].m = (uint32_t)d5[lv & 31] << e.sh[1];
