@@ -346,9 +346,13 @@ struct RN(quad) {
 	int64_t q[5], r[5];
 	__m256i rl;
 	__m128i kq;
+	/* broadcast: P - 1, P, Dr, r[4]; 4 kd - q[4], Dq */
+	__m256i pm1, p, dr, r4;
+	__m128i kq4, dq;
 };
 
-static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd)
+static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd, ST Dq,
+			  ST Dr)
 {
 	qd->q[0] = 0, qd->r[0] = 0;
 	for (int m = 1; m <= 4; m++) {
@@ -361,6 +365,12 @@ static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd)
 	qd->kq = _mm_setr_epi32(0, (int32_t)(kd - qd->q[1]),
 				(int32_t)(2 * kd - qd->q[2]),
 				(int32_t)(3 * kd - qd->q[3]));
+	qd->pm1 = _mm256_set1_epi64x(P - 1);
+	qd->p = _mm256_set1_epi64x(P);
+	qd->dr = _mm256_set1_epi64x(Dr);
+	qd->r4 = _mm256_set1_epi64x(qd->r[4]);
+	qd->kq4 = _mm_set1_epi32((int32_t)(4 * kd - qd->q[4]));
+	qd->dq = _mm_set1_epi32((int32_t)Dq);
 }
 
 /* brick_cols's columns i0..i1 four at a time: the aligned groups of 4
@@ -376,7 +386,7 @@ static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd)
 static inline __attribute__((always_inline)) void
 RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 		const struct RN(quad) *qd, int64_t i0, int64_t i1, ST k1,
-		ST e1, ST P, ST Dq, ST Dr, int64_t r1, int64_t r2, ST kd,
+		ST e1, ST P, int64_t r1, int64_t r2, ST kd,
 		uint32_t ov, const int W)
 {
 	const int shw = 2 - W, shv = 2 - (W + 2) % 3;
@@ -398,14 +408,10 @@ RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 	ST neg = eb < 0;
 	eb += P & -neg;
 	const ST kb = k1 - d * kd + qd->q[d] + neg;
-	const __m256i pm1 = _mm256_set1_epi64x(P - 1);
-	const __m256i pv4 = _mm256_set1_epi64x(P);
-	const __m256i drv = _mm256_set1_epi64x(Dr);
-	const __m256i r4v = _mm256_set1_epi64x(qd->r[4]);
-	const __m128i kq4 = _mm_set1_epi32((int32_t)(4 * kd - qd->q[4]));
+	const __m256i pm1 = qd->pm1, pv4 = qd->p, drv = qd->dr, r4v = qd->r4;
+	const __m128i kq4 = qd->kq4, dqv = qd->dq;
 	const __m128i r1v = _mm_set1_epi32((int32_t)r1);
 	const __m128i r2v = _mm_set1_epi32((int32_t)r2);
-	const __m128i dqv = _mm_set1_epi32((int32_t)Dq);
 	/* lane l's column less i0, and i1 - i0, both biased by 2^31 so that
 	 * one signed comparison finds the lanes outside i0..i1 */
 	const __m128i four = _mm_set1_epi32(4);
@@ -665,7 +671,7 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 #ifdef RN_VEC
 	struct RN(quad) qd;
 	if (quads)
-		RN(quad_init)(&qd, P, dcp, kd);
+		RN(quad_init)(&qd, P, dcp, kd, Dq, Dr);
 #endif
 	struct RN(dda3) gcol, gru;
 	RN(dda3_init)(&gcol, dcol);
@@ -689,7 +695,7 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		p[v] = i0 * s;
 		/* the plane's exact range of k in the first column, and the
 		 * slack e1 = c + P*k1 - pl, e2 = ph - c - P*k2 in [0, P) */
-		ST k1 = 0, k2 = kmax, e1 = 0, e2 = 0;
+		ST k1 = 0, k2 = kmax, e1 = 0, e2 = 0, rc = 0;
 		if (P != 0) {
 			/* g is c / P within (nu + nv) 2^-50, so
 			 * floor(g - 1/2) is qc or qc - 1 */
@@ -700,11 +706,11 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			RT wrc = c - (RT)qc * wP;
 			if (wrc >= wP)
 				wrc -= wP, qc++;
-			ST rc = (ST)wrc;
+			rc = (ST)wrc;
 			k1 = (ST)pql - qc + (prl > rc);
-			k2 = (ST)pqh - qc - (rc > prh);
 			e1 = rc - prl + (prl > rc ? P : 0);
-			e2 = prh - rc + (rc > prh ? P : 0);
+			/* (k2 and e2 below: brick_cols does without) */
+			k2 = (ST)pqh - qc;
 		}
 		if (bricks) {
 			const uint32_t ov = (uint32_t)(vlo[v] - e.lo[1]);
@@ -715,15 +721,15 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				const int32_t *ql = qlo + 4, *qh = qhi + 4;
 				if (w == 0)
 					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, Dq, Dr, r1, r2, kd,
+							e1, P, r1, r2, kd,
 							ov, 0);
 				else if (w == 1)
 					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, Dq, Dr, r1, r2, kd,
+							e1, P, r1, r2, kd,
 							ov, 1);
 				else
 					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, Dq, Dr, r1, r2, kd,
+							e1, P, r1, r2, kd,
 							ov, 2);
 				continue;
 			}
@@ -747,6 +753,10 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				RN(brick_cols)(&e, c, cend, k1, e1, P, dcp, Dq, Dr,
 					       r1, r2, ct, ov, 2, 0);
 			continue;
+		}
+		if (P != 0) {
+			k2 -= rc > prh;
+			e2 = prh - rc + (rc > prh ? P : 0);
 		}
 		struct RN(dda) dt[3];
 		if (!tabled)
