@@ -373,115 +373,171 @@ static void RN(quad_init)(struct RN(quad) *qd, ST P, ST dcp, ST kd, ST Dq,
 	qd->dq = _mm_set1_epi32((int32_t)Dq);
 }
 
-/* brick_cols's columns i0..i1 four at a time: the aligned groups of 4
- * columns along v (the cell's coordinate ov + i), which share their
- * words of a block. Each lane steps its column's plane range by 4
- * columns a group (remainders in int64 lanes, the rest in int32 lanes,
- * in the cell's coordinates along w like lo and hi, the per-v table,
- * indexed from -4 to i1 + 3, and r1 and r2, the row's). When the
- * group's runs lie within two groups of 4 voxels along w (nearly
- * always), their bits are two 16-bit planes (quad_tabs), deposited into
- * their two words by pdep, else each column's run goes through
- * emit_run. */
+/* A row for brick_quads: its columns i0..i1, its range r1..r2 of w,
+ * and the plane's k1, e1 in its column i0 (all along w in the cell's
+ * coordinates, like brick_cols's); cu its coordinate along u. */
+struct RN(qrow) {
+	int64_t i0, i1, r1, r2, cu;
+	ST k1, e1;
+};
+
+/* Row r's lanes at the group of columns iq0 (iq0 <= i0, aligned): the
+ * plane's reduced remainders in int64 lanes, k1 in int32 lanes. */
+static inline __attribute__((always_inline)) void
+RN(quad_start)(const struct RN(quad) *qd, const struct RN(qrow) *r,
+	       int64_t iq0, uint32_t ov, ST P, ST kd, __m256i *E, __m128i *K1)
+{
+	const __m256i pack = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+	/* back to r's first group (d columns), then by whole groups */
+	const int64_t d = (ov + r->i0) & 3;
+	ST eb = r->e1 - qd->r[d];
+	ST neg = eb < 0;
+	eb += P & -neg;
+	ST kb = r->k1 - d * kd + qd->q[d] + neg;
+	for (int64_t iq = r->i0 - d; iq > iq0; iq -= 4) {
+		eb -= qd->r[4];
+		neg = eb < 0;
+		eb += P & -neg;
+		kb -= 4 * kd - qd->q[4] - neg;
+	}
+	__m256i e4 = _mm256_add_epi64(_mm256_set1_epi64x(eb), qd->rl);
+	__m256i ge = _mm256_cmpgt_epi64(e4, qd->pm1);
+	*E = _mm256_sub_epi64(e4, _mm256_and_si256(ge, qd->p));
+	*K1 = _mm_add_epi32(_mm_add_epi32(_mm_set1_epi32((int32_t)kb), qd->kq),
+		_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge, pack)));
+}
+
+/* brick_cols's columns, four at a time, of row a and of row b (NULL:
+ * none), its neighbour in the same aligned pair along u, so that they
+ * share their words: the aligned groups of 4 columns along v (the cell's
+ * coordinate ov + i), which share their words of a block. In 8 int32
+ * lanes (a's 4, then b's; the plane's remainders in two int64 vectors)
+ * each column's range of w, stepped by 4 columns a group, bounded by the
+ * per-v table lo, hi (indexed from -4 to the last i1 + 3). When the runs
+ * of a group lie within two groups of 4 voxels along w (nearly always),
+ * each row's bits are two 16-bit planes (quad_tabs), deposited by pdep
+ * into the two words; else each column's run goes through emit_run. */
 static inline __attribute__((always_inline)) void
 RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
-		const struct RN(quad) *qd, int64_t i0, int64_t i1, ST k1,
-		ST e1, ST P, int64_t r1, int64_t r2, ST kd,
-		uint32_t ov, const int W)
+		const struct RN(quad) *qd, const struct RN(qrow) *a,
+		const struct RN(qrow) *b, ST P, ST kd, uint32_t ov,
+		const int W)
 {
 	const int shw = 2 - W, shv = 2 - (W + 2) % 3;
 	const struct run_tab *rt = &run_tabs[shw];
 	const struct quad_tab *qt = &quad_tabs[shw < shv];
 	const __m256i ta = _mm256_loadu_si256((const __m256i *)qt->runs);
 	const __m256i tb = _mm256_loadu_si256((const __m256i *)(qt->runs + 1));
-	const __m128i pv = _mm_loadu_si128((const __m128i *)qt->v);
+	const __m256i pv = _mm256_broadcastsi128_si256(
+		_mm_loadu_si128((const __m128i *)qt->v));
 	const __m256i pack = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-	const uint32_t mu = e->mu, bu = e->lu >> 5, nbw = e->nbw;
-	const uint64_t masku = quad_m0[W] << (mu & 63);
-	/* the table's entry of block (v, w) of the row: ib + v nbw + w */
+	const struct RN(qrow) *rb = b ? b : a;
+	emit_row(e, a->cu);
+	const uint32_t mua = e->mu, bu = e->lu >> 5, nbw = e->nbw;
+	const uint32_t mub = (uint32_t)d5[(uint32_t)(rb->cu - e->lo[0]) & 31]
+			     << e->sh[0];
+	const uint64_t ma = quad_m0[W] << (mua & 63);
+	const uint64_t mb_ = b ? quad_m0[W] << (mub & 63) : 0;
+	/* the table's entry of block (v, w) of the rows: ib + v nbw + w */
 	const int32_t ib = (int32_t)(e->rowbase - e->tb[1] * nbw - e->tb[2]);
-	/* the first group's lanes: l - d steps from column i0 (lanes before
-	 * i0 are masked, like those past i1) */
-	const int64_t d = (ov + i0) & 3;
-	int64_t iq = i0 - d;
-	ST eb = e1 - qd->r[d];
-	ST neg = eb < 0;
-	eb += P & -neg;
-	const ST kb = k1 - d * kd + qd->q[d] + neg;
+	/* the first group: both rows' lanes before their i0 are masked,
+	 * like those past their i1 */
+	int64_t iq = a->i0 < rb->i0 ? a->i0 : rb->i0;
+	iq -= (ov + iq) & 3;
+	const int64_t iend = a->i1 > rb->i1 ? a->i1 : rb->i1;
+	__m256i Ea, Eb;
+	__m128i Ka, Kb;
+	RN(quad_start)(qd, a, iq, ov, P, kd, &Ea, &Ka);
+	RN(quad_start)(qd, rb, iq, ov, P, kd, &Eb, &Kb);
+	__m256i K1 = _mm256_setr_m128i(Ka, Kb);
 	const __m256i pm1 = qd->pm1, pv4 = qd->p, drv = qd->dr, r4v = qd->r4;
-	const __m128i kq4 = qd->kq4, dqv = qd->dq;
-	const __m128i r1v = _mm_set1_epi32((int32_t)r1);
-	const __m128i r2v = _mm_set1_epi32((int32_t)r2);
-	/* lane l's column less i0, and i1 - i0, both biased by 2^31 so that
-	 * one signed comparison finds the lanes outside i0..i1 */
-	const __m128i four = _mm_set1_epi32(4);
-	const __m128i nlim = _mm_set1_epi32((int32_t)((uint32_t)(i1 - i0) ^
-						     0x80000000u));
-	__m128i tv = _mm_add_epi32(_mm_setr_epi32(0, 1, 2, 3),
-				   _mm_set1_epi32((int32_t)(0x80000000u -
-							    (uint32_t)d)));
-	/* lane l's remainder, reduced, and k1 */
-	__m256i E = _mm256_add_epi64(_mm256_set1_epi64x(eb), qd->rl);
-	__m256i ge = _mm256_cmpgt_epi64(E, pm1);
-	E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
-	__m128i K1 = _mm_add_epi32(_mm_add_epi32(_mm_set1_epi32((int32_t)kb),
-						 qd->kq),
-		_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge, pack)));
-	for (; iq <= i1; iq += 4) {
-		__m256i gt = _mm256_cmpgt_epi64(E, drv);
-		__m128i K2 = _mm_add_epi32(_mm_add_epi32(K1, dqv),
-			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(gt,
-									 pack)));
-		__m128i w0 = _mm_max_epi32(_mm_max_epi32(K1, r1v),
-			_mm_loadu_si128((const __m128i *)(lo + iq)));
-		__m128i w1 = _mm_min_epi32(_mm_min_epi32(K2, r2v),
-			_mm_loadu_si128((const __m128i *)(hi + iq)));
-		__m128i emp = _mm_or_si128(_mm_cmpgt_epi32(w0, w1),
-					   _mm_cmpgt_epi32(tv, nlim));
+	const __m256i kq4 = _mm256_broadcastsi128_si256(qd->kq4);
+	const __m256i dqv = _mm256_broadcastsi128_si256(qd->dq);
+	/* without b, its lanes are empty: r1 > r2 */
+	const __m256i r1v = _mm256_setr_m128i(_mm_set1_epi32((int32_t)a->r1),
+		_mm_set1_epi32(b ? (int32_t)b->r1 : INT32_MAX));
+	const __m256i r2v = _mm256_setr_m128i(_mm_set1_epi32((int32_t)a->r2),
+		_mm_set1_epi32(b ? (int32_t)b->r2 : -1));
+	/* lane l's column less its row's i0, and i1 - i0, both biased by
+	 * 2^31 so that one signed comparison finds the lanes outside
+	 * i0..i1 */
+	const __m256i four = _mm256_set1_epi32(4);
+	const __m256i nlim = _mm256_setr_m128i(
+		_mm_set1_epi32((int32_t)((uint32_t)(a->i1 - a->i0) ^ 0x80000000u)),
+		_mm_set1_epi32((int32_t)((uint32_t)(rb->i1 - rb->i0) ^
+					 0x80000000u)));
+	__m256i tv = _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3),
+		_mm256_setr_m128i(
+			_mm_set1_epi32((int32_t)(0x80000000u +
+						 (uint32_t)(iq - a->i0))),
+			_mm_set1_epi32((int32_t)(0x80000000u +
+						 (uint32_t)(iq - rb->i0)))));
+	for (; iq <= iend; iq += 4) {
+		__m256i c2 = _mm256_permutevar8x32_epi32(_mm256_blend_epi32(
+			_mm256_cmpgt_epi64(Ea, drv), _mm256_cmpgt_epi64(Eb, drv),
+			0xaa), pack);
+		__m256i K2 = _mm256_add_epi32(_mm256_add_epi32(K1, dqv), c2);
+		__m256i w0 = _mm256_max_epi32(_mm256_max_epi32(K1, r1v),
+			_mm256_broadcastsi128_si256(
+				_mm_loadu_si128((const __m128i *)(lo + iq))));
+		__m256i w1 = _mm256_min_epi32(_mm256_min_epi32(K2, r2v),
+			_mm256_broadcastsi128_si256(
+				_mm_loadu_si128((const __m128i *)(hi + iq))));
+		__m256i emp = _mm256_or_si256(_mm256_cmpgt_epi32(w0, w1),
+					      _mm256_cmpgt_epi32(tv, nlim));
 		/* the next group */
-		tv = _mm_add_epi32(tv, four);
-		E = _mm256_add_epi64(E, r4v);
-		ge = _mm256_cmpgt_epi64(E, pm1);
-		E = _mm256_sub_epi64(E, _mm256_and_si256(ge, pv4));
-		K1 = _mm_add_epi32(_mm_add_epi32(K1, kq4),
-			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge,
-									 pack)));
-		int em = _mm_movemask_ps(_mm_castsi128_ps(emp));
-		if (em == 15)
+		tv = _mm256_add_epi32(tv, four);
+		Ea = _mm256_add_epi64(Ea, r4v);
+		Eb = _mm256_add_epi64(Eb, r4v);
+		__m256i gea = _mm256_cmpgt_epi64(Ea, pm1);
+		__m256i geb = _mm256_cmpgt_epi64(Eb, pm1);
+		Ea = _mm256_sub_epi64(Ea, _mm256_and_si256(gea, pv4));
+		Eb = _mm256_sub_epi64(Eb, _mm256_and_si256(geb, pv4));
+		K1 = _mm256_add_epi32(_mm256_add_epi32(K1, kq4),
+			_mm256_permutevar8x32_epi32(
+				_mm256_blend_epi32(gea, geb, 0xaa), pack));
+		int em = _mm256_movemask_ps(_mm256_castsi256_ps(emp));
+		if (em == 0xff)
 			continue;
 		/* the runs' first and last w, empty lanes aside (w >= 0) */
-		__m128i a = _mm_or_si128(w0, emp), b = _mm_andnot_si128(emp, w1);
-		a = _mm_min_epu32(a, _mm_shuffle_epi32(a, 0x4e));
-		a = _mm_min_epu32(a, _mm_shuffle_epi32(a, 0xb1));
-		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0x4e));
-		b = _mm_max_epi32(b, _mm_shuffle_epi32(b, 0xb1));
-		const uint32_t lw = (uint32_t)_mm_cvtsi128_si32(a) & ~3u;
-		const uint32_t lw1 = (uint32_t)_mm_cvtsi128_si32(b);
+		__m256i x = _mm256_or_si256(w0, emp), y = _mm256_andnot_si256(emp, w1);
+		x = _mm256_min_epu32(x, _mm256_shuffle_epi32(x, 0x4e));
+		x = _mm256_min_epu32(x, _mm256_shuffle_epi32(x, 0xb1));
+		x = _mm256_min_epu32(x, _mm256_permute2x128_si256(x, x, 1));
+		y = _mm256_max_epi32(y, _mm256_shuffle_epi32(y, 0x4e));
+		y = _mm256_max_epi32(y, _mm256_shuffle_epi32(y, 0xb1));
+		y = _mm256_max_epi32(y, _mm256_permute2x128_si256(y, y, 1));
+		const uint32_t lw = (uint32_t)_mm256_cvtsi256_si32(x) & ~3u;
+		const uint32_t lw1 = (uint32_t)_mm256_cvtsi256_si32(y);
 		const uint32_t lv = ov + (uint32_t)iq;
 		if (lw1 - lw > 7) {
-			int32_t x0[4], x1[4];
-			_mm_storeu_si128((__m128i *)x0, w0);
-			_mm_storeu_si128((__m128i *)x1, w1);
-			for (int l = 0; l < 4; l++)
-				if (!(em >> l & 1)) {
-					emit_run_cold(e, lv + l, (uint32_t)x0[l],
-						      (uint32_t)x1[l]);
-					if (e->stop)
-						return;
-				}
+			int32_t x0[8], x1[8];
+			_mm256_storeu_si256((__m256i *)x0, w0);
+			_mm256_storeu_si256((__m256i *)x1, w1);
+			for (int r = 0; r < 2; r++) {
+				if (!(~em >> 4 * r & 15))
+					continue;
+				emit_row(e, r ? rb->cu : a->cu);
+				for (int l = 0; l < 4; l++)
+					if (!(em >> (4 * r + l) & 1)) {
+						emit_run_cold(e, lv + l,
+							      (uint32_t)x0[4 * r + l],
+							      (uint32_t)x1[4 * r + l]);
+						if (e->stop)
+							return;
+					}
+			}
 			continue;
 		}
-		const __m256i lwv = _mm256_castsi128_si256(
-			_mm_set1_epi32((int32_t)lw));
-		__m128i m = _mm_sub_epi32(
-			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(tb,
-				_mm256_sub_epi32(_mm256_castsi128_si256(w1), lwv))),
-			_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ta,
-				_mm256_sub_epi32(_mm256_castsi128_si256(w0), lwv))));
-		m = _mm_sllv_epi32(_mm_andnot_si128(emp, m), pv);
-		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0x4e));
-		m = _mm_or_si128(m, _mm_shuffle_epi32(m, 0xb1));
-		const uint32_t x = (uint32_t)_mm_cvtsi128_si32(m);
+		const __m256i lwv = _mm256_set1_epi32((int32_t)lw);
+		__m256i m = _mm256_sub_epi32(
+			_mm256_permutevar8x32_epi32(tb, _mm256_sub_epi32(w1, lwv)),
+			_mm256_permutevar8x32_epi32(ta, _mm256_sub_epi32(w0, lwv)));
+		m = _mm256_sllv_epi32(_mm256_andnot_si256(emp, m), pv);
+		m = _mm256_or_si256(m, _mm256_shuffle_epi32(m, 0x4e));
+		m = _mm256_or_si256(m, _mm256_shuffle_epi32(m, 0xb1));
+		const uint32_t xa = (uint32_t)_mm256_cvtsi256_si32(m);
+		const uint32_t xb = (uint32_t)_mm256_extract_epi32(m, 4);
 		uint64_t **slot = &e->tab[ib + (int32_t)((lv >> 5) * nbw +
 							 (lw >> 5))];
 		uint64_t *blk = *slot, *blk2;
@@ -495,11 +551,26 @@ RN(brick_quads)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
 		    !(blk2 = emit_fetch(e, slot + 1, bu, lv >> 5,
 					(lw >> 5) + 1)))
 			return;
-		const uint32_t mb = mu | (uint32_t)d5[lv & 31] << shv;
-		blk[(mb | rt->g[lw >> 2 & 7]) >> 6] |= _pdep_u64(x & 0xffff, masku);
-		blk2[(mb | rt->g[((lw >> 2) + 1) & 7]) >> 6] |=
-			_pdep_u64(x >> 16, masku);
+		const uint32_t mv = mua | (uint32_t)d5[lv & 31] << shv;
+		blk[(mv | rt->g[lw >> 2 & 7]) >> 6] |=
+			_pdep_u64(xa & 0xffff, ma) | _pdep_u64(xb & 0xffff, mb_);
+		blk2[(mv | rt->g[((lw >> 2) + 1) & 7]) >> 6] |=
+			_pdep_u64(xa >> 16, ma) | _pdep_u64(xb >> 16, mb_);
 	}
+}
+
+/* brick_quads with the axis w not a constant */
+static __attribute__((noinline)) void
+RN(brick_quads_w)(struct brick_emit *e, const int32_t *lo, const int32_t *hi,
+		  const struct RN(quad) *qd, const struct RN(qrow) *a,
+		  const struct RN(qrow) *b, ST P, ST kd, uint32_t ov, int w)
+{
+	if (w == 0)
+		RN(brick_quads)(e, lo, hi, qd, a, b, P, kd, ov, 0);
+	else if (w == 1)
+		RN(brick_quads)(e, lo, hi, qd, a, b, P, kd, ov, 1);
+	else
+		RN(brick_quads)(e, lo, hi, qd, a, b, P, kd, ov, 2);
 }
 #endif
 
@@ -673,6 +744,10 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	if (quads)
 		RN(quad_init)(&qd, P, dcp, kd, Dq, Dr);
 #endif
+#ifdef RN_VEC
+	struct RN(qrow) pend;
+	int npend = 0;
+#endif
 	struct RN(dda3) gcol, gru;
 	RN(dda3_init)(&gcol, dcol);
 	RN(dda3_init)(&gru, dru);
@@ -718,19 +793,25 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			k1 += ctoff, r1 += ctoff, r2 += ctoff;
 #ifdef RN_VEC
 			if (quads) {
+				/* rows 2n and 2n + 1 (of the cell) go together */
+				const struct RN(qrow) row = {i0, i1, r1, r2, cu,
+							     k1, e1};
 				const int32_t *ql = qlo + 4, *qh = qhi + 4;
-				if (w == 0)
-					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, r1, r2, kd,
-							ov, 0);
-				else if (w == 1)
-					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, r1, r2, kd,
-							ov, 1);
+				if (npend && pend.cu + 1 == cu) {
+					RN(brick_quads_w)(&e, ql, qh, &qd, &pend,
+							  &row, P, kd, ov, w);
+					npend = 0;
+					continue;
+				}
+				if (npend)
+					RN(brick_quads_w)(&e, ql, qh, &qd, &pend,
+							  NULL, P, kd, ov, w);
+				npend = !((cu - e.lo[0]) & 1) && j + 1 < nu;
+				if (npend)
+					pend = row;
 				else
-					RN(brick_quads)(&e, ql, qh, &qd, i0, i1, k1,
-							e1, P, r1, r2, kd,
-							ov, 2);
+					RN(brick_quads_w)(&e, ql, qh, &qd, &row,
+							  NULL, P, kd, ov, w);
 				continue;
 			}
 #endif
@@ -800,6 +881,11 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			fn(ctx, w, out[0], out[1], out[2], w1 - w0 + 1);
 		}
 	}
+#ifdef RN_VEC
+	if (npend && !e.stop)
+		RN(brick_quads_w)(&e, qlo + 4, qhi + 4, &qd, &pend, NULL, P, kd,
+				  (uint32_t)(vlo[v] - e.lo[1]), w);
+#endif
 	free(heap);
 	return 1;
 }
