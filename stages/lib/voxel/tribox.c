@@ -28,28 +28,45 @@
 typedef __int128 i128;
 
 /* llround without the libm call (a tenth of voxelize's time went to it):
- * halves away from zero. For |g| < 2^52 the truncation and g - i are
- * exact; above, g is an integer and f is 0. */
+ * halves away from zero, as trunc(g + copysign(h, g)) with h the double
+ * just below 1/2. In round-to-nearest that sum reaches the next integer
+ * exactly when g's fraction is >= 1/2: below, it stays more than half a
+ * step of the result's grid short of it (the fraction is on g's grid, so
+ * 1/2 - f >= ulp(g), and h adds 2^-54); at f = 1/2 it is 2^-54 short,
+ * under half a step, or a tie to the even integer for g = 1/2; from 2^52
+ * up g is an integer and h under half its step. */
 static inline int64_t round_half_away(double g)
 {
-	int64_t i = (int64_t)g;
-	double f = g - (double)i;
-	return i + (f >= 0.5) - (f <= -0.5);
+	double h = copysign(0x1.fffffffffffffp-2, g);
+	double s = g + h;       /* its own statement: never fused */
+	return (int64_t)s;
 }
 
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr)
 {
-	const double scale = ldexp(1.0, VD_SNAP_ROOT_BITS) / (double)tr->root_side;
-	for (int k = 0; k < 3; k++)
-		for (int a = 0; a < 3; a++) {
-			double g = ((double)t->v[k][a] - tr->origin[a]) * scale;
-			if (!isfinite(g) || fabs(g) > 0x1p60)
-				return vd_fail(VD_ERR_RANGE, "non-finite or huge "
-					       "vertex coordinate %g",
-					       (double)t->v[k][a]);
-			out->v[k][a] = round_half_away(g);
-		}
+	_Static_assert(VD_SNAP_ROOT_BITS == 24, "scale: 2^VD_SNAP_ROOT_BITS");
+	const double scale = 0x1p24 / (double)tr->root_side;
+	double g[3][3];
+	int ok = 1;
+	/* one test for the nine, no branch: fabs(NaN) <= x is false too */
+#pragma GCC unroll 9
+	for (int i = 0; i < 9; i++) {
+		int k = i / 3, a = i % 3;
+		g[k][a] = ((double)t->v[k][a] - tr->origin[a]) * scale;
+		ok &= fabs(g[k][a]) <= 0x1p60;
+	}
+	if (!ok)
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				if (!(fabs(g[k][a]) <= 0x1p60))
+					return vd_fail(VD_ERR_RANGE,
+						       "non-finite or huge "
+						       "vertex coordinate %g",
+						       (double)t->v[k][a]);
+#pragma GCC unroll 9
+	for (int i = 0; i < 9; i++)
+		out->v[i / 3][i % 3] = round_half_away(g[i / 3][i % 3]);
 	return VD_OK;
 }
 
