@@ -25,40 +25,51 @@ struct RN(axes) {
 static void RN(axes_init)(struct RN(axes) *x, const int64_t t[3][3], int64_t s)
 {
 	RT e[3][3];
+	/* unrolled: the axes' indices become constants */
+#pragma GCC unroll 3
 	for (int k = 0; k < 3; k++)
+#pragma GCC unroll 3
 		for (int i = 0; i < 3; i++)
 			e[k][i] = (RT)t[(k + 1) % 3][i] - (RT)t[k][i];
 	x->a[0][0] = e[0][1] * e[1][2] - e[0][2] * e[1][1];
 	x->a[0][1] = e[0][2] * e[1][0] - e[0][0] * e[1][2];
 	x->a[0][2] = e[0][0] * e[1][1] - e[0][1] * e[1][0];
-	for (int k = 0; k < 3; k++) {
-		/* e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0) */
-		RT *ax = x->a[1 + 3 * k];
-		ax[0] = 0, ax[1] = e[k][2], ax[2] = -e[k][1];
-		ax[3] = -e[k][2], ax[4] = 0, ax[5] = e[k][0];
-		ax[6] = e[k][1], ax[7] = -e[k][0], ax[8] = 0;
-	}
 	/* minima, maxima and signs as selects, not branches: a small
-	 * triangle's setup mispredicted some 30 of them */
-	for (int j = 0; j < 10; j++) {
-		RT d[3];
-		for (int k = 0; k < 3; k++)
-			d[k] = x->a[j][0] * t[k][0] + x->a[j][1] * t[k][1] +
-			       x->a[j][2] * t[k][2];
-		RT lo = d[1] < d[0] ? d[1] : d[0];
-		RT hi = d[1] > d[0] ? d[1] : d[0];
-		lo = d[2] < lo ? d[2] : lo;
-		hi = d[2] > hi ? d[2] : hi;
-		x->tmin[j] = lo;
-		x->tmax[j] = hi;
-		RT bl = 0, bh = 0;
-		for (int i = 0; i < 3; i++) {
-			RT c = x->a[j][i] * s;
-			bl += c < 0 ? c : 0;
-			bh += c > 0 ? c : 0;
+	 * triangle's setup mispredicted some 30 of them. The normal is
+	 * orthogonal to the edges, so the three vertices project alike */
+	const RT n0 = x->a[0][0] * t[0][0] + x->a[0][1] * t[0][1] +
+		      x->a[0][2] * t[0][2];
+	x->tmin[0] = x->tmax[0] = n0;
+	RT bl = 0, bh = 0;
+#pragma GCC unroll 3
+	for (int i = 0; i < 3; i++) {
+		RT c = x->a[0][i] * s;
+		bl += c < 0 ? c : 0;
+		bh += c > 0 ? c : 0;
+	}
+	x->blo[0] = bl;
+	x->bhi[0] = bh;
+#pragma GCC unroll 3
+	for (int k = 0; k < 3; k++) {
+		/* e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0):
+		 * e x unit_a has e_c at b and -e_b at c (b, c the next
+		 * axes); e_k is orthogonal to it, so vertices k and k + 1
+		 * project alike, and the third (k + 2) is the other end */
+		const int64_t *p = t[k], *q = t[(k + 2) % 3];
+#pragma GCC unroll 3
+		for (int a = 0; a < 3; a++) {
+			const int b = (a + 1) % 3, c = (a + 2) % 3;
+			const int j = 1 + 3 * k + a;
+			const RT ec = e[k][c], eb = e[k][b];
+			x->a[j][a] = 0, x->a[j][b] = ec, x->a[j][c] = -eb;
+			RT dp = ec * p[b] - eb * p[c];
+			RT dq = ec * q[b] - eb * q[c];
+			x->tmin[j] = dq < dp ? dq : dp;
+			x->tmax[j] = dq > dp ? dq : dp;
+			RT cb = ec * s, cc = -eb * s;
+			x->blo[j] = (cb < 0 ? cb : 0) + (cc < 0 ? cc : 0);
+			x->bhi[j] = (cb > 0 ? cb : 0) + (cc > 0 ? cc : 0);
 		}
-		x->blo[j] = bl;
-		x->bhi[j] = bh;
 	}
 }
 
