@@ -290,10 +290,11 @@ static int raster_v3(void)
 }
 #endif
 
-static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
+/* floor(a / 2^sh), without relying on >> of a negative value:
+ * floor(a / s) = -1 - floor((-1 - a) / s) */
+static inline int64_t floor_shift(int64_t a, int sh)
 {
-	int64_t q = a / b;
-	return q - (a % b != 0 && a < 0);
+	return a >= 0 ? a >> sh : ~(~a >> sh);
 }
 
 int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
@@ -325,24 +326,27 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
 }
 
 /* The triangle's voxel range clipped to [clip_lo, clip_hi], the origin
- * (vlo's low corner) and whether int64 holds the tests; 0 if empty. */
+ * (vlo's low corner) and whether int64 holds the tests; 0 if empty. s is
+ * a voxel's side (vd_snap_voxel: a power of two). */
 static int raster_range(const struct vd_snapped_tri *t, int64_t s,
 			const int64_t clip_lo[3], const int64_t clip_hi[3],
 			int64_t vlo[3], int64_t vhi[3], int64_t origin[3],
 			int *small)
 {
 	int64_t extent = 0;
+	/* s is a voxel, 2^sh lattice steps: shifts, not six 64-bit
+	 * divisions a triangle */
+	const int sh = __builtin_ctzll((unsigned long long)s);
+#pragma GCC unroll 3
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
-			if (t->v[k][a] < mn)
-				mn = t->v[k][a];
-			if (t->v[k][a] > mx)
-				mx = t->v[k][a];
+			mn = t->v[k][a] < mn ? t->v[k][a] : mn;
+			mx = t->v[k][a] > mx ? t->v[k][a] : mx;
 		}
 		/* voxel i spans [i*s, (i+1)*s]: the box axes, exactly */
-		vlo[a] = floor_div(mn + s - 1, s) - 1;
-		vhi[a] = floor_div(mx, s);
+		vlo[a] = floor_shift(mn + s - 1, sh) - 1;
+		vhi[a] = floor_shift(mx, sh);
 		if (vlo[a] < clip_lo[a])
 			vlo[a] = clip_lo[a];
 		if (vhi[a] > clip_hi[a])
