@@ -157,11 +157,13 @@ static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
 		wlo = -((RT)1 << 60), whi = (RT)1 << 60;
 	}
 	ST A = (ST)wA, d = (ST)wd, lo = (ST)wlo, hi = (ST)whi;
-	x->A = A < 0 ? -A : A;
-	if (A < 0) {
-		ST t = lo;
-		lo = -hi, hi = -t, d = -d;
-	}
+	/* negated by masks, not a branch (GCC makes selects one): A's sign
+	 * is a coin toss from axis to axis. m is -1 when A < 0 */
+	const ST m = -(ST)(A < 0), sw = (lo ^ hi) & m;
+	x->A = (A ^ m) - m;
+	d = (d ^ m) - m;
+	lo ^= sw, hi ^= sw;
+	lo = (lo ^ m) - m, hi = (hi ^ m) - m;
 	x->q = 0, x->r = 0, x->d = d;
 	x->dq = RN(fdiv)(d, x->A), x->dr = d - x->dq * x->A;
 	x->ql = RN(fdiv)(lo, x->A), x->rl = lo - x->ql * x->A;
