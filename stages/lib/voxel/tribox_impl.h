@@ -132,9 +132,16 @@ struct RN(dda) {
 	int noop;               /* A = 0: the stepping bounds nothing */
 };
 
-/* 0 (and nothing set) when the state of n steps may not fit ST. */
-static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
-			       RT whi, int64_t n)
+/* 0 (and nothing set) when the state of n steps may not fit ST. Inlined
+ * in the vector build (small triangles' setup, 9 calls each: the calls
+ * cost more than their bodies' branches); elsewhere the compiler picks. */
+#ifdef RN_VEC
+#define RN_DDA_INLINE __attribute__((always_inline))
+#else
+#define RN_DDA_INLINE
+#endif
+static inline RN_DDA_INLINE int
+RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo, RT whi, int64_t n)
 {
 	if (sizeof(ST) < sizeof(RT) &&
 	    (!RN(fits)(wA) || !RN(fits)(wlo) || !RN(fits)(whi) ||
@@ -170,6 +177,7 @@ static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
 	x->qh = RN(fdiv)(hi, x->A), x->rh = hi - x->qh * x->A;
 	return 1;
 }
+#undef RN_DDA_INLINE
 
 /* *x as x0 after m steps (m <= n of RN(dda_init)): one division. */
 static inline void RN(dda_at)(struct RN(dda) *x, const struct RN(dda) *x0,
