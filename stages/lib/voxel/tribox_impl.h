@@ -56,6 +56,14 @@ static void RN(axes_init)(struct RN(axes) *x, const int64_t t[3][3], int64_t s)
 		 * axes); e_k is orthogonal to it, so vertices k and k + 1
 		 * project alike, and the third (k + 2) is the other end */
 		const int64_t *p = t[k], *q = t[(k + 2) % 3];
+		/* the box's offsets: s e_i's positive and negative parts */
+		RT ps[3], ns[3];
+#pragma GCC unroll 3
+		for (int i = 0; i < 3; i++) {
+			RT c = e[k][i] * s;
+			ps[i] = c > 0 ? c : 0;
+			ns[i] = c < 0 ? c : 0;
+		}
 #pragma GCC unroll 3
 		for (int a = 0; a < 3; a++) {
 			const int b = (a + 1) % 3, c = (a + 2) % 3;
@@ -66,9 +74,8 @@ static void RN(axes_init)(struct RN(axes) *x, const int64_t t[3][3], int64_t s)
 			RT dq = ec * q[b] - eb * q[c];
 			x->tmin[j] = dq < dp ? dq : dp;
 			x->tmax[j] = dq > dp ? dq : dp;
-			RT cb = ec * s, cc = -eb * s;
-			x->blo[j] = (cb < 0 ? cb : 0) + (cc < 0 ? cc : 0);
-			x->bhi[j] = (cb > 0 ? cb : 0) + (cc > 0 ? cc : 0);
+			x->blo[j] = ns[c] - ps[b];      /* of ec s and -eb s */
+			x->bhi[j] = ps[c] - ns[b];
 		}
 	}
 }
