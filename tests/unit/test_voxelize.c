@@ -604,6 +604,81 @@ static void test_large_triangles(void)
 	CHECK_EQ(bad, 0);
 }
 
+/* ------------------------------------------------------------ snapping */
+
+/* vd_snap_triangle against libm's llround (halves away from zero), on a
+ * lattice of one world unit (scale exactly 1, so g = v - origin is exact):
+ * halves, the doubles on either side of them, 2^52 and above, random
+ * values; and the bounds of the range it accepts. */
+static void test_snap_rounding(void)
+{
+	struct vd_transform tr;
+	memset(&tr, 0, sizeof tr);
+	tr.root_side = 0x1p24f;
+	static const double frac[] = {0.0, 0.5, 0.25, 0.75, 0x1p-30};
+	int bad = 0, n = 0;
+	uint64_t r = 7; /* its own: the other tests keep their triangles */
+	for (int it = 0; it < 200000; it++) {
+		struct vd_triangle t;
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++) {
+				r = r * 6364136223846793005ull +
+				      1442695040888963407ull;
+				int e = (int)(r >> 58);       /* 0..63 */
+				float v = (float)((r >> 20 & 0xffff) *
+						  ldexp(1.0, e % 40 - 8));
+				t.v[k][a] = (r >> 19 & 1) ? -v : v;
+			}
+		for (int a = 0; a < 3; a++) {
+			r = r * 6364136223846793005ull +
+			      1442695040888963407ull;
+			double o = frac[(r >> 61) % 5];
+			/* the doubles beside o */
+			int step = (int)(r >> 40 & 3);
+			if (step == 1)
+				o = nextafter(o, 1.0);
+			else if (step == 2)
+				o = nextafter(o, -1.0);
+			tr.origin[a] = (r >> 39 & 1) ? -o : o;
+		}
+		struct vd_snapped_tri st;
+		if (vd_snap_triangle(&st, &t, &tr) != VD_OK) {
+			bad++;
+			continue;
+		}
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++, n++)
+				bad += st.v[k][a] !=
+				       llround((double)t.v[k][a] - tr.origin[a]);
+	}
+	CHECK_EQ(bad, 0);
+	CHECK(n > 1000000);
+	/* the edges: g = 1/2 - 2^-54, 1/2, 2^52 + 1, 2^53 - 1, +-2^60,
+	 * -1/2 */
+	static const float v[] = {0.0f, 1.0f, 0x1p52f, 0x1p53f, 0x1p60f,
+				  -0x1p60f, 0.0f};
+	static const double o[] = {-0x1.fffffffffffffp-2, 0.5, -1.0, 1.0, 0,
+				   0, 0.5};
+	for (int i = 0; i < 7; i++) {
+		struct vd_triangle t = {{{v[i], 0, 0}, {0, 0, 0}, {0, 0, 0}}};
+		struct vd_snapped_tri st;
+		tr.origin[0] = o[i], tr.origin[1] = tr.origin[2] = 0;
+		CHECK_EQ(vd_snap_triangle(&st, &t, &tr), VD_OK);
+		CHECK_EQ(st.v[0][0], llround((double)v[i] - o[i]));
+	}
+	/* beyond 2^60 and not finite, at any of the nine */
+	memset(tr.origin, 0, sizeof tr.origin);
+	static const float badv[] = {0x1p61f, -0x1p61f, INFINITY, NAN};
+	for (int i = 0; i < 4; i++)
+		for (int j = 0; j < 9; j++) {
+			struct vd_triangle t;
+			memset(&t, 0, sizeof t);
+			t.v[j / 3][j % 3] = badv[i];
+			struct vd_snapped_tri st;
+			CHECK_EQ(vd_snap_triangle(&st, &t, &tr), VD_ERR_RANGE);
+		}
+}
+
 /* --------------------------------------------------------- real meshes */
 
 /* The brute-force voxel set of a whole mesh: every triangle, every voxel
@@ -831,6 +906,7 @@ int main(void)
 	RUN(test_large_and_clipped);
 	RUN(test_untabled_rows);
 	RUN(test_box_overlap);
+	RUN(test_snap_rounding);
 	RUN(test_bricks);
 	RUN(test_sort_keys);
 	RUN(test_large_triangles);

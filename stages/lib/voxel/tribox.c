@@ -35,28 +35,45 @@
 typedef __int128 i128;
 
 /* llround without the libm call (a tenth of voxelize's time went to it):
- * halves away from zero. For |g| < 2^52 the truncation and g - i are
- * exact; above, g is an integer and f is 0. */
+ * halves away from zero, as trunc(g + copysign(h, g)) with h the double
+ * just below 1/2. In round-to-nearest that sum reaches the next integer
+ * exactly when g's fraction is >= 1/2: below, it stays more than half a
+ * step of the result's grid short of it (the fraction is on g's grid, so
+ * 1/2 - f >= ulp(g), and h adds 2^-54); at f = 1/2 it is 2^-54 short,
+ * under half a step, or a tie to the even integer for g = 1/2; from 2^52
+ * up g is an integer and h under half its step. */
 static inline int64_t round_half_away(double g)
 {
-	int64_t i = (int64_t)g;
-	double f = g - (double)i;
-	return i + (f >= 0.5) - (f <= -0.5);
+	double h = copysign(0x1.fffffffffffffp-2, g);
+	double s = g + h;       /* its own statement: never fused */
+	return (int64_t)s;
 }
 
 int vd_snap_triangle(struct vd_snapped_tri *out, const struct vd_triangle *t,
 		     const struct vd_transform *tr)
 {
-	const double scale = ldexp(1.0, VD_SNAP_ROOT_BITS) / (double)tr->root_side;
-	for (int k = 0; k < 3; k++)
-		for (int a = 0; a < 3; a++) {
-			double g = ((double)t->v[k][a] - tr->origin[a]) * scale;
-			if (!isfinite(g) || fabs(g) > 0x1p60)
-				return vd_fail(VD_ERR_RANGE, "non-finite or huge "
-					       "vertex coordinate %g",
-					       (double)t->v[k][a]);
-			out->v[k][a] = round_half_away(g);
-		}
+	_Static_assert(VD_SNAP_ROOT_BITS == 24, "scale: 2^VD_SNAP_ROOT_BITS");
+	const double scale = 0x1p24 / (double)tr->root_side;
+	double g[3][3];
+	int ok = 1;
+	/* one test for the nine, no branch: fabs(NaN) <= x is false too */
+#pragma GCC unroll 9
+	for (int i = 0; i < 9; i++) {
+		int k = i / 3, a = i % 3;
+		g[k][a] = ((double)t->v[k][a] - tr->origin[a]) * scale;
+		ok &= fabs(g[k][a]) <= 0x1p60;
+	}
+	if (!ok)
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				if (!(fabs(g[k][a]) <= 0x1p60))
+					return vd_fail(VD_ERR_RANGE,
+						       "non-finite or huge "
+						       "vertex coordinate %g",
+						       (double)t->v[k][a]);
+#pragma GCC unroll 9
+	for (int i = 0; i < 9; i++)
+		out->v[i / 3][i % 3] = round_half_away(g[i / 3][i % 3]);
 	return VD_OK;
 }
 
@@ -300,10 +317,11 @@ static int raster_v3(void)
 }
 #endif
 
-static int64_t floor_div(int64_t a, int64_t b) /* b > 0 */
+/* floor(a / 2^sh), without relying on >> of a negative value:
+ * floor(a / s) = -1 - floor((-1 - a) / s) */
+static inline int64_t floor_shift(int64_t a, int sh)
 {
-	int64_t q = a / b;
-	return q - (a % b != 0 && a < 0);
+	return a >= 0 ? a >> sh : ~(~a >> sh);
 }
 
 int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
@@ -335,24 +353,27 @@ int vd_tri_box_overlap(const struct vd_snapped_tri *t, int levels,
 }
 
 /* The triangle's voxel range clipped to [clip_lo, clip_hi], the origin
- * (vlo's low corner) and whether int64 holds the tests; 0 if empty. */
+ * (vlo's low corner) and whether int64 holds the tests; 0 if empty. s is
+ * a voxel's side (vd_snap_voxel: a power of two). */
 static int raster_range(const struct vd_snapped_tri *t, int64_t s,
 			const int64_t clip_lo[3], const int64_t clip_hi[3],
 			int64_t vlo[3], int64_t vhi[3], int64_t origin[3],
 			int *small)
 {
 	int64_t extent = 0;
+	/* s is a voxel, 2^sh lattice steps: shifts, not six 64-bit
+	 * divisions a triangle */
+	const int sh = __builtin_ctzll((unsigned long long)s);
+#pragma GCC unroll 3
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
-			if (t->v[k][a] < mn)
-				mn = t->v[k][a];
-			if (t->v[k][a] > mx)
-				mx = t->v[k][a];
+			mn = t->v[k][a] < mn ? t->v[k][a] : mn;
+			mx = t->v[k][a] > mx ? t->v[k][a] : mx;
 		}
 		/* voxel i spans [i*s, (i+1)*s]: the box axes, exactly */
-		vlo[a] = floor_div(mn + s - 1, s) - 1;
-		vhi[a] = floor_div(mx, s);
+		vlo[a] = floor_shift(mn + s - 1, sh) - 1;
+		vhi[a] = floor_shift(mx, sh);
 		if (vlo[a] < clip_lo[a])
 			vlo[a] = clip_lo[a];
 		if (vhi[a] > clip_hi[a])

@@ -25,40 +25,58 @@ struct RN(axes) {
 static void RN(axes_init)(struct RN(axes) *x, const int64_t t[3][3], int64_t s)
 {
 	RT e[3][3];
+	/* unrolled: the axes' indices become constants */
+#pragma GCC unroll 3
 	for (int k = 0; k < 3; k++)
+#pragma GCC unroll 3
 		for (int i = 0; i < 3; i++)
 			e[k][i] = (RT)t[(k + 1) % 3][i] - (RT)t[k][i];
 	x->a[0][0] = e[0][1] * e[1][2] - e[0][2] * e[1][1];
 	x->a[0][1] = e[0][2] * e[1][0] - e[0][0] * e[1][2];
 	x->a[0][2] = e[0][0] * e[1][1] - e[0][1] * e[1][0];
-	for (int k = 0; k < 3; k++) {
-		/* e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0) */
-		RT *ax = x->a[1 + 3 * k];
-		ax[0] = 0, ax[1] = e[k][2], ax[2] = -e[k][1];
-		ax[3] = -e[k][2], ax[4] = 0, ax[5] = e[k][0];
-		ax[6] = e[k][1], ax[7] = -e[k][0], ax[8] = 0;
-	}
 	/* minima, maxima and signs as selects, not branches: a small
-	 * triangle's setup mispredicted some 30 of them */
-	for (int j = 0; j < 10; j++) {
-		RT d[3];
-		for (int k = 0; k < 3; k++)
-			d[k] = x->a[j][0] * t[k][0] + x->a[j][1] * t[k][1] +
-			       x->a[j][2] * t[k][2];
-		RT lo = d[1] < d[0] ? d[1] : d[0];
-		RT hi = d[1] > d[0] ? d[1] : d[0];
-		lo = d[2] < lo ? d[2] : lo;
-		hi = d[2] > hi ? d[2] : hi;
-		x->tmin[j] = lo;
-		x->tmax[j] = hi;
-		RT bl = 0, bh = 0;
+	 * triangle's setup mispredicted some 30 of them. The normal is
+	 * orthogonal to the edges, so the three vertices project alike */
+	const RT n0 = x->a[0][0] * t[0][0] + x->a[0][1] * t[0][1] +
+		      x->a[0][2] * t[0][2];
+	x->tmin[0] = x->tmax[0] = n0;
+	RT bl = 0, bh = 0;
+#pragma GCC unroll 3
+	for (int i = 0; i < 3; i++) {
+		RT c = x->a[0][i] * s;
+		bl += c < 0 ? c : 0;
+		bh += c > 0 ? c : 0;
+	}
+	x->blo[0] = bl;
+	x->bhi[0] = bh;
+#pragma GCC unroll 3
+	for (int k = 0; k < 3; k++) {
+		/* e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0):
+		 * e x unit_a has e_c at b and -e_b at c (b, c the next
+		 * axes); e_k is orthogonal to it, so vertices k and k + 1
+		 * project alike, and the third (k + 2) is the other end */
+		const int64_t *p = t[k], *q = t[(k + 2) % 3];
+		/* the box's offsets: s e_i's positive and negative parts */
+		RT ps[3], ns[3];
+#pragma GCC unroll 3
 		for (int i = 0; i < 3; i++) {
-			RT c = x->a[j][i] * s;
-			bl += c < 0 ? c : 0;
-			bh += c > 0 ? c : 0;
+			RT c = e[k][i] * s;
+			ps[i] = c > 0 ? c : 0;
+			ns[i] = c < 0 ? c : 0;
 		}
-		x->blo[j] = bl;
-		x->bhi[j] = bh;
+#pragma GCC unroll 3
+		for (int a = 0; a < 3; a++) {
+			const int b = (a + 1) % 3, c = (a + 2) % 3;
+			const int j = 1 + 3 * k + a;
+			const RT ec = e[k][c], eb = e[k][b];
+			x->a[j][a] = 0, x->a[j][b] = ec, x->a[j][c] = -eb;
+			RT dp = ec * p[b] - eb * p[c];
+			RT dq = ec * q[b] - eb * q[c];
+			x->tmin[j] = dq < dp ? dq : dp;
+			x->tmax[j] = dq > dp ? dq : dp;
+			x->blo[j] = ns[c] - ps[b];      /* of ec s and -eb s */
+			x->bhi[j] = ps[c] - ns[b];
+		}
 	}
 }
 
@@ -121,9 +139,16 @@ struct RN(dda) {
 	int noop;               /* A = 0: the stepping bounds nothing */
 };
 
-/* 0 (and nothing set) when the state of n steps may not fit ST. */
-static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
-			       RT whi, int64_t n)
+/* 0 (and nothing set) when the state of n steps may not fit ST. Inlined
+ * in the vector build (small triangles' setup, 9 calls each: the calls
+ * cost more than their bodies' branches); elsewhere the compiler picks. */
+#ifdef RN_VEC
+#define RN_DDA_INLINE __attribute__((always_inline))
+#else
+#define RN_DDA_INLINE
+#endif
+static inline RN_DDA_INLINE int
+RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo, RT whi, int64_t n)
 {
 	if (sizeof(ST) < sizeof(RT) &&
 	    (!RN(fits)(wA) || !RN(fits)(wlo) || !RN(fits)(whi) ||
@@ -146,17 +171,20 @@ static inline int RN(dda_init)(struct RN(dda) *x, RT wA, RT wd, RT wlo,
 		wlo = -((RT)1 << 60), whi = (RT)1 << 60;
 	}
 	ST A = (ST)wA, d = (ST)wd, lo = (ST)wlo, hi = (ST)whi;
-	x->A = A < 0 ? -A : A;
-	if (A < 0) {
-		ST t = lo;
-		lo = -hi, hi = -t, d = -d;
-	}
+	/* negated by masks, not a branch (GCC makes selects one): A's sign
+	 * is a coin toss from axis to axis. m is -1 when A < 0 */
+	const ST m = -(ST)(A < 0), sw = (lo ^ hi) & m;
+	x->A = (A ^ m) - m;
+	d = (d ^ m) - m;
+	lo ^= sw, hi ^= sw;
+	lo = (lo ^ m) - m, hi = (hi ^ m) - m;
 	x->q = 0, x->r = 0, x->d = d;
 	x->dq = RN(fdiv)(d, x->A), x->dr = d - x->dq * x->A;
 	x->ql = RN(fdiv)(lo, x->A), x->rl = lo - x->ql * x->A;
 	x->qh = RN(fdiv)(hi, x->A), x->rh = hi - x->qh * x->A;
 	return 1;
 }
+#undef RN_DDA_INLINE
 
 /* *x as x0 after m steps (m <= n of RN(dda_init)): one division. */
 static inline void RN(dda_at)(struct RN(dda) *x, const struct RN(dda) *x0,

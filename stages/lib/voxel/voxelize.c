@@ -236,6 +236,7 @@ static int tri_voxel_range(const struct vd_snapped_tri *t, int L,
 	/* s is 2^sh: shifts of the non-negative values, not six 64-bit
 	 * divisions a triangle (3% of the terrain's CPU at 2^14) */
 	const int sh = VD_SNAP_ROOT_BITS - L;
+#pragma GCC unroll 3
 	for (int a = 0; a < 3; a++) {
 		int64_t mn = t->v[0][a], mx = t->v[0][a];
 		for (int k = 1; k < 3; k++) {
