@@ -773,8 +773,7 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		RN(quad_init)(&qd, P, dcp, kd, Dq, Dr);
 #endif
 #ifdef RN_VEC
-	struct RN(qrow) pend;
-	int npend = 0;
+	struct RN(qrow) qrows[2], *pend = NULL;
 #endif
 	struct RN(dda3) gcol, gru;
 	RN(dda3_init)(&gcol, dcol);
@@ -821,24 +820,28 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			k1 += ctoff, r1 += ctoff, r2 += ctoff;
 #ifdef RN_VEC
 			if (quads) {
-				/* rows 2n and 2n + 1 (of the cell) go together */
-				const struct RN(qrow) row = {i0, i1, r1, r2, cu,
-							     k1, e1};
+				/* rows 2n and 2n + 1 (of the cell) go together:
+				 * a row waits in its slot for the next (in
+				 * place: copying it would stall on
+				 * store-to-load forwarding) */
+				struct RN(qrow) *row = &qrows[pend == qrows];
+				row->i0 = i0, row->i1 = i1, row->r1 = r1;
+				row->r2 = r2, row->cu = cu, row->k1 = k1;
+				row->e1 = e1;
 				const int32_t *ql = qlo + 4, *qh = qhi + 4;
-				if (npend && pend.cu + 1 == cu) {
-					RN(brick_quads_w)(&e, ql, qh, &qd, &pend,
-							  &row, P, kd, ov, w);
-					npend = 0;
+				if (pend && pend->cu + 1 == cu) {
+					RN(brick_quads_w)(&e, ql, qh, &qd, pend,
+							  row, P, kd, ov, w);
+					pend = NULL;
 					continue;
 				}
-				if (npend)
-					RN(brick_quads_w)(&e, ql, qh, &qd, &pend,
+				if (pend)
+					RN(brick_quads_w)(&e, ql, qh, &qd, pend,
 							  NULL, P, kd, ov, w);
-				npend = !((cu - e.lo[0]) & 1) && j + 1 < nu;
-				if (npend)
-					pend = row;
-				else
-					RN(brick_quads_w)(&e, ql, qh, &qd, &row,
+				pend = !((cu - e.lo[0]) & 1) && j + 1 < nu ?
+				       row : NULL;
+				if (!pend)
+					RN(brick_quads_w)(&e, ql, qh, &qd, row,
 							  NULL, P, kd, ov, w);
 				continue;
 			}
@@ -910,8 +913,8 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		}
 	}
 #ifdef RN_VEC
-	if (npend && !e.stop)
-		RN(brick_quads_w)(&e, qlo + 4, qhi + 4, &qd, &pend, NULL, P, kd,
+	if (pend && !e.stop)
+		RN(brick_quads_w)(&e, qlo + 4, qhi + 4, &qd, pend, NULL, P, kd,
 				  (uint32_t)(vlo[v] - e.lo[1]), w);
 #endif
 	free(heap);
