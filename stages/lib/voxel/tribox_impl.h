@@ -803,8 +803,13 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 			 * floor(g - 1/2) is qc or qc - 1 */
 			RT c = sg * (x.a[0][u] * p[u] + x.a[0][v] * p[v]);
 			double g = (double)j * fu + (double)i0 * fv - 0.5;
+#ifdef RN_VEC
+			/* one vroundsd: no conversion back and compare */
+			int64_t qc = (int64_t)floor(g);
+#else
 			int64_t qc = (int64_t)g;
 			qc -= (double)qc > g;
+#endif
 			RT wrc = c - (RT)qc * wP;
 			if (wrc >= wP)
 				wrc -= wP, qc++;
