@@ -10,7 +10,9 @@
  * tribox.c).
  *
  * Define before including: RT, ST and RN(name) (a name suffix); RN_VEC
- * (ST = int64_t only) to step three states at once in a vector.
+ * (ST = int64_t only, x86-64-v3) to step three states at once in a
+ * vector, and to set the columns of tabled rows four at a time, two rows
+ * at once (brick_quads) instead of one by one (brick_cols).
  */
 
 /* The normal (axis 0) and the 9 edge axes e_k x unit_a (axis 1 + 3k + a),
@@ -435,10 +437,10 @@ RN(quad_start)(const struct RN(quad) *qd, const struct RN(qrow) *r,
 		_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(ge, pack)));
 }
 
-/* brick_cols's columns, four at a time, of row a and of row b (NULL:
- * none), its neighbour in the same aligned pair along u, so that they
- * share their words: the aligned groups of 4 columns along v (the cell's
- * coordinate ov + i), which share their words of a block. In 8 int32
+/* brick_cols's columns of row a and of row b (NULL: none), its
+ * neighbour in the same aligned pair along u, four at a time: the
+ * aligned groups of 4 columns along v (the cell's coordinate ov + i),
+ * whose voxels of both rows lie in the same words of a block. In 8 int32
  * lanes (a's 4, then b's; the plane's remainders in two int64 vectors)
  * each column's range of w, stepped by 4 columns a group, bounded by the
  * per-v table lo, hi (indexed from -4 to the last i1 + 3). When the runs
