@@ -124,8 +124,6 @@ static void stats_path(const struct plan *p, const struct job *j, char *buf,
 	const struct job_decl *d = &p->cfg->jobs_decl[j->decl];
 	if (d->stage->type == STAGE_VOXELIZE)
 		snprintf(buf, cap, "%s/voxelize.stats.json", j->output);
-	else if (d->stage->type == STAGE_RENDER)
-		snprintf(buf, cap, "%s.none", j->output); /* render has no stats */
 	else if (d->stage->type == STAGE_ENCODE)
 		snprintf(buf, cap, "%s/%s.encode.stats.json", j->output,
 			 p->cfg->name);
@@ -573,7 +571,7 @@ int report_write(const struct plan *p)
 			secs = json_get(root, NULL, "seconds_load") +
 			       json_get(root, NULL, "seconds_build") +
 			       json_get(root, NULL, "seconds_save");
-		if (secs == 0) /* render writes no statistics: its wall time */
+		if (secs == 0) /* (statistics without a time: the job's) */
 			secs = j->seconds;
 		r->seconds += secs;
 		r->wall_this_run += j->seconds;

@@ -380,6 +380,14 @@ expect vdb_pipeline_lossless 0 '' $BIN/dag-verify $V/enc/$NAME-vdb.ssvdag $V/vox
 grep -q '"mode": "levelset-solid"' $V/vox/voxelize.stats.json && [ -s $V/pic.png ] &&
 	grep -q '!\[pic\](pic.png)' $V/report.md && pass vdb_pipeline_report ||
 	fail vdb_pipeline_report "$(ls $V)"
+# render leaves its statistics like every stage: the report written again
+# after the run (voxdag report) has render's time (it once showed 0.00 s)
+pic_s=$(sed -n 's/^  "seconds_total": \([0-9.e+-]*\),*$/\1/p' $V/pic.png.stats.json)
+expect vdb_report_again 0 '' $R report "$T/vdb.yaml"
+csv_s=$(awk -F, '$2 == "render" {print $4}' $V/report.csv)
+awk -v a="$pic_s" -v b="$csv_s" 'BEGIN { exit !(a != "" && b != "" && a > 0 && (a - b) ^ 2 < 1e-6) }' &&
+	pass report_render_seconds_after_the_run ||
+	fail report_render_seconds_after_the_run "stats '$pic_s', report.csv '$csv_s'"
 rm -rf $V
 printf 'version: 1\nname: x\ninput: {vdb: %s/grids/sphere.vdb, mode: melted}\nlevels: 6\njobs: {v: {stage: voxelize}}\n' "$T" |
 	bad_cfg config_vdb_bad_mode "'input.mode' is 'melted'"

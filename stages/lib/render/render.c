@@ -1110,8 +1110,40 @@ static int load_input(struct input *in, const char *path, int check_manifest)
 	return VD_OK;
 }
 
+/* OUT.png.stats.json, as every stage leaves its statistics beside its
+ * output: the runner's report reads render's time and memory from it, also
+ * when it is written again after the run (voxdag report). */
+static int write_stats(const struct vd_render_job *job,
+		       const struct vd_render_opts *o, const struct input *in,
+		       const struct vd_image *img, int threads, double t0)
+{
+	char path[4096];
+	if (snprintf(path, sizeof path, "%s.stats.json", job->output) >=
+	    (int)sizeof path)
+		return vd_fail(VD_ERR_IO, "'%s': too long a name for its "
+			       "statistics", job->output);
+	struct vd_json *j;
+	int err = vd_json_open(&j, path);
+	if (err)
+		return err;
+	vd_json_str(j, "tool", "render");
+	vd_json_str(j, "input", in->what);
+	vd_json_u64(j, "levels", (uint64_t)in->scene.levels);
+	vd_json_u64(j, "width", (uint64_t)o->width);
+	vd_json_u64(j, "height", (uint64_t)o->height);
+	vd_json_u64(j, "primary_rays", img->primary_rays);
+	vd_json_u64(j, "shadow_rays", img->shadow_rays);
+	vd_json_f64(j, "seconds_primary", img->seconds_primary);
+	vd_json_f64(j, "seconds_shade", img->seconds_shade);
+	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
+	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_u64(j, "threads", (uint64_t)threads);
+	return vd_json_close(j);
+}
+
 int vd_render_run(const struct vd_render_job *job)
 {
+	const double t0 = vd_seconds();
 	struct vd_render_opts o = job->opts;
 	int err = check_size(o.width, o.height);
 	if (err) return reword(err, "cannot render", job->input);
@@ -1197,10 +1229,15 @@ int vd_render_run(const struct vd_render_job *job)
 		err = vd_image_write_ids(&img, job->ids_path);
 		if (err) err = reword(err, "cannot write", job->ids_path);
 	}
+	const int threads = o.threads > 0 ? o.threads : vd_hardware_threads();
+	if (!err) {
+		err = write_stats(job, &o, &in, &img, threads, t0);
+		if (err) err = reword(err, "cannot write the statistics of",
+				      job->output);
+	}
 	if (!err && !job->quiet) {
 		double sec = img.seconds_primary + img.seconds_shade;
 		uint64_t rays = img.primary_rays + img.shadow_rays;
-		int threads = o.threads > 0 ? o.threads : vd_hardware_threads();
 		fprintf(stderr, "%s: %dx%d of the %s (2^%d) in %.3f s: %" PRIu64
 			" primary rays (%.3f s, %.2f Mrays/s), %" PRIu64 " shadow rays "
 			"(%.3f s with shading, %.2f Mrays/s), %d threads; wrote '%s'\n",
