@@ -223,10 +223,11 @@ static inline void RN(dda_steps)(const struct RN(dda) x[3], int64_t *s1,
 	}
 }
 
-/* Three stepping states at once, bounding one range: *k1 and *k2 only
- * narrow, to their exact intersection, which the caller finds empty when
- * *k1 > *k2 (they are then not bounded). With ST = int64_t, in the lanes
- * of a vector (the fourth bounds nothing): the three states of a row or a
+/* Three stepping states at once, bounding one range: RN(dda3_range)
+ * gives [lo, hi] (of RN(dda3_init)) narrowed to its exact intersection
+ * with the states' ranges, which the caller finds empty when *k1 > *k2.
+ * With ST = int64_t, in the lanes of a vector, the fourth holding
+ * [lo, hi] as a state that never moves: the three states of a row or a
  * column cost a few vector instructions instead of some 100. */
 #ifdef RN_VEC
 typedef ST RN(v4) __attribute__((vector_size(4 * sizeof(ST))));
@@ -235,35 +236,41 @@ struct RN(dda3) {
 };
 
 static inline void RN(dda3_init)(struct RN(dda3) *g,
-				 const struct RN(dda) x[3])
+				 const struct RN(dda) x[3], int64_t lo,
+				 int64_t hi)
 {
-	const ST big = (ST)1 << 60;
 	g->A = (RN(v4)){x[0].A, x[1].A, x[2].A, 1};
 	g->q = (RN(v4)){x[0].q, x[1].q, x[2].q, 0};
 	g->r = (RN(v4)){x[0].r, x[1].r, x[2].r, 0};
 	g->dq = (RN(v4)){x[0].dq, x[1].dq, x[2].dq, 0};
 	g->dr = (RN(v4)){x[0].dr, x[1].dr, x[2].dr, 0};
-	g->ql = (RN(v4)){x[0].ql, x[1].ql, x[2].ql, -big};
+	g->ql = (RN(v4)){x[0].ql, x[1].ql, x[2].ql, lo};
 	g->rl = (RN(v4)){x[0].rl, x[1].rl, x[2].rl, 0};
-	g->qh = (RN(v4)){x[0].qh, x[1].qh, x[2].qh, big};
+	g->qh = (RN(v4)){x[0].qh, x[1].qh, x[2].qh, hi};
 	g->rh = (RN(v4)){x[0].rh, x[1].rh, x[2].rh, 0};
 }
 
-static inline void RN(dda3_bound)(const struct RN(dda3) *g, int64_t *k1,
+/* max(a, b) per int64 lane */
+static inline RN(v4) RN(vmax)(RN(v4) a, RN(v4) b)
+{
+	return (RN(v4))_mm256_blendv_epi8((__m256i)b, (__m256i)a,
+					  (__m256i)(a > b));
+}
+
+static inline void RN(dda3_range)(const struct RN(dda3) *g, int64_t *k1,
 				  int64_t *k2)
 {
-	/* a comparison is -1 where it holds */
+	/* the lower bounds, and the upper ones negated, each reduced by
+	 * max: over the two halves, then (both in one vector) within
+	 * them. A comparison is -1 where it holds */
 	RN(v4) c1 = g->ql - g->q - (g->rl > g->r);
-	RN(v4) c2 = g->qh - g->q + (g->r > g->rh);
-	RN(v4) s1 = __builtin_shuffle(c1, (RN(v4)){2, 3, 0, 1});
-	RN(v4) s2 = __builtin_shuffle(c2, (RN(v4)){2, 3, 0, 1});
-	RN(v4) m1 = c1 > s1, m2 = c2 < s2;
-	c1 = (c1 & m1) | (s1 & ~m1);
-	c2 = (c2 & m2) | (s2 & ~m2);
-	int64_t a = c1[0] > c1[1] ? c1[0] : c1[1];
-	int64_t b = c2[0] < c2[1] ? c2[0] : c2[1];
-	*k1 = a > *k1 ? a : *k1;
-	*k2 = b < *k2 ? b : *k2;
+	RN(v4) n2 = g->q - g->qh - (g->r > g->rh);
+	c1 = RN(vmax)(c1, __builtin_shuffle(c1, (RN(v4)){2, 3, 0, 1}));
+	n2 = RN(vmax)(n2, __builtin_shuffle(n2, (RN(v4)){2, 3, 0, 1}));
+	RN(v4) t = __builtin_shuffle(c1, n2, (RN(v4)){0, 1, 6, 7});
+	t = RN(vmax)(t, __builtin_shuffle(t, (RN(v4)){1, 0, 3, 2}));
+	*k1 = t[0];
+	*k2 = -t[2];
 }
 
 static inline void RN(dda3_step)(struct RN(dda3) *g)
@@ -278,20 +285,24 @@ static inline void RN(dda3_step)(struct RN(dda3) *g)
 struct RN(dda3) {
 	struct RN(dda) x[3];
 	int n;
+	int64_t lo, hi;
 };
 
 static inline void RN(dda3_init)(struct RN(dda3) *g,
-				 const struct RN(dda) x[3])
+				 const struct RN(dda) x[3], int64_t lo,
+				 int64_t hi)
 {
 	g->n = 0;
+	g->lo = lo, g->hi = hi;
 	for (int k = 0; k < 3; k++)
 		if (!x[k].noop)
 			g->x[g->n++] = x[k];
 }
 
-static inline void RN(dda3_bound)(const struct RN(dda3) *g, int64_t *k1,
+static inline void RN(dda3_range)(const struct RN(dda3) *g, int64_t *k1,
 				  int64_t *k2)
 {
+	*k1 = g->lo, *k2 = g->hi;
 	for (int k = 0; k < g->n; k++)
 		RN(dda_bound)(&g->x[k], k1, k2);
 }
@@ -738,13 +749,12 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	us2 = s2 < us2 ? s2 : us2;
 	if (tabled) {
 		struct RN(dda3) g;
-		RN(dda3_init)(&g, dtv);
+		RN(dda3_init)(&g, dtv, 0, kmax);
 		for (int64_t i = 0; i < nv; i++) {
-			int64_t t1 = 0, t2 = kmax;
-			RN(dda3_bound)(&g, &t1, &t2);
+			int64_t t1, t2;
+			RN(dda3_range)(&g, &t1, &t2);
 			RN(dda3_step)(&g);
-			/* empty: t1 > t2, within int32 */
-			t1 = i < vs1 || i > vs2 ? kmax + 1 : t1;
+			/* within int32 (empty: t1 > t2) */
 			t1 = t1 > kmax + 1 ? kmax + 1 : t1;
 			t2 = t2 < -1 ? -1 : t2;
 #ifdef RN_VEC
@@ -764,6 +774,22 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 						      e.nbw - e.tb[2]);
 			}
 		}
+		/* the columns that axes with A = 0 exclude: none that the
+		 * tests reach (such an axis is the box axis v, which
+		 * raster_range's bounds already apply); kept for the rule */
+		for (int64_t i = 0; i < nv && (vs1 > 0 || vs2 < nv - 1); i++) {
+			if (i >= vs1 && i <= vs2)
+				continue;
+#ifdef RN_VEC
+			if (quads) {
+				qlo[i + 4] = (int32_t)(kmax + 1 + ctoff);
+				qhi[i + 4] = (int32_t)(-1 + ctoff);
+				continue;
+			}
+#endif
+			ct[i].lo = (int32_t)(kmax + 1 + ctoff);
+			ct[i].hi = (int32_t)(-1 + ctoff);
+		}
 	}
 	/* brick_cols: the plane's thickness, and its step made >= 0 */
 	const ST Dq = (ST)pqh - (ST)pql - (prl > prh);
@@ -778,8 +804,8 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 	struct RN(qrow) qrows[2], *pend = NULL;
 #endif
 	struct RN(dda3) gcol, gru;
-	RN(dda3_init)(&gcol, dcol);
-	RN(dda3_init)(&gru, dru);
+	RN(dda3_init)(&gcol, dcol, 0, nv - 1);
+	RN(dda3_init)(&gru, dru, 0, kmax);
 	int64_t p[3];
 	for (int64_t j = 0; j < nu; j++) {
 		const int64_t cu = vlo[u] + j;
@@ -789,10 +815,10 @@ RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 				break;
 			emit_row(&e, cu);
 		}
-		int64_t i0 = 0, i1 = nv - 1, r1 = 0, r2 = kmax;
-		RN(dda3_bound)(&gcol, &i0, &i1);
+		int64_t i0, i1, r1, r2;
+		RN(dda3_range)(&gcol, &i0, &i1);
 		RN(dda3_step)(&gcol);
-		RN(dda3_bound)(&gru, &r1, &r2);
+		RN(dda3_range)(&gru, &r1, &r2);
 		RN(dda3_step)(&gru);
 		if (i0 > i1 || r1 > r2 || j < us1 || j > us2)
 			continue;
