@@ -1127,6 +1127,7 @@ static int write_stats(const struct vd_render_job *job,
 	if (err)
 		return err;
 	vd_json_str(j, "tool", "render");
+	vd_json_str(j, "version", VD_VERSION_STRING);
 	vd_json_str(j, "input", in->what);
 	vd_json_u64(j, "levels", (uint64_t)in->scene.levels);
 	vd_json_u64(j, "width", (uint64_t)o->width);
