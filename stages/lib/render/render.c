@@ -1110,18 +1110,13 @@ static int load_input(struct input *in, const char *path, int check_manifest)
 	return VD_OK;
 }
 
-/* OUT.png.stats.json, as every stage leaves its statistics beside its
- * output: the runner's report reads render's time and memory from it, also
+/* The statistics beside the image, as every stage leaves them beside its
+ * output: the runner's report reads render's time and memory there, also
  * when it is written again after the run (voxdag report). */
-static int write_stats(const struct vd_render_job *job,
-		       const struct vd_render_opts *o, const struct input *in,
-		       const struct vd_image *img, int threads, double t0)
+static int write_stats(const char *path, const struct vd_render_opts *o,
+		       const struct input *in, const struct vd_image *img,
+		       int threads, double t0)
 {
-	char path[4096];
-	if (snprintf(path, sizeof path, "%s.stats.json", job->output) >=
-	    (int)sizeof path)
-		return vd_fail(VD_ERR_IO, "'%s': too long a name for its "
-			       "statistics", job->output);
 	struct vd_json *j;
 	int err = vd_json_open(&j, path);
 	if (err)
@@ -1140,6 +1135,28 @@ static int write_stats(const struct vd_render_job *job,
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	vd_json_u64(j, "threads", (uint64_t)threads);
 	return vd_json_close(j);
+}
+
+/* The image and OUT.png.stats.json, replacing the previous pair together
+ * (vd_publish_pair: a full disk leaves the old pair whole). */
+static int write_image(const struct vd_render_job *job,
+		       const struct vd_render_opts *o, const struct input *in,
+		       const struct vd_image *img, int threads, double t0)
+{
+	char sp[4096], staged[4096], staged_sp[4096];
+	int err = snprintf(sp, sizeof sp, "%s.stats.json", job->output) <
+		  (int)sizeof sp ? VD_OK :
+		  vd_fail(VD_ERR_RANGE, "the name is too long");
+	if (!err) err = vd_stage_name(job->output, staged, sizeof staged);
+	if (!err) err = vd_stage_name(sp, staged_sp, sizeof staged_sp);
+	if (!err && !(err = vd_image_write_png(img, staged))) {
+		err = write_stats(staged_sp, o, in, img, threads, t0);
+		if (!err)
+			err = vd_publish_pair(staged, job->output, staged_sp, sp);
+		if (err)
+			unlink(staged);
+	}
+	return err ? reword(err, "cannot write", job->output) : VD_OK;
 }
 
 int vd_render_run(const struct vd_render_job *job)
@@ -1218,10 +1235,8 @@ int vd_render_run(const struct vd_render_job *job)
 	err = vd_render_image(s, &o, &img);
 	vd_colour_source_release(&colours);
 	if (err) err = reword(err, "cannot render", job->input);
-	if (!err) {
-		err = vd_image_write_png(&img, job->output);
-		if (err) err = reword(err, "cannot write", job->output);
-	}
+	const int threads = o.threads > 0 ? o.threads : vd_hardware_threads();
+	if (!err) err = write_image(job, &o, &in, &img, threads, t0);
 	if (!err && job->depth_path) {
 		err = vd_image_write_depth(&img, job->depth_path);
 		if (err) err = reword(err, "cannot write", job->depth_path);
@@ -1229,12 +1244,6 @@ int vd_render_run(const struct vd_render_job *job)
 	if (!err && job->ids_path) {
 		err = vd_image_write_ids(&img, job->ids_path);
 		if (err) err = reword(err, "cannot write", job->ids_path);
-	}
-	const int threads = o.threads > 0 ? o.threads : vd_hardware_threads();
-	if (!err) {
-		err = write_stats(job, &o, &in, &img, threads, t0);
-		if (err) err = reword(err, "cannot write the statistics of",
-				      job->output);
 	}
 	if (!err && !job->quiet) {
 		double sec = img.seconds_primary + img.seconds_shade;
