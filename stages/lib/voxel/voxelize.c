@@ -1475,20 +1475,22 @@ struct colour_ctx {
 	double tv[3][3];          /* its corners in voxels: st / s, exact */
 	const struct vd_tri_attr *a;
 	const struct vd_texture *tex;
-	uint64_t last_key;        /* block of the last voxel */
-	size_t last;
+	uint32_t last_b[3];       /* block of the last voxel, */
+	size_t last;              /* its index in w->order */
 	int have_last;
 };
 
-static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
+static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
+				int64_t z)
 {
-	struct colour_ctx *c = vctx;
 	struct worker *w = c->w;
 	uint32_t lx = (uint32_t)(x - c->lo[0]), ly = (uint32_t)(y - c->lo[1]),
 		 lz = (uint32_t)(z - c->lo[2]);
-	uint64_t key = vd_morton3(lx >> BLOCK_SHIFT, ly >> BLOCK_SHIFT,
-				  lz >> BLOCK_SHIFT);
-	if (!c->have_last || key != c->last_key) {
+	const uint32_t bx = lx >> BLOCK_SHIFT, by = ly >> BLOCK_SHIFT,
+		       bz = lz >> BLOCK_SHIFT;
+	if (!c->have_last || bx != c->last_b[0] || by != c->last_b[1] ||
+	    bz != c->last_b[2]) {
+		const uint64_t key = vd_morton3(bx, by, bz);
 		size_t lo = 0, hi = c->nb;
 		while (lo < hi) {
 			size_t mid = lo + (hi - lo) / 2;
@@ -1500,7 +1502,7 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 		if (lo == c->nb || w->order[lo] != key)
 			return; /* cannot be: the geometry pass set it */
 		c->last = lo;
-		c->last_key = key;
+		c->last_b[0] = bx, c->last_b[1] = by, c->last_b[2] = bz;
 		c->have_last = 1;
 	}
 	size_t bi = c->last;
@@ -1529,6 +1531,17 @@ static void colour_voxel(void *vctx, int64_t x, int64_t y, int64_t z)
 	v->d2 = d2;
 	v->set = 1;
 	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
+}
+
+/* A run of voxels, in the order vd_raster_triangle visits them: the
+ * voxels' work inlined, without a call through two pointers a voxel. */
+static void colour_span(void *vctx, int axis, int64_t x, int64_t y,
+			int64_t z, int64_t n)
+{
+	struct colour_ctx *c = vctx;
+	int64_t p[3] = {x, y, z};
+	for (int64_t i = 0; i < n; i++, p[axis]++)
+		colour_voxel(c, p[0], p[1], p[2]);
 }
 
 /* The colour pass of a cell (whose geometry is complete; w->order[0..nb)
@@ -1630,8 +1643,8 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
-			vd_raster_triangle(&st, r->g.L, clip_lo, clip_hi,
-					   colour_voxel, &cc);
+			vd_raster_triangle_spans(&st, r->g.L, clip_lo,
+						 clip_hi, colour_span, &cc);
 		}
 	}
 	if (!err && ferror(f))
