@@ -322,6 +322,8 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	c->C = s.cell_level >= 0 && s.cell_level <= L - 2
 		       ? s.cell_level : (L - 2 < 3 ? L - 2 : 3);
 	c->ncells = 1ull << 3 * c->C;
+	c->tab_free = hd_coltab_free;
+	c->free = hd_colours_free;
 	memcpy(c->fill_rgb, fill_rgb ? fill_rgb : grey, 3);
 	struct stat st;
 	if (!stat(src, &st) && S_ISDIR(st.st_mode) && !(c->src_dir = strdup(src)))

@@ -65,6 +65,12 @@ struct hd_colours {
 	char *src_dir;               /* the source directory, or NULL */
 	uint8_t fill_rgb[3];
 	uint64_t bytes;              /* of all tables and segments alive */
+	/* Set by colours.c when it attaches the colours: the history of roots
+	 * (hashdag.c) releases a root's table and, with the scene, the whole
+	 * structure through these, so the tables below never call up into the
+	 * colour layer. */
+	void (*tab_free)(struct hd_colours *c, struct hd_cellcol **tab);
+	void (*free)(struct hd_colours *c);
 };
 
 struct vd_hashdag {
@@ -150,9 +156,34 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		    uint32_t old_root, uint32_t new_root,
 		    struct hd_cellcol ***out, uint64_t *changed_colours,
 		    uint64_t *cells_rebuilt);
-/* Does op's region hold voxel (x, y, z) (copy: its destination)? */
-int hd_op_has(const struct vd_edit_op *op, int64_t x, int64_t y, int64_t z);
-/* Voxels of the subtree of ptr on level l. */
+/* The regions of the edits, inline so that the edits (ops.c) and the
+ * colours (colours.c) test voxels alike without calling each other. A
+ * voxel is in a sphere when its centre is. */
+static inline int hd_sphere_has(const struct vd_edit_op *op, int64_t x,
+				 int64_t y, int64_t z)
+{
+	double dx = (double)x + 0.5 - op->c[0], dy = (double)y + 0.5 - op->c[1],
+	       dz = (double)z + 0.5 - op->c[2];
+	return dx * dx + dy * dy + dz * dz <= op->r * op->r;
+}
+
+/* 1 when voxel (x, y, z) lies in the region `op` writes (for a copy, its
+ * destination box). */
+static inline int hd_op_has(const struct vd_edit_op *op, int64_t x,
+			    int64_t y, int64_t z)
+{
+	if (op->shape == VD_SHAPE_SPHERE && op->kind != VD_EDIT_COPY)
+		return hd_sphere_has(op, x, y, z);
+	int64_t p[3] = {x, y, z};
+	for (int a = 0; a < 3; a++) {
+		int64_t d = op->kind == VD_EDIT_COPY ? op->dst[a] - op->lo[a] : 0;
+		if (p[a] < op->lo[a] + d || p[a] > op->hi[a] + d)
+			return 0;
+	}
+	return 1;
+}
+
+/* Voxels of the subtree of ptr on level l (hashdag.c). */
 uint64_t hd_voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr);
 
 #endif

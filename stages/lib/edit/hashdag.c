@@ -224,13 +224,29 @@ int hd_budget_check(const struct vd_hashdag *h, uint64_t more,
 		       (unsigned long long)used, (unsigned long long)b);
 }
 
+/* The voxels below node `ptr` of level l (counted down to the bricks; a
+ * full node by its size). */
+uint64_t hd_voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr)
+{
+	if (ptr == HD_EMPTY)
+		return 0;
+	if (ptr == h->lv[l].full)
+		return 1ull << 3 * (h->levels - l);
+	if (l == h->levels - 2)
+		return (uint64_t)__builtin_popcountll(hd_brick(h, ptr));
+	uint64_t n = 0;
+	for (int c = 0; c < 8; c++)
+		n += hd_voxels_of(h, l + 1, hd_child(h, l, ptr, c));
+	return n;
+}
+
 int hd_push_root(struct vd_hashdag *h, uint32_t root,
 		 struct hd_cellcol **tab)
 {
 	if (h->nroots && h->cur + 1 < h->nroots) {
 		if (h->col)
 			for (size_t i = h->cur + 1; i < h->nroots; i++)
-				hd_coltab_free(h->col, h->col->tab[i]);
+				h->col->tab_free(h->col, h->col->tab[i]);
 		h->nroots = h->cur + 1;
 	}
 	if (h->nroots == h->cap_roots) {
@@ -238,7 +254,7 @@ int hd_push_root(struct vd_hashdag *h, uint32_t root,
 		uint32_t *r = realloc(h->roots, cap * sizeof *r);
 		if (!r) {
 			if (h->col)
-				hd_coltab_free(h->col, tab);
+				h->col->tab_free(h->col, tab);
 			return vd_fail(VD_ERR_NOMEM, "history of roots");
 		}
 		h->roots = r;
@@ -246,7 +262,7 @@ int hd_push_root(struct vd_hashdag *h, uint32_t root,
 			struct hd_cellcol ***t = realloc(h->col->tab,
 							 cap * sizeof *t);
 			if (!t) {
-				hd_coltab_free(h->col, tab);
+				h->col->tab_free(h->col, tab);
 				return vd_fail(VD_ERR_NOMEM, "history of colours");
 			}
 			h->col->tab = t;
@@ -318,8 +334,8 @@ void vd_hashdag_free(struct vd_hashdag *h)
 			level_free(&h->lv[l]);
 	if (h->col) {
 		for (size_t i = 0; i < h->nroots; i++)
-			hd_coltab_free(h->col, h->col->tab[i]);
-		hd_colours_free(h->col);
+			h->col->tab_free(h->col, h->col->tab[i]);
+		h->col->free(h->col);
 	}
 	free(h->roots);
 	free(h);
@@ -992,7 +1008,7 @@ int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		if (h->col) {
 			for (size_t i = 0; i < h->nroots; i++)
 				if (i != h->cur)
-					hd_coltab_free(h->col, h->col->tab[i]);
+					h->col->tab_free(h->col, h->col->tab[i]);
 			h->col->tab[0] = h->col->tab[h->cur];
 		}
 		h->roots[0] = h->roots[h->cur];

@@ -16,14 +16,14 @@
 
 enum { OUTSIDE, INSIDE, PARTIAL };
 
-struct jobs;
+struct op_jobs;
 
 struct ectx {
 	struct vd_hashdag *h;
 	const struct vd_edit_op *op;
 	uint32_t src_root;     /* copy: the scene before the edit */
 	int64_t box_lo[3], box_hi[3]; /* the region written (box or copy dst) */
-	struct jobs *js;
+	struct op_jobs *js;
 };
 
 /* One subtree job at the split level. */
@@ -35,38 +35,17 @@ struct job {
 	char detail[240];
 };
 
-struct jobs {
+struct op_jobs {
 	struct job *v;
 	size_t n, cap, next;
 	int err;
 };
 
-static int sphere_has(const struct vd_edit_op *op, int64_t x, int64_t y,
-		      int64_t z)
-{
-	double dx = (double)x + 0.5 - op->c[0], dy = (double)y + 0.5 - op->c[1],
-	       dz = (double)z + 0.5 - op->c[2];
-	return dx * dx + dy * dy + dz * dz <= op->r * op->r;
-}
-
-int hd_op_has(const struct vd_edit_op *op, int64_t x, int64_t y, int64_t z)
-{
-	if (op->shape == VD_SHAPE_SPHERE && op->kind != VD_EDIT_COPY)
-		return sphere_has(op, x, y, z);
-	int64_t p[3] = {x, y, z};
-	for (int a = 0; a < 3; a++) {
-		int64_t d = op->kind == VD_EDIT_COPY ? op->dst[a] - op->lo[a] : 0;
-		if (p[a] < op->lo[a] + d || p[a] > op->hi[a] + d)
-			return 0;
-	}
-	return 1;
-}
-
 /* Does the shape cover voxel (x, y, z)? */
 static int shape_has(const struct ectx *e, int64_t x, int64_t y, int64_t z)
 {
 	if (e->op->shape == VD_SHAPE_SPHERE && e->op->kind != VD_EDIT_COPY)
-		return sphere_has(e->op, x, y, z);
+		return hd_sphere_has(e->op, x, y, z);
 	return x >= e->box_lo[0] && x <= e->box_hi[0] && y >= e->box_lo[1] &&
 	       y <= e->box_hi[1] && z >= e->box_lo[2] && z <= e->box_hi[2];
 }
@@ -201,20 +180,6 @@ static int whole(struct ectx *e, int l, uint32_t ptr, int64_t x, int64_t y,
 
 #define voxels_of hd_voxels_of
 
-uint64_t hd_voxels_of(const struct vd_hashdag *h, int l, uint32_t ptr)
-{
-	if (ptr == HD_EMPTY)
-		return 0;
-	if (ptr == h->lv[l].full)
-		return 1ull << 3 * (h->levels - l);
-	if (l == h->levels - 2)
-		return (uint64_t)__builtin_popcountll(hd_brick(h, ptr));
-	uint64_t n = 0;
-	for (int c = 0; c < 8; c++)
-		n += voxels_of(h, l + 1, hd_child(h, l, ptr, c));
-	return n;
-}
-
 /* Voxels that differ between the subtrees a and b on level l. */
 static uint64_t diff_of(const struct vd_hashdag *h, int l, uint32_t a,
 			uint32_t b)
@@ -282,7 +247,7 @@ static void run_job(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct ectx *e = ctx;
-	struct jobs *js = e->js;
+	struct op_jobs *js = e->js;
 	struct job *j = &js->v[i];
 	j->err = edit_node(e, e->h->o.split_level, j->ptr, j->x, j->y, j->z,
 			   &j->changed, &j->result);
@@ -293,7 +258,7 @@ static void run_job(void *ctx, size_t i, int worker)
 
 /* The levels above the split: pass 0 collects the jobs in order, pass 1
  * consumes their results in the same order. */
-static int edit_top(struct ectx *e, struct jobs *js, int pass, int l,
+static int edit_top(struct ectx *e, struct op_jobs *js, int pass, int l,
 		    uint32_t ptr, int64_t x, int64_t y, int64_t z,
 		    uint64_t *changed, uint32_t *out)
 {
@@ -420,7 +385,7 @@ int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		return err;
 	struct {
 		struct ectx e;
-		struct jobs js;
+		struct op_jobs js;
 	} c;
 	memset(&c, 0, sizeof c);
 	c.e.h = h;
