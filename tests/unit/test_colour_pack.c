@@ -5,6 +5,7 @@
  * neighbours (blocks never span cells); damaged and inconsistent files
  * refused with one error each. */
 #include "check.h"
+#include "le.h"
 #include "voxdag.h"
 
 #include <math.h>
@@ -402,11 +403,6 @@ static void test_damaged(void)
 	CHECK_EQ(vd_cpack_open(&c, path), VD_ERR_WRONG_KIND);
 }
 
-/* Files whose checksums are right but whose content breaks the format's
- * rules, written section by section here: each its own corrupt error. */
-static void put32(uint8_t *p, uint32_t v) { for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i); }
-static void put64(uint8_t *p, uint64_t v) { for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> 8 * i); }
-
 struct crafted {
 	uint32_t voxels, seg_n, seg_first, blocks, b1_start, wbytes;
 	uint64_t header_voxels;
@@ -423,14 +419,14 @@ static int open_crafted(const struct crafted *k)
 	struct vd_chunk_writer *w;
 	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
 	uint8_t par[64] = {0}, seg[40] = {0}, blk[16] = {0}, wgt[64] = {0};
-	put32(par, k->method);
-	put32(par + 4, k->wbits);
-	put64(par + 8, k->voxels);
-	put64(par + 16, 1);
-	put64(par + 24, k->blocks);
-	put64(seg, k->seg_first);
-	put32(seg + 36, k->seg_n);
-	put32(blk + 8, k->b1_start);
+	le_put32(par, k->method);
+	le_put32(par + 4, k->wbits);
+	le_put64(par + 8, k->voxels);
+	le_put64(par + 16, 1);
+	le_put64(par + 24, k->blocks);
+	le_put64(seg, k->seg_first);
+	le_put32(seg + 36, k->seg_n);
+	le_put32(blk + 8, k->b1_start);
 	vd_chunk_writer_section(w, VD_TAG('C', 'P', 'A', 'R'), par, 64);
 	vd_chunk_writer_section(w, VD_TAG('C', 'S', 'E', 'G'), seg, 40);
 	vd_chunk_writer_section(w, VD_TAG('V', 'B', 'L', 'K'), blk,

@@ -3,6 +3,7 @@
  * segment as the cells arrive, and read back for random access and full
  * decoding. */
 #include "voxdag.h"
+#include "le.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -36,13 +37,6 @@ const char *vd_cpack_method_name(int method)
 	}
 	return NULL;
 }
-
-static void put16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
-static void put32(uint8_t *p, uint32_t v) { for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> 8 * i); }
-static void put64(uint8_t *p, uint64_t v) { for (int i = 0; i < 8; i++) p[i] = (uint8_t)(v >> 8 * i); }
-static uint16_t get16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
-static uint32_t get32(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
-static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
 
 static unsigned width_of(uint32_t colours)
 {
@@ -135,7 +129,7 @@ struct palset {
 static uint32_t ent_at(const struct palset *ps, uint64_t i)
 {
 	const uint8_t *p = ps->ent.p + i * ps->entry_bytes;
-	return ps->entry_bytes == 2 ? get16(p) : get32(p);
+	return ps->entry_bytes == 2 ? le_get16(p) : le_get32(p);
 }
 
 static uint64_t pal_hash(const uint32_t *v, uint32_t n)
@@ -156,7 +150,7 @@ static int palset_find(struct palset *ps, const uint32_t *v, uint32_t n,
 				continue;
 			uint32_t q = ps->slot[i] - 1;
 			const uint8_t *t = ps->tab.p + (size_t)q * PTAB_SIZE;
-			uint32_t first = get32(t), cnt = get32(t + 4);
+			uint32_t first = le_get32(t), cnt = le_get32(t + 4);
 			uint32_t tmp[4096];
 			for (uint32_t k = 0; k < cnt; k++)
 				tmp[k] = ent_at(ps, first + k);
@@ -173,7 +167,7 @@ static int palset_find(struct palset *ps, const uint32_t *v, uint32_t n,
 	while (ps->slot[h]) {
 		uint32_t q = ps->slot[h] - 1;
 		const uint8_t *t = ps->tab.p + (size_t)q * PTAB_SIZE;
-		uint32_t first = get32(t), cnt = get32(t + 4), k = 0;
+		uint32_t first = le_get32(t), cnt = le_get32(t + 4), k = 0;
 		if (cnt == n)
 			while (k < n && ent_at(ps, first + k) == v[k])
 				k++;
@@ -187,12 +181,12 @@ static int palset_find(struct palset *ps, const uint32_t *v, uint32_t n,
 		return vd_fail(VD_ERR_RANGE, "more than 2^32 block palette "
 			       "entries");
 	uint8_t t[PTAB_SIZE];
-	put32(t, (uint32_t)ps->entries);
-	put32(t + 4, n);
+	le_put32(t, (uint32_t)ps->entries);
+	le_put32(t + 4, n);
 	int err = buf_add(&ps->tab, t, sizeof t);
 	for (uint32_t k = 0; k < n && !err; k++) {
 		uint8_t e[4];
-		put32(e, v[k]);
+		le_put32(e, v[k]);
 		err = buf_add(&ps->ent, e, ps->entry_bytes);
 	}
 	if (err)
@@ -313,12 +307,12 @@ static int write_seg_entry(struct vd_cpack_writer *w, uint32_t n,
 			   uint64_t first_block)
 {
 	uint8_t e[CSEG_SIZE];
-	put64(e, w->voxels);
-	put64(e + 8, first_block);
-	put64(e + 16, w->data_bytes);
-	put64(e + 24, w->cell_morton);
-	put32(e + 32, (uint32_t)w->cell_level);
-	put32(e + 36, n);
+	le_put64(e, w->voxels);
+	le_put64(e + 8, first_block);
+	le_put64(e + 16, w->data_bytes);
+	le_put64(e + 24, w->cell_morton);
+	le_put32(e + 32, (uint32_t)w->cell_level);
+	le_put32(e + 36, n);
 	return buf_add(&w->seg, e, sizeof e);
 }
 
@@ -340,9 +334,9 @@ static int put_vbr(struct vd_cpack_writer *w, const struct vd_vbr_segment *s)
 	uint8_t hb[VBLK_SIZE * 256];
 	size_t k = 0;
 	for (uint32_t b = 0; b < s->count && !err; b++) {
-		put32(hb + VBLK_SIZE * k, s->start[b]);
-		put16(hb + VBLK_SIZE * k + 4, s->c0[b]);
-		put16(hb + VBLK_SIZE * k + 6, s->c1[b]);
+		le_put32(hb + VBLK_SIZE * k, s->start[b]);
+		le_put16(hb + VBLK_SIZE * k + 4, s->c0[b]);
+		le_put16(hb + VBLK_SIZE * k + 6, s->c1[b]);
 		if (++k == 256) {
 			err = spool_write(w, hb, sizeof hb);
 			k = 0;
@@ -390,9 +384,9 @@ static int put_pal(struct vd_cpack_writer *w,
 		if (err)
 			break;
 		uint8_t hb[PBLK_SIZE];
-		put32(hb, s->start[b]);
-		put32(hb + 4, id);
-		put32(hb + 8, (uint32_t)pos);
+		le_put32(hb, s->start[b]);
+		le_put32(hb + 4, id);
+		le_put32(hb + 8, (uint32_t)pos);
 		err = spool_write(w, hb, sizeof hb);
 		unsigned width = width_of(cnt);
 		uint32_t end = b + 1 < s->count ? s->start[b + 1] : s->n;
@@ -509,21 +503,21 @@ int vd_cpack_writer_commit(struct vd_cpack_writer *w,
 {
 	int err = vd_chunk_writer_end(w->cw);
 	uint8_t par[CPAR_SIZE] = {0};
-	put32(par, (uint32_t)w->p.method);
-	put32(par + 4, w->p.method == VD_CPACK_VBR ? (uint32_t)w->p.vbr.weight_bits : 0);
-	put64(par + 8, w->voxels);
-	put64(par + 16, w->segments);
-	put64(par + 24, w->blocks);
+	le_put32(par, (uint32_t)w->p.method);
+	le_put32(par + 4, w->p.method == VD_CPACK_VBR ? (uint32_t)w->p.vbr.weight_bits : 0);
+	le_put64(par + 8, w->voxels);
+	le_put64(par + 16, w->segments);
+	le_put64(par + 24, w->blocks);
 	double et = w->p.method == VD_CPACK_VBR ? w->p.vbr.max_error : 0;
 	uint64_t etb;
 	memcpy(&etb, &et, 8);
-	put64(par + 32, etb);
+	le_put64(par + 32, etb);
 	if (w->p.method == VD_CPACK_PALETTE) {
-		put32(par + 40, w->p.palette->k);
-		put32(par + 44, w->p.palette_colours);
-		put32(par + 48, w->p.palette->lossless ? 1 : 0);
-		put32(par + 52, w->ps.entry_bytes);
-		put64(par + 56, w->ps.count);
+		le_put32(par + 40, w->p.palette->k);
+		le_put32(par + 44, w->p.palette_colours);
+		le_put32(par + 48, w->p.palette->lossless ? 1 : 0);
+		le_put32(par + 52, w->ps.entry_bytes);
+		le_put64(par + 56, w->ps.count);
 	}
 	if (!err)
 		err = stored(w->cw, TAG_CPAR, par, sizeof par);
@@ -655,17 +649,17 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		free(par);
 		return vd_fail(VD_ERR_CORRUPT, "CPAR of %zu bytes", n);
 	}
-	c->method = (int)get32(par);
-	c->weight_bits = (int)get32(par + 4);
-	c->voxels = get64(par + 8);
-	c->segments = get64(par + 16);
-	c->blocks = get64(par + 24);
-	uint64_t etb = get64(par + 32);
+	c->method = (int)le_get32(par);
+	c->weight_bits = (int)le_get32(par + 4);
+	c->voxels = le_get64(par + 8);
+	c->segments = le_get64(par + 16);
+	c->blocks = le_get64(par + 24);
+	uint64_t etb = le_get64(par + 32);
 	memcpy(&c->max_error, &etb, 8);
-	c->k = get32(par + 40);
-	c->lossless = (int)get32(par + 48);
-	unsigned entry_bytes = get32(par + 52);
-	uint64_t npal = get64(par + 56);
+	c->k = le_get32(par + 40);
+	c->lossless = (int)le_get32(par + 48);
+	unsigned entry_bytes = le_get32(par + 52);
+	uint64_t npal = le_get64(par + 56);
 	free(par);
 	if (!vd_cpack_method_name(c->method))
 		return vd_fail(VD_ERR_UNSUPPORTED, "colour method %d (written by "
@@ -697,12 +691,12 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 	uint32_t cell_level = 0;
 	for (size_t s = 0; s < S; s++) {
 		const uint8_t *e = seg + CSEG_SIZE * s;
-		c->seg_first[s] = get64(e);
-		c->seg_block[s] = get64(e + 8);
-		c->seg_data[s] = get64(e + 16);
-		uint64_t cell = get64(e + 24);
-		uint32_t lvl = get32(e + 32);
-		c->seg_n[s] = get32(e + 36);
+		c->seg_first[s] = le_get64(e);
+		c->seg_block[s] = le_get64(e + 8);
+		c->seg_data[s] = le_get64(e + 16);
+		uint64_t cell = le_get64(e + 24);
+		uint32_t lvl = le_get32(e + 32);
+		c->seg_n[s] = le_get32(e + 36);
 		if (s == 0)
 			cell_level = lvl;
 		if (c->seg_first[s] != v || c->seg_n[s] == 0 ||
@@ -763,13 +757,13 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 	}
 	for (size_t b = 0; b < B; b++) {
 		const uint8_t *e = blk + bsz * b;
-		c->blk_start[b] = get32(e);
+		c->blk_start[b] = le_get32(e);
 		if (vbr) {
-			c->c0[b] = get16(e + 4);
-			c->c1[b] = get16(e + 6);
+			c->c0[b] = le_get16(e + 4);
+			c->c1[b] = le_get16(e + 6);
 		} else {
-			c->blk_pal[b] = get32(e + 4);
-			c->blk_bit[b] = get32(e + 8);
+			c->blk_pal[b] = le_get32(e + 4);
+			c->blk_bit[b] = le_get32(e + 8);
 		}
 	}
 	free(blk);
@@ -798,8 +792,8 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 			return vd_fail(VD_ERR_NOMEM, "palette entries");
 		}
 		for (uint64_t i = 0; i < c->nent; i++) {
-			c->ent[i] = entry_bytes == 2 ? get16(ent + 2 * i)
-						     : get32(ent + 4 * i);
+			c->ent[i] = entry_bytes == 2 ? le_get16(ent + 2 * i)
+						     : le_get32(ent + 4 * i);
 			if (c->ent[i] >= c->k) {
 				free(ent);
 				return vd_fail(VD_ERR_CORRUPT, "palette entry %llu "
@@ -825,8 +819,8 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 			return vd_fail(VD_ERR_NOMEM, "block palettes");
 		}
 		for (uint64_t i = 0; i < npal; i++) {
-			c->pal_first[i] = get32(tab + PTAB_SIZE * i);
-			c->pal_count[i] = get32(tab + PTAB_SIZE * i + 4);
+			c->pal_first[i] = le_get32(tab + PTAB_SIZE * i);
+			c->pal_count[i] = le_get32(tab + PTAB_SIZE * i + 4);
 			int sorted = 1;
 			if (c->pal_count[i] &&
 			    (uint64_t)c->pal_first[i] + c->pal_count[i] <= c->nent)

@@ -19,6 +19,7 @@
  * same bytes on any number of threads.
  */
 #include "dag/dag_internal.h"
+#include "le.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -2189,24 +2190,6 @@ void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
 	h->level_nodes[dag->levels - dag->chunk_level] = dag->voxels;
 }
 
-/* ----------------------------------------------------------- chunk files */
-
-/* Spelled out, the form GCC merges into one store (the loop it left as
- * 4 variable shifts and byte stores, for every reference written). */
-static void put32(uint8_t *p, uint32_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-	p[2] = (uint8_t)(v >> 16);
-	p[3] = (uint8_t)(v >> 24);
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	       (uint32_t)p[3] << 24;
-}
-
 /* vd_dag_save's sections, each the concatenation of one array of every
  * level (DAGM: masks of levels A..L-1, a byte a node; DAGC: child indices
  * of levels A..L-2, uint32 little-endian; DAGR: their reflections, a
@@ -2256,7 +2239,7 @@ static void dag_stream_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 			memcpy(buf, lv->refl + e, k);
 		else
 			for (size_t j = 0; j < k / 4; j++)
-				put32(buf + 4 * j, lv->child[e + j]);
+				le_put32(buf + 4 * j, lv->child[e + j]);
 		buf += k;
 		off += k;
 		n -= k;
@@ -2451,7 +2434,7 @@ int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
 			err = NOMEM();
 			goto out;
 		}
-		for (uint64_t j = 0; j < lv->refs; j++) lv->child[j] = get32(cp + 4 * j);
+		for (uint64_t j = 0; j < lv->refs; j++) lv->child[j] = le_get32(cp + 4 * j);
 		cp += 4 * lv->refs;
 		if (sym) {
 			memcpy(lv->refl, rp, (size_t)lv->refs);

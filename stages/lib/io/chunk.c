@@ -6,6 +6,7 @@
  * with the whole-file checksum and only then renames the file into place.
  */
 #include "voxdag.h"
+#include "le.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -33,31 +34,6 @@ enum {
 	HEADER_MAX = 4096,
 };
 
-/* ------------------------------------------------------ little-endian I/O */
-
-static void put16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
-static void put32(uint8_t *p, uint32_t v)
-{
-	for (int i = 0; i < 4; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
-}
-static void put64(uint8_t *p, uint64_t v)
-{
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
-}
-static void putf32(uint8_t *p, float f) { uint32_t v; memcpy(&v, &f, 4); put32(p, v); }
-static void putf64(uint8_t *p, double f) { uint64_t v; memcpy(&v, &f, 8); put64(p, v); }
-static uint16_t get16(const uint8_t *p) { return (uint16_t)(p[0] | p[1] << 8); }
-static uint32_t get32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	       (uint32_t)p[3] << 24;
-}
-static uint64_t get64(const uint8_t *p) { return get32(p) | (uint64_t)get32(p + 4) << 32; }
-static float getf32(const uint8_t *p) { uint32_t v = get32(p); float f; memcpy(&f, &v, 4); return f; }
-static double getf64(const uint8_t *p) { uint64_t v = get64(p); double f; memcpy(&f, &v, 8); return f; }
-
 const char *vd_chunk_kind_name(uint32_t kind)
 {
 	static const char *const names[] = {"any", "svo", "dag", "ssvdag",
@@ -79,26 +55,26 @@ static void encode_header(uint8_t *buf, const struct vd_chunk_header *h,
 	size_t n = header_size(h->level_count);
 	memset(buf, 0, n);
 	memcpy(buf, chunk_magic, 8);
-	put16(buf + 8, VD_CHUNK_MAJOR);
-	put16(buf + 10, VD_CHUNK_MINOR);
-	put32(buf + 12, (uint32_t)n);
-	put32(buf + 16, h->kind);
-	put32(buf + 20, h->levels);
-	put32(buf + 24, h->chunk_level);
-	put32(buf + 28, h->level_count);
-	put64(buf + 32, h->cell_morton);
+	le_put16(buf + 8, VD_CHUNK_MAJOR);
+	le_put16(buf + 10, VD_CHUNK_MINOR);
+	le_put32(buf + 12, (uint32_t)n);
+	le_put32(buf + 16, h->kind);
+	le_put32(buf + 20, h->levels);
+	le_put32(buf + 24, h->chunk_level);
+	le_put32(buf + 28, h->level_count);
+	le_put64(buf + 32, h->cell_morton);
 	for (int a = 0; a < 3; a++)
-		putf64(buf + 40 + 8 * a, h->transform.origin[a]);
-	putf64(buf + 64, h->transform.voxel_size);
+		le_putf64(buf + 40 + 8 * a, h->transform.origin[a]);
+	le_putf64(buf + 64, h->transform.voxel_size);
 	for (int a = 0; a < 3; a++) {
-		putf32(buf + 72 + 4 * a, h->transform.bbox_min[a]);
-		putf32(buf + 84 + 4 * a, h->transform.bbox_max[a]);
+		le_putf32(buf + 72 + 4 * a, h->transform.bbox_min[a]);
+		le_putf32(buf + 84 + 4 * a, h->transform.bbox_max[a]);
 	}
-	putf32(buf + 96, h->transform.root_side);
-	put32(buf + 100, section_count);
+	le_putf32(buf + 96, h->transform.root_side);
+	le_put32(buf + 100, section_count);
 	for (uint32_t i = 0; i < h->level_count; i++)
-		put64(buf + HEADER_FIXED + 8 * i, h->level_nodes[i]);
-	put64(buf + n - 8, XXH3_64bits(buf, n - 8));
+		le_put64(buf + HEADER_FIXED + 8 * i, h->level_nodes[i]);
+	le_put64(buf + n - 8, XXH3_64bits(buf, n - 8));
 }
 
 /* ---------------------------------------------------------------- writer */
@@ -275,11 +251,11 @@ int vd_chunk_writer_end(struct vd_chunk_writer *w)
 			return err;
 	}
 	uint8_t hdr[SECTION_HEADER];
-	put32(hdr, w->tag);
-	put32(hdr + 4, w->codec);
-	put64(hdr + 8, w->raw_size);
-	put64(hdr + 16, w->stored_size);
-	put64(hdr + 24, XXH3_64bits_digest(w->hash));
+	le_put32(hdr, w->tag);
+	le_put32(hdr + 4, w->codec);
+	le_put64(hdr + 8, w->raw_size);
+	le_put64(hdr + 16, w->stored_size);
+	le_put64(hdr + 24, XXH3_64bits_digest(w->hash));
 	off_t end = ftello(w->f);
 	if (fseeko(w->f, w->section_pos, SEEK_SET) != 0 ||
 	    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
@@ -445,11 +421,11 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 		}
 	}
 	if (!err) {
-		put32(hdr, tag);
-		put32(hdr + 4, planes ? CODEC_ZSTD_PLANES4 : CODEC_ZSTD);
-		put64(hdr + 8, raw_size);
-		put64(hdr + 16, stored);
-		put64(hdr + 24, XXH3_64bits_digest(w->hash));
+		le_put32(hdr, tag);
+		le_put32(hdr + 4, planes ? CODEC_ZSTD_PLANES4 : CODEC_ZSTD);
+		le_put64(hdr + 8, raw_size);
+		le_put64(hdr + 16, stored);
+		le_put64(hdr + 24, XXH3_64bits_digest(w->hash));
 		off_t end = ftello(w->f);
 		if (fseeko(w->f, pos, SEEK_SET) != 0 ||
 		    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
@@ -522,9 +498,9 @@ int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 	if (!err) {
 		uint8_t foot[FOOTER];
 		memcpy(foot, footer_magic, 8);
-		put64(foot + 8, size + FOOTER);
+		le_put64(foot + 8, size + FOOTER);
 		XXH3_64bits_update(w->hash, foot, 16);
-		put64(foot + 16, XXH3_64bits_digest(w->hash));
+		le_put64(foot + 16, XXH3_64bits_digest(w->hash));
 		if (fseeko(w->f, 0, SEEK_END) != 0 ||
 		    fwrite(foot, 1, FOOTER, w->f) != FOOTER ||
 		    fflush(w->f) != 0 || fsync(fileno(w->f)) != 0)
@@ -592,10 +568,10 @@ static int walk_sections(struct vd_chunk *c, size_t hsize, uint32_t count,
 				       "of section %u of %u", i + 1, count);
 		const uint8_t *s = c->image + p;
 		struct section *sec = &c->sections[i];
-		sec->tag = get32(s);
-		sec->codec = get32(s + 4);
-		sec->raw_size = get64(s + 8);
-		sec->stored_size = get64(s + 16);
+		sec->tag = le_get32(s);
+		sec->codec = le_get32(s + 4);
+		sec->raw_size = le_get64(s + 8);
+		sec->stored_size = le_get64(s + 16);
 		sec->offset = p + SECTION_HEADER;
 		if (sec->stored_size > len - sec->offset)
 			return vd_fail(VD_ERR_TRUNCATED, "file ends inside section "
@@ -613,7 +589,7 @@ static int has_footer_at(const struct vd_chunk *c, size_t p)
 {
 	return c->size - p >= FOOTER &&
 	       memcmp(c->image + p, footer_magic, 8) == 0 &&
-	       get64(c->image + p + 8) == p + FOOTER;
+	       le_get64(c->image + p + 8) == p + FOOTER;
 }
 
 /* Checks and decodes the header in the first `len` bytes of `b`. */
@@ -630,7 +606,7 @@ static int parse_header(const uint8_t *b, size_t len,
 		return vd_fail(VD_ERR_NOT_CHUNK, "no chunk magic number");
 	if (len < 12)
 		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
-	uint16_t major = get16(b + 8), minor = get16(b + 10);
+	uint16_t major = le_get16(b + 8), minor = le_get16(b + 10);
 	if (major > VD_CHUNK_MAJOR)
 		return vd_fail(VD_ERR_NEWER_VERSION, "format %u.%u, this voxdag "
 			       "reads up to %u.x; upgrade voxdag", major, minor,
@@ -639,38 +615,38 @@ static int parse_header(const uint8_t *b, size_t len,
 		return vd_fail(VD_ERR_CORRUPT, "format major version 0");
 	if (len < HEADER_FIXED + 8)
 		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
-	uint32_t hsize = get32(b + 12), level_count = get32(b + 28);
+	uint32_t hsize = le_get32(b + 12), level_count = le_get32(b + 28);
 	if (hsize > HEADER_MAX || level_count > VD_MAX_LEVELS + 1 ||
 	    hsize < header_size(level_count)) {
 		/* These fields are under the header checksum: a mismatch says
 		 * corruption better than a size complaint would. */
 		if (hsize <= len && hsize >= 16 &&
-		    XXH3_64bits(b, hsize - 8) != get64(b + hsize - 8))
+		    XXH3_64bits(b, hsize - 8) != le_get64(b + hsize - 8))
 			return vd_fail(VD_ERR_CHECKSUM, "header checksum");
 		return vd_fail(VD_ERR_CORRUPT, "header size %u for %u levels",
 			       hsize, level_count);
 	}
 	if (len < hsize)
 		return vd_fail(VD_ERR_TRUNCATED, "file ends in the header");
-	if (XXH3_64bits(b, hsize - 8) != get64(b + hsize - 8))
+	if (XXH3_64bits(b, hsize - 8) != le_get64(b + hsize - 8))
 		return vd_fail(VD_ERR_CHECKSUM, "header checksum");
 
 	h->major = major;
 	h->minor = minor;
-	h->kind = get32(b + 16);
-	h->levels = get32(b + 20);
-	h->chunk_level = get32(b + 24);
+	h->kind = le_get32(b + 16);
+	h->levels = le_get32(b + 20);
+	h->chunk_level = le_get32(b + 24);
 	h->level_count = level_count;
-	h->cell_morton = get64(b + 32);
+	h->cell_morton = le_get64(b + 32);
 	for (int a = 0; a < 3; a++) {
-		h->transform.origin[a] = getf64(b + 40 + 8 * a);
-		h->transform.bbox_min[a] = getf32(b + 72 + 4 * a);
-		h->transform.bbox_max[a] = getf32(b + 84 + 4 * a);
+		h->transform.origin[a] = le_getf64(b + 40 + 8 * a);
+		h->transform.bbox_min[a] = le_getf32(b + 72 + 4 * a);
+		h->transform.bbox_max[a] = le_getf32(b + 84 + 4 * a);
 	}
-	h->transform.voxel_size = getf64(b + 64);
-	h->transform.root_side = getf32(b + 96);
+	h->transform.voxel_size = le_getf64(b + 64);
+	h->transform.root_side = le_getf32(b + 96);
 	for (uint32_t i = 0; i < level_count; i++)
-		h->level_nodes[i] = get64(b + HEADER_FIXED + 8 * i);
+		h->level_nodes[i] = le_get64(b + HEADER_FIXED + 8 * i);
 	if (want_kind != VD_KIND_ANY && h->kind != want_kind)
 		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
 			       vd_chunk_kind_name(h->kind),
@@ -704,7 +680,7 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 	if (herr)
 		return herr;
 
-	uint32_t count = get32(b + 100);
+	uint32_t count = le_get32(b + 100);
 	/* The count is under the header checksum, so more sections than the
 	 * rest of the file can hold means bytes are missing. */
 	if (count > (len - hsize) / SECTION_HEADER)
@@ -722,7 +698,7 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 	size_t fpos;
 	if (len >= hsize + FOOTER && has_footer_at(c, len - FOOTER)) {
 		uint64_t sum = XXH3_64bits(b, len - 8);
-		if (sum != get64(b + len - 8))
+		if (sum != le_get64(b + len - 8))
 			return vd_fail(VD_ERR_CHECKSUM, "whole-file checksum");
 		int err = walk_sections(c, hsize, count, len - FOOTER, &fpos);
 		if (err || fpos != len - FOOTER)
@@ -743,7 +719,7 @@ static int parse(struct vd_chunk *c, uint32_t want_kind)
 	}
 	for (uint32_t i = 0; i < count; i++) {
 		const struct section *s = &c->sections[i];
-		uint64_t want = get64(b + s->offset - 8);
+		uint64_t want = le_get64(b + s->offset - 8);
 		if (XXH3_64bits(b + s->offset, s->stored_size) != want)
 			return vd_fail(VD_ERR_CHECKSUM, "section %u", i + 1);
 		if (s->codec > CODEC_ZSTD_PLANES4)

@@ -32,6 +32,7 @@
  * stored nodes onto the ray's own frame, so every plane time stays the one
  * formula tp() and the result stays exactly the DDA's. */
 #include "voxdag.h"
+#include "le.h"
 #include "dag/dag_internal.h" /* the cube group's tables */
 #include "encode/encode_internal.h" /* the compact pointers */
 
@@ -963,11 +964,6 @@ static int has_suffix(const char *s, const char *suffix)
 	return a >= b && !strcmp(s + a - b, suffix);
 }
 
-static void put32le(uint8_t *p, uint32_t v)
-{
-	for (int k = 0; k < 4; k++) p[k] = (uint8_t)(v >> 8 * k);
-}
-
 int vd_image_write_depth(const struct vd_image *img, const char *path)
 {
 	size_t n = (size_t)img->width * img->height;
@@ -1007,7 +1003,7 @@ int vd_image_write_depth(const struct vd_image *img, const char *path)
 		for (int x = 0; x < img->width; x++) {
 			uint32_t u;
 			memcpy(&u, &img->depth[(size_t)y * img->width + x], 4);
-			put32le(q, u);
+			le_put32(q, u);
 			q += 4;
 		}
 	struct bytes_job j = {b, (size_t)hl + 4 * n};
@@ -1023,16 +1019,16 @@ int vd_image_write_ids(const struct vd_image *img, const char *path)
 	if (!b) return NOMEM();
 	static const uint8_t magic[4] = {0x89, 'V', 'I', 'D'};
 	memcpy(b, magic, 4);
-	put32le(b + 4, 1);
-	put32le(b + 8, (uint32_t)img->width);
-	put32le(b + 12, (uint32_t)img->height);
+	le_put32(b + 4, 1);
+	le_put32(b + 8, (uint32_t)img->width);
+	le_put32(b + 12, (uint32_t)img->height);
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_hit *h = &img->hits[i];
 		uint8_t *q = b + 16 + 16 * i;
 		int miss = h->level < 0;
 		for (int a = 0; a < 3; a++)
-			put32le(q + 4 * a, miss ? 0xffffffffu : h->cell[a]);
-		put32le(q + 12, miss ? 0xffffffffu : (uint32_t)h->level);
+			le_put32(q + 4 * a, miss ? 0xffffffffu : h->cell[a]);
+		le_put32(q + 12, miss ? 0xffffffffu : (uint32_t)h->level);
 	}
 	struct bytes_job j = {b, 16 + 16 * n};
 	int err = write_atomic(path, write_bytes, &j);
