@@ -1,6 +1,7 @@
 /* colorize - a scene's voxel colours (voxelize's colour chunks) compressed:
  * variable-bitrate blocks, the palette baseline, raw zstd. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <stdlib.h>

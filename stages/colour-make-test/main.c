@@ -2,6 +2,7 @@
  * SVO chunk of a voxelize output directory, from a synthetic function of
  * voxel position, until voxelize writes real ones. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <dirent.h>
 #include <errno.h>

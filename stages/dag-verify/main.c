@@ -1,6 +1,7 @@
 /* dag-verify - checks that a DAG or SSVDAG chunk holds exactly the voxels
  * of SVO chunks: silent on success, like a quick checker should be. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <inttypes.h>

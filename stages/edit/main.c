@@ -1,6 +1,7 @@
 /* edit - HashDAG edits of a root DAG chunk: a script, or an interactive
  * shell (argument handling only; the work is in stages/lib/edit/). */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <stdlib.h>

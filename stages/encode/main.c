@@ -1,6 +1,7 @@
 /* encode - root DAG and SSVDAG chunks to the SymVox encodings (and an
  * ssvdag48 chunk to .ssvdag48) and the SSVDAG paper's tables. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <errno.h>
 #include <getopt.h>

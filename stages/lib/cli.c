@@ -1,6 +1,7 @@
 /* cli.c - what every tool's main() needs: usage errors, whole-number
  * options, the one-line failure message. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <stdarg.h>
 #include <stdlib.h>

@@ -1,6 +1,7 @@
 /* lossy-cluster - lossy SVDAG (van der Laan et al. 2020): similar, rarely
  * used subtrees of a DAG chunk clustered and merged. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <malloc.h>

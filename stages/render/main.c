@@ -1,5 +1,6 @@
 /* render - ray cast an encoding or a root DAG chunk straight to a PNG. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <math.h>

@@ -1,5 +1,6 @@
 /* vdb-export - SVO chunk files to an OpenVDB BoolGrid. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -1,6 +1,8 @@
 /* vdb-make-test-grids - writes small OpenVDB files built through the
  * OpenVDB API, for the command-line tests and the benchmarks. */
 #include "voxdag.h"
+#include "io/vdb_test_grids.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <stdlib.h>

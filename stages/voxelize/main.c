@@ -1,6 +1,7 @@
 /* voxelize - triangle mesh or OpenVDB grid to SVO chunk files, out of
  * core. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <errno.h>
 #include <getopt.h>

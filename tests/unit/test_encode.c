@@ -508,13 +508,13 @@ static void real_mesh(const char *mesh, int L, int check_rows)
 			CHECK_EQ(r1.ssvdag_nodes, total_nodes(&dl[1]));
 			uint64_t svo_nodes = 0;
 			uint64_t counts[VD_MAX_LEVELS + 1];
-			CHECK_EQ(vd_enc_svo_counts(&dl[0], counts), VD_OK);
+			CHECK_EQ(vd_dag_svo_counts(&dl[0], counts), VD_OK);
 			for (int l = 0; l < L - 1; l++) svo_nodes += counts[l];
 			CHECK_EQ(r1.svo_nodes, svo_nodes);
 			CHECK_EQ(counts[L - 1], low.count ? r1.voxels : 0);
 			for (int k = 0; k < 2; k++) {
 				struct vd_dag cut;
-				CHECK_EQ(vd_enc_cut(&d[k], L - 1, &cut), VD_OK);
+				CHECK_EQ(vd_dag_cut(&d[k], L - 1, NULL, &cut), VD_OK);
 				for (int l = 0; l < L - 1; l++)
 					CHECK_EQ(cut.lv[l].nodes, dl[k].lv[l].nodes);
 				CHECK_EQ(cut.voxels, dl[k].voxels);

@@ -6,6 +6,7 @@
 #include "check.h"
 #include "scene.h"
 #include "voxdag.h"
+#include "io/vdb_test_grids.h"
 
 #include <dirent.h>
 #include <math.h>

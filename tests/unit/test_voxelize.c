@@ -9,7 +9,7 @@
 #include "check.h"
 #include "scene.h"
 #include "voxdag.h"
-#include "voxel/voxelize_internal.h"
+#include "voxel/voxel_internal.h"
 
 #include <dirent.h>
 #include <string.h>

@@ -1,6 +1,7 @@
 /* dag_main.c - the command line of svo-to-dag and symmetry-merge, which
  * take the same options and differ only in the kind they build. */
 #include "voxdag.h"
+#include "cli.h"
 
 #include <getopt.h>
 #include <stdlib.h>

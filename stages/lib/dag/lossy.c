@@ -2283,7 +2283,7 @@ int vd_lossy_run(const char *in, const char *out,
 			      vd_fail(VD_ERR_ARG, "it is not a root chunk") :
 			      vd_fail(VD_ERR_ARG, "it has only %d levels", d.levels);
 		else
-			err = vd_enc_cut(&d, o->levels, &cut);
+			err = vd_dag_cut(&d, o->levels, NULL, &cut);
 		if (err) {
 			vd_dag_release(&d);
 			return vd_fail(err, "cannot cut '%s' at %d levels: %s",

@@ -12,6 +12,7 @@
  * 2^13 and 32-bit ones above.
  */
 #include "voxdag.h"
+#include "le.h"
 #include "encode/encode_internal.h"
 #include "dag/dag_internal.h" /* the cube group's tables (.ssvdag48) */
 
@@ -96,50 +97,6 @@ uint64_t vd__enc_brick_from_symvox(uint64_t v)
 		out |= 1ull << vd_morton3(x, y, z);
 	}
 	return out;
-}
-
-/* ---------------------------------------------------- little-endian I/O */
-
-static void put16(uint8_t *p, uint16_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-}
-
-/* Spelled out, the form GCC merges into one store (the loop it left as
- * 4 variable shifts and byte stores, for every reference written). */
-static void put32(uint8_t *p, uint32_t v)
-{
-	p[0] = (uint8_t)v;
-	p[1] = (uint8_t)(v >> 8);
-	p[2] = (uint8_t)(v >> 16);
-	p[3] = (uint8_t)(v >> 24);
-}
-
-static uint16_t get16(const uint8_t *p)
-{
-	return (uint16_t)(p[0] | p[1] << 8);
-}
-
-static uint32_t get32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-	       (uint32_t)p[3] << 24;
-}
-
-static void putf(uint8_t *p, float f)
-{
-	uint32_t v;
-	memcpy(&v, &f, 4);
-	put32(p, v);
-}
-
-static float getf(const uint8_t *p)
-{
-	uint32_t v = get32(p);
-	float f;
-	memcpy(&f, &v, 4);
-	return f;
 }
 
 /* ------------------------------------------------------------- building */
@@ -560,9 +517,9 @@ static void sink_words(struct sink *k, const uint16_t *a16,
 		uint32_t m = n - i < per ? n - i : (uint32_t)per;
 		for (uint32_t q = 0; q < m; q++, p += width)
 			if (a16)
-				put16(p, a16[i + q]);
+				le_put16(p, a16[i + q]);
 			else
-				put32(p, a32[i + q]);
+				le_put32(p, a32[i + q]);
 		k->n += width * m;
 		i += m;
 	}
@@ -572,33 +529,33 @@ static void sink_words(struct sink *k, const uint16_t *a16,
 static void serialize(const struct vd_enc *e, struct sink *k)
 {
 	uint8_t *p = sink_room(k, 36);
-	for (int i = 0; i < 3; i++) putf(p + 4 * i, e->bbox_min[i]);
-	for (int i = 0; i < 3; i++) putf(p + 12 + 4 * i, e->bbox_max[i]);
-	putf(p + 24, e->root_side);
-	put32(p + 28, e->levels);
-	put32(p + 32, e->node_count);
+	for (int i = 0; i < 3; i++) le_putf32(p + 4 * i, e->bbox_min[i]);
+	for (int i = 0; i < 3; i++) le_putf32(p + 12 + 4 * i, e->bbox_max[i]);
+	le_putf32(p + 24, e->root_side);
+	le_put32(p + 28, e->levels);
+	le_put32(p + 32, e->node_count);
 	k->n += 36;
 	if (vd_enc_format_compact(e->format)) {
-		put32(sink_room(k, 4), e->inner_count);
+		le_put32(sink_room(k, 4), e->inner_count);
 		k->n += 4;
 		sink_words(k, e->inner, NULL, e->inner_count);
-		put32(sink_room(k, 4), e->leaf_bytes);
+		le_put32(sink_room(k, 4), e->leaf_bytes);
 		k->n += 4;
 		sink_flush(k);
 		if (e->leaf_bytes && !k->bad &&
 		    fwrite(e->leaves, 1, e->leaf_bytes, k->f) != e->leaf_bytes)
 			k->bad = 1;
 		k->total += e->leaf_bytes;
-		put32(sink_room(k, 4), e->level_count);
+		le_put32(sink_room(k, 4), e->level_count);
 		k->n += 4;
 		for (uint32_t i = 0; i < e->level_count; i++) {
-			put32(sink_room(k, 4), e->level_offsets[i]);
+			le_put32(sink_room(k, 4), e->level_offsets[i]);
 			k->n += 4;
 		}
 	} else {
 		p = sink_room(k, 8);
-		put32(p, e->first_leaf_word);
-		put32(p + 4, e->word_count);
+		le_put32(p, e->first_leaf_word);
+		le_put32(p + 4, e->word_count);
 		k->n += 8;
 		sink_words(k, NULL, e->words, e->word_count);
 	}
@@ -840,11 +797,11 @@ int vd_enc_parse(struct vd_enc *e, const void *data, size_t size, int format)
 	int err;
 	e->format = format;
 	if ((err = take(&c, 36, &p, "the header"))) return err;
-	for (int i = 0; i < 3; i++) e->bbox_min[i] = getf(p + 4 * i);
-	for (int i = 0; i < 3; i++) e->bbox_max[i] = getf(p + 12 + 4 * i);
-	e->root_side = getf(p + 24);
-	e->levels = get32(p + 28);
-	e->node_count = get32(p + 32);
+	for (int i = 0; i < 3; i++) e->bbox_min[i] = le_getf32(p + 4 * i);
+	for (int i = 0; i < 3; i++) e->bbox_max[i] = le_getf32(p + 12 + 4 * i);
+	e->root_side = le_getf32(p + 24);
+	e->levels = le_get32(p + 28);
+	e->node_count = le_get32(p + 32);
 	if (e->levels < 1 || e->levels > VD_MAX_LEVELS)
 		return vd_fail(VD_ERR_UNSUPPORTED, "levels %u out of 1..%d",
 			       e->levels, VD_MAX_LEVELS);
@@ -854,19 +811,19 @@ int vd_enc_parse(struct vd_enc *e, const void *data, size_t size, int format)
 				       "least 3 levels, this one has %u",
 				       format_names[format], e->levels);
 		if ((err = take(&c, 4, &p, "the inner node count"))) goto fail;
-		e->inner_count = get32(p);
+		e->inner_count = le_get32(p);
 		if ((err = take(&c, 2ull * e->inner_count, &p, "the inner nodes")))
 			goto fail;
 		if (!(e->inner = malloc(2ull * e->inner_count + 2))) goto nomem;
 		for (uint32_t i = 0; i < e->inner_count; i++)
-			e->inner[i] = get16(p + 2 * i);
+			e->inner[i] = le_get16(p + 2 * i);
 		if ((err = take(&c, 4, &p, "the leaf byte count"))) goto fail;
-		e->leaf_bytes = get32(p);
+		e->leaf_bytes = le_get32(p);
 		if ((err = take(&c, e->leaf_bytes, &p, "the leaves"))) goto fail;
 		if (!(e->leaves = malloc((size_t)e->leaf_bytes + 1))) goto nomem;
 		memcpy(e->leaves, p, e->leaf_bytes);
 		if ((err = take(&c, 4, &p, "the level offset count"))) goto fail;
-		e->level_count = get32(p);
+		e->level_count = le_get32(p);
 		if (e->level_count != e->levels - 2) {
 			err = vd_fail(VD_ERR_CORRUPT, "%u level offsets for %u "
 				      "levels (expected %u)", e->level_count,
@@ -878,16 +835,16 @@ int vd_enc_parse(struct vd_enc *e, const void *data, size_t size, int format)
 		if (!(e->level_offsets = malloc(4ull * e->level_count + 4)))
 			goto nomem;
 		for (uint32_t i = 0; i < e->level_count; i++)
-			e->level_offsets[i] = get32(p + 4 * i);
+			e->level_offsets[i] = le_get32(p + 4 * i);
 	} else {
 		if ((err = take(&c, 8, &p, "the header"))) goto fail;
-		e->first_leaf_word = get32(p);
-		e->word_count = get32(p + 4);
+		e->first_leaf_word = le_get32(p);
+		e->word_count = le_get32(p + 4);
 		if ((err = take(&c, 4ull * e->word_count, &p, "the words")))
 			goto fail;
 		if (!(e->words = malloc(4ull * e->word_count + 4))) goto nomem;
 		for (uint32_t i = 0; i < e->word_count; i++)
-			e->words[i] = get32(p + 4 * i);
+			e->words[i] = le_get32(p + 4 * i);
 	}
 	if (c.left) {
 		err = vd_fail(VD_ERR_TRAILING, "%zu bytes after the end of the "
@@ -1076,96 +1033,6 @@ int vd_enc_expand(const struct vd_enc *e,
 
 /* ---------------------------------------------------------- statistics */
 
-int vd_enc_svo_counts(const struct vd_dag *d,
-		      uint64_t svo_nodes[VD_MAX_LEVELS + 1])
-{
-	int L = d->levels;
-	memset(svo_nodes, 0, (VD_MAX_LEVELS + 1) * sizeof *svo_nodes);
-	if (d->chunk_level != 0)
-		return vd_fail(VD_ERR_ARG, "chunk level %d is not a root chunk",
-			       d->chunk_level);
-	if (!d->lv[0].nodes) return VD_OK;
-	/* occ[i]: how many times node i of level l occurs in the SVO */
-	uint64_t *occ = calloc(1, 8);
-	if (!occ) return NOMEM();
-	occ[0] = 1;
-	for (int l = 0; l < L; l++) {
-		const struct vd_dag_level *lv = &d->lv[l];
-		uint64_t below = 0;
-		for (uint64_t i = 0; i < lv->nodes; i++) {
-			svo_nodes[l] += occ[i];
-			below += occ[i] * (uint64_t)pop8(lv->mask[i]);
-		}
-		if (l == L - 1) {
-			svo_nodes[L] = below; /* the voxels */
-			break;
-		}
-		uint64_t *nocc = calloc(d->lv[l + 1].nodes ? d->lv[l + 1].nodes : 1, 8);
-		if (!nocc) {
-			free(occ);
-			return NOMEM();
-		}
-		for (uint64_t i = 0; i < lv->nodes; i++)
-			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
-				nocc[lv->child[j]] += occ[i];
-		free(occ);
-		occ = nocc;
-	}
-	free(occ);
-	return VD_OK;
-}
-
-/* vd_enc_cut given `counts`, vd_enc_svo_counts() of `dag`, or NULL: the
- * table rows count the SVO of each source once, not once a cut. */
-static int cut(const struct vd_dag *dag, int levels, const uint64_t *counts,
-	       struct vd_dag *out)
-{
-	memset(out, 0, sizeof *out);
-	int L = dag->levels;
-	if (dag->chunk_level != 0)
-		return vd_fail(VD_ERR_ARG, "chunk level %d is not a root chunk",
-			       dag->chunk_level);
-	if (levels < 1 || levels > L)
-		return vd_fail(VD_ERR_RANGE, "cut depth %d out of 1..%d",
-			       levels, L);
-	uint64_t own[VD_MAX_LEVELS + 1];
-	int err = VD_OK;
-	if (!counts) {
-		if ((err = vd_enc_svo_counts(dag, own))) return err;
-		counts = own;
-	}
-	if (!dag->lv[0].nodes) {
-		out->kind = dag->kind;
-		out->levels = levels;
-		return VD_OK;
-	}
-	/* A view of levels 0..levels-1 whose last level keeps only the masks:
-	 * a level `levels`-1 node's child mask is its 2x2x2 mask of coarse
-	 * voxels. The merge engine reduces it again from the leaves. */
-	struct vd_dag v;
-	memset(&v, 0, sizeof v);
-	v.kind = dag->kind;
-	v.levels = levels;
-	v.chunk_level = 0;
-	v.voxels = counts[levels];
-	for (int l = 0; l < levels; l++) v.lv[l] = dag->lv[l];
-	struct vd_dag_level *last = &v.lv[levels - 1];
-	last->refs = 0;
-	last->first = NULL;
-	last->child = NULL;
-	last->refl = NULL;
-	v.bricks = levels == L ? dag->bricks : NULL;
-	const struct vd_dag *parts[1] = {&v};
-	err = vd_dag_merge(out, parts, 1, dag->kind, 0, NULL, NULL);
-	if (err) vd_dag_release(out);
-	return err;
-}
-
-int vd_enc_cut(const struct vd_dag *dag, int levels, struct vd_dag *out)
-{
-	return cut(dag, levels, NULL, out);
-}
-
 /* src[] / use[] index of a format's DAG: 0 dag, 1 ssvdag, 2 ssvdag48. */
 static int source_of(int format)
 {
@@ -1176,7 +1043,7 @@ static int source_of(int format)
  * encodings of the uncut DAGs (VD_ENC_ALL_ entries, 0 for one not built),
  * taken for the full-resolution row instead of encoding everything again:
  * the encode stage has just built them for its files. `counts`, when not
- * NULL, holds vd_enc_svo_counts() of the dag, the ssvdag and the ssvdag48
+ * NULL, holds vd_dag_svo_counts() of the dag, the ssvdag and the ssvdag48
  * (rows of 3 x (VD_MAX_LEVELS + 1), a row for each source given): a pass
  * over the whole DAG each, otherwise made again for every row and cut.
  * `only` is the source whose nodes and bytes are computed (0 dag, 1
@@ -1213,7 +1080,7 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 	row->has_ssvdag48 = ssvdag48 != NULL;
 	uint64_t own[VD_MAX_LEVELS + 1];
 	const uint64_t *dc = counts ? counts[0] : own;
-	int err = counts ? VD_OK : vd_enc_svo_counts(dag, own);
+	int err = counts ? VD_OK : vd_dag_svo_counts(dag, own);
 	if (err) return err;
 	row->voxels = dc[levels];
 	for (int l = 0; l < levels; l++) row->svo_nodes += dc[l];
@@ -1225,7 +1092,7 @@ static int table_row(const struct vd_dag *dag, const struct vd_dag *ssvdag,
 		if (levels == dag->levels) {
 			use[k] = src[k];
 		} else {
-			err = cut(src[k], levels, counts ? counts[k] : NULL,
+			err = vd_dag_cut(src[k], levels, counts ? counts[k] : NULL,
 				  &cuts[k]);
 			use[k] = &cuts[k];
 		}
@@ -1867,7 +1734,7 @@ int vd_enc_run(const struct vd_enc_job *job)
 	}
 	uint64_t counts[3][VD_MAX_LEVELS + 1];
 	for (int k = 0; k < 3 && !err; k++)
-		if (src[k]) err = vd_enc_svo_counts(src[k], counts[k]);
+		if (src[k]) err = vd_dag_svo_counts(src[k], counts[k]);
 	if (err) goto out;
 	struct row_job rj = {&dag, src[1], src[2], bytes, counts, rows, errs,
 			     details};

@@ -8,6 +8,7 @@
 // out selected voxels per 8^3 block: a leaf's mask, or a whole tile. The
 // C side (vdb_import.c) does the placement, chunking and writing.
 #include "io/vdb_shim.h"
+#include "io/vdb_test_grids.h"
 
 using openvdb::Coord;
 using openvdb::CoordBBox;

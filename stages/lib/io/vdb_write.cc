@@ -2,6 +2,7 @@
 // grid and the test grids (tests/unit/test_vdb.c, vdb-make-test-grids).
 // Every entry point catches every exception, as in vdb.cc.
 #include "io/vdb_shim.h"
+#include "io/vdb_test_grids.h"
 
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/MeshToVolume.h>

@@ -4,55 +4,10 @@
  * (DESIGN.md, colour paper §3), so the SVO chunk's bytes do not change when
  * colours are present. */
 #include "voxdag.h"
+#include "le.h"
 
 #include <stdlib.h>
 #include <string.h>
-#include <xxhash.h>
-
-static void put64(uint8_t *p, uint64_t v)
-{
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
-}
-
-static uint64_t get64(const uint8_t *p)
-{
-	uint64_t v = 0;
-	for (int i = 0; i < 8; i++)
-		v |= (uint64_t)p[i] << 8 * i;
-	return v;
-}
-
-uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
-{
-	return vd_svo_digest_stride(keys, masks, 1, n);
-}
-
-uint64_t vd_svo_digest_stride(const uint64_t *keys, const uint64_t *masks,
-			      size_t stride, size_t n)
-{
-	/* Defined on little-endian (key, mask) pairs rather than on the BRKS
-	 * section's bytes, so a writer that streams its bricks and a reader
-	 * that holds them as arrays compute it alike. */
-	XXH3_state_t *s = XXH3_createState();
-	if (!s)
-		return 0;
-	XXH3_64bits_reset(s);
-	uint8_t buf[16 * 256];
-	size_t k = 0;
-	for (size_t i = 0; i < n; i++) {
-		put64(buf + 16 * k, keys[i * stride]);
-		put64(buf + 16 * k + 8, masks[i * stride]);
-		if (++k == 256) {
-			XXH3_64bits_update(s, buf, sizeof buf);
-			k = 0;
-		}
-	}
-	XXH3_64bits_update(s, buf, 16 * k);
-	uint64_t h = XXH3_64bits_digest(s);
-	XXH3_freeState(s);
-	return h;
-}
 
 struct whole {
 	const uint8_t *rgb;
@@ -98,7 +53,7 @@ int vd_colours_write(const char *path, const struct vd_chunk_header *svo_h,
 	if (err)
 		return err;
 	uint8_t dig[8];
-	put64(dig, svo_digest);
+	le_put64(dig, svo_digest);
 	err = vd_chunk_writer_section(w, VD_TAG_BDIG, dig, sizeof dig);
 	if (!err)
 		err = vd_chunk_writer_begin(w, VD_TAG_COLS, 0);
@@ -153,7 +108,7 @@ int vd_colours_from_chunk(struct vd_colours *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_CORRUPT, "brick digest of %zu bytes",
 			       dsize);
 	}
-	c->svo_digest = get64(dig);
+	c->svo_digest = le_get64(dig);
 	free(dig);
 	err = vd_chunk_read_section(ch, VD_TAG_COLS, &rgb, &size);
 	if (err)

@@ -6,26 +6,42 @@
  * zstd then squeezes to about a byte per brick.
  */
 #include "voxdag.h"
-#include "voxel/voxelize_internal.h"
+#include "le.h"
+#include "voxel/voxel_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
+#include <xxhash.h>
 
-static void put64(uint8_t *p, uint64_t v)
+uint64_t vd_svo_digest(const uint64_t *keys, const uint64_t *masks, size_t n)
 {
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
+	return vd_svo_digest_stride(keys, masks, 1, n);
 }
 
-/* Spelled out lowest byte first, the form GCC turns into one load (the
- * loop from the top byte down stayed 8 loads and shifts, and decoding
- * the bricks was the hottest code of svo-to-dag). */
-static uint64_t get64(const uint8_t *p)
+uint64_t vd_svo_digest_stride(const uint64_t *keys, const uint64_t *masks,
+			      size_t stride, size_t n)
 {
-	return (uint64_t)p[0] | (uint64_t)p[1] << 8 | (uint64_t)p[2] << 16 |
-	       (uint64_t)p[3] << 24 | (uint64_t)p[4] << 32 |
-	       (uint64_t)p[5] << 40 | (uint64_t)p[6] << 48 |
-	       (uint64_t)p[7] << 56;
+	/* Defined on little-endian (key, mask) pairs rather than on the BRKS
+	 * section's bytes, so a writer that streams its bricks and a reader
+	 * that holds them as arrays compute it alike. */
+	XXH3_state_t *s = XXH3_createState();
+	if (!s)
+		return 0;
+	XXH3_64bits_reset(s);
+	uint8_t buf[16 * 256];
+	size_t k = 0;
+	for (size_t i = 0; i < n; i++) {
+		le_put64(buf + 16 * k, keys[i * stride]);
+		le_put64(buf + 16 * k + 8, masks[i * stride]);
+		if (++k == 256) {
+			XXH3_64bits_update(s, buf, sizeof buf);
+			k = 0;
+		}
+	}
+	XXH3_64bits_update(s, buf, 16 * k);
+	uint64_t h = XXH3_64bits_digest(s);
+	XXH3_freeState(s);
+	return h;
 }
 
 void vd_svo_release(struct vd_svo *svo)
@@ -80,7 +96,7 @@ int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
 		return err;
 	enum { BATCH = 4096 };
 	uint8_t buf[8 * BATCH];
-	put64(buf, n);
+	le_put64(buf, n);
 	err = vd_chunk_writer_begin(w, VD_TAG_BRKS, 0);
 	if (!err)
 		err = vd_chunk_writer_write(w, buf, 8);
@@ -92,7 +108,7 @@ int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
 				uint64_t v = pass ? masks[k]
 					   : i + j ? keys[k] - keys[k - stride]
 						   : keys[0];
-				put64(buf + 8 * j, v);
+				le_put64(buf + 8 * j, v);
 			}
 			err = vd_chunk_writer_write(w, buf, 8 * m);
 		}
@@ -144,7 +160,7 @@ static void parse_part(void *ctx, size_t k, int worker)
 	if (pj->pass == 0) {
 		uint64_t s = 0;
 		for (uint64_t i = lo; i < hi; i++)
-			s += get64(p + 8 * i);
+			s += le_get64(p + 8 * i);
 		pj->sum[k] = s;
 		return;
 	}
@@ -152,12 +168,12 @@ static void parse_part(void *ctx, size_t k, int worker)
 	uint64_t key = pj->base[k];
 	int err = VD_OK;
 	for (uint64_t i = lo; i < hi && !err; i++) {
-		uint64_t d = get64(p + 8 * i);
+		uint64_t d = le_get64(p + 8 * i);
 		if (i > 0 && (d == 0 || key + d < key))
 			err = vd_fail(VD_ERR_CORRUPT, "brick %llu out of order",
 				      (unsigned long long)i);
 		key = i ? key + d : d;
-		uint64_t m = get64(p + 8 * pj->n + 8 * i);
+		uint64_t m = le_get64(p + 8 * pj->n + 8 * i);
 		if (m == 0)
 			err = vd_fail(VD_ERR_CORRUPT, "brick %llu is empty",
 				      (unsigned long long)i);
@@ -211,7 +227,7 @@ int vd_svo_from_chunk_mt(struct vd_svo *svo, const struct vd_chunk *c,
 	if (err)
 		return err;
 	const uint8_t *p = data;
-	uint64_t n = size >= 8 ? get64(p) : 0;
+	uint64_t n = size >= 8 ? le_get64(p) : 0;
 	if (size < 8 || (size - 8) / 16 != n || (size - 8) % 16) {
 		free(data);
 		return vd_fail(VD_ERR_CORRUPT, "brick section of %zu bytes", size);

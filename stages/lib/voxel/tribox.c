@@ -19,7 +19,7 @@
  * goes; the rest (triangles reaching far outside the cube) stay __int128.
  */
 #include "voxdag.h"
-#include "voxel/voxelize_internal.h"
+#include "voxel/voxel_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,7 +1,7 @@
-/* voxelize_internal.h - pieces of the voxelizer shared between its files
+/* voxel_internal.h - pieces of voxel/ shared between its files
  * and the tests; not part of the public API. */
-#ifndef VOXELIZE_INTERNAL_H
-#define VOXELIZE_INTERNAL_H
+#ifndef VD_VOXEL_INTERNAL_H
+#define VD_VOXEL_INTERNAL_H
 
 #include "voxdag.h"
 

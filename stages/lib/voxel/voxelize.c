@@ -31,7 +31,8 @@
  * the colour chunk stores them, 8 bytes per voxel while they are built.
  */
 #include "voxdag.h"
-#include "voxel/voxelize_internal.h"
+#include "le.h"
+#include "voxel/voxel_internal.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -1133,18 +1134,6 @@ static inline void brick_next(const struct brick_src *b, struct brick_it *it,
 	it->r++;
 }
 
-/* One store on a little-endian machine: gcc kept the byte loop as eight
- * stores, in the loops that write every brick's key and mask. */
-static inline void put64le(uint8_t *p, uint64_t v)
-{
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-	memcpy(p, &v, 8);
-#else
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> 8 * i);
-#endif
-}
-
 /* Raw BRKS bytes [off, off + n): word 0 the count, words 1..count the key
  * deltas, then the masks. Whole words: frames are multiples of 8 bytes. */
 static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
@@ -1153,7 +1142,7 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 	uint64_t w = off / 8, w1 = (off + n) / 8, key, mask, prev = 0;
 	struct brick_it it;
 	if (w == 0) {
-		put64le(buf, b->count);
+		le_put64(buf, b->count);
 		buf += 8;
 		w++;
 	}
@@ -1164,7 +1153,7 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 			brick_next(b, &it, &prev, NULL);
 		for (; i < end; i++, buf += 8) {
 			brick_next(b, &it, &key, NULL);
-			put64le(buf, i ? key - prev : key);
+			le_put64(buf, i ? key - prev : key);
 			prev = key;
 		}
 		w = end + 1;
@@ -1176,7 +1165,7 @@ static void brick_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
 		brick_seek(b, i, &it);
 		for (; i < end; i++, buf += 8) {
 			brick_next(b, &it, &key, &mask);
-			put64le(buf, mask);
+			le_put64(buf, mask);
 			((uint64_t *)it.words)[it.r - 1] = 0;
 		}
 	}
@@ -1346,8 +1335,8 @@ static int write_cell(struct run *r, struct worker *w,
 			uint64_t key, mask;
 			brick_next(&src, &it, &key, &mask);
 			uint8_t kv[16];
-			put64le(kv, key);
-			put64le(kv + 8, mask);
+			le_put64(kv, key);
+			le_put64(kv + 8, mask);
 			XXH3_64bits_update(xs, kv, 16);
 		}
 		*digest = XXH3_64bits_digest(xs);
