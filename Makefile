@@ -7,6 +7,8 @@
 #   make bench                benchmarks on ../shared/data (skipped if absent)
 #   make config=sanitize      the same build with AddressSanitizer and UBSan
 #   make deps                 install the Debian packages the build needs
+#   make install PREFIX=/usr/local   tools, libvoxdag (.a, .so), headers,
+#                             voxdag.pc; DESTDIR honoured; make uninstall
 #
 # Layout: stages/lib/ and its folders by concern (io/, voxel/, dag/, encode/,
 # render/, ...) are libvoxdag; every other stages/<name>/main.c is one
@@ -52,10 +54,12 @@ endif
 # libassimp-dev: glTF, FBX, Collada and 3DS input (voxelize-assimp);
 # assimp-utils: `assimp export`, which tests/cli/assimp.sh uses to write
 # the test scene again with another glTF writer than ours.
+# pkg-config: tests/cli/install.sh builds examples/ as a user would.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
-                libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils
+                libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils \
+                pkg-config
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
@@ -68,13 +72,16 @@ RUNNER_OBJ := $(patsubst pipeline/%.c,$(OUT)/obj/pipeline/%.o,$(wildcard pipelin
 TEST_SRC := $(wildcard tests/unit/test_*.c)
 TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
 HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.h)
+# Every executable `all` builds (and `make install` copies).
+ALL_BINS := $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn \
+            $(OUT)/bin/voxelize-vdb $(OUT)/bin/voxelize-assimp
 
 .PHONY: all run pipeline test test-build test-build-release \
-	test-build-sanitize bench deps clean tests fuzz fuzz-build
+	test-build-sanitize bench deps clean tests fuzz fuzz-build lib install \
+	uninstall
 .DEFAULT_GOAL := all
 
-all: $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn $(OUT)/bin/voxelize-vdb \
-     $(OUT)/bin/voxelize-assimp
+all: $(ALL_BINS)
 tests: $(TESTS)
 
 $(OUT)/obj/lib/%.o: stages/lib/%.c $(HEADERS)
@@ -88,6 +95,40 @@ $(OUT)/obj/lib/%.o: stages/lib/%.cc $(HEADERS)
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(@D)
 	rm -f $@ && ar rcs $@ $^
+
+# The shared library, for programs outside this tree (`make install`,
+# examples/). Its objects are compiled again with -fPIC into obj-pic/:
+# the tools keep linking the non-PIC archive, so their speed and their
+# output bytes do not depend on the shared library existing. The version
+# is the headers' VD_VERSION_STRING (voxdag.h, or whichever vd_*.h holds
+# it once voxdag.h is split), read here so it is written once; the soname
+# carries the major number. It links what every io/ reader needs,
+# libassimp too (the archive leaves io/assimp.cc out of programs that do
+# not call it; a shared library has no such choice).
+LIB_VERSION := $(firstword $(shell sed -n 's/^.define VD_VERSION_STRING "\(.*\)"/\1/p' \
+                 stages/lib/voxdag.h $(wildcard stages/lib/vd_*.h)))
+SOMAJOR     := $(firstword $(subst ., ,$(LIB_VERSION)))
+ifeq ($(SOMAJOR),)
+$(error no VD_VERSION_STRING "X.Y.Z" in stages/lib/voxdag.h or vd_*.h)
+endif
+SONAME      := libvoxdag.so.$(SOMAJOR)
+SHLIB       := $(OUT)/lib/libvoxdag.so.$(LIB_VERSION)
+LIB_LIBS    := -lassimp $(LDLIBS)
+PIC_OBJ     := $(LIB_OBJ:$(OUT)/obj/lib/%=$(OUT)/obj-pic/lib/%)
+
+$(OUT)/obj-pic/lib/%.o: stages/lib/%.c $(HEADERS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(OUT)/obj-pic/lib/%.o: stages/lib/%.cc $(HEADERS)
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -fPIC -c -o $@ $<
+
+$(SHLIB): $(PIC_OBJ)
+	@mkdir -p $(@D)
+	$(CXX) -shared -Wl,-soname,$(SONAME) $(LDFLAGS) -o $@ $^ $(LIB_LIBS)
+
+lib: $(LIB) $(SHLIB)
 
 $(OUT)/obj/%/main.o: stages/%/main.c $(HEADERS)
 	@mkdir -p $(@D)
@@ -164,6 +205,48 @@ deps:
 		{ echo "make deps: apt-get failed; install by hand:" $$missing >&2; exit 1; }; \
 	fi
 
+# `make install PREFIX=/usr/local` (DESTDIR honoured, as packagers expect):
+# the tools, libvoxdag.a, libvoxdag.so.X.Y.Z with its soname and
+# development links, the public headers under include/voxdag/ (voxdag.h
+# and the per-concern vd_*.h it includes, globbed so a new one needs no
+# change here) and voxdag.pc from stages/lib/voxdag.pc.in. Libs.private
+# lists what the shared library links, plus -lstdc++ for the C++ parts,
+# for `pkg-config --static`. Only copies when `make test` (test-build)
+# built everything already.
+PREFIX ?= /usr/local
+bindir ?= $(PREFIX)/bin
+libdir ?= $(PREFIX)/lib
+includedir ?= $(PREFIX)/include
+pkgconfigdir ?= $(libdir)/pkgconfig
+PUBLIC_HEADERS := stages/lib/voxdag.h $(wildcard stages/lib/vd_*.h)
+# A directory under PREFIX as ${prefix}/..., so `pkg-config
+# --define-prefix` can relocate the tree.
+pc_dir = $(patsubst $(PREFIX)/%,$${prefix}/%,$(1))
+
+install: all lib
+	install -d $(DESTDIR)$(bindir) $(DESTDIR)$(libdir) \
+		$(DESTDIR)$(includedir)/voxdag $(DESTDIR)$(pkgconfigdir)
+	install -m 755 $(ALL_BINS) $(DESTDIR)$(bindir)/
+	install -m 644 $(LIB) $(DESTDIR)$(libdir)/
+	install -m 755 $(SHLIB) $(DESTDIR)$(libdir)/
+	ln -sf $(notdir $(SHLIB)) $(DESTDIR)$(libdir)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(libdir)/libvoxdag.so
+	install -m 644 $(PUBLIC_HEADERS) $(DESTDIR)$(includedir)/voxdag/
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(LIB_VERSION)|' \
+	    -e 's|@LIBDIR@|$(call pc_dir,$(libdir))|' \
+	    -e 's|@INCLUDEDIR@|$(call pc_dir,$(includedir))|' \
+	    -e 's|@LIBS_PRIVATE@|$(LIB_LIBS) -lstdc++|' \
+	    stages/lib/voxdag.pc.in > $(DESTDIR)$(pkgconfigdir)/voxdag.pc
+
+# Removes what install wrote (the whole include/voxdag/: every header in
+# it is ours, whichever per-concern headers an older version installed).
+uninstall:
+	rm -f $(addprefix $(DESTDIR)$(bindir)/,$(notdir $(ALL_BINS)))
+	rm -f $(DESTDIR)$(libdir)/libvoxdag.a $(DESTDIR)$(libdir)/libvoxdag.so \
+	      $(DESTDIR)$(libdir)/$(SONAME) $(DESTDIR)$(libdir)/$(notdir $(SHLIB))
+	rm -rf $(DESTDIR)$(includedir)/voxdag
+	rm -f $(DESTDIR)$(pkgconfigdir)/voxdag.pc
+
 # `make PIPELINE=config/x.yaml` builds what is missing and runs that
 # pipeline (resuming where a previous run stopped); `make run` runs the
 # default one on the bundled bunny.
@@ -186,13 +269,14 @@ test: deps
 	@$(MAKE) --no-print-directory -j$(JOBS) test-build
 	@tests/run.sh
 
-# What the tests run: the release executables (CLI tests), the sanitizer
-# build's executables and unit tests, the fuzz targets. One sub-make, so
-# the three builds share one job server and keep every core busy (each
-# has long compiles, io/vdb*.cc, that would otherwise leave a core idle).
+# What the tests run: the release executables and libraries (CLI tests;
+# install.sh installs them, so it only copies), the sanitizer build's
+# executables and unit tests, the fuzz targets. One sub-make, so the three
+# builds share one job server and keep every core busy (each has long
+# compiles, io/vdb*.cc, that would otherwise leave a core idle).
 test-build: test-build-release test-build-sanitize fuzz-build
 test-build-release:
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory all lib
 test-build-sanitize:
 	@$(MAKE) --no-print-directory config=sanitize all tests
 
