@@ -884,6 +884,204 @@ static void test_keys(void)
 	config_release(&c);
 }
 
+/* The stages on a root (pipeline.md's table): lossy-cluster (and a job
+ * per lower resolution of the report), symmetry-merge of its root, an
+ * edit with inline lines and the colours, colorize of the edited colours,
+ * encode of the lossy scene and a render with the colours. */
+static const char global_graph[] =
+	"jobs:\n"
+	"  vox: {stage: voxelize}\n"
+	"  svdag: {stage: svo-to-dag, needs: [vox]}\n"
+	"  lossy: {stage: lossy-cluster, needs: [svdag], inflation: %s, "
+	"diff_factor: 1.0, max_refs: 2}\n"
+	"  lssv: {stage: symmetry-merge, needs: [lossy]}\n"
+	"  ed: {stage: edit, needs: [svdag, vox], script: [\"%s\", "
+	"\"carve box 0 0 0 1 1 1\"]}\n"
+	"  col: {stage: colorize, needs: [ed], method: vbr}\n"
+	"  enc: {stage: encode, needs: [lossy, lssv]}\n"
+	"  pic: {stage: render, needs: [enc, col]}\n";
+
+static void load_global(struct config *c, const char *inflation,
+			const char *edit, int threads)
+{
+	char jobs[2048], text[4096];
+	snprintf(jobs, sizeof jobs, global_graph, inflation, edit);
+	snprintf(text, sizeof text, "levels: 5\nchunk_level: 0\nresolutions: "
+		 "[5, 4, 3]\nresources: {jobs: 2, mem_budget: 1G, "
+		 "job_mem_budget: 128M, threads: %d}\n%s", threads, jobs);
+	CHECK_EQ(load(c, text, NULL, 0), 0);
+}
+
+/* Plans the global graph up to its end: a one-cell scene, so every job
+ * is known once voxelize has run. */
+static void plan_global(struct plan *p, const struct config *c)
+{
+	memset(p, 0, sizeof *p);
+	p->cfg = c;
+	CHECK_EQ(plan_expand(p), 0);
+	finish(p, "vox");
+	CHECK_EQ(plan_expand(p), 0);
+}
+
+static void test_global_jobs(void)
+{
+	fresh_outputs();
+	const uint64_t one = 0;
+	fake_voxelize(5, 0, &one, 1, 1);
+	struct config c;
+	load_global(&c, "2.5", "fill box 0 0 0 3 3 3", 3);
+	struct plan p;
+	plan_global(&p, &c);
+	/* vox, svdag/root, lossy/root + r4 + r3 (not r5: the full depth is
+	 * the root), lssv/root, ed/root, col, enc, pic */
+	CHECK_EQ(p.n, 10);
+	CHECK_EQ(p.expanded, 1);
+	char want[4096];
+	const char *B = "134217728", *o = outs;
+	struct job *j = job_named(&p, "vox");
+	if (j) { /* a job takes the colours: no --no-colours */
+		snprintf(want, sizeof want, "voxelize %s -o %s/vox --levels 5 "
+			 "--mem-budget %s --threads 6 --chunk-level 0", mesh, o, B);
+		CHECK(cmd_is(j, want));
+	}
+	j = job_named(&p, "lossy/root");
+	if (j) {
+		snprintf(want, sizeof want, "lossy-cluster %s/svdag/root.dag -o "
+			 "%s/lossy/root.dag --inflation 2.5 --diff-factor 1.0 "
+			 "--max-refs 2 --mem-budget %s --threads 3 -q", o, o, B);
+		CHECK(cmd_is(j, want));
+		CHECK(j->ndeps == 1 && j->deps[0] == plan_find(&p, "svdag/root"));
+	}
+	for (int r = 3; r <= 4; r++) {
+		char id[64];
+		snprintf(id, sizeof id, "lossy/r%d", r);
+		j = job_named(&p, id);
+		if (!j)
+			continue;
+		snprintf(want, sizeof want, "lossy-cluster %s/svdag/root.dag -o "
+			 "%s/lossy/r%d.dag --levels %d --inflation 2.5 "
+			 "--diff-factor 1.0 --max-refs 2 --mem-budget %s "
+			 "--threads 3 -q", o, o, r, r, B);
+		CHECK(cmd_is(j, want));
+	}
+	CHECK_EQ(plan_find(&p, "lossy/r5"), -1);
+	j = job_named(&p, "lssv/root");
+	if (j) {
+		snprintf(want, sizeof want, "symmetry-merge %s/lossy/root.dag -o "
+			 "%s/lssv/root.sdag --mem-budget %s --threads 3 -q", o, o,
+			 B);
+		CHECK(cmd_is(j, want));
+		CHECK(j->ndeps == 1 && j->deps[0] == plan_find(&p, "lossy/root"));
+	}
+	j = job_named(&p, "ed/root");
+	if (j) {
+		snprintf(want, sizeof want, "edit %s/svdag/root.dag -o "
+			 "%s/ed/root.dag --script %s/ed/script.txt --colours "
+			 "%s/vox --colours-out %s/ed/colours --mem-budget %s "
+			 "--threads 3 -q", o, o, o, o, o, B);
+		CHECK(cmd_is(j, want));
+		snprintf(want, sizeof want, "%s/ed/colours", o);
+		CHECK(j->extra_output && !strcmp(j->extra_output, want));
+		/* the inline lines, a line each, in the file the key covers */
+		snprintf(want, sizeof want, "%s/ed/script.txt", o);
+		char *script = slurp(want);
+		CHECK(script && !strcmp(script, "fill box 0 0 0 3 3 3\n"
+					       "carve box 0 0 0 1 1 1\n"));
+		free(script);
+		CHECK_EQ(j->ninputs, 3);
+		if (j->ninputs == 3) {
+			char m[800];
+			snprintf(m, sizeof m, "%s/vox/manifest", o);
+			CHECK(!strcmp(j->inputs[0], m));
+			CHECK(!strcmp(j->inputs[2], want));
+		}
+	}
+	j = job_named(&p, "col");
+	if (j) {
+		snprintf(want, sizeof want, "colorize %s/ed/colours -o %s/col "
+			 "--method vbr --threads 3 -q", o, o);
+		CHECK(cmd_is(j, want));
+		CHECK(j->ndeps == 1 && j->deps[0] == plan_find(&p, "ed/root"));
+	}
+	j = job_named(&p, "enc");
+	if (j) {
+		snprintf(want, sizeof want, "encode %s/lossy/root.dag "
+			 "%s/lssv/root.sdag -o %s/enc --name t --min-level 3 "
+			 "--mem-budget %s --threads 3 -q --stats-list "
+			 "%s/enc.stats-list", o, o, o, B, o);
+		CHECK(cmd_is(j, want));
+	}
+	j = job_named(&p, "pic");
+	if (j) {
+		snprintf(want, sizeof want, "render %s/enc/t.ssvdag -o %s/pic.png "
+			 "--size 960x720 --camera iso --colours %s/col/colours.vbr "
+			 "--threads 6 -q", o, o, o);
+		CHECK(cmd_is(j, want));
+		CHECK(j->ndeps == 2 && j->deps[0] == plan_find(&p, "col") &&
+		      j->deps[1] == plan_find(&p, "enc"));
+	}
+	plan_free(&p);
+	config_release(&c);
+}
+
+/* The key of job `id` in the global graph with these settings (its
+ * inputs made to exist first), checked against ref_key. */
+static void global_key(const char *inflation, const char *edit, int threads,
+		       const char *id, char key[17])
+{
+	struct config c;
+	load_global(&c, inflation, edit, threads);
+	struct plan p;
+	plan_global(&p, &c);
+	strcpy(key, "?");
+	struct job *j = job_named(&p, id);
+	if (j) {
+		for (int i = 0; i < j->ninputs; i++)
+			if (access(j->inputs[i], F_OK) != 0)
+				write_chunk(j->inputs[i], VD_KIND_DAG, 5, 0, 0, 1);
+		char want[17];
+		CHECK_EQ(job_key(j, key), 0);
+		CHECK(ref_key(j, want) == 0 && !strcmp(key, want));
+	}
+	plan_free(&p);
+	config_release(&c);
+}
+
+/* A parameter of a stage is in its key; an edit's script content too. */
+static void test_keys_global(void)
+{
+	fresh_outputs();
+	const uint64_t one = 0;
+	fake_voxelize(5, 0, &one, 1, 1);
+	char vox[700];
+	snprintf(vox, sizeof vox, "%s/vox", outs);
+	CHECK_EQ(vd_manifest_write(vox), VD_OK);
+	sh("mkdir -p '%s/svdag' '%s/svdag'", outs);
+	char a[17], b[17];
+	global_key("2.5", "fill box 0 0 0 3 3 3", 3, "lossy/root", a);
+	global_key("2.5", "fill box 0 0 0 3 3 3", 1, "lossy/root", b);
+	CHECK(!strcmp(a, b));
+	global_key("3.0", "fill box 0 0 0 3 3 3", 3, "lossy/root", b);
+	CHECK(strcmp(a, b) != 0);
+	/* the lower-resolution jobs differ from the root's (--levels) */
+	global_key("2.5", "fill box 0 0 0 3 3 3", 3, "lossy/r4", b);
+	CHECK(strcmp(a, b) != 0);
+	/* an edit line changed: the same command line, another script */
+	global_key("2.5", "fill box 0 0 0 3 3 3", 3, "ed/root", a);
+	global_key("2.5", "fill box 0 0 0 3 3 3", 1, "ed/root", b);
+	CHECK(!strcmp(a, b));
+	global_key("2.5", "fill box 0 0 0 3 3 4", 3, "ed/root", b);
+	CHECK(strcmp(a, b) != 0);
+	/* the colour chunks (through voxelize's manifest) are its input */
+	global_key("2.5", "fill box 0 0 0 3 3 3", 3, "ed/root", a);
+	char path[800];
+	snprintf(path, sizeof path, "%s/chunk-L0-0.col", vox);
+	write_chunk(path, VD_KIND_COLOURS, 5, 0, 0, 2);
+	CHECK_EQ(vd_manifest_write(vox), VD_OK);
+	global_key("2.5", "fill box 0 0 0 3 3 3", 3, "ed/root", b);
+	CHECK(strcmp(a, b) != 0);
+}
+
 /* A finished job's journal line, freshness, and what makes it stale. */
 static void test_journal(void)
 {
@@ -1069,6 +1267,8 @@ int main(void)
 	RUN(test_budget_capped);
 	RUN(test_single_cell);
 	RUN(test_keys);
+	RUN(test_global_jobs);
+	RUN(test_keys_global);
 	RUN(test_bad_configs);
 	RUN(test_bug_unknown_stage_lists_colorize);
 	RUN(test_journal); /* last: it writes the one key journal */
