@@ -5,7 +5,10 @@
  * by hand, and plan_expand's job graph is compared with the one worked out
  * here from schemas/pipeline.md:
  *   - before voxelize has run, one job, its exact command line (auto
- *     chunk level: no --chunk-level; colours only when a job takes them);
+ *     chunk level: no --chunk-level; colours only when a job takes them).
+ *     The planner does not pick the level itself: voxelize does, from its
+ *     own estimate of the process's memory, and the planner takes L0 from
+ *     the chunk files' headers (level 3 and level 0 below);
  *   - one per-cell job per non-empty cell (the .svo files, not the other
  *     files voxelize writes), its command, dependency and --mem-budget
  *     (the job budget, or its estimate when it cannot fit, up to the
@@ -17,7 +20,8 @@
  *     the stage name, its version, the arguments but --threads and
  *     --mem-budget, the inputs' fingerprints): it changes when a
  *     parameter or an input's content changes and not otherwise; the key
- *     journal line, freshness and its loss;
+ *     journal line, freshness and its loss, and a later plan skipping
+ *     exactly the job whose key holds;
  *   - the one-line errors config_load gives for bad pipelines. */
 #include "check.h"
 #include "pipeline.h"
@@ -1153,6 +1157,19 @@ static void test_journal(void)
 	CHECK(!strcmp(why, ""));
 	write_chunk(in, VD_KIND_SVO, 7, 3, 0x40, 1);
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 1);
+	/* a later run's plan counts it finished (skipped) as soon as it is
+	 * planned; the other cells, never finished, are pending */
+	struct plan q = {.cfg = &c};
+	CHECK_EQ(plan_expand(&q), 0);
+	finish(&q, "vox");
+	CHECK_EQ(plan_expand(&q), 0);
+	CHECK_EQ(count_jobs(&q, 1, 1), NCELLS);
+	for (int i = 0; i < q.n; i++)
+		if (q.jobs[i].decl == 1)
+			CHECK_EQ(q.jobs[i].state,
+				 strstr(q.jobs[i].id, "chunk-L3-040") ? JOB_SKIPPED
+								      : JOB_PENDING);
+	plan_free(&q);
 	/* dropped (about to be rebuilt): no key, and a D line appended */
 	job_key_drop(j);
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
@@ -1164,6 +1181,15 @@ static void test_journal(void)
 	CHECK(journal && strlen(journal) >= strlen(want) &&
 	      !strcmp(journal + strlen(journal) - strlen(want), want));
 	free(journal);
+	/* and a later plan runs it again */
+	memset(&q, 0, sizeof q);
+	q.cfg = &c;
+	CHECK_EQ(plan_expand(&q), 0);
+	finish(&q, "vox");
+	CHECK_EQ(plan_expand(&q), 0);
+	struct job *again = job_named(&q, "svdag/cells/chunk-L3-040");
+	CHECK(again && again->state == JOB_PENDING);
+	plan_free(&q);
 	plan_free(&p);
 	config_release(&c);
 }
