@@ -427,6 +427,42 @@ static void test_manifest_malformed(void)
 	CHECK(detail_is(want));
 }
 
+/* BUG (reported, issue 35): schemas/manifest.md says a line's checksum
+ * is 16 lower-case hex digits, but manifest_read takes whatever
+ * "%16llx %llu" takes: "1" (one digit), a "0x" prefix, a 17th digit
+ * (read as the size, the size then read as the name). Such
+ * a line is malformed and should be refused as one ("line N is not
+ * 'CHECKSUM SIZE NAME'"); instead the reader goes on and blames a file
+ * ("does not match its checksum", "is missing"), which sends the user
+ * after the wrong thing. This test fails until manifest.c is fixed. */
+static void test_bug_loose_checksum_field(void)
+{
+	const char *d = fresh("loose");
+	char full[2048], text[2048], want[900], mp[800];
+	expected_manifest(full, sizeof full);
+	snprintf(mp, sizeof mp, "%s", path_of(d, VD_MANIFEST_NAME));
+	/* line 2 is Z's: "HEX 1 Z"; the rest of the manifest after it */
+	const char *rest = strchr(strchr(full, '\n') + 1, '\n') + 1;
+	char hex[17];
+	memcpy(hex, strchr(full, '\n') + 1, 16);
+	hex[16] = 0;
+	char lines[3][64];
+	snprintf(lines[0], sizeof lines[0], "1 1 Z");
+	snprintf(lines[1], sizeof lines[1], "0x%.14s 1 Z", hex + 2);
+	snprintf(lines[2], sizeof lines[2], "%s0 1 Z", hex);
+	snprintf(want, sizeof want, "'%s': line 2 is not 'CHECKSUM SIZE NAME'",
+		 mp);
+	for (int i = 0; i < 3; i++) {
+		snprintf(text, sizeof text, "voxdag-manifest 1\n%s\n%s",
+			 lines[i], rest);
+		set_manifest(d, text, strlen(text));
+		int err = vd_manifest_verify(d, NULL);
+		CHECK_EQ(err, VD_ERR_CORRUPT);
+		if (!detail_is(want))
+			fprintf(stderr, "  line: '%s'\n", lines[i]);
+	}
+}
+
 /* One file against the manifest beside it (encode's encodings). */
 static void test_check_file(void)
 {
@@ -551,6 +587,7 @@ int main(void)
 	RUN(test_manifest_cut);
 	RUN(test_bug_first_line_number);
 	RUN(test_manifest_malformed);
+	RUN(test_bug_loose_checksum_field);
 	RUN(test_check_file);
 	RUN(test_publish);
 	return CHECK_DONE();
