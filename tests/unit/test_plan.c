@@ -1086,6 +1086,78 @@ static void test_keys_global(void)
 	CHECK(strcmp(a, b) != 0);
 }
 
+/* symmetry-merge with `group: 48` beside the group-8 one: its jobs carry
+ * --group 48 (so their keys differ from the group 8 ones on the same
+ * input), encode takes the third root after the second, and Table 1's
+ * seconds leave the 48-group's merge out. */
+static void test_group48(void)
+{
+	fresh_outputs();
+	struct config c;
+	char text[2048], want[4096];
+	snprintf(text, sizeof text, "levels: 5\nchunk_level: 0\nresolutions: "
+		 "[5]\nresources: {jobs: 1, mem_budget: 1G, job_mem_budget: 1G, "
+		 "threads: 1}\njobs:\n"
+		 "  vox: {stage: voxelize}\n"
+		 "  svdag: {stage: svo-to-dag, needs: [vox]}\n"
+		 "  s8: {stage: symmetry-merge, needs: [svdag]}\n"
+		 "  s48: {stage: symmetry-merge, needs: [svdag], group: 48}\n"
+		 "  enc: {stage: encode, needs: [svdag, s48, s8]}\n");
+	CHECK_EQ(load(&c, text, NULL, 0), 0);
+	const uint64_t one = 0;
+	fake_voxelize(5, 0, &one, 1, 1);
+	struct plan p = {.cfg = &c};
+	CHECK_EQ(plan_expand(&p), 0);
+	finish(&p, "vox");
+	CHECK_EQ(plan_expand(&p), 0);
+	CHECK_EQ(p.n, 5);
+	CHECK_EQ(p.expanded, 1);
+	const char *o = outs;
+	struct job *s8 = job_named(&p, "s8/root"), *s48 = job_named(&p, "s48/root");
+	if (s8) {
+		snprintf(want, sizeof want, "symmetry-merge %s/svdag/root.dag -o "
+			 "%s/s8/root.sdag --mem-budget 1073741824 --threads 1 -q",
+			 o, o);
+		CHECK(cmd_is(s8, want));
+	}
+	if (s48) {
+		snprintf(want, sizeof want, "symmetry-merge %s/svdag/root.dag -o "
+			 "%s/s48/root.sdag --mem-budget 1073741824 --threads 1 -q "
+			 "--group 48", o, o);
+		CHECK(cmd_is(s48, want));
+	}
+	struct job *e = job_named(&p, "enc");
+	if (e) {
+		/* the group-8 root second, whatever the order of needs */
+		snprintf(want, sizeof want, "encode %s/svdag/root.dag "
+			 "%s/s8/root.sdag %s/s48/root.sdag -o %s/enc --name t "
+			 "--min-level 5 --mem-budget 1073741824 --threads 1 -q "
+			 "--stats-list %s/enc.stats-list", o, o, o, o, o);
+		CHECK(cmd_is(e, want));
+		CHECK_EQ(e->ndeps, 3);
+		char list[800];
+		snprintf(list, sizeof list, "%s/enc.stats-list", o);
+		char *got = slurp(list);
+		snprintf(want, sizeof want, "%s/svdag/root.dag.stats.json\n"
+			 "%s/s8/root.sdag.stats.json\n", o, o);
+		CHECK(got && !strcmp(got, want));
+		free(got);
+	}
+	/* the same input, the same output name but for the directory: the
+	 * keys differ by the group (and the -o path) */
+	if (s8 && s48) {
+		sh("mkdir -p '%s/svdag' '%s/svdag'", o);
+		write_chunk(s8->inputs[0], VD_KIND_DAG, 5, 0, 0, 1);
+		char k8[17], k48[17], r48[17];
+		CHECK_EQ(job_key(s8, k8), 0);
+		CHECK_EQ(job_key(s48, k48), 0);
+		CHECK(strcmp(k8, k48) != 0);
+		CHECK(ref_key(s48, r48) == 0 && !strcmp(k48, r48));
+	}
+	plan_free(&p);
+	config_release(&c);
+}
+
 /* A finished job's journal line, freshness, and what makes it stale. */
 static void test_journal(void)
 {
@@ -1295,6 +1367,7 @@ int main(void)
 	RUN(test_keys);
 	RUN(test_global_jobs);
 	RUN(test_keys_global);
+	RUN(test_group48);
 	RUN(test_bad_configs);
 	RUN(test_bug_unknown_stage_lists_colorize);
 	RUN(test_journal); /* last: it writes the one key journal */
