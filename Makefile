@@ -189,10 +189,19 @@ $(OUT)/bench/%: tests/bench/%.c $(LIB) $(HEADERS)
 $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
-	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB) $(LDLIBS)
+	$(CXX) $(LDFLAGS) -o $@ $@.o $(TEST_OBJ) $(LIB) $(LDLIBS)
 
 # The Assimp importer's test calls vd_assimp_import itself.
 $(OUT)/tests/test_assimp: LDLIBS += -lassimp
+
+# The planner's test calls the runner's own code (plan_expand, job_key,
+# config_load): every runner object but its main(), before the library
+# they call, with libyaml (libjansson is in LDLIBS already).
+TEST_PLAN_OBJ := $(filter-out $(OUT)/obj/pipeline/main.o,$(RUNNER_OBJ))
+$(OUT)/tests/test_plan: $(TEST_PLAN_OBJ) pipeline/pipeline.h
+$(OUT)/tests/test_plan: TEST_OBJ := $(TEST_PLAN_OBJ)
+$(OUT)/tests/test_plan: CPPFLAGS += -Ipipeline
+$(OUT)/tests/test_plan: LDLIBS += -lyaml
 
 # Installs missing Debian packages; silent when everything is there.
 deps:
