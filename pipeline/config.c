@@ -36,6 +36,15 @@ const struct stage_info *stage_lookup(const char *name)
 	return NULL;
 }
 
+/* The stages' names, ", "-separated, for the error that names them. */
+static void stage_names(char *buf, size_t cap)
+{
+	size_t n = 0;
+	for (size_t i = 0; i < sizeof stages / sizeof *stages && n < cap; i++)
+		n += (size_t)snprintf(buf + n, cap - n, "%s%s", i ? ", " : "",
+				      stages[i].name);
+}
+
 struct ctx {
 	yaml_document_t doc;
 	const char *path;
@@ -424,12 +433,12 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 			return fail_at(x, k, "keys must be strings");
 		if (!strcmp(key, "stage")) {
 			const char *s = scalar(v);
-			if (!s || !(d->stage = stage_lookup(s)))
+			if (!s || !(d->stage = stage_lookup(s))) {
+				char known[256] = "";
+				stage_names(known, sizeof known);
 				return fail_at(x, v, "unknown stage '%s' (known: "
-					       "voxelize, svo-to-dag, "
-					       "symmetry-merge, lossy-cluster, "
-					       "edit, encode, render)",
-					       s ? s : "?");
+					       "%s)", s ? s : "?", known);
+			}
 		} else if (!strcmp(key, "needs")) {
 			if (v->type != YAML_SEQUENCE_NODE)
 				return fail_at(x, v, "'needs' must be a list of "

@@ -290,7 +290,7 @@ static void test_manifest_cut(void)
 	char mp[800];
 	snprintf(mp, sizeof mp, "%s", mpath);
 	int bad = 0;
-	/* cuts inside line 1 (the magic): test_bug_first_line_number */
+	/* cuts inside line 1 (the magic): test_first_line_number */
 	size_t magic = strlen("voxdag-manifest 1\n");
 	for (size_t cut = 0; cut < len; cut++) {
 		if (cut > 0 && cut < magic)
@@ -330,11 +330,9 @@ static void test_manifest_cut(void)
 	CHECK(detail_is(want));
 }
 
-/* BUG (reported, issue 35): a manifest cut inside its first line (the
- * magic) is reported as "line 2 is cut or too long": manifest_read counts
- * lines as entries + 2, which is right for entry lines only. The one-line
- * error should name line 1. This test fails until manifest.c is fixed. */
-static void test_bug_first_line_number(void)
+/* A manifest cut inside its first line (the magic) names line 1 (it was
+ * reported as line 2: the count was right for entry lines only). */
+static void test_first_line_number(void)
 {
 	const char *d = fresh("firstline");
 	char want[900], mp[800];
@@ -427,15 +425,12 @@ static void test_manifest_malformed(void)
 	CHECK(detail_is(want));
 }
 
-/* BUG (reported, issue 35): schemas/manifest.md says a line's checksum
- * is 16 lower-case hex digits, but manifest_read takes whatever
- * "%16llx %llu" takes: "1" (one digit), a "0x" prefix, a 17th digit
- * (read as the size, the size then read as the name). Such
- * a line is malformed and should be refused as one ("line N is not
- * 'CHECKSUM SIZE NAME'"); instead the reader goes on and blames a file
- * ("does not match its checksum", "is missing"), which sends the user
- * after the wrong thing. This test fails until manifest.c is fixed. */
-static void test_bug_loose_checksum_field(void)
+/* schemas/manifest.md: a line's checksum is 16 lower-case hex digits.
+ * "%16llx %llu" alone took "1" (one digit), a "0x" prefix, a 17th digit
+ * (read as the size, the size then as the name), and the reader went on
+ * to blame a file ("does not match its checksum", "is missing"). Such a
+ * line is malformed and refused as one. */
+static void test_loose_checksum_field(void)
 {
 	const char *d = fresh("loose");
 	char full[2048], text[2048], want[900], mp[800];
@@ -585,9 +580,9 @@ int main(void)
 	RUN(test_write_refuses);
 	RUN(test_verify_files);
 	RUN(test_manifest_cut);
-	RUN(test_bug_first_line_number);
+	RUN(test_first_line_number);
 	RUN(test_manifest_malformed);
-	RUN(test_bug_loose_checksum_field);
+	RUN(test_loose_checksum_field);
 	RUN(test_check_file);
 	RUN(test_publish);
 	return CHECK_DONE();

@@ -8,11 +8,17 @@
 #include <string.h>
 #include <unistd.h>
 
+/* Statistics nest a few levels; a writer that goes deeper (or closes more
+ * than it opened) is a bug, which vd_json_close() reports instead of
+ * publishing a file that is not JSON. */
+#define JSON_DEPTH 64
+
 struct vd_json {
 	FILE *f;
 	char *path, *tmp;
 	int depth;
-	int count[32]; /* members written so far at each depth */
+	int bad;       /* nested deeper than JSON_DEPTH, or an end too many */
+	int count[JSON_DEPTH]; /* members written so far at each depth */
 };
 
 int vd_json_open(struct vd_json **out, const char *path)
@@ -41,7 +47,8 @@ int vd_json_open(struct vd_json **out, const char *path)
 
 static void sep(struct vd_json *j, const char *key)
 {
-	fputs(j->count[j->depth]++ ? ",\n" : "\n", j->f);
+	int *count = &j->count[j->bad ? 0 : j->depth];
+	fputs((*count)++ ? ",\n" : "\n", j->f);
 	for (int i = 0; i <= j->depth; i++)
 		fputs("  ", j->f);
 	if (key)
@@ -52,8 +59,19 @@ static void open_nested(struct vd_json *j, const char *key, char c)
 {
 	sep(j, key);
 	fputc(c, j->f);
-	if (j->depth < 31)
+	if (j->depth + 1 < JSON_DEPTH)
 		j->count[++j->depth] = 0;
+	else
+		j->bad = 1;
+}
+
+/* One level up, if there is one. */
+static void close_nested(struct vd_json *j)
+{
+	if (j->depth > 0)
+		j->depth--;
+	else
+		j->bad = 1;
 }
 
 void vd_json_object(struct vd_json *j, const char *key) { open_nested(j, key, '{'); }
@@ -61,7 +79,7 @@ void vd_json_array(struct vd_json *j, const char *key) { open_nested(j, key, '['
 
 void vd_json_end_object(struct vd_json *j)
 {
-	j->depth--;
+	close_nested(j);
 	fputs("\n", j->f);
 	for (int i = 0; i <= j->depth; i++)
 		fputs("  ", j->f);
@@ -70,7 +88,7 @@ void vd_json_end_object(struct vd_json *j)
 
 void vd_json_end_array(struct vd_json *j)
 {
-	j->depth--;
+	close_nested(j);
 	fputc(']', j->f);
 }
 
@@ -119,7 +137,11 @@ int vd_json_close(struct vd_json *j)
 {
 	fputs("\n}\n", j->f);
 	int err = VD_OK;
-	if (fflush(j->f) != 0 || ferror(j->f))
+	if (j->bad || j->depth != 0)
+		err = vd_fail(VD_ERR_INTERNAL, "'%s': objects and arrays nested "
+			      "deeper than %d or not closed in order",
+			      j->path, JSON_DEPTH);
+	else if (fflush(j->f) != 0 || ferror(j->f))
 		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
 			      strerror(errno));
 	if (fclose(j->f) != 0 && !err)

@@ -193,7 +193,7 @@ static int manifest_read(const char *dir, struct entry **out, size_t *count,
 		size_t len = strlen(line);
 		if (len == 0 || line[len - 1] != '\n') {
 			err = vd_fail(VD_ERR_CORRUPT, "'%s': line %zu is cut or "
-				      "too long", path, n + 2);
+				      "too long", path, first ? 1 : n + 2);
 			break;
 		}
 		line[len - 1] = 0;
@@ -216,7 +216,9 @@ static int manifest_read(const char *dir, struct entry **out, size_t *count,
 		}
 		unsigned long long h, size;
 		int used = 0;
-		if (sscanf(line, "%16llx %llu %n", &h, &size, &used) != 2 ||
+		/* schemas/manifest.md: exactly 16 lower-case hex digits */
+		if (strspn(line, "0123456789abcdef") != 16 || line[16] != ' ' ||
+		    sscanf(line, "%16llx %llu %n", &h, &size, &used) != 2 ||
 		    !used || !line[used] || strlen(line + used) >= sizeof e->name ||
 		    strchr(line + used, '/') || !listed_name(line + used)) {
 			err = vd_fail(VD_ERR_CORRUPT, "'%s': line %zu is not "
