@@ -8,7 +8,7 @@
  * the grid at their level, and PNG / depth / id files read back.
  *
  * Tie-breaking, shared with the tracer because it is the contract in
- * voxdag.h (render block), not because the code is shared: the time of
+ * vd_render.h, not because the code is shared: the time of
  * plane k on axis a is ((double)k - o[a]) * (1.0 / d[a]); a voxel is
  * entered at the time of its near plane; all axes whose next plane has the
  * smallest time step together; a ray with d[a] == 0 has voxel coordinate

@@ -1,7 +1,7 @@
 /* cube48.c - the 48 symmetries of the cube (6 axis permutations times 8
  * reflections) as a small table: composition, inverse, and their action on
  * child indices, 2x2x2 masks and 4x4x4 bricks. The conventions are in
- * voxdag.h ("Cube group"). */
+ * vd_dag.h ("Cube group"). */
 #include "voxdag.h"
 
 /* Axis permutations: output axis i (0 = X, 1 = Y, 2 = Z) takes input axis

@@ -74,7 +74,7 @@ static inline uint32_t vd__enc_unpack_ptr(unsigned tag, const uint16_t *w,
 }
 
 /* .ssvdag48 pointers (schemas/encodings.md): the transform t (0..47, the
- * numbering of voxdag.h's "Cube group") takes 6 bits, so a 16-bit pointer
+ * numbering of vd_dag.h's "Cube group") takes 6 bits, so a 16-bit pointer
  * keeps 10 address bits and a 32-bit one 26, plus the tag bit: addresses
  * below 2^27. The reader refuses t of 48..63. */
 #define VD__ENC48_MAX_ADDRESS (1ull << 27)

@@ -1,5 +1,5 @@
 // assimp.cc - glTF 2.0, FBX, Collada and 3DS scenes through Assimp, behind
-// the C interface of voxdag.h's "imported formats" block. Only
+// the C interface of vd_mesh.h's "imported formats" section. Only
 // voxelize-assimp references vd_assimp_import, so only it links libassimp
 // (about 4 MB of memory at start that mesh runs should not pay).
 //

@@ -1,5 +1,5 @@
 // vdb.cc - the library's reading of OpenVDB files, behind the C interface
-// of voxdag.h's OpenVDB block (vdb_write.cc writes them). Every entry point
+// of vd_vdb.h (vdb_write.cc writes them). Every entry point
 // catches every exception and returns an error code with a detail line:
 // nothing thrown crosses into C.
 //

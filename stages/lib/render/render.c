@@ -1,6 +1,6 @@
 /* render.c - ray casting straight through the compact encodings and DAG
  * chunks (SSVDAG paper section 5), images, PNG/PFM output and the render
- * stage's run. Conventions are in voxdag.h, render block.
+ * stage's run. Conventions are in vd_render.h.
  *
  * Traversal. The tracer keeps the path from the root to the current node in
  * a stack (one entry per level: where the node is stored and the reflection
@@ -254,7 +254,7 @@ static inline void node_child(const struct tracer *T, int level,
 
 /* ------------------------------------------------------------ tracing */
 
-/* The one formula for the time of integer plane k (see voxdag.h). */
+/* The one formula for the time of integer plane k (see vd_render.h). */
 static inline double tp(const double *o, const double *inv, int a, int64_t k)
 {
 	return ((double)k - o[a]) * inv[a];

@@ -5,7 +5,7 @@
  *      each node that holds selected voxels as an entry (origin, size) and
  *      the tight bounding box of the selected voxels; no voxel is copied;
  *   2. place: the bounding box fixes the grid depth, the resampling shift
- *      and the offset (see vd_vdb_import in voxdag.h); entries are split at
+ *      and the offset (see vd_vdb_import in vd_vdb.h); entries are split at
  *      the cells of the finest candidate chunk level F and sorted by cell,
  *      which also gives every cell's exact brick count at every level, so
  *      L0 is the coarsest level whose largest cell fits the budget;
@@ -555,7 +555,7 @@ static int cmp_u64(const void *a, const void *b)
 
 /* ------------------------------------------------------------ the driver */
 
-/* Chooses L, k and the offsets (the rule is in voxdag.h). */
+/* Chooses L, k and the offsets (the rule is in vd_vdb.h). */
 static int choose_place(const struct scan *s, int levels, struct place *p)
 {
 	int64_t off[3];
