@@ -167,23 +167,6 @@ int vd_palette_build(struct vd_palette *p, struct vd_colour_hist *h,
 uint32_t vd_palette_nearest(const struct vd_palette *p, const uint8_t rgb[3]);
 void vd_palette_release(struct vd_palette *p);
 
-/* One segment in the palette format before its block palettes are shared:
- * block b covers start[b].., its palette is the sorted global indices
- * pal[pal_first[b] .. pal_first[b+1]) (pal_first has count+1 entries), each
- * voxel an offset into it (offsets[i] for voxel i, unpacked here). */
-struct vd_palette_segment {
-	uint32_t n, count;
-	uint32_t *start;
-	uint32_t *pal_first;
-	uint32_t *pal;
-	uint32_t *offsets;
-	uint64_t sse;
-	unsigned max_dist2;
-};
-int vd_palette_encode(struct vd_palette_segment *s, const uint8_t *rgb,
-		      uint32_t n, const struct vd_palette *p);
-void vd_palette_segment_release(struct vd_palette_segment *s);
-
 /* Writing a packed colours file (kind VD_KIND_CPACK). Open, feed the cells
  * in increasing cell order (each split into segments and encoded on up to
  * `threads` threads), commit. The file appears under `path` only on

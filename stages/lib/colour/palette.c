@@ -5,6 +5,7 @@
  * This file builds the global palette (median cut + Lloyd) and one
  * segment's blocks; colour_pack.c shares the block palettes and writes. */
 #include "voxdag.h"
+#include "colour/colour_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
