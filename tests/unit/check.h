@@ -74,4 +74,45 @@ static inline const char *test_tmpdir(const char *name)
 	return buf;
 }
 
+/* "DIR/NAME" in one of four rotating buffers, so that a call can take
+ * two or three paths at once. */
+static inline const char *test_path(const char *dir, const char *name)
+{
+	static char p[4][700];
+	static int k;
+	k = (k + 1) % 4;
+	snprintf(p[k], sizeof p[k], "%s/%s", dir, name);
+	return p[k];
+}
+
+/* The whole file at `path`, NUL-terminated (free() it), its size in *n
+ * when n is not NULL; NULL when it cannot be read. */
+static inline char *test_slurp(const char *path, size_t *n)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return NULL;
+	size_t cap = 1 << 16, len = 0, got;
+	char *buf = malloc(cap + 1);
+	while (buf && (got = fread(buf + len, 1, cap - len, f)) > 0) {
+		len += got;
+		if (len == cap) {
+			char *b = realloc(buf, 2 * cap + 1);
+			if (!b) {
+				free(buf);
+				buf = NULL;
+			}
+			buf = b;
+			cap *= 2;
+		}
+	}
+	fclose(f);
+	if (buf) {
+		buf[len] = 0;
+		if (n)
+			*n = len;
+	}
+	return buf;
+}
+
 #endif

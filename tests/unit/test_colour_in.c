@@ -854,20 +854,6 @@ static void test_chunked_concat(void)
 }
 
 /* Reads a whole file; NULL if absent. */
-static unsigned char *slurp(const char *path, size_t *n)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return NULL;
-	fseek(f, 0, SEEK_END);
-	long len = ftell(f);
-	fseek(f, 0, SEEK_SET);
-	unsigned char *p = malloc((size_t)len + 1);
-	*n = fread(p, 1, (size_t)len, f);
-	fclose(f);
-	return p;
-}
-
 /* The .svo files of a run with colours and one without: the same bytes
  * (the provenance is the same string here). */
 static void test_svo_identical(void)
@@ -910,7 +896,7 @@ static void test_svo_identical(void)
 			snprintf(a, sizeof a, "%s/%s", dir, e->d_name);
 			snprintf(b, sizeof b, "%s/%s", keep, e->d_name);
 			size_t na = 0, nb = 0;
-			unsigned char *pa = slurp(a, &na), *pb = slurp(b, &nb);
+			unsigned char *pa = (unsigned char *)test_slurp(a, &na), *pb = (unsigned char *)test_slurp(b, &nb);
 			CHECK(pa && pb && na == nb && !memcmp(pa, pb, na));
 			free(pa);
 			free(pb);

@@ -19,15 +19,6 @@
 
 static const char *dir;
 
-static const char *path_of(const char *name)
-{
-	static char p[4][600];
-	static int k;
-	k = (k + 1) % 4;
-	snprintf(p[k], sizeof p[k], "%s/%s", dir, name);
-	return p[k];
-}
-
 /* The writer's temporary for `path` (json.c: "<path>.tmp.<pid>"). */
 static const char *tmp_of(const char *path)
 {
@@ -43,19 +34,6 @@ static int exists(const char *path)
 }
 
 /* The whole file as a string (malloc'd), NULL when it cannot be read. */
-static char *slurp(const char *path)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return NULL;
-	char *buf = malloc(1 << 16);
-	size_t n = buf ? fread(buf, 1, (1 << 16) - 1, f) : 0;
-	fclose(f);
-	if (buf)
-		buf[n] = 0;
-	return buf;
-}
-
 static json_t *load(const char *path)
 {
 	json_error_t e;
@@ -74,7 +52,7 @@ static const double f64s[] = {0.5, -2.5, 1e-7, 1234567.0, 3.0};
 /* Every kind of value, nested, parsed back and compared. */
 static void test_roundtrip(void)
 {
-	const char *p = path_of("all.json");
+	const char *p = test_path(dir, "all.json");
 	struct vd_json *j = NULL;
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
 	if (!j)
@@ -187,7 +165,7 @@ static void test_roundtrip(void)
  * space, a byte >= 0x80 stays itself). */
 static void test_exact_bytes(void)
 {
-	const char *p = path_of("exact.json");
+	const char *p = test_path(dir, "exact.json");
 	struct vd_json *j = NULL;
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
 	if (!j)
@@ -199,7 +177,7 @@ static void test_exact_bytes(void)
 	const uint64_t v[] = {3, 2};
 	vd_json_u64_array(j, "v", v, 2);
 	CHECK_EQ(vd_json_close(j), VD_OK);
-	char *text = slurp(p);
+	char *text = test_slurp(p, NULL);
 	const char *want =
 		"{\n"
 		"  \"s\": \"a \\\"b\\\"\\\\\\u000a\\u001f\xc3\xa9\",\n"
@@ -213,10 +191,10 @@ static void test_exact_bytes(void)
 		fprintf(stderr, "got:\n%s\nwant:\n%s\n", text, want);
 	free(text);
 	/* an object closed at once is "{\n}\n" and parses as {} */
-	p = path_of("bare.json");
+	p = test_path(dir, "bare.json");
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
 	CHECK_EQ(vd_json_close(j), VD_OK);
-	text = slurp(p);
+	text = test_slurp(p, NULL);
 	CHECK(text && !strcmp(text, "{\n}\n"));
 	free(text);
 	json_t *r = load(p);
@@ -228,7 +206,7 @@ static void test_exact_bytes(void)
  * then and is replaced by the new one; no temporary is left. */
 static void test_atomic(void)
 {
-	const char *p = path_of("atomic.json");
+	const char *p = test_path(dir, "atomic.json");
 	FILE *f = fopen(p, "w");
 	CHECK(f != NULL);
 	if (f) {
@@ -241,7 +219,7 @@ static void test_atomic(void)
 		return;
 	CHECK(exists(tmp_of(p)));
 	vd_json_u64(j, "n", 1);
-	char *text = slurp(p);
+	char *text = test_slurp(p, NULL);
 	CHECK(text && !strcmp(text, "old"));
 	free(text);
 	CHECK_EQ(vd_json_close(j), VD_OK);
@@ -251,7 +229,7 @@ static void test_atomic(void)
 	      json_integer_value(json_object_get(r, "n")) == 1);
 	json_decref(r);
 	/* a new file: absent until close */
-	p = path_of("new.json");
+	p = test_path(dir, "new.json");
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
 	CHECK(!exists(p));
 	CHECK_EQ(vd_json_close(j), VD_OK);
@@ -262,7 +240,7 @@ static void test_atomic(void)
  * cause; *out untouched, nothing created. */
 static void test_open_missing_dir(void)
 {
-	const char *p = path_of("no/such/dir/s.json");
+	const char *p = test_path(dir, "no/such/dir/s.json");
 	struct vd_json *j = (struct vd_json *)&j; /* a sentinel */
 	vd_error_clear();
 	CHECK_EQ(vd_json_open(&j, p), VD_ERR_IO);
@@ -273,7 +251,7 @@ static void test_open_missing_dir(void)
 	CHECK(!strcmp(vd_error_detail(), want));
 	if (strcmp(vd_error_detail(), want))
 		fprintf(stderr, "detail: %s\n", vd_error_detail());
-	CHECK(!exists(path_of("no")));
+	CHECK(!exists(test_path(dir, "no")));
 	vd_error_clear();
 }
 
@@ -282,7 +260,7 @@ static void test_open_missing_dir(void)
  * directory is untouched. */
 static void test_close_onto_directory(void)
 {
-	const char *p = path_of("taken.json");
+	const char *p = test_path(dir, "taken.json");
 	CHECK_EQ(mkdir(p, 0777), 0);
 	struct vd_json *j = NULL;
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
@@ -306,7 +284,7 @@ static void test_close_onto_directory(void)
 /* Objects nested `depth` levels below the top one, a member in each. */
 static int nested_parses(int depth)
 {
-	const char *p = path_of("deep.json");
+	const char *p = test_path(dir, "deep.json");
 	struct vd_json *j = NULL;
 	if (vd_json_open(&j, p) != VD_OK)
 		return 0;

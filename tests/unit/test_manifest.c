@@ -20,15 +20,6 @@
 
 static const char *root;
 
-static const char *path_of(const char *d, const char *name)
-{
-	static char p[4][700];
-	static int k;
-	k = (k + 1) % 4;
-	snprintf(p[k], sizeof p[k], "%s/%s", d, name);
-	return p[k];
-}
-
 static void write_bytes(const char *path, const void *data, size_t n)
 {
 	FILE *f = fopen(path, "wb");
@@ -45,24 +36,6 @@ static void write_text(const char *path, const char *text)
 }
 
 /* The whole file (malloc'd, NUL-terminated) and its size. */
-static char *slurp(const char *path, size_t *n)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return NULL;
-	fseek(f, 0, SEEK_END);
-	long len = ftell(f);
-	fseek(f, 0, SEEK_SET);
-	char *buf = malloc((size_t)len + 1);
-	size_t got = buf ? fread(buf, 1, (size_t)len, f) : 0;
-	fclose(f);
-	if (buf)
-		buf[got] = 0;
-	if (n)
-		*n = got;
-	return buf;
-}
-
 /* root/name, in a buffer of its own (path_of's are reused). */
 static const char *dir_of(const char *name)
 {
@@ -96,12 +69,12 @@ static void fill_dir(const char *d)
 	CHECK_EQ(system(cmd), 0);
 	for (size_t i = 0; i < sizeof big; i++)
 		big[i] = (uint8_t)(i * 2654435761u >> 13);
-	write_text(path_of(d, "Z"), "z");
-	write_text(path_of(d, "a.col"), "hello");
-	write_bytes(path_of(d, "b.svo"), big, sizeof big);
-	write_text(path_of(d, "empty"), "");
-	write_text(path_of(d, ".key"), "hidden: the runner's");
-	write_text(path_of(d, "x.tmp.123"), "a temporary");
+	write_text(test_path(d, "Z"), "z");
+	write_text(test_path(d, "a.col"), "hello");
+	write_bytes(test_path(d, "b.svo"), big, sizeof big);
+	write_text(test_path(d, "empty"), "");
+	write_text(test_path(d, ".key"), "hidden: the runner's");
+	write_text(test_path(d, "x.tmp.123"), "a temporary");
 }
 
 /* The manifest of fill_dir's directory, from XXH3 over the bytes the test
@@ -123,16 +96,16 @@ static void test_file_xxh3(void)
 	const char *d = dir_of("xxh3");
 	fill_dir(d);
 	uint64_t h = 0, n = 0;
-	CHECK_EQ(vd_file_xxh3(path_of(d, "b.svo"), &h, &n), VD_OK);
+	CHECK_EQ(vd_file_xxh3(test_path(d, "b.svo"), &h, &n), VD_OK);
 	CHECK(h == XXH3_64bits(big, sizeof big));
 	CHECK_EQ(n, sizeof big);
-	CHECK_EQ(vd_file_xxh3(path_of(d, "empty"), &h, &n), VD_OK);
+	CHECK_EQ(vd_file_xxh3(test_path(d, "empty"), &h, &n), VD_OK);
 	CHECK(h == XXH3_64bits("", 0));
 	CHECK_EQ(n, 0);
 	char want[900];
 	snprintf(want, sizeof want, "cannot open '%s': %s",
-		 path_of(d, "absent"), strerror(ENOENT));
-	CHECK_EQ(vd_file_xxh3(path_of(d, "absent"), &h, &n), VD_ERR_IO);
+		 test_path(d, "absent"), strerror(ENOENT));
+	CHECK_EQ(vd_file_xxh3(test_path(d, "absent"), &h, &n), VD_ERR_IO);
 	CHECK(detail_is(want));
 }
 
@@ -144,13 +117,13 @@ static void test_write(void)
 	char want[2048];
 	expected_manifest(want, sizeof want);
 	size_t len = 0;
-	char *got = slurp(path_of(d, VD_MANIFEST_NAME), &len);
+	char *got = test_slurp(test_path(d, VD_MANIFEST_NAME), &len);
 	CHECK(got && !strcmp(got, want));
 	if (got && strcmp(got, want))
 		fprintf(stderr, "got:\n%s\nwant:\n%s", got, want);
 	/* no temporary left beside it */
 	char tmp[800];
-	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path_of(d, VD_MANIFEST_NAME),
+	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", test_path(d, VD_MANIFEST_NAME),
 		 (long)getpid());
 	CHECK(access(tmp, F_OK) != 0);
 	/* the digest stands for the manifest's bytes */
@@ -161,10 +134,10 @@ static void test_write(void)
 	/* written again over an unchanged directory: the same bytes (the
 	 * old manifest is not listed in the new one) */
 	CHECK_EQ(vd_manifest_write(d), VD_OK);
-	char *again = slurp(path_of(d, VD_MANIFEST_NAME), NULL);
+	char *again = test_slurp(test_path(d, VD_MANIFEST_NAME), NULL);
 	CHECK(got && again && !strcmp(got, again));
 	/* one changed byte changes the digest */
-	write_text(path_of(d, "a.col"), "hellO");
+	write_text(test_path(d, "a.col"), "hellO");
 	CHECK_EQ(vd_manifest_write(d), VD_OK);
 	uint64_t d2 = digest;
 	CHECK_EQ(vd_manifest_verify(d, &d2), VD_OK);
@@ -178,21 +151,21 @@ static void test_write_refuses(void)
 {
 	const char *d = dir_of("refuse");
 	fill_dir(d);
-	CHECK_EQ(mkdir(path_of(d, "sub"), 0777), 0);
+	CHECK_EQ(mkdir(test_path(d, "sub"), 0777), 0);
 	char want[900];
 	snprintf(want, sizeof want, "'%s' is not a regular file",
-		 path_of(d, "sub"));
+		 test_path(d, "sub"));
 	CHECK_EQ(vd_manifest_write(d), VD_ERR_UNSUPPORTED);
 	CHECK(detail_is(want));
-	CHECK(access(path_of(d, VD_MANIFEST_NAME), F_OK) != 0);
-	CHECK_EQ(rmdir(path_of(d, "sub")), 0);
-	CHECK_EQ(symlink("Z", path_of(d, "link")), 0);
+	CHECK(access(test_path(d, VD_MANIFEST_NAME), F_OK) != 0);
+	CHECK_EQ(rmdir(test_path(d, "sub")), 0);
+	CHECK_EQ(symlink("Z", test_path(d, "link")), 0);
 	snprintf(want, sizeof want, "'%s' is not a regular file",
-		 path_of(d, "link"));
+		 test_path(d, "link"));
 	CHECK_EQ(vd_manifest_write(d), VD_ERR_UNSUPPORTED);
 	CHECK(detail_is(want));
-	CHECK(access(path_of(d, VD_MANIFEST_NAME), F_OK) != 0);
-	const char *gone = path_of(root, "no-such-dir");
+	CHECK(access(test_path(d, VD_MANIFEST_NAME), F_OK) != 0);
+	const char *gone = test_path(root, "no-such-dir");
 	snprintf(want, sizeof want, "cannot open '%s': %s", gone,
 		 strerror(ENOENT));
 	CHECK_EQ(vd_manifest_write(gone), VD_ERR_IO);
@@ -214,7 +187,7 @@ static void test_verify_files(void)
 	char want[900];
 	const char *d = fresh("files");
 	char b[800];
-	snprintf(b, sizeof b, "%s", path_of(d, "b.svo"));
+	snprintf(b, sizeof b, "%s", test_path(d, "b.svo"));
 	/* missing */
 	CHECK_EQ(unlink(b), 0);
 	snprintf(want, sizeof want, "'%s', listed in the manifest, is missing", b);
@@ -252,21 +225,21 @@ static void test_verify_files(void)
 	/* a file the manifest does not list, sorted first, between, last */
 	const char *extra[] = {"0first", "aa", "zz"};
 	for (int i = 0; i < 3; i++) {
-		write_text(path_of(d, extra[i]), "x");
+		write_text(test_path(d, extra[i]), "x");
 		snprintf(want, sizeof want, "'%s/%s' is not in the manifest", d,
 			 extra[i]);
 		CHECK_EQ(vd_manifest_verify(d, NULL), VD_ERR_CORRUPT);
 		CHECK(detail_is(want));
-		CHECK_EQ(unlink(path_of(d, extra[i])), 0);
+		CHECK_EQ(unlink(test_path(d, extra[i])), 0);
 	}
 	/* hidden files and temporaries are not part of the output */
-	write_text(path_of(d, ".other"), "x");
-	write_text(path_of(d, "b.svo.tmp.77"), "x");
+	write_text(test_path(d, ".other"), "x");
+	write_text(test_path(d, "b.svo.tmp.77"), "x");
 	CHECK_EQ(vd_manifest_verify(d, NULL), VD_OK);
 	/* a directory where a listed file was */
-	CHECK_EQ(unlink(path_of(d, "Z")), 0);
-	CHECK_EQ(mkdir(path_of(d, "Z"), 0777), 0);
-	snprintf(want, sizeof want, "'%s' is not a regular file", path_of(d, "Z"));
+	CHECK_EQ(unlink(test_path(d, "Z")), 0);
+	CHECK_EQ(mkdir(test_path(d, "Z"), 0777), 0);
+	snprintf(want, sizeof want, "'%s' is not a regular file", test_path(d, "Z"));
 	CHECK_EQ(vd_manifest_verify(d, NULL), VD_ERR_UNSUPPORTED);
 	CHECK(detail_is(want));
 }
@@ -274,7 +247,7 @@ static void test_verify_files(void)
 /* Replaces the manifest of d with `text`. */
 static void set_manifest(const char *d, const char *text, size_t n)
 {
-	write_bytes(path_of(d, VD_MANIFEST_NAME), text, n);
+	write_bytes(test_path(d, VD_MANIFEST_NAME), text, n);
 }
 
 /* The manifest cut at every length fails, each cut with its error: no
@@ -286,7 +259,7 @@ static void test_manifest_cut(void)
 	char full[2048], want[900];
 	expected_manifest(full, sizeof full);
 	size_t len = strlen(full);
-	const char *mpath = path_of(d, VD_MANIFEST_NAME);
+	const char *mpath = test_path(d, VD_MANIFEST_NAME);
 	char mp[800];
 	snprintf(mp, sizeof mp, "%s", mpath);
 	int bad = 0;
@@ -336,7 +309,7 @@ static void test_first_line_number(void)
 {
 	const char *d = fresh("firstline");
 	char want[900], mp[800];
-	snprintf(mp, sizeof mp, "%s", path_of(d, VD_MANIFEST_NAME));
+	snprintf(mp, sizeof mp, "%s", test_path(d, VD_MANIFEST_NAME));
 	set_manifest(d, "voxdag-manif", 12);
 	snprintf(want, sizeof want, "'%s': line 1 is cut or too long", mp);
 	CHECK_EQ(vd_manifest_verify(d, NULL), VD_ERR_CORRUPT);
@@ -349,7 +322,7 @@ static void test_manifest_malformed(void)
 	const char *d = fresh("malformed");
 	char full[2048], text[2048], want[900], mp[800];
 	expected_manifest(full, sizeof full);
-	snprintf(mp, sizeof mp, "%s", path_of(d, VD_MANIFEST_NAME));
+	snprintf(mp, sizeof mp, "%s", test_path(d, VD_MANIFEST_NAME));
 	/* the lines of `full`: [0] magic, [1..4] the files */
 	char lines[5][200];
 	const char *at = full;
@@ -420,7 +393,7 @@ static void test_manifest_malformed(void)
 	hex[0] = hex[0] == '0' ? '1' : '0';
 	set_manifest(d, text, strlen(text));
 	snprintf(want, sizeof want, "'%s' does not match its checksum in the "
-		 "manifest", path_of(d, "b.svo"));
+		 "manifest", test_path(d, "b.svo"));
 	CHECK_EQ(vd_manifest_verify(d, NULL), VD_ERR_CHECKSUM);
 	CHECK(detail_is(want));
 }
@@ -435,7 +408,7 @@ static void test_loose_checksum_field(void)
 	const char *d = fresh("loose");
 	char full[2048], text[2048], want[900], mp[800];
 	expected_manifest(full, sizeof full);
-	snprintf(mp, sizeof mp, "%s", path_of(d, VD_MANIFEST_NAME));
+	snprintf(mp, sizeof mp, "%s", test_path(d, VD_MANIFEST_NAME));
 	/* line 2 is Z's: "HEX 1 Z"; the rest of the manifest after it */
 	const char *rest = strchr(strchr(full, '\n') + 1, '\n') + 1;
 	char hex[17];
@@ -463,31 +436,31 @@ static void test_check_file(void)
 {
 	char want[900];
 	const char *d = fresh("check");
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "b.svo")), VD_OK);
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "empty")), VD_OK);
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "b.svo")), VD_OK);
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "empty")), VD_OK);
 	/* damage to another file is not this one's */
-	write_text(path_of(d, "Z"), "y");
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "a.col")), VD_OK);
+	write_text(test_path(d, "Z"), "y");
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "a.col")), VD_OK);
 	snprintf(want, sizeof want, "'%s' does not match its checksum in the "
-		 "manifest", path_of(d, "Z"));
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "Z")), VD_ERR_CHECKSUM);
+		 "manifest", test_path(d, "Z"));
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "Z")), VD_ERR_CHECKSUM);
 	CHECK(detail_is(want));
-	write_text(path_of(d, "new"), "x");
+	write_text(test_path(d, "new"), "x");
 	snprintf(want, sizeof want, "'%s' is not in the manifest beside it",
-		 path_of(d, "new"));
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "new")), VD_ERR_CORRUPT);
+		 test_path(d, "new"));
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "new")), VD_ERR_CORRUPT);
 	CHECK(detail_is(want));
 	/* no manifest: the way out is named */
-	CHECK_EQ(unlink(path_of(d, VD_MANIFEST_NAME)), 0);
+	CHECK_EQ(unlink(test_path(d, VD_MANIFEST_NAME)), 0);
 	snprintf(want, sizeof want, "no manifest beside '%s' to check it "
 		 "against (encode writes one; for a file from elsewhere, use "
-		 "--no-verify)", path_of(d, "a.col"));
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "a.col")), VD_ERR_UNSUPPORTED);
+		 "--no-verify)", test_path(d, "a.col"));
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "a.col")), VD_ERR_UNSUPPORTED);
 	CHECK(detail_is(want));
 	/* an empty one is damage, not absence */
 	set_manifest(d, "", 0);
-	snprintf(want, sizeof want, "'%s' is empty", path_of(d, VD_MANIFEST_NAME));
-	CHECK_EQ(vd_manifest_check_file(path_of(d, "a.col")), VD_ERR_TRUNCATED);
+	snprintf(want, sizeof want, "'%s' is empty", test_path(d, VD_MANIFEST_NAME));
+	CHECK_EQ(vd_manifest_check_file(test_path(d, "a.col")), VD_ERR_TRUNCATED);
 	CHECK(detail_is(want));
 }
 
@@ -523,15 +496,15 @@ static void test_publish(void)
 	char expect[800];
 	snprintf(expect, sizeof expect, "%s.tmp.%ld", final, (long)getpid());
 	CHECK(!strcmp(staging, expect));
-	write_text(path_of(staging, "one"), "1");
-	write_text(path_of(staging, "two"), "2");
+	write_text(test_path(staging, "one"), "1");
+	write_text(test_path(staging, "two"), "2");
 	CHECK_EQ(vd_dir_publish(staging, final), VD_OK);
 	CHECK(access(staging, F_OK) != 0);
 	CHECK_EQ(vd_manifest_verify(final, NULL), VD_OK);
 	CHECK_EQ(count_entries(final), 3); /* one, two, manifest */
 	/* again, over it, with a trailing '/' and leftovers beside it */
 	CHECK_EQ(mkdir(dead, 0777), 0);
-	write_text(path_of(dead, "junk"), "j");
+	write_text(test_path(dead, "junk"), "j");
 	CHECK_EQ(mkdir(live, 0777), 0);
 	char given[800];
 	snprintf(given, sizeof given, "%s/", final);
@@ -539,32 +512,32 @@ static void test_publish(void)
 	CHECK(!strcmp(staging, expect));
 	CHECK(access(dead, F_OK) != 0);
 	CHECK(access(live, F_OK) == 0);
-	write_text(path_of(staging, "three"), "3");
+	write_text(test_path(staging, "three"), "3");
 	CHECK_EQ(vd_dir_publish(staging, final), VD_OK);
 	CHECK_EQ(vd_manifest_verify(final, NULL), VD_OK);
 	CHECK_EQ(count_entries(final), 2); /* three, manifest: the old gone */
-	CHECK(access(path_of(final, "one"), F_OK) != 0);
+	CHECK(access(test_path(final, "one"), F_OK) != 0);
 	CHECK(access(staging, F_OK) != 0);
 	rmdir(live);
 	/* a file the manifest does not list: the user's */
-	write_text(path_of(final, "mine.txt"), "keep");
+	write_text(test_path(final, "mine.txt"), "keep");
 	snprintf(want, sizeof want, "'%s' holds 'mine.txt', which this tool "
 		 "did not write; give a new or empty output directory", final);
 	CHECK_EQ(vd_dir_stage(final, NULL, staging, sizeof staging), VD_ERR_IO);
 	CHECK(detail_is(want));
-	char *keep = slurp(path_of(final, "mine.txt"), NULL);
+	char *keep = test_slurp(test_path(final, "mine.txt"), NULL);
 	CHECK(keep && !strcmp(keep, "keep"));
 	free(keep);
 	/* a file where the directory should be */
 	snprintf(want, sizeof want, "'%s' exists and is not a directory",
-		 path_of(final, "mine.txt"));
-	CHECK_EQ(vd_dir_stage(path_of(final, "mine.txt"), NULL, staging,
+		 test_path(final, "mine.txt"));
+	CHECK_EQ(vd_dir_stage(test_path(final, "mine.txt"), NULL, staging,
 			      sizeof staging), VD_ERR_IO);
 	CHECK(detail_is(want));
 	/* abandoning a staging directory removes it and keeps the detail */
-	CHECK_EQ(unlink(path_of(final, "mine.txt")), 0);
+	CHECK_EQ(unlink(test_path(final, "mine.txt")), 0);
 	CHECK_EQ(vd_dir_stage(final, NULL, staging, sizeof staging), VD_OK);
-	write_text(path_of(staging, "half"), "h");
+	write_text(test_path(staging, "half"), "h");
 	vd_fail(VD_ERR_IO, "the caller's reason");
 	vd_dir_abandon(staging);
 	CHECK(access(staging, F_OK) != 0);

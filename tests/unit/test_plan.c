@@ -46,18 +46,6 @@ static void write_text(const char *path, const char *text)
 	}
 }
 
-static char *slurp(const char *path)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return NULL;
-	char *buf = calloc(1, 1 << 16);
-	if (buf)
-		(void)!fread(buf, 1, (1 << 16) - 1, f);
-	fclose(f);
-	return buf;
-}
-
 static void sh(const char *fmt, const char *arg)
 {
 	char cmd[1200];
@@ -85,7 +73,7 @@ static int load(struct config *c, const char *rest, char *err, size_t cap)
 	fflush(stderr);
 	dup2(saved, 2);
 	close(saved);
-	char *e = slurp(errpath);
+	char *e = test_slurp(errpath, NULL);
 	if (err)
 		snprintf(err, cap, "%s", e ? e : "");
 	else if (e && *e)
@@ -735,7 +723,7 @@ static void test_single_cell(void)
 		/* Table 1's seconds: the statistics of both DAG jobs */
 		char list[800];
 		snprintf(list, sizeof list, "%s/enc.stats-list", outs);
-		char *text2 = slurp(list);
+		char *text2 = test_slurp(list, NULL);
 		snprintf(want, sizeof want, "%s/svdag/root.dag.stats.json\n"
 			 "%s/ssvdag/root.sdag.stats.json\n", outs, outs);
 		CHECK(text2 && !strcmp(text2, want));
@@ -988,7 +976,7 @@ static void test_global_jobs(void)
 		CHECK(j->extra_output && !strcmp(j->extra_output, want));
 		/* the inline lines, a line each, in the file the key covers */
 		snprintf(want, sizeof want, "%s/ed/script.txt", o);
-		char *script = slurp(want);
+		char *script = test_slurp(want, NULL);
 		CHECK(script && !strcmp(script, "fill box 0 0 0 3 3 3\n"
 					       "carve box 0 0 0 1 1 1\n"));
 		free(script);
@@ -1137,7 +1125,7 @@ static void test_group48(void)
 		CHECK_EQ(e->ndeps, 3);
 		char list[800];
 		snprintf(list, sizeof list, "%s/enc.stats-list", o);
-		char *got = slurp(list);
+		char *got = test_slurp(list, NULL);
 		snprintf(want, sizeof want, "%s/svdag/root.dag.stats.json\n"
 			 "%s/s8/root.sdag.stats.json\n", o, o);
 		CHECK(got && !strcmp(got, want));
@@ -1190,7 +1178,7 @@ static void test_journal(void)
 	 * ("-"), CHECK the XXH3 of the rest */
 	char kpath[800], key[17], body[600], line[700];
 	snprintf(kpath, sizeof kpath, "%s/keys", outs);
-	char *journal = slurp(kpath);
+	char *journal = test_slurp(kpath, NULL);
 	CHECK(ref_key(j, key) == 0);
 	uint64_t digest = 0, size;
 	CHECK_EQ(vd_file_xxh3(j->output, &digest, &size), VD_OK);
@@ -1246,7 +1234,7 @@ static void test_journal(void)
 	job_key_drop(j);
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
 	CHECK_EQ(j->key_absent, 1);
-	journal = slurp(kpath);
+	journal = test_slurp(kpath, NULL);
 	n = snprintf(body, sizeof body, "D svdag/cells/chunk-L3-040.dag");
 	snprintf(want, sizeof want, "%016llx %s\n",
 		 (unsigned long long)XXH3_64bits(body, (size_t)n), body);

@@ -14,18 +14,9 @@
 
 static const char *dir;
 
-static const char *path_of(const char *name)
-{
-	static char p[4][600];
-	static int k;
-	k = (k + 1) % 4;
-	snprintf(p[k], sizeof p[k], "%s/%s", dir, name);
-	return p[k];
-}
-
 static void write_text(const char *name, const char *text)
 {
-	FILE *f = fopen(path_of(name), "wb");
+	FILE *f = fopen(test_path(dir, name), "wb");
 	CHECK(f != NULL);
 	if (f) {
 		fputs(text, f);
@@ -72,7 +63,7 @@ static struct vd_mesh *read_all(const char *path, int colours)
 static void check_entry(const struct vd_mesh_source *s, const char *name,
 			int found)
 {
-	CHECK(!strcmp(s->path, path_of(name)));
+	CHECK(!strcmp(s->path, test_path(dir, name)));
 	CHECK_EQ(s->found, found);
 	uint64_t h = 0, size = 0;
 	if (found) {
@@ -100,7 +91,7 @@ static void test_obj_list(void)
 	write_text("tex.png", "not a png");
 	write_text("unused.png", "never read");
 	warnings = 0;
-	struct vd_mesh *m = read_all(path_of("s.obj"), 1);
+	struct vd_mesh *m = read_all(test_path(dir, "s.obj"), 1);
 	size_t n = 0;
 	const struct vd_mesh_source *s = vd_mesh_sources(m, &n);
 	CHECK_EQ(n, 7);
@@ -117,7 +108,7 @@ static void test_obj_list(void)
 	CHECK_EQ(warnings, 4); /* b, tex.png undecodable, gone.png, zero */
 	vd_mesh_close(m);
 	/* without colours no MTL is read */
-	m = read_all(path_of("s.obj"), 0);
+	m = read_all(test_path(dir, "s.obj"), 0);
 	CHECK(m && (vd_mesh_sources(m, &n), n == 0));
 	vd_mesh_close(m);
 }
@@ -128,9 +119,9 @@ static void test_write_check(void)
 	write_text("one", "1");
 	write_text("odd\\name\nx", "2");
 	struct vd_mesh_source s[3] = {
-		{.path = (char *)path_of("one")},
-		{.path = (char *)path_of("odd\\name\nx")},
-		{.path = (char *)path_of("absent")},
+		{.path = (char *)test_path(dir, "one")},
+		{.path = (char *)test_path(dir, "odd\\name\nx")},
+		{.path = (char *)test_path(dir, "absent")},
 	};
 	char keep[3][600];
 	for (int i = 0; i < 3; i++) {
@@ -142,7 +133,7 @@ static void test_write_check(void)
 				 VD_OK);
 	}
 	char list[600];
-	snprintf(list, sizeof list, "%s", path_of("sources"));
+	snprintf(list, sizeof list, "%s", test_path(dir, "sources"));
 	CHECK_EQ(vd_sources_write(list, s, 3), VD_OK);
 	CHECK_EQ(vd_sources_check(list), VD_OK);
 	/* the same size, other bytes */
@@ -172,7 +163,7 @@ static void test_write_check(void)
 	/* an empty list */
 	CHECK_EQ(vd_sources_write(list, NULL, 0), VD_OK);
 	CHECK_EQ(vd_sources_check(list), VD_OK);
-	CHECK_EQ(vd_sources_check(path_of("no such list")), VD_ERR_IO);
+	CHECK_EQ(vd_sources_check(test_path(dir, "no such list")), VD_ERR_IO);
 	vd_error_clear();
 }
 
@@ -194,7 +185,7 @@ static void test_damaged(void)
 	};
 	for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
 		write_text("damaged", bad[i]);
-		int e = vd_sources_check(path_of("damaged"));
+		int e = vd_sources_check(test_path(dir, "damaged"));
 		if (e != VD_ERR_FORMAT)
 			fprintf(stderr, "case %zu: %d\n", i, e);
 		CHECK_EQ(e, VD_ERR_FORMAT);
