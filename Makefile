@@ -57,8 +57,8 @@ DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mc
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
                 libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils
 
-LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
-LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
+LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c stages/lib/*/*/*.c)
+LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc stages/lib/*/*/*.cc)
 LIB_OBJ  := $(LIB_C:stages/lib/%.c=$(OUT)/obj/lib/%.o) \
             $(LIB_CC:stages/lib/%.cc=$(OUT)/obj/lib/%.o)
 LIB      := $(OUT)/lib/libvoxdag.a
@@ -67,7 +67,7 @@ BINS     := $(TOOLS:%=$(OUT)/bin/%)
 RUNNER_OBJ := $(patsubst pipeline/%.c,$(OUT)/obj/pipeline/%.o,$(wildcard pipeline/*.c))
 TEST_SRC := $(wildcard tests/unit/test_*.c)
 TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
-HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.h)
+HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h stages/lib/*/*/*.h) $(wildcard tests/unit/*.h)
 
 .PHONY: all run pipeline test test-build test-build-release \
 	test-build-sanitize bench deps clean tests fuzz fuzz-build

@@ -47,8 +47,8 @@
  *   messages. A file whose objects all fit stays in memory, read once.
  */
 #include "voxdag.h"
-#include "io/mesh_spill.h"
-#include "io/mesh_import.h"
+#include "io/mesh/mesh_spill.h"
+#include "io/mesh/mesh_import.h"
 
 #include <dirent.h>
 #include <errno.h>
