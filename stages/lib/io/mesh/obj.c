@@ -258,6 +258,51 @@ static int vd_obj_corner_uv(struct vd_mesh *m, uint64_t ln, int64_t ti)
 	return VD_OK;
 }
 
+/* The rest of a vertex line, after its "v": appends the vertex. */
+static int vd_obj_vertex(struct vd_mesh *m, uint64_t ln, const char *p)
+{
+	float v[3];
+	for (int k = 0; k < 3; k++) {
+		double d;
+		const char *t = vd_skip_space(p);
+		if (*t == 0)
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": vertex "
+				       "has %d coordinates, needs 3", ln, k);
+		if (!(p = vd_parse_double(t, &d)))
+			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": malformed "
+				       "number '%.*s'", ln,
+				       (int)(vd_token_end(t) - t > 40
+					     ? 40 : vd_token_end(t) - t), t);
+		v[k] = vd_to_f32(d);
+	}
+	/* w may follow (ignored), or with colours the common extension
+	 * "v x y z r g b" (0..1). */
+	uint8_t rgb[3];
+	int col = 0;
+	if (m->col_on) {
+		double d[3], x;
+		const char *q = p;
+		int k = 0;
+		for (; k < 4; k++) {
+			q = vd_skip_space(q);
+			if (!*q || !(q = vd_parse_double(q, &x)))
+				break;
+			if (k < 3)
+				d[k] = x;
+		}
+		if (k == 3) {
+			for (int c = 0; c < 3; c++)
+				rgb[c] = vd_unit_byte(d[c]);
+			col = m->col_seen = 1;
+		}
+	}
+	int e = vd_mesh_push_vertex_rgb(m, v, col ? rgb : NULL);
+	if (e)
+		return e;
+	m->stats.vertices = m->nverts;
+	return VD_OK;
+}
+
 int vd_obj_next(struct vd_mesh *m, int *got)
 {
 	char *s;
@@ -279,50 +324,8 @@ int vd_obj_next(struct vd_mesh *m, int *got)
 		if (*p == 0 || *p == '#')
 			continue;
 		if (p[0] == 'v' && vd_is_end(p[1])) {
-			float v[3];
-			p++;
-			for (int k = 0; k < 3; k++) {
-				double d;
-				const char *t = vd_skip_space(p);
-				if (*t == 0)
-					return vd_fail(VD_ERR_FORMAT,
-						"line %" PRIu64 ": vertex has "
-						"%d coordinates, needs 3", ln,
-						k);
-				if (!(p = vd_parse_double(t, &d)))
-					return vd_fail(VD_ERR_FORMAT,
-						"line %" PRIu64 ": malformed "
-						"number '%.*s'", ln,
-						(int)(vd_token_end(t) - t > 40
-						      ? 40 : vd_token_end(t) - t),
-						t);
-				v[k] = vd_to_f32(d);
-			}
-			/* w may follow (ignored), or with colours the
-			 * common extension "v x y z r g b" (0..1). */
-			uint8_t rgb[3];
-			int col = 0;
-			if (m->col_on) {
-				double d[3], x;
-				const char *q = p;
-				int k = 0;
-				for (; k < 4; k++) {
-					q = vd_skip_space(q);
-					if (!*q || !(q = vd_parse_double(q, &x)))
-						break;
-					if (k < 3)
-						d[k] = x;
-				}
-				if (k == 3) {
-					for (int c = 0; c < 3; c++)
-						rgb[c] = vd_unit_byte(d[c]);
-					col = m->col_seen = 1;
-				}
-			}
-			if ((e = vd_mesh_push_vertex_rgb(m, v,
-							 col ? rgb : NULL)))
+			if ((e = vd_obj_vertex(m, ln, p + 1)))
 				return e;
-			m->stats.vertices = m->nverts;
 			continue;
 		}
 		if (p[0] == 'f' && vd_is_end(p[1])) {
