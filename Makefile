@@ -61,8 +61,8 @@ DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mc
                 libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils \
                 pkg-config
 
-LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c)
-LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc)
+LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c stages/lib/*/*/*.c)
+LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc stages/lib/*/*/*.cc)
 LIB_OBJ  := $(LIB_C:stages/lib/%.c=$(OUT)/obj/lib/%.o) \
             $(LIB_CC:stages/lib/%.cc=$(OUT)/obj/lib/%.o)
 LIB      := $(OUT)/lib/libvoxdag.a
@@ -71,7 +71,7 @@ BINS     := $(TOOLS:%=$(OUT)/bin/%)
 RUNNER_OBJ := $(patsubst pipeline/%.c,$(OUT)/obj/pipeline/%.o,$(wildcard pipeline/*.c))
 TEST_SRC := $(wildcard tests/unit/test_*.c)
 TESTS    := $(TEST_SRC:tests/unit/%.c=$(OUT)/tests/%)
-HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h) $(wildcard tests/unit/*.h)
+HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h stages/lib/*/*/*.h) $(wildcard tests/unit/*.h)
 # Every executable `all` builds (and `make install` copies).
 ALL_BINS := $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn \
             $(OUT)/bin/voxelize-vdb $(OUT)/bin/voxelize-assimp

@@ -261,7 +261,7 @@ int vd_sources_check(const char *path);
  * its vertices, triangles and attributes (about 40 bytes a vertex and 16 a
  * triangle) count against max_vertex_bytes (VD_ERR_BUDGET beyond it; no
  * spill). */
-struct vd_import_scene; /* io/mesh_import.h */
+struct vd_import_scene; /* io/mesh/mesh_import.h */
 
 /* Reads the scene at `path` into *out (zeroed first; the caller releases
  * it with vd_import_scene_release). Returns VD_OK or an error code with

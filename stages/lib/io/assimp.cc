@@ -23,7 +23,7 @@
 // - Assimp's UVs have v = 0 at the image's bottom (it flips glTF's), our
 //   sampler's convention.
 #include "voxdag.h"
-#include "io/mesh_import.h"
+#include "io/mesh/mesh_import.h"
 
 #include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>

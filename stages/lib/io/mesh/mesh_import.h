@@ -1,5 +1,5 @@
 /* mesh_import.h - a scene an importer read whole (voxelize-assimp's
- * glTF, FBX, Collada and 3DS), handed to the mesh reader (mesh.c), which
+ * glTF, FBX, Collada and 3DS), handed to the mesh reader (imported.c), which
  * then serves its triangles and colours like those of its own formats.
  *
  * Everything is plain C and malloc'd: the importer (assimp.cc) copies
@@ -57,7 +57,7 @@ struct vd_import_scene {
 	size_t nsources;
 };
 
-/* Frees the arrays and zeroes *s (defined in mesh.c). */
+/* Frees the arrays and zeroes *s (defined in imported.c). */
 void vd_import_scene_release(struct vd_import_scene *s);
 
 #ifdef __cplusplus

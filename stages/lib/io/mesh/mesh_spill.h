@@ -1,4 +1,4 @@
-/* mesh_spill.h - private to io/: the external join that resolves an
+/* mesh_spill.h - private to io/mesh/: the external join that resolves an
  * indexed mesh's faces against tables of records that do not fit in
  * memory (its vertices; an OBJ's texture coordinates too).
  *

@@ -22,7 +22,7 @@
  * temporaries (O_TMPFILE), written and read with explicit offsets;
  * records are native byte order, as they never leave the process. */
 #include "voxdag.h"
-#include "io/mesh_spill.h"
+#include "io/mesh/mesh_spill.h"
 
 #include <errno.h>
 #include <fcntl.h>
