@@ -72,13 +72,13 @@ static int vd_is_word_start(char c)
 }
 
 /* The next non-blank line, leading space skipped. 1, 0 at the end of the
- * file, or a negated error code as vd_rd_line. */
+ * file, or a negated error code as vd__rd_line. */
 static int vd_ac_line(struct vd_mesh *m, char **s)
 {
 	for (;;) {
 		char *p;
 		size_t len;
-		int e = vd_rd_line(&m->r, &p, &len, 0);
+		int e = vd__rd_line(&m->r, &p, &len, 0);
 		if (e <= 0)
 			return e;
 		if (strlen(p) != len)
@@ -99,7 +99,7 @@ static int vd_ac_count(const struct vd_mesh *m, const char *p,
 {
 	const char *t = vd_skip_space(p), *q;
 	int64_t v;
-	if (!(q = vd_parse_int(t, &v)) || !vd_is_end(*q) ||
+	if (!(q = vd__parse_int(t, &v)) || !vd_is_end(*q) ||
 	    *vd_skip_space(q) || v < 0)
 		return vd_ac_fail(m, "line %" PRIu64 ": expected '%s <count>', "
 				  "found '%s %.40s'", m->r.lines, what, what,
@@ -118,16 +118,16 @@ static int vd_ac_numbers(const struct vd_mesh *m, const char *p, double *out,
 			return vd_ac_fail(m, "line %" PRIu64 ": %s has %d "
 					  "numbers, needs %d", m->r.lines,
 					  what, i, n);
-		if (!(p = vd_parse_double(t, &out[i])))
+		if (!(p = vd__parse_double(t, &out[i])))
 			return vd_ac_fail(m, "line %" PRIu64 ": malformed "
 					  "number '%.*s' in %s", m->r.lines,
-					  vd_tok40(t), t, what);
+					  vd__tok40(t), t, what);
 	}
 	p = vd_skip_space(p);
 	if (!more && *p)
 		return vd_ac_fail(m, "line %" PRIu64 ": unexpected '%.*s' "
 				  "after the %d numbers of %s", m->r.lines,
-				  vd_tok40(p), p, n, what);
+				  vd__tok40(p), p, n, what);
 	return VD_OK;
 }
 
@@ -154,7 +154,7 @@ static int vd_ac_skip_data(struct vd_mesh *m, uint64_t n, uint64_t line)
 	struct vd_rd *r = &m->r;
 	while (n > 0) {
 		if (r->pos == r->len) {
-			int f = vd_rd_fill(r);
+			int f = vd__rd_fill(r);
 			if (f < 0)
 				return VD_ERR_IO;
 			if (f == 0)
@@ -175,7 +175,7 @@ static int vd_ac_skip_data(struct vd_mesh *m, uint64_t n, uint64_t line)
 	}
 	char *s;
 	size_t len;
-	int e = vd_rd_line(r, &s, &len, 0);
+	int e = vd__rd_line(r, &s, &len, 0);
 	return e < 0 ? -e : VD_OK;
 }
 
@@ -194,7 +194,7 @@ static void vd_ac_begin_object(struct vd_mesh *m, const char *type)
 	m->nonfinite = 0;
 	type = vd_skip_space(type);
 	snprintf(m->ac_name, sizeof m->ac_name, "%.*s at line %" PRIu64,
-		 vd_tok40(type), type, m->r.lines);
+		 vd__tok40(type), type, m->r.lines);
 }
 
 /* "kids N" closes the object's own part. With kids it becomes the parent
@@ -254,16 +254,16 @@ static int vd_ac_material(struct vd_mesh *m, const char *p)
 {
 	char name[256];
 	p = vd_ac_string(p, name, sizeof name);
-	int e = vd_mesh_add_material(m, name);
+	int e = vd__mesh_add_material(m, name);
 	if (e)
 		return e;
-	const char *q = vd_kw(vd_skip_space(p), "rgb");
+	const char *q = vd__kw(vd_skip_space(p), "rgb");
 	double d[3];
-	if (!q || vd_numbers3(q, d) != 3)
+	if (!q || vd__numbers3(q, d) != 3)
 		return vd_ac_fail(m, "line %" PRIu64 ": MATERIAL '%s' has no "
 				  "'rgb r g b'", m->r.lines, name);
 	for (int c = 0; c < 3; c++)
-		m->mats[m->nmats - 1].rgb[c] = vd_unit_byte(d[c]);
+		m->mats[m->nmats - 1].rgb[c] = vd__unit_byte(d[c]);
 	m->col_seen = 1;
 	return VD_OK;
 }
@@ -290,10 +290,10 @@ static int vd_ac_texture(struct vd_mesh *m, const char *p)
 		name[0] = 0;
 	if (!name[0])
 		return VD_OK;
-	char *path = vd_mesh_path(m, NULL, name);
-	if (!path || (m->ac_tex = vd_mesh_tex_slot(m, path)) < 0)
+	char *path = vd__mesh_path(m, NULL, name);
+	if (!path || (m->ac_tex = vd__mesh_tex_slot(m, path)) < 0)
 		return vd_fail(VD_ERR_NOMEM, "textures");
-	return vd_mesh_tex_use(m, m->ac_tex);
+	return vd__mesh_tex_use(m, m->ac_tex);
 }
 
 /* "mat N" of a surface. An index past the MATERIAL lines leaves the
@@ -309,7 +309,7 @@ static int vd_ac_mat(struct vd_mesh *m, const char *p)
 		m->poly_mat = (int)n;
 	} else if (!m->warned_mat && m->nmats > 0) {
 		m->warned_mat = 1;
-		vd_mesh_warn(m, "line %" PRIu64 ": material %" PRIu64 " of %zu "
+		vd__mesh_warn(m, "line %" PRIu64 ": material %" PRIu64 " of %zu "
 			     "defined; the surface is grey (further ones not "
 			     "reported)", m->r.lines, n, m->nmats);
 	}
@@ -377,7 +377,7 @@ static int vd_ac_vertices(struct vd_mesh *m, uint64_t count)
 			v[k] = vd_to_f32(identity ? d[k] :
 				w[3 * k] * d[0] + w[3 * k + 1] * d[1] +
 				w[3 * k + 2] * d[2] + w[9 + k]);
-		if ((e = vd_mesh_push_vertex(m, v)))
+		if ((e = vd__mesh_push_vertex(m, v)))
 			return e;
 	}
 	return VD_OK;
@@ -397,11 +397,11 @@ static int vd_ac_surface(struct vd_mesh *m)
 	m->poly_face++;
 	m->poly_line = m->r.lines;
 	m->poly_n = 0;
-	if (!(p = vd_kw(s, "SURF")))
+	if (!(p = vd__kw(s, "SURF")))
 		return vd_ac_fail(m, "line %" PRIu64 ": expected 'SURF' (the "
 				  "numsurf count of object '%s' says more "
 				  "surfaces follow), found '%.*s'", m->r.lines,
-				  m->ac_name, vd_tok40(s), s);
+				  m->ac_name, vd__tok40(s), s);
 	const char *t = vd_skip_space(p);
 	char *end;
 	errno = 0;
@@ -409,7 +409,7 @@ static int vd_ac_surface(struct vd_mesh *m)
 	if (end == t || !vd_is_end(*end) || *vd_skip_space(end) ||
 	    errno || *t == '-')
 		return vd_ac_fail(m, "line %" PRIu64 ": malformed surface "
-				  "flags '%.*s'", m->r.lines, vd_tok40(t), t);
+				  "flags '%.*s'", m->r.lines, vd__tok40(t), t);
 	unsigned type = (unsigned)(flags & 0xf);
 	if (type != 0 && type != 1 && type != 2 && type != 4)
 		return vd_ac_fail(m, "line %" PRIu64 ": surface type %u (flags "
@@ -423,16 +423,16 @@ static int vd_ac_surface(struct vd_mesh *m)
 			return -e;
 		if (e == 0)
 			goto cut;
-		if ((p = vd_kw(s, "mat"))) {
+		if ((p = vd__kw(s, "mat"))) {
 			if (m->col_on && (e = vd_ac_mat(m, p)))
 				return e;
 			continue;
 		}
-		if ((p = vd_kw(s, "refs")))
+		if ((p = vd__kw(s, "refs")))
 			break;
 		return vd_ac_fail(m, "line %" PRIu64 ": expected 'mat' or "
 				  "'refs', found '%.*s'", m->r.lines,
-				  vd_tok40(s), s);
+				  vd__tok40(s), s);
 	}
 	if ((e = vd_ac_count(m, p, "refs", &refs)))
 		return e;
@@ -440,9 +440,9 @@ static int vd_ac_surface(struct vd_mesh *m)
 		return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": surface with %"
 			       PRIu64 " refs (at most %d accepted)",
 			       m->r.lines, refs, MESH_MAX_CORNERS);
-	if ((e = vd_mesh_grow_poly(m, (size_t)refs)))
+	if ((e = vd__mesh_grow_poly(m, (size_t)refs)))
 		return e;
-	if (m->col_on && (e = vd_mesh_grow_tc(m, (size_t)refs)))
+	if (m->col_on && (e = vd__mesh_grow_tc(m, (size_t)refs)))
 		return e;
 	for (uint64_t j = 0; j < refs; j++) {
 		int64_t idx;
@@ -451,10 +451,10 @@ static int vd_ac_surface(struct vd_mesh *m)
 		if (e == 0)
 			goto cut;
 		/* The UV pair after the index: only with colours. */
-		if (!(p = vd_parse_int(s, &idx)) || !vd_is_end(*p))
+		if (!(p = vd__parse_int(s, &idx)) || !vd_is_end(*p))
 			return vd_ac_fail(m, "line %" PRIu64 ": malformed "
 					  "vertex index '%.*s'", m->r.lines,
-					  vd_tok40(s), s);
+					  vd__tok40(s), s);
 		if (m->col_on && (e = vd_ac_ref_uv(m, p, m->poly_n)))
 			return e;
 		if (idx < 0 || (uint64_t)idx >= m->nverts)
@@ -494,7 +494,7 @@ static int vd_ac_eof(struct vd_mesh *m, int *got)
 		 * file: so do we, saying so once (every pass reads it) */
 		if (!m->ac_warned_kids) {
 			m->ac_warned_kids = 1;
-			vd_mesh_warn(m, "the file ends after %" PRIu64 " of the %"
+			vd__mesh_warn(m, "the file ends after %" PRIu64 " of the %"
 				     PRIu64 " kids of object '%s', between two "
 				     "objects: read as complete, as TORCS does "
 				     "with its .acc files (a file cut there "
@@ -511,7 +511,7 @@ static int vd_ac_eof(struct vd_mesh *m, int *got)
 }
 
 /* Reads up to the next surface; *got = 0 at the end. */
-int vd_ac_next(struct vd_mesh *m, int *got)
+int vd__ac_next(struct vd_mesh *m, int *got)
 {
 	char *s;
 	const char *p;
@@ -529,7 +529,7 @@ int vd_ac_next(struct vd_mesh *m, int *got)
 			return vd_ac_eof(m, got);
 		uint64_t ln = m->r.lines;
 		if (!m->ac_in_object) {
-			if ((p = vd_kw(s, "OBJECT"))) {
+			if ((p = vd__kw(s, "OBJECT"))) {
 				vd_ac_begin_object(m, p);
 				continue;
 			}
@@ -541,10 +541,10 @@ int vd_ac_next(struct vd_mesh *m, int *got)
 					PRIu64
 					" of object '%s'), found '%.*s'", ln,
 					f->kids - f->kids_left + 1, f->kids,
-					f->name, vd_tok40(s), s);
+					f->name, vd__tok40(s), s);
 			}
 			/* MATERIAL lines and their AC3Dc kin. */
-			if (m->col_on && (p = vd_kw(s, "MATERIAL"))) {
+			if (m->col_on && (p = vd__kw(s, "MATERIAL"))) {
 				if ((e = vd_ac_material(m, p)))
 					return e;
 				continue;
@@ -553,9 +553,9 @@ int vd_ac_next(struct vd_mesh *m, int *got)
 				continue;
 			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
 					  "'%.*s' outside any object", ln,
-					  vd_tok40(s), s);
+					  vd__tok40(s), s);
 		}
-		if ((p = vd_kw(s, "name"))) {
+		if ((p = vd__kw(s, "name"))) {
 			p = vd_skip_space(p);
 			size_t k = strlen(p);
 			if (k >= 2 && p[0] == '"' && p[k - 1] == '"') {
@@ -564,66 +564,66 @@ int vd_ac_next(struct vd_mesh *m, int *got)
 			}
 			snprintf(m->ac_name, sizeof m->ac_name, "%.*s",
 				 (int)(k > 47 ? 47 : k), p);
-		} else if ((p = vd_kw(s, "data"))) {
+		} else if ((p = vd__kw(s, "data"))) {
 			if ((e = vd_ac_count(m, p, "data", &n)) ||
 			    (e = vd_ac_skip_data(m, n, ln)))
 				return e;
-		} else if ((p = vd_kw(s, "rot"))) {
+		} else if ((p = vd__kw(s, "rot"))) {
 			if ((e = vd_ac_numbers(m, p, m->ac_rot, 9, 0, "rot")))
 				return e;
-		} else if ((p = vd_kw(s, "loc"))) {
+		} else if ((p = vd__kw(s, "loc"))) {
 			if ((e = vd_ac_numbers(m, p, m->ac_loc, 3, 0, "loc")))
 				return e;
-		} else if ((p = vd_kw(s, "numvert"))) {
+		} else if ((p = vd__kw(s, "numvert"))) {
 			if ((e = vd_ac_count(m, p, "numvert", &n)) ||
 			    (e = vd_ac_vertices(m, n)))
 				return e;
-		} else if (m->col_on && (p = vd_kw(s, "texture"))) {
+		} else if (m->col_on && (p = vd__kw(s, "texture"))) {
 			if ((e = vd_ac_texture(m, p)))
 				return e;
-		} else if (m->col_on && (p = vd_kw(s, "texrep"))) {
+		} else if (m->col_on && (p = vd__kw(s, "texrep"))) {
 			if ((e = vd_ac_numbers(m, p, m->ac_texrep, 2, 0,
 					       "texrep")))
 				return e;
-		} else if (m->col_on && (p = vd_kw(s, "texoff"))) {
+		} else if (m->col_on && (p = vd__kw(s, "texoff"))) {
 			if ((e = vd_ac_numbers(m, p, m->ac_texoff, 2, 0,
 					       "texoff")))
 				return e;
-		} else if ((p = vd_kw(s, "numsurf"))) {
+		} else if ((p = vd__kw(s, "numsurf"))) {
 			if ((e = vd_ac_count(m, p, "numsurf", &n)))
 				return e;
 			m->ac_surf_left = n;
-		} else if ((p = vd_kw(s, "kids"))) {
+		} else if ((p = vd__kw(s, "kids"))) {
 			if ((e = vd_ac_count(m, p, "kids", &n)) ||
 			    (e = vd_ac_kids(m, n)))
 				return e;
-		} else if (vd_kw(s, "OBJECT")) {
+		} else if (vd__kw(s, "OBJECT")) {
 			return vd_ac_fail(m, "line %" PRIu64 ": OBJECT before "
 					  "the kids line of object '%s'", ln,
 					  m->ac_name);
-		} else if (vd_kw(s, "SURF") || vd_kw(s, "refs") ||
-			   vd_kw(s, "mat")) {
+		} else if (vd__kw(s, "SURF") || vd__kw(s, "refs") ||
+			   vd__kw(s, "mat")) {
 			return vd_ac_fail(m, "line %" PRIu64 ": '%.*s' beyond "
 					  "the numsurf count of object '%s'",
-					  ln, vd_tok40(s), s, m->ac_name);
+					  ln, vd__tok40(s), s, m->ac_name);
 		} else if (!vd_is_word_start(*s)) {
 			return vd_ac_fail(m, "line %" PRIu64 ": unexpected "
 					  "'%.*s' in object '%s' (wrong "
 					  "numvert or refs count?)", ln,
-					  vd_tok40(s), s, m->ac_name);
+					  vd__tok40(s), s, m->ac_name);
 		}
 		/* Any other word: an attribute we do not need. */
 	}
 }
 
 /* The detection saw "AC3D"; the rest of the first line is the version. */
-int vd_ac_open(struct vd_mesh *m, const char *path)
+int vd__ac_open(struct vd_mesh *m, const char *path)
 {
 	char *s;
 	size_t len;
 	m->kind = MESH_AC3D;
-	m->ac_torcs = vd_has_ext(path, ".acc");
-	int e = vd_rd_line(&m->r, &s, &len, 0);
+	m->ac_torcs = vd__has_ext(path, ".acc");
+	int e = vd__rd_line(&m->r, &s, &len, 0);
 	if (e < 0)
 		return -e;
 	m->body_off = m->r.off + m->r.pos;

@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
+void vd__mesh_warn(struct vd_mesh *m, const char *fmt, ...)
 {
 	if (!m->col.warn)
 		return;
@@ -29,7 +29,7 @@ void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
  * hash of its content now: so the content read is this one or a later
  * one, never an earlier one that a check could take for current. A path
  * is recorded once: the first look counts. */
-int vd_mesh_note_as(struct vd_mesh *m, const char *path,
+int vd__mesh_note_as(struct vd_mesh *m, const char *path,
 		    const struct vd_mesh_source *known)
 {
 	for (size_t i = 0; i < m->nsrcs; i++)
@@ -58,9 +58,9 @@ int vd_mesh_note_as(struct vd_mesh *m, const char *path,
 }
 
 /* The same, hashed now. */
-int vd_mesh_note(struct vd_mesh *m, const char *path)
+int vd__mesh_note(struct vd_mesh *m, const char *path)
 {
-	return vd_mesh_note_as(m, path, NULL);
+	return vd__mesh_note_as(m, path, NULL);
 }
 
 const struct vd_mesh_source *vd_mesh_sources(const struct vd_mesh *m,
@@ -70,7 +70,7 @@ const struct vd_mesh_source *vd_mesh_sources(const struct vd_mesh *m,
 	return m->srcs;
 }
 
-uint8_t vd_unit_byte(double x)
+uint8_t vd__unit_byte(double x)
 {
 	if (!(x > 0))
 		return 0;
@@ -79,7 +79,7 @@ uint8_t vd_unit_byte(double x)
 
 /* `name` relative to the mesh's directory (absolute names as they are);
  * DOS separators become '/'. Returns a malloc'd path or NULL. */
-char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
+char *vd__mesh_path(const struct vd_mesh *m, const char *dir,
 		   const char *name)
 {
 	size_t n = strlen(name);
@@ -99,7 +99,7 @@ char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
 
 /* A new texture slot for `path` (taken over by the slot), -1 on
  * failure. */
-int vd_mesh_tex_new(struct vd_mesh *m, char *path)
+int vd__mesh_tex_new(struct vd_mesh *m, char *path)
 {
 	struct vd_tex_slot *a = vd_grow(m->texs, m->ntexs, &m->texs_cap,
 					sizeof *a, 8);
@@ -116,25 +116,25 @@ int vd_mesh_tex_new(struct vd_mesh *m, char *path)
 }
 
 /* The texture slot of `path` (taken over by the slot), -1 on failure. */
-int vd_mesh_tex_slot(struct vd_mesh *m, char *path)
+int vd__mesh_tex_slot(struct vd_mesh *m, char *path)
 {
 	for (size_t i = 0; i < m->ntexs; i++)
 		if (!strcmp(m->texs[i].path, path)) {
 			free(path);
 			return (int)i;
 		}
-	return vd_mesh_tex_new(m, path);
+	return vd__mesh_tex_new(m, path);
 }
 
 /* Loads texture slot i if not tried yet. A failure is a warning (the slot
  * then stays unusable, and faces fall back to their colours), or with
  * `strict` the error. */
-int vd_mesh_tex_use(struct vd_mesh *m, int i)
+int vd__mesh_tex_use(struct vd_mesh *m, int i)
 {
 	if (i < 0 || m->texs[i].state != 0)
 		return VD_OK;
 	struct vd_tex_slot *t = &m->texs[i];
-	int e = t->data || t->unsupported ? VD_OK : vd_mesh_note(m, t->path);
+	int e = t->data || t->unsupported ? VD_OK : vd__mesh_note(m, t->path);
 	if (e)
 		return e;
 	e = t->unsupported
@@ -152,19 +152,19 @@ int vd_mesh_tex_use(struct vd_mesh *m, int i)
 	m->tex_missing++;
 	if (e == VD_ERR_NOMEM || m->col.strict)
 		return vd_fail(e, "texture: %s", vd_error_detail());
-	vd_mesh_warn(m, "texture not used (%s): %s; the material's colour "
+	vd__mesh_warn(m, "texture not used (%s): %s; the material's colour "
 		     "is used instead", vd_strerror(e), vd_error_detail());
 	return VD_OK;
 }
 
-void vd_mesh_free_materials(struct vd_mesh *m)
+void vd__mesh_free_materials(struct vd_mesh *m)
 {
 	for (size_t i = 0; i < m->nmats; i++)
 		free(m->mats[i].name);
 	m->nmats = 0;
 }
 
-int vd_mesh_add_material(struct vd_mesh *m, const char *name)
+int vd__mesh_add_material(struct vd_mesh *m, const char *name)
 {
 	struct vd_material *p = vd_grow(m->mats, m->nmats, &m->mats_cap,
 					sizeof *p, 16);
@@ -181,7 +181,7 @@ int vd_mesh_add_material(struct vd_mesh *m, const char *name)
 }
 
 /* Grows m->poly_tc and m->poly_ti to hold `need` corners. */
-int vd_mesh_grow_tc(struct vd_mesh *m, size_t need)
+int vd__mesh_grow_tc(struct vd_mesh *m, size_t need)
 {
 	if (need <= m->poly_tc_cap)
 		return VD_OK;
@@ -200,11 +200,11 @@ int vd_mesh_grow_tc(struct vd_mesh *m, size_t need)
 }
 
 /* Parses 3 numbers (a colour in 0..1); returns how many parsed. */
-int vd_numbers3(const char *p, double d[3])
+int vd__numbers3(const char *p, double d[3])
 {
 	for (int k = 0; k < 3; k++) {
 		p = vd_skip_space(p);
-		if (!*p || !(p = vd_parse_double(p, &d[k])))
+		if (!*p || !(p = vd__parse_double(p, &d[k])))
 			return k;
 	}
 	return 3;

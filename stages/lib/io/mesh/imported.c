@@ -61,7 +61,7 @@ void vd_import_scene_release(struct vd_import_scene *s)
 }
 
 /* Bytes the scene's arrays take (embedded images included). */
-size_t vd_import_bytes(const struct vd_import_scene *s)
+size_t vd__import_bytes(const struct vd_import_scene *s)
 {
 	size_t b = (size_t)s->nverts * (12 + 8 + 4) +
 		   (size_t)s->ntris * (12 + 4) +
@@ -117,13 +117,13 @@ static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
 	const struct vd_import_texture *it = &m->imp.texs[ti];
 	char *path;
 	if (it->path) {
-		path = vd_mesh_path(m, NULL, it->path);
+		path = vd__mesh_path(m, NULL, it->path);
 		char *asked = path ? strdup(path) : NULL;
 		if (path && asked)
 			vd_import_fix_case(&path);
 		/* the name as given was not there: if it appears, it is the
 		 * texture */
-		int e = asked && strcmp(asked, path) ? vd_mesh_note(m, asked)
+		int e = asked && strcmp(asked, path) ? vd__mesh_note(m, asked)
 						     : VD_OK;
 		if (!asked || e) {
 			free(asked);
@@ -139,7 +139,7 @@ static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
 	}
 	if (!path)
 		return -1;
-	int slot = vd_mesh_tex_new(m, path);
+	int slot = vd__mesh_tex_new(m, path);
 	if (slot < 0)
 		return -1;
 	struct vd_tex_slot *t = &m->texs[slot];
@@ -153,7 +153,7 @@ static int vd_import_slot(struct vd_mesh *m, const char *mesh_path, int ti,
 	return slot;
 }
 
-int vd_import_open(struct vd_mesh *m, const char *path)
+int vd__import_open(struct vd_mesh *m, const char *path)
 {
 	if (!vd_importer)
 		return vd_fail(VD_ERR_UNSUPPORTED, "glTF, FBX, Collada and 3DS "
@@ -164,7 +164,7 @@ int vd_import_open(struct vd_mesh *m, const char *path)
 	int e = vd_importer(path, s);
 	if (e)
 		return e;
-	size_t bytes = vd_import_bytes(s);
+	size_t bytes = vd__import_bytes(s);
 	if (m->verts_limit && bytes > m->verts_limit)
 		return vd_fail(VD_ERR_BUDGET, "'%s' takes %zu bytes in memory "
 			       "once read (its scene is held whole), over the "
@@ -182,13 +182,13 @@ int vd_import_open(struct vd_mesh *m, const char *path)
 	/* the files the importer read besides the scene (a .gltf's buffers,
 	 * hashed as it opened them): the geometry depends on them too */
 	for (size_t i = 0; i < s->nsources; i++)
-		if ((e = vd_mesh_note_as(m, s->sources[i].path, &s->sources[i])))
+		if ((e = vd__mesh_note_as(m, s->sources[i].path, &s->sources[i])))
 			return e;
 	if (!m->col_on)
 		return VD_OK;
 	m->col_seen = s->has_colours;
 	for (size_t i = 0; i < s->nmats; i++) {
-		if ((e = vd_mesh_add_material(m, "")))
+		if ((e = vd__mesh_add_material(m, "")))
 			return e;
 		struct vd_material *mt = &m->mats[i];
 		memcpy(mt->rgb, s->mats[i].rgb, 3);
@@ -202,7 +202,7 @@ int vd_import_open(struct vd_mesh *m, const char *path)
 	for (uint64_t t = 0; t < s->ntris; t++) {
 		int32_t mi = s->mat[t];
 		if (mi >= 0 && (size_t)mi < m->nmats &&
-		    (e = vd_mesh_tex_use(m, m->mats[mi].tex)))
+		    (e = vd__mesh_tex_use(m, m->mats[mi].tex)))
 			return e;
 	}
 	return VD_OK;
@@ -243,7 +243,7 @@ static int vd_import_attr(struct vd_mesh *m, uint64_t t, const uint32_t *ix,
 	return VD_OK;
 }
 
-int vd_import_read(struct vd_mesh *m, struct vd_triangle *buf,
+int vd__import_read(struct vd_mesh *m, struct vd_triangle *buf,
 		   struct vd_tri_attr *attr, size_t cap, size_t *n)
 {
 	const struct vd_import_scene *s = &m->imp;
@@ -257,7 +257,7 @@ int vd_import_read(struct vd_mesh *m, struct vd_triangle *buf,
 			if (!isfinite(v[0]) || !isfinite(v[1]) ||
 			    !isfinite(v[2])) {
 				m->poly_face = t + 1;
-				e = vd_mesh_nonfinite(m, ix[j], v);
+				e = vd__mesh_nonfinite(m, ix[j], v);
 				break;
 			}
 			memcpy(buf[k].v[j], v, 12);

@@ -32,7 +32,7 @@
  *   opened with it. A vertex record is then 4 floats instead of 3: the
  *   fourth holds the vertex's R, G, B bytes and a byte saying it has a
  *   colour, copied in and out as bytes (a record is an opaque blob of
- *   m->vfloats floats to everything but vd_mesh_push_vertex and the
+ *   m->vfloats floats to everything but vd__mesh_push_vertex and the
  *   triangle assembly). Per-corner texture coordinates travel in
  *   m->poly_tc beside m->poly, and the polygon's material in m->poly_mat.
  * - Vertices over the limit (verts_limit), given a spill directory, are
@@ -70,7 +70,7 @@
  * colours are on: the part of its vd_tri_attr its polygon decides
  * (vd_mesh_attr_pack), so that the join gives back the attributes the
  * in-memory reader computes. An AC3D triangle adds 4 bytes: the spill
- * index of its object's first vertex (vd_mesh_spill_open). */
+ * index of its object's first vertex (vd__mesh_spill_open). */
 #define MESH_SPILL_ATTR_BYTES 32
 
 /* The spill's tables: the vertex records, and an OBJ's texture
@@ -94,7 +94,7 @@ struct vd_rd {
 	unsigned char *buf; /* cap + 1 bytes: room for a NUL after a last line */
 	size_t cap, pos, len;
 	uint64_t off;       /* file offset of buf[0] */
-	uint64_t lines;     /* physical lines consumed by vd_rd_line */
+	uint64_t lines;     /* physical lines consumed by vd__rd_line */
 	int eof;
 	int cut;            /* the last line had no newline: end of file */
 };
@@ -308,71 +308,71 @@ static inline const float *vd_mesh_vert(const struct vd_mesh *m, uint64_t i)
  * Each is described where it is defined. */
 
 /* read.c */
-int vd_rd_fill(struct vd_rd *r);
-int vd_rd_need(struct vd_rd *r, size_t n);
-int vd_rd_skip(struct vd_rd *r, uint64_t n);
-int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines);
-int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join);
-const char *vd_parse_double(const char *p, double *out);
-const char *vd_parse_int(const char *p, int64_t *out);
-int vd_tok40(const char *t);
-const char *vd_kw(const char *p, const char *kw);
-int vd_has_ext(const char *path, const char *ext);
+int vd__rd_fill(struct vd_rd *r);
+int vd__rd_need(struct vd_rd *r, size_t n);
+int vd__rd_skip(struct vd_rd *r, uint64_t n);
+int vd__rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines);
+int vd__rd_line(struct vd_rd *r, char **s, size_t *len, int join);
+const char *vd__parse_double(const char *p, double *out);
+const char *vd__parse_int(const char *p, int64_t *out);
+int vd__tok40(const char *t);
+const char *vd__kw(const char *p, const char *kw);
+int vd__has_ext(const char *path, const char *ext);
 
 /* store.c */
-int vd_mesh_grow_poly(struct vd_mesh *m, size_t need);
-int vd_mesh_can_spill(const struct vd_mesh *m);
-int vd_mesh_spill_open(struct vd_mesh *m);
-int vd_mesh_over_limit(const struct vd_mesh *m);
-uint64_t vd_mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
+int vd__mesh_grow_poly(struct vd_mesh *m, size_t need);
+int vd__mesh_can_spill(const struct vd_mesh *m);
+int vd__mesh_spill_open(struct vd_mesh *m);
+int vd__mesh_over_limit(const struct vd_mesh *m);
+uint64_t vd__mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
 			  uint64_t item, uint64_t other, uint64_t most);
-int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
+int vd__mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 			    const uint8_t *rgb);
-int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3]);
-const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
+int vd__mesh_push_vertex(struct vd_mesh *m, const float v[3]);
+const char *vd__mesh_where(const struct vd_mesh *m, char *buf,
 			  size_t cap);
-int vd_mesh_nonfinite(const struct vd_mesh *m, uint32_t vi,
+int vd__mesh_nonfinite(const struct vd_mesh *m, uint32_t vi,
 		      const float *v);
 
 /* colour.c */
-void vd_mesh_warn(struct vd_mesh *m, const char *fmt, ...)
+void vd__mesh_warn(struct vd_mesh *m, const char *fmt, ...)
 	__attribute__((format(printf, 2, 3)));
-int vd_mesh_note_as(struct vd_mesh *m, const char *path,
+int vd__mesh_note_as(struct vd_mesh *m, const char *path,
 		    const struct vd_mesh_source *known);
-int vd_mesh_note(struct vd_mesh *m, const char *path);
-uint8_t vd_unit_byte(double x);
-char *vd_mesh_path(const struct vd_mesh *m, const char *dir,
+int vd__mesh_note(struct vd_mesh *m, const char *path);
+uint8_t vd__unit_byte(double x);
+char *vd__mesh_path(const struct vd_mesh *m, const char *dir,
 		   const char *name);
-int vd_mesh_tex_new(struct vd_mesh *m, char *path);
-int vd_mesh_tex_slot(struct vd_mesh *m, char *path);
-int vd_mesh_tex_use(struct vd_mesh *m, int i);
-void vd_mesh_free_materials(struct vd_mesh *m);
-int vd_mesh_add_material(struct vd_mesh *m, const char *name);
-int vd_mesh_grow_tc(struct vd_mesh *m, size_t need);
-int vd_numbers3(const char *p, double d[3]);
+int vd__mesh_tex_new(struct vd_mesh *m, char *path);
+int vd__mesh_tex_slot(struct vd_mesh *m, char *path);
+int vd__mesh_tex_use(struct vd_mesh *m, int i);
+void vd__mesh_free_materials(struct vd_mesh *m);
+int vd__mesh_add_material(struct vd_mesh *m, const char *name);
+int vd__mesh_grow_tc(struct vd_mesh *m, size_t need);
+int vd__numbers3(const char *p, double d[3]);
 
 /* ply.c */
-int vd_ply_open(struct vd_mesh *m);
-int vd_ply_next(struct vd_mesh *m, int *got);
+int vd__ply_open(struct vd_mesh *m);
+int vd__ply_next(struct vd_mesh *m, int *got);
 
 /* obj.c */
-int vd_obj_next(struct vd_mesh *m, int *got);
+int vd__obj_next(struct vd_mesh *m, int *got);
 
 /* stl.c */
-int vd_stl_ascii_next(struct vd_mesh *m, int *got);
-int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
+int vd__stl_ascii_next(struct vd_mesh *m, int *got);
+int vd__stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
 		    size_t cap, size_t *n);
-int vd_stl_size_error(struct vd_mesh *m, const unsigned char *head,
+int vd__stl_size_error(struct vd_mesh *m, const unsigned char *head,
 		      size_t hn);
 
 /* ac3d.c */
-int vd_ac_open(struct vd_mesh *m, const char *path);
-int vd_ac_next(struct vd_mesh *m, int *got);
+int vd__ac_open(struct vd_mesh *m, const char *path);
+int vd__ac_next(struct vd_mesh *m, int *got);
 
 /* imported.c */
-size_t vd_import_bytes(const struct vd_import_scene *s);
-int vd_import_open(struct vd_mesh *m, const char *path);
-int vd_import_read(struct vd_mesh *m, struct vd_triangle *buf,
+size_t vd__import_bytes(const struct vd_import_scene *s);
+int vd__import_open(struct vd_mesh *m, const char *path);
+int vd__import_read(struct vd_mesh *m, struct vd_triangle *buf,
 		   struct vd_tri_attr *attr, size_t cap, size_t *n);
 
 #endif

@@ -346,7 +346,7 @@ struct vd_spill {
 	uint64_t next_tri;
 };
 
-int vd_spill_open(struct vd_spill **out, const char *dir, size_t ntables,
+int vd__spill_open(struct vd_spill **out, const char *dir, size_t ntables,
 		  const size_t rec_bytes[], size_t tri_bytes,
 		  uint64_t mem_bytes)
 {
@@ -395,14 +395,14 @@ int vd_spill_open(struct vd_spill **out, const char *dir, size_t ntables,
 	if (!err)
 		err = xs_reserve(&s->a, (size_t)(s->mem / 2));
 	if (err) {
-		vd_spill_close(s);
+		vd__spill_close(s);
 		return err;
 	}
 	*out = s;
 	return VD_OK;
 }
 
-int vd_spill_record(struct vd_spill *s, size_t t, const void *rec)
+int vd__spill_record(struct vd_spill *s, size_t t, const void *rec)
 {
 	spill_dir_name = s->dir;
 	if (t >= s->ntab || s->t[t].n >= VD_SPILL_NONE)
@@ -413,7 +413,7 @@ int vd_spill_record(struct vd_spill *s, size_t t, const void *rec)
 	return wr_put(&s->t[t].w, rec, s->t[t].rb);
 }
 
-int vd_spill_triangle(struct vd_spill *s,
+int vd__spill_triangle(struct vd_spill *s,
 		      const uint32_t idx[VD_SPILL_MAX_TABLES][3],
 		      uint64_t face, uint64_t line, const void *tri_rec)
 {
@@ -455,7 +455,7 @@ static int spill_read_start(struct vd_spill *s)
 	return err;
 }
 
-int vd_spill_finish(struct vd_spill *s)
+int vd__spill_finish(struct vd_spill *s)
 {
 	spill_dir_name = s->dir;
 	int err = wr_flush(&s->mw);
@@ -552,7 +552,7 @@ int vd_spill_finish(struct vd_spill *s)
 	return err;
 }
 
-int vd_spill_next(struct vd_spill *s,
+int vd__spill_next(struct vd_spill *s,
 		  const uint8_t *rec[VD_SPILL_MAX_TABLES][3],
 		  uint32_t idx[VD_SPILL_MAX_TABLES][3], uint64_t *face,
 		  uint64_t *line, const uint8_t **tri_rec, int *got)
@@ -600,7 +600,7 @@ int vd_spill_next(struct vd_spill *s,
 	return VD_OK;
 }
 
-int vd_spill_rewind(struct vd_spill *s)
+int vd__spill_rewind(struct vd_spill *s)
 {
 	spill_dir_name = s->dir;
 	if (!s->finished)
@@ -608,7 +608,7 @@ int vd_spill_rewind(struct vd_spill *s)
 	return spill_read_start(s);
 }
 
-size_t vd_spill_memory_bytes(const struct vd_spill *s)
+size_t vd__spill_memory_bytes(const struct vd_spill *s)
 {
 	if (!s)
 		return 0;
@@ -623,7 +623,7 @@ size_t vd_spill_memory_bytes(const struct vd_spill *s)
 	return b;
 }
 
-void vd_spill_close(struct vd_spill *s)
+void vd__spill_close(struct vd_spill *s)
 {
 	if (!s)
 		return;

@@ -24,7 +24,7 @@ static const char *vd_mtl_map_name(const char *p)
 			double d;
 			const char *e = vd_token_end(p);
 			size_t n = (size_t)(e - p);
-			if (n == 0 || !(vd_parse_double(p, &d) ||
+			if (n == 0 || !(vd__parse_double(p, &d) ||
 					(n == 2 && !strncmp(p, "on", 2)) ||
 					(n == 3 && !strncmp(p, "off", 3))))
 				break;
@@ -46,7 +46,7 @@ static void vd_rtrim(char *s)
  * error. */
 static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 {
-	int e = vd_mesh_note(m, path);
+	int e = vd__mesh_note(m, path);
 	if (e)
 		return e;
 	struct stat st;
@@ -58,7 +58,7 @@ static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 		if (m->col.strict)
 			return vd_fail(VD_ERR_IO, "cannot open material library "
 				       "'%s': %s", path, strerror(errno));
-		vd_mesh_warn(m, "cannot open material library '%s': %s; its "
+		vd__mesh_warn(m, "cannot open material library '%s': %s; its "
 			     "materials are grey", path, strerror(errno));
 		return VD_OK;
 	}
@@ -76,20 +76,20 @@ static int vd_obj_read_mtl(struct vd_mesh *m, const char *path)
 		ln++;
 		vd_rtrim(line);
 		const char *p = vd_skip_space(line), *q;
-		if ((q = vd_kw(p, "newmtl"))) {
-			e = vd_mesh_add_material(m, vd_skip_space(q));
+		if ((q = vd__kw(p, "newmtl"))) {
+			e = vd__mesh_add_material(m, vd_skip_space(q));
 			cur = e ? NULL : &m->mats[m->nmats - 1];
-		} else if (cur && (q = vd_kw(p, "Kd"))) {
+		} else if (cur && (q = vd__kw(p, "Kd"))) {
 			double d[3];
-			if (vd_numbers3(q, d) == 3)
+			if (vd__numbers3(q, d) == 3)
 				for (int c = 0; c < 3; c++)
-					cur->rgb[c] = vd_unit_byte(d[c]);
-		} else if (cur && (q = vd_kw(p, "map_Kd"))) {
+					cur->rgb[c] = vd__unit_byte(d[c]);
+		} else if (cur && (q = vd__kw(p, "map_Kd"))) {
 			const char *name = vd_mtl_map_name(q);
 			if (!*name)
 				continue;
-			char *tp = vd_mesh_path(m, dir, name);
-			if (!tp || (cur->tex = vd_mesh_tex_slot(m, tp)) < 0)
+			char *tp = vd__mesh_path(m, dir, name);
+			if (!tp || (cur->tex = vd__mesh_tex_slot(m, tp)) < 0)
 				e = vd_fail(VD_ERR_NOMEM, "textures");
 		}
 	}
@@ -111,18 +111,18 @@ static int vd_obj_mtllib(struct vd_mesh *m, const char *rest)
 		return vd_fail(VD_ERR_NOMEM, "mtllib");
 	vd_rtrim(names);
 	int e = VD_OK;
-	char *whole = vd_mesh_path(m, NULL, names);
+	char *whole = vd__mesh_path(m, NULL, names);
 	struct stat st;
 	int one = whole && stat(whole, &st) == 0;
 	/* a name with spaces looked for whole in vain: if it appears, the
 	 * MTL files read change */
 	if (whole && !one && strpbrk(names, " \t"))
-		e = vd_mesh_note(m, whole);
+		e = vd__mesh_note(m, whole);
 	free(whole);
 	char *save = NULL;
 	for (char *t = one ? names : strtok_r(names, " \t", &save); t && !e;
 	     t = one ? NULL : strtok_r(NULL, " \t", &save)) {
-		char *path = vd_mesh_path(m, NULL, t);
+		char *path = vd__mesh_path(m, NULL, t);
 		if (!path) {
 			e = vd_fail(VD_ERR_NOMEM, "mtllib");
 			break;
@@ -160,11 +160,11 @@ static int vd_obj_usemtl(struct vd_mesh *m, const char *rest)
 		if (!strcmp(m->mats[i].name, name)) {
 			m->cur_mat = (int)i;
 			m->col_seen = 1;
-			return vd_mesh_tex_use(m, m->mats[i].tex);
+			return vd__mesh_tex_use(m, m->mats[i].tex);
 		}
 	if (!m->warned_mat) {
 		m->warned_mat = 1;
-		vd_mesh_warn(m, "line %" PRIu64 ": material '%.80s' is not "
+		vd__mesh_warn(m, "line %" PRIu64 ": material '%.80s' is not "
 			     "defined in any mtllib read so far; its faces are "
 			     "grey (further unknown materials not reported)",
 			     m->r.lines, name);
@@ -187,14 +187,14 @@ static int vd_obj_vt(struct vd_mesh *m, uint64_t ln, const char *p)
 					       ": vt without coordinates", ln);
 			break;
 		}
-		if (!(p = vd_parse_double(t, &d[k])))
+		if (!(p = vd__parse_double(t, &d[k])))
 			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": "
 				       "malformed texture coordinate '%.*s'",
-				       ln, vd_tok40(t), t);
+				       ln, vd__tok40(t), t);
 		if (!isfinite(d[k]))
 			return vd_fail(VD_ERR_RANGE, "line %" PRIu64 ": texture "
 				       "coordinate '%.*s' is not finite", ln,
-				       vd_tok40(t), t);
+				       vd__tok40(t), t);
 	}
 	/* an index is below VD_SPILL_NONE, spilled or not */
 	if (m->nuvs >= UINT32_MAX)
@@ -205,18 +205,18 @@ static int vd_obj_vt(struct vd_mesh *m, uint64_t ln, const char *p)
 		       other = m->verts_cap * vbytes;
 	if (!m->spill && !m->spill_wanted && m->verts_limit &&
 	    (m->nuvs + 1) * sizeof uv + other > m->verts_limit &&
-	    vd_mesh_can_spill(m))
+	    vd__mesh_can_spill(m))
 		m->spill_wanted = 1; /* they share the vertices' limit */
 	if (m->spill || m->spill_wanted) {
 		m->nuvs++;
-		return m->spill ? vd_spill_record(m->spill, MESH_SPILL_UVS, uv)
+		return m->spill ? vd__spill_record(m->spill, MESH_SPILL_UVS, uv)
 				: VD_OK;
 	}
 	if (m->nuvs == m->uvs_cap) {
-		uint64_t cap = vd_mesh_grow_cap(m, m->nuvs, sizeof uv, other,
+		uint64_t cap = vd__mesh_grow_cap(m, m->nuvs, sizeof uv, other,
 						UINT32_MAX);
 		if (cap == m->nuvs)
-			return vd_mesh_over_limit(m);
+			return vd__mesh_over_limit(m);
 		float *q = realloc(m->uvs, (size_t)cap * sizeof uv);
 		if (!q)
 			return vd_fail(VD_ERR_NOMEM, "texture coordinates");
@@ -232,7 +232,7 @@ static int vd_obj_vt(struct vd_mesh *m, uint64_t ln, const char *p)
  * (1-based, negative relative, INT64_MIN none). */
 static int vd_obj_corner_uv(struct vd_mesh *m, uint64_t ln, int64_t ti)
 {
-	int e = vd_mesh_grow_tc(m, m->poly_n + 1);
+	int e = vd__mesh_grow_tc(m, m->poly_n + 1);
 	if (e)
 		return e;
 	float *tc = m->poly_tc + 2 * m->poly_n;
@@ -268,7 +268,7 @@ static int vd_obj_vertex(struct vd_mesh *m, uint64_t ln, const char *p)
 		if (*t == 0)
 			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": vertex "
 				       "has %d coordinates, needs 3", ln, k);
-		if (!(p = vd_parse_double(t, &d)))
+		if (!(p = vd__parse_double(t, &d)))
 			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": malformed "
 				       "number '%.*s'", ln,
 				       (int)(vd_token_end(t) - t > 40
@@ -285,31 +285,31 @@ static int vd_obj_vertex(struct vd_mesh *m, uint64_t ln, const char *p)
 		int k = 0;
 		for (; k < 4; k++) {
 			q = vd_skip_space(q);
-			if (!*q || !(q = vd_parse_double(q, &x)))
+			if (!*q || !(q = vd__parse_double(q, &x)))
 				break;
 			if (k < 3)
 				d[k] = x;
 		}
 		if (k == 3) {
 			for (int c = 0; c < 3; c++)
-				rgb[c] = vd_unit_byte(d[c]);
+				rgb[c] = vd__unit_byte(d[c]);
 			col = m->col_seen = 1;
 		}
 	}
-	int e = vd_mesh_push_vertex_rgb(m, v, col ? rgb : NULL);
+	int e = vd__mesh_push_vertex_rgb(m, v, col ? rgb : NULL);
 	if (e)
 		return e;
 	m->stats.vertices = m->nverts;
 	return VD_OK;
 }
 
-int vd_obj_next(struct vd_mesh *m, int *got)
+int vd__obj_next(struct vd_mesh *m, int *got)
 {
 	char *s;
 	size_t len;
 	int e;
 	for (;;) {
-		e = vd_rd_line(&m->r, &s, &len, 1);
+		e = vd__rd_line(&m->r, &s, &len, 1);
 		if (e < 0)
 			return -e;
 		if (e == 0) {
@@ -337,14 +337,14 @@ int vd_obj_next(struct vd_mesh *m, int *got)
 				if (*t == 0)
 					break;
 				int64_t i;
-				if (!(p = vd_parse_int(t, &i)))
+				if (!(p = vd__parse_int(t, &i)))
 					goto bad_corner;
 				/* texture and normal indices: the texture
 				 * index only with colours */
 				int64_t ti = INT64_MIN; /* none */
 				if (*p == '/' && m->col_on &&
 				    ((p[1] >= '0' && p[1] <= '9') || p[1] == '-')
-				    && !(p = vd_parse_int(p + 1, &ti)))
+				    && !(p = vd__parse_int(p + 1, &ti)))
 					goto bad_corner;
 				if (*p == '/')
 					while ((*p >= '0' && *p <= '9') ||
@@ -370,7 +370,7 @@ int vd_obj_next(struct vd_mesh *m, int *got)
 						"line %" PRIu64 ": face %" PRIu64
 						" has more than %d corners", ln,
 						m->poly_face, MESH_MAX_CORNERS);
-				if ((e = vd_mesh_grow_poly(m, m->poly_n + 1)))
+				if ((e = vd__mesh_grow_poly(m, m->poly_n + 1)))
 					return e;
 				if (m->col_on &&
 				    (e = vd_obj_corner_uv(m, ln, ti)))
@@ -391,17 +391,17 @@ int vd_obj_next(struct vd_mesh *m, int *got)
 		}
 		if (m->col_on) {
 			const char *q;
-			if ((q = vd_kw(p, "vt"))) {
+			if ((q = vd__kw(p, "vt"))) {
 				if ((e = vd_obj_vt(m, ln, q)))
 					return e;
 				continue;
 			}
-			if ((q = vd_kw(p, "usemtl"))) {
+			if ((q = vd__kw(p, "usemtl"))) {
 				if ((e = vd_obj_usemtl(m, q)))
 					return e;
 				continue;
 			}
-			if ((q = vd_kw(p, "mtllib"))) {
+			if ((q = vd__kw(p, "mtllib"))) {
 				if ((e = vd_obj_mtllib(m, q)))
 					return e;
 				continue;

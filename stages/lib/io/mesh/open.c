@@ -82,7 +82,7 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 {
 	struct vd_rd *r = &m->r;
 	size_t want = m->file_bytes < 4096 ? (size_t)m->file_bytes : 4096;
-	int e = vd_rd_need(r, want);
+	int e = vd__rd_need(r, want);
 	if (e == VD_ERR_TRUNCATED)
 		return vd_fail(e, "'%s' shrank while being opened", path);
 	if (e)
@@ -92,16 +92,16 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 
 	if (hn >= 3 && !memcmp(head, "ply", 3) &&
 	    (hn == 3 || head[3] == '\n' || head[3] == '\r'))
-		return vd_ply_open(m);
+		return vd__ply_open(m);
 	if (hn >= 4 && !memcmp(head, "AC3D", 4))
-		return vd_ac_open(m, path);
+		return vd__ac_open(m, path);
 
 	if (m->file_bytes >= 84 &&
 	    84 + 50 * vd_ld(head + 80, 4, 0) == m->file_bytes) {
 		m->kind = MESH_STL_BIN;
 		m->stl_count = vd_ld(head + 80, 4, 0);
 		m->body_off = 84;
-		return vd_rd_seek(r, m->body_off, 0);
+		return vd__rd_seek(r, m->body_off, 0);
 	}
 	size_t i = 0;
 	while (i < hn && (vd_is_space((char)head[i]) || head[i] == '\n'))
@@ -112,13 +112,13 @@ static int vd_mesh_detect(struct vd_mesh *m, const char *path)
 		 head[i + 5] == '\n');
 	if (solid && vd_is_text(head, hn)) {
 		m->kind = MESH_STL_ASCII;
-		return vd_rd_seek(r, 0, 0);
+		return vd__rd_seek(r, 0, 0);
 	}
-	if (solid || vd_has_ext(path, ".stl"))
-		return vd_stl_size_error(m, head, hn);
-	if (vd_has_ext(path, ".obj") || vd_looks_like_obj(head, hn)) {
+	if (solid || vd__has_ext(path, ".stl"))
+		return vd__stl_size_error(m, head, hn);
+	if (vd__has_ext(path, ".obj") || vd_looks_like_obj(head, hn)) {
 		m->kind = MESH_OBJ;
-		return vd_rd_seek(r, 0, 0);
+		return vd__rd_seek(r, 0, 0);
 	}
 	char what[80];
 	vd_describe_start(head, hn, what, sizeof what);
@@ -209,7 +209,7 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 		m->r.fd = -1;
 		m->verts_limit = o->max_vertex_bytes;
 		m->file_bytes = (uint64_t)st.st_size;
-		e = vd_import_open(m, path);
+		e = vd__import_open(m, path);
 	} else if (!(m->r.buf = malloc(MESH_BUF_BYTES + 1)))
 		e = vd_fail(VD_ERR_NOMEM, "read buffer");
 	else {
@@ -270,7 +270,7 @@ size_t vd_mesh_memory_bytes(const struct vd_mesh *m)
 		   (size_t)m->uvs_cap * 2 * sizeof(float) +
 		   m->mats_cap * sizeof *m->mats +
 		   m->texs_cap * sizeof *m->texs +
-		   vd_spill_memory_bytes(m->spill) + vd_import_bytes(&m->imp);
+		   vd__spill_memory_bytes(m->spill) + vd__import_bytes(&m->imp);
 	for (size_t i = 0; i < m->ntexs; i++)
 		b += 3 * (size_t)m->texs[i].t.width * m->texs[i].t.height;
 	for (size_t i = 0; i < m->nelems; i++)
@@ -294,7 +294,7 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->verts);
 	free(m->poly);
 	free(m->ac_stack);
-	vd_mesh_free_materials(m);
+	vd__mesh_free_materials(m);
 	free(m->mats);
 	for (size_t i = 0; i < m->ntexs; i++) {
 		free(m->texs[i].path);
@@ -312,7 +312,7 @@ void vd_mesh_close(struct vd_mesh *m)
 	free(m->poly_ti);
 	free(m->vslot);
 	free(m->dir);
-	vd_spill_close(m->spill);
+	vd__spill_close(m->spill);
 	free(m->spill_dir);
 	for (size_t i = 0; i < m->nelems; i++)
 		free(m->elems[i].props);

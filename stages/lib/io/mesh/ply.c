@@ -73,7 +73,7 @@ static int vd_ply_corner(struct vd_mesh *m, int64_t idx)
 		return vd_fail(VD_ERR_RANGE,
 			       "%sface %" PRIu64 ": vertex index %" PRId64
 			       " out of range (the file has %" PRIu64
-			       " vertices)", vd_mesh_where(m, w, sizeof w),
+			       " vertices)", vd__mesh_where(m, w, sizeof w),
 			       m->poly_face, idx, m->nverts);
 	}
 	m->poly[m->poly_n++] = (uint32_t)idx;
@@ -85,7 +85,7 @@ static int vd_ply_bad_count(struct vd_mesh *m, int64_t n)
 	char w[48];
 	return vd_fail(VD_ERR_FORMAT,
 		       "%sface %" PRIu64 ": %" PRId64 " corners (at most %d "
-		       "accepted)", vd_mesh_where(m, w, sizeof w),
+		       "accepted)", vd__mesh_where(m, w, sizeof w),
 		       m->poly_face, n, MESH_MAX_CORNERS);
 }
 
@@ -109,7 +109,7 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 	int be = m->kind == MESH_PLY_BE, e;
 	struct vd_rd *r = &m->r;
 	if (el->fixed && !face) {
-		if ((e = vd_rd_need(r, el->min_bytes)))
+		if ((e = vd__rd_need(r, el->min_bytes)))
 			return e;
 		if (v) {
 			const unsigned char *p = r->buf + r->pos;
@@ -151,7 +151,7 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		const struct vd_ply_prop *pr = &el->props[i];
 		size_t size = vd_ply_size[pr->type];
 		if (pr->count == PLY_NONE) {
-			if ((e = vd_rd_need(r, size)))
+			if ((e = vd__rd_need(r, size)))
 				return e;
 			if (v && m->vslot[i] >= 0)
 				v[m->vslot[i]] = vd_to_f32(vd_ply_decode(
@@ -159,15 +159,15 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 			r->pos += size;
 			continue;
 		}
-		if ((e = vd_rd_need(r, vd_ply_size[pr->count])))
+		if ((e = vd__rd_need(r, vd_ply_size[pr->count])))
 			return e;
 		int64_t n = vd_ply_decode_int(r->buf + r->pos, pr->count, be);
 		r->pos += vd_ply_size[pr->count];
 		if (face && (int)i == m->ilist) {
 			if (n < 0 || n > MESH_MAX_CORNERS)
 				return vd_ply_bad_count(m, n);
-			if ((e = vd_mesh_grow_poly(m, (size_t)n)) ||
-			    (e = vd_rd_need(r, (size_t)n * size)))
+			if ((e = vd__mesh_grow_poly(m, (size_t)n)) ||
+			    (e = vd__rd_need(r, (size_t)n * size)))
 				return e;
 			const unsigned char *p = r->buf + r->pos;
 			m->poly_n = 0;
@@ -197,7 +197,7 @@ static int vd_ply_bin_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 			return vd_fail(VD_ERR_FORMAT,
 				       "element '%s': negative list count "
 				       "%" PRId64, el->name, n);
-		if ((e = vd_rd_skip(r, (uint64_t)n * size)))
+		if ((e = vd__rd_skip(r, (uint64_t)n * size)))
 			return e;
 	}
 	return VD_OK;
@@ -211,7 +211,7 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 	size_t len;
 	int e;
 	do {
-		e = vd_rd_line(&m->r, &s, &len, 0);
+		e = vd__rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
 			return -e;
 		if (e == 0)
@@ -238,20 +238,20 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 		const char *t = p;
 		if (pr->count == PLY_NONE) {
 			double d;
-			if (!(p = vd_parse_double(t, &d)))
+			if (!(p = vd__parse_double(t, &d)))
 				goto bad;
 			if (v && m->vslot[i] >= 0)
 				v[m->vslot[i]] = vd_to_f32(d);
 			continue;
 		}
 		int64_t n;
-		if (!(p = vd_parse_int(t, &n)) || !vd_is_end(*p))
+		if (!(p = vd__parse_int(t, &n)) || !vd_is_end(*p))
 			goto bad;
 		int corners = face && (int)i == m->ilist;
 		if (corners) {
 			if (n < 0 || n > MESH_MAX_CORNERS)
 				return vd_ply_bad_count(m, n);
-			if ((e = vd_mesh_grow_poly(m, (size_t)n)))
+			if ((e = vd__mesh_grow_poly(m, (size_t)n)))
 				return e;
 			m->poly_n = 0;
 		} else if (n < 0) {
@@ -269,14 +269,14 @@ static int vd_ply_ascii_item(struct vd_mesh *m, const struct vd_ply_elem *el,
 					m->r.lines, pr->name, j, n);
 			if (corners) {
 				int64_t idx;
-				if (!(p = vd_parse_int(t, &idx)) ||
+				if (!(p = vd__parse_int(t, &idx)) ||
 				    !vd_is_end(*p))
 					goto bad;
 				if ((e = vd_ply_corner(m, idx)))
 					return e;
 			} else {
 				double d;
-				if (!(p = vd_parse_double(t, &d)))
+				if (!(p = vd__parse_double(t, &d)))
 					goto bad;
 			}
 		}
@@ -373,7 +373,7 @@ static int vd_ply_header(struct vd_mesh *m)
 	size_t len;
 	int e, have_format = 0;
 	for (;;) {
-		e = vd_rd_line(&m->r, &s, &len, 0);
+		e = vd__rd_line(&m->r, &s, &len, 0);
 		if (e < 0)
 			return -e;
 		if (e == 0)
@@ -429,7 +429,7 @@ static int vd_ply_header(struct vd_mesh *m)
 		if (!strcmp(tok[0], "element")) {
 			int64_t count;
 			const char *p;
-			if (n != 3 || !(p = vd_parse_int(tok[2], &count)) ||
+			if (n != 3 || !(p = vd__parse_int(tok[2], &count)) ||
 			    *p || count < 0)
 				return vd_fail(VD_ERR_FORMAT,
 					"line %" PRIu64 ": expected 'element "
@@ -625,7 +625,7 @@ static int vd_ply_layout(struct vd_mesh *m)
 	return VD_OK;
 }
 
-int vd_ply_open(struct vd_mesh *m)
+int vd__ply_open(struct vd_mesh *m)
 {
 	int e;
 	if ((e = vd_ply_header(m)) || (e = vd_ply_layout(m)))
@@ -646,9 +646,9 @@ int vd_ply_open(struct vd_mesh *m)
 		}
 		uint64_t vbytes = 4 * (uint64_t)m->vfloats;
 		int spill = m->verts_limit && ve->count * vbytes > m->verts_limit;
-		if (spill && vd_mesh_can_spill(m)) {
-			/* the records go to the spill (vd_mesh_push_vertex_rgb) */
-			if ((e = vd_mesh_spill_open(m)))
+		if (spill && vd__mesh_can_spill(m)) {
+			/* the records go to the spill (vd__mesh_push_vertex_rgb) */
+			if ((e = vd__mesh_spill_open(m)))
 				return e;
 		} else if (spill)
 			return vd_fail(VD_ERR_BUDGET, "%" PRIu64 " vertices need "
@@ -684,7 +684,7 @@ int vd_ply_open(struct vd_mesh *m)
 		for (uint64_t j = 0; fast && j < ve->count; j++) {
 			float v[3];
 			struct vd_rd *r = &m->r;
-			if ((e = vd_rd_need(r, ve->min_bytes)))
+			if ((e = vd__rd_need(r, ve->min_bytes)))
 				return vd_ply_truncated(m, e, ve->name, j,
 							ve->count);
 			const unsigned char *p = r->buf + r->pos;
@@ -692,7 +692,7 @@ int vd_ply_open(struct vd_mesh *m)
 			memcpy(&v[1], p + off[1], 4);
 			memcpy(&v[2], p + off[2], 4);
 			r->pos += ve->min_bytes;
-			if ((e = vd_mesh_push_vertex_rgb(m, v, NULL)))
+			if ((e = vd__mesh_push_vertex_rgb(m, v, NULL)))
 				return e;
 		}
 		for (uint64_t j = 0; !fast && j < ve->count; j++) {
@@ -704,7 +704,7 @@ int vd_ply_open(struct vd_mesh *m)
 				for (int c = 0; c < 3; c++)
 					rgb[c] = vd_ply_colour_byte(v[3 + c],
 						ve->props[m->icol[c]].type);
-			if ((e = vd_mesh_push_vertex_rgb(m, v,
+			if ((e = vd__mesh_push_vertex_rgb(m, v,
 							 col ? rgb : NULL)))
 				return e;
 		}
@@ -717,7 +717,7 @@ int vd_ply_open(struct vd_mesh *m)
 }
 
 /* Reads the next face into m->poly; *got = 0 at the end. */
-int vd_ply_next(struct vd_mesh *m, int *got)
+int vd__ply_next(struct vd_mesh *m, int *got)
 {
 	const struct vd_ply_elem *f = &m->elems[m->face_elem];
 	if (m->faces_done == f->count) {

@@ -12,7 +12,7 @@
 
 /* Returns 1 if bytes were added, 0 at end of file or when the buffer is full
  * of unread bytes, -1 after a failed read (detail set). */
-int vd_rd_fill(struct vd_rd *r)
+int vd__rd_fill(struct vd_rd *r)
 {
 	if (r->pos > 0) {
 		memmove(r->buf, r->buf + r->pos, r->len - r->pos);
@@ -43,10 +43,10 @@ int vd_rd_fill(struct vd_rd *r)
 /* Makes n (<= cap) bytes available at buf + pos. Returns VD_OK,
  * VD_ERR_TRUNCATED without a detail (the caller knows what was cut), or
  * VD_ERR_IO with one. */
-int vd_rd_need(struct vd_rd *r, size_t n)
+int vd__rd_need(struct vd_rd *r, size_t n)
 {
 	while (r->len - r->pos < n) {
-		int f = vd_rd_fill(r);
+		int f = vd__rd_fill(r);
 		if (f < 0)
 			return VD_ERR_IO;
 		if (f == 0)
@@ -56,12 +56,12 @@ int vd_rd_need(struct vd_rd *r, size_t n)
 }
 
 /* Skips n bytes, which may be more than the buffer holds. Same returns as
- * vd_rd_need. */
-int vd_rd_skip(struct vd_rd *r, uint64_t n)
+ * vd__rd_need. */
+int vd__rd_skip(struct vd_rd *r, uint64_t n)
 {
 	while (n > 0) {
 		if (r->pos == r->len) {
-			int f = vd_rd_fill(r);
+			int f = vd__rd_fill(r);
 			if (f < 0)
 				return VD_ERR_IO;
 			if (f == 0)
@@ -76,7 +76,7 @@ int vd_rd_skip(struct vd_rd *r, uint64_t n)
 	return VD_OK;
 }
 
-int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
+int vd__rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
 {
 	if (lseek(r->fd, (off_t)off, SEEK_SET) < 0)
 		return vd_fail(VD_ERR_IO, "seek to byte %" PRIu64 ": %s", off,
@@ -94,7 +94,7 @@ int vd_rd_seek(struct vd_rd *r, uint64_t off, uint64_t lines)
  * line, 0 at the end of the file, or a negated error code (detail set):
  * -VD_ERR_IO, or -VD_ERR_FORMAT for a line longer than the buffer. The
  * codes are negated because VD_ERR_IO is 1, the value meaning "a line". */
-int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
+int vd__rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 {
 	size_t scan = r->pos;
 	for (;;) {
@@ -118,7 +118,7 @@ int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 			return 1;
 		}
 		size_t rel = r->len - r->pos;
-		int f = vd_rd_fill(r);
+		int f = vd__rd_fill(r);
 		scan = rel;
 		if (f < 0)
 			return -VD_ERR_IO;
@@ -152,7 +152,7 @@ int vd_rd_line(struct vd_rd *r, char **s, size_t *len, int join)
 
 /* Parses one number token at p (no leading space). Returns the character
  * after it, or NULL if the token is not a number. */
-const char *vd_parse_double(const char *p, double *out)
+const char *vd__parse_double(const char *p, double *out)
 {
 	static const double pow10[] = {
 		1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
@@ -218,7 +218,7 @@ slow:;
 }
 
 /* Parses an integer token; NULL if it is not one or exceeds 2^62. */
-const char *vd_parse_int(const char *p, int64_t *out)
+const char *vd__parse_int(const char *p, int64_t *out)
 {
 	int neg = 0;
 	int64_t v = 0;
@@ -236,20 +236,20 @@ const char *vd_parse_int(const char *p, int64_t *out)
 }
 
 /* Length of the token at t, at most 40, for messages. */
-int vd_tok40(const char *t)
+int vd__tok40(const char *t)
 {
 	ptrdiff_t n = vd_token_end(t) - t;
 	return n > 40 ? 40 : (int)n;
 }
 
 /* Returns the text after keyword kw if line p starts with it, else NULL. */
-const char *vd_kw(const char *p, const char *kw)
+const char *vd__kw(const char *p, const char *kw)
 {
 	size_t n = strlen(kw);
 	return !strncmp(p, kw, n) && vd_is_end(p[n]) ? p + n : NULL;
 }
 
-int vd_has_ext(const char *path, const char *ext)
+int vd__has_ext(const char *path, const char *ext)
 {
 	size_t n = strlen(path), e = strlen(ext);
 	return n > e && !strcasecmp(path + n - e, ext);

@@ -7,10 +7,10 @@
 #include <strings.h>
 
 /* Returns 1 with the next whitespace-separated token in *t, 0 at the end,
- * or a negated error code as vd_rd_line.
+ * or a negated error code as vd__rd_line.
  * ASCII STL is read by tokens, not lines, because writers disagree on line
  * breaks. stl_rest stays valid between calls: the buffer only moves inside
- * vd_rd_line, after the current line is used up. */
+ * vd__rd_line, after the current line is used up. */
 static int vd_stl_token(struct vd_mesh *m, char **t)
 {
 	for (;;) {
@@ -26,7 +26,7 @@ static int vd_stl_token(struct vd_mesh *m, char **t)
 		}
 		char *s;
 		size_t len;
-		int e = vd_rd_line(&m->r, &s, &len, 0);
+		int e = vd__rd_line(&m->r, &s, &len, 0);
 		if (e <= 0)
 			return e;
 		if (strlen(s) != len)
@@ -68,7 +68,7 @@ static int vd_stl_numbers(struct vd_mesh *m, float v[3])
 		int e = vd_stl_inner(m, &t);
 		if (e)
 			return e;
-		if (!vd_parse_double(t, &d))
+		if (!vd__parse_double(t, &d))
 			return vd_fail(VD_ERR_FORMAT, "line %" PRIu64 ": "
 				       "malformed number '%.40s'", m->r.lines,
 				       t);
@@ -79,7 +79,7 @@ static int vd_stl_numbers(struct vd_mesh *m, float v[3])
 
 /* The facet's corners go to m->verts (reset per facet) so that the polygon
  * code is shared with the indexed formats. */
-int vd_stl_ascii_next(struct vd_mesh *m, int *got)
+int vd__stl_ascii_next(struct vd_mesh *m, int *got)
 {
 	char *t;
 	float v[3];
@@ -137,8 +137,8 @@ int vd_stl_ascii_next(struct vd_mesh *m, int *got)
 					       "than %d vertices", m->r.lines,
 					       m->poly_face, MESH_MAX_CORNERS);
 			if ((e = vd_stl_numbers(m, v)) ||
-			    (e = vd_mesh_push_vertex(m, v)) ||
-			    (e = vd_mesh_grow_poly(m, m->poly_n + 1)))
+			    (e = vd__mesh_push_vertex(m, v)) ||
+			    (e = vd__mesh_grow_poly(m, m->poly_n + 1)))
 				return e;
 			m->poly[m->poly_n] = (uint32_t)m->poly_n;
 			m->poly_n++;
@@ -158,13 +158,13 @@ static float vd_ld_f32le(const unsigned char *p)
 	return f;
 }
 
-int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
+int vd__stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
 		    size_t cap, size_t *n)
 {
 	struct vd_rd *r = &m->r;
 	size_t k = 0;
 	while (k < cap && m->faces_done < m->stl_count) {
-		int e = vd_rd_need(r, 50);
+		int e = vd__rd_need(r, 50);
 		if (e) {
 			*n = k;
 			return e == VD_ERR_TRUNCATED ? vd_fail(e,
@@ -196,7 +196,7 @@ int vd_stl_bin_read(struct vd_mesh *m, struct vd_triangle *buf,
 	return VD_OK;
 }
 
-int vd_stl_size_error(struct vd_mesh *m, const unsigned char *head,
+int vd__stl_size_error(struct vd_mesh *m, const unsigned char *head,
 		      size_t hn)
 {
 	if (m->file_bytes < 84)

@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
+int vd__mesh_grow_poly(struct vd_mesh *m, size_t need)
 {
 	if (need <= m->poly_cap)
 		return VD_OK;
@@ -30,7 +30,7 @@ int vd_mesh_grow_poly(struct vd_mesh *m, size_t need)
  * position, and with colours the packed colour), so the join hands back
  * exactly what vd_mesh_vert() would; a spilled vt is the in-memory pair
  * of floats. */
-int vd_mesh_can_spill(const struct vd_mesh *m)
+int vd__mesh_can_spill(const struct vd_mesh *m)
 {
 	/* indexed formats only: an ASCII STL holds one facet's vertices,
 	 * and spilling them handed out its first triangle over and over */
@@ -48,7 +48,7 @@ static size_t vd_mesh_spill_attr_bytes(const struct vd_mesh *m)
  * the vertex table, the vt table for OBJ with colours, and per triangle
  * what its polygon decides of its attributes (with colours) and for AC3D
  * ac_vbase (4 bytes). Within verts_limit: the share the arrays had. */
-int vd_mesh_spill_open(struct vd_mesh *m)
+int vd__mesh_spill_open(struct vd_mesh *m)
 {
 	size_t rb[VD_SPILL_MAX_TABLES];
 	rb[MESH_SPILL_VERTS] = 4 * (size_t)m->vfloats;
@@ -56,7 +56,7 @@ int vd_mesh_spill_open(struct vd_mesh *m)
 	size_t ntab = m->kind == MESH_OBJ && m->col_on ? 2 : 1;
 	size_t tri = vd_mesh_spill_attr_bytes(m) +
 		     (m->kind == MESH_AC3D ? 4 : 0);
-	return vd_spill_open(&m->spill, m->spill_dir, ntab, rb, tri,
+	return vd__spill_open(&m->spill, m->spill_dir, ntab, rb, tri,
 			     m->verts_limit);
 }
 
@@ -78,7 +78,7 @@ static void vd_mesh_vrec(const struct vd_mesh *m, const float v[3],
 
 /* The error for an in-memory array that would pass verts_limit without a
  * spill directory to go to. */
-int vd_mesh_over_limit(const struct vd_mesh *m)
+int vd__mesh_over_limit(const struct vd_mesh *m)
 {
 	char uvs[64] = "";
 	if (m->nuvs)
@@ -96,7 +96,7 @@ int vd_mesh_over_limit(const struct vd_mesh *m)
  * cannot grow. It doubles while that fits, then grows by an eighth: a
  * jump to all the room left would leave none to the other array, and
  * the mesh would spill with both arrays' contents far under the limit. */
-uint64_t vd_mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
+uint64_t vd__mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
 			  uint64_t item, uint64_t other, uint64_t most)
 {
 	uint64_t cap = n ? n * 2 : 4096;
@@ -115,7 +115,7 @@ uint64_t vd_mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
 }
 
 /* Appends a vertex; `rgb` (NULL: none) is kept only in 4-float records. */
-int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
+int vd__mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 			    const uint8_t *rgb)
 {
 	const uint64_t vbytes = 4 * (uint64_t)m->vfloats;
@@ -135,24 +135,24 @@ int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 		float d[4];
 		vd_mesh_vrec(m, v, rgb, d);
 		m->spill_nverts++;
-		return vd_spill_record(m->spill, MESH_SPILL_VERTS, d);
+		return vd__spill_record(m->spill, MESH_SPILL_VERTS, d);
 	}
 	const uint64_t other = m->uvs_cap * 2 * sizeof(float);
 	if (m->verts_limit &&
 	    (m->nverts + 1) * vbytes + other > m->verts_limit &&
-	    vd_mesh_can_spill(m)) {
+	    vd__mesh_can_spill(m)) {
 		m->spill_wanted = 1;
-		return vd_mesh_push_vertex_rgb(m, v, rgb);
+		return vd__mesh_push_vertex_rgb(m, v, rgb);
 	}
 	if (m->nverts == m->verts_cap) {
 		if (m->nverts >= UINT32_MAX)
 			return vd_fail(VD_ERR_RANGE,
 				       "more than %" PRIu32 " vertices",
 				       UINT32_MAX);
-		uint64_t cap = vd_mesh_grow_cap(m, m->nverts, vbytes, other,
+		uint64_t cap = vd__mesh_grow_cap(m, m->nverts, vbytes, other,
 						UINT32_MAX);
 		if (cap == m->nverts)
-			return vd_mesh_over_limit(m);
+			return vd__mesh_over_limit(m);
 		float *p = realloc(m->verts, (size_t)(cap * vbytes));
 		if (!p)
 			return vd_fail(VD_ERR_NOMEM, "%" PRIu64 " vertices",
@@ -166,13 +166,13 @@ int vd_mesh_push_vertex_rgb(struct vd_mesh *m, const float v[3],
 	return VD_OK;
 }
 
-int vd_mesh_push_vertex(struct vd_mesh *m, const float v[3])
+int vd__mesh_push_vertex(struct vd_mesh *m, const float v[3])
 {
-	return vd_mesh_push_vertex_rgb(m, v, NULL);
+	return vd__mesh_push_vertex_rgb(m, v, NULL);
 }
 
 /* "line 12: " for text formats, "" otherwise, for details. */
-const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
+const char *vd__mesh_where(const struct vd_mesh *m, char *buf,
 			  size_t cap)
 {
 	if (m->kind == MESH_PLY_ASCII || m->kind == MESH_OBJ ||
@@ -185,11 +185,11 @@ const char *vd_mesh_where(const struct vd_mesh *m, char *buf,
 
 /* The error for vertex vi of face m->poly_face whose position v is not
  * finite. */
-int vd_mesh_nonfinite(const struct vd_mesh *m, uint32_t vi,
+int vd__mesh_nonfinite(const struct vd_mesh *m, uint32_t vi,
 		      const float *v)
 {
 	char w[48];
-	vd_mesh_where(m, w, sizeof w);
+	vd__mesh_where(m, w, sizeof w);
 	if (m->kind == MESH_STL_ASCII)
 		return vd_fail(VD_ERR_RANGE, "%sfacet %" PRIu64 " has a "
 			       "non-finite vertex (%g %g %g)", w, m->poly_face,
@@ -217,7 +217,7 @@ static int vd_mesh_poly_done(struct vd_mesh *m)
 		for (size_t i = 0; i < m->poly_n; i++) {
 			const float *v = vd_mesh_vert(m, m->poly[i]);
 			if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
-				return vd_mesh_nonfinite(m, m->poly[i], v);
+				return vd__mesh_nonfinite(m, m->poly[i], v);
 		}
 	}
 	m->poly_next = 1;
@@ -333,9 +333,9 @@ static int vd_mesh_restart(struct vd_mesh *m)
 			m->stats.vertices = 0;
 		m->nuvs = 0;
 		m->cur_mat = -1;
-		return vd_rd_seek(&m->r, 0, 0);
+		return vd__rd_seek(&m->r, 0, 0);
 	case MESH_STL_BIN:
-		return vd_rd_seek(&m->r, m->body_off, 0);
+		return vd__rd_seek(&m->r, m->body_off, 0);
 	case MESH_IMPORT:
 		m->imp_next = 0;
 		m->stats.faces_dropped_short = m->imp.faces_dropped_short;
@@ -348,14 +348,14 @@ static int vd_mesh_restart(struct vd_mesh *m)
 		m->ac_in_object = m->ac_seen_object = 0;
 		m->ac_surf_left = 0;
 		m->poly_strip = 0;
-		vd_mesh_free_materials(m);
-		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
+		vd__mesh_free_materials(m);
+		return vd__rd_seek(&m->r, m->body_off, m->body_lines);
 	default:
 		if (m->face_elem == m->nelems) {
 			m->done = 1;
 			return VD_OK;
 		}
-		return vd_rd_seek(&m->r, m->body_off, m->body_lines);
+		return vd__rd_seek(&m->r, m->body_off, m->body_lines);
 	}
 }
 
@@ -384,7 +384,7 @@ static int vd_mesh_spill_triangle(struct vd_mesh *m)
 		c[MESH_SPILL_UVS][j] = m->kind == MESH_OBJ && a.texture >= 0
 			? m->poly_ti[pc[j]] : VD_SPILL_NONE;
 	}
-	return vd_spill_triangle(m->spill, c, m->poly_face, m->poly_line,
+	return vd__spill_triangle(m->spill, c, m->poly_face, m->poly_line,
 				 extra);
 }
 
@@ -411,7 +411,7 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 			m->spill_nverts = 0;
 			m->spill_wanted = 0;
 			m->spill_skip = delivered;
-			if ((e = vd_mesh_spill_open(m)) ||
+			if ((e = vd__mesh_spill_open(m)) ||
 			    (e = vd_mesh_restart(m)))
 				return e;
 		}
@@ -439,7 +439,7 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 		}
 		if (m->kind == MESH_OBJ)
 			m->stats.vertices = m->nverts;
-		if ((e = vd_spill_finish(m->spill)))
+		if ((e = vd__spill_finish(m->spill)))
 			return e;
 		m->spill_ready = 1;
 	}
@@ -449,7 +449,7 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 		uint32_t v[VD_SPILL_MAX_TABLES][3];
 		uint64_t face, line;
 		int got;
-		if ((e = vd_spill_next(m->spill, rec, v, &face, &line, &extra,
+		if ((e = vd__spill_next(m->spill, rec, v, &face, &line, &extra,
 				       &got)))
 			return e;
 		if (!got)
@@ -475,7 +475,7 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 				memcpy(&vbase, extra + ab, 4);
 				m->poly_face = face;
 				m->poly_line = line;
-				return vd_mesh_nonfinite(m,
+				return vd__mesh_nonfinite(m,
 					v[MESH_SPILL_VERTS][j] -
 					(m->kind == MESH_AC3D ? vbase : 0),
 					t->v[j]);
@@ -503,10 +503,10 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 static int vd_mesh_next(struct vd_mesh *m, int *got)
 {
 	switch (m->kind) {
-	case MESH_OBJ: return vd_obj_next(m, got);
-	case MESH_STL_ASCII: return vd_stl_ascii_next(m, got);
-	case MESH_AC3D: return vd_ac_next(m, got);
-	default: return vd_ply_next(m, got);
+	case MESH_OBJ: return vd__obj_next(m, got);
+	case MESH_STL_ASCII: return vd__stl_ascii_next(m, got);
+	case MESH_AC3D: return vd__ac_next(m, got);
+	default: return vd__ply_next(m, got);
 	}
 }
 
@@ -523,14 +523,14 @@ static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 	size_t k = 0;
 	int e = VD_OK;
 	if (m->kind == MESH_STL_BIN) {
-		e = vd_stl_bin_read(m, buf, cap, &k);
+		e = vd__stl_bin_read(m, buf, cap, &k);
 		for (size_t i = 0; attr && i < k; i++) {
 			memset(&attr[i], 0, sizeof attr[i]);
 			memset(attr[i].rgb, VD_GREY, sizeof attr[i].rgb);
 			attr[i].texture = -1;
 		}
 	} else if (m->kind == MESH_IMPORT) {
-		e = vd_import_read(m, buf, attr, cap, &k);
+		e = vd__import_read(m, buf, attr, cap, &k);
 	} else {
 		while (k < cap && !m->spill) {
 			if (m->poly_next && m->poly_next + 1 < m->poly_n) {
@@ -617,7 +617,7 @@ int vd_mesh_rewind(struct vd_mesh *m)
 	if (m->spill_ready) {
 		/* the join is the whole mesh: no file to read again */
 		m->spill_skip = 0;
-		return vd_spill_rewind(m->spill);
+		return vd__spill_rewind(m->spill);
 	}
 	return vd_mesh_restart(m);
 }
