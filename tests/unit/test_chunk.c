@@ -371,48 +371,6 @@ static void test_transform_equal(void)
 	CHECK(vd_transform_equal(&u, &w));
 }
 
-static void test_parse_size(void)
-{
-	uint64_t v;
-	CHECK_EQ(vd_parse_size("1024", &v), VD_OK);
-	CHECK_EQ(v, 1024);
-	CHECK_EQ(vd_parse_size("2GiB", &v), VD_OK);
-	CHECK_EQ(v, 2ull << 30);
-	CHECK_EQ(vd_parse_size("512M", &v), VD_OK);
-	CHECK_EQ(v, 512ull << 20);
-	CHECK_EQ(vd_parse_size("1.5k", &v), VD_OK);
-	CHECK_EQ(v, 1536);
-	CHECK_EQ(vd_parse_size("lots", &v), VD_ERR_ARG);
-	CHECK_EQ(vd_parse_size("12Q", &v), VD_ERR_ARG);
-	CHECK_EQ(vd_parse_size("-5", &v), VD_ERR_ARG);
-	CHECK_EQ(vd_parse_size("", &v), VD_ERR_ARG);
-}
-
-static void test_morton(void)
-{
-	CHECK_EQ(vd_morton3(1, 0, 0), 4);
-	CHECK_EQ(vd_morton3(0, 1, 0), 2);
-	CHECK_EQ(vd_morton3(0, 0, 1), 1);
-	CHECK_EQ(vd_morton3(2, 0, 0), 32);
-	uint32_t x, y, z;
-	uint64_t seed = 12345;
-	for (int i = 0; i < 10000; i++) {
-		seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-		uint32_t a = (uint32_t)(seed >> 11) & 0x1fffff,
-			 b = (uint32_t)(seed >> 32) & 0x1fffff,
-			 c = (uint32_t)(seed >> 40) & 0x1fffff;
-		vd_morton3_decode(vd_morton3(a, b, c), &x, &y, &z);
-		CHECK(x == a && y == b && z == c);
-		/* bit by bit reference */
-		uint64_t m = 0;
-		for (int bit = 0; bit < 21; bit++)
-			m |= (uint64_t)((a >> bit) & 1) << (3 * bit + 2) |
-			     (uint64_t)((b >> bit) & 1) << (3 * bit + 1) |
-			     (uint64_t)((c >> bit) & 1) << (3 * bit);
-		CHECK_EQ(vd_morton3(a, b, c), m);
-	}
-}
-
 /* Raw bytes for the framed sections: a function of the offset alone, half
  * runs (so zstd has work) and half noise. */
 static uint8_t framed_byte(uint64_t i)
@@ -514,9 +472,7 @@ int main(void)
 	RUN(test_each_corruption);
 	RUN(test_abort_leaves_nothing);
 	RUN(test_svo_content_checks);
-	RUN(test_parse_size);
 	RUN(test_transform_equal);
-	RUN(test_morton);
 	RUN(test_framed_sections);
 	return CHECK_DONE();
 }
