@@ -10,7 +10,7 @@
  * then each cell's bin is rasterized in core, in parallel, and written as
  * one SVO chunk. The first pass keeps the triangles in memory when they fit
  * in a sixteenth of the budget, and the later passes replay them instead of
- * reading the file again; with one cell (L0 = 0) and no colours, that copy
+ * reading the file again (the budget's shares: budget.h); with one cell (L0 = 0) and no colours, that copy
  * is the cell's bin and no bin file is written.
  *
  * In core, a cell is a hash map of 32^3-voxel blocks allocated when a
@@ -31,6 +31,7 @@
  * the colour chunk stores them, 8 bytes per voxel while they are built.
  */
 #include "voxdag.h"
+#include "budget.h"
 #include "le.h"
 #include "voxel/voxel_internal.h"
 
@@ -2325,12 +2326,13 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 				.start = t0,
 				.lock = PTHREAD_MUTEX_INITIALIZER};
 	struct vd_mesh *mesh;
-	/* indexed meshes keep their vertices (and an OBJ's vt) in memory up
-	 * to half the budget; beyond it their faces are joined with them on
-	 * disk, in unlinked files of the output (staging) directory
-	 * (mesh_spill.c) */
+	/* the fixed shares of the budget: budget.h says what each pays for */
+	const struct vd_voxelize_budget share =
+		vd_voxelize_budget(opts->mem_budget_bytes);
+	/* spilled vertices go to unlinked files of the output (staging)
+	 * directory */
 	struct vd_mesh_open_opts mo = {
-		.max_vertex_bytes = opts->mem_budget_bytes / 2,
+		.max_vertex_bytes = share.vertex_bytes,
 		.colours = opts->colours, .strict = opts->strict,
 		.warn = warn_line, .warn_ctx = &prog,
 		.spill_dir = outdir};
@@ -2338,8 +2340,8 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	if (err)
 		return err;
 	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
-	/* a sixteenth of the budget: the plan below counts it in `base` */
-	struct tri_cache cache = {.limit = opts->mem_budget_bytes / 16};
+	/* the plan below counts it in `base` */
+	struct tri_cache cache = {.limit = share.tri_cache_bytes};
 	if (cache.limit > vd_tri_cache_max)
 		cache.limit = vd_tri_cache_max;
 	struct vd_tri_attr *attrs = NULL;
@@ -2384,11 +2386,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* 2. estimate and plan */
 	double t1 = vd_seconds();
 	est.g = r.g;
-	/* the estimate's set: about an eighth of the budget (keys at most
-	 * a quarter of its slots, 8 bytes each), never fewer than 4096 */
-	est.max_keys = (size_t)(opts->mem_budget_bytes / 8 / 8 / 4);
-	if (est.max_keys < 4096)
-		est.max_keys = 4096;
+	est.max_keys = share.estimate_keys;
 	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
 	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)bd.n);
@@ -2436,9 +2434,7 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	/* what the process holds now: vertices, buffers, the sorted
 	 * estimate (the estimate's set is freed: its peak was its share) */
 	uint64_t base = vd_current_rss_bytes();
-	/* bin buffers: an eighth of the budget, 16 MiB to 256 MiB */
-	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
-	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
+	uint64_t bin_bytes = share.bin_bytes;
 	struct plan plan = {0};
 	uint64_t block_cost = BLOCK_COST + (r.colours ? COLOUR_BLOCK_COST : 0);
 	err = plan_budget(opts, base + bin_bytes, F, max_blocks, cells_hit,
