@@ -844,6 +844,16 @@ static int colours_wanted(const struct config *c)
 	return 0;
 }
 
+/* The --mem-budget argument of a job, `bytes` in decimal into `buf` (cap
+ * bytes, 32 hold any): the one place every stage's command line takes it
+ * from. Only the value is made here; which budget a job gets is its
+ * planner's (c->job_mem_budget, or dag_job_budget for a DAG job). The
+ * argument is left out of the job's key (volatile_arg). */
+static void budget_arg(char *buf, size_t cap, uint64_t bytes)
+{
+	snprintf(buf, cap, "%llu", (unsigned long long)bytes);
+}
+
 /* The voxelize job: one process over the whole mesh. */
 static void plan_voxelize(struct plan *p, int d)
 {
@@ -856,7 +866,7 @@ static void plan_voxelize(struct plan *p, int d)
 		return;
 	snprintf(lv, sizeof lv, "%d", c->levels);
 	snprintf(cl, sizeof cl, "%d", c->chunk_level);
-	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	budget_arg(budget, sizeof budget, c->job_mem_budget);
 	/* everything else waits for it: it gets every job's threads; its
 	 * progress lines go to its log, which the runner's status shows */
 	snprintf(threads, sizeof threads, "%d", c->threads * c->jobs);
@@ -1014,9 +1024,8 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			}
 			snprintf(key, sizeof key, "%s.key", out);
 			snprintf(to, sizeof to, "%d", a);
-			snprintf(budget, sizeof budget, "%llu",
-				 (unsigned long long)dag_job_budget(
-					 c, merge_estimate(sum, k - i)));
+			budget_arg(budget, sizeof budget,
+				   dag_job_budget(c, merge_estimate(sum, k - i)));
 			snprintf(threads, sizeof threads, "%d", c->threads);
 			int idx = plan_find(p, id);
 			struct job *j = idx < 0 ? add_job(p, d, id, out, key) : NULL;
@@ -1102,7 +1111,7 @@ static void plan_root_ssvdag(struct plan *p, int d)
 	if (!j)
 		return;
 	char budget[32], threads[16];
-	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	budget_arg(budget, sizeof budget, c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	const char *src = p->jobs[in].output;
 	set_argv(j, "symmetry-merge", src, "-o", j->output, "--mem-budget",
@@ -1123,7 +1132,7 @@ static void plan_lossy(struct plan *p, int d)
 	if (!j)
 		return;
 	char budget[32], threads[16];
-	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	budget_arg(budget, sizeof budget, c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	const char *src = p->jobs[in].output;
 	set_argv(j, "lossy-cluster", src, "-o", j->output, "--inflation",
@@ -1199,7 +1208,7 @@ static void plan_edit(struct plan *p, int d)
 	if (!j)
 		return;
 	char budget[32], threads[16], script[1200], dir[1100];
-	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	budget_arg(budget, sizeof budget, c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	path_join(dir, sizeof dir, p->dir, dd->name);
 	if (dd->script_text) {
@@ -1265,8 +1274,7 @@ static int plan_single_root(struct plan *p, int d, const char *src_dir,
 	snprintf(key, sizeof key, "%s.key", out);
 	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
 	uint64_t est = vd_dag_estimate_header(&h);
-	snprintf(budget, sizeof budget, "%llu",
-		 (unsigned long long)dag_job_budget(c, est));
+	budget_arg(budget, sizeof budget, dag_job_budget(c, est));
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	struct job *j = add_job(p, d, id, out, key);
 	if (j) {
@@ -1371,8 +1379,7 @@ static void plan_dag_stage(struct plan *p, int d)
 		/* the stage's own bound for this input */
 		uint64_t est = !ok ? c->job_mem_budget : is_dag ?
 			vd_dag_estimate_header(&h) : merge_share(&h, kind);
-		snprintf(budget, sizeof budget, "%llu",
-			 (unsigned long long)dag_job_budget(c, est));
+		budget_arg(budget, sizeof budget, dag_job_budget(c, est));
 		struct job *j = add_job(p, d, id, out, key);
 		if (j) {
 			j->cell = 1;
@@ -1512,7 +1519,7 @@ static void plan_encode(struct plan *p, int d)
 	for (int i = 0; i < c->nres; i++)
 		min = c->resolutions[i] < min ? c->resolutions[i] : min;
 	snprintf(minl, sizeof minl, "%d", min);
-	snprintf(budget, sizeof budget, "%llu", (unsigned long long)c->job_mem_budget);
+	budget_arg(budget, sizeof budget, c->job_mem_budget);
 	snprintf(threads, sizeof threads, "%d", c->threads);
 	const struct job *jd = &p->jobs[dag], *js = &p->jobs[ssv];
 	const char *head[] = {jd->output, js->output, "-o", out, "--name",

@@ -8,6 +8,7 @@
  * 2x2x2 masks (height 1), level L-2 the nodes over them (height 2, one
  * 64-bit brick each). */
 #include "voxdag.h"
+#include "budget.h"
 
 #include <inttypes.h>
 #include <malloc.h>
@@ -468,7 +469,7 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 			 : budget ? (base < budget ? budget - base : 1) : 0;
 	if (avail) {
 		/* the slices' arrays and then their concatenation */
-		eb.limit = avail / 2;
+		eb.limit = avail / VD_BUDGET_LOSSY_SLICES_DIV;
 		/* opened before the threads start, used only if needed */
 		eb.fd = spill_open();
 	}
@@ -515,7 +516,8 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 	 * whole graph goes to the file */
 	uint64_t gn = 2 * (uint64_t)total < nc ? 2 * (uint64_t)total : nc;
 	if (!err && avail && (eb.over || graph_need(total, gn, d->lv[l].nodes) >
-					    avail / 8 * 7)) {
+					    avail / VD_BUDGET_LOSSY_MARKOV_DIV *
+					    (VD_BUDGET_LOSSY_MARKOV_DIV - 1))) {
 		for (int k = 0; k < PAIR_SLICES && !err; k++)
 			err = edge_flush(&J->part[k]);
 		if (!err) {
@@ -1713,12 +1715,11 @@ static int cluster_spilled(int l, uint64_t nl, const struct spill *sp,
 	for (uint64_t i = 0; i < nl; i++)
 		if (seen[i >> 6] >> (i & 63) & 1) ncnt[root[i]]++;
 	/* what is left beside this function's arrays and the caller's
-	 * (LNODE_BYTES per node), a group's graph within half of it, the
-	 * rest for the Markov clustering of its components (a budget this
-	 * tight is one where several groups are read anyway) */
+	 * (LNODE_BYTES per node), a group's graph within its share of it
+	 * (budget.h) */
 	uint64_t fixed = nl * LNODE_BYTES + nbuf * sizeof *buf,
 		 left = sp->avail > fixed ? sp->avail - fixed : 0,
-		 cap = left / 2, big = 0, bige = 0;
+		 cap = left / VD_BUDGET_LOSSY_GROUP_DIV, big = 0, bige = 0;
 	for (uint64_t i = 0; i < nl; i++)
 		if (cnt[i] && graph_need(cnt[i], ncnt[i], 0) > big) {
 			big = graph_need(cnt[i], ncnt[i], 0);
@@ -1946,7 +1947,8 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 			uint64_t hold = vd_current_rss_bytes() +
 					8 * (st->nodes_before + dag_nodes(d) + 2 * VD_MAX_LEVELS);
 			/* and a margin for the heap's own overhead */
-			hold += (2u << 20) + o->mem_budget / 64;
+			hold += VD_BUDGET_LOSSY_HEAP_MARGIN_BYTES +
+				o->mem_budget / VD_BUDGET_LOSSY_HEAP_MARGIN_DIV;
 			memo_limit = o->mem_budget > hold ? o->mem_budget - hold : 1;
 		}
 		err = dag_diff(&orig, d, &st->voxels_cleared, &st->voxels_set,

@@ -8,9 +8,12 @@
  *   3. binning: every triangle is appended to the bin file of each cell it
  *      overlaps (bounded in-memory buffers, flushed to disk);
  * then each cell's bin is rasterized in core, in parallel, and written as
- * one SVO chunk. The first pass keeps the triangles in memory when they fit
+ * one SVO chunk. The driver at the end of this file runs them as passes,
+ * each a function saying what it does and what memory it may use:
+ * read_bounds, estimate_cells, choose_chunk_level, bin_triangles, then
+ * list_cells, start_workers, voxelize_cells, finish_result. The first pass keeps the triangles in memory when they fit
  * in a sixteenth of the budget, and the later passes replay them instead of
- * reading the file again; with one cell (L0 = 0) and no colours, that copy
+ * reading the file again (the budget's shares: budget.h); with one cell (L0 = 0) and no colours, that copy
  * is the cell's bin and no bin file is written.
  *
  * In core, a cell is a hash map of 32^3-voxel blocks allocated when a
@@ -31,6 +34,7 @@
  * the colour chunk stores them, 8 bytes per voxel while they are built.
  */
 #include "voxdag.h"
+#include "budget.h"
 #include "le.h"
 #include "voxel/voxel_internal.h"
 
@@ -2304,99 +2308,101 @@ static int plan_budget(const struct vd_voxelize_opts *o, uint64_t base,
 		       coarse ? ", a coarse upper bound" : "");
 }
 
-int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
-		     const struct vd_voxelize_opts *opts,
-		     struct vd_voxelize_result *res)
-{
-	memset(res, 0, sizeof *res);
-	double t0 = vd_seconds();
-	int L = opts->levels;
-	if (L < 1 || L > VD_MAX_LEVELS)
-		return vd_fail(VD_ERR_RANGE, "--levels %d is outside 1..%d", L,
-			       VD_MAX_LEVELS);
-	int max_level = L - 2 > 0 ? L - 2 : 0;
-	if (max_level > MAX_CHUNK_LEVEL)
-		max_level = MAX_CHUNK_LEVEL;
-	if (opts->chunk_level > max_level)
-		return vd_fail(VD_ERR_RANGE, "--chunk-level %d is outside 0..%d "
-			       "for --levels %d", opts->chunk_level, max_level, L);
-	struct progress prog = {.quiet = opts->quiet,
-				.tool = opts->tool ? opts->tool : "voxelize",
-				.start = t0,
-				.lock = PTHREAD_MUTEX_INITIALIZER};
+/* What the driver's passes share. vd_voxelize_mesh sets it up; each pass
+ * reads what the passes before it left and adds its own; driver_release
+ * frees it, whatever pass stopped. */
+struct driver {
+	const char *mesh_path, *outdir;
+	const struct vd_voxelize_opts *opts;
+	struct vd_voxelize_result *res;
+	struct vd_voxelize_budget share; /* the fixed shares (budget.h) */
+	double t0;
+	int max_level;           /* the deepest chunk level --levels allows */
+	int F;                   /* the deepest candidate chunk level */
+	struct progress prog;
 	struct vd_mesh *mesh;
-	/* indexed meshes keep their vertices (and an OBJ's vt) in memory up
-	 * to half the budget; beyond it their faces are joined with them on
-	 * disk, in unlinked files of the output (staging) directory
-	 * (mesh_spill.c) */
-	struct vd_mesh_open_opts mo = {
-		.max_vertex_bytes = opts->mem_budget_bytes / 2,
-		.colours = opts->colours, .strict = opts->strict,
-		.warn = warn_line, .warn_ctx = &prog,
-		.spill_dir = outdir};
-	int err = vd_mesh_open_opts(&mesh, mesh_path, &mo);
+	struct vd_triangle *tris;  /* a pass's batch: TRI_BATCH */
+	struct vd_tri_attr *attrs; /* its attributes, with colours */
+	struct tri_cache cache;    /* the first pass's copy of the triangles */
+	struct bounds bd;
+	struct estimate est;
+	uint64_t *bkeys;           /* the estimate's block keys, sorted */
+	size_t nbkeys;
+	/* per candidate level: the largest cell's blocks (UINT64_MAX: not a
+	 * candidate), at level F also a lower bound of it, and the pages of
+	 * the per-cell arrays non-empty cells touch (0: all) */
+	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1];
+	uint64_t min_blocks[MAX_CHUNK_LEVEL + 1];
+	uint64_t cells_hit[MAX_CHUNK_LEVEL + 1];
+	uint64_t block_cost;       /* bytes a block costs a worker */
+	struct plan plan;
+	struct binner b;
+	struct run r;
+	uint64_t nodes[VD_MAX_LEVELS + 1]; /* levels L0..L, summed by workers */
+	int split;                 /* each cell on all the workers */
+	int cleaned;               /* outdir cleaned: a failure empties it */
+};
+
+/* Pass 1, bounds: reads the whole mesh once for its tight bounding box,
+ * which fixes the grid (d->r.g.tr, g.L), and keeps the triangles in
+ * d->cache when they fit its share. Memory: the mesh reader (vertices up
+ * to share.vertex_bytes), the batch, the cache (share.tri_cache_bytes)
+ * and, with colours, the textures the file names. */
+static int read_bounds(struct driver *d)
+{
+	struct run *r = &d->r;
+	progress_say(&d->prog, 1, "reading %s (%s)", d->mesh_path,
+		     vd_mesh_format(d->mesh));
+	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
+				 bounds_batch, &d->bd);
 	if (err)
 		return err;
-	struct vd_triangle *tris = malloc(TRI_BATCH * sizeof *tris);
-	/* a sixteenth of the budget: the plan below counts it in `base` */
-	struct tri_cache cache = {.limit = opts->mem_budget_bytes / 16};
-	if (cache.limit > vd_tri_cache_max)
-		cache.limit = vd_tri_cache_max;
-	struct vd_tri_attr *attrs = NULL;
-	struct run r = {.lock = PTHREAD_MUTEX_INITIALIZER};
-	struct binner b = {0};
-	struct estimate est = {0};
-	uint64_t max_blocks[MAX_CHUNK_LEVEL + 1], min_blocks[MAX_CHUNK_LEVEL + 1];
-	uint64_t cells_hit[MAX_CHUNK_LEVEL + 1] = {0};
-	uint64_t *bkeys = NULL;
-	size_t nbkeys = 0;
-	int cleaned = 0;
-	if (!tris) {
-		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
-		goto out;
-	}
-
-	/* 1. bounds */
-	struct bounds bd = {0};
-	progress_say(&prog, 1, "reading %s (%s)", mesh_path, vd_mesh_format(mesh));
-	err = for_each_batch(mesh, &cache, tris, NULL, bounds_batch, &bd);
-	if (err)
-		goto out;
 	/* the whole file has been seen: its colour sources are known, its
 	 * textures loaded (and so inside `base` below) */
-	r.colours = opts->colours && vd_mesh_has_colours(mesh);
-	r.mesh = mesh;
-	if (r.colours && !(attrs = malloc(TRI_BATCH * sizeof *attrs))) {
-		err = vd_fail(VD_ERR_NOMEM, "triangle buffer");
-		goto out;
-	}
-	res->mesh = *vd_mesh_stats(mesh);
-	if (bd.n == 0) {
-		err = vd_fail(VD_ERR_EMPTY, "'%s' has no triangles", mesh_path);
-		goto out;
-	}
-	err = vd_transform_init(&r.g.tr, bd.lo, bd.hi, L);
+	r->colours = d->opts->colours && vd_mesh_has_colours(d->mesh);
+	r->mesh = d->mesh;
+	if (r->colours && !(d->attrs = malloc(TRI_BATCH * sizeof *d->attrs)))
+		return vd_fail(VD_ERR_NOMEM, "triangle buffer");
+	d->res->mesh = *vd_mesh_stats(d->mesh);
+	if (d->bd.n == 0)
+		return vd_fail(VD_ERR_EMPTY, "'%s' has no triangles",
+			       d->mesh_path);
+	err = vd_transform_init(&r->g.tr, d->bd.lo, d->bd.hi, d->opts->levels);
 	if (err)
-		goto out;
-	r.g.L = L;
-	res->seconds_bounds = vd_seconds() - t0;
+		return err;
+	r->g.L = d->opts->levels;
+	d->res->seconds_bounds = vd_seconds() - d->t0;
+	return VD_OK;
+}
 
-	/* 2. estimate and plan */
-	double t1 = vd_seconds();
-	est.g = r.g;
-	/* the estimate's set: about an eighth of the budget (keys at most
-	 * a quarter of its slots, 8 bytes each), never fewer than 4096 */
-	est.max_keys = (size_t)(opts->mem_budget_bytes / 8 / 8 / 4);
-	if (est.max_keys < 4096)
-		est.max_keys = 4096;
-	int F = opts->chunk_level >= 0 ? opts->chunk_level : max_level;
-	progress_say(&prog, 1, "%llu triangles; estimating memory per cell",
-		     (unsigned long long)bd.n);
-	err = for_each_batch(mesh, &cache, tris, NULL, estimate_batch, &est);
+/* Pass 2, estimate: one more pass over the triangles collects the 32^3
+ * blocks they may touch (a set of at most share.estimate_keys keys,
+ * coarsened past it), sorted into d->bkeys; from them, per candidate
+ * chunk level (every level to F, or only --chunk-level), the largest
+ * cell's blocks and the pages of per-cell arrays touched. Memory: the
+ * set (its share; freed by estimate_sorted, which leaves the sorted keys)
+ * beside what pass 1 holds. */
+static int estimate_cells(struct driver *d)
+{
+	const struct vd_voxelize_opts *opts = d->opts;
+	struct estimate *est = &d->est;
+	int L = opts->levels;
+	est->g = d->r.g;
+	est->max_keys = d->share.estimate_keys;
+	d->F = opts->chunk_level >= 0 ? opts->chunk_level : d->max_level;
+	int F = d->F;
+	progress_say(&d->prog, 1, "%llu triangles; estimating memory per cell",
+		     (unsigned long long)d->bd.n);
+	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
+				 estimate_batch, est);
 	if (!err)
-		err = estimate_sorted(&est, &bkeys, &nbkeys);
+		err = estimate_sorted(est, &d->bkeys, &d->nbkeys);
 	if (err)
-		goto out;
+		return err;
+	const uint64_t *bkeys = d->bkeys;
+	size_t nbkeys = d->nbkeys;
+	uint64_t *max_blocks = d->max_blocks, *min_blocks = d->min_blocks;
+	uint64_t *cells_hit = d->cells_hit;
 	/* per level: the largest cell's bound */
 	for (int l = 0; l <= MAX_CHUNK_LEVEL; l++)
 		max_blocks[l] = min_blocks[l] = UINT64_MAX;
@@ -2409,11 +2415,11 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		for (size_t i = 0; i < nbkeys;) {
 			uint64_t lower;
 			uint64_t nb = cell_bound(bkeys, nbkeys, i, L, l,
-						 est.coarse, &i, &lower);
+						 est->coarse, &i, &lower);
 			if (nb > max_blocks[l])
 				max_blocks[l] = nb;
 			/* pages of the totals array: 512 cells a page */
-			int sh = L - BLOCK_SHIFT - est.coarse - l;
+			int sh = L - BLOCK_SHIFT - est->coarse - l;
 			if (sh < 0) {
 				all_pages = 1;
 			} else {
@@ -2433,92 +2439,121 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 		if (l == F)
 			min_blocks[l] = lo < max_blocks[l] ? lo : max_blocks[l];
 	}
+	return VD_OK;
+}
+
+/* Chooses the chunk level L0 and the workers' share (d->plan, d->r.g.L0):
+ * the coarsest candidate level whose largest cell fits a worker's share of
+ * what the budget leaves beside the process as it is now (`base`: the
+ * mesh reader, buffers, the cache, the sorted estimate) and the bin
+ * buffer (share.bin_bytes), which pass 3 allocates next. Allocates
+ * nothing; the RSS it measures is what the choice depends on. */
+static int choose_chunk_level(struct driver *d)
+{
+	const struct vd_voxelize_opts *opts = d->opts;
 	/* what the process holds now: vertices, buffers, the sorted
 	 * estimate (the estimate's set is freed: its peak was its share) */
 	uint64_t base = vd_current_rss_bytes();
-	/* bin buffers: an eighth of the budget, 16 MiB to 256 MiB */
-	uint64_t bin_bytes = opts->mem_budget_bytes / 8;
-	bin_bytes = bin_bytes < (16 << 20) ? (16 << 20) : bin_bytes > (256u << 20) ? (256u << 20) : bin_bytes;
-	struct plan plan = {0};
-	uint64_t block_cost = BLOCK_COST + (r.colours ? COLOUR_BLOCK_COST : 0);
-	err = plan_budget(opts, base + bin_bytes, F, max_blocks, cells_hit,
-			  est.coarse, block_cost, &plan);
-	if (err && est.coarse) {
+	uint64_t bin_bytes = d->share.bin_bytes;
+	d->block_cost = BLOCK_COST + (d->r.colours ? COLOUR_BLOCK_COST : 0);
+	int err = plan_budget(opts, base + bin_bytes, d->F, d->max_blocks,
+			      d->cells_hit, d->est.coarse, d->block_cost,
+			      &d->plan);
+	if (err && d->est.coarse) {
 		/* The coarse bound is loose: if the cells of level F may fit
 		 * (the lower bound does), take F and let each cell's block
 		 * limit decide while rasterizing, largest cell first. */
-		err = plan_budget(opts, base + bin_bytes, F, min_blocks,
-				  cells_hit, 0, block_cost, &plan);
+		err = plan_budget(opts, base + bin_bytes, d->F, d->min_blocks,
+				  d->cells_hit, 0, d->block_cost, &d->plan);
 		if (err)
-			goto out;
-		progress_say(&prog, 1, "memory estimate coarsened %d times; "
+			return err;
+		progress_say(&d->prog, 1, "memory estimate coarsened %d times; "
 			     "cells of level %d checked while rasterizing",
-			     est.coarse, F);
+			     d->est.coarse, d->F);
 	}
 	if (err)
-		goto out;
-	r.g.L0 = plan.L0;
-	res->seconds_bin = vd_seconds() - t1;
+		return err;
+	d->r.g.L0 = d->plan.L0;
+	return VD_OK;
+}
 
-	/* 3. binning at L0 */
-	t1 = vd_seconds();
-	err = clean_outdir(outdir);
+/* Pass 3, binning: empties the output directory (a failure from here on
+ * removes what this run wrote) and appends every triangle to the bin file
+ * of each cell of level L0 it overlaps, counting them per cell
+ * (d->b.totals). One cell without colours, the mesh in the cache: the
+ * cache is the cell's bin, and no file is written. Memory: the record
+ * buffer (share.bin_bytes) and 8 bytes per cell of L0, beside pass 1's;
+ * the cache is dropped at the end (the bins hold the triangles now). */
+static int bin_triangles(struct driver *d)
+{
+	struct run *r = &d->r;
+	struct binner *b = &d->b;
+	double t1 = vd_seconds();
+	int err = clean_outdir(d->outdir);
 	if (err)
-		goto out;
-	cleaned = 1;
-	b.g = r.g;
-	b.dir = outdir;
-	b.totals = calloc((size_t)1 << 3 * r.g.L0, sizeof *b.totals);
-	if (!b.totals) {
-		err = vd_fail(VD_ERR_NOMEM, "bins");
-		goto out;
-	}
-	if (!r.colours && r.g.L0 == 0 && cache.state == 1) {
+		return err;
+	d->cleaned = 1;
+	b->g = r->g;
+	b->dir = d->outdir;
+	b->totals = calloc((size_t)1 << 3 * r->g.L0, sizeof *b->totals);
+	if (!b->totals)
+		return vd_fail(VD_ERR_NOMEM, "bins");
+	if (!r->colours && r->g.L0 == 0 && d->cache.state == 1) {
 		/* One cell, the mesh in memory: it is the bin. (Every
 		 * triangle is inside the bounds' cube, as a bin would hold.) */
-		r.mem_tris = cache.t;
-		r.mem_n = cache.n;
-		r.mem_cache = &cache;
-		b.totals[0] = b.pairs = cache.n;
-		goto binned;
-	}
-	if (r.colours) {
-		b.cap = bin_bytes / sizeof *b.crecs;
-		b.crecs = malloc(b.cap * sizeof *b.crecs);
+		r->mem_tris = d->cache.t;
+		r->mem_n = d->cache.n;
+		r->mem_cache = &d->cache;
+		b->totals[0] = b->pairs = d->cache.n;
 	} else {
-		b.cap = bin_bytes / sizeof *b.recs;
-		b.recs = malloc(b.cap * sizeof *b.recs);
+		uint64_t bin_bytes = d->share.bin_bytes;
+		if (r->colours) {
+			b->cap = bin_bytes / sizeof *b->crecs;
+			b->crecs = malloc(b->cap * sizeof *b->crecs);
+		} else {
+			b->cap = bin_bytes / sizeof *b->recs;
+			b->recs = malloc(b->cap * sizeof *b->recs);
+		}
+		if (!(b->recs || b->crecs))
+			return vd_fail(VD_ERR_NOMEM, "bins");
+		progress_say(&d->prog, 1, "binning triangles into cells of "
+			     "level %d (%d threads, budget %llu MiB)", r->g.L0,
+			     d->plan.threads,
+			     (unsigned long long)(d->opts->mem_budget_bytes >> 20));
+		err = for_each_batch(d->mesh, &d->cache, d->tris, d->attrs,
+				     bin_batch, b);
+		if (!err)
+			err = r->colours ? flush_bins_col(b) : flush_bins(b);
+		tri_cache_drop(&d->cache); /* the bins have them now */
+		if (err)
+			return err;
 	}
-	if (!(b.recs || b.crecs)) {
-		err = vd_fail(VD_ERR_NOMEM, "bins");
-		goto out;
-	}
-	progress_say(&prog, 1, "binning triangles into cells of level %d "
-		     "(%d threads, budget %llu MiB)", r.g.L0, plan.threads,
-		     (unsigned long long)(opts->mem_budget_bytes >> 20));
-	err = for_each_batch(mesh, &cache, tris, attrs, bin_batch, &b);
-	if (!err)
-		err = r.colours ? flush_bins_col(&b) : flush_bins(&b);
-	tri_cache_drop(&cache); /* the bins have them now */
-	if (err)
-		goto out;
-binned:
-	res->triangles_binned = b.pairs;
-	res->seconds_bin += vd_seconds() - t1;
+	d->res->triangles_binned = b->pairs;
+	d->res->seconds_bin += vd_seconds() - t1;
+	return VD_OK;
+}
 
-	/* 4. rasterize the cells */
-	t1 = vd_seconds();
-	size_t ncell = (size_t)1 << 3 * r.g.L0;
-	r.jobs = malloc(ncell * sizeof *r.jobs);
-	if (!r.jobs) {
-		err = vd_fail(VD_ERR_NOMEM, "jobs");
-		goto out;
-	}
+/* The cells to voxelize (d->r.jobs): every non-empty cell of L0 with its
+ * planned blocks from the estimate, largest first, so the cells that may
+ * fail the budget fail early and the long ones start first. Frees the
+ * estimate's keys and the binning's arrays: the job list (16 bytes per
+ * cell of L0, resident for the non-empty ones) takes their place. */
+static int list_cells(struct driver *d)
+{
+	struct run *r = &d->r;
+	struct binner *b = &d->b;
+	int L = d->opts->levels;
+	size_t ncell = (size_t)1 << 3 * r->g.L0;
+	r->jobs = malloc(ncell * sizeof *r->jobs);
+	if (!r->jobs)
+		return vd_fail(VD_ERR_NOMEM, "jobs");
+	const uint64_t *bkeys = d->bkeys;
+	size_t nbkeys = d->nbkeys;
 	for (size_t c = 0, i = 0; c < ncell; c++) {
 		/* bkeys are sorted, cells visited in order: one merge walk */
 		uint64_t nb = 1;
-		if (L - r.g.L0 > BLOCK_SHIFT) {
-			int sh = L - BLOCK_SHIFT - est.coarse - r.g.L0;
+		if (L - r->g.L0 > BLOCK_SHIFT) {
+			int sh = L - BLOCK_SHIFT - d->est.coarse - r->g.L0;
 			if (sh >= 0) {
 				while (i < nbkeys && bkeys[i] >> 3 * sh < c)
 					i++;
@@ -2527,170 +2562,272 @@ binned:
 				uint64_t lower;
 				if (i < nbkeys && bkeys[i] >> 3 * sh == c)
 					nb = cell_bound(bkeys, nbkeys, i, L,
-							r.g.L0, est.coarse, &j,
-							&lower);
+							r->g.L0, d->est.coarse,
+							&j, &lower);
 				i = j;
 			} else {
-				nb = cell_block_cap(L, r.g.L0);
+				nb = cell_block_cap(L, r->g.L0);
 			}
 		}
-		if (b.totals[c])
-			r.jobs[r.njobs++] = (struct cell_job){c, nb};
+		if (b->totals[c])
+			r->jobs[r->njobs++] = (struct cell_job){c, nb};
 	}
-	free(bkeys);
-	bkeys = NULL;
-	free(b.totals);
-	free(b.recs);
-	free(b.crecs);
-	b.totals = NULL;
-	b.recs = NULL;
-	b.crecs = NULL;
-	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_jobs);
-	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
-	r.level_nodes = nodes;
-	r.outdir = outdir;
-	r.opts = opts;
-	r.prog = &prog;
-	r.block_limit = plan.block_limit;
-	r.worker_bytes = plan.worker_bytes;
-	r.pairs_total = b.pairs;
-	/* Few cells for the threads: each cell on all of them (split_cell),
-	 * when the budget holds the blocks planned for the largest cell
-	 * plus every worker's overhead. */
-	int nw = plan.threads, split = 0;
-	if (plan.want > 1 && r.njobs < 4 * (size_t)plan.want &&
-	    L - r.g.L0 > BLOCK_SHIFT) {
-		uint64_t over = (uint64_t)plan.want * WORKER_OVERHEAD;
-		size_t limit = plan.avail > over ?
-			(size_t)((plan.avail - over) / block_cost) : 0;
-		if (limit >= plan.cell_blocks) {
-			split = 1;
-			nw = plan.want;
-			r.block_limit = limit;
-			r.worker_bytes = (uint64_t)limit * block_cost;
+	free(d->bkeys);
+	d->bkeys = NULL;
+	free(b->totals);
+	free(b->recs);
+	free(b->crecs);
+	b->totals = NULL;
+	b->recs = NULL;
+	b->crecs = NULL;
+	qsort(r->jobs, r->njobs, sizeof *r->jobs, cmp_jobs);
+	return VD_OK;
+}
+
+/* The workers of pass 4, from the plan: a cell per worker, or, with few
+ * cells for the threads, each cell on all of them (split_cell) when what
+ * the budget leaves the workers holds the largest cell's blocks plus every
+ * worker's overhead; then the threads asked for all work and share one
+ * block limit. Memory: per worker its read buffer and sort keys, inside
+ * its WORKER_OVERHEAD. */
+static int start_workers(struct driver *d)
+{
+	struct run *r = &d->r;
+	const struct plan *plan = &d->plan;
+	r->level_nodes = d->nodes;
+	r->outdir = d->outdir;
+	r->opts = d->opts;
+	r->prog = &d->prog;
+	r->block_limit = plan->block_limit;
+	r->worker_bytes = plan->worker_bytes;
+	r->pairs_total = d->b.pairs;
+	int nw = plan->threads;
+	if (plan->want > 1 && r->njobs < 4 * (size_t)plan->want &&
+	    d->opts->levels - r->g.L0 > BLOCK_SHIFT) {
+		uint64_t over = (uint64_t)plan->want * WORKER_OVERHEAD;
+		size_t limit = plan->avail > over ?
+			(size_t)((plan->avail - over) / d->block_cost) : 0;
+		if (limit >= plan->cell_blocks) {
+			d->split = 1;
+			nw = plan->want;
+			r->block_limit = limit;
+			r->worker_bytes = (uint64_t)limit * d->block_cost;
 		}
 	}
-	r.mem_once = !split;
-	r.workers = calloc((size_t)nw, sizeof *r.workers);
-	if (!r.workers) {
-		err = vd_fail(VD_ERR_NOMEM, "workers");
-		goto out;
-	}
-	r.nworkers = nw;
-	size_t rec_bytes = r.colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
-	rec_bytes *= raster_batch(&r); /* colour_pass reads TRI_BATCH */
+	r->mem_once = !d->split;
+	r->workers = calloc((size_t)nw, sizeof *r->workers);
+	if (!r->workers)
+		return vd_fail(VD_ERR_NOMEM, "workers");
+	r->nworkers = nw;
+	size_t rec_bytes = r->colours ? BIN_BYTES_COL : sizeof(struct vd_triangle);
+	rec_bytes *= raster_batch(r); /* colour_pass reads TRI_BATCH */
 	for (int i = 0; i < nw; i++)
-		if (!(r.workers[i].tris = malloc(rec_bytes)) ||
-		    !(r.workers[i].order_tri = malloc(2 * RASTER_BATCH *
-					sizeof *r.workers[i].order_tri))) {
-			err = vd_fail(VD_ERR_NOMEM, "workers");
-			goto out;
-		}
-	if (split) {
-		progress_say(&prog, 1, "%zu cells for %d threads: each cell "
-			     "rasterized by all of them", r.njobs, nw);
-		for (size_t i = 0; i < r.njobs && !err && !r.err; i++) {
-			err = split_cell(&r, r.jobs[i].cell);
-			cell_done(&r);
+		if (!(r->workers[i].tris = malloc(rec_bytes)) ||
+		    !(r->workers[i].order_tri = malloc(2 * RASTER_BATCH *
+					sizeof *r->workers[i].order_tri)))
+			return vd_fail(VD_ERR_NOMEM, "workers");
+	return VD_OK;
+}
+
+/* Pass 4, voxelize the cells: each cell's bin rasterized in core and
+ * written as its SVO chunk (and colour chunk), by the workers of
+ * start_workers, largest cell first. Memory: each worker its share
+ * (r->worker_bytes), checked block by block against r->block_limit. */
+static int voxelize_cells(struct driver *d)
+{
+	struct run *r = &d->r;
+	int err = VD_OK;
+	if (d->split) {
+		progress_say(&d->prog, 1, "%zu cells for %d threads: each cell "
+			     "rasterized by all of them", r->njobs, r->nworkers);
+		for (size_t i = 0; i < r->njobs && !err && !r->err; i++) {
+			err = split_cell(r, r->jobs[i].cell);
+			cell_done(r);
 		}
 	} else {
-		err = vd_parallel_for(r.njobs, plan.threads, cell_task, &r);
+		err = vd_parallel_for(r->njobs, d->plan.threads, cell_task, r);
 	}
-	if (!err && r.err)
-		err = vd_fail(r.err, "%s", r.detail);
-	if (err)
-		goto out;
-	res->seconds_voxelize = vd_seconds() - t1;
+	if (!err && r->err)
+		err = vd_fail(r->err, "%s", r->detail);
+	return err;
+}
 
-	/* levels above L0: distinct prefixes of the non-empty cells */
-	uint64_t *cells = malloc((r.njobs ? r.njobs : 1) * sizeof *cells);
+/* The result's counts: the nodes of the levels above L0 (distinct
+ * prefixes of the cells that got a chunk) and, from L0 down, the workers'
+ * sums. Memory: 8 bytes per non-empty cell. */
+static int count_levels(struct driver *d)
+{
+	struct run *r = &d->r;
+	struct vd_voxelize_result *res = d->res;
+	uint64_t *cells = malloc((r->njobs ? r->njobs : 1) * sizeof *cells);
 	size_t nonempty = 0;
-	if (!cells) {
-		err = vd_fail(VD_ERR_NOMEM, "cells");
-		goto out;
-	}
+	if (!cells)
+		return vd_fail(VD_ERR_NOMEM, "cells");
 	char name[64], path[4096];
-	for (size_t i = 0; i < r.njobs; i++) {
-		vd_chunk_file_name(name, sizeof name, r.g.L0, r.jobs[i].cell, "svo");
-		snprintf(path, sizeof path, "%s/%s", outdir, name);
+	for (size_t i = 0; i < r->njobs; i++) {
+		vd_chunk_file_name(name, sizeof name, r->g.L0, r->jobs[i].cell,
+				   "svo");
+		snprintf(path, sizeof path, "%s/%s", d->outdir, name);
 		if (access(path, F_OK) == 0)
-			cells[nonempty++] = r.jobs[i].cell;
+			cells[nonempty++] = r->jobs[i].cell;
 	}
 	qsort(cells, nonempty, sizeof *cells, cmp_u64);
-	for (int l = 0; l < r.g.L0; l++) {
+	for (int l = 0; l < r->g.L0; l++) {
 		uint64_t n = 0;
-		int sh = 3 * (r.g.L0 - l);
+		int sh = 3 * (r->g.L0 - l);
 		for (size_t i = 0; i < nonempty; i++)
 			n += i == 0 || cells[i] >> sh != cells[i - 1] >> sh;
 		res->level_nodes[l] = n;
 	}
 	free(cells);
-	for (int l = r.g.L0; l <= L; l++)
-		res->level_nodes[l] = nodes[l - r.g.L0];
-	res->levels = L;
-	res->chunk_level = r.g.L0;
-	res->threads = r.nworkers;
-	res->mem_budget_bytes = opts->mem_budget_bytes;
-	snprintf(res->format, sizeof res->format, "%s", vd_mesh_format(mesh));
-	res->transform = r.g.tr;
-	res->voxels = atomic_load(&r.voxels);
-	res->bricks = atomic_load(&r.bricks);
+	for (int l = r->g.L0; l <= d->opts->levels; l++)
+		res->level_nodes[l] = d->nodes[l - r->g.L0];
 	res->chunks = nonempty;
-	res->colours = r.colours;
-	res->textures_loaded = vd_mesh_textures_loaded(mesh);
-	res->textures_missing = vd_mesh_textures_missing(mesh);
-	for (int i = 0; i < r.nworkers; i++)
-		res->seconds_colour += r.workers[i].seconds_colour;
-	res->seconds_total = vd_seconds() - t0;
+	return VD_OK;
+}
+
+/* The statistics of the run into d->res (the caller writes them with
+ * vd_voxelize_write_stats), the budget checked against the peak RSS, and
+ * the list of files the mesh pulled in written beside the chunks.
+ * Allocates nothing that outlives it. */
+static int finish_result(struct driver *d)
+{
+	const struct vd_voxelize_opts *opts = d->opts;
+	struct run *r = &d->r;
+	struct vd_voxelize_result *res = d->res;
+	int err = count_levels(d);
+	if (err)
+		return err;
+	res->levels = opts->levels;
+	res->chunk_level = r->g.L0;
+	res->threads = r->nworkers;
+	res->mem_budget_bytes = opts->mem_budget_bytes;
+	snprintf(res->format, sizeof res->format, "%s", vd_mesh_format(d->mesh));
+	res->transform = r->g.tr;
+	res->voxels = atomic_load(&r->voxels);
+	res->bricks = atomic_load(&r->bricks);
+	res->colours = r->colours;
+	res->textures_loaded = vd_mesh_textures_loaded(d->mesh);
+	res->textures_missing = vd_mesh_textures_missing(d->mesh);
+	for (int i = 0; i < r->nworkers; i++)
+		res->seconds_colour += r->workers[i].seconds_colour;
+	res->seconds_total = vd_seconds() - d->t0;
 	res->peak_rss_bytes = vd_peak_rss_bytes();
-	progress_say(&prog, 1, "%llu voxels in %llu chunks, %.2fs",
+	progress_say(&d->prog, 1, "%llu voxels in %llu chunks, %.2fs",
 		     (unsigned long long)res->voxels,
 		     (unsigned long long)res->chunks, res->seconds_total);
 	if (res->peak_rss_bytes > opts->mem_budget_bytes)
-		err = vd_fail(VD_ERR_BUDGET, "peak memory %llu MiB exceeded "
-			      "--mem-budget %llu MiB",
-			      (unsigned long long)(res->peak_rss_bytes >> 20),
-			      (unsigned long long)(opts->mem_budget_bytes >> 20));
-	if (!err) {
-		/* the files the mesh pulled in (MTL, textures, buffers): the
-		 * runner reruns this job when one of them changes */
-		size_t ns;
-		const struct vd_mesh_source *src = vd_mesh_sources(mesh, &ns);
-		char sp[4200];
-		snprintf(sp, sizeof sp, "%s/" VD_SOURCES_NAME, outdir);
-		err = vd_sources_write(sp, src, ns);
-	}
-out:
-	free(b.totals);
-	free(b.recs);
-	free(b.crecs);
-	free(attrs);
-	if (r.workers) {
-		for (int i = 0; i < r.nworkers; i++) {
-			map_free(&r.workers[i].map);
-			free(r.workers[i].tris);
-			free(r.workers[i].order_tri);
-			free(r.workers[i].order);
-		free(r.workers[i].bptr);
-			free(r.workers[i].nz);
-			free(r.workers[i].nz_start);
-			free(r.workers[i].blk);
-			free(r.workers[i].base);
-			free(r.workers[i].prefix);
-			free(r.workers[i].vox);
+		return vd_fail(VD_ERR_BUDGET, "peak memory %llu MiB exceeded "
+			       "--mem-budget %llu MiB",
+			       (unsigned long long)(res->peak_rss_bytes >> 20),
+			       (unsigned long long)(opts->mem_budget_bytes >> 20));
+	/* the files the mesh pulled in (MTL, textures, buffers): the runner
+	 * reruns this job when one of them changes */
+	size_t ns;
+	const struct vd_mesh_source *src = vd_mesh_sources(d->mesh, &ns);
+	char sp[4200];
+	snprintf(sp, sizeof sp, "%s/" VD_SOURCES_NAME, d->outdir);
+	return vd_sources_write(sp, src, ns);
+}
+
+/* Frees whatever the passes left, closes the mesh, removes the bins and,
+ * after a failure once the output directory was cleaned, the chunks
+ * written (no partial set of chunks survives). Returns `err`. */
+static int driver_release(struct driver *d, int err)
+{
+	struct run *r = &d->r;
+	free(d->b.totals);
+	free(d->b.recs);
+	free(d->b.crecs);
+	free(d->attrs);
+	if (r->workers) {
+		for (int i = 0; i < r->nworkers; i++) {
+			struct worker *w = &r->workers[i];
+			map_free(&w->map);
+			free(w->tris);
+			free(w->order_tri);
+			free(w->order);
+			free(w->bptr);
+			free(w->nz);
+			free(w->nz_start);
+			free(w->blk);
+			free(w->base);
+			free(w->prefix);
+			free(w->vox);
 		}
-		free(r.workers);
+		free(r->workers);
 	}
-	free(r.jobs);
-	free(est.blocks.slots);
-	free(bkeys);
-	free(tris);
-	tri_cache_drop(&cache);
-	vd_mesh_close(mesh);
-	remove_bins(outdir);
-	if (err && cleaned)
-		vd_remove_chunks(outdir); /* no partial set of chunks survives */
+	free(r->jobs);
+	free(d->est.blocks.slots);
+	free(d->bkeys);
+	free(d->tris);
+	tri_cache_drop(&d->cache);
+	vd_mesh_close(d->mesh);
+	remove_bins(d->outdir);
+	if (err && d->cleaned)
+		vd_remove_chunks(d->outdir);
 	return err;
+}
+
+int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
+		     const struct vd_voxelize_opts *opts,
+		     struct vd_voxelize_result *res)
+{
+	memset(res, 0, sizeof *res);
+	double t0 = vd_seconds();
+	int L = opts->levels;
+	if (L < 1 || L > VD_MAX_LEVELS)
+		return vd_fail(VD_ERR_RANGE, "--levels %d is outside 1..%d", L,
+			       VD_MAX_LEVELS);
+	int max_level = L - 2 > 0 ? L - 2 : 0;
+	if (max_level > MAX_CHUNK_LEVEL)
+		max_level = MAX_CHUNK_LEVEL;
+	if (opts->chunk_level > max_level)
+		return vd_fail(VD_ERR_RANGE, "--chunk-level %d is outside 0..%d "
+			       "for --levels %d", opts->chunk_level, max_level, L);
+	struct driver d = {
+		.mesh_path = mesh_path, .outdir = outdir, .opts = opts,
+		.res = res, .t0 = t0, .max_level = max_level,
+		/* the fixed shares of the budget: budget.h says what each
+		 * pays for */
+		.share = vd_voxelize_budget(opts->mem_budget_bytes),
+		.prog = {.quiet = opts->quiet,
+			 .tool = opts->tool ? opts->tool : "voxelize",
+			 .start = t0, .lock = PTHREAD_MUTEX_INITIALIZER},
+		.r = {.lock = PTHREAD_MUTEX_INITIALIZER}};
+	/* spilled vertices go to unlinked files of the output (staging)
+	 * directory */
+	struct vd_mesh_open_opts mo = {
+		.max_vertex_bytes = d.share.vertex_bytes,
+		.colours = opts->colours, .strict = opts->strict,
+		.warn = warn_line, .warn_ctx = &d.prog,
+		.spill_dir = outdir};
+	int err = vd_mesh_open_opts(&d.mesh, mesh_path, &mo);
+	if (err)
+		return err;
+	d.tris = malloc(TRI_BATCH * sizeof *d.tris);
+	/* the plan counts it in `base` */
+	d.cache.limit = d.share.tri_cache_bytes;
+	if (d.cache.limit > vd_tri_cache_max)
+		d.cache.limit = vd_tri_cache_max;
+	if (!d.tris)
+		return driver_release(&d, vd_fail(VD_ERR_NOMEM,
+						  "triangle buffer"));
+	if ((err = read_bounds(&d)))
+		return driver_release(&d, err);
+	/* planning is timed with binning */
+	double t1 = vd_seconds();
+	if ((err = estimate_cells(&d)) || (err = choose_chunk_level(&d)))
+		return driver_release(&d, err);
+	res->seconds_bin = vd_seconds() - t1;
+	if ((err = bin_triangles(&d)))
+		return driver_release(&d, err);
+	t1 = vd_seconds();
+	if ((err = list_cells(&d)) || (err = start_workers(&d)) ||
+	    (err = voxelize_cells(&d)))
+		return driver_release(&d, err);
+	res->seconds_voxelize = vd_seconds() - t1;
+	return driver_release(&d, finish_result(&d));
 }
 
 void vd_voxelize_stats_totals(struct vd_json *j,
