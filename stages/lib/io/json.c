@@ -1,5 +1,6 @@
 /* json.c - the small JSON writer every stage's statistics go through.
- * Written to a temporary name and renamed on close, like chunk files. */
+ * Published on close like chunk files (vd_atomic_*: fsync, rename,
+ * directory fsync), so a key never outlives the statistics it covers. */
 #include "voxdag.h"
 
 #include <errno.h>
@@ -9,8 +10,8 @@
 #include <unistd.h>
 
 struct vd_json {
-	FILE *f;
-	char *path, *tmp;
+	struct vd_atomic a;
+	FILE *f; /* a.f */
 	int depth;
 	int count[32]; /* members written so far at each depth */
 };
@@ -18,22 +19,14 @@ struct vd_json {
 int vd_json_open(struct vd_json **out, const char *path)
 {
 	struct vd_json *j = calloc(1, sizeof *j);
-	size_t n = strlen(path) + 32;
-	if (!j || !(j->path = strdup(path)) || !(j->tmp = malloc(n))) {
-		if (j)
-			free(j->path);
-		free(j);
+	if (!j)
 		return vd_fail(VD_ERR_NOMEM, "json");
-	}
-	snprintf(j->tmp, n, "%s.tmp.%ld", path, (long)getpid());
-	if (!(j->f = fopen(j->tmp, "w"))) {
-		int err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", j->tmp,
-				  strerror(errno));
-		free(j->tmp);
-		free(j->path);
+	int err = vd_atomic_open(&j->a, path);
+	if (err) {
 		free(j);
 		return err;
 	}
+	j->f = j->a.f;
 	fputc('{', j->f);
 	*out = j;
 	return VD_OK;
@@ -118,19 +111,7 @@ void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
 int vd_json_close(struct vd_json *j)
 {
 	fputs("\n}\n", j->f);
-	int err = VD_OK;
-	if (fflush(j->f) != 0 || ferror(j->f))
-		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
-			      strerror(errno));
-	if (fclose(j->f) != 0 && !err)
-		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
-			      strerror(errno));
-	if (!err)
-		err = vd_replace_file(j->tmp, j->path);
-	if (err)
-		unlink(j->tmp);
-	free(j->tmp);
-	free(j->path);
+	int err = vd_atomic_commit(&j->a);
 	free(j);
 	return err;
 }
