@@ -119,8 +119,9 @@ int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
 			       const uint64_t *level_nodes,
 			       uint32_t level_count);
 
-/* Writes the footer, flushes, fsyncs and renames the file to its final
- * name. Frees `w` whatever the outcome; on failure the temporary file is
+/* Writes the footer and publishes the file (vd_atomic_commit: fsync,
+ * rename to the final name, fsync of its directory). Frees `w` whatever
+ * the outcome; on failure the temporary file is
  * removed and nothing is left at the final path by this writer. */
 int vd_chunk_writer_commit(struct vd_chunk_writer *w);
 
@@ -177,6 +178,8 @@ void vd_chunk_free(struct vd_chunk *c);
  * and the directory holding `path` fsynced, in that order. Until the
  * rename `path` is untouched (the old file, or none); once
  * vd_atomic_commit() returns VD_OK the new file survives a power cut.
+ * Wherever these headers say a file is written "atomically" or "(atomic)",
+ * it is written this way.
  *
  *     struct vd_atomic a;
  *     if ((err = vd_atomic_open(&a, path))) return err;
