@@ -171,9 +171,10 @@ static void test_open_missing_dir(void)
  * in the way untouched, no temporary. */
 static void test_refuse_non_regular(void)
 {
-	const char *d = path_of("isdir");
-	const char *fifo = path_of("isfifo");
-	const char *link = path_of("islink");
+	char d[600], fifo[600], link[600];
+	snprintf(d, sizeof d, "%s", path_of("isdir"));
+	snprintf(fifo, sizeof fifo, "%s", path_of("isfifo"));
+	snprintf(link, sizeof link, "%s", path_of("islink"));
 	CHECK_EQ(mkdir(d, 0777), 0);
 	CHECK_EQ(mkfifo(fifo, 0666), 0);
 	CHECK_EQ(symlink("target", link), 0);
@@ -231,7 +232,11 @@ static void test_fsync_dir(void)
  * second rename is refused, both staged files are removed. */
 static void test_publish_pair(void)
 {
-	const char *out = path_of("o.dag"), *st = path_of("o.dag.stats.json");
+	char out[600], st[600], out2[600], st2[600];
+	snprintf(out, sizeof out, "%s", path_of("o.dag"));
+	snprintf(st, sizeof st, "%s", path_of("o.dag.stats.json"));
+	snprintf(out2, sizeof out2, "%s", path_of("p.dag"));
+	snprintf(st2, sizeof st2, "%s", path_of("p.stats"));
 	char so[700], ss[700];
 	CHECK_EQ(vd_stage_name(out, so, sizeof so), VD_OK);
 	CHECK_EQ(vd_stage_name(st, ss, sizeof ss), VD_OK);
@@ -246,7 +251,6 @@ static void test_publish_pair(void)
 	CHECK(holds(out, "dag", 3) && holds(st, "{}", 2));
 	CHECK(!exists(so) && !exists(ss));
 	/* the statistics' name taken by a directory */
-	const char *out2 = path_of("p.dag"), *st2 = path_of("p.stats");
 	CHECK_EQ(mkdir(st2, 0777), 0);
 	CHECK_EQ(vd_stage_name(out2, so, sizeof so), VD_OK);
 	CHECK_EQ(vd_stage_name(st2, ss, sizeof ss), VD_OK);
@@ -262,7 +266,9 @@ static void test_publish_pair(void)
  * one is then under the staging name), and back with vd_dir_unswap. */
 static void test_dir_swap(void)
 {
-	const char *final = path_of("d"), *stage = path_of("d.tmp.1");
+	char final[600], stage[600]; /* path_of's buffers are reused */
+	snprintf(final, sizeof final, "%s", path_of("d"));
+	snprintf(stage, sizeof stage, "%s", path_of("d.tmp.1"));
 	CHECK_EQ(mkdir(stage, 0777), 0);
 	put(path_of("d.tmp.1/f"), "one");
 	int had_old = -1;
