@@ -651,25 +651,24 @@ int keys_open(const char *dir, int write)
 	}
 	if (!write || kj.fd >= 0)
 		return 0;
-	char path[1200], tmp[1300];
+	char path[1200];
 	snprintf(path, sizeof path, "%s/keys", dir);
 	if (kj.fd == -2) {
-		snprintf(tmp, sizeof tmp, "%s/keys.tmp", dir);
-		FILE *f = fopen(tmp, "wb");
-		int err = !f;
-		for (size_t i = 0; f && i < kj.n; i++) {
+		/* durable before any key is appended to it */
+		struct vd_atomic a;
+		int err = vd_atomic_open(&a, path);
+		for (size_t i = 0; !err && i < kj.n; i++) {
 			char line[1500];
 			if (kj.r[i].op == 'K') {
 				kj_line(line, sizeof line, &kj.r[i]);
-				fputs(line, f);
+				fputs(line, a.f);
 			}
 		}
-		if (f)
-			err |= fclose(f) != 0;
-		if (err || rename(tmp, path) != 0) {
-			fprintf(stderr, "voxdag: cannot write '%s': %s\n", tmp,
+		if (!err)
+			err = vd_atomic_commit(&a);
+		if (err) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", path,
 				strerror(errno));
-			unlink(tmp);
 			return 1;
 		}
 	}
@@ -1181,14 +1180,14 @@ static int write_if_changed(const char *path, const char *text)
 		if (same)
 			return 0;
 	}
-	char tmp[1300];
-	snprintf(tmp, sizeof tmp, "%s.tmp", path);
-	f = fopen(tmp, "wb");
-	if (!f)
+	struct vd_atomic a;
+	if (vd_atomic_open(&a, path) != VD_OK)
 		return -1;
-	int bad = fwrite(text, 1, n, f) != n;
-	bad |= fclose(f) != 0;
-	return bad ? -1 : rename(tmp, path);
+	if (fwrite(text, 1, n, a.f) != n) {
+		vd_atomic_abort(&a);
+		return -1;
+	}
+	return vd_atomic_commit(&a) == VD_OK ? 0 : -1;
 }
 
 /* edit on the root DAG chunk with the job's script; the script's content
@@ -1530,9 +1529,8 @@ static void plan_encode(struct plan *p, int d)
 	 * the key: timings are not content), one path a line in a file, so
 	 * the command line does not grow with the cells (the kernel's limit
 	 * is near 25,000 arguments of this length) */
-	char list[1200], tmp[1300];
+	char list[1200];
 	snprintf(list, sizeof list, "%s/%s.stats-list", p->dir, dd->name);
-	snprintf(tmp, sizeof tmp, "%s.tmp", list);
 	char *text = NULL;
 	size_t len = 0;
 	FILE *m = open_memstream(&text, &len);
@@ -1560,12 +1558,18 @@ static void plan_encode(struct plan *p, int d)
 	/* written only when it changes: a rerun on a full disk that has
 	 * nothing left to build must not fail here */
 	if (!same_content(list, text, len)) {
-		FILE *f = mkdir_p(p->dir) == 0 ? fopen(tmp, "w") : NULL;
-		if (!f || fwrite(text, 1, len, f) != len || fflush(f) != 0 ||
-		    ferror(f) | (fclose(f) != 0) || rename(tmp, list) != 0) {
+		struct vd_atomic a;
+		int bad = mkdir_p(p->dir) != 0 ||
+			  vd_atomic_open(&a, list) != VD_OK;
+		if (!bad && fwrite(text, 1, len, a.f) != len) {
+			vd_atomic_abort(&a);
+			bad = 1;
+		} else if (!bad) {
+			bad = vd_atomic_commit(&a) != VD_OK;
+		}
+		if (bad) {
 			fprintf(stderr, "voxdag: cannot write '%s': %s\n", list,
 				strerror(errno));
-			unlink(tmp);
 			exit(1);
 		}
 	}

@@ -131,36 +131,25 @@ static void stats_path(const struct plan *p, const struct job *j, char *buf,
 		snprintf(buf, cap, "%s.stats.json", j->output);
 }
 
-/* The report's files are written under temporary names and renamed when
- * complete, like every output: a full disk leaves the previous report as
- * it was (writing in place truncated it), and the cause is said. */
-static FILE *open_tmp(const char *path, char *tmp, size_t cap)
+/* The report's files are published like every output (vd_atomic_*:
+ * fsync, rename, directory fsync): a full disk leaves the previous report
+ * as it was (writing in place truncated it), and the cause is said. */
+static FILE *open_tmp(const char *path, struct vd_atomic *a)
 {
-	snprintf(tmp, cap, "%s.tmp.%ld", path, (long)getpid());
-	return fopen(tmp, "w");
+	return vd_atomic_open(a, path) == VD_OK ? a->f : NULL;
 }
 
-/* Closes f and renames tmp to path; on failure removes tmp, puts the
- * cause in why (if it holds none yet) and returns 1. */
-static int close_tmp(FILE *f, const char *tmp, const char *path, char *why,
-		     size_t cap)
+/* Publishes a's file (f: a->f, or NULL when open_tmp failed); on failure
+ * puts the cause in why (if it holds none yet) and returns 1. */
+static int close_tmp(FILE *f, struct vd_atomic *a, const char *path,
+		     char *why, size_t cap)
 {
-	int bad = !f, e = errno;
+	int e = errno; /* open_tmp's cause when f is NULL */
 	if (f) {
-		bad = fflush(f) != 0 || ferror(f);
+		if (vd_atomic_commit(a) == VD_OK)
+			return 0;
 		e = errno;
-		if (fclose(f) != 0 && !bad) {
-			bad = 1;
-			e = errno;
-		}
-		if (!bad && rename(tmp, path) != 0) {
-			bad = 1;
-			e = errno;
-		}
 	}
-	if (!bad)
-		return 0;
-	unlink(tmp);
 	if (!*why)
 		snprintf(why, cap, "cannot write '%s': %s", path, strerror(e));
 	return 1;
@@ -609,11 +598,12 @@ int report_write(const struct plan *p)
 		tables = slurp(path);
 	}
 
-	char tmp[1300], why[1600] = "";
+	struct vd_atomic tmp;
+	char why[1600] = "";
 	snprintf(path, sizeof path, "%s/report.md", p->dir);
-	FILE *f = open_tmp(path, tmp, sizeof tmp);
+	FILE *f = open_tmp(path, &tmp);
 	if (!f) {
-		close_tmp(f, tmp, path, why, sizeof why);
+		close_tmp(f, &tmp, path, why, sizeof why);
 		fprintf(stderr, "voxdag: %s\n", why);
 		free(vstats);
 		free(tables);
@@ -676,10 +666,10 @@ int report_write(const struct plan *p)
 			rows[d].jobs, rows[d].seconds,
 			(double)rows[d].peak_rss / (1 << 20), b);
 	}
-	int err = close_tmp(f, tmp, path, why, sizeof why);
+	int err = close_tmp(f, &tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.csv", p->dir);
-	f = err ? NULL : open_tmp(path, tmp, sizeof tmp);
+	f = err ? NULL : open_tmp(path, &tmp);
 	if (f) {
 		fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
 		for (int d = 0; d < c->njobs; d++) {
@@ -694,7 +684,7 @@ int report_write(const struct plan *p)
 		}
 	}
 	if (!err)
-		err = close_tmp(f, tmp, path, why, sizeof why);
+		err = close_tmp(f, &tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.json", p->dir);
 	struct vd_json *j;

@@ -165,22 +165,17 @@ static uint64_t argv_hash(const struct job *j)
 	return h;
 }
 
-/* Writes text to path through a temporary name and a rename. */
+/* Writes text to path durably (vd_atomic_*); -1 with errno on failure. */
 static int write_atomic(const char *path, const char *text)
 {
-	char tmp[PATH_MAX + 32];
-	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-	FILE *f = fopen(tmp, "w");
-	if (!f)
+	struct vd_atomic a;
+	if (vd_atomic_open(&a, path) != VD_OK)
 		return -1;
-	int bad = fputs(text, f) < 0;
-	bad |= fflush(f) != 0 || fsync(fileno(f)) != 0;
-	bad |= fclose(f) != 0;
-	if (bad || rename(tmp, path) != 0) {
-		unlink(tmp);
+	if (fputs(text, a.f) < 0) {
+		vd_atomic_abort(&a);
 		return -1;
 	}
-	return 0;
+	return vd_atomic_commit(&a) == VD_OK ? 0 : -1;
 }
 
 /* Reads an end file; 0 when it is complete and well formed. */

@@ -6,9 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <errno.h>
 #include <sys/resource.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -194,38 +192,4 @@ char *vd_provenance_new(const char *tool, int argc, char **argv)
 	}
 	*p = 0;
 	return s;
-}
-
-int vd_replace_file(const char *tmp, const char *path)
-{
-	struct stat st;
-	if (lstat(path, &st) == 0 && !S_ISREG(st.st_mode))
-		return vd_fail(VD_ERR_IO, "'%s' exists and is not a regular "
-			       "file; refusing to replace it", path);
-	if (rename(tmp, path) != 0)
-		return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s", tmp,
-			       path, strerror(errno));
-	return VD_OK;
-}
-
-int vd_stage_name(const char *final, char *buf, size_t cap)
-{
-	if ((size_t)snprintf(buf, cap, "%s.tmp.%ld.new", final,
-			     (long)getpid()) >= cap)
-		return vd_fail(VD_ERR_RANGE, "output path '%s' is too long",
-			       final);
-	return VD_OK;
-}
-
-int vd_publish_pair(const char *staged_out, const char *out,
-		    const char *staged_stats, const char *stats)
-{
-	int err = vd_replace_file(staged_out, out);
-	if (!err)
-		err = vd_replace_file(staged_stats, stats);
-	if (err) {
-		unlink(staged_out);
-		unlink(staged_stats);
-	}
-	return err;
 }

@@ -119,8 +119,9 @@ int vd_chunk_writer_set_counts(struct vd_chunk_writer *w,
 			       const uint64_t *level_nodes,
 			       uint32_t level_count);
 
-/* Writes the footer, flushes, fsyncs and renames the file to its final
- * name. Frees `w` whatever the outcome; on failure the temporary file is
+/* Writes the footer and publishes the file (vd_atomic_commit: fsync,
+ * rename to the final name, fsync of its directory). Frees `w` whatever
+ * the outcome; on failure the temporary file is
  * removed and nothing is left at the final path by this writer. */
 int vd_chunk_writer_commit(struct vd_chunk_writer *w);
 
@@ -170,24 +171,62 @@ uint32_t vd_chunk_section_tag(const struct vd_chunk *c, uint32_t i);
 
 void vd_chunk_free(struct vd_chunk *c);
 
-/* Renames the finished temporary file `tmp` to `path`, the last step of
- * every atomic write. Refuses (VD_ERR_IO, the detail says why) when `path`
- * exists and is not a regular file: run as root, a rename over an output
- * path such as /dev/null would replace the device. */
-int vd_replace_file(const char *tmp, const char *path);
+/* ------------------------------------------------ publishing (io/publish.c)
+ * Every file voxdag writes reaches its final name one way: written under
+ * "<path>.tmp.<pid>" (a name manifests, the runner and vd_dir_stage take
+ * for a temporary), then flushed, fsynced, closed, renamed onto `path`,
+ * and the directory holding `path` fsynced, in that order. Until the
+ * rename `path` is untouched (the old file, or none); once
+ * vd_atomic_commit() returns VD_OK the new file survives a power cut.
+ * Wherever these headers say a file is written "atomically" or "(atomic)",
+ * it is written this way.
+ *
+ *     struct vd_atomic a;
+ *     if ((err = vd_atomic_open(&a, path))) return err;
+ *     fprintf(a.f, ...);
+ *     return vd_atomic_commit(&a);   (or vd_atomic_abort(&a) to give up)
+ */
+struct vd_atomic {
+	FILE *f;    /* the caller writes here (opened "w+b": it may read back) */
+	char *path; /* the final name; owned by the struct */
+	char *tmp;  /* "<path>.tmp.<pid>"; owned by the struct */
+};
 
-/* A file output and the statistics beside it are published as a pair:
- * both are written complete under staging names (vd_stage_name: "<final>
- * .tmp.<pid>.new", so it is taken for a temporary everywhere), then
- * vd_publish_pair renames them into place. Renames need no space, so a
- * full disk fails before either is replaced and the previous pair stays
- * whole (writing the output and then its statistics left a new output
- * beside old statistics, or none). vd_stage_name returns VD_ERR_RANGE when
- * `cap` is too small. vd_publish_pair removes the staged files it did not
- * rename when a rename fails (VD_ERR_IO). */
-int vd_stage_name(const char *final, char *buf, size_t cap);
-int vd_publish_pair(const char *staged_out, const char *out,
-		    const char *staged_stats, const char *stats);
+/* Creates a->tmp and opens a->f on it. VD_ERR_IO ("cannot create '<tmp>':
+ * cause", errno kept) or VD_ERR_NOMEM; the struct is then empty and needs
+ * no abort. On VD_OK the caller must end with exactly one of commit or
+ * abort. A caller may write through fileno(a->f) instead of a->f, as long
+ * as it does not mix the two. */
+int vd_atomic_open(struct vd_atomic *a, const char *path);
+
+/* Publishes the file: fflush, fsync, fclose, rename onto a->path,
+ * fsync of a->path's directory. Refuses to rename over anything but a
+ * regular file (run as root, a rename over /dev/null would replace the
+ * device). On failure the temporary is removed, the old file stays (but
+ * for a failed directory fsync: the new file is then in place, not known
+ * durable), and VD_ERR_IO says why in one line ("cannot write '<tmp>': cause", "'<path>'
+ * exists and is not a regular file; refusing to replace it", "cannot
+ * rename ...", "cannot sync directory '<dir>': cause"); errno is the
+ * cause (EISDIR or EEXIST for a refusal), for callers that word their own
+ * message. A write error the caller met earlier (ferror) fails the commit
+ * too. The struct is empty afterwards, whatever the result. */
+int vd_atomic_commit(struct vd_atomic *a);
+
+/* Closes and removes the temporary; the old file at a->path stays. Safe on
+ * an empty struct (after open failed, or commit); keeps errno and the
+ * error detail. */
+void vd_atomic_abort(struct vd_atomic *a);
+
+/* fsyncs directory `dir` (vd_fsync_parent: the directory holding `path`,
+ * "." for a bare name, a trailing '/' ignored), so that names created,
+ * renamed or removed in it survive a power cut; every rename of a file or
+ * directory into its final place is followed by one (vd_atomic_commit,
+ * vd_dir_swap). VD_ERR_IO "cannot sync directory '<dir>': cause"; a
+ * directory the process may not open for reading (EACCES) or a file
+ * system that cannot sync directories (EINVAL) is not an error, as in
+ * PostgreSQL's fsync_fname. */
+int vd_fsync_dir(const char *dir);
+int vd_fsync_parent(const char *path);
 
 /* ------------------------------------------------- manifests (io/manifest.c)
  * A directory output (voxelize's chunks, encode's encodings and tables)
@@ -231,7 +270,8 @@ int vd_dir_stage(const char *final, int (*ours)(const char *name),
 		 char *staging, size_t cap);
 
 /* Writes the staging directory's manifest and puts it in place of `final`
- * in one step (renameat2 RENAME_EXCHANGE), then removes the old output. */
+ * in one step (renameat2 RENAME_EXCHANGE), fsyncs final's directory, then
+ * removes the old output. */
 int vd_dir_publish(const char *staging, const char *final);
 
 /* Removes a staging directory after a failure; keeps the error detail. */
@@ -244,7 +284,9 @@ void vd_dir_abandon(const char *staging);
  * there was one (*had_old), is then under the staging name, for the
  * caller to remove with vd_dir_abandon() once the other outputs are in
  * place, or to put back with vd_dir_unswap(staging, final, had_old) if
- * they failed (the new directory is then under the staging name). */
+ * they failed (the new directory is then under the staging name). Both
+ * fsync final's directory after the rename (vd_fsync_parent); when that
+ * fails, vd_dir_swap undoes the rename, so a failed swap changed nothing. */
 int vd_dir_swap(const char *staging, const char *final, int *had_old);
 int vd_dir_unswap(const char *staging, const char *final, int had_old);
 
@@ -261,7 +303,7 @@ int vd_pread_full(int fd, void *p, size_t n, uint64_t off);
 
 /* ------------------------------------------------------- JSON statistics
  * A minimal writer for the statistics files beside every output. The file
- * appears under its name only when vd_json_close() succeeds. Keys are
+ * appears under its name, durably, only when vd_json_close() succeeds. Keys are
  * written as given (no escaping): use plain identifiers. Inside arrays pass
  * key NULL. */
 struct vd_json;
@@ -275,7 +317,8 @@ void vd_json_f64(struct vd_json *j, const char *key, double v);
 void vd_json_str(struct vd_json *j, const char *key, const char *s);
 void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
 		       size_t n);
-/* Closes the top-level object, flushes and renames; frees j. */
+/* Closes the top-level object and publishes the file (vd_atomic_commit:
+ * fsync, rename, directory fsync); frees j. */
 int vd_json_close(struct vd_json *j);
 
 #ifdef __cplusplus

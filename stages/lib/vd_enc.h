@@ -110,7 +110,8 @@ int vd_enc_build(struct vd_enc *e, int format, const struct vd_dag *dag,
  * 2*inner_count + leaf_bytes + 4*level_count. */
 uint64_t vd_enc_size_bytes(const struct vd_enc *e);
 
-/* Writes `e` to `path` atomically (temporary name, fsync, rename). */
+/* Writes `e` to `path` atomically (vd_atomic_*: temporary name, fsync,
+ * rename, directory fsync). */
 int vd_enc_save(const struct vd_enc *e, const char *path);
 
 /* Reads and validates the file `path`; `format` -1 takes it from the

@@ -20,6 +20,7 @@
  */
 #include "dag/dag_internal.h"
 #include "le.h"
+#include "io/publish.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

@@ -9,6 +9,7 @@
  * 64-bit brick each). */
 #include "voxdag.h"
 #include "budget.h"
+#include "io/publish.h"
 
 #include <inttypes.h>
 #include <malloc.h>

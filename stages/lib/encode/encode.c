@@ -564,41 +564,26 @@ static void serialize(const struct vd_enc *e, struct sink *k)
 
 int vd_enc_save(const struct vd_enc *e, const char *path)
 {
-	int err = VD_OK;
-	size_t tl = strlen(path) + 32;
-	char *tmp = malloc(tl);
 	uint8_t *buf = malloc(SAVE_BUF);
-	if (!tmp || !buf) {
-		free(tmp);
-		free(buf);
+	if (!buf)
 		return NOMEM();
-	}
-	snprintf(tmp, tl, "%s.tmp.%ld", path, (long)getpid());
-	FILE *f = fopen(tmp, "wb");
-	if (!f) {
-		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
-			      strerror(errno));
-	} else {
-		struct sink k = {f, buf, 0, 0, 0};
+	struct vd_atomic a;
+	int err = vd_atomic_open(&a, path);
+	if (!err) {
+		struct sink k = {a.f, buf, 0, 0, 0};
 		serialize(e, &k);
-		int bad = k.bad || fflush(f) != 0 || fsync(fileno(f)) != 0;
-		int e1 = errno;
-		if (fclose(f) != 0 && !bad) {
-			bad = 1;
-			e1 = errno;
-		}
-		if (bad)
-			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
-				      strerror(e1));
+		if (k.bad)
+			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", a.tmp,
+				      strerror(errno));
 		else if (k.total != file_bytes(e))
 			err = vd_fail(VD_ERR_INTERNAL, "encode.c: wrote %" PRIu64
 				      " of %" PRIu64 " bytes", k.total,
 				      file_bytes(e));
+		if (err)
+			vd_atomic_abort(&a);
 		else
-			err = vd_replace_file(tmp, path);
-		if (err) unlink(tmp);
+			err = vd_atomic_commit(&a);
 	}
-	free(tmp);
 	free(buf);
 	return err;
 }
@@ -1209,25 +1194,23 @@ int vd_enc_timing_add(struct vd_enc_timing *t, const char *path)
 
 #define MB(b) ((double)(b) / 1048576.0)
 
-/* Writes `text` to dir/name.suffix atomically. */
+/* Writes `text` to dir/name.suffix durably (vd_atomic_*). */
 static int write_text(const char *dir, const char *name, const char *suffix,
 		      const char *text, size_t n)
 {
-	char path[4096], tmp[4200];
+	char path[4096];
 	snprintf(path, sizeof path, "%s/%s.%s", dir, name, suffix);
-	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-	FILE *f = fopen(tmp, "w");
-	if (!f)
-		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
-			       strerror(errno));
-	int bad = fwrite(text, 1, n, f) != n;
-	if (fclose(f) != 0) bad = 1;
-	int err = bad ? vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
-				strerror(errno))
-		      : vd_replace_file(tmp, path);
+	struct vd_atomic a;
+	int err = vd_atomic_open(&a, path);
 	if (err)
-		unlink(tmp);
-	return err;
+		return err;
+	if (fwrite(text, 1, n, a.f) != n) {
+		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
+			      strerror(errno));
+		vd_atomic_abort(&a);
+		return err;
+	}
+	return vd_atomic_commit(&a);
 }
 
 /* A growing text buffer for the CSV and Markdown files. */

@@ -3,14 +3,14 @@
  * Fields are encoded one by one as little-endian; no struct is ever written
  * as it lies in memory. A writer streams zstd-compressed sections into a
  * temporary file, patches sizes and counts at the end, appends the footer
- * with the whole-file checksum and only then renames the file into place.
+ * with the whole-file checksum and only then publishes the file (fsync,
+ * rename, directory fsync: io/publish.c).
  */
 #include "voxdag.h"
 #include "le.h"
 
 #include <errno.h>
 #include <fcntl.h>
-#include <libgen.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -80,8 +80,7 @@ static void encode_header(uint8_t *buf, const struct vd_chunk_header *h,
 /* ---------------------------------------------------------------- writer */
 
 struct vd_chunk_writer {
-	FILE *f;
-	char *path, *tmp;
+	struct vd_atomic a; /* the file, under its temporary name */
 	struct vd_chunk_header h;
 	uint32_t section_count;
 	/* the open section */
@@ -99,12 +98,12 @@ struct vd_chunk_writer {
 static int writer_io_error(struct vd_chunk_writer *w, const char *what)
 {
 	w->failed = 1;
-	return vd_fail(VD_ERR_IO, "%s '%s': %s", what, w->tmp, strerror(errno));
+	return vd_fail(VD_ERR_IO, "%s '%s': %s", what, w->a.tmp, strerror(errno));
 }
 
 static int write_all(struct vd_chunk_writer *w, const void *p, size_t n)
 {
-	if (n && fwrite(p, 1, n, w->f) != n)
+	if (n && fwrite(p, 1, n, w->a.f) != n)
 		return writer_io_error(w, "cannot write");
 	return VD_OK;
 }
@@ -121,28 +120,19 @@ int vd_chunk_writer_open(struct vd_chunk_writer **out, const char *path,
 	if (!w)
 		return vd_fail(VD_ERR_NOMEM, "chunk writer");
 	w->h = *h;
-	w->path = strdup(path);
-	size_t tn = strlen(path) + 32;
-	w->tmp = malloc(tn);
 	w->hash = XXH3_createState();
-	if (!w->path || !w->tmp || !w->hash) {
+	if (!w->hash) {
 		vd_chunk_writer_abort(w);
 		return vd_fail(VD_ERR_NOMEM, "chunk writer");
 	}
-	snprintf(w->tmp, tn, "%s.tmp.%ld", path, (long)getpid());
-	w->f = fopen(w->tmp, "w+b"); /* read back for the file checksum */
-	if (!w->f) {
-		int e = errno;
-		int err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", w->tmp,
-				  strerror(e));
-		free(w->tmp);
-		w->tmp = NULL;
+	int err = vd_atomic_open(&w->a, path);
+	if (err) {
 		vd_chunk_writer_abort(w);
 		return err;
 	}
 	uint8_t buf[HEADER_MAX];
 	encode_header(buf, &w->h, 0);
-	int err = write_all(w, buf, header_size(w->h.level_count));
+	err = write_all(w, buf, header_size(w->h.level_count));
 	if (!err && provenance) {
 		err = vd_chunk_writer_begin(w, VD_TAG_PROV, -1);
 		if (!err)
@@ -175,8 +165,8 @@ int vd_chunk_writer_begin(struct vd_chunk_writer *w, uint32_t tag,
 			  int zstd_level)
 {
 	if (w->failed || w->in_section)
-		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
-	w->section_pos = ftello(w->f);
+		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->a.tmp);
+	w->section_pos = ftello(w->a.f);
 	uint8_t hdr[SECTION_HEADER] = {0};
 	int err = write_all(w, hdr, sizeof hdr); /* patched in _end */
 	if (err)
@@ -232,7 +222,7 @@ int vd_chunk_writer_write(struct vd_chunk_writer *w, const void *data,
 			  size_t n)
 {
 	if (w->failed || !w->in_section)
-		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->tmp);
+		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->a.tmp);
 	w->raw_size += n;
 	if (w->codec == CODEC_STORED)
 		return emit_stored(w, data, n);
@@ -243,7 +233,7 @@ int vd_chunk_writer_write(struct vd_chunk_writer *w, const void *data,
 int vd_chunk_writer_end(struct vd_chunk_writer *w)
 {
 	if (w->failed || !w->in_section)
-		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->tmp);
+		return vd_fail(VD_ERR_ARG, "no open section in '%s'", w->a.tmp);
 	if (w->codec == CODEC_ZSTD) {
 		ZSTD_inBuffer in = {NULL, 0, 0};
 		int err = zstd_pump(w, &in, ZSTD_e_end);
@@ -256,10 +246,10 @@ int vd_chunk_writer_end(struct vd_chunk_writer *w)
 	le_put64(hdr + 8, w->raw_size);
 	le_put64(hdr + 16, w->stored_size);
 	le_put64(hdr + 24, XXH3_64bits_digest(w->hash));
-	off_t end = ftello(w->f);
-	if (fseeko(w->f, w->section_pos, SEEK_SET) != 0 ||
-	    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
-	    fseeko(w->f, end, SEEK_SET) != 0)
+	off_t end = ftello(w->a.f);
+	if (fseeko(w->a.f, w->section_pos, SEEK_SET) != 0 ||
+	    fwrite(hdr, 1, sizeof hdr, w->a.f) != sizeof hdr ||
+	    fseeko(w->a.f, end, SEEK_SET) != 0)
 		return writer_io_error(w, "cannot write");
 	w->in_section = 0;
 	w->section_count++;
@@ -372,7 +362,7 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 			   void *ctx, int threads, int planes)
 {
 	if (w->failed || w->in_section)
-		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->tmp);
+		return vd_fail(VD_ERR_ARG, "section already open in '%s'", w->a.tmp);
 	if (planes && raw_size % 4)
 		return vd_fail(VD_ERR_ARG, "section '%.4s' of %llu bytes is not "
 			       "4-byte elements", (const char *)&tag,
@@ -399,7 +389,7 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 			err = vd_fail(VD_ERR_NOMEM, "section '%.4s'",
 				      (const char *)&tag);
 	/* the header first, patched with the sizes and checksum at the end */
-	off_t pos = err ? 0 : ftello(w->f);
+	off_t pos = err ? 0 : ftello(w->a.f);
 	uint8_t hdr[SECTION_HEADER] = {0};
 	if (!err)
 		err = write_all(w, hdr, sizeof hdr);
@@ -426,10 +416,10 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 		le_put64(hdr + 8, raw_size);
 		le_put64(hdr + 16, stored);
 		le_put64(hdr + 24, XXH3_64bits_digest(w->hash));
-		off_t end = ftello(w->f);
-		if (fseeko(w->f, pos, SEEK_SET) != 0 ||
-		    fwrite(hdr, 1, sizeof hdr, w->f) != sizeof hdr ||
-		    fseeko(w->f, end, SEEK_SET) != 0)
+		off_t end = ftello(w->a.f);
+		if (fseeko(w->a.f, pos, SEEK_SET) != 0 ||
+		    fwrite(hdr, 1, sizeof hdr, w->a.f) != sizeof hdr ||
+		    fseeko(w->a.f, end, SEEK_SET) != 0)
 			err = writer_io_error(w, "cannot write");
 		else
 			w->section_count++;
@@ -450,34 +440,20 @@ int vd_chunk_writer_frames(struct vd_chunk_writer *w, uint32_t tag,
 	return err;
 }
 
-/* fsync the directory holding `path` so the rename survives a crash. */
-static void sync_dir(const char *path)
-{
-	char *copy = strdup(path);
-	if (!copy)
-		return;
-	int fd = open(dirname(copy), O_RDONLY | O_DIRECTORY);
-	if (fd >= 0) {
-		fsync(fd);
-		close(fd);
-	}
-	free(copy);
-}
-
 int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 {
 	int err = VD_OK;
 	if (w->failed || w->in_section)
-		err = vd_fail(VD_ERR_ARG, "cannot commit '%s': %s", w->path,
+		err = vd_fail(VD_ERR_ARG, "cannot commit '%s': %s", w->a.path,
 			      w->in_section ? "a section is open"
 					    : "an earlier write failed");
 	uint8_t buf[HEADER_MAX];
 	if (!err) {
 		encode_header(buf, &w->h, w->section_count);
-		if (fseeko(w->f, 0, SEEK_SET) != 0 ||
-		    fwrite(buf, 1, header_size(w->h.level_count), w->f) !=
+		if (fseeko(w->a.f, 0, SEEK_SET) != 0 ||
+		    fwrite(buf, 1, header_size(w->h.level_count), w->a.f) !=
 			    header_size(w->h.level_count) ||
-		    fflush(w->f) != 0)
+		    fflush(w->a.f) != 0)
 			err = writer_io_error(w, "cannot write");
 	}
 	/* The whole-file checksum is taken from the bytes as they are on disk
@@ -485,14 +461,14 @@ int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 	uint64_t size = 0;
 	if (!err) {
 		XXH3_64bits_reset(w->hash);
-		if (fseeko(w->f, 0, SEEK_SET) != 0)
+		if (fseeko(w->a.f, 0, SEEK_SET) != 0)
 			err = writer_io_error(w, "cannot seek");
 		size_t n;
-		while (!err && (n = fread(buf, 1, sizeof buf, w->f)) > 0) {
+		while (!err && (n = fread(buf, 1, sizeof buf, w->a.f)) > 0) {
 			XXH3_64bits_update(w->hash, buf, n);
 			size += n;
 		}
-		if (!err && ferror(w->f))
+		if (!err && ferror(w->a.f))
 			err = writer_io_error(w, "cannot read back");
 	}
 	if (!err) {
@@ -501,24 +477,15 @@ int vd_chunk_writer_commit(struct vd_chunk_writer *w)
 		le_put64(foot + 8, size + FOOTER);
 		XXH3_64bits_update(w->hash, foot, 16);
 		le_put64(foot + 16, XXH3_64bits_digest(w->hash));
-		if (fseeko(w->f, 0, SEEK_END) != 0 ||
-		    fwrite(foot, 1, FOOTER, w->f) != FOOTER ||
-		    fflush(w->f) != 0 || fsync(fileno(w->f)) != 0)
+		if (fseeko(w->a.f, 0, SEEK_END) != 0 ||
+		    fwrite(foot, 1, FOOTER, w->a.f) != FOOTER ||
+		    fflush(w->a.f) != 0)
 			err = writer_io_error(w, "cannot write");
 	}
-	if (!err) {
-		int rc = fclose(w->f);
-		w->f = NULL;
-		if (rc != 0)
-			err = writer_io_error(w, "cannot close");
-	}
+	/* fsync, rename, fsync of the directory; the struct is then empty,
+	 * so abort below only frees the writer */
 	if (!err)
-		err = vd_replace_file(w->tmp, w->path);
-	if (!err) {
-		sync_dir(w->path);
-		free(w->tmp);
-		w->tmp = NULL; /* nothing for abort to remove */
-	}
+		err = vd_atomic_commit(&w->a);
 	vd_chunk_writer_abort(w);
 	return err;
 }
@@ -527,12 +494,7 @@ void vd_chunk_writer_abort(struct vd_chunk_writer *w)
 {
 	if (!w)
 		return;
-	if (w->f)
-		fclose(w->f);
-	if (w->tmp)
-		unlink(w->tmp);
-	free(w->tmp);
-	free(w->path);
+	vd_atomic_abort(&w->a);
 	XXH3_freeState(w->hash);
 	ZSTD_freeCCtx(w->zc);
 	free(w->zbuf);

@@ -1,5 +1,6 @@
 /* json.c - the small JSON writer every stage's statistics go through.
- * Written to a temporary name and renamed on close, like chunk files. */
+ * Published on close like chunk files (vd_atomic_*: fsync, rename,
+ * directory fsync), so a key never outlives the statistics it covers. */
 #include "voxdag.h"
 
 #include <errno.h>
@@ -14,8 +15,8 @@
 #define JSON_DEPTH 64
 
 struct vd_json {
-	FILE *f;
-	char *path, *tmp;
+	struct vd_atomic a;
+	FILE *f; /* a.f */
 	int depth;
 	int bad;       /* nested deeper than JSON_DEPTH, or an end too many */
 	int count[JSON_DEPTH]; /* members written so far at each depth */
@@ -24,22 +25,14 @@ struct vd_json {
 int vd_json_open(struct vd_json **out, const char *path)
 {
 	struct vd_json *j = calloc(1, sizeof *j);
-	size_t n = strlen(path) + 32;
-	if (!j || !(j->path = strdup(path)) || !(j->tmp = malloc(n))) {
-		if (j)
-			free(j->path);
-		free(j);
+	if (!j)
 		return vd_fail(VD_ERR_NOMEM, "json");
-	}
-	snprintf(j->tmp, n, "%s.tmp.%ld", path, (long)getpid());
-	if (!(j->f = fopen(j->tmp, "w"))) {
-		int err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", j->tmp,
-				  strerror(errno));
-		free(j->tmp);
-		free(j->path);
+	int err = vd_atomic_open(&j->a, path);
+	if (err) {
 		free(j);
 		return err;
 	}
+	j->f = j->a.f;
 	fputc('{', j->f);
 	*out = j;
 	return VD_OK;
@@ -136,23 +129,15 @@ void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
 int vd_json_close(struct vd_json *j)
 {
 	fputs("\n}\n", j->f);
-	int err = VD_OK;
-	if (j->bad || j->depth != 0)
+	int err;
+	if (j->bad || j->depth != 0) {
 		err = vd_fail(VD_ERR_INTERNAL, "'%s': objects and arrays nested "
 			      "deeper than %d or not closed in order",
-			      j->path, JSON_DEPTH);
-	else if (fflush(j->f) != 0 || ferror(j->f))
-		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
-			      strerror(errno));
-	if (fclose(j->f) != 0 && !err)
-		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", j->tmp,
-			      strerror(errno));
-	if (!err)
-		err = vd_replace_file(j->tmp, j->path);
-	if (err)
-		unlink(j->tmp);
-	free(j->tmp);
-	free(j->path);
+			      j->a.path, JSON_DEPTH);
+		vd_atomic_abort(&j->a); /* keeps the detail */
+	} else {
+		err = vd_atomic_commit(&j->a);
+	}
 	free(j);
 	return err;
 }

@@ -126,13 +126,12 @@ int vd_manifest_write(const char *dir)
 	int err = list_dir(dir, &names, &n);
 	if (err)
 		return err;
-	char path[PATH_MAX], tmp[PATH_MAX + 32];
+	char path[PATH_MAX];
 	snprintf(path, sizeof path, "%s/%s", dir, VD_MANIFEST_NAME);
-	snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-	FILE *f = fopen(tmp, "w");
-	if (!f)
-		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
-			      strerror(errno));
+	struct vd_atomic a;
+	int open_err = vd_atomic_open(&a, path);
+	err = open_err;
+	FILE *f = a.f;
 	if (f)
 		fprintf(f, MANIFEST_MAGIC "\n");
 	for (size_t i = 0; i < n; i++) {
@@ -147,16 +146,11 @@ int vd_manifest_write(const char *dir)
 		free(names[i]);
 	}
 	free(names);
-	if (f) {
-		int bad = fflush(f) != 0 || fsync(fileno(f)) != 0;
-		bad |= fclose(f) != 0;
-		if (!err && bad)
-			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
-				      strerror(errno));
+	if (!open_err) {
 		if (!err)
-			err = vd_replace_file(tmp, path);
-		if (err)
-			unlink(tmp);
+			err = vd_atomic_commit(&a);
+		else
+			vd_atomic_abort(&a);
 	}
 	return err;
 }
@@ -526,12 +520,23 @@ int vd_dir_swap(const char *staging, const char *final, int *had_old)
 		if (rename(staging, final) != 0)
 			return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
 				       staging, final, strerror(errno));
-		return VD_OK;
+		goto sync;
 	}
 	/* one step: readers see the old whole directory or the new one */
 	if (renameat2(AT_FDCWD, staging, AT_FDCWD, final, RENAME_EXCHANGE) != 0)
 		return vd_fail(VD_ERR_IO, "cannot swap '%s' into '%s': %s",
 			       staging, final, strerror(errno));
+sync:
+	/* the files inside are durable already (vd_atomic_commit synced the
+	 * staging directory after each); the swap is in final's parent. If
+	 * that cannot be synced, the swap is undone: callers take a failed
+	 * swap for one that did not happen. */
+	if (vd_fsync_parent(final) != VD_OK) {
+		char detail[512];
+		snprintf(detail, sizeof detail, "%s", vd_error_detail());
+		vd_dir_unswap(staging, final, *had_old);
+		return vd_fail(VD_ERR_IO, "%s", detail);
+	}
 	return VD_OK;
 }
 
@@ -543,7 +548,7 @@ int vd_dir_unswap(const char *staging, const char *final, int had_old)
 	if (r != 0)
 		return vd_fail(VD_ERR_IO, "cannot put '%s' back: %s", final,
 			       strerror(errno));
-	return VD_OK;
+	return vd_fsync_parent(final);
 }
 
 int vd_dir_publish(const char *staging, const char *final)

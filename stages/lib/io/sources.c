@@ -73,14 +73,11 @@ static int unescape(char *p)
 int vd_sources_write(const char *path, const struct vd_mesh_source *s,
 		     size_t n)
 {
-	char tmp[4200];
-	if ((size_t)snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path,
-			     (long)getpid()) >= sizeof tmp)
-		return vd_fail(VD_ERR_IO, "path too long: '%s'", path);
-	FILE *f = fopen(tmp, "w");
-	if (!f)
-		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
-			       strerror(errno));
+	struct vd_atomic a;
+	int err = vd_atomic_open(&a, path);
+	if (err)
+		return err;
+	FILE *f = a.f;
 	fputs(SOURCES_MAGIC "\n", f);
 	for (size_t i = 0; i < n; i++) {
 		if (s[i].found)
@@ -92,14 +89,7 @@ int vd_sources_write(const char *path, const struct vd_mesh_source *s,
 		put_path(f, s[i].path);
 		fputc('\n', f);
 	}
-	int bad = fflush(f) != 0 || fsync(fileno(f)) != 0;
-	bad |= fclose(f) != 0;
-	int err = bad ? vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
-				strerror(errno))
-		      : vd_replace_file(tmp, path);
-	if (err)
-		unlink(tmp);
-	return err;
+	return vd_atomic_commit(&a);
 }
 
 /* "XXH3 SIZE " at the start of a found file's line: 16 lower-case hex

@@ -22,12 +22,6 @@ using vd_shim::init_once;
 
 namespace {
 
-
-std::string temp_name(const char *path)
-{
-	return std::string(path) + ".tmp." + std::to_string(getpid());
-}
-
 // An output stream onto a file descriptor that keeps the errno of its
 // first failed write: io::File::write writes through an std::ofstream and
 // never checks it, so a full disk gave a cut .vdb and exit 0.
@@ -94,27 +88,32 @@ public:
 	}
 };
 
-// Writes grids to `tmp` (created) with every write, fsync and close
-// checked; VD_ERR_IO naming the cause otherwise. The caller catches.
-int write_vdb_checked(const std::string &tmp, const openvdb::GridPtrVec &grids)
+// Writes grids to `path` through vd_atomic_* (fsync, rename, directory
+// fsync) with every write checked; VD_ERR_IO naming the cause otherwise.
+// The caller catches; the temporary is removed on every way out,
+// exceptions included.
+int write_vdb_checked(const char *path, const openvdb::GridPtrVec &grids)
 {
-	int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-	if (fd < 0)
-		return vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp.c_str(),
-			       std::strerror(errno));
-	fd_buf buf(fd);
-	std::ostream os(&buf);
-	checked_file(tmp).write_to(os, grids);
-	os.flush();
-	int e = buf.drain() ? 0 : buf.error();
-	if (!e && fsync(fd) != 0)
-		e = errno;
-	if (::close(fd) != 0 && !e)
-		e = errno;
+	struct vd_atomic a;
+	if (int err = vd_atomic_open(&a, path))
+		return err;
+	struct guard {
+		vd_atomic *a;
+		~guard() { vd_atomic_abort(a); } // no-op after commit
+	} g{&a};
+	int e;
+	{
+		// straight onto the descriptor: a.f's buffer stays unused
+		fd_buf buf(fileno(a.f));
+		std::ostream os(&buf);
+		checked_file(a.tmp).write_to(os, grids);
+		os.flush();
+		e = buf.drain() ? 0 : buf.error();
+	}
 	if (e)
-		return vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp.c_str(),
+		return vd_fail(VD_ERR_IO, "cannot write '%s': %s", a.tmp,
 			       std::strerror(e));
-	return VD_OK;
+	return vd_atomic_commit(&a);
 }
 
 } // namespace
@@ -132,7 +131,6 @@ extern "C" int vd_vdb_export(const char *path, const char *grid_name,
 	if (!(t->voxel_size > 0) || !std::isfinite(t->voxel_size))
 		return vd_fail(VD_ERR_RANGE, "voxel size %g", t->voxel_size);
 	const int brick_bits = levels >= 2 ? 3 * (levels - 2) : 0;
-	std::string tmp = temp_name(path);
 	try {
 		init_once();
 		auto grid = openvdb::BoolGrid::create(false);
@@ -182,22 +180,10 @@ extern "C" int vd_vdb_export(const char *path, const char *grid_name,
 		if (voxels)
 			*voxels = grid->activeVoxelCount();
 		openvdb::GridPtrVec grids{grid};
-		if (int err = write_vdb_checked(tmp, grids)) {
-			std::remove(tmp.c_str());
-			return err;
-		}
-		if (std::rename(tmp.c_str(), path) != 0) {
-			int e = errno;
-			std::remove(tmp.c_str());
-			return vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
-				       tmp.c_str(), path, std::strerror(e));
-		}
-		return VD_OK;
+		return write_vdb_checked(path, grids);
 	} catch (const std::bad_alloc &) {
-		std::remove(tmp.c_str());
 		return vd_fail(VD_ERR_NOMEM, "building the grid");
 	} catch (const std::exception &e) {
-		std::remove(tmp.c_str());
 		return vd_fail(VD_ERR_IO, "cannot write '%s': OpenVDB: %s", path,
 			       e.what());
 	}

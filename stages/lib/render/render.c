@@ -34,6 +34,7 @@
 #include "voxdag.h"
 #include "le.h"
 #include "dag/dag_internal.h" /* the cube group's tables */
+#include "io/publish.h"
 #include "encode/encode_internal.h" /* the compact pointers */
 
 #include <errno.h>
@@ -841,41 +842,25 @@ int vd_render_image(const struct vd_render_scene *s,
 
 /* -------------------------------------------------------------- output */
 
-/* Writes `path` through write(FILE *, ctx) under a temporary name and
- * renames it into place when complete. */
+/* Writes `path` through write(FILE *, ctx) and publishes it
+ * (vd_atomic_*: fsync, rename, directory fsync) when complete. */
 static int write_atomic(const char *path, int (*write)(FILE *f, void *ctx),
 			void *ctx)
 {
-	size_t tl = strlen(path) + 32;
-	char *tmp = malloc(tl);
-	if (!tmp) return NOMEM();
-	snprintf(tmp, tl, "%s.tmp.%ld", path, (long)getpid());
-	int err = VD_OK;
-	FILE *f = fopen(tmp, "wb");
-	if (!f) {
-		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", tmp,
-			      strerror(errno));
-	} else {
-		vd_error_clear();
-		int bad = write(f, ctx) != 0;
+	struct vd_atomic a;
+	int err = vd_atomic_open(&a, path);
+	if (err)
+		return err;
+	vd_error_clear();
+	if (write(a.f, ctx) != 0) {
 		int e1 = errno;
-		bad = bad || fflush(f) != 0 || fsync(fileno(f)) != 0;
-		if (bad) e1 = errno;
-		if (fclose(f) != 0 && !bad) {
-			bad = 1;
-			e1 = errno;
-		}
-		if (bad)
-			err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", tmp,
-				      *vd_error_detail() ? vd_error_detail() :
-				      strerror(e1));
-		else if (rename(tmp, path) != 0)
-			err = vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s",
-				      tmp, path, strerror(errno));
-		if (err) unlink(tmp);
+		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", a.tmp,
+			      *vd_error_detail() ? vd_error_detail() :
+			      strerror(e1));
+		vd_atomic_abort(&a);
+		return err;
 	}
-	free(tmp);
-	return err;
+	return vd_atomic_commit(&a);
 }
 
 struct png_job {

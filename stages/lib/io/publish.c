@@ -1,0 +1,213 @@
+/* publish.c - durable publishing, the one mechanism every file and
+ * directory voxdag writes goes through (DESIGN.md, "Chunk files"; git's
+ * lock files, SQLite's and PostgreSQL's rules).
+ *
+ * Order matters and is the same everywhere: the data, fsync of the file,
+ * rename onto the final name, fsync of the directory. Without the file's
+ * fsync a power cut can leave the new name on an empty or partial file
+ * (ext4 and XFS may write the rename before the data); without the
+ * directory's the rename itself may be lost, so a later step that relied
+ * on the file (a key in the runner's journal) would outlive it.
+ *
+ * Temporaries are "<final>.tmp.<pid>", staged outputs "<final>.tmp.<pid>
+ * .new" and staging directories "<final>.tmp.<pid>": manifests and the
+ * runner skip names holding ".tmp.", and vd_dir_stage sweeps the staging
+ * directories of dead processes. */
+#include "io/publish.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+int vd_fsync_dir(const char *dir)
+{
+	int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+	if (fd < 0) {
+		if (errno == EACCES)
+			return VD_OK; /* nothing we may do; not the write's fault */
+		return vd_fail(VD_ERR_IO, "cannot sync directory '%s': %s", dir,
+			       strerror(errno));
+	}
+	int rc = fsync(fd), e = errno;
+	close(fd);
+	if (rc != 0 && e != EINVAL) {
+		errno = e;
+		return vd_fail(VD_ERR_IO, "cannot sync directory '%s': %s", dir,
+			       strerror(e));
+	}
+	return VD_OK;
+}
+
+/* The directory holding `path` into buf ("." for a bare name; trailing
+ * '/' ignored). 0, or -1 when it does not fit. */
+static int parent_of(const char *path, char *buf, size_t cap)
+{
+	size_t n = strlen(path);
+	while (n > 1 && path[n - 1] == '/')
+		n--;
+	while (n > 0 && path[n - 1] != '/')
+		n--;
+	while (n > 1 && path[n - 1] == '/')
+		n--; /* "a//b" -> "a"; "/b" keeps "/" */
+	const char *d = n ? path : ".";
+	size_t dl = n ? n : 1;
+	if (dl >= cap)
+		return -1;
+	memcpy(buf, d, dl);
+	buf[dl] = 0;
+	return 0;
+}
+
+int vd_fsync_parent(const char *path)
+{
+	size_t cap = strlen(path) + 2;
+	char *dir = malloc(cap);
+	if (!dir)
+		return vd_fail(VD_ERR_NOMEM, "syncing the directory of '%s'",
+			       path);
+	parent_of(path, dir, cap);
+	int err = vd_fsync_dir(dir);
+	free(dir);
+	return err;
+}
+
+/* vd_replace_file without the directory's fsync (vd_publish_pair syncs
+ * once for both files). */
+static int replace_nosync(const char *tmp, const char *path)
+{
+	struct stat st;
+	if (lstat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+		int e = S_ISDIR(st.st_mode) ? EISDIR : EEXIST;
+		vd_fail(VD_ERR_IO, "'%s' exists and is not a regular file; "
+			"refusing to replace it", path);
+		errno = e;
+		return VD_ERR_IO;
+	}
+	if (rename(tmp, path) != 0) {
+		int e = errno;
+		vd_fail(VD_ERR_IO, "cannot rename '%s' to '%s': %s", tmp, path,
+			strerror(e));
+		errno = e;
+		return VD_ERR_IO;
+	}
+	return VD_OK;
+}
+
+int vd_replace_file(const char *tmp, const char *path)
+{
+	int err = replace_nosync(tmp, path);
+	return err ? err : vd_fsync_parent(path);
+}
+
+int vd_atomic_open(struct vd_atomic *a, const char *path)
+{
+	memset(a, 0, sizeof *a);
+	size_t n = strlen(path) + 32;
+	a->path = strdup(path);
+	a->tmp = malloc(n);
+	if (!a->path || !a->tmp) {
+		vd_atomic_abort(a);
+		return vd_fail(VD_ERR_NOMEM, "writing '%s'", path);
+	}
+	snprintf(a->tmp, n, "%s.tmp.%ld", path, (long)getpid());
+	/* "w+": the chunk writer reads its bytes back for the checksum */
+	if (!(a->f = fopen(a->tmp, "w+b"))) {
+		int e = errno;
+		vd_fail(VD_ERR_IO, "cannot create '%s': %s", a->tmp,
+			strerror(e));
+		free(a->tmp);
+		a->tmp = NULL; /* not ours to remove */
+		vd_atomic_abort(a);
+		errno = e;
+		return VD_ERR_IO;
+	}
+	return VD_OK;
+}
+
+int vd_atomic_commit(struct vd_atomic *a)
+{
+	if (!a->f) {
+		vd_atomic_abort(a);
+		return vd_fail(VD_ERR_ARG, "vd_atomic_commit without an open "
+			       "file");
+	}
+	int e = 0;
+	if (fflush(a->f) != 0)
+		e = errno;
+	else if (ferror(a->f)) /* a write the caller did not check */
+		e = errno ? errno : EIO;
+	if (!e && fsync(fileno(a->f)) != 0)
+		e = errno;
+	if (fclose(a->f) != 0 && !e)
+		e = errno;
+	a->f = NULL;
+	int err = VD_OK;
+	if (e) {
+		err = vd_fail(VD_ERR_IO, "cannot write '%s': %s", a->tmp,
+			      strerror(e));
+	} else if ((err = replace_nosync(a->tmp, a->path))) {
+		e = errno;
+	} else {
+		free(a->tmp);
+		a->tmp = NULL; /* renamed: nothing for abort to remove */
+		if ((err = vd_fsync_parent(a->path)))
+			e = errno;
+	}
+	vd_atomic_abort(a);
+	if (err)
+		errno = e;
+	return err;
+}
+
+void vd_atomic_abort(struct vd_atomic *a)
+{
+	int saved = errno;
+	if (a->f)
+		fclose(a->f);
+	if (a->tmp)
+		unlink(a->tmp);
+	free(a->tmp);
+	free(a->path);
+	memset(a, 0, sizeof *a);
+	errno = saved;
+}
+
+int vd_stage_name(const char *final, char *buf, size_t cap)
+{
+	if ((size_t)snprintf(buf, cap, "%s.tmp.%ld.new", final,
+			     (long)getpid()) >= cap)
+		return vd_fail(VD_ERR_RANGE, "output path '%s' is too long",
+			       final);
+	return VD_OK;
+}
+
+int vd_publish_pair(const char *staged_out, const char *out,
+		    const char *staged_stats, const char *stats)
+{
+	int err = replace_nosync(staged_out, out);
+	if (!err)
+		err = replace_nosync(staged_stats, stats);
+	if (err) {
+		unlink(staged_out);
+		unlink(staged_stats);
+		return err;
+	}
+	size_t cap = strlen(out) + strlen(stats) + 4;
+	char *d1 = malloc(cap), *d2 = malloc(cap);
+	if (!d1 || !d2) {
+		free(d1);
+		free(d2);
+		return vd_fail(VD_ERR_NOMEM, "publishing '%s'", out);
+	}
+	parent_of(out, d1, cap);
+	parent_of(stats, d2, cap);
+	err = vd_fsync_dir(d1);
+	if (!err && strcmp(d1, d2) != 0)
+		err = vd_fsync_dir(d2);
+	free(d1);
+	free(d2);
+	return err;
+}

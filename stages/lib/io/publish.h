@@ -1,0 +1,31 @@
+/* publish.h - the library's own publishing helpers (io/publish.c), beside
+ * the public vd_atomic_* and vd_fsync_* of vd_chunk.h. Not installed. */
+#ifndef VD_PUBLISH_H
+#define VD_PUBLISH_H
+
+#include "voxdag.h"
+
+/* Renames the finished temporary file `tmp` (written and fsynced by the
+ * caller) onto `path`, then fsyncs path's directory: the last steps of
+ * vd_atomic_commit(), for outputs written under a staging name first.
+ * Refuses (VD_ERR_IO, errno EISDIR or EEXIST) when `path` exists and is
+ * not a regular file: run as root, a rename over an output path such as
+ * /dev/null would replace the device. `tmp` stays when the rename fails
+ * (the caller removes it). */
+int vd_replace_file(const char *tmp, const char *path);
+
+/* A file output and the statistics beside it are published as a pair:
+ * both are written complete under staging names (vd_stage_name: "<final>
+ * .tmp.<pid>.new", so it is taken for a temporary everywhere; each written
+ * through vd_atomic_*, so durable under that name), then vd_publish_pair
+ * renames them into place and fsyncs their directories once. Renames need
+ * no space, so a full disk fails before either is replaced and the
+ * previous pair stays whole (writing the output and then its statistics
+ * left a new output beside old statistics, or none). vd_stage_name
+ * returns VD_ERR_RANGE when `cap` is too small. vd_publish_pair removes
+ * the staged files it did not rename when a rename fails (VD_ERR_IO). */
+int vd_stage_name(const char *final, char *buf, size_t cap);
+int vd_publish_pair(const char *staged_out, const char *out,
+		    const char *staged_stats, const char *stats);
+
+#endif /* VD_PUBLISH_H */

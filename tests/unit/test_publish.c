@@ -1,0 +1,301 @@
+/* test_publish.c - durable publishing (stages/lib/io/publish.c): a commit
+ * publishes exactly the bytes written and nothing is under the final name
+ * before it; abort, a failed write (RLIMIT_FSIZE makes the disk "full") and
+ * a non-regular file in the way each leave the old file intact and no
+ * temporary; directory fsync of the right directory (and its errors);
+ * vd_stage_name / vd_publish_pair; vd_dir_swap. The order of the system
+ * calls (fsync, rename, directory fsync) is checked from the outside, with
+ * strace, by tests/cli/publish.sh. */
+#include "check.h"
+#include "voxdag.h"
+#include "io/publish.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char *dir;
+
+static const char *path_of(const char *name)
+{
+	static char p[4][600];
+	static int k;
+	k = (k + 1) % 4;
+	snprintf(p[k], sizeof p[k], "%s/%s", dir, name);
+	return p[k];
+}
+
+/* "<path>.tmp.<pid>", the temporary every writer uses. */
+static const char *tmp_of(const char *path)
+{
+	static char t[700];
+	snprintf(t, sizeof t, "%s.tmp.%ld", path, (long)getpid());
+	return t;
+}
+
+static int exists(const char *path)
+{
+	struct stat st;
+	return lstat(path, &st) == 0;
+}
+
+/* 1 when `path` holds exactly n bytes `want`. */
+static int holds(const char *path, const void *want, size_t n)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return 0;
+	char *buf = malloc(n + 1);
+	size_t got = buf ? fread(buf, 1, n + 1, f) : 0;
+	fclose(f);
+	int same = buf && got == n && memcmp(buf, want, n) == 0;
+	free(buf);
+	return same;
+}
+
+static void put(const char *path, const char *text)
+{
+	FILE *f = fopen(path, "wb");
+	CHECK(f != NULL);
+	if (f) {
+		fputs(text, f);
+		fclose(f);
+	}
+}
+
+/* Bytes of every value (including NULs and a size over stdio's buffer)
+ * reach the final name only at commit; the temporary is the documented
+ * name and is gone after; the struct is empty afterwards. */
+static void test_commit_exact_bytes(void)
+{
+	const char *p = path_of("a.bin");
+	put(p, "old");
+	size_t n = 300000;
+	unsigned char *data = malloc(n);
+	for (size_t i = 0; i < n; i++)
+		data[i] = (unsigned char)(i * 131 + (i >> 9));
+	struct vd_atomic a;
+	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
+	CHECK(a.f && !strcmp(a.path, p) && !strcmp(a.tmp, tmp_of(p)));
+	CHECK(exists(tmp_of(p)));
+	CHECK_EQ(fwrite(data, 1, n, a.f), n);
+	CHECK(holds(p, "old", 3)); /* untouched until commit */
+	CHECK_EQ(vd_atomic_commit(&a), VD_OK);
+	CHECK(!a.f && !a.path && !a.tmp);
+	CHECK(holds(p, data, n));
+	CHECK(!exists(tmp_of(p)));
+	vd_atomic_abort(&a); /* harmless on the emptied struct */
+	CHECK(holds(p, data, n));
+	/* an empty file is a file */
+	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
+	CHECK_EQ(vd_atomic_commit(&a), VD_OK);
+	CHECK(holds(p, "", 0));
+	free(data);
+}
+
+/* Abort keeps the old file (or no file) and removes the temporary. */
+static void test_abort(void)
+{
+	const char *p = path_of("b.txt");
+	put(p, "old");
+	struct vd_atomic a;
+	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
+	fputs("new", a.f);
+	vd_atomic_abort(&a);
+	CHECK(holds(p, "old", 3));
+	CHECK(!exists(tmp_of(p)));
+	const char *q = path_of("never.txt");
+	CHECK_EQ(vd_atomic_open(&a, q), VD_OK);
+	fputs("new", a.f);
+	vd_atomic_abort(&a);
+	CHECK(!exists(q) && !exists(tmp_of(q)));
+}
+
+/* A write that fails (a file size limit stands in for a full disk) fails
+ * the commit with "cannot write '<tmp>': cause", errno the cause; the old
+ * file stays, no temporary. */
+static void test_failed_write(void)
+{
+	const char *p = path_of("c.bin");
+	put(p, "old");
+	struct rlimit old, lim;
+	CHECK_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+	lim = old;
+	lim.rlim_cur = 4096;
+	void (*was)(int) = signal(SIGXFSZ, SIG_IGN);
+	struct vd_atomic a;
+	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
+	CHECK_EQ(setrlimit(RLIMIT_FSIZE, &lim), 0);
+	static char big[1 << 16];
+	memset(big, 'x', sizeof big);
+	fwrite(big, 1, sizeof big, a.f); /* fails at a buffer flush, unchecked */
+	vd_error_clear();
+	int err = vd_atomic_commit(&a);
+	int e = errno;
+	setrlimit(RLIMIT_FSIZE, &old);
+	signal(SIGXFSZ, was);
+	CHECK_EQ(err, VD_ERR_IO);
+	CHECK_EQ(e, EFBIG);
+	char want[800];
+	snprintf(want, sizeof want, "cannot write '%s': %s", tmp_of(p),
+		 strerror(EFBIG));
+	CHECK(!strcmp(vd_error_detail(), want));
+	if (strcmp(vd_error_detail(), want))
+		fprintf(stderr, "detail: %s\n", vd_error_detail());
+	CHECK(holds(p, "old", 3));
+	CHECK(!exists(tmp_of(p)));
+	vd_error_clear();
+}
+
+/* A missing directory: VD_ERR_IO naming the temporary, errno kept, the
+ * struct empty (no abort needed). */
+static void test_open_missing_dir(void)
+{
+	const char *p = path_of("no/such/x");
+	struct vd_atomic a;
+	vd_error_clear();
+	CHECK_EQ(vd_atomic_open(&a, p), VD_ERR_IO);
+	CHECK_EQ(errno, ENOENT);
+	CHECK(!a.f && !a.path && !a.tmp);
+	char want[800];
+	snprintf(want, sizeof want, "cannot create '%s': %s", tmp_of(p),
+		 strerror(ENOENT));
+	CHECK(!strcmp(vd_error_detail(), want));
+	vd_error_clear();
+}
+
+/* A directory, a FIFO or a symbolic link under the final name is not
+ * replaced: VD_ERR_IO with the refusal, errno EISDIR or EEXIST, the thing
+ * in the way untouched, no temporary. */
+static void test_refuse_non_regular(void)
+{
+	char d[600], fifo[600], link[600];
+	snprintf(d, sizeof d, "%s", path_of("isdir"));
+	snprintf(fifo, sizeof fifo, "%s", path_of("isfifo"));
+	snprintf(link, sizeof link, "%s", path_of("islink"));
+	CHECK_EQ(mkdir(d, 0777), 0);
+	CHECK_EQ(mkfifo(fifo, 0666), 0);
+	CHECK_EQ(symlink("target", link), 0);
+	const char *paths[3] = {d, fifo, link};
+	const int errs[3] = {EISDIR, EEXIST, EEXIST};
+	for (int i = 0; i < 3; i++) {
+		char p[600];
+		snprintf(p, sizeof p, "%s", paths[i]);
+		struct vd_atomic a;
+		CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
+		fputs("new", a.f);
+		vd_error_clear();
+		CHECK_EQ(vd_atomic_commit(&a), VD_ERR_IO);
+		CHECK_EQ(errno, errs[i]);
+		char want[800];
+		snprintf(want, sizeof want, "'%s' exists and is not a regular "
+			 "file; refusing to replace it", p);
+		CHECK(!strcmp(vd_error_detail(), want));
+		CHECK(!exists(tmp_of(p)));
+	}
+	struct stat st;
+	CHECK(lstat(d, &st) == 0 && S_ISDIR(st.st_mode));
+	CHECK(lstat(fifo, &st) == 0 && S_ISFIFO(st.st_mode));
+	CHECK(lstat(link, &st) == 0 && S_ISLNK(st.st_mode));
+	vd_error_clear();
+}
+
+/* The directory synced is the one holding the file: a missing one is an
+ * error naming it; bare names sync "."; trailing slashes are ignored. */
+static void test_fsync_dir(void)
+{
+	CHECK_EQ(vd_fsync_dir(dir), VD_OK);
+	CHECK_EQ(vd_fsync_parent(path_of("anything")), VD_OK);
+	CHECK_EQ(vd_fsync_parent("bare-name"), VD_OK);
+	CHECK_EQ(vd_fsync_parent("/"), VD_OK);
+	char p[700];
+	snprintf(p, sizeof p, "%s/", dir);
+	CHECK_EQ(vd_fsync_parent(p), VD_OK); /* syncs dir's parent */
+	vd_error_clear();
+	const char *missing = path_of("gone");
+	CHECK_EQ(vd_fsync_dir(missing), VD_ERR_IO);
+	char want[800];
+	snprintf(want, sizeof want, "cannot sync directory '%s': %s", missing,
+		 strerror(ENOENT));
+	CHECK(!strcmp(vd_error_detail(), want));
+	vd_error_clear();
+	CHECK_EQ(vd_fsync_parent(path_of("gone/x")), VD_ERR_IO);
+	CHECK(!strcmp(vd_error_detail(), want)); /* the parent, by name */
+	vd_error_clear();
+	CHECK_EQ(vd_fsync_dir(path_of("a.bin")), VD_ERR_IO); /* not a dir */
+	vd_error_clear();
+}
+
+/* A pair staged under "<final>.tmp.<pid>.new" is published whole; when the
+ * second rename is refused, both staged files are removed. */
+static void test_publish_pair(void)
+{
+	char out[600], st[600], out2[600], st2[600];
+	snprintf(out, sizeof out, "%s", path_of("o.dag"));
+	snprintf(st, sizeof st, "%s", path_of("o.dag.stats.json"));
+	snprintf(out2, sizeof out2, "%s", path_of("p.dag"));
+	snprintf(st2, sizeof st2, "%s", path_of("p.stats"));
+	char so[700], ss[700];
+	CHECK_EQ(vd_stage_name(out, so, sizeof so), VD_OK);
+	CHECK_EQ(vd_stage_name(st, ss, sizeof ss), VD_OK);
+	char want[700];
+	snprintf(want, sizeof want, "%s.new", tmp_of(out));
+	CHECK(!strcmp(so, want));
+	char tiny[8];
+	CHECK_EQ(vd_stage_name(out, tiny, sizeof tiny), VD_ERR_RANGE);
+	put(so, "dag");
+	put(ss, "{}");
+	CHECK_EQ(vd_publish_pair(so, out, ss, st), VD_OK);
+	CHECK(holds(out, "dag", 3) && holds(st, "{}", 2));
+	CHECK(!exists(so) && !exists(ss));
+	/* the statistics' name taken by a directory */
+	CHECK_EQ(mkdir(st2, 0777), 0);
+	CHECK_EQ(vd_stage_name(out2, so, sizeof so), VD_OK);
+	CHECK_EQ(vd_stage_name(st2, ss, sizeof ss), VD_OK);
+	put(so, "dag");
+	put(ss, "{}");
+	vd_error_clear();
+	CHECK_EQ(vd_publish_pair(so, out2, ss, st2), VD_ERR_IO);
+	CHECK(!exists(so) && !exists(ss));
+	vd_error_clear();
+}
+
+/* vd_dir_swap: into an absent place, then over an old directory (the old
+ * one is then under the staging name), and back with vd_dir_unswap. */
+static void test_dir_swap(void)
+{
+	char final[600], stage[600]; /* path_of's buffers are reused */
+	snprintf(final, sizeof final, "%s", path_of("d"));
+	snprintf(stage, sizeof stage, "%s", path_of("d.tmp.1"));
+	CHECK_EQ(mkdir(stage, 0777), 0);
+	put(path_of("d.tmp.1/f"), "one");
+	int had_old = -1;
+	CHECK_EQ(vd_dir_swap(stage, final, &had_old), VD_OK);
+	CHECK_EQ(had_old, 0);
+	CHECK(holds(path_of("d/f"), "one", 3) && !exists(stage));
+	CHECK_EQ(mkdir(stage, 0777), 0);
+	put(path_of("d.tmp.1/f"), "two");
+	CHECK_EQ(vd_dir_swap(stage, final, &had_old), VD_OK);
+	CHECK_EQ(had_old, 1);
+	CHECK(holds(path_of("d/f"), "two", 3));
+	CHECK(holds(path_of("d.tmp.1/f"), "one", 3));
+	CHECK_EQ(vd_dir_unswap(stage, final, had_old), VD_OK);
+	CHECK(holds(path_of("d/f"), "one", 3));
+	CHECK(holds(path_of("d.tmp.1/f"), "two", 3));
+}
+
+int main(void)
+{
+	dir = test_tmpdir("test_publish");
+	RUN(test_commit_exact_bytes);
+	RUN(test_abort);
+	RUN(test_failed_write);
+	RUN(test_open_missing_dir);
+	RUN(test_refuse_non_regular);
+	RUN(test_fsync_dir);
+	RUN(test_publish_pair);
+	RUN(test_dir_swap);
+	return CHECK_DONE();
+}
