@@ -328,7 +328,7 @@ int vd_dag_run(const struct vd_dag_job *job);
 /* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
 void vd_dag_release(struct vd_dag *dag);
 
-/* The whole command line of svo-to-dag and symmetry-merge (dag_main.c):
+/* The whole command line of svo-to-dag and symmetry-merge (stage.c):
  * they share their options and differ in `kind`; `usage` is the tool's
  * --help text. Returns the exit status. */
 int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,
