@@ -13,7 +13,10 @@
 extern "C" {
 #endif
 
-/* ------------------------------------------------- DAG and SSVDAG (dag.c) */
+/* -------------------------------------------------- DAG and SSVDAG (dag/) */
+/* Built and merged in build.c, expanded in expand.c, checked in verify.c,
+ * stored in dag_file.c, compared with SVOs in compare.c, run as the stages
+ * svo-to-dag and symmetry-merge in stage.c. */
 /* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
  * (VD_KIND_SSVDAG) of one cell at `chunk_level`, or its 48-group version
  * (VD_KIND_SSVDAG48: `refl` holds cube transforms 0..47, see "Cube group"
