@@ -1158,21 +1158,21 @@ static int inner_parallel_pays(const struct engine *e, int l)
 	return inner_extra_bytes(e, l, groups) <= e->spare_bytes;
 }
 
-/* Level l's nodes into b (its arrays exact, b->slot unused), the parts'
- * remaps into rm, the groups into nf; the same as the serial loops. */
-static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
-			  struct front *nf, struct remap *rm)
+/* inner_parallel's first step: the parts with nodes on level ip->l, the
+ * ranges of elements over them and the frontier, and the shards (ip->pa,
+ * npa, npe, r, nr, kf, sh, ns, sbase). On an error ipass_free releases
+ * what it made. */
+static int inner_plan(struct ipass *ip)
 {
-	struct ipass ip = {.e = e, .l = l, .asis = asis, .shift = b->shift,
-			   .rm = rm, .b = b};
-	int t = pass_threads(e), err = VD_OK;
+	struct engine *e = ip->e;
+	int l = ip->l;
 	int treq = e->threads > 0 ? e->threads : vd_hardware_threads();
 	/* the parts with nodes on this level, and ranges over them and the
 	 * frontier of about `chunk` elements each, several per thread */
 	uint64_t est = e->fr.n / 4;
 	for (size_t p = 0; p < e->np; p++)
 		if (e->parts[p]->chunk_level <= l) {
-			ip.npa++;
+			ip->npa++;
 			est += e->parts[p]->lv[l].nodes;
 		}
 	uint64_t chunk = est / ((uint64_t)treq * 8);
@@ -1183,47 +1183,43 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		if (e->parts[p]->chunk_level <= l)
 			nr += (size_t)((e->parts[p]->lv[l].nodes + chunk - 1) /
 				       chunk);
-	ip.pa = calloc(ip.npa ? ip.npa : 1, sizeof *ip.pa);
-	ip.r = calloc(nr ? nr : 1, sizeof *ip.r);
+	ip->pa = calloc(ip->npa ? ip->npa : 1, sizeof *ip->pa);
+	ip->r = calloc(nr ? nr : 1, sizeof *ip->r);
 	/* shards of about 16 thousand elements, so that a table (at most 4
 	 * slots of 8 bytes an element: 512 KiB) stays in cache; several per
 	 * thread, which balance the load */
 	unsigned ns = 8;
 	while (ns < 1024 && ((uint64_t)ns << 14 < est || ns < 4u * (unsigned)treq))
 		ns *= 2;
-	ip.ns = ns;
-	ip.sh = calloc(ns, sizeof *ip.sh);
-	ip.sbase = calloc(ns + 1, 8);
-	if (!ip.pa || !ip.r || !ip.sh || !ip.sbase) {
-		err = NOMEM();
-		goto out;
-	}
+	ip->ns = ns;
+	ip->sh = calloc(ns, sizeof *ip->sh);
+	ip->sbase = calloc(ns + 1, 8);
+	if (!ip->pa || !ip->r || !ip->sh || !ip->sbase)
+		return NOMEM();
 	size_t a = 0, k = 0;
 	uint64_t base = 0;
 	for (size_t p = 0; p < e->np; p++) {
 		const struct vd_dag *d = e->parts[p];
 		if (d->chunk_level > l) continue;
-		struct ipart *pa = &ip.pa[a];
+		struct ipart *pa = &ip->pa[a];
 		uint64_t n = d->lv[l].nodes, refs = d->lv[l].refs;
 		pa->p = p;
 		pa->base = base;
 		pa->kid = malloc(refs ? (size_t)refs * 4 : 4);
 		if (e->sym) pa->kr = malloc(refs ? (size_t)refs : 1);
-		if (!pa->kid || (e->sym && !pa->kr)) {
-			err = NOMEM();
-			goto out;
-		}
+		if (!pa->kid || (e->sym && !pa->kr))
+			return NOMEM();
 		for (uint64_t lo = 0; lo < n; lo += chunk, k++) {
-			ip.r[k].part = a;
-			ip.r[k].lo = lo;
-			ip.r[k].hi = n - lo < chunk ? n : lo + chunk;
-			ip.r[k].e0 = base + lo;
-			ip.r[k].e1 = base + ip.r[k].hi;
+			ip->r[k].part = a;
+			ip->r[k].lo = lo;
+			ip->r[k].hi = n - lo < chunk ? n : lo + chunk;
+			ip->r[k].e0 = base + lo;
+			ip->r[k].e1 = base + ip->r[k].hi;
 		}
 		base += n;
 		a++;
 	}
-	ip.npe = base;
+	ip->npe = base;
 	/* frontier ranges end on group boundaries */
 	size_t kf = k, nfr = nr - kf;
 	const struct felem *fe = e->fr.e;
@@ -1232,18 +1228,30 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		while (lo > 0 && lo < e->fr.n &&
 		       fe[lo].morton >> 3 == fe[lo - 1].morton >> 3)
 			lo++;
-		ip.r[k].part = ip.npa;
-		ip.r[k].lo = lo;
-		if (q) ip.r[k - 1].hi = lo;
+		ip->r[k].part = ip->npa;
+		ip->r[k].lo = lo;
+		if (q) ip->r[k - 1].hi = lo;
 	}
-	if (nfr) ip.r[nr - 1].hi = e->fr.n;
-	ip.nr = nr;
+	if (nfr) ip->r[nr - 1].hi = e->fr.n;
+	ip->nr = nr;
 	for (k = 0; k < nr; k++)
-		if (!(ip.r[k].cnt = calloc(ns, 8))) {
-			err = NOMEM();
-			goto out;
-		}
-	ip.kf = kf;
+		if (!(ip->r[k].cnt = calloc(ns, 8)))
+			return NOMEM();
+	ip->kf = kf;
+	return VD_OK;
+}
+
+/* Level l's nodes into b (its arrays exact, b->slot unused), the parts'
+ * remaps into rm, the groups into nf; the same as the serial loops. */
+static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
+			  struct front *nf, struct remap *rm)
+{
+	struct ipass ip = {.e = e, .l = l, .asis = asis, .shift = b->shift,
+			   .rm = rm, .b = b};
+	int t = pass_threads(e), err = inner_plan(&ip);
+	if (err) goto out;
+	size_t nr = ip.nr, kf = ip.kf, nfr = nr - kf, k;
+	unsigned ns = ip.ns;
 	if ((err = vd_parallel_for(nfr, t, inner_count_groups, &ip))) goto out;
 	uint64_t groups = 0;
 	for (k = kf; k < nr; k++) {
