@@ -1,8 +1,8 @@
-/* dag_internal.h - what the files of dag/ share: symmetry canonical forms
- * of bricks and inner nodes (ssvdag.c, cube48.c), and the helpers that the
- * builder (build.c), expansion (expand.c), checks (verify.c), chunk files
- * (dag_file.c), stage runs (stage.c) and comparison (compare.c) have in
- * common. Not part of the public API. */
+/* dag_internal.h - what the files of dag/ share: the symmetry canonical
+ * forms of bricks and inner nodes (ssvdag.c) that the builder uses, and
+ * the helpers that the builder (build.c), expansion (expand.c), checks
+ * (verify.c), chunk files (dag_file.c), stage runs (stage.c) and
+ * comparison (compare.c) have in common. Not part of the public API. */
 #ifndef VD_DAG_INTERNAL_H
 #define VD_DAG_INTERNAL_H
 
