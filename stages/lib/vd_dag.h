@@ -13,7 +13,10 @@
 extern "C" {
 #endif
 
-/* ------------------------------------------------- DAG and SSVDAG (dag.c) */
+/* -------------------------------------------------- DAG and SSVDAG (dag/) */
+/* Built and merged in build.c, expanded in expand.c, checked in verify.c,
+ * stored in dag_file.c, compared with SVOs in compare.c, run as the stages
+ * svo-to-dag and symmetry-merge in stage.c. */
 /* A DAG chunk in memory: the minimal SVDAG (VD_KIND_DAG) or SSVDAG
  * (VD_KIND_SSVDAG) of one cell at `chunk_level`, or its 48-group version
  * (VD_KIND_SSVDAG48: `refl` holds cube transforms 0..47, see "Cube group"
@@ -328,7 +331,7 @@ int vd_dag_run(const struct vd_dag_job *job);
 /* Frees everything `dag` holds and zeroes it. Accepts a zeroed struct. */
 void vd_dag_release(struct vd_dag *dag);
 
-/* The whole command line of svo-to-dag and symmetry-merge (dag_main.c):
+/* The whole command line of svo-to-dag and symmetry-merge (stage.c):
  * they share their options and differ in `kind`; `usage` is the tool's
  * --help text. Returns the exit status. */
 int vd_dag_stage_main(int argc, char **argv, const char *tool, uint32_t kind,

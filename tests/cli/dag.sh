@@ -276,7 +276,7 @@ expect verify-depths 1 "is not inside the DAG's cell" \
 	$BIN/dag-verify "$S/root.dag" "$other"
 
 # --help lists exactly the options in the code (both stages share theirs)
-help_lists_options help_matches_code_svo_to_dag svo-to-dag stages/lib/dag/dag_main.c
-help_lists_options help_matches_code_symmetry_merge symmetry-merge stages/lib/dag/dag_main.c
+help_lists_options help_matches_code_svo_to_dag svo-to-dag stages/lib/dag/stage.c
+help_lists_options help_matches_code_symmetry_merge symmetry-merge stages/lib/dag/stage.c
 help_lists_options help_matches_code_dag_verify dag-verify stages/dag-verify/main.c
 exit 0

@@ -7,7 +7,7 @@
 # and SSVDAG48 of the root and their merges. The scene is chosen so that
 # the sharded inner pass runs: 898 thousand bricks and 175 thousand nodes
 # on level 8, above the 65536 elements under which a level keeps the
-# serial loops (dag.c, PAR_MIN); the test checks those sizes, so a smaller
+# serial loops (build.c, PAR_MIN); the test checks those sizes, so a smaller
 # scene cannot pass it vacuously. Under the least budget a run accepts
 # there is no room for the sharded pass and the serial loops run: their
 # chunks must be the same too. The multi-threaded outputs verify against

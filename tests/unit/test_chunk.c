@@ -323,7 +323,7 @@ static void test_svo_content_checks(void)
 	CHECK(strstr(vd_error_detail(), "outside") != NULL);
 }
 
-/* vd_transform_equal against pairs the three old comparisons (dag.c:
+/* vd_transform_equal against pairs the three old comparisons (now dag/stage.c:
  * box, side, origin, voxel size by ==; encode.c: box and side; vdb_export.c:
  * origin and voxel size) judged wrongly. */
 static void test_transform_equal(void)

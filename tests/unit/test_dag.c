@@ -243,7 +243,7 @@ static void test_merge_partial_and_mixed(void)
 	grid_free(&g);
 }
 
-/* The merge bound: a value worked out by hand from its comment in dag.c,
+/* The merge bound: a value worked out by hand from its comment in build.c,
  * and on real merges at least the parts and the output it must hold, no
  * lower from headers than from loaded parts, and subadditive (what lets
  * the planner sum shares). */

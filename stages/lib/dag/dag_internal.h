@@ -1,5 +1,8 @@
-/* dag_internal.h - what dag.c and ssvdag.c share: symmetry canonical forms
- * of bricks and inner nodes. Not part of the public API. */
+/* dag_internal.h - what the files of dag/ share: the symmetry canonical
+ * forms of bricks and inner nodes (ssvdag.c) that the builder uses, and
+ * the helpers that the builder (build.c), expansion (expand.c), checks
+ * (verify.c), chunk files (dag_file.c), stage runs (stage.c) and
+ * comparison (compare.c) have in common. Not part of the public API. */
 #ifndef VD_DAG_INTERNAL_H
 #define VD_DAG_INTERNAL_H
 
@@ -99,5 +102,61 @@ void vd__brick_canon48(uint64_t v, uint64_t *canon, uint8_t *t, uint8_t *inv);
 int vd__node_canon48(int asis, unsigned mask, const uint32_t id[8],
 		     const uint8_t r[8], const uint8_t g[8], uint64_t key[9],
 		     uint8_t *t, uint8_t *inv);
+
+/* ---- build.c, expand.c, verify.c, dag_file.c, stage.c, compare.c */
+
+/* The most distinct nodes one level may hold: the builder refuses more,
+ * the checks call more corrupt. */
+#define VD__DAG_MAX_LEVEL_NODES 0x7fffffffULL
+
+/* Bits set in a child mask; the builtin is a libgcc call without
+ * -mpopcnt. */
+static inline int vd__dag_pop8(unsigned m)
+{
+	m -= m >> 1 & 0x55;
+	m = (m & 0x33) + (m >> 2 & 0x33);
+	return (int)((m + (m >> 4)) & 0x0f);
+}
+
+/* SWAR popcount: without -mpopcnt the builtin is a libgcc call. */
+static inline uint64_t vd__dag_popcount64(uint64_t v)
+{
+	v -= v >> 1 & 0x5555555555555555ULL;
+	v = (v & 0x3333333333333333ULL) + (v >> 2 & 0x3333333333333333ULL);
+	v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+	return v * 0x0101010101010101ULL >> 56;
+}
+
+/* Leaf mask m as a reference with transform t reaches it in a chunk of
+ * `kind`. */
+static inline uint8_t vd__dag_ref_mask(uint32_t kind, uint8_t m, unsigned t)
+{
+	return kind == VD_KIND_SSVDAG48 ? vd_g48_mask(m, t)
+					: vd_mask_reflect(m, t & 7);
+}
+
+/* Whether `kind` is one of the DAG kinds: dag, ssvdag or ssvdag48
+ * (verify.c). */
+int vd__dag_is_dag_kind(uint32_t kind);
+
+/* The brick value of node i on level L-2 of d from its leaf masks
+ * (build.c). */
+uint64_t vd__dag_mask_brick(const struct vd_dag *d, uint64_t i);
+
+/* 8^(L - level) as a voxel-range size: the voxels of a cell on `level`
+ * of an L-level grid; fits for L - level <= 21 (build.c). */
+uint64_t vd__dag_cell_span(int L, int level);
+
+/* Records `need` as the memory estimate in *st (when not NULL) and fails
+ * with VD_ERR_BUDGET when o's budget is set and below it (build.c). */
+int vd__dag_check_budget(const struct vd_dag_opts *o, uint64_t need,
+			 struct vd_dag_stats *st);
+
+/* vd_dag_from_svo; `counts`, when not NULL, the level counts of the chunk
+ * header `svo` was read from by vd_svo_from_chunk, which let it skip its
+ * own pass over the bricks (build.c). */
+int vd__dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		     uint32_t kind, const struct vd_dag_opts *opts,
+		     struct vd_dag_stats *stats, const uint64_t *counts);
 
 #endif

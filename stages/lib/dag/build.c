@@ -1,6 +1,8 @@
-/* dag.c - minimal SVDAG / SSVDAG construction by bottom-up reduction
+/* build.c - minimal SVDAG / SSVDAG construction by bottom-up reduction
  * (Kämpe et al. 2013; SSVDAG paper §3, §4.1, §4.2), the merge of sibling
- * chunks, expansion back to bricks, validation.
+ * chunks, and the memory bounds of both. Expansion back to bricks is in
+ * expand.c, the checks in verify.c, chunk files in dag_file.c, the stage
+ * runs in stage.c, the comparison with SVOs in compare.c.
  *
  * One engine does every build. It walks the levels bottom-up; on each level
  * it gathers the nodes of that level from three sources, canonicalizes each
@@ -26,7 +28,6 @@
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 
@@ -70,8 +71,6 @@ static inline uint64_t key_hash(const uint64_t *key, int k)
  * distinct nodes per level. */
 #define SLOT_TAG(h) ((h) & 0xffffffff00000000ULL)
 #define SLOT_INDEX(h, mask) (((h) >> 32) & (mask))
-#define MAX_LEVEL_NODES 0x7fffffffULL
-
 /* ----------------------------------------------------------- brick sets */
 
 struct bset {
@@ -140,9 +139,9 @@ static inline int bset_insert(struct bset *b, uint64_t v, uint8_t inv,
 			}
 		}
 	}
-	if (b->n >= MAX_LEVEL_NODES)
+	if (b->n >= VD__DAG_MAX_LEVEL_NODES)
 		return vd_fail(VD_ERR_RANGE, "more than %llu distinct bricks",
-			       (unsigned long long)MAX_LEVEL_NODES);
+			       (unsigned long long)VD__DAG_MAX_LEVEL_NODES);
 	if (b->n == b->cap) {
 		uint64_t c = next_cap(b->cap, b->n + 1);
 		int err = grow((void **)&b->v, c, 8);
@@ -212,9 +211,9 @@ static int nset_insert(struct nset *b, const uint64_t *key, int k,
 			}
 		}
 	}
-	if (b->n >= MAX_LEVEL_NODES)
+	if (b->n >= VD__DAG_MAX_LEVEL_NODES)
 		return vd_fail(VD_ERR_RANGE, "more than %llu distinct nodes "
-			       "on a level", (unsigned long long)MAX_LEVEL_NODES);
+			       "on a level", (unsigned long long)VD__DAG_MAX_LEVEL_NODES);
 	int err;
 	if (b->n + 1 >= b->cap) {
 		uint64_t c = next_cap(b->cap, b->n + 2);
@@ -405,16 +404,8 @@ static struct remap *remaps_new(struct engine *e, int l)
 	return rm;
 }
 
-/* Leaf mask m as a reference with transform t reaches it in a chunk of
- * `kind`. */
-static inline uint8_t ref_mask(uint32_t kind, uint8_t m, unsigned t)
-{
-	return kind == VD_KIND_SSVDAG48 ? vd_g48_mask(m, t)
-					: vd_mask_reflect(m, t & 7);
-}
-
 /* The brick value of node i on level L-2 of d from its leaf masks. */
-static uint64_t mask_brick(const struct vd_dag *d, uint64_t i)
+uint64_t vd__dag_mask_brick(const struct vd_dag *d, uint64_t i)
 {
 	int L = d->levels;
 	const struct vd_dag_level *lv = &d->lv[L - 2];
@@ -422,7 +413,7 @@ static uint64_t mask_brick(const struct vd_dag *d, uint64_t i)
 	for (unsigned s = 0; s < 8; s++) {
 		if (!(lv->mask[i] >> s & 1)) continue;
 		uint8_t m = d->lv[L - 1].mask[lv->child[j]];
-		if (lv->refl) m = ref_mask(d->kind, m, lv->refl[j]);
+		if (lv->refl) m = vd__dag_ref_mask(d->kind, m, lv->refl[j]);
 		v |= (uint64_t)m << (8 * s);
 		j++;
 	}
@@ -432,7 +423,7 @@ static uint64_t mask_brick(const struct vd_dag *d, uint64_t i)
 /* The brick value of node i on level L-2 of part d (unreflected). */
 static uint64_t part_brick(const struct vd_dag *d, uint64_t i)
 {
-	return d->bricks ? d->bricks[i] : mask_brick(d, i);
+	return d->bricks ? d->bricks[i] : vd__dag_mask_brick(d, i);
 }
 
 static inline int brick_add(struct engine *e, struct bset *b, uint64_t v,
@@ -854,15 +845,6 @@ struct ipass {
 	struct nset *b;      /* the level's output arrays */
 };
 
-/* Bits set in a child mask; the builtin is a libgcc call without
- * -mpopcnt. */
-static inline int pop8(unsigned m)
-{
-	m -= m >> 1 & 0x55;
-	m = (m & 0x33) + (m >> 2 & 0x33);
-	return (int)((m + (m >> 4)) & 0x0f);
-}
-
 /* A key record: the hash (8 bytes), the element (4), key[0] (1), then k
  * children (4 bytes each) and for a symmetric DAG their reflections (1
  * each). A shard reads its records in a row and compares within them, so
@@ -977,7 +959,7 @@ static void inner_scatter(void *ctx, size_t k, int worker)
 		uint64_t h = ip->h[x];
 		uint8_t *q = ip->rec + r->cnt[h & sm];
 		uint32_t x32 = (uint32_t)x;
-		int n = pop8(ip->mask[x]);
+		int n = vd__dag_pop8(ip->mask[x]);
 		memcpy(q, &h, 8);
 		memcpy(q + 8, &x32, 4);
 		q[12] = ip->mask[x];
@@ -999,7 +981,7 @@ static void inner_dedup(void *ctx, size_t s, int worker)
 	uint64_t lo = ip->sbase[s], hi = ip->sbase[s + 1], m = 0;
 	(void)worker;
 	for (uint64_t t = lo; t < hi; m++) /* records */
-		t += REC_SIZE(ip, pop8(ip->rec[t + 12]));
+		t += REC_SIZE(ip, vd__dag_pop8(ip->rec[t + 12]));
 	/* room for every record at half load, so the table never doubles;
 	 * only the shards being worked on have one */
 	uint64_t c = 256;
@@ -1011,7 +993,7 @@ static void inner_dedup(void *ctx, size_t s, int worker)
 	sh->scap = c;
 	for (uint64_t t = lo; t < hi;) {
 		const uint8_t *q = ip->rec + t;
-		uint64_t h, size = REC_SIZE(ip, pop8(q[12]));
+		uint64_t h, size = REC_SIZE(ip, vd__dag_pop8(q[12]));
 		uint32_t x;
 		memcpy(&h, q, 8);
 		memcpy(&x, q + 8, 4);
@@ -1177,21 +1159,21 @@ static int inner_parallel_pays(const struct engine *e, int l)
 	return inner_extra_bytes(e, l, groups) <= e->spare_bytes;
 }
 
-/* Level l's nodes into b (its arrays exact, b->slot unused), the parts'
- * remaps into rm, the groups into nf; the same as the serial loops. */
-static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
-			  struct front *nf, struct remap *rm)
+/* inner_parallel's first step: the parts with nodes on level ip->l, the
+ * ranges of elements over them and the frontier, and the shards (ip->pa,
+ * npa, npe, r, nr, kf, sh, ns, sbase). On an error ipass_free releases
+ * what it made. */
+static int inner_plan(struct ipass *ip)
 {
-	struct ipass ip = {.e = e, .l = l, .asis = asis, .shift = b->shift,
-			   .rm = rm, .b = b};
-	int t = pass_threads(e), err = VD_OK;
+	struct engine *e = ip->e;
+	int l = ip->l;
 	int treq = e->threads > 0 ? e->threads : vd_hardware_threads();
 	/* the parts with nodes on this level, and ranges over them and the
 	 * frontier of about `chunk` elements each, several per thread */
 	uint64_t est = e->fr.n / 4;
 	for (size_t p = 0; p < e->np; p++)
 		if (e->parts[p]->chunk_level <= l) {
-			ip.npa++;
+			ip->npa++;
 			est += e->parts[p]->lv[l].nodes;
 		}
 	uint64_t chunk = est / ((uint64_t)treq * 8);
@@ -1202,47 +1184,43 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		if (e->parts[p]->chunk_level <= l)
 			nr += (size_t)((e->parts[p]->lv[l].nodes + chunk - 1) /
 				       chunk);
-	ip.pa = calloc(ip.npa ? ip.npa : 1, sizeof *ip.pa);
-	ip.r = calloc(nr ? nr : 1, sizeof *ip.r);
+	ip->pa = calloc(ip->npa ? ip->npa : 1, sizeof *ip->pa);
+	ip->r = calloc(nr ? nr : 1, sizeof *ip->r);
 	/* shards of about 16 thousand elements, so that a table (at most 4
 	 * slots of 8 bytes an element: 512 KiB) stays in cache; several per
 	 * thread, which balance the load */
 	unsigned ns = 8;
 	while (ns < 1024 && ((uint64_t)ns << 14 < est || ns < 4u * (unsigned)treq))
 		ns *= 2;
-	ip.ns = ns;
-	ip.sh = calloc(ns, sizeof *ip.sh);
-	ip.sbase = calloc(ns + 1, 8);
-	if (!ip.pa || !ip.r || !ip.sh || !ip.sbase) {
-		err = NOMEM();
-		goto out;
-	}
+	ip->ns = ns;
+	ip->sh = calloc(ns, sizeof *ip->sh);
+	ip->sbase = calloc(ns + 1, 8);
+	if (!ip->pa || !ip->r || !ip->sh || !ip->sbase)
+		return NOMEM();
 	size_t a = 0, k = 0;
 	uint64_t base = 0;
 	for (size_t p = 0; p < e->np; p++) {
 		const struct vd_dag *d = e->parts[p];
 		if (d->chunk_level > l) continue;
-		struct ipart *pa = &ip.pa[a];
+		struct ipart *pa = &ip->pa[a];
 		uint64_t n = d->lv[l].nodes, refs = d->lv[l].refs;
 		pa->p = p;
 		pa->base = base;
 		pa->kid = malloc(refs ? (size_t)refs * 4 : 4);
 		if (e->sym) pa->kr = malloc(refs ? (size_t)refs : 1);
-		if (!pa->kid || (e->sym && !pa->kr)) {
-			err = NOMEM();
-			goto out;
-		}
+		if (!pa->kid || (e->sym && !pa->kr))
+			return NOMEM();
 		for (uint64_t lo = 0; lo < n; lo += chunk, k++) {
-			ip.r[k].part = a;
-			ip.r[k].lo = lo;
-			ip.r[k].hi = n - lo < chunk ? n : lo + chunk;
-			ip.r[k].e0 = base + lo;
-			ip.r[k].e1 = base + ip.r[k].hi;
+			ip->r[k].part = a;
+			ip->r[k].lo = lo;
+			ip->r[k].hi = n - lo < chunk ? n : lo + chunk;
+			ip->r[k].e0 = base + lo;
+			ip->r[k].e1 = base + ip->r[k].hi;
 		}
 		base += n;
 		a++;
 	}
-	ip.npe = base;
+	ip->npe = base;
 	/* frontier ranges end on group boundaries */
 	size_t kf = k, nfr = nr - kf;
 	const struct felem *fe = e->fr.e;
@@ -1251,18 +1229,30 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		while (lo > 0 && lo < e->fr.n &&
 		       fe[lo].morton >> 3 == fe[lo - 1].morton >> 3)
 			lo++;
-		ip.r[k].part = ip.npa;
-		ip.r[k].lo = lo;
-		if (q) ip.r[k - 1].hi = lo;
+		ip->r[k].part = ip->npa;
+		ip->r[k].lo = lo;
+		if (q) ip->r[k - 1].hi = lo;
 	}
-	if (nfr) ip.r[nr - 1].hi = e->fr.n;
-	ip.nr = nr;
+	if (nfr) ip->r[nr - 1].hi = e->fr.n;
+	ip->nr = nr;
 	for (k = 0; k < nr; k++)
-		if (!(ip.r[k].cnt = calloc(ns, 8))) {
-			err = NOMEM();
-			goto out;
-		}
-	ip.kf = kf;
+		if (!(ip->r[k].cnt = calloc(ns, 8)))
+			return NOMEM();
+	ip->kf = kf;
+	return VD_OK;
+}
+
+/* Level l's nodes into b (its arrays exact, b->slot unused), the parts'
+ * remaps into rm, the groups into nf; the same as the serial loops. */
+static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
+			  struct front *nf, struct remap *rm)
+{
+	struct ipass ip = {.e = e, .l = l, .asis = asis, .shift = b->shift,
+			   .rm = rm, .b = b};
+	int t = pass_threads(e), err = inner_plan(&ip);
+	if (err) goto out;
+	size_t nr = ip.nr, kf = ip.kf, nfr = nr - kf, k;
+	unsigned ns = ip.ns;
 	if ((err = vd_parallel_for(nfr, t, inner_count_groups, &ip))) goto out;
 	uint64_t groups = 0;
 	for (k = kf; k < nr; k++) {
@@ -1315,9 +1305,9 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		}
 		distinct += ip.sh[s].n;
 	}
-	if (distinct > MAX_LEVEL_NODES) {
+	if (distinct > VD__DAG_MAX_LEVEL_NODES) {
 		err = vd_fail(VD_ERR_RANGE, "more than %llu distinct nodes on a "
-			      "level", (unsigned long long)MAX_LEVEL_NODES);
+			      "level", (unsigned long long)VD__DAG_MAX_LEVEL_NODES);
 		goto out;
 	}
 	if (!(ip.of = malloc(distinct ? (size_t)distinct * 4 : 4))) {
@@ -1351,7 +1341,7 @@ static int inner_parallel(struct engine *e, int l, int asis, struct nset *b,
 		b->mask[i] = ip.mask[x];
 		b->inv[i] = ip.inv[x];
 		b->first[i] = j;
-		j += (uint64_t)pop8(ip.mask[x]);
+		j += (uint64_t)vd__dag_pop8(ip.mask[x]);
 	}
 	b->first[distinct] = j;
 	b->nref = j;
@@ -1466,7 +1456,7 @@ static int run_engine(struct engine *e)
 		if (e->st) e->st->seconds_level[l] = vd_seconds() - t0;
 	}
 	if (!err && e->fr.n != 1)
-		err = vd_fail(VD_ERR_INTERNAL, "dag.c: %llu roots at level %d",
+		err = vd_fail(VD_ERR_INTERNAL, "build.c: %llu roots at level %d",
 			      (unsigned long long)e->fr.n, e->A);
 	front_free(&e->fr);
 	remaps_free(e->rm, e->np);
@@ -1666,22 +1656,16 @@ uint64_t vd_dag_estimate_header(const struct vd_chunk_header *h)
 	return vd_dag_estimate_merge(&c, h->kind);
 }
 
-static int is_dag_kind(uint32_t kind)
-{
-	return kind == VD_KIND_DAG || kind == VD_KIND_SSVDAG ||
-	       kind == VD_KIND_SSVDAG48;
-}
-
 static int check_kind_out(uint32_t kind)
 {
-	if (!is_dag_kind(kind))
+	if (!vd__dag_is_dag_kind(kind))
 		return vd_fail(VD_ERR_ARG, "output kind %u is not dag, ssvdag "
 			       "or ssvdag48", kind);
 	return VD_OK;
 }
 
-static int check_budget(const struct vd_dag_opts *o, uint64_t need,
-			struct vd_dag_stats *st)
+int vd__dag_check_budget(const struct vd_dag_opts *o, uint64_t need,
+			 struct vd_dag_stats *st)
 {
 	if (st) st->memory_estimate_bytes = need;
 	if (o && o->mem_budget_bytes && need > o->mem_budget_bytes)
@@ -1699,24 +1683,15 @@ static uint64_t spare(const struct vd_dag_opts *o, uint64_t need)
 	return o->mem_budget_bytes > need ? o->mem_budget_bytes - need : 0;
 }
 
-/* SWAR popcount: without -mpopcnt the builtin is a libgcc call. */
-static inline uint64_t popcount64(uint64_t v)
-{
-	v -= v >> 1 & 0x5555555555555555ULL;
-	v = (v & 0x3333333333333333ULL) + (v >> 2 & 0x3333333333333333ULL);
-	v = (v + (v >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
-	return v * 0x0101010101010101ULL >> 56;
-}
-
 /* vd_dag_from_svo; `counts`, when not NULL, are the per-level counts of
  * the chunk header `svo` was read from by vd_svo_from_chunk, which has
  * checked the bricks (increasing, non-empty, inside the cell) and these
  * counts against them: the pass below that checks and counts them again
  * is then skipped where the counts hold what it counts (it was a serial
  * twentieth of svo-to-dag). */
-static int from_svo(struct vd_dag *dag, const struct vd_svo *svo,
-		    uint32_t kind, const struct vd_dag_opts *opts,
-		    struct vd_dag_stats *stats, const uint64_t *counts)
+int vd__dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
+		     uint32_t kind, const struct vd_dag_opts *opts,
+		     struct vd_dag_stats *stats, const uint64_t *counts)
 {
 	memset(dag, 0, sizeof *dag);
 	int err = check_kind_out(kind);
@@ -1750,7 +1725,7 @@ static int from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 			return vd_fail(VD_ERR_CORRUPT, "brick %zu (key %" PRIu64
 				       ") is %s", i, k, !v ? "empty" : !in
 				       ? "outside the cell" : "out of order");
-		voxels += popcount64(v);
+		voxels += vd__dag_popcount64(v);
 	}
 	if (stats) {
 		memset(stats, 0, sizeof *stats);
@@ -1758,7 +1733,7 @@ static int from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		stats->input_nodes = svo->count;
 	}
 	uint64_t need = vd_dag_estimate_from_svo(svo->count, leaves, parents);
-	if ((err = check_budget(opts, need, stats))) return err;
+	if ((err = vd__dag_check_budget(opts, need, stats))) return err;
 	dag->kind = kind;
 	dag->levels = L;
 	dag->chunk_level = L0;
@@ -1780,7 +1755,7 @@ int vd_dag_from_svo(struct vd_dag *dag, const struct vd_svo *svo,
 		    uint32_t kind, const struct vd_dag_opts *opts,
 		    struct vd_dag_stats *stats)
 {
-	return from_svo(dag, svo, kind, opts, stats, NULL);
+	return vd__dag_from_svo(dag, svo, kind, opts, stats, NULL);
 }
 
 struct part_ref {
@@ -1797,7 +1772,7 @@ static int part_cmp(const void *a, const void *b)
 }
 
 /* 8^k as a voxel-range size; k <= 21 so it fits (8^21 = 2^63). */
-static uint64_t cell_span(int L, int level)
+uint64_t vd__dag_cell_span(int L, int level)
 {
 	return (uint64_t)1 << (3 * (L - level));
 }
@@ -1826,7 +1801,7 @@ static int merge(struct vd_dag *out, struct vd_dag *const *parts, size_t n,
 	int L = parts[0]->levels, top = parts[0]->chunk_level;
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_dag *d = parts[i];
-		if (!is_dag_kind(d->kind))
+		if (!vd__dag_is_dag_kind(d->kind))
 			return vd_fail(VD_ERR_WRONG_KIND, "%s is a %s chunk",
 				       PART(i, 0), vd_chunk_kind_name(d->kind));
 		/* the 8 reflections are the 48's first 8 transforms, so
@@ -1881,8 +1856,8 @@ static int merge(struct vd_dag *out, struct vd_dag *const *parts, size_t n,
 		pr[i].d = d;
 		pr[i].idx = i;
 		pr[i].start = d->chunk_level == 0 ? 0 :
-			d->cell_morton * cell_span(L, d->chunk_level);
-		pr[i].end = pr[i].start + cell_span(L, d->chunk_level);
+			d->cell_morton * vd__dag_cell_span(L, d->chunk_level);
+		pr[i].end = pr[i].start + vd__dag_cell_span(L, d->chunk_level);
 		for (int l = d->chunk_level; l < L; l++) nodes += d->lv[l].nodes;
 		vd_dag_census_add(&cen, d);
 		voxels += d->voxels;
@@ -1908,7 +1883,7 @@ static int merge(struct vd_dag *out, struct vd_dag *const *parts, size_t n,
 		stats->input_nodes = nodes;
 	}
 	uint64_t need = estimate_merge(&cen, kind, !consume);
-	if ((err = check_budget(opts, need, stats))) goto out;
+	if ((err = vd__dag_check_budget(opts, need, stats))) goto out;
 	out->kind = kind;
 	out->levels = L;
 	out->chunk_level = A;
@@ -1956,851 +1931,5 @@ int vd_dag_merge_consume(struct vd_dag *out, struct vd_dag *parts, size_t n,
 		free(pp);
 	}
 	for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
-	return err;
-}
-
-/* ------------------------------------------------------------ expansion */
-
-struct expander {
-	const struct vd_dag *d;
-	int (*fn)(void *ctx, uint64_t key, uint64_t brick);
-	void *ctx;
-};
-
-static int expand_node(const struct expander *x, int l, uint64_t node,
-		       unsigned a, uint64_t morton)
-{
-	const struct vd_dag *d = x->d;
-	const struct vd_dag_level *lv = &d->lv[l];
-	int L = d->levels;
-	unsigned mk = lv->mask[node];
-	uint64_t first = lv->first[node];
-	for (unsigned p = 0; p < 8; p++) {
-		unsigned s = p ^ a;
-		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
-		uint32_t c = lv->child[j];
-		unsigned ca = a ^ (lv->refl ? lv->refl[j] : 0u);
-		int err;
-		if (l + 1 == L - 2)
-			err = x->fn(x->ctx, morton << 3 | p,
-				    vd_brick_reflect(d->bricks[c], ca));
-		else
-			err = expand_node(x, l + 1, c, ca, morton << 3 | p);
-		if (err) return err;
-	}
-	return 0;
-}
-
-/* The same for an ssvdag48: the node is reached with accumulated
- * transform a, so logical slot p is stored slot a^-1(p), and its child,
- * stored as (c, t), is reached with a t. */
-static int expand_node48(const struct expander *x, int l, uint64_t node,
-			 unsigned a, uint64_t morton)
-{
-	const struct vd_dag *d = x->d;
-	const struct vd_dag_level *lv = &d->lv[l];
-	int L = d->levels;
-	unsigned mk = lv->mask[node];
-	uint64_t first = lv->first[node];
-	const uint8_t *back = vd__g48_child[vd__g48_inv[a]];
-	for (unsigned p = 0; p < 8; p++) {
-		unsigned s = back[p];
-		if (!(mk >> s & 1)) continue;
-		uint64_t j = first + (uint64_t)pop8(mk & ((1u << s) - 1));
-		uint32_t c = lv->child[j];
-		unsigned ca = vd__g48_comp[a][lv->refl[j]];
-		int err;
-		if (l + 1 == L - 2)
-			err = x->fn(x->ctx, morton << 3 | p,
-				    vd_g48_brick(d->bricks[c], ca));
-		else
-			err = expand_node48(x, l + 1, c, ca, morton << 3 | p);
-		if (err) return err;
-	}
-	return 0;
-}
-
-int vd_dag_expand(const struct vd_dag *dag,
-		  int (*fn)(void *ctx, uint64_t key, uint64_t brick),
-		  void *ctx)
-{
-	int L = dag->levels, A = dag->chunk_level;
-	if (!dag->lv[A].nodes) return 0;
-	if (A == L - 1) {
-		uint64_t c = dag->cell_morton;
-		return fn(ctx, c >> 3, (uint64_t)dag->lv[A].mask[0] << 8 * (c & 7));
-	}
-	if (A == L - 2) return fn(ctx, dag->cell_morton, dag->bricks[0]);
-	struct expander x = {dag, fn, ctx};
-	if (dag->kind == VD_KIND_SSVDAG48) {
-		vd__g48_init();
-		return expand_node48(&x, A, 0, 0, dag->cell_morton);
-	}
-	return expand_node(&x, A, 0, 0, dag->cell_morton);
-}
-
-struct svo_sink {
-	struct vd_svo *svo;
-	size_t cap;
-};
-
-static int svo_sink_add(void *ctx, uint64_t key, uint64_t brick)
-{
-	struct svo_sink *k = ctx;
-	struct vd_svo *s = k->svo;
-	if (s->count == k->cap) {
-		size_t c = k->cap ? k->cap * 2 : 1024;
-		uint64_t *nk = realloc(s->keys, c * 8);
-		if (!nk) return NOMEM();
-		s->keys = nk;
-		uint64_t *nm = realloc(s->masks, c * 8);
-		if (!nm) return NOMEM();
-		s->masks = nm;
-		k->cap = c;
-	}
-	s->keys[s->count] = key;
-	s->masks[s->count++] = brick;
-	return 0;
-}
-
-int vd_dag_to_svo(const struct vd_dag *dag, struct vd_svo *svo)
-{
-	memset(svo, 0, sizeof *svo);
-	svo->levels = dag->levels;
-	svo->chunk_level = dag->chunk_level;
-	svo->cell_morton = dag->cell_morton;
-	struct svo_sink k = {svo, 0};
-	/* arrays are never NULL, even for an empty DAG */
-	int err = svo_sink_add(&k, 0, 0);
-	svo->count = 0;
-	if (!err) err = vd_dag_expand(dag, svo_sink_add, &k);
-	if (err) {
-		free(svo->keys);
-		free(svo->masks);
-		memset(svo, 0, sizeof *svo);
-	}
-	return err;
-}
-
-/* ----------------------------------------------------------- validation */
-
-int vd_dag_validate(const struct vd_dag *d)
-{
-	int L = d->levels, A = d->chunk_level;
-	if (!is_dag_kind(d->kind))
-		return vd_fail(VD_ERR_CORRUPT, "kind %u is not dag, ssvdag or "
-			       "ssvdag48", d->kind);
-	unsigned nt = d->kind == VD_KIND_SSVDAG48 ? VD_G48 : 8;
-	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1)
-		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d", L, A);
-	if (A > 0 && d->cell_morton >> (3 * A))
-		return vd_fail(VD_ERR_CORRUPT, "cell %" PRIu64 " outside level %d",
-			       d->cell_morton, A);
-	if (A == 0 && d->cell_morton)
-		return vd_fail(VD_ERR_CORRUPT, "root cell %" PRIu64 " is not 0",
-			       d->cell_morton);
-	if (d->lv[A].nodes == 0) {
-		for (int l = A; l < L; l++)
-			if (d->lv[l].nodes || d->lv[l].refs)
-				return vd_fail(VD_ERR_CORRUPT, "empty root but %"
-					       PRIu64 " nodes on level %d",
-					       d->lv[l].nodes, l);
-		if (d->voxels)
-			return vd_fail(VD_ERR_CORRUPT, "empty root but %" PRIu64
-				       " voxels", d->voxels);
-		return VD_OK;
-	}
-	if (d->lv[A].nodes != 1)
-		return vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " roots on level %d",
-			       d->lv[A].nodes, A);
-	for (int l = A; l < L; l++) {
-		const struct vd_dag_level *lv = &d->lv[l];
-		if (lv->nodes > MAX_LEVEL_NODES + 1)
-			return vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " nodes on level"
-				       " %d", lv->nodes, l);
-		for (uint64_t i = 0; i < lv->nodes; i++)
-			if (!lv->mask[i])
-				return vd_fail(VD_ERR_CORRUPT, "node %" PRIu64
-					       " on level %d has an empty mask",
-					       i, l);
-		if (l == L - 1) break;
-		const struct vd_dag_level *nx = &d->lv[l + 1];
-		if ((d->kind != VD_KIND_DAG) != (lv->refl != NULL))
-			return vd_fail(VD_ERR_CORRUPT, "level %d: reflections %s"
-				       " in a %s", l, lv->refl ? "present" :
-				       "missing", vd_chunk_kind_name(d->kind));
-		uint64_t j = 0;
-		for (uint64_t i = 0; i < lv->nodes; i++) {
-			if (lv->first[i] != j)
-				return vd_fail(VD_ERR_CORRUPT, "level %d node %"
-					       PRIu64 ": references start at %"
-					       PRIu64 ", expected %" PRIu64, l, i,
-					       lv->first[i], j);
-			j += (uint64_t)pop8(lv->mask[i]);
-		}
-		if (lv->first[lv->nodes] != j || lv->refs != j)
-			return vd_fail(VD_ERR_CORRUPT, "level %d: %" PRIu64
-				       " references, masks say %" PRIu64, l,
-				       lv->refs, j);
-		uint8_t *seen = calloc(nx->nodes ? nx->nodes : 1, 1);
-		if (!seen) return NOMEM();
-		for (uint64_t r = 0; r < lv->refs; r++) {
-			if (lv->child[r] >= nx->nodes || (lv->refl && lv->refl[r] >= nt)) {
-				free(seen);
-				return vd_fail(VD_ERR_CORRUPT, "level %d reference %"
-					       PRIu64 ": child %u of %" PRIu64
-					       ", %s %u", l, r,
-					       lv->child[r], nx->nodes,
-					       nt == 8 ? "reflection" : "transform",
-					       lv->refl ? lv->refl[r] : 0);
-			}
-			seen[lv->child[r]] = 1;
-		}
-		for (uint64_t i = 0; i < nx->nodes; i++)
-			if (!seen[i]) {
-				free(seen);
-				return vd_fail(VD_ERR_CORRUPT, "node %" PRIu64 " on "
-					       "level %d is never referenced", i,
-					       l + 1);
-			}
-		free(seen);
-	}
-	if (A <= L - 2) {
-		if (!d->bricks)
-			return vd_fail(VD_ERR_INTERNAL, "dag.c: bricks missing");
-		for (uint64_t i = 0; i < d->lv[L - 2].nodes; i++) {
-			/* (it copied the whole struct vd_dag a brick) */
-			if (mask_brick(d, i) != d->bricks[i])
-				return vd_fail(VD_ERR_CORRUPT, "brick %" PRIu64
-					       " disagrees with its masks", i);
-		}
-	}
-	return VD_OK;
-}
-
-void vd_dag_header(const struct vd_dag *dag, struct vd_chunk_header *h)
-{
-	h->kind = dag->kind;
-	h->levels = (uint32_t)dag->levels;
-	h->chunk_level = (uint32_t)dag->chunk_level;
-	h->cell_morton = dag->cell_morton;
-	h->level_count = (uint32_t)(dag->levels - dag->chunk_level + 1);
-	for (int l = dag->chunk_level; l < dag->levels; l++)
-		h->level_nodes[l - dag->chunk_level] = dag->lv[l].nodes;
-	h->level_nodes[dag->levels - dag->chunk_level] = dag->voxels;
-}
-
-/* vd_dag_save's sections, each the concatenation of one array of every
- * level (DAGM: masks of levels A..L-1, a byte a node; DAGC: child indices
- * of levels A..L-2, uint32 little-endian; DAGR: their reflections, a
- * byte a reference), written as frames compressed on the job's threads
- * (vd_chunk_writer_frames: the bytes do not depend on the thread count).
- * A frame is filled from the levels it covers. */
-struct dag_stream {
-	const struct vd_dag *dag;
-	uint32_t tag;
-	int size;                       /* bytes an element */
-	uint64_t start[VD_MAX_LEVELS + 1]; /* first byte of level A + i */
-	int nlev;
-};
-
-static void dag_stream_init(struct dag_stream *st, const struct vd_dag *dag,
-			    uint32_t tag)
-{
-	st->dag = dag;
-	st->tag = tag;
-	st->size = tag == VD_TAG_DAGC ? 4 : 1;
-	int last = tag == VD_TAG_DAGM ? dag->levels : dag->levels - 1;
-	st->nlev = last - dag->chunk_level;
-	st->start[0] = 0;
-	for (int i = 0; i < st->nlev; i++) {
-		const struct vd_dag_level *lv = &dag->lv[dag->chunk_level + i];
-		uint64_t n = tag == VD_TAG_DAGM ? lv->nodes : lv->refs;
-		st->start[i + 1] = st->start[i] + n * (uint64_t)st->size;
-	}
-}
-
-/* Bytes [off, off + n) of the section. Frames start at multiples of
- * VD_CHUNK_FRAME_BYTES, a multiple of 4: no DAGC reference is split. */
-static void dag_stream_fill(void *ctx, uint64_t off, uint8_t *buf, size_t n)
-{
-	const struct dag_stream *st = ctx;
-	int i = 0;
-	while (n) {
-		while (off >= st->start[i + 1])
-			i++;
-		const struct vd_dag_level *lv =
-			&st->dag->lv[st->dag->chunk_level + i];
-		uint64_t e = (off - st->start[i]) / (uint64_t)st->size;
-		size_t k = st->start[i + 1] - off < n ? (size_t)(st->start[i + 1] - off) : n;
-		if (st->tag == VD_TAG_DAGM)
-			memcpy(buf, lv->mask + e, k);
-		else if (st->tag == VD_TAG_DAGR)
-			memcpy(buf, lv->refl + e, k);
-		else
-			for (size_t j = 0; j < k / 4; j++)
-				le_put32(buf + 4 * j, lv->child[e + j]);
-		buf += k;
-		off += k;
-		n -= k;
-	}
-}
-
-static int save_section(const struct vd_dag *dag, struct vd_chunk_writer *w,
-			uint32_t tag, int threads)
-{
-	struct dag_stream st;
-	dag_stream_init(&st, dag, tag);
-	/* child indices as byte planes (codec 2): their high bytes change
-	 * slowly, so zstd stores them in less time and space */
-	return vd_chunk_writer_frames(w, tag, st.start[st.nlev],
-				      dag_stream_fill, &st, threads,
-				      tag == VD_TAG_DAGC);
-}
-
-int vd_dag_save(const struct vd_dag *dag, const struct vd_transform *t,
-		const char *path, const char *provenance)
-{
-	return vd_dag_save_mt(dag, t, path, provenance, 1);
-}
-
-int vd_dag_save_mt(const struct vd_dag *dag, const struct vd_transform *t,
-		   const char *path, const char *provenance, int threads)
-{
-	/* the check before anything is written */
-	int err = vd_dag_validate(dag);
-	if (err) return err;
-	struct vd_chunk_header h = {0};
-	vd_dag_header(dag, &h);
-	h.transform = *t;
-	struct vd_chunk_writer *w;
-	if ((err = vd_chunk_writer_open(&w, path, &h, provenance))) return err;
-	err = save_section(dag, w, VD_TAG_DAGM, threads);
-	if (!err) err = save_section(dag, w, VD_TAG_DAGC, threads);
-	if (!err && dag->kind != VD_KIND_DAG)
-		err = save_section(dag, w, VD_TAG_DAGR, threads);
-	if (err) {
-		vd_chunk_writer_abort(w);
-		return err;
-	}
-	return vd_chunk_writer_commit(w);
-}
-
-/* Voxels under the root, counted bottom-up (reflections keep counts). */
-static int dag_count_voxels(const struct vd_dag *d, uint64_t *voxels)
-{
-	int L = d->levels, A = d->chunk_level;
-	*voxels = 0;
-	if (!d->lv[A].nodes) return VD_OK;
-	uint64_t *below = malloc((size_t)(d->lv[L - 1].nodes ? d->lv[L - 1].nodes : 1) * 8);
-	if (!below) return NOMEM();
-	for (uint64_t i = 0; i < d->lv[L - 1].nodes; i++)
-		below[i] = (uint64_t)pop8(d->lv[L - 1].mask[i]);
-	for (int l = L - 2; l >= A; l--) {
-		const struct vd_dag_level *lv = &d->lv[l];
-		uint64_t *cur = malloc((size_t)(lv->nodes ? lv->nodes : 1) * 8);
-		if (!cur) {
-			free(below);
-			return NOMEM();
-		}
-		for (uint64_t i = 0; i < lv->nodes; i++) {
-			uint64_t s = 0;
-			for (uint64_t j = lv->first[i]; j < lv->first[i + 1]; j++)
-				s += below[lv->child[j]];
-			cur[i] = s;
-		}
-		free(below);
-		below = cur;
-	}
-	*voxels = below[0];
-	free(below);
-	return VD_OK;
-}
-
-/* The sections of a DAG chunk, decompressed in parallel (each is its
- * own zstd stream). */
-struct read_job {
-	const struct vd_chunk *c;
-	uint32_t tags[3];
-	void *data[3];
-	size_t size[3];
-	int errs[3];
-	char details[3][512];
-	int threads;
-};
-
-static void read_task(void *ctx, size_t i, int worker)
-{
-	(void)worker;
-	struct read_job *rj = ctx;
-	rj->errs[i] = vd_chunk_read_section_mt(rj->c, rj->tags[i], &rj->data[i],
-					       &rj->size[i], rj->threads);
-	if (rj->errs[i])
-		snprintf(rj->details[i], sizeof rj->details[i], "%s",
-			 vd_error_detail());
-}
-
-int vd_dag_from_chunk(struct vd_dag *dag, const struct vd_chunk *c,
-		      uint32_t kind)
-{
-	return vd_dag_from_chunk_mt(dag, c, kind, 1);
-}
-
-int vd_dag_from_chunk_mt(struct vd_dag *dag, const struct vd_chunk *c,
-			 uint32_t kind, int threads)
-{
-	memset(dag, 0, sizeof *dag);
-	const struct vd_chunk_header *h = vd_chunk_header(c);
-	/* VD_KIND_ANY keeps meaning dag or ssvdag: the stages after the
-	 * symmetry merge (encode, render, edit, lossy) do not know the 48
-	 * yet and refuse an ssvdag48 chunk here with a clear line. */
-	int ok_kind = kind == VD_KIND_ANY_DAG ? is_dag_kind(h->kind)
-		      : kind == VD_KIND_ANY ? h->kind == VD_KIND_DAG ||
-					      h->kind == VD_KIND_SSVDAG
-		      : h->kind == kind && is_dag_kind(kind);
-	if (!ok_kind)
-		return vd_fail(VD_ERR_WRONG_KIND, "a %s chunk, expected %s",
-			       vd_chunk_kind_name(h->kind),
-			       kind == VD_KIND_ANY ? "dag or ssvdag"
-			       : kind == VD_KIND_ANY_DAG ? "dag, ssvdag or ssvdag48"
-			       : vd_chunk_kind_name(kind));
-	int L = (int)h->levels, A = (int)h->chunk_level;
-	if (L < 1 || L > VD_MAX_LEVELS || A < 0 || A > L - 1 ||
-	    h->level_count != (uint32_t)(L - A + 1))
-		return vd_fail(VD_ERR_CORRUPT, "levels %d, chunk level %d, %u "
-			       "level counts", L, A, h->level_count);
-	dag->kind = h->kind;
-	dag->levels = L;
-	dag->chunk_level = A;
-	dag->cell_morton = h->cell_morton;
-	int sym = h->kind != VD_KIND_DAG;
-	void *m = NULL, *cdata = NULL, *r = NULL;
-	size_t msize, csize, rsize = 0;
-	struct read_job rj = {c, {VD_TAG_DAGM, VD_TAG_DAGC, VD_TAG_DAGR},
-			      {NULL}, {0}, {0}, {{0}}, threads};
-	int err = vd_parallel_for(sym ? 3 : 2, threads, read_task, &rj);
-	for (int i = 0; i < (sym ? 3 : 2) && !err; i++)
-		if (rj.errs[i]) err = vd_fail(rj.errs[i], "%s", rj.details[i]);
-	m = rj.data[0], msize = rj.size[0];
-	cdata = rj.data[1], csize = rj.size[1];
-	r = rj.data[2], rsize = rj.size[2];
-	if (err) goto out;
-	/* masks, and from them the reference counts */
-	uint64_t need = 0, nref = 0;
-	for (int l = A; l < L; l++) need += h->level_nodes[l - A];
-	if (need != msize) {
-		err = vd_fail(VD_ERR_CORRUPT, "mask section of %zu bytes, the "
-			      "level counts say %" PRIu64, msize, need);
-		goto out;
-	}
-	const uint8_t *mp = m;
-	for (int l = A; l < L; l++) {
-		struct vd_dag_level *lv = &dag->lv[l];
-		lv->nodes = h->level_nodes[l - A];
-		lv->mask = malloc(lv->nodes ? (size_t)lv->nodes : 1);
-		if (!lv->mask) {
-			err = NOMEM();
-			goto out;
-		}
-		memcpy(lv->mask, mp, (size_t)lv->nodes);
-		mp += lv->nodes;
-		if (l == L - 1) break;
-		lv->first = malloc((size_t)(lv->nodes + 1) * 8);
-		if (!lv->first) {
-			err = NOMEM();
-			goto out;
-		}
-		uint64_t j = 0;
-		for (uint64_t i = 0; i < lv->nodes; i++) {
-			lv->first[i] = j;
-			j += (uint64_t)pop8(lv->mask[i]);
-		}
-		lv->first[lv->nodes] = j;
-		lv->refs = j;
-		nref += j;
-	}
-	if (csize != 4 * nref || (sym && rsize != nref)) {
-		err = vd_fail(VD_ERR_CORRUPT, "reference sections of %zu and %zu"
-			      " bytes for %" PRIu64 " references", csize, rsize,
-			      nref);
-		goto out;
-	}
-	const uint8_t *cp = cdata, *rp = r;
-	for (int l = A; l < L - 1; l++) {
-		struct vd_dag_level *lv = &dag->lv[l];
-		lv->child = malloc(lv->refs ? (size_t)lv->refs * 4 : 4);
-		if (sym) lv->refl = malloc(lv->refs ? (size_t)lv->refs : 1);
-		if (!lv->child || (sym && !lv->refl)) {
-			err = NOMEM();
-			goto out;
-		}
-		for (uint64_t j = 0; j < lv->refs; j++) lv->child[j] = le_get32(cp + 4 * j);
-		cp += 4 * lv->refs;
-		if (sym) {
-			memcpy(lv->refl, rp, (size_t)lv->refs);
-			rp += lv->refs;
-		}
-	}
-	/* bricks of level L-2 (checked indices first) */
-	dag->bricks = NULL;
-	if (A <= L - 2 && dag->lv[A].nodes) {
-		const struct vd_dag_level *lb = &dag->lv[L - 2];
-		for (uint64_t j = 0; j < lb->refs; j++)
-			if (lb->child[j] >= dag->lv[L - 1].nodes) {
-				err = vd_fail(VD_ERR_CORRUPT, "level %d reference %"
-					      PRIu64 " to leaf %u of %" PRIu64,
-					      L - 2, j, lb->child[j],
-					      dag->lv[L - 1].nodes);
-				goto out;
-			}
-		dag->bricks = malloc((size_t)(lb->nodes ? lb->nodes : 1) * 8);
-		if (!dag->bricks) {
-			err = NOMEM();
-			goto out;
-		}
-		for (uint64_t i = 0; i < lb->nodes; i++) {
-			uint64_t v = 0, j = lb->first[i];
-			for (unsigned s = 0; s < 8; s++) {
-				if (!(lb->mask[i] >> s & 1)) continue;
-				uint8_t x = dag->lv[L - 1].mask[lb->child[j]];
-				if (lb->refl) x = ref_mask(h->kind, x, lb->refl[j] % VD_G48);
-				v |= (uint64_t)x << 8 * s;
-				j++;
-			}
-			dag->bricks[i] = v;
-		}
-	}
-	dag->voxels = h->level_nodes[L - A];
-	if ((err = vd_dag_validate(dag))) goto out;
-	uint64_t v;
-	if ((err = dag_count_voxels(dag, &v))) goto out;
-	if (v != dag->voxels)
-		err = vd_fail(VD_ERR_CORRUPT, "%" PRIu64 " voxels, the header "
-			      "says %" PRIu64, v, dag->voxels);
-out:
-	free(m);
-	free(cdata);
-	free(r);
-	if (err) vd_dag_release(dag);
-	return err;
-}
-
-int vd_dag_load(struct vd_dag *dag, struct vd_chunk_header *h,
-		const char *path, uint32_t kind)
-{
-	memset(dag, 0, sizeof *dag);
-	struct vd_chunk *c;
-	int err = vd_chunk_open(&c, path, VD_KIND_ANY);
-	if (err) return err;
-	if (h) *h = *vd_chunk_header(c);
-	err = vd_dag_from_chunk(dag, c, kind);
-	vd_chunk_free(c);
-	return err;
-}
-
-/* ------------------------------------------------------------ statistics */
-
-int vd_dag_write_stats(const struct vd_dag *dag,
-		       const struct vd_dag_stats *st, const char *tool,
-		       double seconds_load, double seconds_save,
-		       const char *path)
-{
-	struct vd_json *j;
-	int err = vd_json_open(&j, path);
-	if (err) return err;
-	int A = dag->chunk_level, L = dag->levels;
-	uint64_t nodes[VD_MAX_LEVELS], refs[VD_MAX_LEVELS], tn = 0, tr = 0;
-	for (int l = A; l < L; l++) {
-		nodes[l - A] = dag->lv[l].nodes;
-		refs[l - A] = dag->lv[l].refs;
-		tn += nodes[l - A];
-		tr += refs[l - A];
-	}
-	vd_json_str(j, "tool", tool);
-	vd_json_str(j, "version", VD_VERSION_STRING);
-	vd_json_str(j, "kind", vd_chunk_kind_name(dag->kind));
-	vd_json_u64(j, "levels", (uint64_t)L);
-	vd_json_u64(j, "chunk_level", (uint64_t)A);
-	vd_json_u64(j, "cell_morton", dag->cell_morton);
-	vd_json_u64(j, "input_voxels", st->input_voxels);
-	vd_json_u64(j, "input_nodes", st->input_nodes);
-	vd_json_u64(j, "voxels", dag->voxels);
-	/* level_nodes[i] and level_refs[i] are of level chunk_level + i */
-	vd_json_u64_array(j, "level_nodes", nodes, (size_t)(L - A));
-	vd_json_u64_array(j, "level_refs", refs, (size_t)(L - A));
-	vd_json_u64(j, "nodes", tn);
-	vd_json_u64(j, "refs", tr);
-	vd_json_array(j, "seconds_level");
-	for (int l = A; l < L; l++) vd_json_f64(j, NULL, st->seconds_level[l]);
-	vd_json_end_array(j);
-	vd_json_f64(j, "seconds_load", seconds_load);
-	vd_json_f64(j, "seconds_build", st->seconds_build);
-	vd_json_f64(j, "seconds_save", seconds_save);
-	vd_json_f64(j, "voxels_per_second", st->seconds_build > 0 ?
-		    (double)st->input_voxels / st->seconds_build : 0);
-	vd_json_u64(j, "memory_estimate_bytes", st->memory_estimate_bytes);
-	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
-	return vd_json_close(j);
-}
-
-/* ------------------------------------------------------------ stage runs */
-
-/* Rewrites the current error as "<what> '<subject>': <cause>: <detail>". */
-static int reword(int err, const char *what, const char *subject)
-{
-	char d[512];
-	snprintf(d, sizeof d, "%s", vd_error_detail());
-	return vd_fail(err, "%s '%s': %s%s%s", what, subject, vd_strerror(err),
-		       *d ? ": " : "", d);
-}
-
-
-int vd_dag_run(const struct vd_dag_job *job)
-{
-	const char *tool = job->tool;
-	const struct vd_dag_opts *o = &job->opts;
-	struct vd_dag out = {0}, *parts = NULL;
-	struct vd_dag_stats st = {0};
-	struct vd_transform tr = {0};
-	struct vd_chunk *c = NULL;
-	int err = VD_OK, sym = job->kind != VD_KIND_DAG;
-	double t0 = vd_seconds(), t_load = 0, t_save = 0;
-	size_t n = job->n_inputs;
-	if (n == 0) return vd_fail(VD_ERR_EMPTY, "no input chunks");
-	if (!job->merge && n != 1)
-		return vd_fail(VD_ERR_ARG, "%zu inputs without --merge", n);
-	if (!job->merge && job->kind == VD_KIND_DAG) {
-		/* svo-to-dag: one SVO chunk */
-		const char *in = job->inputs[0];
-		if ((err = vd_chunk_open(&c, in, VD_KIND_SVO)))
-			return reword(err, "cannot read", in);
-		const struct vd_chunk_header *h = vd_chunk_header(c);
-		tr = h->transform;
-		if ((err = check_budget(o, vd_dag_estimate_header(h), &st))) {
-			vd_chunk_free(c);
-			return reword(err, "cannot build the DAG of", in);
-		}
-		struct vd_svo svo;
-		uint64_t counts[VD_MAX_LEVELS + 1];
-		memcpy(counts, h->level_nodes, sizeof counts);
-		err = vd_svo_from_chunk_mt(&svo, c, o->threads);
-		vd_chunk_free(c);
-		if (err) return reword(err, "cannot read", in);
-		t_load = vd_seconds() - t0;
-		err = from_svo(&out, &svo, VD_KIND_DAG, o, &st, counts);
-		vd_svo_release(&svo);
-		if (err) {
-			vd_dag_release(&out);
-			return reword(err, "cannot build the DAG of", in);
-		}
-	} else {
-		/* DAG chunks: one to symmetry-merge, or several to merge */
-		parts = calloc(n, sizeof *parts);
-		const struct vd_dag **pp = malloc(n * sizeof *pp);
-		if (!parts || !pp) {
-			free(parts);
-			free(pp);
-			return NOMEM();
-		}
-		struct vd_dag_census cen = {0};
-		for (size_t i = 0; i < n && !err; i++) {
-			const char *in = job->inputs[i];
-			uint32_t want = !sym || !job->merge ? VD_KIND_DAG
-				: job->kind == VD_KIND_SSVDAG48 ? VD_KIND_ANY_DAG
-				: VD_KIND_ANY;
-			/* the chunk layer knows one kind or any; the
-			 * DAG reader below checks the three */
-			if ((err = vd_chunk_open(&c, in, want == VD_KIND_ANY_DAG
-						 ? VD_KIND_ANY : want))) {
-				err = reword(err, "cannot read", in);
-				break;
-			}
-			const struct vd_chunk_header *h = vd_chunk_header(c);
-			if (i == 0) tr = h->transform;
-			if (i > 0 && (int)h->levels == parts[0].levels &&
-			    !vd_transform_equal(&tr, &h->transform))
-				err = vd_fail(VD_ERR_MISMATCH, "cannot merge '%s': "
-					      "its world transform differs from "
-					      "'%s' (chunks of another scene or "
-					      "resolution?)", in, job->inputs[0]);
-			/* the inputs so far exactly, this one by its header */
-			struct vd_dag_census ch = cen;
-			vd_dag_census_add_header(&ch, h);
-			uint64_t est = vd_dag_estimate_merge(&ch, job->kind);
-			if (!err && (err = check_budget(o, est, &st)))
-				err = reword(err, "cannot load", in);
-			if (!err && (err = vd_dag_from_chunk_mt(&parts[i], c, want,
-								o->threads)))
-				err = reword(err, "cannot read", in);
-			vd_chunk_free(c);
-			c = NULL;
-			if (!err) vd_dag_census_add(&cen, &parts[i]);
-			pp[i] = &parts[i];
-		}
-		t_load = vd_seconds() - t0;
-		if (!err) {
-			struct vd_dag_opts mo = *o;
-			mo.part_names = job->inputs;
-			int level = job->merge ? job->to_level : parts[0].chunk_level;
-			/* the merge frees the parts as it reads them */
-			err = vd_dag_merge_consume(&out, parts, n, job->kind,
-						   level, &mo, &st);
-			if (err)
-				err = reword(err, job->merge ? "cannot merge"
-					     : "cannot symmetry-merge",
-					     n == 1 ? job->inputs[0] : "the inputs");
-		}
-		for (size_t i = 0; i < n; i++) vd_dag_release(&parts[i]);
-		free(parts);
-		free(pp);
-		if (err) {
-			vd_dag_release(&out);
-			return err;
-		}
-	}
-	/* the chunk and its statistics replace the previous pair together */
-	size_t plen = strlen(job->output) + 64;
-	char *sp = malloc(3 * plen);
-	if (!sp) {
-		vd_dag_release(&out);
-		return NOMEM();
-	}
-	char *staged = sp + plen, *staged_sp = sp + 2 * plen;
-	snprintf(sp, plen, "%s.stats.json", job->output);
-	err = vd_stage_name(job->output, staged, plen);
-	if (!err) err = vd_stage_name(sp, staged_sp, plen);
-	double t1 = vd_seconds();
-	if (!err) err = vd_dag_save_mt(&out, &tr, staged, job->provenance,
-				       o->threads);
-	t_save = vd_seconds() - t1;
-	if (err) {
-		err = reword(err, "cannot write", job->output);
-	} else {
-		err = vd_dag_write_stats(&out, &st, tool, t_load, t_save,
-					 staged_sp);
-		if (!err)
-			err = vd_publish_pair(staged, job->output, staged_sp, sp);
-		if (err) {
-			unlink(staged);
-			err = reword(err, "cannot write", sp);
-		}
-	}
-	free(sp);
-	if (!err && !job->quiet) {
-		uint64_t tn = 0;
-		for (int l = out.chunk_level; l < out.levels; l++) tn += out.lv[l].nodes;
-		fprintf(stderr, "%s: wrote '%s': %s of %" PRIu64 " voxels, %"
-			PRIu64 " nodes on levels %d..%d, %.3f s build (%.1f M "
-			"voxels/s), %.3f s total\n", tool, job->output,
-			vd_chunk_kind_name(out.kind), out.voxels, tn,
-			out.chunk_level, out.levels - 1, st.seconds_build,
-			st.seconds_build > 0 ? st.input_voxels / st.seconds_build / 1e6 : 0,
-			vd_seconds() - t0);
-	}
-	vd_dag_release(&out);
-	return err;
-}
-
-/* ------------------------------------------------------------ comparison */
-
-struct svo_ref {
-	const struct vd_svo *s;
-	uint64_t start, end; /* voxel Morton range of the cell */
-};
-
-static int svo_ref_cmp(const void *a, const void *b)
-{
-	uint64_t x = ((const struct svo_ref *)a)->start,
-		 y = ((const struct svo_ref *)b)->start;
-	return x < y ? -1 : x > y;
-}
-
-struct cmp_state {
-	const struct svo_ref *r;
-	size_t n, i, j;      /* cursor: SVO i, brick j */
-	int L;
-	struct vd_dag_diff *diff;
-};
-
-static void cmp_note(struct cmp_state *c, uint64_t key, uint64_t x,
-		     uint64_t in_dag)
-{
-	if (!x) return;
-	if (!c->diff->differing_voxels) {
-		int b = __builtin_ctzll(x);
-		c->diff->first_voxel_morton =
-			c->L >= 2 ? key << 6 | (uint64_t)b : (uint64_t)b;
-		c->diff->first_in_dag = (int)(in_dag >> b & 1);
-	}
-	c->diff->differing_voxels += popcount64(x);
-}
-
-/* Steps the SVO cursor past every brick before `key`, noting each. */
-static void cmp_advance(struct cmp_state *c, uint64_t key, int all)
-{
-	while (c->i < c->n) {
-		const struct vd_svo *s = c->r[c->i].s;
-		if (c->j >= s->count) {
-			c->i++;
-			c->j = 0;
-			continue;
-		}
-		if (!all && s->keys[c->j] >= key) return;
-		cmp_note(c, s->keys[c->j], s->masks[c->j], 0);
-		c->j++;
-	}
-}
-
-static int cmp_brick(void *ctx, uint64_t key, uint64_t brick)
-{
-	struct cmp_state *c = ctx;
-	cmp_advance(c, key, 0);
-	uint64_t svo = 0;
-	if (c->i < c->n && c->r[c->i].s->keys[c->j] == key)
-		svo = c->r[c->i].s->masks[c->j++];
-	cmp_note(c, key, brick ^ svo, brick);
-	return 0;
-}
-
-int vd_dag_compare_svo(const struct vd_dag *dag,
-		       const struct vd_svo *const *svos, size_t n,
-		       struct vd_dag_diff *diff)
-{
-	memset(diff, 0, sizeof *diff);
-	int L = dag->levels, A = dag->chunk_level;
-	struct svo_ref *r = malloc((n ? n : 1) * sizeof *r);
-	if (!r) return NOMEM();
-	for (size_t i = 0; i < n; i++) {
-		const struct vd_svo *s = svos[i];
-		if (s->levels != L || s->chunk_level < A ||
-		    s->cell_morton >> (3 * (s->chunk_level - A)) != dag->cell_morton) {
-			free(r);
-			return vd_fail(VD_ERR_MISMATCH, "SVO chunk %zu (%d levels, "
-				       "cell %" PRIu64 " at level %d) is not "
-				       "inside the DAG's cell %" PRIu64 " at "
-				       "level %d of %d levels", i, s->levels,
-				       s->cell_morton, s->chunk_level,
-				       dag->cell_morton, A, L);
-		}
-		r[i].s = s;
-		r[i].start = s->chunk_level ? s->cell_morton *
-			cell_span(L, s->chunk_level) : 0;
-		r[i].end = r[i].start + cell_span(L, s->chunk_level);
-	}
-	qsort(r, n, sizeof *r, svo_ref_cmp);
-	for (size_t i = 0; i + 1 < n; i++)
-		if (r[i].end > r[i + 1].start) {
-			int err = vd_fail(VD_ERR_MISMATCH, "two SVO chunks cover "
-					  "cell %" PRIu64 " at level %d",
-					  r[i + 1].s->cell_morton,
-					  r[i + 1].s->chunk_level);
-			free(r);
-			return err;
-		}
-	struct cmp_state c = {r, n, 0, 0, L, diff};
-	int err = vd_dag_expand(dag, cmp_brick, &c);
-	if (!err) cmp_advance(&c, 0, 1);
-	free(r);
 	return err;
 }
