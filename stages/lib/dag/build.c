@@ -22,7 +22,6 @@
  */
 #include "dag/dag_internal.h"
 #include "le.h"
-#include "io/publish.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
