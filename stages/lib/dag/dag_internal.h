@@ -135,9 +135,12 @@ static inline uint8_t vd__dag_ref_mask(uint32_t kind, uint8_t m, unsigned t)
 					: vd_mask_reflect(m, t & 7);
 }
 
-/* Whether `kind` is one of the DAG kinds: dag, ssvdag or ssvdag48
- * (verify.c). */
-int vd__dag_is_dag_kind(uint32_t kind);
+/* Whether `kind` is one of the DAG kinds: dag, ssvdag or ssvdag48. */
+static inline int vd__dag_is_dag_kind(uint32_t kind)
+{
+	return kind == VD_KIND_DAG || kind == VD_KIND_SSVDAG ||
+	       kind == VD_KIND_SSVDAG48;
+}
 
 /* The brick value of node i on level L-2 of d from its leaf masks
  * (build.c). */

@@ -7,12 +7,6 @@
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 
-int vd__dag_is_dag_kind(uint32_t kind)
-{
-	return kind == VD_KIND_DAG || kind == VD_KIND_SSVDAG ||
-	       kind == VD_KIND_SSVDAG48;
-}
-
 int vd_dag_validate(const struct vd_dag *d)
 {
 	int L = d->levels, A = d->chunk_level;

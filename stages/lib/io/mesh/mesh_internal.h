@@ -323,6 +323,11 @@ int vd__has_ext(const char *path, const char *ext);
 int vd__mesh_grow_poly(struct vd_mesh *m, size_t need);
 int vd__mesh_can_spill(const struct vd_mesh *m);
 int vd__mesh_spill_open(struct vd_mesh *m);
+/* Bytes of MESH_SPILL_ATTR_BYTES in a spilled triangle's record. */
+static inline size_t vd_mesh_spill_attr_bytes(const struct vd_mesh *m)
+{
+	return m->col_on ? MESH_SPILL_ATTR_BYTES : 0;
+}
 int vd__mesh_over_limit(const struct vd_mesh *m);
 uint64_t vd__mesh_grow_cap(const struct vd_mesh *m, uint64_t n,
 			  uint64_t item, uint64_t other, uint64_t most);
