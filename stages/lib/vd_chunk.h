@@ -318,8 +318,12 @@ void vd_json_str(struct vd_json *j, const char *key, const char *s);
 void vd_json_u64_array(struct vd_json *j, const char *key, const uint64_t *v,
 		       size_t n);
 /* Closes the top-level object and publishes the file (vd_atomic_commit:
- * fsync, rename, directory fsync); frees j. */
+ * fsync, rename, directory fsync); frees j. VD_ERR_INTERNAL, and no file,
+ * when the objects and arrays were not closed in order (a writer's bug). */
 int vd_json_close(struct vd_json *j);
+/* Drops the statistics of a run that failed: removes the temporary file,
+ * frees j (NULL is fine) and leaves the error detail as it was. */
+void vd_json_abort(struct vd_json *j);
 
 #ifdef __cplusplus
 }

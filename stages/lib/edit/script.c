@@ -535,9 +535,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	}
 	free(cmds);
 	if (err) {
-		if (j)
-			vd_json_close(j); /* then removed: no statistics of a failed run */
-		unlink(staged_stats);
+		vd_json_abort(j); /* no statistics of a failed run */
 		return err;
 	}
 	vd_json_end_array(j);
@@ -578,7 +576,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		if (job->colours_out)
 			vd_dir_abandon(cstage);
 	} else if (err) {
-		vd_json_close(j);
+		vd_json_abort(j);
 	}
 	if (err) {
 		unlink(staged_stats);

@@ -141,3 +141,11 @@ int vd_json_close(struct vd_json *j)
 	free(j);
 	return err;
 }
+
+void vd_json_abort(struct vd_json *j)
+{
+	if (!j)
+		return;
+	vd_atomic_abort(&j->a); /* keeps the detail */
+	free(j);
+}
