@@ -1,6 +1,7 @@
 // parallel.cc - the library's only use of TBB, behind a C interface.
 // Exceptions never cross into C: everything TBB may throw is caught here.
 #include "voxdag.h"
+#include "util_internal.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>

@@ -1,5 +1,6 @@
 /* util.c - sizes, clocks, memory accounting, hashing, world transform. */
 #include "voxdag.h"
+#include "util_internal.h"
 
 #include <ctype.h>
 #include <math.h>

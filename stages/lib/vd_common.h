@@ -123,14 +123,6 @@ int vd_transform_init(struct vd_transform *t, const float bbox_min[3],
 int vd_transform_equal(const struct vd_transform *a,
 		       const struct vd_transform *b);
 
-/* -------------------------------------------------------------- parallel
- * A small C interface to TBB. Runs fn(ctx, i, worker) for i in [0, n) on up
- * to `threads` threads (0: all cores); `worker` is in [0, threads) and
- * unique among concurrently running calls. Returns VD_OK, or VD_ERR_INTERNAL
- * if TBB threw (the exception never crosses into C). */
-int vd_parallel_for(size_t n, int threads,
-		    void (*fn)(void *ctx, size_t i, int worker), void *ctx);
-
 /* Number of hardware threads. */
 int vd_hardware_threads(void);
 
@@ -140,28 +132,14 @@ int vd_hardware_threads(void);
  * Returns VD_ERR_ARG on anything else. */
 int vd_parse_size(const char *s, uint64_t *bytes);
 
-/* Peak resident set size of this process so far, in bytes. */
-uint64_t vd_peak_rss_bytes(void);
-/* Resident set size of this process now, in bytes (the peak if
- * /proc/self/statm cannot be read). */
-uint64_t vd_current_rss_bytes(void);
-
 /* Monotonic seconds. */
 double vd_seconds(void);
-
-/* Room for element n of a doubling array of `elem`-byte elements with
- * capacity *cap (`first` when empty): returns the array, moved if it grew,
- * with *cap > n; NULL when out of memory, the old array untouched. */
-void *vd_grow(void *a, size_t n, size_t *cap, size_t elem, size_t first);
 
 /* Builds the provenance text stored in chunk files:
  * "tool=NAME version=X args='a' 'b' ...", without --threads (-j) and its
  * value, which change no output byte. Returns a malloc'd string (free
  * with free()), NULL when out of memory. */
 char *vd_provenance_new(const char *tool, int argc, char **argv);
-
-/* XXH3 64-bit hash (the library's one hash). */
-uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
 
 #ifdef __cplusplus
 }

@@ -3,6 +3,7 @@
  * and the Morton maths of vd_common.h, against values worked out by hand
  * and bit-by-bit references. */
 #include "check.h"
+#include "util_internal.h"
 #include "voxdag.h"
 #include "cli.h"
 

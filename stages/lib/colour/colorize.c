@@ -3,6 +3,7 @@
  * packed colours files, one per method, published as one directory with a
  * manifest; statistics in the colour paper's terms (percent of raw, GMSE). */
 #include "voxdag.h"
+#include "util_internal.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -3,6 +3,7 @@
  * segment as the cells arrive, and read back for random access and full
  * decoding. */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "colour/colour_internal.h"
 #include "le.h"
 

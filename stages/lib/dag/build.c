@@ -21,6 +21,7 @@
  * same bytes on any number of threads.
  */
 #include "dag/dag_internal.h"
+#include "util_internal.h"
 #include "le.h"
 
 #include <inttypes.h>

@@ -3,6 +3,7 @@
  * and checked (vd_dag_from_chunk, _mt, vd_dag_load). The sections are
  * specified in schemas/ (DAGM, DAGC, DAGR). */
 #include "dag/dag_internal.h"
+#include "util_internal.h"
 #include "le.h"
 
 #include <inttypes.h>

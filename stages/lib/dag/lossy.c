@@ -8,6 +8,7 @@
  * 2x2x2 masks (height 1), level L-2 the nodes over them (height 2, one
  * 64-bit brick each). */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "budget.h"
 #include "io/publish.h"
 

@@ -4,6 +4,7 @@
  * (vd_dag_run), which loads the inputs, builds or merges, saves the chunk
  * and its statistics (vd_dag_write_stats) and publishes the pair. */
 #include "dag/dag_internal.h"
+#include "util_internal.h"
 #include "io/publish.h"
 #include "cli.h"
 

@@ -8,6 +8,7 @@
  * colours are saved as a voxelize-style directory (SVO and colour chunk
  * per cell) whose unchanged cells are links to the source's files. */
 #include "edit_internal.h"
+#include "util_internal.h"
 
 #include <errno.h>
 #include <stdlib.h>

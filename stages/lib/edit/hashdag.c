@@ -2,6 +2,7 @@
  * loading a root DAG chunk, decoding the scene, saving it canonically,
  * history and garbage collection (paper sections 3.2, 3.3 and 3.5). */
 #include "edit_internal.h"
+#include "util_internal.h"
 
 #include <errno.h>
 #include <stdlib.h>

@@ -9,6 +9,7 @@
  * does not depend on the thread count (only the order of nodes inside a
  * bucket does). */
 #include "edit_internal.h"
+#include "util_internal.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -2,6 +2,7 @@
  * script run and the interactive shell. Scripts are parsed and checked
  * against the grid before anything is edited or written. */
 #include "edit_internal.h"
+#include "util_internal.h"
 #include "io/publish.h"
 
 #include <ctype.h>

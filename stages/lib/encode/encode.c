@@ -12,6 +12,7 @@
  * 2^13 and 32-bit ones above.
  */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "le.h"
 #include "encode/encode_internal.h"
 #include "dag/dag_internal.h" /* the cube group's tables (.ssvdag48) */

@@ -7,6 +7,7 @@
  * rename, directory fsync: io/publish.c).
  */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "le.h"
 
 #include <errno.h>

@@ -32,6 +32,7 @@
  * stored nodes onto the ray's own frame, so every plane time stays the one
  * formula tp() and the result stays exactly the DDA's. */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "le.h"
 #include "dag/dag_internal.h" /* the cube group's tables */
 #include "io/publish.h"

@@ -6,6 +6,7 @@
  * zstd then squeezes to about a byte per brick.
  */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "le.h"
 #include "voxel/voxel_internal.h"
 

@@ -18,6 +18,7 @@
  * and per worker 16 bytes per brick of its cell plus a fixed colour buffer.
  */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "voxel/voxel_internal.h"
 
 #include <dirent.h>

@@ -34,6 +34,7 @@
  * the colour chunk stores them, 8 bytes per voxel while they are built.
  */
 #include "voxdag.h"
+#include "util_internal.h"
 #include "budget.h"
 #include "le.h"
 #include "voxel/voxel_internal.h"

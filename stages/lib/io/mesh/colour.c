@@ -5,6 +5,7 @@
  * and decoded the first time a face uses them, so a library of unused
  * materials costs nothing. */
 #include "io/mesh/mesh_internal.h"
+#include "util_internal.h"
 
 #include <inttypes.h>
 #include <stdarg.h>

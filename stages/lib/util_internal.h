@@ -1,0 +1,38 @@
+/* util_internal.h - what every part of the library uses and its users do
+ * not need: the thread pool (parallel.cc), process memory, array growth,
+ * the hash (util.c). Not installed. */
+#ifndef VD_UTIL_INTERNAL_H
+#define VD_UTIL_INTERNAL_H
+
+#include "vd_common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A small C interface to TBB. Runs fn(ctx, i, worker) for i in [0, n) on up
+ * to `threads` threads (0: all cores); `worker` is in [0, threads) and
+ * unique among concurrently running calls. Returns VD_OK, or VD_ERR_INTERNAL
+ * if TBB threw (the exception never crosses into C). */
+int vd_parallel_for(size_t n, int threads,
+		    void (*fn)(void *ctx, size_t i, int worker), void *ctx);
+
+/* Peak resident set size of this process so far, in bytes. */
+uint64_t vd_peak_rss_bytes(void);
+/* Resident set size of this process now, in bytes (the peak if
+ * /proc/self/statm cannot be read). */
+uint64_t vd_current_rss_bytes(void);
+
+/* Room for element n of a doubling array of `elem`-byte elements with
+ * capacity *cap (`first` when empty): returns the array, moved if it grew,
+ * with *cap > n; NULL when out of memory, the old array untouched. */
+void *vd_grow(void *a, size_t n, size_t *cap, size_t elem, size_t first);
+
+/* XXH3 64-bit hash (the library's one hash). */
+uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VD_UTIL_INTERNAL_H */
