@@ -8,6 +8,8 @@
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <string.h>
 
 static int check_failed_;   /* failures inside the running test */
@@ -113,6 +115,22 @@ static inline char *test_slurp(const char *path, size_t *n)
 			*n = len;
 	}
 	return buf;
+}
+
+/* "<path>.tmp.<pid>": the temporary every writer of the library uses
+ * (vd_atomic_open) before it publishes `path`. */
+static inline const char *test_tmp_of(const char *path)
+{
+	static char t[800];
+	snprintf(t, sizeof t, "%s.tmp.%ld", path, (long)getpid());
+	return t;
+}
+
+/* 1 when something (a file, a directory, a dangling link) is at `path`. */
+static inline int test_exists(const char *path)
+{
+	struct stat st;
+	return lstat(path, &st) == 0;
 }
 
 #endif

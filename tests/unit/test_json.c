@@ -19,20 +19,6 @@
 
 static const char *dir;
 
-/* The writer's temporary for `path` (json.c: "<path>.tmp.<pid>"). */
-static const char *tmp_of(const char *path)
-{
-	static char t[700];
-	snprintf(t, sizeof t, "%s.tmp.%ld", path, (long)getpid());
-	return t;
-}
-
-static int exists(const char *path)
-{
-	struct stat st;
-	return lstat(path, &st) == 0;
-}
-
 /* The whole file as a string (malloc'd), NULL when it cannot be read. */
 static json_t *load(const char *path)
 {
@@ -217,13 +203,13 @@ static void test_atomic(void)
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
 	if (!j)
 		return;
-	CHECK(exists(tmp_of(p)));
+	CHECK(test_exists(test_tmp_of(p)));
 	vd_json_u64(j, "n", 1);
 	char *text = test_slurp(p, NULL);
 	CHECK(text && !strcmp(text, "old"));
 	free(text);
 	CHECK_EQ(vd_json_close(j), VD_OK);
-	CHECK(!exists(tmp_of(p)));
+	CHECK(!test_exists(test_tmp_of(p)));
 	json_t *r = load(p);
 	CHECK(json_is_object(r) &&
 	      json_integer_value(json_object_get(r, "n")) == 1);
@@ -231,9 +217,9 @@ static void test_atomic(void)
 	/* a new file: absent until close */
 	p = test_path(dir, "new.json");
 	CHECK_EQ(vd_json_open(&j, p), VD_OK);
-	CHECK(!exists(p));
+	CHECK(!test_exists(p));
 	CHECK_EQ(vd_json_close(j), VD_OK);
-	CHECK(exists(p) && !exists(tmp_of(p)));
+	CHECK(test_exists(p) && !test_exists(test_tmp_of(p)));
 }
 
 /* A directory that does not exist: VD_ERR_IO naming the temporary and the
@@ -246,12 +232,12 @@ static void test_open_missing_dir(void)
 	CHECK_EQ(vd_json_open(&j, p), VD_ERR_IO);
 	CHECK(j == (struct vd_json *)&j);
 	char want[800];
-	snprintf(want, sizeof want, "cannot create '%s': %s", tmp_of(p),
+	snprintf(want, sizeof want, "cannot create '%s': %s", test_tmp_of(p),
 		 strerror(ENOENT));
 	CHECK(!strcmp(vd_error_detail(), want));
 	if (strcmp(vd_error_detail(), want))
 		fprintf(stderr, "detail: %s\n", vd_error_detail());
-	CHECK(!exists(test_path(dir, "no")));
+	CHECK(!test_exists(test_path(dir, "no")));
 	vd_error_clear();
 }
 
@@ -277,7 +263,7 @@ static void test_close_onto_directory(void)
 		fprintf(stderr, "detail: %s\n", vd_error_detail());
 	struct stat st;
 	CHECK(stat(p, &st) == 0 && S_ISDIR(st.st_mode));
-	CHECK(!exists(tmp_of(p)));
+	CHECK(!test_exists(test_tmp_of(p)));
 	vd_error_clear();
 }
 

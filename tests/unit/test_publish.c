@@ -18,29 +18,6 @@
 
 static const char *dir;
 
-static const char *path_of(const char *name)
-{
-	static char p[4][600];
-	static int k;
-	k = (k + 1) % 4;
-	snprintf(p[k], sizeof p[k], "%s/%s", dir, name);
-	return p[k];
-}
-
-/* "<path>.tmp.<pid>", the temporary every writer uses. */
-static const char *tmp_of(const char *path)
-{
-	static char t[700];
-	snprintf(t, sizeof t, "%s.tmp.%ld", path, (long)getpid());
-	return t;
-}
-
-static int exists(const char *path)
-{
-	struct stat st;
-	return lstat(path, &st) == 0;
-}
-
 /* 1 when `path` holds exactly n bytes `want`. */
 static int holds(const char *path, const void *want, size_t n)
 {
@@ -70,7 +47,7 @@ static void put(const char *path, const char *text)
  * name and is gone after; the struct is empty afterwards. */
 static void test_commit_exact_bytes(void)
 {
-	const char *p = path_of("a.bin");
+	const char *p = test_path(dir, "a.bin");
 	put(p, "old");
 	size_t n = 300000;
 	unsigned char *data = malloc(n);
@@ -78,14 +55,14 @@ static void test_commit_exact_bytes(void)
 		data[i] = (unsigned char)(i * 131 + (i >> 9));
 	struct vd_atomic a;
 	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
-	CHECK(a.f && !strcmp(a.path, p) && !strcmp(a.tmp, tmp_of(p)));
-	CHECK(exists(tmp_of(p)));
+	CHECK(a.f && !strcmp(a.path, p) && !strcmp(a.tmp, test_tmp_of(p)));
+	CHECK(test_exists(test_tmp_of(p)));
 	CHECK_EQ(fwrite(data, 1, n, a.f), n);
 	CHECK(holds(p, "old", 3)); /* untouched until commit */
 	CHECK_EQ(vd_atomic_commit(&a), VD_OK);
 	CHECK(!a.f && !a.path && !a.tmp);
 	CHECK(holds(p, data, n));
-	CHECK(!exists(tmp_of(p)));
+	CHECK(!test_exists(test_tmp_of(p)));
 	vd_atomic_abort(&a); /* harmless on the emptied struct */
 	CHECK(holds(p, data, n));
 	/* an empty file is a file */
@@ -98,19 +75,19 @@ static void test_commit_exact_bytes(void)
 /* Abort keeps the old file (or no file) and removes the temporary. */
 static void test_abort(void)
 {
-	const char *p = path_of("b.txt");
+	const char *p = test_path(dir, "b.txt");
 	put(p, "old");
 	struct vd_atomic a;
 	CHECK_EQ(vd_atomic_open(&a, p), VD_OK);
 	fputs("new", a.f);
 	vd_atomic_abort(&a);
 	CHECK(holds(p, "old", 3));
-	CHECK(!exists(tmp_of(p)));
-	const char *q = path_of("never.txt");
+	CHECK(!test_exists(test_tmp_of(p)));
+	const char *q = test_path(dir, "never.txt");
 	CHECK_EQ(vd_atomic_open(&a, q), VD_OK);
 	fputs("new", a.f);
 	vd_atomic_abort(&a);
-	CHECK(!exists(q) && !exists(tmp_of(q)));
+	CHECK(!test_exists(q) && !test_exists(test_tmp_of(q)));
 }
 
 /* A write that fails (a file size limit stands in for a full disk) fails
@@ -118,7 +95,7 @@ static void test_abort(void)
  * file stays, no temporary. */
 static void test_failed_write(void)
 {
-	const char *p = path_of("c.bin");
+	const char *p = test_path(dir, "c.bin");
 	put(p, "old");
 	struct rlimit old, lim;
 	CHECK_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
@@ -139,13 +116,13 @@ static void test_failed_write(void)
 	CHECK_EQ(err, VD_ERR_IO);
 	CHECK_EQ(e, EFBIG);
 	char want[800];
-	snprintf(want, sizeof want, "cannot write '%s': %s", tmp_of(p),
+	snprintf(want, sizeof want, "cannot write '%s': %s", test_tmp_of(p),
 		 strerror(EFBIG));
 	CHECK(!strcmp(vd_error_detail(), want));
 	if (strcmp(vd_error_detail(), want))
 		fprintf(stderr, "detail: %s\n", vd_error_detail());
 	CHECK(holds(p, "old", 3));
-	CHECK(!exists(tmp_of(p)));
+	CHECK(!test_exists(test_tmp_of(p)));
 	vd_error_clear();
 }
 
@@ -153,14 +130,14 @@ static void test_failed_write(void)
  * struct empty (no abort needed). */
 static void test_open_missing_dir(void)
 {
-	const char *p = path_of("no/such/x");
+	const char *p = test_path(dir, "no/such/x");
 	struct vd_atomic a;
 	vd_error_clear();
 	CHECK_EQ(vd_atomic_open(&a, p), VD_ERR_IO);
 	CHECK_EQ(errno, ENOENT);
 	CHECK(!a.f && !a.path && !a.tmp);
 	char want[800];
-	snprintf(want, sizeof want, "cannot create '%s': %s", tmp_of(p),
+	snprintf(want, sizeof want, "cannot create '%s': %s", test_tmp_of(p),
 		 strerror(ENOENT));
 	CHECK(!strcmp(vd_error_detail(), want));
 	vd_error_clear();
@@ -172,9 +149,9 @@ static void test_open_missing_dir(void)
 static void test_refuse_non_regular(void)
 {
 	char d[600], fifo[600], link[600];
-	snprintf(d, sizeof d, "%s", path_of("isdir"));
-	snprintf(fifo, sizeof fifo, "%s", path_of("isfifo"));
-	snprintf(link, sizeof link, "%s", path_of("islink"));
+	snprintf(d, sizeof d, "%s", test_path(dir, "isdir"));
+	snprintf(fifo, sizeof fifo, "%s", test_path(dir, "isfifo"));
+	snprintf(link, sizeof link, "%s", test_path(dir, "islink"));
 	CHECK_EQ(mkdir(d, 0777), 0);
 	CHECK_EQ(mkfifo(fifo, 0666), 0);
 	CHECK_EQ(symlink("target", link), 0);
@@ -193,7 +170,7 @@ static void test_refuse_non_regular(void)
 		snprintf(want, sizeof want, "'%s' exists and is not a regular "
 			 "file; refusing to replace it", p);
 		CHECK(!strcmp(vd_error_detail(), want));
-		CHECK(!exists(tmp_of(p)));
+		CHECK(!test_exists(test_tmp_of(p)));
 	}
 	struct stat st;
 	CHECK(lstat(d, &st) == 0 && S_ISDIR(st.st_mode));
@@ -207,24 +184,24 @@ static void test_refuse_non_regular(void)
 static void test_fsync_dir(void)
 {
 	CHECK_EQ(vd_fsync_dir(dir), VD_OK);
-	CHECK_EQ(vd_fsync_parent(path_of("anything")), VD_OK);
+	CHECK_EQ(vd_fsync_parent(test_path(dir, "anything")), VD_OK);
 	CHECK_EQ(vd_fsync_parent("bare-name"), VD_OK);
 	CHECK_EQ(vd_fsync_parent("/"), VD_OK);
 	char p[700];
 	snprintf(p, sizeof p, "%s/", dir);
 	CHECK_EQ(vd_fsync_parent(p), VD_OK); /* syncs dir's parent */
 	vd_error_clear();
-	const char *missing = path_of("gone");
+	const char *missing = test_path(dir, "gone");
 	CHECK_EQ(vd_fsync_dir(missing), VD_ERR_IO);
 	char want[800];
 	snprintf(want, sizeof want, "cannot sync directory '%s': %s", missing,
 		 strerror(ENOENT));
 	CHECK(!strcmp(vd_error_detail(), want));
 	vd_error_clear();
-	CHECK_EQ(vd_fsync_parent(path_of("gone/x")), VD_ERR_IO);
+	CHECK_EQ(vd_fsync_parent(test_path(dir, "gone/x")), VD_ERR_IO);
 	CHECK(!strcmp(vd_error_detail(), want)); /* the parent, by name */
 	vd_error_clear();
-	CHECK_EQ(vd_fsync_dir(path_of("a.bin")), VD_ERR_IO); /* not a dir */
+	CHECK_EQ(vd_fsync_dir(test_path(dir, "a.bin")), VD_ERR_IO); /* not a dir */
 	vd_error_clear();
 }
 
@@ -233,15 +210,15 @@ static void test_fsync_dir(void)
 static void test_publish_pair(void)
 {
 	char out[600], st[600], out2[600], st2[600];
-	snprintf(out, sizeof out, "%s", path_of("o.dag"));
-	snprintf(st, sizeof st, "%s", path_of("o.dag.stats.json"));
-	snprintf(out2, sizeof out2, "%s", path_of("p.dag"));
-	snprintf(st2, sizeof st2, "%s", path_of("p.stats"));
+	snprintf(out, sizeof out, "%s", test_path(dir, "o.dag"));
+	snprintf(st, sizeof st, "%s", test_path(dir, "o.dag.stats.json"));
+	snprintf(out2, sizeof out2, "%s", test_path(dir, "p.dag"));
+	snprintf(st2, sizeof st2, "%s", test_path(dir, "p.stats"));
 	char so[700], ss[700];
 	CHECK_EQ(vd_stage_name(out, so, sizeof so), VD_OK);
 	CHECK_EQ(vd_stage_name(st, ss, sizeof ss), VD_OK);
 	char want[700];
-	snprintf(want, sizeof want, "%s.new", tmp_of(out));
+	snprintf(want, sizeof want, "%s.new", test_tmp_of(out));
 	CHECK(!strcmp(so, want));
 	char tiny[8];
 	CHECK_EQ(vd_stage_name(out, tiny, sizeof tiny), VD_ERR_RANGE);
@@ -249,7 +226,7 @@ static void test_publish_pair(void)
 	put(ss, "{}");
 	CHECK_EQ(vd_publish_pair(so, out, ss, st), VD_OK);
 	CHECK(holds(out, "dag", 3) && holds(st, "{}", 2));
-	CHECK(!exists(so) && !exists(ss));
+	CHECK(!test_exists(so) && !test_exists(ss));
 	/* the statistics' name taken by a directory */
 	CHECK_EQ(mkdir(st2, 0777), 0);
 	CHECK_EQ(vd_stage_name(out2, so, sizeof so), VD_OK);
@@ -258,7 +235,7 @@ static void test_publish_pair(void)
 	put(ss, "{}");
 	vd_error_clear();
 	CHECK_EQ(vd_publish_pair(so, out2, ss, st2), VD_ERR_IO);
-	CHECK(!exists(so) && !exists(ss));
+	CHECK(!test_exists(so) && !test_exists(ss));
 	vd_error_clear();
 }
 
@@ -267,23 +244,23 @@ static void test_publish_pair(void)
 static void test_dir_swap(void)
 {
 	char final[600], stage[600]; /* path_of's buffers are reused */
-	snprintf(final, sizeof final, "%s", path_of("d"));
-	snprintf(stage, sizeof stage, "%s", path_of("d.tmp.1"));
+	snprintf(final, sizeof final, "%s", test_path(dir, "d"));
+	snprintf(stage, sizeof stage, "%s", test_path(dir, "d.tmp.1"));
 	CHECK_EQ(mkdir(stage, 0777), 0);
-	put(path_of("d.tmp.1/f"), "one");
+	put(test_path(dir, "d.tmp.1/f"), "one");
 	int had_old = -1;
 	CHECK_EQ(vd_dir_swap(stage, final, &had_old), VD_OK);
 	CHECK_EQ(had_old, 0);
-	CHECK(holds(path_of("d/f"), "one", 3) && !exists(stage));
+	CHECK(holds(test_path(dir, "d/f"), "one", 3) && !test_exists(stage));
 	CHECK_EQ(mkdir(stage, 0777), 0);
-	put(path_of("d.tmp.1/f"), "two");
+	put(test_path(dir, "d.tmp.1/f"), "two");
 	CHECK_EQ(vd_dir_swap(stage, final, &had_old), VD_OK);
 	CHECK_EQ(had_old, 1);
-	CHECK(holds(path_of("d/f"), "two", 3));
-	CHECK(holds(path_of("d.tmp.1/f"), "one", 3));
+	CHECK(holds(test_path(dir, "d/f"), "two", 3));
+	CHECK(holds(test_path(dir, "d.tmp.1/f"), "one", 3));
 	CHECK_EQ(vd_dir_unswap(stage, final, had_old), VD_OK);
-	CHECK(holds(path_of("d/f"), "one", 3));
-	CHECK(holds(path_of("d.tmp.1/f"), "two", 3));
+	CHECK(holds(test_path(dir, "d/f"), "one", 3));
+	CHECK(holds(test_path(dir, "d.tmp.1/f"), "two", 3));
 }
 
 int main(void)
