@@ -403,153 +403,189 @@ static int parse_script(struct ctx *x, struct job_decl *d, yaml_node_t *v)
 	return 0;
 }
 
-static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
+/* The keys of a job that are parameters of one stage only, as found
+ * (NULL: absent); checked against the stage once it is known (it may
+ * come after them). */
+struct job_params {
+	yaml_node_t *lossy, *edit, *colour, *group;
+};
+
+/* Starts the declaration of job `name` in c->jobs_decl[c->njobs] (not
+ * counted yet): checks the name, that there is room, and that it is not
+ * declared twice. Returns it, or NULL after fail_at(). */
+static struct job_decl *job_begin(struct ctx *x, yaml_node_t *name)
 {
 	struct config *c = x->c;
 	const char *n = scalar(name);
-	if (!n || !valid_name(n) || strlen(n) >= MAX_NAME)
-		return fail_at(x, name, "job names are letters, digits, '-' "
-			       "and '_' (at most %d)", MAX_NAME - 1);
-	if (c->njobs == MAX_JOBS_DECL)
-		return fail_at(x, name, "more than %d jobs", MAX_JOBS_DECL);
+	if (!n || !valid_name(n) || strlen(n) >= MAX_NAME) {
+		fail_at(x, name, "job names are letters, digits, '-' "
+			"and '_' (at most %d)", MAX_NAME - 1);
+		return NULL;
+	}
+	if (c->njobs == MAX_JOBS_DECL) {
+		fail_at(x, name, "more than %d jobs", MAX_JOBS_DECL);
+		return NULL;
+	}
 	for (int i = 0; i < c->njobs; i++)
-		if (!strcmp(c->jobs_decl[i].name, n))
-			return fail_at(x, name, "job '%s' is declared twice", n);
+		if (!strcmp(c->jobs_decl[i].name, n)) {
+			fail_at(x, name, "job '%s' is declared twice", n);
+			return NULL;
+		}
 	struct job_decl *d = &c->jobs_decl[c->njobs];
 	memset(d, 0, sizeof *d);
 	strcpy(d->name, n);
 	d->line = (int)name->start_mark.line + 1;
 	d->column = (int)name->start_mark.column + 1;
-	if (want_mapping(x, map, n))
-		return 1;
-	/* parameters of one stage; checked against the stage once it is
-	 * known (it may come after them) */
-	yaml_node_t *lossy_param = NULL, *edit_param = NULL, *colour_param = NULL;
-	yaml_node_t *group_param = NULL;
-	yaml_node_t *k, *v;
-	FOR_PAIRS(x, map, k, v, it) {
-		const char *key = scalar(k);
-		if (!key)
-			return fail_at(x, k, "keys must be strings");
-		if (!strcmp(key, "stage")) {
-			const char *s = scalar(v);
-			if (!s || !(d->stage = stage_lookup(s))) {
-				char known[256] = "";
-				stage_names(known, sizeof known);
-				return fail_at(x, v, "unknown stage '%s' (known: "
-					       "%s)", s ? s : "?", known);
-			}
-		} else if (!strcmp(key, "needs")) {
-			if (v->type != YAML_SEQUENCE_NODE)
-				return fail_at(x, v, "'needs' must be a list of "
-					       "job names");
-			for (yaml_node_item_t *ni = v->data.sequence.items.start;
-			     ni < v->data.sequence.items.top; ni++) {
-				yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
-				const char *s = scalar(e);
-				if (!s || strlen(s) >= MAX_NAME)
-					return fail_at(x, e, "'needs' entries are "
-						       "job names");
-				if (d->nneeds == MAX_NEEDS)
-					return fail_at(x, e, "more than %d needs",
-						       MAX_NEEDS);
-				strcpy(d->needs_name[d->nneeds++], s);
-			}
-		} else if (!strcmp(key, "inflation")) {
-			/* the ranges are lossy-cluster's own */
-			if (want_number(x, v, key, 1.0, 100.0, 1, d->inflation,
-					sizeof d->inflation))
-				return 1;
-			lossy_param = k;
-		} else if (!strcmp(key, "diff_factor")) {
-			if (want_number(x, v, key, 0.0, 1e6, 0, d->diff_factor,
-					sizeof d->diff_factor))
-				return 1;
-			lossy_param = k;
-		} else if (!strcmp(key, "max_refs")) {
-			int r;
-			if (want_int(x, v, key, 0, 1000000, &r))
-				return 1;
-			snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
-			lossy_param = k;
-		} else if (!strcmp(key, "group")) {
-			if (want_int(x, v, key, 0, 48, &d->group))
-				return 1;
-			if (d->group != 8 && d->group != 48)
-				return fail_at(x, v, "'group' is 8 (reflections, "
-					       "the SSVDAG) or 48 (the cube's "
-					       "symmetries), not %d", d->group);
-			group_param = k;
-		} else if (!strcmp(key, "method")) {
-			const char *m = scalar(v);
-			if (!m || (strcmp(m, "vbr") && strcmp(m, "palette") &&
-				   strcmp(m, "raw")))
-				return fail_at(x, v, "'method' is vbr, palette or "
-					       "raw");
-			strcpy(d->method, m);
-			colour_param = k;
-		} else if (!strcmp(key, "max_error")) {
-			/* colorize's own range: below 0.0236 a single colour
-			 * may not fit RGB565 endpoints */
-			if (want_number(x, v, key, 0.0236, 1.8, 0, d->max_error,
-					sizeof d->max_error))
-				return 1;
-			colour_param = k;
-		} else if (!strcmp(key, "weight_bits")) {
-			int w;
-			if (want_int(x, v, key, 1, 8, &w))
-				return 1;
-			snprintf(d->weight_bits, sizeof d->weight_bits, "%d", w);
-			colour_param = k;
-		} else if (!strcmp(key, "palette_colours")) {
-			int w;
-			if (want_int(x, v, key, 2, 16777216, &w))
-				return 1;
-			snprintf(d->palette_colours, sizeof d->palette_colours,
-				 "%d", w);
-			colour_param = k;
-		} else if (!strcmp(key, "lossless")) {
-			const char *b = scalar(v);
-			if (!b || (strcmp(b, "true") && strcmp(b, "false")))
-				return fail_at(x, v, "'lossless' is true or false");
-			d->lossless = !strcmp(b, "true");
-			colour_param = k;
-		} else if (!strcmp(key, "script")) {
-			if (parse_script(x, d, v))
-				return 1;
-			edit_param = k;
-		} else {
-			return fail_at(x, k, "unknown key '%s' in job '%s' "
-				       "(known: stage, needs; group for "
-				       "symmetry-merge; inflation, "
-				       "diff_factor, max_refs for lossy-cluster; "
-				       "script for edit; method, max_error, "
-				       "weight_bits, palette_colours, lossless for "
-				       "colorize)", key, n);
-		}
+	return d;
+}
+
+/* Reads the list of a job's 'needs' (`v`) into d->needs_name. Returns 0,
+ * or 1 after fail_at(). */
+static int parse_needs(struct ctx *x, struct job_decl *d, yaml_node_t *v)
+{
+	if (v->type != YAML_SEQUENCE_NODE)
+		return fail_at(x, v, "'needs' must be a list of "
+			       "job names");
+	for (yaml_node_item_t *ni = v->data.sequence.items.start;
+	     ni < v->data.sequence.items.top; ni++) {
+		yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
+		const char *s = scalar(e);
+		if (!s || strlen(s) >= MAX_NAME)
+			return fail_at(x, e, "'needs' entries are "
+				       "job names");
+		if (d->nneeds == MAX_NEEDS)
+			return fail_at(x, e, "more than %d needs",
+				       MAX_NEEDS);
+		strcpy(d->needs_name[d->nneeds++], s);
 	}
+	return 0;
+}
+
+/* Reads one key `k` and its value `v` of job d into d, noting in *pp a
+ * key that belongs to one stage only. Returns 0, or 1 after fail_at(). */
+static int parse_job_key(struct ctx *x, struct job_decl *d,
+			 struct job_params *pp, yaml_node_t *k, yaml_node_t *v)
+{
+	const char *n = d->name;
+	const char *key = scalar(k);
+	if (!key)
+		return fail_at(x, k, "keys must be strings");
+	if (!strcmp(key, "stage")) {
+		const char *s = scalar(v);
+		if (!s || !(d->stage = stage_lookup(s))) {
+			char known[256] = "";
+			stage_names(known, sizeof known);
+			return fail_at(x, v, "unknown stage '%s' (known: "
+				       "%s)", s ? s : "?", known);
+		}
+	} else if (!strcmp(key, "needs")) {
+		if (parse_needs(x, d, v))
+			return 1;
+	} else if (!strcmp(key, "inflation")) {
+		/* the ranges are lossy-cluster's own */
+		if (want_number(x, v, key, 1.0, 100.0, 1, d->inflation,
+				sizeof d->inflation))
+			return 1;
+		pp->lossy = k;
+	} else if (!strcmp(key, "diff_factor")) {
+		if (want_number(x, v, key, 0.0, 1e6, 0, d->diff_factor,
+				sizeof d->diff_factor))
+			return 1;
+		pp->lossy = k;
+	} else if (!strcmp(key, "max_refs")) {
+		int r;
+		if (want_int(x, v, key, 0, 1000000, &r))
+			return 1;
+		snprintf(d->max_refs, sizeof d->max_refs, "%d", r);
+		pp->lossy = k;
+	} else if (!strcmp(key, "group")) {
+		if (want_int(x, v, key, 0, 48, &d->group))
+			return 1;
+		if (d->group != 8 && d->group != 48)
+			return fail_at(x, v, "'group' is 8 (reflections, "
+				       "the SSVDAG) or 48 (the cube's "
+				       "symmetries), not %d", d->group);
+		pp->group = k;
+	} else if (!strcmp(key, "method")) {
+		const char *m = scalar(v);
+		if (!m || (strcmp(m, "vbr") && strcmp(m, "palette") &&
+			   strcmp(m, "raw")))
+			return fail_at(x, v, "'method' is vbr, palette or "
+				       "raw");
+		strcpy(d->method, m);
+		pp->colour = k;
+	} else if (!strcmp(key, "max_error")) {
+		/* colorize's own range: below 0.0236 a single colour
+		 * may not fit RGB565 endpoints */
+		if (want_number(x, v, key, 0.0236, 1.8, 0, d->max_error,
+				sizeof d->max_error))
+			return 1;
+		pp->colour = k;
+	} else if (!strcmp(key, "weight_bits")) {
+		int w;
+		if (want_int(x, v, key, 1, 8, &w))
+			return 1;
+		snprintf(d->weight_bits, sizeof d->weight_bits, "%d", w);
+		pp->colour = k;
+	} else if (!strcmp(key, "palette_colours")) {
+		int w;
+		if (want_int(x, v, key, 2, 16777216, &w))
+			return 1;
+		snprintf(d->palette_colours, sizeof d->palette_colours,
+			 "%d", w);
+		pp->colour = k;
+	} else if (!strcmp(key, "lossless")) {
+		const char *b = scalar(v);
+		if (!b || (strcmp(b, "true") && strcmp(b, "false")))
+			return fail_at(x, v, "'lossless' is true or false");
+		d->lossless = !strcmp(b, "true");
+		pp->colour = k;
+	} else if (!strcmp(key, "script")) {
+		if (parse_script(x, d, v))
+			return 1;
+		pp->edit = k;
+	} else {
+		return fail_at(x, k, "unknown key '%s' in job '%s' "
+			       "(known: stage, needs; group for "
+			       "symmetry-merge; inflation, "
+			       "diff_factor, max_refs for lossy-cluster; "
+			       "script for edit; method, max_error, "
+			       "weight_bits, palette_colours, lossless for "
+			       "colorize)", key, n);
+	}
+	return 0;
+}
+
+/* Checks job d (mapping `map`) once all its keys are read: it has a
+ * stage, each stage parameter in `pp` belongs to that stage, an edit job
+ * has a script; and fills the defaults. Returns 0, or 1 after
+ * fail_at(). */
+static int job_finish(struct ctx *x, struct job_decl *d,
+		      const struct job_params *pp, yaml_node_t *map)
+{
+	const char *n = d->name;
 	if (!d->stage)
 		return fail_at(x, map, "job '%s' has no 'stage'", n);
-	if (group_param && d->stage->type != STAGE_SYMMETRY_MERGE)
-		return fail_at(x, group_param, "'group' is a parameter of "
+	if (pp->group && d->stage->type != STAGE_SYMMETRY_MERGE)
+		return fail_at(x, pp->group, "'group' is a parameter of "
 			       "symmetry-merge jobs, not of '%s' (stage %s)", n,
 			       d->stage->name);
 	if (!d->group)
 		d->group = 8;
-	if (lossy_param && d->stage->type != STAGE_LOSSY)
-		return fail_at(x, lossy_param, "'%s' is a parameter of "
+	if (pp->lossy && d->stage->type != STAGE_LOSSY)
+		return fail_at(x, pp->lossy, "'%s' is a parameter of "
 			       "lossy-cluster jobs, not of '%s' (stage %s)",
-			       scalar(lossy_param), n, d->stage->name);
-	if (colour_param && d->stage->type != STAGE_COLORIZE)
-		return fail_at(x, colour_param, "'%s' is a parameter of colorize "
+			       scalar(pp->lossy), n, d->stage->name);
+	if (pp->colour && d->stage->type != STAGE_COLORIZE)
+		return fail_at(x, pp->colour, "'%s' is a parameter of colorize "
 			       "jobs, not of '%s' (stage %s)",
-			       scalar(colour_param), n, d->stage->name);
+			       scalar(pp->colour), n, d->stage->name);
 	if (d->stage->type == STAGE_COLORIZE && !*d->method)
 		strcpy(d->method, "vbr");
-	if (edit_param && d->stage->type != STAGE_EDIT)
-		return fail_at(x, edit_param, "'script' is a parameter of edit "
+	if (pp->edit && d->stage->type != STAGE_EDIT)
+		return fail_at(x, pp->edit, "'script' is a parameter of edit "
 			       "jobs, not of '%s' (stage %s)", n, d->stage->name);
-	if (d->stage->type == STAGE_EDIT && !edit_param)
+	if (d->stage->type == STAGE_EDIT && !pp->edit)
 		return fail_at(x, map, "edit job '%s' has no 'script' (a file "
 			       "or a list of edit lines)", n);
 	/* lossy-cluster's defaults (van der Laan et al. 2020) */
@@ -559,6 +595,28 @@ static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
 		strcpy(d->diff_factor, "1.0");
 	if (!*d->max_refs)
 		strcpy(d->max_refs, "1");
+	return 0;
+}
+
+/* Reads job `name` with its mapping `map` into the next c->jobs_decl:
+ * job_begin, each key (parse_job_key), job_finish. Returns 0, or 1 after
+ * fail_at(). */
+static int parse_job(struct ctx *x, yaml_node_t *name, yaml_node_t *map)
+{
+	struct config *c = x->c;
+	struct job_decl *d = job_begin(x, name);
+	if (!d)
+		return 1;
+	if (want_mapping(x, map, d->name))
+		return 1;
+	struct job_params pp = {0};
+	yaml_node_t *k, *v;
+	FOR_PAIRS(x, map, k, v, it) {
+		if (parse_job_key(x, d, &pp, k, v))
+			return 1;
+	}
+	if (job_finish(x, d, &pp, map))
+		return 1;
 	c->njobs++;
 	return 0;
 }

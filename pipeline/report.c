@@ -526,10 +526,12 @@ static void write_edit(FILE *f, const struct plan *p, int d)
 	free(st);
 }
 
-int report_write(const struct plan *p)
+/* Fills rows[d] for each declared job d from the statistics file of each
+ * of its jobs (read once): processes, seconds (the stage's own, its
+ * phases, else the job's), the largest budget and peak memory. */
+static void read_rows(const struct plan *p, struct stage_row *rows)
 {
 	const struct config *c = p->cfg;
-	struct stage_row rows[MAX_JOBS_DECL] = {{0}};
 	for (int i = 0; i < p->n; i++) {
 		const struct job *j = &p->jobs[i];
 		char sp[1300];
@@ -572,6 +574,175 @@ int report_write(const struct plan *p)
 			r->peak_rss = rss;
 		free(text);
 	}
+}
+
+/* Writes the body of report.md to f: the summary line (from the
+ * voxelization statistics `vstats`, may be NULL), the pictures, the size
+ * tables of the first encode job `enc` (`tables`, may be NULL; `nenc`
+ * encode jobs in all) and of the others, the lossy and edit sections, the
+ * colours and the table of the run. */
+static void write_report_md(FILE *f, const struct plan *p,
+			    const struct stage_row *rows, const char *vstats,
+			    const char *tables, const struct job *enc, int nenc)
+{
+	const struct config *c = p->cfg;
+	fprintf(f, "# voxdag report: %s\n\n", c->name);
+	if (*c->title)
+		fprintf(f, "%s\n\n", c->title);
+	fprintf(f, "Pipeline `%s`, input `%s`, grid 2^%d (%d^3), chunk level %d, "
+		"%.0f triangles, %.0f voxels in %.0f chunks.\n\n", c->path,
+		*c->mesh ? c->mesh : c->vdb,
+		c->levels, 1 << c->levels, (int)json_number(vstats, NULL, "chunk_level"),
+		json_number(vstats, NULL, "triangles_read"),
+		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
+	write_pictures(f, p);
+	if (tables && nenc > 1)
+		fprintf(f, "# Scene of job `%s`\n\n",
+			c->jobs_decl[enc->decl].name);
+	if (tables) /* encode's own title line is ours already */
+		fprintf(f, "%s\n", strncmp(tables, "# ", 2) == 0 && strchr(tables, '\n')
+				       ? strchr(tables, '\n') + 1 : tables);
+	else
+		fprintf(f, "(no encode job in this pipeline: no size tables)\n\n");
+	/* the other encode jobs' tables (a lossy or edited scene) */
+	for (int d = 0; d < c->njobs; d++) {
+		const struct job *e = encode_job(p, d);
+		if (!e || e == enc)
+			continue;
+		/* not report_write's `path`: the report's until it is renamed */
+		char other[1200];
+		snprintf(other, sizeof other, "%s/%s.tables.md", e->output, c->name);
+		char *t = slurp(other);
+		fprintf(f, "# Scene of job `%s`\n\n%s\n", c->jobs_decl[e->decl].name,
+			!t ? "(not built)\n" : strncmp(t, "# ", 2) == 0 &&
+			strchr(t, '\n') ? strchr(t, '\n') + 1 : t);
+		free(t);
+	}
+	for (int d = 0; d < c->njobs; d++) {
+		if (c->jobs_decl[d].stage->type == STAGE_LOSSY)
+			write_lossy(f, p, d, rows[c->jobs_decl[d].needs[0]].seconds);
+		if (c->jobs_decl[d].stage->type == STAGE_EDIT)
+			write_edit(f, p, d);
+	}
+	write_colours(f, p);
+	fprintf(f, "## The run\n\n");
+	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
+		"their statistics files); peak memory is the largest job's, "
+		"against the largest `--mem-budget` given to the stage's jobs: "
+		"the per-job budget of %llu MiB, or more for a job that could "
+		"not fit it (started when the whole budget had room for it).\n\n",
+		(unsigned long long)(c->job_mem_budget >> 20));
+	fprintf(f, "| job | stage | processes | seconds | peak MiB | budget MiB |\n"
+		   "|---|---|---:|---:|---:|---:|\n");
+	for (int d = 0; d < c->njobs; d++) {
+		char b[32] = "-";
+		if (rows[d].budget)
+			snprintf(b, sizeof b, "%llu",
+				 (unsigned long long)(rows[d].budget >> 20));
+		fprintf(f, "| %s | %s | %d | %.2f | %.0f | %s |\n",
+			c->jobs_decl[d].name, c->jobs_decl[d].stage->name,
+			rows[d].jobs, rows[d].seconds,
+			(double)rows[d].peak_rss / (1 << 20), b);
+	}
+}
+
+/* Writes the rows of report.csv to f, after its header line. */
+static void write_report_csv(FILE *f, const struct plan *p,
+			     const struct stage_row *rows)
+{
+	const struct config *c = p->cfg;
+	fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
+	for (int d = 0; d < c->njobs; d++) {
+		char b[32] = ""; /* empty: the stage takes no budget */
+		if (rows[d].budget)
+			snprintf(b, sizeof b, "%llu",
+				 (unsigned long long)rows[d].budget);
+		fprintf(f, "%s,%s,%d,%.3f,%llu,%s\n", c->jobs_decl[d].name,
+			c->jobs_decl[d].stage->name, rows[d].jobs,
+			rows[d].seconds,
+			(unsigned long long)rows[d].peak_rss, b);
+	}
+}
+
+/* Writes report.json at `path` (a buffer of `cap` bytes, reused for the
+ * paths it names): the pipeline, the stages' rows, where the size tables
+ * of `enc` (may be NULL) and the lossy tables' numbers come from. Returns
+ * 0, or 1 with the cause in `why` (`why_cap` bytes). */
+static int write_report_json(const struct plan *p,
+			     const struct stage_row *rows, const char *vstats,
+			     const struct job *enc, char *path, size_t cap,
+			     char *why, size_t why_cap)
+{
+	const struct config *c = p->cfg;
+	int err = 0;
+	struct vd_json *j;
+	if (vd_json_open(&j, path) == VD_OK) {
+		vd_json_str(j, "pipeline", c->path);
+		vd_json_str(j, "name", c->name);
+		vd_json_str(j, "input", *c->mesh ? c->mesh : c->vdb);
+		vd_json_u64(j, "levels", (uint64_t)c->levels);
+		vd_json_u64(j, "chunk_level", (uint64_t)json_number(vstats, NULL, "chunk_level"));
+		vd_json_u64(j, "voxels", (uint64_t)json_number(vstats, NULL, "voxels"));
+		vd_json_array(j, "stages");
+		for (int d = 0; d < c->njobs; d++) {
+			vd_json_object(j, NULL);
+			vd_json_str(j, "job", c->jobs_decl[d].name);
+			vd_json_str(j, "stage", c->jobs_decl[d].stage->name);
+			vd_json_u64(j, "processes", (uint64_t)rows[d].jobs);
+			vd_json_f64(j, "seconds", rows[d].seconds);
+			vd_json_u64(j, "peak_rss_bytes", rows[d].peak_rss);
+			if (rows[d].budget) /* absent: the stage takes none */
+				vd_json_u64(j, "budget_bytes", rows[d].budget);
+			vd_json_end_object(j);
+		}
+		vd_json_end_array(j);
+		if (enc) {
+			snprintf(path, cap, "%s/%s.tables.json", enc->output,
+				 c->name);
+			vd_json_str(j, "tables", path);
+		}
+		/* where the lossy tables' numbers come from */
+		vd_json_array(j, "lossy");
+		for (int d = 0; d < c->njobs; d++) {
+			const struct job_decl *ld = &c->jobs_decl[d];
+			if (ld->stage->type != STAGE_LOSSY)
+				continue;
+			vd_json_object(j, NULL);
+			vd_json_str(j, "job", ld->name);
+			snprintf(path, cap, "%s/%s/root.dag.stats.json",
+				 p->dir, ld->name);
+			vd_json_str(j, "stats", path);
+			const struct job *e0 = encode_of(p, ld->needs[0]),
+					 *e1 = encode_of(p, d);
+			if (e0) {
+				snprintf(path, cap, "%s/%s.tables.json",
+					 e0->output, c->name);
+				vd_json_str(j, "tables_lossless", path);
+			}
+			if (e1) {
+				snprintf(path, cap, "%s/%s.tables.json",
+					 e1->output, c->name);
+				vd_json_str(j, "tables_lossy", path);
+			}
+			vd_json_end_object(j);
+		}
+		vd_json_end_array(j);
+		if (vd_json_close(j) != VD_OK) {
+			err = 1;
+			snprintf(why, why_cap, "%s", vd_error_detail());
+		}
+	} else {
+		err = 1;
+		snprintf(why, why_cap, "%s", vd_error_detail());
+	}
+	return err;
+}
+
+int report_write(const struct plan *p)
+{
+	const struct config *c = p->cfg;
+	struct stage_row rows[MAX_JOBS_DECL] = {{0}};
+	read_rows(p, rows);
 	char path[1200];
 	/* the voxelization summary */
 	const struct job *vox = NULL, *enc = NULL;
@@ -609,146 +780,20 @@ int report_write(const struct plan *p)
 		free(tables);
 		return 1;
 	}
-	fprintf(f, "# voxdag report: %s\n\n", c->name);
-	if (*c->title)
-		fprintf(f, "%s\n\n", c->title);
-	fprintf(f, "Pipeline `%s`, input `%s`, grid 2^%d (%d^3), chunk level %d, "
-		"%.0f triangles, %.0f voxels in %.0f chunks.\n\n", c->path,
-		*c->mesh ? c->mesh : c->vdb,
-		c->levels, 1 << c->levels, (int)json_number(vstats, NULL, "chunk_level"),
-		json_number(vstats, NULL, "triangles_read"),
-		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
-	write_pictures(f, p);
-	if (tables && nenc > 1)
-		fprintf(f, "# Scene of job `%s`\n\n",
-			c->jobs_decl[enc->decl].name);
-	if (tables) /* encode's own title line is ours already */
-		fprintf(f, "%s\n", strncmp(tables, "# ", 2) == 0 && strchr(tables, '\n')
-				       ? strchr(tables, '\n') + 1 : tables);
-	else
-		fprintf(f, "(no encode job in this pipeline: no size tables)\n\n");
-	/* the other encode jobs' tables (a lossy or edited scene) */
-	for (int d = 0; d < c->njobs; d++) {
-		const struct job *e = encode_job(p, d);
-		if (!e || e == enc)
-			continue;
-		char other[1200]; /* `path` is the report's until it is renamed */
-		snprintf(other, sizeof other, "%s/%s.tables.md", e->output, c->name);
-		char *t = slurp(other);
-		fprintf(f, "# Scene of job `%s`\n\n%s\n", c->jobs_decl[e->decl].name,
-			!t ? "(not built)\n" : strncmp(t, "# ", 2) == 0 &&
-			strchr(t, '\n') ? strchr(t, '\n') + 1 : t);
-		free(t);
-	}
-	for (int d = 0; d < c->njobs; d++) {
-		if (c->jobs_decl[d].stage->type == STAGE_LOSSY)
-			write_lossy(f, p, d, rows[c->jobs_decl[d].needs[0]].seconds);
-		if (c->jobs_decl[d].stage->type == STAGE_EDIT)
-			write_edit(f, p, d);
-	}
-	write_colours(f, p);
-	fprintf(f, "## The run\n\n");
-	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
-		"their statistics files); peak memory is the largest job's, "
-		"against the largest `--mem-budget` given to the stage's jobs: "
-		"the per-job budget of %llu MiB, or more for a job that could "
-		"not fit it (started when the whole budget had room for it).\n\n",
-		(unsigned long long)(c->job_mem_budget >> 20));
-	fprintf(f, "| job | stage | processes | seconds | peak MiB | budget MiB |\n"
-		   "|---|---|---:|---:|---:|---:|\n");
-	for (int d = 0; d < c->njobs; d++) {
-		char b[32] = "-";
-		if (rows[d].budget)
-			snprintf(b, sizeof b, "%llu",
-				 (unsigned long long)(rows[d].budget >> 20));
-		fprintf(f, "| %s | %s | %d | %.2f | %.0f | %s |\n",
-			c->jobs_decl[d].name, c->jobs_decl[d].stage->name,
-			rows[d].jobs, rows[d].seconds,
-			(double)rows[d].peak_rss / (1 << 20), b);
-	}
+	write_report_md(f, p, rows, vstats, tables, enc, nenc);
 	int err = close_tmp(f, &tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.csv", p->dir);
 	f = err ? NULL : open_tmp(path, &tmp);
-	if (f) {
-		fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
-		for (int d = 0; d < c->njobs; d++) {
-			char b[32] = ""; /* empty: the stage takes no budget */
-			if (rows[d].budget)
-				snprintf(b, sizeof b, "%llu",
-					 (unsigned long long)rows[d].budget);
-			fprintf(f, "%s,%s,%d,%.3f,%llu,%s\n", c->jobs_decl[d].name,
-				c->jobs_decl[d].stage->name, rows[d].jobs,
-				rows[d].seconds,
-				(unsigned long long)rows[d].peak_rss, b);
-		}
-	}
+	if (f)
+		write_report_csv(f, p, rows);
 	if (!err)
 		err = close_tmp(f, &tmp, path, why, sizeof why);
 
 	snprintf(path, sizeof path, "%s/report.json", p->dir);
-	struct vd_json *j;
-	if (err) {
-		/* said already */
-	} else if (vd_json_open(&j, path) == VD_OK) {
-		vd_json_str(j, "pipeline", c->path);
-		vd_json_str(j, "name", c->name);
-		vd_json_str(j, "input", *c->mesh ? c->mesh : c->vdb);
-		vd_json_u64(j, "levels", (uint64_t)c->levels);
-		vd_json_u64(j, "chunk_level", (uint64_t)json_number(vstats, NULL, "chunk_level"));
-		vd_json_u64(j, "voxels", (uint64_t)json_number(vstats, NULL, "voxels"));
-		vd_json_array(j, "stages");
-		for (int d = 0; d < c->njobs; d++) {
-			vd_json_object(j, NULL);
-			vd_json_str(j, "job", c->jobs_decl[d].name);
-			vd_json_str(j, "stage", c->jobs_decl[d].stage->name);
-			vd_json_u64(j, "processes", (uint64_t)rows[d].jobs);
-			vd_json_f64(j, "seconds", rows[d].seconds);
-			vd_json_u64(j, "peak_rss_bytes", rows[d].peak_rss);
-			if (rows[d].budget) /* absent: the stage takes none */
-				vd_json_u64(j, "budget_bytes", rows[d].budget);
-			vd_json_end_object(j);
-		}
-		vd_json_end_array(j);
-		if (enc) {
-			snprintf(path, sizeof path, "%s/%s.tables.json", enc->output,
-				 c->name);
-			vd_json_str(j, "tables", path);
-		}
-		/* where the lossy tables' numbers come from */
-		vd_json_array(j, "lossy");
-		for (int d = 0; d < c->njobs; d++) {
-			const struct job_decl *ld = &c->jobs_decl[d];
-			if (ld->stage->type != STAGE_LOSSY)
-				continue;
-			vd_json_object(j, NULL);
-			vd_json_str(j, "job", ld->name);
-			snprintf(path, sizeof path, "%s/%s/root.dag.stats.json",
-				 p->dir, ld->name);
-			vd_json_str(j, "stats", path);
-			const struct job *e0 = encode_of(p, ld->needs[0]),
-					 *e1 = encode_of(p, d);
-			if (e0) {
-				snprintf(path, sizeof path, "%s/%s.tables.json",
-					 e0->output, c->name);
-				vd_json_str(j, "tables_lossless", path);
-			}
-			if (e1) {
-				snprintf(path, sizeof path, "%s/%s.tables.json",
-					 e1->output, c->name);
-				vd_json_str(j, "tables_lossy", path);
-			}
-			vd_json_end_object(j);
-		}
-		vd_json_end_array(j);
-		if (vd_json_close(j) != VD_OK) {
-			err = 1;
-			snprintf(why, sizeof why, "%s", vd_error_detail());
-		}
-	} else {
-		err = 1;
-		snprintf(why, sizeof why, "%s", vd_error_detail());
-	}
+	if (!err) /* else said already */
+		err = write_report_json(p, rows, vstats, enc, path, sizeof path,
+					why, sizeof why);
 	free(vstats);
 	free(tables);
 	if (err)

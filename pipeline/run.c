@@ -866,7 +866,32 @@ static void cancel_dependents(struct plan *p, int *running)
 	}
 }
 
-int run_pipeline(struct plan *p, const struct run_opts *o)
+/* The state of one run shared by its steps below: what run_pipeline's
+ * locals were before it was split. */
+struct run_state {
+	struct plan *p;
+	const struct run_opts *o;
+	const struct config *c;
+	int slurm;
+	int tty;
+	double t0, last;
+	/* how often progress is shown (quiet: how long a wait may last) */
+	double every;
+	uint64_t mem_used;
+	int running, failures;
+	/* jobs before `scan_from` have all left JOB_PENDING (states only move
+	 * forward), so each pass starts there; locally a pass stops once
+	 * every slot is taken: the runner's cost stays near-linear in jobs */
+	int scan_from;
+	/* SIGCHLD, blocked while the runner runs locally */
+	sigset_t chld;
+};
+
+/* Step 1 of a run: creates the logs directory, takes the lock and the
+ * keys, checks Slurm, opens runner.log, catches the stop signals, starts
+ * the launcher (locally) and expands the plan. Returns 0, or 1 after
+ * saying why on stderr. */
+static int run_open(struct plan *p)
 {
 	const struct config *c = p->cfg;
 	char logs[1200];
@@ -893,203 +918,233 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	if (!slurm)
 		spawn_setup();
 	plan_expand(p);
-	int tty = isatty(2) && !o->quiet;
-	double t0 = vd_seconds(), last = 0;
-	/* how often progress is shown (quiet: how long a wait may last) */
-	const double every = o->quiet ? 5.0 : tty ? 0.5 : 10.0;
-	uint64_t mem_used = 0;
-	int running = 0, failures = 0;
-	/* jobs before `scan_from` have all left JOB_PENDING (states only move
-	 * forward), so each pass starts there; locally a pass stops once
-	 * every slot is taken: the runner's cost stays near-linear in jobs */
-	int scan_from = 0;
-	running_local = calloc((size_t)c->jobs + 1, sizeof *running_local);
-	direct_pids = calloc((size_t)c->jobs + 1, sizeof *direct_pids);
-	if (!running_local || !direct_pids) {
-		fprintf(stderr, "voxdag: out of memory\n");
-		return 1;
+	return 0;
+}
+
+/* Submits job i to Slurm, or starts it locally when a slot and the memory
+ * budget allow (with every thread when it runs alone: i == lone). Returns
+ * 1 when it now runs, 0 when it waits or failed (counted in s). */
+static int launch_ready(struct run_state *s, int i, int lone)
+{
+	struct plan *p = s->p;
+	const struct config *c = s->c;
+	struct job *j = &p->jobs[i];
+	if (s->slurm) {
+		/* Slurm schedules within the cluster's limits */
+		prepare_output(j);
+		if (slurm_submit(p, j) != 0) {
+			job_set_state(p, j, JOB_FAILED);
+			s->failures++;
+			cancel_dependents(p, &s->running);
+			return 0;
+		}
+		log_line("submitted %s (Slurm job %ld, %llu MiB)",
+			 j->id, j->slurm_id,
+			 (unsigned long long)(j->mem_estimate >> 20));
+	} else {
+		if (s->running >= c->jobs ||
+		    (s->running > 0 &&
+		     s->mem_used + j->mem_estimate > c->mem_budget))
+			return 0;
+		if (i == lone && s->running == 0)
+			widen_threads(c, j);
+		j->pid = start_job(p, j);
+		if (j->pid < 0) {
+			log_close(j);
+			fprintf(stderr, "%svoxdag: cannot start "
+				"job %s: %s\n", s->tty ? "\r\033[K" : "",
+				j->id, start_error);
+			job_set_state(p, j, JOB_FAILED);
+			s->failures++;
+			return 0;
+		}
+		running_local[nrunning_local++] = i;
+		s->mem_used += j->mem_estimate;
+		log_line("started %s (estimate %llu MiB)", j->id,
+			 (unsigned long long)(j->mem_estimate >> 20));
 	}
-	/* locally the runner sleeps until a job ends (SIGCHLD, blocked so it
-	 * stays pending between a look with wait4 and the wait) or progress
-	 * is due, never polling */
-	sigset_t chld;
-	sigemptyset(&chld);
-	sigaddset(&chld, SIGCHLD);
-	sigprocmask(SIG_BLOCK, slurm ? NULL : &chld, &child_mask);
-	for (;;) {
-		/* start what is ready */
-		int all_left = 1;
-		int lone = !slurm && running == 0 && c->jobs > 1 ?
-			   lone_ready(p, scan_from) : -1;
-		for (int i = scan_from; i < p->n; i++) {
-			struct job *j = &p->jobs[i];
-			if (all_left && j->state != JOB_PENDING &&
-			    (j->state != JOB_SKIPPED || j->logged))
-				scan_from = i + 1;
-			else
-				all_left = 0;
-			if (!slurm && running >= c->jobs)
-				break;
-			/* after a failure, no new local job: the cause (a full
-			 * disk, a budget) would fail them too, and the rerun
-			 * keeps every finished one */
-			if (!slurm && failures)
-				break;
-			if (j->state == JOB_SKIPPED && !j->logged) {
-				/* found fresh when planned */
-				log_line("skipped %s (output is fresh)", j->id);
-				j->logged = 1;
-			}
-			if (j->state != JOB_PENDING)
-				continue;
-			int ds = deps_state(p, j);
-			if (ds == 2) {
-				job_set_state(p, j, JOB_BLOCKED);
-				log_line("blocked %s", j->id);
-				continue;
-			}
-			if (slurm && !j->adopt_checked) {
-				/* a previous driver's submission, still alive */
-				j->adopt_checked = 1;
-				if (slurm_adopt(p, j)) {
-					j->state = JOB_RUNNING;
-					j->start = vd_seconds();
-					running++;
-					log_line("adopted %s (Slurm job %ld)", j->id,
-						 j->slurm_id);
-					continue;
-				}
-			}
-			if (ds == 1 || (ds == 3 && !slurm))
-				continue;
-			char why[600] = "";
-			/* a key found absent when planned is absent still: only
-			 * the runner writes keys, and only of jobs it ran */
-			int fresh = ds == 0 && !j->fresh_checked ?
-				    job_is_fresh(j, why, sizeof why) : 0;
-			if (fresh == 1) {
-				job_set_state(p, j, JOB_SKIPPED);
-				j->logged = 1;
-				log_line("skipped %s (output is fresh)", j->id);
-				continue;
-			}
-			if (fresh < 0) {
-				log_line("failed %s: %s", j->id, why);
-				fprintf(stderr, "%svoxdag: cannot check job %s: %s\n",
-					tty ? "\r\033[K" : "", j->id, why);
-				job_set_state(p, j, JOB_FAILED);
-				failures++;
-				continue;
-			}
-			if (*why) {
-				log_line("rebuilding %s: %s", j->id, why);
-				if (!o->quiet)
-					fprintf(stderr, "%svoxdag: rebuilding %s: %s\n",
-						tty ? "\r\033[K" : "", j->id, why);
-			}
-			if (slurm) {
-				/* Slurm schedules within the cluster's limits */
-				prepare_output(j);
-				if (slurm_submit(p, j) != 0) {
-					job_set_state(p, j, JOB_FAILED);
-					failures++;
-					cancel_dependents(p, &running);
-					continue;
-				}
-				log_line("submitted %s (Slurm job %ld, %llu MiB)",
-					 j->id, j->slurm_id,
-					 (unsigned long long)(j->mem_estimate >> 20));
-			} else {
-				if (running >= c->jobs ||
-				    (running > 0 &&
-				     mem_used + j->mem_estimate > c->mem_budget))
-					continue;
-				if (i == lone && running == 0)
-					widen_threads(c, j);
-				j->pid = start_job(p, j);
-				if (j->pid < 0) {
-					log_close(j);
-					fprintf(stderr, "%svoxdag: cannot start "
-						"job %s: %s\n", tty ? "\r\033[K" : "",
-						j->id, start_error);
-					job_set_state(p, j, JOB_FAILED);
-					failures++;
-					continue;
-				}
-				running_local[nrunning_local++] = i;
-				mem_used += j->mem_estimate;
-				log_line("started %s (estimate %llu MiB)", j->id,
-					 (unsigned long long)(j->mem_estimate >> 20));
-			}
+	return 1;
+}
+
+/* Looks at job i in a pass over the plan: logs a skip found when
+ * planning, blocks it behind a failed dependency, adopts a live Slurm
+ * submission, skips it when its output is fresh, else launches it
+ * (launch_ready) once its dependencies are done, and marks it running. */
+static void consider_job(struct run_state *s, int i, int lone)
+{
+	struct plan *p = s->p;
+	struct job *j = &p->jobs[i];
+	if (j->state == JOB_SKIPPED && !j->logged) {
+		/* found fresh when planned */
+		log_line("skipped %s (output is fresh)", j->id);
+		j->logged = 1;
+	}
+	if (j->state != JOB_PENDING)
+		return;
+	int ds = deps_state(p, j);
+	if (ds == 2) {
+		job_set_state(p, j, JOB_BLOCKED);
+		log_line("blocked %s", j->id);
+		return;
+	}
+	if (s->slurm && !j->adopt_checked) {
+		/* a previous driver's submission, still alive */
+		j->adopt_checked = 1;
+		if (slurm_adopt(p, j)) {
 			j->state = JOB_RUNNING;
 			j->start = vd_seconds();
-			running++;
-		}
-		if (running == 0) {
-			int before = p->n;
-			plan_expand(p);
-			if (p->n != before)
-				continue;
-			int pending = 0;
-			for (int i = 0; i < p->n; i++)
-				pending += p->jobs[i].state == JOB_PENDING;
-			if (!pending)
-				break;
-			/* pending jobs whose dependencies can never finish */
-			for (int i = 0; i < p->n; i++)
-				if (p->jobs[i].state == JOB_PENDING)
-					job_set_state(p, &p->jobs[i], JOB_BLOCKED);
-			break;
-		}
-		/* wait for a job, showing progress meanwhile */
-		struct job_end end;
-		int done = slurm ? slurm_reap(p, &end) : reap_local(p, &end);
-		if (done == -2)
-			break;
-		if (done < 0) {
-			if (slurm) {
-				struct timespec ts = {0, 200 * 1000 * 1000};
-				nanosleep(&ts, NULL);
-			} else {
-				double left = last + every - vd_seconds();
-				if (left < 0.01)
-					left = 0.01;
-				struct timespec ts = {(time_t)left,
-						      (long)((left - (time_t)left) * 1e9)};
-				if (launch_fd >= 0) {
-					/* ends come from the launcher; a job
-					 * started directly beside it is
-					 * looked for every 20 ms */
-					if (ndirect && left > 0.02)
-						ts = (struct timespec){0, 20000000};
-					struct pollfd pfd = {launch_fd, POLLIN, 0};
-					ppoll(&pfd, 1, &ts, NULL);
-				} else {
-					sigtimedwait(&chld, NULL, &ts);
-				}
-			}
-			/* quiet, the clock still moves on: else every
-			 * wait after the first 5 s would end at once */
-			double now = vd_seconds();
-			if (now - last >= every) {
-				if (!o->quiet)
-					progress(p, t0, tty, 0);
-				last = now;
-			}
-			continue;
-		}
-		struct job *j = &p->jobs[done];
-		running--;
-		if (!slurm)
-			mem_used -= j->mem_estimate;
-		if (finish_job(p, j, &end, tty, failures == 0) != 0) {
-			failures++;
-			if (slurm)
-				cancel_dependents(p, &running);
+			s->running++;
+			log_line("adopted %s (Slurm job %ld)", j->id,
+				 j->slurm_id);
+			return;
 		}
 	}
-	if (!o->quiet)
-		progress(p, t0, tty, 1);
+	if (ds == 1 || (ds == 3 && !s->slurm))
+		return;
+	char why[600] = "";
+	/* a key found absent when planned is absent still: only
+	 * the runner writes keys, and only of jobs it ran */
+	int fresh = ds == 0 && !j->fresh_checked ?
+		    job_is_fresh(j, why, sizeof why) : 0;
+	if (fresh == 1) {
+		job_set_state(p, j, JOB_SKIPPED);
+		j->logged = 1;
+		log_line("skipped %s (output is fresh)", j->id);
+		return;
+	}
+	if (fresh < 0) {
+		log_line("failed %s: %s", j->id, why);
+		fprintf(stderr, "%svoxdag: cannot check job %s: %s\n",
+			s->tty ? "\r\033[K" : "", j->id, why);
+		job_set_state(p, j, JOB_FAILED);
+		s->failures++;
+		return;
+	}
+	if (*why) {
+		log_line("rebuilding %s: %s", j->id, why);
+		if (!s->o->quiet)
+			fprintf(stderr, "%svoxdag: rebuilding %s: %s\n",
+				s->tty ? "\r\033[K" : "", j->id, why);
+	}
+	if (!launch_ready(s, i, lone))
+		return;
+	j->state = JOB_RUNNING;
+	j->start = vd_seconds();
+	s->running++;
+}
+
+/* One pass over the plan from s->scan_from: starts what is ready
+ * (consider_job), until every local slot is taken or, locally, once a
+ * job has failed. */
+static void start_ready(struct run_state *s)
+{
+	struct plan *p = s->p;
+	int all_left = 1;
+	int lone = !s->slurm && s->running == 0 && s->c->jobs > 1 ?
+		   lone_ready(p, s->scan_from) : -1;
+	for (int i = s->scan_from; i < p->n; i++) {
+		struct job *j = &p->jobs[i];
+		if (all_left && j->state != JOB_PENDING &&
+		    (j->state != JOB_SKIPPED || j->logged))
+			s->scan_from = i + 1;
+		else
+			all_left = 0;
+		if (!s->slurm && s->running >= s->c->jobs)
+			break;
+		/* after a failure, no new local job: the cause (a full
+		 * disk, a budget) would fail them too, and the rerun
+		 * keeps every finished one */
+		if (!s->slurm && s->failures)
+			break;
+		consider_job(s, i, lone);
+	}
+}
+
+/* With nothing running: expands the plan, and when that added no job,
+ * blocks every job still pending. Returns 1 when the run is over, 0 when
+ * new jobs came to start. */
+static int run_idle(struct run_state *s)
+{
+	struct plan *p = s->p;
+	int before = p->n;
+	plan_expand(p);
+	if (p->n != before)
+		return 0;
+	int pending = 0;
+	for (int i = 0; i < p->n; i++)
+		pending += p->jobs[i].state == JOB_PENDING;
+	if (!pending)
+		return 1;
+	/* pending jobs whose dependencies can never finish */
+	for (int i = 0; i < p->n; i++)
+		if (p->jobs[i].state == JOB_PENDING)
+			job_set_state(p, &p->jobs[i], JOB_BLOCKED);
+	return 1;
+}
+
+/* No job has ended: sleeps until one may have (a launcher message,
+ * SIGCHLD, 200 ms with Slurm) or progress is due, and shows progress
+ * when it is. */
+static void run_wait(struct run_state *s)
+{
+	if (s->slurm) {
+		struct timespec ts = {0, 200 * 1000 * 1000};
+		nanosleep(&ts, NULL);
+	} else {
+		double left = s->last + s->every - vd_seconds();
+		if (left < 0.01)
+			left = 0.01;
+		struct timespec ts = {(time_t)left,
+				      (long)((left - (time_t)left) * 1e9)};
+		if (launch_fd >= 0) {
+			/* ends come from the launcher; a job
+			 * started directly beside it is
+			 * looked for every 20 ms */
+			if (ndirect && left > 0.02)
+				ts = (struct timespec){0, 20000000};
+			struct pollfd pfd = {launch_fd, POLLIN, 0};
+			ppoll(&pfd, 1, &ts, NULL);
+		} else {
+			sigtimedwait(&s->chld, NULL, &ts);
+		}
+	}
+	/* quiet, the clock still moves on: else every
+	 * wait after the first 5 s would end at once */
+	double now = vd_seconds();
+	if (now - s->last >= s->every) {
+		if (!s->o->quiet)
+			progress(s->p, s->t0, s->tty, 0);
+		s->last = now;
+	}
+}
+
+/* Job `done` ended as `end` says: gives its slot and memory back and
+ * records it (finish_job); a failure is counted and, with Slurm, its
+ * submitted dependents are cancelled. */
+static void run_reaped(struct run_state *s, int done,
+		       const struct job_end *end)
+{
+	struct plan *p = s->p;
+	struct job *j = &p->jobs[done];
+	s->running--;
+	if (!s->slurm)
+		s->mem_used -= j->mem_estimate;
+	if (finish_job(p, j, end, s->tty, s->failures == 0) != 0) {
+		s->failures++;
+		if (s->slurm)
+			cancel_dependents(p, &s->running);
+	}
+}
+
+/* The last step of a run: final progress, the launcher stopped, the
+ * summary line in runner.log, and the failure message or the report.
+ * Returns the run's exit code (0 or 1). */
+static int run_close(struct run_state *s)
+{
+	struct plan *p = s->p;
+	const struct config *c = s->c;
+	if (!s->o->quiet)
+		progress(p, s->t0, s->tty, 1);
 	int blocked = 0;
 	for (int i = 0; i < p->n; i++)
 		blocked += p->jobs[i].state == JOB_BLOCKED;
@@ -1102,17 +1157,64 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	 * its child */
 	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
 		 "%.3fs (%.3fs of it starting jobs), stages cpu %.3fs, runner "
-		 "peak %ld MiB", failures, blocked, vd_seconds() - t0, p->n,
-		 rusage_seconds(&self) + spawn_cpu, spawn_cpu,
+		 "peak %ld MiB", s->failures, blocked, vd_seconds() - s->t0,
+		 p->n, rusage_seconds(&self) + spawn_cpu, spawn_cpu,
 		 rusage_seconds(&kids) - spawn_cpu, self.ru_maxrss / 1024);
-	if (failures || blocked) {
+	if (s->failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "
-			"(finished jobs are kept)\n", failures,
-			failures == 1 ? "" : "s", blocked, c->path);
+			"(finished jobs are kept)\n", s->failures,
+			s->failures == 1 ? "" : "s", blocked, c->path);
 		return 1;
 	}
 	if (report_write(p) != 0)
 		return 1;
 	return 0;
+}
+
+int run_pipeline(struct plan *p, const struct run_opts *o)
+{
+	const struct config *c = p->cfg;
+	if (run_open(p) != 0)
+		return 1;
+	struct run_state s = {0};
+	s.p = p;
+	s.o = o;
+	s.c = c;
+	s.slurm = c->executor == EXECUTOR_SLURM;
+	s.tty = isatty(2) && !o->quiet;
+	s.t0 = vd_seconds();
+	s.last = 0;
+	s.every = o->quiet ? 5.0 : s.tty ? 0.5 : 10.0;
+	running_local = calloc((size_t)c->jobs + 1, sizeof *running_local);
+	direct_pids = calloc((size_t)c->jobs + 1, sizeof *direct_pids);
+	if (!running_local || !direct_pids) {
+		fprintf(stderr, "voxdag: out of memory\n");
+		return 1;
+	}
+	/* locally the runner sleeps until a job ends (SIGCHLD, blocked so it
+	 * stays pending between a look with wait4 and the wait) or progress
+	 * is due, never polling */
+	sigemptyset(&s.chld);
+	sigaddset(&s.chld, SIGCHLD);
+	sigprocmask(SIG_BLOCK, s.slurm ? NULL : &s.chld, &child_mask);
+	for (;;) {
+		start_ready(&s);
+		if (s.running == 0) {
+			if (run_idle(&s))
+				break;
+			continue;
+		}
+		/* wait for a job, showing progress meanwhile */
+		struct job_end end;
+		int done = s.slurm ? slurm_reap(p, &end) : reap_local(p, &end);
+		if (done == -2)
+			break;
+		if (done < 0) {
+			run_wait(&s);
+			continue;
+		}
+		run_reaped(&s, done, &end);
+	}
+	return run_close(&s);
 }

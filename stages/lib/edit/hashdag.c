@@ -668,6 +668,159 @@ static inline uint64_t live_rank_fast(const struct live *v, uint32_t p)
  * nodes distinct), so its reachable nodes are the minimal DAG's. Level
  * L-1 (2x2x2 masks) is numbered as the builder does: masks first met over
  * the distinct bricks in order, slots in order. */
+/* What vd_hashdag_to_dag's steps share, all freed at its end: the
+ * reachable nodes per level, each level's nodes in the order numbered
+ * (the pool indices), and the buffers a step had when it failed. */
+struct to_dag {
+	struct live live[VD_MAX_LEVELS];
+	uint32_t *order[VD_MAX_LEVELS], *id;
+	uint64_t *cnt, *cnt_below;
+};
+
+/* Writes inner level l of dag (masks, first references, children) from
+ * the nodes of x->order[l], numbering the children of level l+1 when
+ * first met into x->order[l+1]; frees what level l no longer needs. */
+static int inner_level_to_dag(const struct vd_hashdag *h, struct vd_dag *dag,
+			      struct to_dag *x, int l)
+{
+	const struct live *vb = &x->live[l + 1];
+	struct vd_dag_level *dl = &dag->lv[l];
+	uint64_t n = x->live[l].n, refs = 0, next = 0;
+	for (uint64_t i = 0; i < n; i++)
+		refs += popcount64(hd_node(h, l, x->order[l][i])[0] & 0xff);
+	dl->nodes = n;
+	dl->refs = refs;
+	dl->mask = malloc(n);
+	dl->first = malloc((n + 1) * sizeof *dl->first);
+	dl->child = malloc((refs ? refs : 1) * sizeof *dl->child);
+	x->order[l + 1] = malloc((vb->n ? vb->n : 1) * sizeof *x->order[l + 1]);
+	x->id = malloc((vb->n ? vb->n : 1) * sizeof *x->id);
+	if (!dl->mask || !dl->first || !dl->child || !x->order[l + 1] ||
+	    !x->id)
+		return vd_fail(VD_ERR_NOMEM, "save of level %d", l);
+	uint32_t *id = x->id;
+	memset(id, 0xff, (vb->n ? vb->n : 1) * sizeof *id);
+	uint64_t j = 0;
+	for (uint64_t i = 0; i < n; i++) {
+		const uint32_t *nd = hd_node(h, l, x->order[l][i]);
+		uint32_t k = hd_node_words(h, l, nd);
+		dl->mask[i] = (uint8_t)nd[0];
+		dl->first[i] = j;
+		for (uint32_t c = 1; c < k; c++) {
+			uint64_t r = live_rank_fast(vb, nd[c]);
+			if (id[r] == UINT32_MAX) {
+				id[r] = (uint32_t)next;
+				x->order[l + 1][next++] = nd[c];
+			}
+			dl->child[j++] = id[r];
+		}
+	}
+	dl->first[n] = j;
+	free(x->id);
+	x->id = NULL;
+	free(x->order[l]);
+	x->order[l] = NULL;
+	live_free(&x->live[l]);
+	if (next != vb->n)
+		return vd_fail(VD_ERR_INTERNAL, "hashdag.c: %llu of %llu "
+			       "nodes of level %d reached",
+			       (unsigned long long)next,
+			       (unsigned long long)vb->n, l + 1);
+	return VD_OK;
+}
+
+/* Writes the bricks of dag and the masks of level L-2 from the nodes of
+ * x->order[L-2], with each brick's voxel count in x->cnt_below. */
+static int bricks_to_dag(const struct vd_hashdag *h, struct vd_dag *dag,
+			 struct to_dag *x)
+{
+	int L = h->levels;
+	struct vd_dag_level *lb = &dag->lv[L - 2];
+	uint64_t n = x->live[L - 2].n, refs = 0;
+	dag->bricks = malloc(n * sizeof *dag->bricks);
+	lb->mask = malloc(n);
+	lb->first = malloc((n + 1) * sizeof *lb->first);
+	x->cnt_below = malloc(n * sizeof *x->cnt_below);
+	if (!dag->bricks || !lb->mask || !lb->first || !x->cnt_below)
+		return vd_fail(VD_ERR_NOMEM, "save of the bricks");
+	for (uint64_t i = 0; i < n; i++) {
+		uint64_t v = hd_brick(h, x->order[L - 2][i]);
+		uint8_t mk = 0;
+		dag->bricks[i] = v;
+		x->cnt_below[i] = popcount64(v);
+		lb->first[i] = refs;
+		for (unsigned s = 0; s < 8; s++)
+			if (v >> 8 * s & 0xff) {
+				mk |= (uint8_t)(1u << s);
+				refs++;
+			}
+		lb->mask[i] = mk;
+	}
+	lb->first[n] = refs;
+	lb->nodes = n;
+	lb->refs = refs;
+	return VD_OK;
+}
+
+/* Numbers the leaf masks of level L-1 (2x2x2) as first met over the
+ * bricks in order, slots in order: level L-2's children and level L-1. */
+static int leaves_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
+{
+	int L = h->levels;
+	struct vd_dag_level *lb = &dag->lv[L - 2], *ll = &dag->lv[L - 1];
+	uint64_t n = lb->nodes, refs = lb->refs;
+	uint32_t leaf_id[256], nleaf = 0;
+	uint8_t leaf_mask[256];
+	memset(leaf_id, 0xff, sizeof leaf_id);
+	lb->child = malloc((refs ? refs : 1) * sizeof *lb->child);
+	if (!lb->child)
+		return vd_fail(VD_ERR_NOMEM, "save of the bricks");
+	uint64_t j = 0;
+	for (uint64_t i = 0; i < n; i++)
+		for (unsigned s = 0; s < 8; s++) {
+			uint8_t v = (uint8_t)(dag->bricks[i] >> 8 * s);
+			if (!v)
+				continue;
+			if (leaf_id[v] == UINT32_MAX) {
+				leaf_id[v] = nleaf;
+				leaf_mask[nleaf++] = v;
+			}
+			lb->child[j++] = leaf_id[v];
+		}
+	ll->nodes = nleaf;
+	ll->mask = malloc(nleaf ? nleaf : 1);
+	if (!ll->mask)
+		return vd_fail(VD_ERR_NOMEM, "save of the leaves");
+	memcpy(ll->mask, leaf_mask, nleaf);
+	return VD_OK;
+}
+
+/* Sets dag->voxels: counts per node, bottom-up from the bricks' in
+ * x->cnt_below, which ends holding the counts of level 0. */
+static int count_voxels(const struct vd_hashdag *h, struct vd_dag *dag,
+			struct to_dag *x)
+{
+	int L = h->levels;
+	for (int l = L - 3; l >= 0; l--) {
+		const struct vd_dag_level *dl = &dag->lv[l];
+		x->cnt = malloc((dl->nodes ? dl->nodes : 1) * sizeof *x->cnt);
+		if (!x->cnt)
+			return vd_fail(VD_ERR_NOMEM, "save counts");
+		for (uint64_t i = 0; i < dl->nodes; i++) {
+			uint64_t s = 0;
+			for (uint64_t r = dl->first[i];
+			     r < dl->first[i + 1]; r++)
+				s += x->cnt_below[dl->child[r]];
+			x->cnt[i] = s;
+		}
+		free(x->cnt_below);
+		x->cnt_below = x->cnt;
+		x->cnt = NULL;
+	}
+	dag->voxels = x->cnt_below[0];
+	return VD_OK;
+}
+
 int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
 {
 	memset(dag, 0, sizeof *dag);
@@ -677,152 +830,32 @@ int vd_hashdag_to_dag(const struct vd_hashdag *h, struct vd_dag *dag)
 	uint32_t root = h->roots[h->cur];
 	if (root == HD_EMPTY)
 		return VD_OK;
-	struct live live[VD_MAX_LEVELS];
-	memset(live, 0, sizeof live);
-	if ((err = reachable(h, &root, 1, live)))
+	struct to_dag x;
+	memset(&x, 0, sizeof x);
+	if ((err = reachable(h, &root, 1, x.live)))
 		return err;
-	uint32_t *order[VD_MAX_LEVELS] = {0}, *id = NULL;
-	uint64_t *cnt = NULL, *cnt_below = NULL;
-	order[0] = malloc(sizeof *order[0]);
-	if (!order[0]) {
+	x.order[0] = malloc(sizeof *x.order[0]);
+	if (!x.order[0]) {
 		err = vd_fail(VD_ERR_NOMEM, "save order");
 		goto done;
 	}
-	order[0][0] = root;
+	x.order[0][0] = root;
 	/* inner levels: masks, references; the order of the level below */
-	for (int l = 0; l < L - 2; l++) {
-		const struct live *vb = &live[l + 1];
-		struct vd_dag_level *dl = &dag->lv[l];
-		uint64_t n = live[l].n, refs = 0, next = 0;
-		for (uint64_t i = 0; i < n; i++)
-			refs += popcount64(hd_node(h, l, order[l][i])[0] & 0xff);
-		dl->nodes = n;
-		dl->refs = refs;
-		dl->mask = malloc(n);
-		dl->first = malloc((n + 1) * sizeof *dl->first);
-		dl->child = malloc((refs ? refs : 1) * sizeof *dl->child);
-		order[l + 1] = malloc((vb->n ? vb->n : 1) * sizeof *order[l + 1]);
-		id = malloc((vb->n ? vb->n : 1) * sizeof *id);
-		if (!dl->mask || !dl->first || !dl->child || !order[l + 1] ||
-		    !id) {
-			err = vd_fail(VD_ERR_NOMEM, "save of level %d", l);
+	for (int l = 0; l < L - 2; l++)
+		if ((err = inner_level_to_dag(h, dag, &x, l)))
 			goto done;
-		}
-		memset(id, 0xff, (vb->n ? vb->n : 1) * sizeof *id);
-		uint64_t j = 0;
-		for (uint64_t i = 0; i < n; i++) {
-			const uint32_t *nd = hd_node(h, l, order[l][i]);
-			uint32_t k = hd_node_words(h, l, nd);
-			dl->mask[i] = (uint8_t)nd[0];
-			dl->first[i] = j;
-			for (uint32_t c = 1; c < k; c++) {
-				uint64_t r = live_rank_fast(vb, nd[c]);
-				if (id[r] == UINT32_MAX) {
-					id[r] = (uint32_t)next;
-					order[l + 1][next++] = nd[c];
-				}
-				dl->child[j++] = id[r];
-			}
-		}
-		dl->first[n] = j;
-		free(id);
-		id = NULL;
-		free(order[l]);
-		order[l] = NULL;
-		live_free(&live[l]);
-		if (next != vb->n) {
-			err = vd_fail(VD_ERR_INTERNAL, "hashdag.c: %llu of %llu "
-				      "nodes of level %d reached",
-				      (unsigned long long)next,
-				      (unsigned long long)vb->n, l + 1);
-			goto done;
-		}
-	}
 	/* bricks, and from them the leaf masks of level L-1 */
-	{
-		struct vd_dag_level *lb = &dag->lv[L - 2], *ll = &dag->lv[L - 1];
-		uint64_t n = live[L - 2].n, refs = 0, voxels = 0;
-		uint32_t leaf_id[256], nleaf = 0;
-		uint8_t leaf_mask[256];
-		memset(leaf_id, 0xff, sizeof leaf_id);
-		dag->bricks = malloc(n * sizeof *dag->bricks);
-		lb->mask = malloc(n);
-		lb->first = malloc((n + 1) * sizeof *lb->first);
-		cnt_below = malloc(n * sizeof *cnt_below);
-		if (!dag->bricks || !lb->mask || !lb->first || !cnt_below) {
-			err = vd_fail(VD_ERR_NOMEM, "save of the bricks");
-			goto done;
-		}
-		for (uint64_t i = 0; i < n; i++) {
-			uint64_t v = hd_brick(h, order[L - 2][i]);
-			uint8_t mk = 0;
-			dag->bricks[i] = v;
-			cnt_below[i] = popcount64(v);
-			lb->first[i] = refs;
-			for (unsigned s = 0; s < 8; s++)
-				if (v >> 8 * s & 0xff) {
-					mk |= (uint8_t)(1u << s);
-					refs++;
-				}
-			lb->mask[i] = mk;
-		}
-		lb->first[n] = refs;
-		lb->nodes = n;
-		lb->refs = refs;
-		lb->child = malloc((refs ? refs : 1) * sizeof *lb->child);
-		if (!lb->child) {
-			err = vd_fail(VD_ERR_NOMEM, "save of the bricks");
-			goto done;
-		}
-		uint64_t j = 0;
-		for (uint64_t i = 0; i < n; i++)
-			for (unsigned s = 0; s < 8; s++) {
-				uint8_t v = (uint8_t)(dag->bricks[i] >> 8 * s);
-				if (!v)
-					continue;
-				if (leaf_id[v] == UINT32_MAX) {
-					leaf_id[v] = nleaf;
-					leaf_mask[nleaf++] = v;
-				}
-				lb->child[j++] = leaf_id[v];
-			}
-		ll->nodes = nleaf;
-		ll->mask = malloc(nleaf ? nleaf : 1);
-		if (!ll->mask) {
-			err = vd_fail(VD_ERR_NOMEM, "save of the leaves");
-			goto done;
-		}
-		memcpy(ll->mask, leaf_mask, nleaf);
-		/* voxels: counts per node, bottom-up */
-		for (int l = L - 3; l >= 0; l--) {
-			const struct vd_dag_level *dl = &dag->lv[l];
-			cnt = malloc((dl->nodes ? dl->nodes : 1) * sizeof *cnt);
-			if (!cnt) {
-				err = vd_fail(VD_ERR_NOMEM, "save counts");
-				goto done;
-			}
-			for (uint64_t i = 0; i < dl->nodes; i++) {
-				uint64_t s = 0;
-				for (uint64_t r = dl->first[i];
-				     r < dl->first[i + 1]; r++)
-					s += cnt_below[dl->child[r]];
-				cnt[i] = s;
-			}
-			free(cnt_below);
-			cnt_below = cnt;
-			cnt = NULL;
-		}
-		voxels = cnt_below[0];
-		dag->voxels = voxels;
-	}
+	if (!(err = bricks_to_dag(h, dag, &x)) &&
+	    !(err = leaves_to_dag(h, dag)))
+		err = count_voxels(h, dag, &x);
 done:
 	for (int l = 0; l < VD_MAX_LEVELS; l++) {
-		free(order[l]);
-		live_free(&live[l]);
+		free(x.order[l]);
+		live_free(&x.live[l]);
 	}
-	free(id);
-	free(cnt);
-	free(cnt_below);
+	free(x.id);
+	free(x.cnt);
+	free(x.cnt_below);
 	if (err)
 		vd_dag_release(dag);
 	return err;

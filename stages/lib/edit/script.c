@@ -104,23 +104,27 @@ static int num(int lineno, const struct tok *t, int whole, double *v)
 	return VD_OK;
 }
 
-/* Parses `line` (number `lineno`) into *c, checking it against the grid of
- * `h`. Errors name the line and the column. */
-static int parse_line(const struct vd_hashdag *h, const char *line,
-		      int lineno, struct cmd *c)
+/* One line being parsed, shared by parse_line's steps: its words, the
+ * next one to read, and the numbers read so far. */
+struct line_parse {
+	const char *line;
+	int lineno;
+	const struct tok *t;
+	int n;            /* words */
+	int i;            /* the next word */
+	int world;        /* coordinates in world units */
+	double v[10];     /* the numbers: box or sphere, then copy's target */
+};
+
+/* Parses a command that is not an operation (undo, redo, stats, quit,
+ * gc, render, save) into *c; sets *simple to 0 when the first word is
+ * none of these. Returns VD_OK or an error naming the line. */
+static int parse_simple(const struct line_parse *lp, struct cmd *c,
+			int *simple)
 {
-	struct tok t[MAX_TOK];
-	int n, err;
-	memset(c, 0, sizeof *c);
-	c->line = lineno;
-	snprintf(c->text, sizeof c->text, "%s", line);
-	c->text[strcspn(c->text, "\r\n")] = 0;
-	if ((err = tokenize(line, t, &n, lineno)))
-		return err;
-	if (!n)
-		return VD_OK;
-	const struct tok *w = &t[0];
-	int simple = 1, want = 1;
+	const struct tok *t = lp->t, *w = &t[0];
+	int n = lp->n, lineno = lp->lineno, want = 1;
+	*simple = 1;
 	if (is(w, "undo"))
 		c->kind = CMD_UNDO;
 	else if (is(w, "redo"))
@@ -146,15 +150,21 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 				       "render needs a FILE.png", lineno,
 				       w->col + w->len);
 		}
-	} else
-		simple = 0;
-	if (simple) {
-		if (n > want)
-			return bad(lineno, &t[want], "the end of the line");
+	} else {
+		*simple = 0;
 		return VD_OK;
 	}
-	struct vd_edit_op *op = &c->op;
-	c->kind = CMD_OP;
+	if (n > want)
+		return bad(lineno, &t[want], "the end of the line");
+	return VD_OK;
+}
+
+/* Reads an operation's head into *op: its kind, its shape (but copy's,
+ * always a box) and 'world'. Returns VD_OK or an error naming the line. */
+static int parse_op_head(struct line_parse *lp, struct vd_edit_op *op)
+{
+	const struct tok *t = lp->t, *w = &t[0];
+	int n = lp->n, lineno = lp->lineno;
 	if (is(w, "fill"))
 		op->kind = VD_EDIT_FILL;
 	else if (is(w, "carve"))
@@ -166,81 +176,116 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 	else
 		return bad(lineno, w, "an operation (fill, carve, copy, paint, "
 			   "undo, redo, gc, render, save, stats)");
-	int i = 1, world = 0;
+	lp->i = 1, lp->world = 0;
 	op->shape = VD_SHAPE_BOX;
 	if (op->kind != VD_EDIT_COPY) {
-		if (i >= n)
+		if (lp->i >= n)
 			return vd_fail(VD_ERR_FORMAT, "line %d, column %d: "
 				       "expected box or sphere", lineno,
 				       w->col + w->len);
-		if (is(&t[i], "sphere"))
+		if (is(&t[lp->i], "sphere"))
 			op->shape = VD_SHAPE_SPHERE;
-		else if (!is(&t[i], "box"))
-			return bad(lineno, &t[i], "box or sphere");
-		i++;
+		else if (!is(&t[lp->i], "box"))
+			return bad(lineno, &t[lp->i], "box or sphere");
+		lp->i++;
 	}
-	if (i < n && is(&t[i], "world")) {
+	if (lp->i < n && is(&t[lp->i], "world")) {
 		if (op->kind == VD_EDIT_COPY)
-			return bad(lineno, &t[i], "voxel coordinates (copy "
+			return bad(lineno, &t[lp->i], "voxel coordinates (copy "
 				   "takes no 'world')");
-		world = 1;
-		i++;
+		lp->world = 1;
+		lp->i++;
 	}
-	int first = i, nv = op->shape == VD_SHAPE_SPHERE ? 4 : 6;
-	double v[10];
-	for (int k = 0; k < nv; k++, i++) {
-		if (i >= n)
+	return VD_OK;
+}
+
+/* Reads the numbers of an operation into lp->v: the sphere's centre and
+ * radius or the box's corners, then copy's 'to' and target. Returns VD_OK
+ * or an error naming the line. */
+static int parse_op_numbers(struct line_parse *lp, const struct vd_edit_op *op)
+{
+	const struct tok *t = lp->t;
+	int n = lp->n, lineno = lp->lineno, err;
+	const char *line = lp->line;
+	double *v = lp->v;
+	int nv = op->shape == VD_SHAPE_SPHERE ? 4 : 6;
+	for (int k = 0; k < nv; k++, lp->i++) {
+		if (lp->i >= n)
 			return vd_fail(VD_ERR_FORMAT, "line %d, column %d: "
 				       "expected %d numbers", lineno,
 				       (int)strlen(line) + 1, nv);
-		if ((err = num(lineno, &t[i],
-			       !world && op->shape == VD_SHAPE_BOX, &v[k])))
+		if ((err = num(lineno, &t[lp->i],
+			       !lp->world && op->shape == VD_SHAPE_BOX, &v[k])))
 			return err;
 	}
 	if (op->kind == VD_EDIT_COPY) {
-		if (i >= n || !is(&t[i], "to"))
-			return i >= n ? vd_fail(VD_ERR_FORMAT, "line %d, "
-						"column %d: expected 'to'",
-						lineno, (int)strlen(line) + 1)
-				      : bad(lineno, &t[i], "'to'");
-		i++;
-		for (int k = 6; k < 9; k++, i++) {
-			if (i >= n)
+		if (lp->i >= n || !is(&t[lp->i], "to"))
+			return lp->i >= n ? vd_fail(VD_ERR_FORMAT, "line %d, "
+						    "column %d: expected 'to'",
+						    lineno,
+						    (int)strlen(line) + 1)
+					  : bad(lineno, &t[lp->i], "'to'");
+		lp->i++;
+		for (int k = 6; k < 9; k++, lp->i++) {
+			if (lp->i >= n)
 				return vd_fail(VD_ERR_FORMAT, "line %d, column "
 					       "%d: expected 3 numbers after "
 					       "'to'", lineno,
 					       (int)strlen(line) + 1);
-			if ((err = num(lineno, &t[i], 1, &v[k])))
+			if ((err = num(lineno, &t[lp->i], 1, &v[k])))
 				return err;
 		}
 	}
-	if (i < n && (op->kind == VD_EDIT_FILL || op->kind == VD_EDIT_PAINT) &&
-	    (is(&t[i], "colour") || is(&t[i], "color"))) {
-		int at = t[i].col + t[i].len;
-		i++;
-		for (int k = 0; k < 3; k++, i++) {
-			if (i >= n)
+	return VD_OK;
+}
+
+/* Reads the rest of an operation: fill's and paint's 'colour R G B',
+ * then the end of the line; paint on a coloured scene needs a colour.
+ * Returns VD_OK or an error naming the line. */
+static int parse_op_tail(struct line_parse *lp, const struct vd_hashdag *h,
+			 struct vd_edit_op *op)
+{
+	const struct tok *t = lp->t;
+	int n = lp->n, lineno = lp->lineno, err;
+	if (lp->i < n &&
+	    (op->kind == VD_EDIT_FILL || op->kind == VD_EDIT_PAINT) &&
+	    (is(&t[lp->i], "colour") || is(&t[lp->i], "color"))) {
+		int at = t[lp->i].col + t[lp->i].len;
+		lp->i++;
+		for (int k = 0; k < 3; k++, lp->i++) {
+			if (lp->i >= n)
 				return vd_fail(VD_ERR_FORMAT, "line %d, column "
 					       "%d: expected 3 numbers 0..255 "
 					       "after 'colour'", lineno, at);
 			double x;
-			if ((err = num(lineno, &t[i], 1, &x)))
+			if ((err = num(lineno, &t[lp->i], 1, &x)))
 				return err;
 			if (x < 0 || x > 255)
-				return bad(lineno, &t[i], "a number 0..255");
+				return bad(lineno, &t[lp->i], "a number 0..255");
 			op->rgb[k] = (uint8_t)x;
 		}
 		op->has_rgb = 1;
 	}
-	if (i < n)
-		return bad(lineno, &t[i], op->kind == VD_EDIT_FILL ||
-						  op->kind == VD_EDIT_PAINT
-					  ? "'colour R G B' or the end of the "
-					    "line"
-					  : "the end of the line");
+	if (lp->i < n)
+		return bad(lineno, &t[lp->i], op->kind == VD_EDIT_FILL ||
+						      op->kind == VD_EDIT_PAINT
+					      ? "'colour R G B' or the end of "
+						"the line"
+					      : "the end of the line");
 	if (op->kind == VD_EDIT_PAINT && !op->has_rgb && h->col)
 		return vd_fail(VD_ERR_FORMAT, "line %d, column %d: paint needs "
-			       "'colour R G B'", lineno, (int)strlen(line) + 1);
+			       "'colour R G B'", lineno,
+			       (int)strlen(lp->line) + 1);
+	return VD_OK;
+}
+
+/* Sets op's sphere or box (and copy's target) in voxels from the numbers
+ * read, converting world units with the grid's transform. */
+static void op_to_voxels(const struct line_parse *lp,
+			 const struct vd_hashdag *h, struct vd_edit_op *op)
+{
+	const double *v = lp->v;
+	int world = lp->world;
 	const struct vd_transform *tr = &h->t;
 	if (op->shape == VD_SHAPE_SPHERE) {
 		for (int a = 0; a < 3; a++)
@@ -265,6 +310,38 @@ static int parse_line(const struct vd_hashdag *h, const char *line,
 				op->dst[a] = (int64_t)v[6 + a];
 		}
 	}
+}
+
+/* Parses `line` (number `lineno`) into *c, checking it against the grid of
+ * `h`: parse_simple, else an operation (parse_op_head, parse_op_numbers,
+ * parse_op_tail, op_to_voxels, vd_edit_op_check). Errors name the line
+ * and the column. */
+static int parse_line(const struct vd_hashdag *h, const char *line,
+		      int lineno, struct cmd *c)
+{
+	struct tok t[MAX_TOK];
+	int n, err;
+	memset(c, 0, sizeof *c);
+	c->line = lineno;
+	snprintf(c->text, sizeof c->text, "%s", line);
+	c->text[strcspn(c->text, "\r\n")] = 0;
+	if ((err = tokenize(line, t, &n, lineno)))
+		return err;
+	if (!n)
+		return VD_OK;
+	struct line_parse lp = {line, lineno, t, n, 0, 0, {0}};
+	int simple;
+	if ((err = parse_simple(&lp, c, &simple)) || simple)
+		return err;
+	struct vd_edit_op *op = &c->op;
+	c->kind = CMD_OP;
+	if ((err = parse_op_head(&lp, op)))
+		return err;
+	int first = lp.i;
+	if ((err = parse_op_numbers(&lp, op)) ||
+	    (err = parse_op_tail(&lp, h, op)))
+		return err;
+	op_to_voxels(&lp, h, op);
 	if ((err = vd_edit_op_check(h, op)))
 		return rewrap(err, 0, "line %d, column %d", lineno,
 			      t[first].col);
