@@ -1256,13 +1256,14 @@ static const int table_order[VD_ENC_ALL_] = {VD_ENC_SSVDAG48, VD_ENC_SSVDAG,
 					     VD_ENC_USSVDAG, VD_ENC_ESVDAG,
 					     VD_ENC_SVDAG};
 
-int vd_enc_write_tables(const char *dir, const char *name,
-			const struct vd_enc_row *rows, size_t n,
-			const struct vd_enc_timing *t, double seconds_encode)
+/* The JSON tables: Table 1 (scene, build times) and Table 2 (nodes,
+ * bytes, bits per voxel) per row, the paper's columns in table_order. */
+static int tables_json(const char *dir, const char *name,
+		       const struct vd_enc_row *rows, size_t n,
+		       const struct vd_enc_timing *t, double seconds_encode)
 {
 	char path[4096];
 	int err;
-	/* JSON */
 	snprintf(path, sizeof path, "%s/%s.tables.json", dir, name);
 	struct vd_json *j;
 	if ((err = vd_json_open(&j, path))) return err;
@@ -1314,100 +1315,122 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		vd_json_end_object(j);
 	}
 	vd_json_end_array(j);
-	if ((err = vd_json_close(j))) return err;
+	return vd_json_close(j);
+}
 
-	/* CSV */
-	struct text c = {0};
-	tprintf(&c, "levels,resolution,mvoxels,seconds_svo_to_dag,"
-		"seconds_symmetry_merge\n");
-	for (size_t i = 0; i < n; i++) {
-		tprintf(&c, "%d,%llu,%.6f,", rows[i].levels,
-			1ull << rows[i].levels, (double)rows[i].voxels / 1e6);
-		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
-			tprintf(&c, "%.3f", t->seconds_svo_to_dag);
-		tprintf(&c, ",");
-		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
-			tprintf(&c, "%.3f", t->seconds_symmetry_merge);
-		tprintf(&c, "\n");
-	}
-	if (c.nomem) {
-		free(c.s);
+/* Writes c's text as <dir>/<name>.<suffix> and empties c for the next
+ * file; on an error (c out of memory, the write) frees c's buffer. */
+static int text_publish(struct text *c, const char *dir, const char *name,
+			const char *suffix)
+{
+	if (c->nomem) {
+		free(c->s);
+		c->s = NULL;
 		return NOMEM();
 	}
-	err = write_text(dir, name, "table1.csv", c.s, c.n);
-	c.n = 0;
+	int err = write_text(dir, name, suffix, c->s, c->n);
+	c->n = 0;
 	if (err) {
-		free(c.s);
-		return err;
+		free(c->s);
+		c->s = NULL;
 	}
+	return err;
+}
+
+/* table1.csv: resolution, MVoxels and the build times (full resolution
+ * only; the lower rows are cuts of the same DAG). */
+static void table1_csv(struct text *c, const struct vd_enc_row *rows,
+		       size_t n, const struct vd_enc_timing *t)
+{
+	tprintf(c, "levels,resolution,mvoxels,seconds_svo_to_dag,"
+		"seconds_symmetry_merge\n");
+	for (size_t i = 0; i < n; i++) {
+		tprintf(c, "%d,%llu,%.6f,", rows[i].levels,
+			1ull << rows[i].levels, (double)rows[i].voxels / 1e6);
+		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
+			tprintf(c, "%.3f", t->seconds_svo_to_dag);
+		tprintf(c, ",");
+		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
+			tprintf(c, "%.3f", t->seconds_symmetry_merge);
+		tprintf(c, "\n");
+	}
+}
+
+/* table2.csv: nodes, bytes and bits per voxel, the paper's columns first
+ * and the 48-group's after them when the first row has it. */
+static void table2_csv(struct text *c, const struct vd_enc_row *rows,
+		       size_t n)
+{
 	int g48 = n && rows[0].has_ssvdag48;
-	tprintf(&c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
+	tprintf(c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
 		"nodes_svo,bytes_ssvdag,bytes_ussvdag,bytes_esvdag,bytes_svdag,"
 		"bytes_svo,bpv_ssvdag,bpv_ussvdag,bpv_esvdag,bpv_svdag,bpv_svo%s\n",
 		g48 ? ",nodes_ssvdag48,bytes_ssvdag48,bpv_ssvdag48" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "%d,%llu,%llu,", r->levels, 1ull << r->levels,
+		tprintf(c, "%d,%llu,%llu,", r->levels, 1ull << r->levels,
 			(unsigned long long)r->voxels);
 		if (r->has_ssvdag)
-			tprintf(&c, "%llu", (unsigned long long)r->ssvdag_nodes);
-		tprintf(&c, ",%llu,%llu", (unsigned long long)r->dag_nodes,
+			tprintf(c, "%llu", (unsigned long long)r->ssvdag_nodes);
+		tprintf(c, ",%llu,%llu", (unsigned long long)r->dag_nodes,
 			(unsigned long long)r->svo_nodes);
 		/* k from 1: the paper's four */
 		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, ",%llu", (unsigned long long)r->bytes[f]);
-			else tprintf(&c, ",");
+			if (r->has[f]) tprintf(c, ",%llu", (unsigned long long)r->bytes[f]);
+			else tprintf(c, ",");
 		}
-		tprintf(&c, ",%llu", (unsigned long long)r->svo_bytes);
+		tprintf(c, ",%llu", (unsigned long long)r->svo_bytes);
 		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, ",%.4f", bpv(r->bytes[f], r->voxels));
-			else tprintf(&c, ",");
+			if (r->has[f]) tprintf(c, ",%.4f", bpv(r->bytes[f], r->voxels));
+			else tprintf(c, ",");
 		}
-		tprintf(&c, ",%.4f", bpv(r->svo_bytes, r->voxels));
+		tprintf(c, ",%.4f", bpv(r->svo_bytes, r->voxels));
 		if (g48) {
-			tprintf(&c, ",%llu,", (unsigned long long)r->ssvdag48_nodes);
+			tprintf(c, ",%llu,", (unsigned long long)r->ssvdag48_nodes);
 			if (r->has[VD_ENC_SSVDAG48])
-				tprintf(&c, "%llu,%.4f", (unsigned long long)
+				tprintf(c, "%llu,%.4f", (unsigned long long)
 					r->bytes[VD_ENC_SSVDAG48],
 					bpv(r->bytes[VD_ENC_SSVDAG48], r->voxels));
 			else
-				tprintf(&c, ",");
+				tprintf(c, ",");
 		}
-		tprintf(&c, "\n");
+		tprintf(c, "\n");
 	}
-	if (c.nomem) {
-		free(c.s);
-		return NOMEM();
-	}
-	err = write_text(dir, name, "table2.csv", c.s, c.n);
-	c.n = 0;
-	if (err) {
-		free(c.s);
-		return err;
-	}
+}
 
-	/* Markdown, laid out like the paper's tables */
-	tprintf(&c, "# %s\n\n## Table 1: scene and build times\n\n", name);
-	tprintf(&c, "| resolution | MVoxels | svo-to-dag (s) | symmetry-merge (s) |\n"
+/* tables.md's heading and Table 1, laid out like the paper's. */
+static void table1_md(struct text *c, const char *name,
+		      const struct vd_enc_row *rows, size_t n,
+		      const struct vd_enc_timing *t, double seconds_encode)
+{
+	tprintf(c, "# %s\n\n## Table 1: scene and build times\n\n", name);
+	tprintf(c, "| resolution | MVoxels | svo-to-dag (s) | symmetry-merge (s) |\n"
 		"|---:|---:|---:|---:|\n");
 	for (size_t i = 0; i < n; i++) {
-		tprintf(&c, "| %llu^3 | %.3f | ", 1ull << rows[i].levels,
+		tprintf(c, "| %llu^3 | %.3f | ", 1ull << rows[i].levels,
 			(double)rows[i].voxels / 1e6);
 		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
-			tprintf(&c, "%.2f", t->seconds_svo_to_dag);
-		else tprintf(&c, "-");
-		tprintf(&c, " | ");
+			tprintf(c, "%.2f", t->seconds_svo_to_dag);
+		else tprintf(c, "-");
+		tprintf(c, " | ");
 		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
-			tprintf(&c, "%.2f", t->seconds_symmetry_merge);
-		else tprintf(&c, "-");
-		tprintf(&c, " |\n");
+			tprintf(c, "%.2f", t->seconds_symmetry_merge);
+		else tprintf(c, "-");
+		tprintf(c, " |\n");
 	}
-	tprintf(&c, "\nBuild times are for the full resolution (the lower "
+	tprintf(c, "\nBuild times are for the full resolution (the lower "
 		"resolutions are cuts of the same DAG); encode took %.2f s.\n",
 		seconds_encode);
-	tprintf(&c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
+}
+
+/* tables.md's Table 2, laid out like the paper's; the 48-group's columns
+ * first when g48. */
+static void table2_md(struct text *c, const struct vd_enc_row *rows,
+		      size_t n, int g48)
+{
+	tprintf(c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
 		"| resolution |%s nodes SSVDAG | nodes SVDAG | nodes SVO |%s "
 		"MB SSVDAG | MB USSVDAG | MB ESVDAG | MB SVDAG | MB SVO |\n"
 		"|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n",
@@ -1415,46 +1438,69 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		g48 ? "---:|---:|" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "| %llu^3", 1ull << r->levels);
-		if (g48) tprintf(&c, " | %.3f", (double)r->ssvdag48_nodes / 1e6);
+		tprintf(c, "| %llu^3", 1ull << r->levels);
+		if (g48) tprintf(c, " | %.3f", (double)r->ssvdag48_nodes / 1e6);
 		if (r->has_ssvdag)
-			tprintf(&c, " | %.3f", (double)r->ssvdag_nodes / 1e6);
+			tprintf(c, " | %.3f", (double)r->ssvdag_nodes / 1e6);
 		else
-			tprintf(&c, " | -");
-		tprintf(&c, " | %.3f | %.3f", (double)r->dag_nodes / 1e6,
+			tprintf(c, " | -");
+		tprintf(c, " | %.3f | %.3f", (double)r->dag_nodes / 1e6,
 			(double)r->svo_nodes / 1e6);
 		for (int k = g48 ? 0 : 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, " | %.3f", MB(r->bytes[f]));
-			else tprintf(&c, " | -");
+			if (r->has[f]) tprintf(c, " | %.3f", MB(r->bytes[f]));
+			else tprintf(c, " | -");
 		}
-		tprintf(&c, " | %.3f |\n", MB(r->svo_bytes));
+		tprintf(c, " | %.3f |\n", MB(r->svo_bytes));
 	}
+}
+
+/* tables.md's closing lines: bits per voxel of the full-resolution row and
+ * the compact encodings' sizes relative to the SVDAG. */
+static void bits_md(struct text *c, const struct vd_enc_row *rows, size_t n)
+{
 	if (n) {
 		const struct vd_enc_row *r = &rows[0];
-		tprintf(&c, "\nBits per voxel at %llu^3 (%llu voxels):",
+		tprintf(c, "\nBits per voxel at %llu^3 (%llu voxels):",
 			1ull << r->levels, (unsigned long long)r->voxels);
 		for (int k = 0; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f])
-				tprintf(&c, " %s %.3f,", format_names[f],
+				tprintf(c, " %s %.3f,", format_names[f],
 					bpv(r->bytes[f], r->voxels));
 		}
-		tprintf(&c, " svo %.3f.\n", bpv(r->svo_bytes, r->voxels));
+		tprintf(c, " svo %.3f.\n", bpv(r->svo_bytes, r->voxels));
 		if (r->has[VD_ENC_SSVDAG] && r->bytes[VD_ENC_SVDAG])
-			tprintf(&c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
+			tprintf(c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
 				100.0 * (double)r->bytes[VD_ENC_SSVDAG] / (double)r->bytes[VD_ENC_SVDAG],
 				100.0 * (double)r->bytes[VD_ENC_ESVDAG] / (double)r->bytes[VD_ENC_SVDAG]);
 		if (r->has[VD_ENC_SSVDAG48] && r->bytes[VD_ENC_SVDAG])
-			tprintf(&c, "SSVDAG48/SVDAG = %.1f%%.\n",
+			tprintf(c, "SSVDAG48/SVDAG = %.1f%%.\n",
 				100.0 * (double)r->bytes[VD_ENC_SSVDAG48] /
 				(double)r->bytes[VD_ENC_SVDAG]);
 	}
-	if (c.nomem) {
-		free(c.s);
-		return NOMEM();
-	}
-	err = write_text(dir, name, "tables.md", c.s, c.n);
+}
+
+int vd_enc_write_tables(const char *dir, const char *name,
+			const struct vd_enc_row *rows, size_t n,
+			const struct vd_enc_timing *t, double seconds_encode)
+{
+	int err;
+	if ((err = tables_json(dir, name, rows, n, t, seconds_encode)))
+		return err;
+	/* one text buffer, emptied between the files */
+	struct text c = {0};
+	table1_csv(&c, rows, n, t);
+	if ((err = text_publish(&c, dir, name, "table1.csv")))
+		return err;
+	int g48 = n && rows[0].has_ssvdag48;
+	table2_csv(&c, rows, n);
+	if ((err = text_publish(&c, dir, name, "table2.csv")))
+		return err;
+	table1_md(&c, name, rows, n, t, seconds_encode);
+	table2_md(&c, rows, n, g48);
+	bits_md(&c, rows, n);
+	err = text_publish(&c, dir, name, "tables.md");
 	free(c.s);
 	return err;
 }
