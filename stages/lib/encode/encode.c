@@ -1670,28 +1670,38 @@ static int encode_file(const char *name)
 	return 0;
 }
 
-int vd_enc_run(const struct vd_enc_job *job)
+/* One encode run's state, shared by its steps (vd_enc_run releases it). */
+struct enc_run {
+	const struct vd_enc_job *job;
+	const char *name;
+	struct vd_dag dag, ss, s48;
+	struct vd_transform t1;
+	const struct vd_dag *src[3]; /* dag, ssvdag, ssvdag48 or NULL */
+	struct vd_enc_timing tm;
+	char dir[4096]; /* the staging directory */
+	uint64_t bytes[VD_ENC_ALL_];
+	int written[VD_ENC_ALL_];
+	struct vd_enc_row *rows;
+	int *errs;
+	char (*details)[512];
+	double t0, t_load, t_enc, t_tab;
+};
+
+/* Reads the DAG and the symmetric DAGs given (their chunks' roots, within
+ * the memory budget) and refuses them unless they are one scene with
+ * voxels; sets r->src. */
+static int run_load(struct enc_run *r)
 {
-	struct vd_dag dag = {0}, ss = {0}, s48 = {0};
-	struct vd_transform t1, t2, t3;
-	struct vd_enc_row *rows = NULL;
-	int *errs = NULL;
-	char (*details)[512] = NULL;
-	int err, staged = 0;
-	char dir[4096];
+	const struct vd_enc_job *job = r->job;
+	struct vd_transform t2, t3;
+	int err;
 	uint64_t used = 0;
-	double t0 = vd_seconds();
-	const char *name = job->name ? job->name : "scene";
-	if (!job->dag_path || (!job->ssvdag_path && !job->ssvdag48_path) ||
-	    !job->outdir)
-		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
-			       "chunk and the output directory are needed");
 	/* the symmetric DAGs given: [0] the ssvdag, [1] the ssvdag48 */
-	struct vd_dag *sym[2] = {&ss, &s48};
+	struct vd_dag *sym[2] = {&r->ss, &r->s48};
 	struct vd_transform *st[2] = {&t2, &t3};
 	const char *sp[2] = {job->ssvdag_path, job->ssvdag48_path};
 	static const uint32_t sk[2] = {VD_KIND_SSVDAG, VD_KIND_SSVDAG48};
-	struct roots_job roots = {{NULL}, {&dag, &ss, &s48},
+	struct roots_job roots = {{NULL}, {&r->dag, &r->ss, &r->s48},
 			       {job->dag_path, sp[0], sp[1]},
 			       {VD_KIND_DAG, sk[0], sk[1]}, {0}, {{0}}};
 	err = VD_OK;
@@ -1700,160 +1710,215 @@ int vd_enc_run(const struct vd_enc_job *job)
 			err = open_root(&roots.c[k], roots.path[k], roots.kind[k], &used,
 					job->mem_budget_bytes);
 	if (!err) {
-		t1 = vd_chunk_header(roots.c[0])->transform;
+		r->t1 = vd_chunk_header(roots.c[0])->transform;
 		for (int k = 0; k < 2; k++)
 			if (roots.c[k + 1]) *st[k] = vd_chunk_header(roots.c[k + 1])->transform;
 		err = decode_roots(&roots, job->threads);
 	}
 	for (int k = 0; k < 3; k++) vd_chunk_free(roots.c[k]);
-	if (err) goto out;
+	if (err) return err;
 	for (int k = 0; k < 2; k++) {
 		if (!sp[k]) continue;
-		if (dag.levels != sym[k]->levels || dag.voxels != sym[k]->voxels ||
-		    !vd_transform_equal(&t1, st[k])) {
+		if (r->dag.levels != sym[k]->levels || r->dag.voxels != sym[k]->voxels ||
+		    !vd_transform_equal(&r->t1, st[k])) {
 			err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with "
 				      "'%s': not the same scene (%d and %d levels, %"
 				      PRIu64 " and %" PRIu64 " voxels, or another "
 				      "bounding box)", job->dag_path, sp[k],
-				      dag.levels, sym[k]->levels, dag.voxels,
+				      r->dag.levels, sym[k]->levels, r->dag.voxels,
 				      sym[k]->voxels);
-			goto out;
+			return err;
 		}
 	}
-	const struct vd_dag *src[3] = {&dag, job->ssvdag_path ? &ss : NULL,
-				       job->ssvdag48_path ? &s48 : NULL};
-	if (dag.voxels == 0) {
+	r->src[0] = &r->dag;
+	r->src[1] = job->ssvdag_path ? &r->ss : NULL;
+	r->src[2] = job->ssvdag48_path ? &r->s48 : NULL;
+	if (r->dag.voxels == 0) {
 		err = vd_fail(VD_ERR_EMPTY, "cannot encode '%s': the scene has "
 			      "no voxels", job->dag_path);
-		goto out;
+		return err;
 	}
-	struct vd_enc_timing tm = {-1, -1};
-	for (size_t i = 0; i < job->n_stats; i++)
-		if ((err = vd_enc_timing_add(&tm, job->stats_paths[i]))) {
-			err = reword(err, "cannot read", job->stats_paths[i]);
-			goto out;
-		}
-	/* every encoding and table or none: written into a staging directory
-	 * that replaces job->outdir whole (with its manifest, the encodings'
-	 * checksums) only once all are there */
-	if ((err = vd_dir_stage(job->outdir, encode_file, dir, sizeof dir)))
-		goto out;
-	staged = 1;
-	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
-	uint64_t bytes[VD_ENC_ALL_] = {0};
-	int written[VD_ENC_ALL_] = {0};
-	char path[4096 + 512];
-	struct file_job fj = {src, &t1, dir, name, bytes, written, {0}, {{0}}};
-	if ((err = vd_parallel_for(VD_ENC_ALL_, job->threads, file_worker, &fj)))
-		goto out;
+	return VD_OK;
+}
+
+/* Builds and writes every encoding into the staging directory, in
+ * parallel; the first error in format order is the one reported. */
+static int run_files(struct enc_run *r)
+{
+	int err;
+	struct file_job fj = {r->src, &r->t1, r->dir, r->name, r->bytes,
+			      r->written, {0}, {{0}}};
+	if ((err = vd_parallel_for(VD_ENC_ALL_, r->job->threads, file_worker, &fj)))
+		return err;
 	for (int f = 0; f < VD_ENC_ALL_ && !err; f++)
 		if (fj.errs[f])
 			err = vd_fail(fj.errs[f], "%s", fj.details[f]);
-	if (err) goto out;
-	double t_enc = vd_seconds() - t_enc0, t_tab0 = vd_seconds();
+	return err;
+}
 
+/* Computes the tables' rows (one per resolution from job->min_level up,
+ * each joined from its three sources' rows, in parallel) and writes the
+ * tables into the staging directory. */
+static int run_tables(struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	int err = VD_OK;
 	int lo = job->min_level < 1 ? 1 : job->min_level;
-	size_t nrows = dag.levels >= lo ? (size_t)(dag.levels - lo + 1) : 1;
-	rows = calloc(3 * nrows, sizeof *rows);
-	errs = calloc(3 * nrows, sizeof *errs);
-	details = calloc(3 * nrows, sizeof *details);
-	if (!rows || !errs || !details) {
-		err = NOMEM();
-		goto out;
-	}
+	size_t nrows = r->dag.levels >= lo ? (size_t)(r->dag.levels - lo + 1) : 1;
+	r->rows = calloc(3 * nrows, sizeof *r->rows);
+	r->errs = calloc(3 * nrows, sizeof *r->errs);
+	r->details = calloc(3 * nrows, sizeof *r->details);
+	if (!r->rows || !r->errs || !r->details)
+		return NOMEM();
 	uint64_t counts[3][VD_MAX_LEVELS + 1];
 	for (int k = 0; k < 3 && !err; k++)
-		if (src[k]) err = vd_dag_svo_counts(src[k], counts[k]);
-	if (err) goto out;
-	struct row_job rj = {&dag, src[1], src[2], bytes, counts, rows, errs,
-			     details};
+		if (r->src[k]) err = vd_dag_svo_counts(r->src[k], counts[k]);
+	if (err) return err;
+	struct row_job rj = {&r->dag, r->src[1], r->src[2], r->bytes, counts,
+			     r->rows, r->errs, r->details};
 	if ((err = vd_parallel_for(3 * nrows, job->threads, row_worker, &rj)))
-		goto out;
+		return err;
 	for (size_t t = 0; t < 3 * nrows; t++)
-		if (errs[t]) {
-			err = vd_fail(errs[t], "cannot compute the %llu^3 row: "
-				      "%s: %s", 1ull << rows[t].levels,
-				      vd_strerror(errs[t]), details[t]);
-			goto out;
+		if (r->errs[t]) {
+			err = vd_fail(r->errs[t], "cannot compute the %llu^3 row: "
+				      "%s: %s", 1ull << r->rows[t].levels,
+				      vd_strerror(r->errs[t]), r->details[t]);
+			return err;
 		}
-	for (size_t i = 0; i < nrows; i++) row_join(&rows[i], &rows[3 * i]);
-	if ((err = vd_enc_write_tables(dir, name, rows, nrows, &tm,
-				       t_enc))) {
+	for (size_t i = 0; i < nrows; i++) row_join(&r->rows[i], &r->rows[3 * i]);
+	if ((err = vd_enc_write_tables(r->dir, r->name, r->rows, nrows, &r->tm,
+				       r->t_enc))) {
 		err = reword(err, "cannot write the tables in", job->outdir);
-		goto out;
+		return err;
 	}
-	double t_tab = vd_seconds() - t_tab0;
+	return VD_OK;
+}
 
-	snprintf(path, sizeof path, "%s/%s.encode.stats.json", dir, name);
+/* Writes <name>.encode.stats.json into the staging directory: the scene,
+ * each encoding's bytes (or why it was skipped) and the timings. */
+static int run_stats(struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	int err;
+	char path[4096 + 512];
+	snprintf(path, sizeof path, "%s/%s.encode.stats.json", r->dir, r->name);
 	struct vd_json *j;
 	if ((err = vd_json_open(&j, path))) {
 		err = reword(err, "cannot write", path);
-		goto out;
+		return err;
 	}
 	vd_json_str(j, "tool", job->tool ? job->tool : "encode");
 	vd_json_str(j, "version", VD_VERSION_STRING);
-	vd_json_u64(j, "levels", (uint64_t)dag.levels);
-	vd_json_u64(j, "voxels", dag.voxels);
-	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&dag));
-	if (src[1]) vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&ss));
-	if (src[2]) vd_json_u64(j, "nodes_ssvdag48", dag_total_nodes(&s48));
+	vd_json_u64(j, "levels", (uint64_t)r->dag.levels);
+	vd_json_u64(j, "voxels", r->dag.voxels);
+	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&r->dag));
+	if (r->src[1]) vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&r->ss));
+	if (r->src[2]) vd_json_u64(j, "nodes_ssvdag48", dag_total_nodes(&r->s48));
 	for (int f = 0; f < VD_ENC_ALL_; f++) {
 		char key[64];
-		if (!written[f]) {
+		if (!r->written[f]) {
 			snprintf(key, sizeof key, "skipped_%s", format_names[f]);
-			vd_json_str(j, key, !src[source_of(f)] ?
+			vd_json_str(j, key, !r->src[source_of(f)] ?
 				    (f == VD_ENC_SSVDAG48 ? "no ssvdag48 input"
 							  : "no ssvdag input")
 				    : "fewer than 3 levels");
 			continue;
 		}
 		snprintf(key, sizeof key, "bytes_%s", format_names[f]);
-		vd_json_u64(j, key, bytes[f]);
+		vd_json_u64(j, key, r->bytes[f]);
 		snprintf(key, sizeof key, "file_bytes_%s", format_names[f]);
-		vd_json_u64(j, key, bytes[f] + (vd_enc_format_compact(f) ?
+		vd_json_u64(j, key, r->bytes[f] + (vd_enc_format_compact(f) ?
 			    VD_ENC_HEADER_BYTES_COMPACT : VD_ENC_HEADER_BYTES_WORDS));
 	}
-	vd_json_f64(j, "seconds_load", t_load);
-	vd_json_f64(j, "seconds_encode", t_enc);
-	vd_json_f64(j, "seconds_tables", t_tab);
-	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
+	vd_json_f64(j, "seconds_load", r->t_load);
+	vd_json_f64(j, "seconds_encode", r->t_enc);
+	vd_json_f64(j, "seconds_tables", r->t_tab);
+	vd_json_f64(j, "seconds_total", vd_seconds() - r->t0);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	if ((err = vd_json_close(j))) {
 		err = reword(err, "cannot write", path);
+		return err;
+	}
+	return VD_OK;
+}
+
+/* The one progress line on stderr: each encoding's bytes, the compact
+ * ones relative to the SVDAG, and the times. */
+static void run_summary(const struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	const uint64_t *bytes = r->bytes;
+	const int *written = r->written;
+	fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
+		" B", job->tool ? job->tool : "encode",
+		1ull << r->dag.levels, r->dag.voxels, bytes[VD_ENC_SVDAG]);
+	if (written[VD_ENC_USSVDAG])
+		fprintf(stderr, ", ussvdag %" PRIu64 " B",
+			bytes[VD_ENC_USSVDAG]);
+	if (r->dag.levels < 3)
+		fprintf(stderr, ", no compact encodings (fewer than 3 "
+			"levels)");
+	if (written[VD_ENC_ESVDAG])
+		fprintf(stderr, ", esvdag %" PRIu64 " B",
+			bytes[VD_ENC_ESVDAG]);
+	for (int f = VD_ENC_SSVDAG; f <= VD_ENC_SSVDAG48; f++)
+		if (written[f])
+			fprintf(stderr, ", %s %" PRIu64 " B (%.1f%% of "
+				"svdag)", format_names[f], bytes[f],
+				100.0 * (double)bytes[f] /
+				(double)bytes[VD_ENC_SVDAG]);
+	fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
+		r->t_enc, r->t_tab, job->outdir);
+}
+
+int vd_enc_run(const struct vd_enc_job *job)
+{
+	struct enc_run r = {0};
+	int err, staged = 0;
+	r.job = job;
+	r.t0 = vd_seconds();
+	r.name = job->name ? job->name : "scene";
+	if (!job->dag_path || (!job->ssvdag_path && !job->ssvdag48_path) ||
+	    !job->outdir)
+		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
+			       "chunk and the output directory are needed");
+	if ((err = run_load(&r)))
 		goto out;
-	}
-	if (!job->quiet) {
-		fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
-			" B", job->tool ? job->tool : "encode",
-			1ull << dag.levels, dag.voxels, bytes[VD_ENC_SVDAG]);
-		if (written[VD_ENC_USSVDAG])
-			fprintf(stderr, ", ussvdag %" PRIu64 " B",
-				bytes[VD_ENC_USSVDAG]);
-		if (dag.levels < 3)
-			fprintf(stderr, ", no compact encodings (fewer than 3 "
-				"levels)");
-		if (written[VD_ENC_ESVDAG])
-			fprintf(stderr, ", esvdag %" PRIu64 " B",
-				bytes[VD_ENC_ESVDAG]);
-		for (int f = VD_ENC_SSVDAG; f <= VD_ENC_SSVDAG48; f++)
-			if (written[f])
-				fprintf(stderr, ", %s %" PRIu64 " B (%.1f%% of "
-					"svdag)", format_names[f], bytes[f],
-					100.0 * (double)bytes[f] /
-					(double)bytes[VD_ENC_SVDAG]);
-		fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
-			t_enc, t_tab, job->outdir);
-	}
-	if (!err && (err = vd_dir_publish(dir, job->outdir)))
+	r.tm = (struct vd_enc_timing){-1, -1};
+	for (size_t i = 0; i < job->n_stats; i++)
+		if ((err = vd_enc_timing_add(&r.tm, job->stats_paths[i]))) {
+			err = reword(err, "cannot read", job->stats_paths[i]);
+			goto out;
+		}
+	/* every encoding and table or none: written into a staging directory
+	 * that replaces job->outdir whole (with its manifest, the encodings'
+	 * checksums) only once all are there */
+	if ((err = vd_dir_stage(job->outdir, encode_file, r.dir, sizeof r.dir)))
+		goto out;
+	staged = 1;
+	r.t_load = vd_seconds() - r.t0;
+	double t_enc0 = vd_seconds();
+	if ((err = run_files(&r)))
+		goto out;
+	r.t_enc = vd_seconds() - t_enc0;
+	double t_tab0 = vd_seconds();
+	if ((err = run_tables(&r)))
+		goto out;
+	r.t_tab = vd_seconds() - t_tab0;
+	if ((err = run_stats(&r)))
+		goto out;
+	if (!job->quiet)
+		run_summary(&r);
+	if (!err && (err = vd_dir_publish(r.dir, job->outdir)))
 		err = reword(err, "cannot finish", job->outdir);
 out:
 	if (err && staged)
-		vd_dir_abandon(dir);
-	free(rows);
-	free(errs);
-	free(details);
-	vd_dag_release(&dag);
-	vd_dag_release(&ss);
-	vd_dag_release(&s48);
+		vd_dir_abandon(r.dir);
+	free(r.rows);
+	free(r.errs);
+	free(r.details);
+	vd_dag_release(&r.dag);
+	vd_dag_release(&r.ss);
+	vd_dag_release(&r.s48);
 	return err;
 }
