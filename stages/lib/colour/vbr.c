@@ -949,6 +949,149 @@ static double eval(const struct cols *C, const struct blocks *B, uint32_t s,
 	return (double)sse / n;
 }
 
+/* The first sweep: greedy runs that one colour (the nearest RGB565 of
+ * the run's first colour) stores within the threshold; every other
+ * colour its own block (all of them so with no_single). Links the blocks
+ * and sets their ends and moments. */
+static void first_sweep(struct blocks *B, const uint8_t *rgb, uint32_t n,
+			unsigned limit, int no_single)
+{
+	uint32_t last = NIL;
+	for (uint32_t i = 0; i < n;) {
+		uint32_t j = i + 1;
+		if (!no_single) {
+			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
+				       rgb[3 * (size_t)i + 2]};
+			uint8_t d[3];
+			vd_rgb565_decode(to565(c), d);
+			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
+				while (j < n &&
+				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
+					j++;
+		}
+		B->prev[i] = last;
+		if (last != NIL)
+			B->next[last] = i;
+		B->end[i] = j;
+		mom_of(&B->mom[i], rgb + 3 * (size_t)i, j - i);
+		last = i;
+		i = j;
+	}
+	if (last != NIL)
+		B->next[last] = NIL;
+}
+
+/* The merge passes (Algorithm 1): every second block merges with the
+ * neighbour giving the lower MSE when the merged fit keeps every colour
+ * within the limit, until a pass merges nothing; counts the passes in
+ * seg->passes. */
+static void merge_passes(struct vd_vbr_segment *seg, struct blocks *B,
+			 const struct cols *C, uint32_t head, unsigned limit,
+			 int wb)
+{
+	int merged;
+	do {
+		merged = 0;
+		seg->passes++;
+		uint32_t b = head == NIL ? NIL : B->next[head];
+		while (b != NIL) {
+			uint32_t l = B->prev[b], r = B->next[b];
+			double lm = -1, rm = -1;
+			if (l != NIL && !B->stuck[l]) {
+				lm = eval(C, B, l, b, limit, wb);
+				if (lm < 0)
+					B->stuck[l] = 1;
+			}
+			if (r != NIL && !B->stuck[b]) {
+				rm = eval(C, B, b, r, limit, wb);
+				if (rm < 0)
+					B->stuck[b] = 1;
+			}
+			uint32_t m = b;
+			if (lm >= 0 && (rm < 0 || lm <= rm)) {
+				/* b joins its left neighbour */
+				B->end[l] = B->end[b];
+				mom_add(&B->mom[l], &B->mom[b]);
+				B->next[l] = r;
+				if (r != NIL)
+					B->prev[r] = l;
+				m = l;
+				merged = 1;
+			} else if (rm >= 0) {
+				B->end[b] = B->end[r];
+				mom_add(&B->mom[b], &B->mom[r]);
+				uint32_t rr = B->next[r];
+				B->next[b] = rr;
+				if (rr != NIL)
+					B->prev[rr] = b;
+				B->stuck[b] = B->stuck[r] = 0;
+				merged = 1;
+			}
+			if (m != b || rm >= 0) {
+				B->stuck[m] = 0;
+				if (B->prev[m] != NIL)
+					B->stuck[B->prev[m]] = 0;
+			}
+			uint32_t nx = B->next[m];
+			b = nx == NIL ? NIL : B->next[nx];
+		}
+	} while (merged);
+}
+
+/* The final blocks: fit again for their endpoints and weights, into
+ * seg's arrays (allocated here) and its packed weights; sums the error
+ * and keeps the largest distance. w is scratch for the longest block. */
+static int final_blocks(struct vd_vbr_segment *seg, const struct blocks *B,
+			const struct cols *C, const uint8_t *rgb,
+			uint32_t head, unsigned limit, int wb, uint8_t *w,
+			double max_error)
+{
+	uint32_t count = 0;
+	for (uint32_t b = head; b != NIL; b = B->next[b])
+		count++;
+	seg->count = count;
+	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
+	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
+	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
+	if (!seg->start || !seg->c0 || !seg->c1)
+		return vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
+	uint32_t k = 0;
+	for (uint32_t b = head; b != NIL; b = B->next[b], k++) {
+		uint64_t sse;
+		uint32_t len = B->end[b] - b;
+		struct cols Cb = cols_at(C, b);
+		if (!fit_m(&Cb, len, limit, wb, &B->mom[b], B->t, &seg->c0[k],
+			   &seg->c1[k], w, &sse, len)) {
+			/* only a first block of one colour can get here: merges
+			 * were all checked */
+			return vd_fail(VD_ERR_RANGE, "max error %g is too small for "
+				       "RGB565 endpoints: colour (%u, %u, %u) cannot "
+				       "be stored within it (0.0236 always works)",
+				       max_error, rgb[3 * (size_t)b],
+				       rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
+		}
+		seg->start[k] = b;
+		seg->sse += sse;
+		for (uint32_t i = 0; i < len; i++) {
+			uint64_t bit = (uint64_t)(b + i) * wb;
+			unsigned v = w[i];
+			/* weights are at most 8 bits: two bytes at most */
+			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
+			if ((bit & 7) + wb > 8)
+				seg->weights[(bit >> 3) + 1] |=
+					(uint8_t)(v >> (8 - (bit & 7)));
+			uint8_t d[3];
+			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
+			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
+			if (e > seg->max_dist2)
+				seg->max_dist2 = e;
+		}
+	}
+	return VD_OK;
+}
+
+/* The steps run once a segment (the time is in eval's fits), so the
+ * split costs nothing per block. */
 int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		  const struct vd_vbr_params *p)
 {
@@ -980,125 +1123,10 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	}
 	struct cols C;
 	cols_split(&C, rgb, pl, n);
-	/* the first sweep: greedy runs that one colour (the nearest RGB565
-	 * of the run's first colour) stores within the threshold; every
-	 * other colour its own block */
-	uint32_t head = n ? 0 : NIL, last = NIL;
-	for (uint32_t i = 0; i < n;) {
-		uint32_t j = i + 1;
-		if (!p->no_single_sweep) {
-			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
-				       rgb[3 * (size_t)i + 2]};
-			uint8_t d[3];
-			vd_rgb565_decode(to565(c), d);
-			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
-				while (j < n &&
-				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
-					j++;
-		}
-		B.prev[i] = last;
-		if (last != NIL)
-			B.next[last] = i;
-		B.end[i] = j;
-		mom_of(&B.mom[i], rgb + 3 * (size_t)i, j - i);
-		last = i;
-		i = j;
-	}
-	if (last != NIL)
-		B.next[last] = NIL;
-	/* the merge passes */
-	int merged;
-	do {
-		merged = 0;
-		seg->passes++;
-		uint32_t b = head == NIL ? NIL : B.next[head];
-		while (b != NIL) {
-			uint32_t l = B.prev[b], r = B.next[b];
-			double lm = -1, rm = -1;
-			if (l != NIL && !B.stuck[l]) {
-				lm = eval(&C, &B, l, b, limit, wb);
-				if (lm < 0)
-					B.stuck[l] = 1;
-			}
-			if (r != NIL && !B.stuck[b]) {
-				rm = eval(&C, &B, b, r, limit, wb);
-				if (rm < 0)
-					B.stuck[b] = 1;
-			}
-			uint32_t m = b;
-			if (lm >= 0 && (rm < 0 || lm <= rm)) {
-				/* b joins its left neighbour */
-				B.end[l] = B.end[b];
-				mom_add(&B.mom[l], &B.mom[b]);
-				B.next[l] = r;
-				if (r != NIL)
-					B.prev[r] = l;
-				m = l;
-				merged = 1;
-			} else if (rm >= 0) {
-				B.end[b] = B.end[r];
-				mom_add(&B.mom[b], &B.mom[r]);
-				uint32_t rr = B.next[r];
-				B.next[b] = rr;
-				if (rr != NIL)
-					B.prev[rr] = b;
-				B.stuck[b] = B.stuck[r] = 0;
-				merged = 1;
-			}
-			if (m != b || rm >= 0) {
-				B.stuck[m] = 0;
-				if (B.prev[m] != NIL)
-					B.stuck[B.prev[m]] = 0;
-			}
-			uint32_t nx = B.next[m];
-			b = nx == NIL ? NIL : B.next[nx];
-		}
-	} while (merged);
-	/* the final blocks: fit again for their endpoints and weights */
-	uint32_t count = 0;
-	for (uint32_t b = head; b != NIL; b = B.next[b])
-		count++;
-	seg->count = count;
-	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
-	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
-	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
-	if (!seg->start || !seg->c0 || !seg->c1) {
-		err = vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
-		goto out;
-	}
-	uint32_t k = 0;
-	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
-		uint64_t sse;
-		uint32_t len = B.end[b] - b;
-		struct cols Cb = cols_at(&C, b);
-		if (!fit_m(&Cb, len, limit, wb, &B.mom[b], B.t, &seg->c0[k],
-			   &seg->c1[k], w, &sse, len)) {
-			/* only a first block of one colour can get here: merges
-			 * were all checked */
-			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
-				      "RGB565 endpoints: colour (%u, %u, %u) cannot "
-				      "be stored within it (0.0236 always works)",
-				      p->max_error, rgb[3 * (size_t)b],
-				      rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
-			goto out;
-		}
-		seg->start[k] = b;
-		seg->sse += sse;
-		for (uint32_t i = 0; i < len; i++) {
-			uint64_t bit = (uint64_t)(b + i) * wb;
-			unsigned v = w[i];
-			/* weights are at most 8 bits: two bytes at most */
-			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
-			if ((bit & 7) + wb > 8)
-				seg->weights[(bit >> 3) + 1] |=
-					(uint8_t)(v >> (8 - (bit & 7)));
-			uint8_t d[3];
-			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
-			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
-			if (e > seg->max_dist2)
-				seg->max_dist2 = e;
-		}
-	}
+	uint32_t head = n ? 0 : NIL;
+	first_sweep(&B, rgb, n, limit, p->no_single_sweep);
+	merge_passes(seg, &B, &C, head, limit, wb);
+	err = final_blocks(seg, &B, &C, rgb, head, limit, wb, w, p->max_error);
 out:
 	free(B.next);
 	free(B.prev);
