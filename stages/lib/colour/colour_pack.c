@@ -636,15 +636,16 @@ static int section(const struct vd_chunk *ch, uint32_t tag, uint8_t **d,
 	return VD_OK;
 }
 
-static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
+/* The CPAR section: the method, counts and parameters, checked against
+ * the header; the palette's entry width and block palette count go to
+ * *entry_bytes and *npal for the palette sections. */
+static int read_cpar(struct vd_cpack *c, const struct vd_chunk *ch,
+		     unsigned *entry_bytes, uint64_t *npal)
 {
 	const struct vd_chunk_header *h = vd_chunk_header(ch);
-	uint8_t *par = NULL, *seg = NULL, *blk = NULL, *tab = NULL, *ent = NULL;
+	uint8_t *par = NULL;
 	size_t n;
 	int err;
-	if (h->level_count != 1)
-		return vd_fail(VD_ERR_CORRUPT, "%u counts in the header, "
-			       "expected 1", h->level_count);
 	if ((err = section(ch, TAG_CPAR, &par, &n, 0, "CPAR")))
 		return err;
 	if (n < CPAR_SIZE) {
@@ -660,8 +661,8 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 	memcpy(&c->max_error, &etb, 8);
 	c->k = le_get32(par + 40);
 	c->lossless = (int)le_get32(par + 48);
-	unsigned entry_bytes = le_get32(par + 52);
-	uint64_t npal = le_get64(par + 56);
+	*entry_bytes = le_get32(par + 52);
+	*npal = le_get64(par + 56);
 	free(par);
 	if (!vd_cpack_method_name(c->method))
 		return vd_fail(VD_ERR_UNSUPPORTED, "colour method %d (written by "
@@ -672,6 +673,17 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 			       (unsigned long long)h->level_nodes[0]);
 	if (c->method == VD_CPACK_VBR && (c->weight_bits < 1 || c->weight_bits > 8))
 		return vd_fail(VD_ERR_CORRUPT, "%d weight bits", c->weight_bits);
+	return VD_OK;
+}
+
+/* The CSEG section: segments tile the array in order, each
+ * 1..SEGMENT_MAX voxels, all in cells of one level, cells not
+ * decreasing. */
+static int read_segments(struct vd_cpack *c, const struct vd_chunk *ch)
+{
+	uint8_t *seg = NULL;
+	size_t n;
+	int err;
 	/* segments: tile the array in order, each 1..SEGMENT_MAX voxels */
 	if ((err = section(ch, TAG_CSEG, &seg, &n, CSEG_SIZE, "CSEG")))
 		return err;
@@ -721,21 +733,36 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_CORRUPT, "segments hold %llu voxels, CPAR "
 			       "says %llu", (unsigned long long)v,
 			       (unsigned long long)c->voxels);
-	if (c->method == VD_CPACK_RAW) {
-		if ((err = section(ch, TAG_RAWC, &c->data, &c->data_size, 3, "RAWC")))
-			return err;
-		if (c->data_size != 3 * c->voxels)
-			return vd_fail(VD_ERR_CORRUPT, "%zu raw bytes for %llu "
-				       "colours", c->data_size,
-				       (unsigned long long)c->voxels);
-		for (size_t s = 0; s < S; s++)
-			if (c->seg_data[s] != 3 * c->seg_first[s])
-				return vd_fail(VD_ERR_CORRUPT, "segment %zu: raw "
-					       "offset", s);
-		return VD_OK; /* raw costs its file's size (zstd) */
-	}
-	int vbr = c->method == VD_CPACK_VBR;
-	size_t bsz = vbr ? VBLK_SIZE : PBLK_SIZE;
+	return VD_OK;
+}
+
+/* The raw method's RAWC section: three bytes a voxel, each segment's at
+ * three times its first voxel. */
+static int read_raw(struct vd_cpack *c, const struct vd_chunk *ch)
+{
+	size_t S = (size_t)c->segments;
+	int err;
+	if ((err = section(ch, TAG_RAWC, &c->data, &c->data_size, 3, "RAWC")))
+		return err;
+	if (c->data_size != 3 * c->voxels)
+		return vd_fail(VD_ERR_CORRUPT, "%zu raw bytes for %llu "
+			       "colours", c->data_size,
+			       (unsigned long long)c->voxels);
+	for (size_t s = 0; s < S; s++)
+		if (c->seg_data[s] != 3 * c->seg_first[s])
+			return vd_fail(VD_ERR_CORRUPT, "segment %zu: raw "
+				       "offset", s);
+	return VD_OK;
+}
+
+/* The VBLK (vbr: start, two endpoint colours) or PBLK (palette: start,
+ * block palette, first offset bit) section, bsz bytes a block. */
+static int read_blocks(struct vd_cpack *c, const struct vd_chunk *ch,
+		       int vbr, size_t bsz)
+{
+	uint8_t *blk = NULL;
+	size_t n;
+	int err;
 	if ((err = section(ch, vbr ? TAG_VBLK : TAG_PBLK, &blk, &n, bsz,
 			   vbr ? "VBLK" : "PBLK")))
 		return err;
@@ -769,80 +796,104 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		}
 	}
 	free(blk);
-	if ((err = section(ch, vbr ? TAG_VWGT : TAG_POFS, &c->data,
-			   &c->data_size, 0, vbr ? "VWGT" : "POFS")))
+	return VD_OK;
+}
+
+/* The palette method's PGLB (global palette of k colours) and PENT
+ * (entries of entry_bytes each, every one a colour of the global
+ * palette) sections; adds their bytes to c->bytes. */
+static int read_palette_entries(struct vd_cpack *c, const struct vd_chunk *ch,
+				unsigned entry_bytes)
+{
+	uint8_t *ent = NULL;
+	size_t n;
+	int err;
+	if ((err = section(ch, TAG_PGLB, &c->glb, &n, 3, "PGLB")))
 		return err;
-	c->bytes = 40 * S + bsz * B + c->data_size;
-	if (!vbr) {
-		/* the global palette and the block palettes */
-		if ((err = section(ch, TAG_PGLB, &c->glb, &n, 3, "PGLB")))
-			return err;
-		if (n / 3 != c->k || c->k == 0)
-			return vd_fail(VD_ERR_CORRUPT, "global palette of %zu "
-				       "colours, CPAR says %u", n / 3, c->k);
-		c->bytes += n;
-		if (entry_bytes != 2 && entry_bytes != 4)
-			return vd_fail(VD_ERR_CORRUPT, "palette entries of %u "
-				       "bytes", entry_bytes);
-		if ((err = section(ch, TAG_PENT, &ent, &n, entry_bytes, "PENT")))
-			return err;
-		c->bytes += n;
-		c->nent = n / entry_bytes;
-		c->ent = malloc((c->nent + 1) * 4);
-		if (!c->ent) {
-			free(ent);
-			return vd_fail(VD_ERR_NOMEM, "palette entries");
-		}
-		for (uint64_t i = 0; i < c->nent; i++) {
-			c->ent[i] = entry_bytes == 2 ? le_get16(ent + 2 * i)
-						     : le_get32(ent + 4 * i);
-			if (c->ent[i] >= c->k) {
-				free(ent);
-				return vd_fail(VD_ERR_CORRUPT, "palette entry %llu "
-					       "is colour %u of %u",
-					       (unsigned long long)i, c->ent[i], c->k);
-			}
-		}
+	if (n / 3 != c->k || c->k == 0)
+		return vd_fail(VD_ERR_CORRUPT, "global palette of %zu "
+			       "colours, CPAR says %u", n / 3, c->k);
+	c->bytes += n;
+	if (entry_bytes != 2 && entry_bytes != 4)
+		return vd_fail(VD_ERR_CORRUPT, "palette entries of %u "
+			       "bytes", entry_bytes);
+	if ((err = section(ch, TAG_PENT, &ent, &n, entry_bytes, "PENT")))
+		return err;
+	c->bytes += n;
+	c->nent = n / entry_bytes;
+	c->ent = malloc((c->nent + 1) * 4);
+	if (!c->ent) {
 		free(ent);
-		if ((err = section(ch, TAG_PTAB, &tab, &n, PTAB_SIZE, "PTAB")))
-			return err;
-		c->bytes += n;
-		if (n / PTAB_SIZE != npal || npal > UINT32_MAX) {
-			free(tab);
-			return vd_fail(VD_ERR_CORRUPT, "%zu block palettes, CPAR "
-				       "says %llu", n / PTAB_SIZE,
-				       (unsigned long long)npal);
-		}
-		c->npal = (uint32_t)npal;
-		c->pal_first = malloc((npal + 1) * 4);
-		c->pal_count = malloc((npal + 1) * 4);
-		if (!c->pal_first || !c->pal_count) {
-			free(tab);
-			return vd_fail(VD_ERR_NOMEM, "block palettes");
-		}
-		for (uint64_t i = 0; i < npal; i++) {
-			c->pal_first[i] = le_get32(tab + PTAB_SIZE * i);
-			c->pal_count[i] = le_get32(tab + PTAB_SIZE * i + 4);
-			int sorted = 1;
-			if (c->pal_count[i] &&
-			    (uint64_t)c->pal_first[i] + c->pal_count[i] <= c->nent)
-				for (uint32_t q = 1; q < c->pal_count[i]; q++)
-					sorted &= c->ent[c->pal_first[i] + q] >
-						  c->ent[c->pal_first[i] + q - 1];
-			if (c->pal_count[i] == 0 || !sorted ||
-			    (uint64_t)c->pal_first[i] + c->pal_count[i] > c->nent) {
-				free(tab);
-				return vd_fail(VD_ERR_CORRUPT, "block palette %llu: "
-					       "entries %u..+%u of %llu",
-					       (unsigned long long)i,
-					       c->pal_first[i], c->pal_count[i],
-					       (unsigned long long)c->nent);
-			}
-		}
-		free(tab);
+		return vd_fail(VD_ERR_NOMEM, "palette entries");
 	}
-	/* blocks per segment: starts from 0, increasing, inside the segment;
-	 * the data of each segment where its offset says, exactly */
+	for (uint64_t i = 0; i < c->nent; i++) {
+		c->ent[i] = entry_bytes == 2 ? le_get16(ent + 2 * i)
+					     : le_get32(ent + 4 * i);
+		if (c->ent[i] >= c->k) {
+			free(ent);
+			return vd_fail(VD_ERR_CORRUPT, "palette entry %llu "
+				       "is colour %u of %u",
+				       (unsigned long long)i, c->ent[i], c->k);
+		}
+	}
+	free(ent);
+	return VD_OK;
+}
+
+/* The palette method's PTAB section: npal block palettes, each a
+ * non-empty run of the entries in increasing colour order; adds its
+ * bytes to c->bytes. */
+static int read_block_palettes(struct vd_cpack *c, const struct vd_chunk *ch,
+			       uint64_t npal)
+{
+	uint8_t *tab = NULL;
+	size_t n;
+	int err;
+	if ((err = section(ch, TAG_PTAB, &tab, &n, PTAB_SIZE, "PTAB")))
+		return err;
+	c->bytes += n;
+	if (n / PTAB_SIZE != npal || npal > UINT32_MAX) {
+		free(tab);
+		return vd_fail(VD_ERR_CORRUPT, "%zu block palettes, CPAR "
+			       "says %llu", n / PTAB_SIZE,
+			       (unsigned long long)npal);
+	}
+	c->npal = (uint32_t)npal;
+	c->pal_first = malloc((npal + 1) * 4);
+	c->pal_count = malloc((npal + 1) * 4);
+	if (!c->pal_first || !c->pal_count) {
+		free(tab);
+		return vd_fail(VD_ERR_NOMEM, "block palettes");
+	}
+	for (uint64_t i = 0; i < npal; i++) {
+		c->pal_first[i] = le_get32(tab + PTAB_SIZE * i);
+		c->pal_count[i] = le_get32(tab + PTAB_SIZE * i + 4);
+		int sorted = 1;
+		if (c->pal_count[i] &&
+		    (uint64_t)c->pal_first[i] + c->pal_count[i] <= c->nent)
+			for (uint32_t q = 1; q < c->pal_count[i]; q++)
+				sorted &= c->ent[c->pal_first[i] + q] >
+					  c->ent[c->pal_first[i] + q - 1];
+		if (c->pal_count[i] == 0 || !sorted ||
+		    (uint64_t)c->pal_first[i] + c->pal_count[i] > c->nent) {
+			free(tab);
+			return vd_fail(VD_ERR_CORRUPT, "block palette %llu: "
+				       "entries %u..+%u of %llu",
+				       (unsigned long long)i,
+				       c->pal_first[i], c->pal_count[i],
+				       (unsigned long long)c->nent);
+		}
+	}
+	free(tab);
+	return VD_OK;
+}
+
+/* Blocks per segment: starts from 0, increasing, inside the segment; the
+ * data of each segment where its offset says, exactly, and all of it
+ * used. */
+static int check_segment_blocks(const struct vd_cpack *c, int vbr)
+{
+	size_t S = (size_t)c->segments;
 	uint64_t data = 0;
 	for (size_t s = 0; s < S; s++) {
 		uint64_t b0 = c->seg_block[s], b1 = s + 1 < S ? c->seg_block[s + 1]
@@ -885,26 +936,71 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_CORRUPT, "%zu bytes of %s, the blocks need "
 			       "%llu", c->data_size, vbr ? "weights" : "offsets",
 			       (unsigned long long)data);
+	return VD_OK;
+}
+
+/* The palette method: every voxel's offset inside its block palette
+ * (nothing to check where the palette fills its offsets' width). */
+static int check_offsets(const struct vd_cpack *c)
+{
+	size_t S = (size_t)c->segments;
+	for (size_t s = 0; s < S; s++)
+		for (uint64_t b = c->seg_block[s]; b < c->seg_block[s + 1]; b++) {
+			uint32_t cnt = c->pal_count[c->blk_pal[b]];
+			unsigned wd = width_of(cnt);
+			uint32_t end = b + 1 < c->seg_block[s + 1]
+					       ? c->blk_start[b + 1]
+					       : c->seg_n[s];
+			uint64_t pos = 8 * c->seg_data[s] + c->blk_bit[b];
+			if ((1ull << wd) == cnt)
+				continue;
+			for (uint32_t i = c->blk_start[b]; i < end; i++, pos += wd)
+				if (get_bits(c->data, pos, wd) >= cnt)
+					return vd_fail(VD_ERR_CORRUPT,
+						       "voxel %llu: offset "
+						       "outside its block "
+						       "palette",
+						       (unsigned long long)(
+							       c->seg_first[s] + i));
+		}
+	return VD_OK;
+}
+
+static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
+{
+	const struct vd_chunk_header *h = vd_chunk_header(ch);
+	unsigned entry_bytes = 0;
+	uint64_t npal = 0;
+	int err;
+	if (h->level_count != 1)
+		return vd_fail(VD_ERR_CORRUPT, "%u counts in the header, "
+			       "expected 1", h->level_count);
+	if ((err = read_cpar(c, ch, &entry_bytes, &npal)))
+		return err;
+	if ((err = read_segments(c, ch)))
+		return err;
+	if (c->method == VD_CPACK_RAW)
+		return read_raw(c, ch); /* raw costs its file's size (zstd) */
+	int vbr = c->method == VD_CPACK_VBR;
+	size_t bsz = vbr ? VBLK_SIZE : PBLK_SIZE;
+	if ((err = read_blocks(c, ch, vbr, bsz)))
+		return err;
+	if ((err = section(ch, vbr ? TAG_VWGT : TAG_POFS, &c->data,
+			   &c->data_size, 0, vbr ? "VWGT" : "POFS")))
+		return err;
+	c->bytes = 40 * (size_t)c->segments + bsz * (size_t)c->blocks +
+		   c->data_size;
+	if (!vbr) {
+		/* the global palette and the block palettes */
+		if ((err = read_palette_entries(c, ch, entry_bytes)))
+			return err;
+		if ((err = read_block_palettes(c, ch, npal)))
+			return err;
+	}
+	if ((err = check_segment_blocks(c, vbr)))
+		return err;
 	if (!vbr) /* every offset inside its block palette */
-		for (size_t s = 0; s < S; s++)
-			for (uint64_t b = c->seg_block[s]; b < c->seg_block[s + 1]; b++) {
-				uint32_t cnt = c->pal_count[c->blk_pal[b]];
-				unsigned wd = width_of(cnt);
-				uint32_t end = b + 1 < c->seg_block[s + 1]
-						       ? c->blk_start[b + 1]
-						       : c->seg_n[s];
-				uint64_t pos = 8 * c->seg_data[s] + c->blk_bit[b];
-				if ((1ull << wd) == cnt)
-					continue;
-				for (uint32_t i = c->blk_start[b]; i < end; i++, pos += wd)
-					if (get_bits(c->data, pos, wd) >= cnt)
-						return vd_fail(VD_ERR_CORRUPT,
-							       "voxel %llu: offset "
-							       "outside its block "
-							       "palette",
-							       (unsigned long long)(
-								       c->seg_first[s] + i));
-			}
+		return check_offsets(c);
 	return VD_OK;
 }
 

@@ -687,6 +687,129 @@ static double lambda_max(const double c[6])
 	return q + 2 * p * cos(phi);
 }
 
+/* fit_m's steps below are static with one caller each, so GCC inlines
+ * them (-finline-functions-called-once, on at -O2): the same code as one
+ * function, in the merge passes' hot path. */
+
+/* A bound that rejects without reading the colours: every decoded
+ * colour lies within sqrt(3)/2 (the rounding) of the line through
+ * its endpoints, and no line is nearer the colours in the squared
+ * sum than the principal axis, whose sum is trace - lambda_max. So
+ * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
+ * every colour within the limit. The margins keep it sound against
+ * rounding in the eigenvalue. Being sound it changes no answer, only
+ * the time: on a few colours reading them costs less than the
+ * eigenvalue (its acos and cos), so small blocks go without.
+ * 1: no endpoints can do. */
+static int fit_bound_rejects(const double cov[6], uint32_t n, unsigned limit)
+{
+	if (n >= 32) {
+		double tr = cov[0] + cov[3] + cov[5];
+		double resid = tr - lambda_max(cov);
+		double reach = sqrt((double)limit) + 0.8661;
+		if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
+			return 1;
+	}
+	return 0;
+}
+
+/* The principal axis of cov into ax, by power iteration from the widest
+ * channel. */
+static void fit_axis(const double cov[6], double ax[3])
+{
+	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
+		   : cov[3] >= cov[5]                    ? 1
+							 : 2;
+	ax[wide] = 1;
+	for (int it = 0; it < 8; it++) {
+		double y[3] = {cov[0] * ax[0] + cov[1] * ax[1] + cov[2] * ax[2],
+			       cov[1] * ax[0] + cov[3] * ax[1] + cov[4] * ax[2],
+			       cov[2] * ax[0] + cov[4] * ax[1] + cov[5] * ax[2]};
+		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+		if (l < 1e-12)
+			break;
+		double nx[3] = {y[0] / l, y[1] / l, y[2] / l};
+		/* a step that changes nothing is a fixed point: the steps
+		 * left would repeat it bit for bit */
+		if (nx[0] == ax[0] && nx[1] == ax[1] && nx[2] == ax[2])
+			break;
+		for (int k = 0; k < 3; k++)
+			ax[k] = nx[k];
+	}
+}
+
+/* Each colour's place on the axis through mu into t[0..n), and the
+ * extremes into *tmin and *tmax. */
+static void fit_project(const struct cols *C, uint32_t n, const double mu[3],
+			const double ax[3], double *t, double *tmin_out,
+			double *tmax_out)
+{
+	const uint8_t *rgb = C->rgb;
+	double tmin = 1e30, tmax = -1e30;
+	uint32_t i0 = 0;
+#ifdef VBR_LANES
+	if (lanes_on())
+		i0 = project_lanes(C, n, mu, ax, t, &tmin, &tmax);
+#endif
+	for (uint32_t i = i0; i < n; i++) {
+		const uint8_t *x = rgb + 3 * (size_t)i;
+		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
+			   (x[2] - mu[2]) * ax[2];
+		t[i] = v;
+		tmin = v < tmin ? v : tmin;
+		tmax = v > tmax ? v : tmax;
+	}
+	*tmin_out = tmin;
+	*tmax_out = tmax;
+}
+
+/* Least squares: each colour's weight from its place between the
+ * extremes of the axis, then the two endpoints minimising the squared
+ * error for those weights (2x2 normal equations shared by the
+ * channels) into l0 and l1, which keep the extremes when the places
+ * coincide or the equations are singular. */
+static void fit_least_squares(const struct cols *C, const double *t,
+			      uint32_t n, double tmin, double tmax,
+			      int weight_bits, double l0[3], double l1[3])
+{
+	const uint8_t *rgb = C->rgb;
+	int m = (1 << weight_bits) - 1;
+	if (tmax - tmin > 1e-9) {
+		double sc = m / (tmax - tmin);
+		/* two sums a lane (a's, b's), each lane the same operations
+		 * in the same order as one scalar sum: the same bits */
+		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
+		double bb = 0;
+		const struct lsw *lw = ls_tab + m;
+		uint32_t done = 0;
+#ifdef VBR_LANES
+		if (lanes_on()) {
+			v2d r[4] = {r0, r1, r2, qab};
+			done = ls_lanes(C, t, n, tmin, sc, m, r, &bb);
+			r0 = r[0], r1 = r[1], r2 = r[2], qab = r[3];
+		}
+#endif
+		for (uint32_t i = done; i < n; i++) {
+			const uint8_t *x = rgb + 3 * (size_t)i;
+			int q = (int)((t[i] - tmin) * sc + 0.5);
+			const struct lsw *e = lw + (q > m ? m : q);
+			r0 += e->s * (double)x[0];
+			r1 += e->s * (double)x[1];
+			r2 += e->s * (double)x[2];
+			qab += e->q;
+			bb += e->bb;
+		}
+		double aa = qab[0], ab = qab[1];
+		double ra[3] = {r0[0], r1[0], r2[0]}, rb[3] = {r0[1], r1[1], r2[1]};
+		double det = aa * bb - ab * ab;
+		if (fabs(det) > 1e-9)
+			for (int k = 0; k < 3; k++) {
+				l0[k] = (bb * ra[k] - ab * rb[k]) / det;
+				l1[k] = (aa * rb[k] - ab * ra[k]) / det;
+			}
+	}
+}
+
 /* The fit of rgb[0..n) whose moments are `m`; `t` is scratch for n
  * doubles. `hint` (n for none) is a colour likely to fail the check
  * (check_endpoints), which changes only the time. */
@@ -727,101 +850,18 @@ static int fit_m(const struct cols *C, uint32_t n, unsigned limit,
 		*sse = s * n;
 		return 1;
 	}
-	/* A bound that rejects without reading the colours: every decoded
-	 * colour lies within sqrt(3)/2 (the rounding) of the line through
-	 * its endpoints, and no line is nearer the colours in the squared
-	 * sum than the principal axis, whose sum is trace - lambda_max. So
-	 * if that exceeds n (sqrt(limit) + 0.8661)^2 no endpoints can keep
-	 * every colour within the limit. The margins keep it sound against
-	 * rounding in the eigenvalue. Being sound it changes no answer, only
-	 * the time: on a few colours reading them costs less than the
-	 * eigenvalue (its acos and cos), so small blocks go without. */
-	if (n >= 32) {
-		double tr = cov[0] + cov[3] + cov[5];
-		double resid = tr - lambda_max(cov);
-		double reach = sqrt((double)limit) + 0.8661;
-		if (resid > n * reach * reach * (1 + 1e-9) + 1e-6 * (tr + 1))
-			return 0;
-	}
-	/* principal axis by power iteration from the widest channel */
+	if (fit_bound_rejects(cov, n, limit))
+		return 0;
 	double ax[3] = {0, 0, 0};
-	int wide = cov[0] >= cov[3] && cov[0] >= cov[5] ? 0
-		   : cov[3] >= cov[5]                    ? 1
-							 : 2;
-	ax[wide] = 1;
-	for (int it = 0; it < 8; it++) {
-		double y[3] = {cov[0] * ax[0] + cov[1] * ax[1] + cov[2] * ax[2],
-			       cov[1] * ax[0] + cov[3] * ax[1] + cov[4] * ax[2],
-			       cov[2] * ax[0] + cov[4] * ax[1] + cov[5] * ax[2]};
-		double l = sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
-		if (l < 1e-12)
-			break;
-		double nx[3] = {y[0] / l, y[1] / l, y[2] / l};
-		/* a step that changes nothing is a fixed point: the steps
-		 * left would repeat it bit for bit */
-		if (nx[0] == ax[0] && nx[1] == ax[1] && nx[2] == ax[2])
-			break;
-		for (int k = 0; k < 3; k++)
-			ax[k] = nx[k];
-	}
-	double tmin = 1e30, tmax = -1e30;
-	uint32_t i0 = 0;
-#ifdef VBR_LANES
-	if (lanes_on())
-		i0 = project_lanes(C, n, mu, ax, t, &tmin, &tmax);
-#endif
-	for (uint32_t i = i0; i < n; i++) {
-		const uint8_t *x = rgb + 3 * (size_t)i;
-		double v = (x[0] - mu[0]) * ax[0] + (x[1] - mu[1]) * ax[1] +
-			   (x[2] - mu[2]) * ax[2];
-		t[i] = v;
-		tmin = v < tmin ? v : tmin;
-		tmax = v > tmax ? v : tmax;
-	}
+	fit_axis(cov, ax);
+	double tmin, tmax;
+	fit_project(C, n, mu, ax, t, &tmin, &tmax);
 	double e0[3], e1[3], l0[3], l1[3];
 	for (int k = 0; k < 3; k++) {
 		l0[k] = e0[k] = mu[k] + tmin * ax[k];
 		l1[k] = e1[k] = mu[k] + tmax * ax[k];
 	}
-	/* Least squares: each colour's weight from its place between the
-	 * extremes of the axis, then the two endpoints minimising the squared
-	 * error for those weights (2x2 normal equations shared by the
-	 * channels). */
-	int m = (1 << weight_bits) - 1;
-	if (tmax - tmin > 1e-9) {
-		double sc = m / (tmax - tmin);
-		/* two sums a lane (a's, b's), each lane the same operations
-		 * in the same order as one scalar sum: the same bits */
-		v2d r0 = {0, 0}, r1 = {0, 0}, r2 = {0, 0}, qab = {0, 0};
-		double bb = 0;
-		const struct lsw *lw = ls_tab + m;
-		uint32_t done = 0;
-#ifdef VBR_LANES
-		if (lanes_on()) {
-			v2d r[4] = {r0, r1, r2, qab};
-			done = ls_lanes(C, t, n, tmin, sc, m, r, &bb);
-			r0 = r[0], r1 = r[1], r2 = r[2], qab = r[3];
-		}
-#endif
-		for (uint32_t i = done; i < n; i++) {
-			const uint8_t *x = rgb + 3 * (size_t)i;
-			int q = (int)((t[i] - tmin) * sc + 0.5);
-			const struct lsw *e = lw + (q > m ? m : q);
-			r0 += e->s * (double)x[0];
-			r1 += e->s * (double)x[1];
-			r2 += e->s * (double)x[2];
-			qab += e->q;
-			bb += e->bb;
-		}
-		double aa = qab[0], ab = qab[1];
-		double ra[3] = {r0[0], r1[0], r2[0]}, rb[3] = {r0[1], r1[1], r2[1]};
-		double det = aa * bb - ab * ab;
-		if (fabs(det) > 1e-9)
-			for (int k = 0; k < 3; k++) {
-				l0[k] = (bb * ra[k] - ab * rb[k]) / det;
-				l1[k] = (aa * rb[k] - ab * ra[k]) / det;
-			}
-	}
+	fit_least_squares(C, t, n, tmin, tmax, weight_bits, l0, l1);
 	/* the least-squares endpoints first; the extremes of the axis when
 	 * RGB565 rounding pushed a colour outside */
 	a = to565(l0);
@@ -909,6 +949,149 @@ static double eval(const struct cols *C, const struct blocks *B, uint32_t s,
 	return (double)sse / n;
 }
 
+/* The first sweep: greedy runs that one colour (the nearest RGB565 of
+ * the run's first colour) stores within the threshold; every other
+ * colour its own block (all of them so with no_single). Links the blocks
+ * and sets their ends and moments. */
+static void first_sweep(struct blocks *B, const uint8_t *rgb, uint32_t n,
+			unsigned limit, int no_single)
+{
+	uint32_t last = NIL;
+	for (uint32_t i = 0; i < n;) {
+		uint32_t j = i + 1;
+		if (!no_single) {
+			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
+				       rgb[3 * (size_t)i + 2]};
+			uint8_t d[3];
+			vd_rgb565_decode(to565(c), d);
+			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
+				while (j < n &&
+				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
+					j++;
+		}
+		B->prev[i] = last;
+		if (last != NIL)
+			B->next[last] = i;
+		B->end[i] = j;
+		mom_of(&B->mom[i], rgb + 3 * (size_t)i, j - i);
+		last = i;
+		i = j;
+	}
+	if (last != NIL)
+		B->next[last] = NIL;
+}
+
+/* The merge passes (Algorithm 1): every second block merges with the
+ * neighbour giving the lower MSE when the merged fit keeps every colour
+ * within the limit, until a pass merges nothing; counts the passes in
+ * seg->passes. */
+static void merge_passes(struct vd_vbr_segment *seg, struct blocks *B,
+			 const struct cols *C, uint32_t head, unsigned limit,
+			 int wb)
+{
+	int merged;
+	do {
+		merged = 0;
+		seg->passes++;
+		uint32_t b = head == NIL ? NIL : B->next[head];
+		while (b != NIL) {
+			uint32_t l = B->prev[b], r = B->next[b];
+			double lm = -1, rm = -1;
+			if (l != NIL && !B->stuck[l]) {
+				lm = eval(C, B, l, b, limit, wb);
+				if (lm < 0)
+					B->stuck[l] = 1;
+			}
+			if (r != NIL && !B->stuck[b]) {
+				rm = eval(C, B, b, r, limit, wb);
+				if (rm < 0)
+					B->stuck[b] = 1;
+			}
+			uint32_t m = b;
+			if (lm >= 0 && (rm < 0 || lm <= rm)) {
+				/* b joins its left neighbour */
+				B->end[l] = B->end[b];
+				mom_add(&B->mom[l], &B->mom[b]);
+				B->next[l] = r;
+				if (r != NIL)
+					B->prev[r] = l;
+				m = l;
+				merged = 1;
+			} else if (rm >= 0) {
+				B->end[b] = B->end[r];
+				mom_add(&B->mom[b], &B->mom[r]);
+				uint32_t rr = B->next[r];
+				B->next[b] = rr;
+				if (rr != NIL)
+					B->prev[rr] = b;
+				B->stuck[b] = B->stuck[r] = 0;
+				merged = 1;
+			}
+			if (m != b || rm >= 0) {
+				B->stuck[m] = 0;
+				if (B->prev[m] != NIL)
+					B->stuck[B->prev[m]] = 0;
+			}
+			uint32_t nx = B->next[m];
+			b = nx == NIL ? NIL : B->next[nx];
+		}
+	} while (merged);
+}
+
+/* The final blocks: fit again for their endpoints and weights, into
+ * seg's arrays (allocated here) and its packed weights; sums the error
+ * and keeps the largest distance. w is scratch for the longest block. */
+static int final_blocks(struct vd_vbr_segment *seg, const struct blocks *B,
+			const struct cols *C, const uint8_t *rgb,
+			uint32_t head, unsigned limit, int wb, uint8_t *w,
+			double max_error)
+{
+	uint32_t count = 0;
+	for (uint32_t b = head; b != NIL; b = B->next[b])
+		count++;
+	seg->count = count;
+	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
+	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
+	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
+	if (!seg->start || !seg->c0 || !seg->c1)
+		return vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
+	uint32_t k = 0;
+	for (uint32_t b = head; b != NIL; b = B->next[b], k++) {
+		uint64_t sse;
+		uint32_t len = B->end[b] - b;
+		struct cols Cb = cols_at(C, b);
+		if (!fit_m(&Cb, len, limit, wb, &B->mom[b], B->t, &seg->c0[k],
+			   &seg->c1[k], w, &sse, len)) {
+			/* only a first block of one colour can get here: merges
+			 * were all checked */
+			return vd_fail(VD_ERR_RANGE, "max error %g is too small for "
+				       "RGB565 endpoints: colour (%u, %u, %u) cannot "
+				       "be stored within it (0.0236 always works)",
+				       max_error, rgb[3 * (size_t)b],
+				       rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
+		}
+		seg->start[k] = b;
+		seg->sse += sse;
+		for (uint32_t i = 0; i < len; i++) {
+			uint64_t bit = (uint64_t)(b + i) * wb;
+			unsigned v = w[i];
+			/* weights are at most 8 bits: two bytes at most */
+			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
+			if ((bit & 7) + wb > 8)
+				seg->weights[(bit >> 3) + 1] |=
+					(uint8_t)(v >> (8 - (bit & 7)));
+			uint8_t d[3];
+			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
+			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
+			if (e > seg->max_dist2)
+				seg->max_dist2 = e;
+		}
+	}
+	return VD_OK;
+}
+
+/* The steps run once a segment (the time is in eval's fits), so the
+ * split costs nothing per block. */
 int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 		  const struct vd_vbr_params *p)
 {
@@ -940,125 +1123,10 @@ int vd_vbr_encode(struct vd_vbr_segment *seg, const uint8_t *rgb, uint32_t n,
 	}
 	struct cols C;
 	cols_split(&C, rgb, pl, n);
-	/* the first sweep: greedy runs that one colour (the nearest RGB565
-	 * of the run's first colour) stores within the threshold; every
-	 * other colour its own block */
-	uint32_t head = n ? 0 : NIL, last = NIL;
-	for (uint32_t i = 0; i < n;) {
-		uint32_t j = i + 1;
-		if (!p->no_single_sweep) {
-			double c[3] = {rgb[3 * (size_t)i], rgb[3 * (size_t)i + 1],
-				       rgb[3 * (size_t)i + 2]};
-			uint8_t d[3];
-			vd_rgb565_decode(to565(c), d);
-			if (vd_rgb_dist2(rgb + 3 * (size_t)i, d) <= limit)
-				while (j < n &&
-				       vd_rgb_dist2(rgb + 3 * (size_t)j, d) <= limit)
-					j++;
-		}
-		B.prev[i] = last;
-		if (last != NIL)
-			B.next[last] = i;
-		B.end[i] = j;
-		mom_of(&B.mom[i], rgb + 3 * (size_t)i, j - i);
-		last = i;
-		i = j;
-	}
-	if (last != NIL)
-		B.next[last] = NIL;
-	/* the merge passes */
-	int merged;
-	do {
-		merged = 0;
-		seg->passes++;
-		uint32_t b = head == NIL ? NIL : B.next[head];
-		while (b != NIL) {
-			uint32_t l = B.prev[b], r = B.next[b];
-			double lm = -1, rm = -1;
-			if (l != NIL && !B.stuck[l]) {
-				lm = eval(&C, &B, l, b, limit, wb);
-				if (lm < 0)
-					B.stuck[l] = 1;
-			}
-			if (r != NIL && !B.stuck[b]) {
-				rm = eval(&C, &B, b, r, limit, wb);
-				if (rm < 0)
-					B.stuck[b] = 1;
-			}
-			uint32_t m = b;
-			if (lm >= 0 && (rm < 0 || lm <= rm)) {
-				/* b joins its left neighbour */
-				B.end[l] = B.end[b];
-				mom_add(&B.mom[l], &B.mom[b]);
-				B.next[l] = r;
-				if (r != NIL)
-					B.prev[r] = l;
-				m = l;
-				merged = 1;
-			} else if (rm >= 0) {
-				B.end[b] = B.end[r];
-				mom_add(&B.mom[b], &B.mom[r]);
-				uint32_t rr = B.next[r];
-				B.next[b] = rr;
-				if (rr != NIL)
-					B.prev[rr] = b;
-				B.stuck[b] = B.stuck[r] = 0;
-				merged = 1;
-			}
-			if (m != b || rm >= 0) {
-				B.stuck[m] = 0;
-				if (B.prev[m] != NIL)
-					B.stuck[B.prev[m]] = 0;
-			}
-			uint32_t nx = B.next[m];
-			b = nx == NIL ? NIL : B.next[nx];
-		}
-	} while (merged);
-	/* the final blocks: fit again for their endpoints and weights */
-	uint32_t count = 0;
-	for (uint32_t b = head; b != NIL; b = B.next[b])
-		count++;
-	seg->count = count;
-	seg->start = malloc(((size_t)count + 1) * sizeof *seg->start);
-	seg->c0 = malloc(((size_t)count + 1) * sizeof *seg->c0);
-	seg->c1 = malloc(((size_t)count + 1) * sizeof *seg->c1);
-	if (!seg->start || !seg->c0 || !seg->c1) {
-		err = vd_fail(VD_ERR_NOMEM, "vbr: %u blocks", count);
-		goto out;
-	}
-	uint32_t k = 0;
-	for (uint32_t b = head; b != NIL; b = B.next[b], k++) {
-		uint64_t sse;
-		uint32_t len = B.end[b] - b;
-		struct cols Cb = cols_at(&C, b);
-		if (!fit_m(&Cb, len, limit, wb, &B.mom[b], B.t, &seg->c0[k],
-			   &seg->c1[k], w, &sse, len)) {
-			/* only a first block of one colour can get here: merges
-			 * were all checked */
-			err = vd_fail(VD_ERR_RANGE, "max error %g is too small for "
-				      "RGB565 endpoints: colour (%u, %u, %u) cannot "
-				      "be stored within it (0.0236 always works)",
-				      p->max_error, rgb[3 * (size_t)b],
-				      rgb[3 * (size_t)b + 1], rgb[3 * (size_t)b + 2]);
-			goto out;
-		}
-		seg->start[k] = b;
-		seg->sse += sse;
-		for (uint32_t i = 0; i < len; i++) {
-			uint64_t bit = (uint64_t)(b + i) * wb;
-			unsigned v = w[i];
-			/* weights are at most 8 bits: two bytes at most */
-			seg->weights[bit >> 3] |= (uint8_t)(v << (bit & 7));
-			if ((bit & 7) + wb > 8)
-				seg->weights[(bit >> 3) + 1] |=
-					(uint8_t)(v >> (8 - (bit & 7)));
-			uint8_t d[3];
-			vd_vbr_interp(seg->c0[k], seg->c1[k], v, wb, d);
-			unsigned e = vd_rgb_dist2(rgb + 3 * ((size_t)b + i), d);
-			if (e > seg->max_dist2)
-				seg->max_dist2 = e;
-		}
-	}
+	uint32_t head = n ? 0 : NIL;
+	first_sweep(&B, rgb, n, limit, p->no_single_sweep);
+	merge_passes(seg, &B, &C, head, limit, wb);
+	err = final_blocks(seg, &B, &C, rgb, head, limit, wb, w, p->max_error);
 out:
 	free(B.next);
 	free(B.prev);

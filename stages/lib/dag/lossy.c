@@ -1800,6 +1800,178 @@ out:
 	return err;
 }
 
+/* Copies d's levels A..L-1 into orig (its other fields d's, no bricks),
+ * for the final voxel difference; -1 when out of memory (orig then holds
+ * what was copied, for vd_dag_release). */
+static int copy_levels(struct vd_dag *orig, const struct vd_dag *d)
+{
+	int L = d->levels, A = d->chunk_level;
+	for (int l = A; l < L; l++) {
+		const struct vd_dag_level *s = &d->lv[l];
+		struct vd_dag_level *t = &orig->lv[l];
+		t->nodes = s->nodes;
+		t->refs = s->refs;
+		t->mask = malloc(s->nodes + 1);
+		if (!t->mask) return -1;
+		memcpy(t->mask, s->mask, s->nodes);
+		if (l < L - 1) {
+			t->first = malloc((s->nodes + 1) * 8);
+			t->child = malloc((s->refs + 1) * 4);
+			if (!t->first || !t->child) return -1;
+			memcpy(t->first, s->first, (s->nodes + 1) * 8);
+			memcpy(t->child, s->child, s->refs * 4);
+		}
+	}
+	return 0;
+}
+
+/* With a memory budget, refuses level l when its arrays would not fit
+ * beside what the process holds: they come before its graph's budget is
+ * measured. */
+static int level_fits(const struct vd_dag *d, int l,
+		      const struct vd_lossy_opts *o)
+{
+	int err = 0;
+	if (o->mem_budget) {
+		/* the level's arrays come before its graph's budget
+		 * is measured: they must fit beside what is held */
+		malloc_trim(0);
+		uint64_t rss = vd_current_rss_bytes(), need = level_need(d, l);
+		if (rss + need > o->mem_budget) {
+			err = vd_fail(VD_ERR_BUDGET, "the arrays of level %d "
+				      "(%" PRIu64 " nodes) need about %" PRIu64
+				      " MiB beside the %" PRIu64 " MiB in use, "
+				      "over the budget of %" PRIu64 " MiB "
+				      "(--mem-budget)", l, d->lv[l].nodes,
+				      need >> 20, rss >> 20, o->mem_budget >> 20);
+			return err;
+		}
+	}
+	return err;
+}
+
+/* Clusters level l: its effective references, the graph of similar
+ * nodes (in memory or spilled), the groups merged into representatives
+ * (map: node to its representative), the level above pointed at them and
+ * deduplicated; adds the level's stats to st and the voxel count change
+ * to *net. */
+static int cluster_level(struct vd_dag *d, int l, const struct vd_lossy_opts *o,
+			 struct vd_lossy_stats *st, int64_t *net)
+{
+	int L = d->levels, A = d->chunk_level, err = 0;
+	struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
+	ls->level = l;
+	ls->height = L - l;
+	ls->nodes_before = dag_nodes(d);
+	ls->level_nodes_before = d->lv[l].nodes;
+	double t0 = vd_seconds();
+	uint64_t *eff[VD_MAX_LEVELS];
+	if ((err = level_fits(d, l, o))) return err;
+	if ((err = vd_lossy_effective_refs(d, l, eff))) return err;
+	double t1 = vd_seconds();
+	st->seconds_eff += t1 - t0;
+	struct vd_lossy_edge *e = NULL;
+	size_t ne = 0;
+	struct spill sp;
+	uint64_t *vox = NULL;
+	err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
+			    o->threads, o->mem_budget, &e, &ne,
+			    &ls->candidates, o->graph_budget, &sp);
+	/* eff[l] stays for the representatives, and their voxel
+	 * counts come now: made during the search, they stayed
+	 * between the heap's freed arrays, and the graph's sort
+	 * then took new memory (the dragon at 2^12 peaked 25 MiB
+	 * higher) */
+	for (int k = 0; k < VD_MAX_LEVELS; k++)
+		if (k != l) free(eff[k]);
+	if (!err && (sp.fd >= 0 ? sp.n : ne))
+		err = level_voxels(d, l, &vox);
+	if (err) {
+		free(eff[l]);
+		free(e);
+		if (sp.fd >= 0) close(sp.fd);
+		return err;
+	}
+	double t2 = vd_seconds();
+	st->seconds_graph += t2 - t1;
+	ls->edges = sp.fd >= 0 ? sp.n : ne;
+	if (!ls->edges) {
+		free(eff[l]);
+		free(vox);
+		free(e);
+		ls->nodes_after = ls->nodes_before;
+		ls->level_nodes_after = d->lv[l].nodes;
+		return 0;
+	}
+	uint64_t nl = d->lv[l].nodes;
+	uint32_t *gid = malloc(nl * 4), *map = malloc(nl * 4);
+	if (!gid || !map) {
+		err = NOMEM();
+	} else {
+		for (uint64_t i = 0; i < nl; i++) {
+			map[i] = (uint32_t)i;
+			gid[i] = NONE;
+		}
+		if (sp.fd >= 0) {
+			ls->graph_spilled = 1;
+			err = cluster_spilled(l, nl, &sp, o, ls, gid, map,
+					      eff[l], vox, net);
+		} else {
+			/* what is left beside the edges, the two
+			 * arrays above and the voxel counts */
+			uint64_t hold = ne * sizeof *e + nl * 16;
+			err = cluster_edges(e, ne, nl, o, ls, gid, map,
+					    sp.avail > hold ? sp.avail - hold :
+					    sp.avail ? 1 : 0, eff[l], vox, net);
+		}
+	}
+	if (sp.fd >= 0) close(sp.fd);
+	free(e);
+	free(gid);
+	free(eff[l]);
+	free(vox);
+	double t3 = vd_seconds();
+	st->seconds_cluster += t3 - t2;
+	if (!err && l > A) {
+		struct vd_dag_level *pv = &d->lv[l - 1];
+		for (uint64_t j = 0; j < pv->refs; j++)
+			pv->child[j] = map[pv->child[j]];
+		err = dag_dedupe_up(d, l - 1);
+	}
+	st->seconds_reduce += vd_seconds() - t3;
+	free(map);
+	ls->nodes_after = dag_nodes(d);
+	ls->level_nodes_after = d->lv[l].nodes;
+	return err;
+}
+
+/* The voxels the clustering cleared and set: d against orig, the tables
+ * of pairs within what the budget leaves; d->voxels becomes the new
+ * count. */
+static int diff_levels(const struct vd_dag *orig, struct vd_dag *d,
+		       const struct vd_lossy_opts *o, struct vd_lossy_stats *st)
+{
+	int err;
+	double t0 = vd_seconds();
+	/* the difference's tables of pairs get what the budget leaves
+	 * beside the process and the voxel counts of both DAGs */
+	uint64_t memo_limit = 0;
+	if (o->mem_budget) {
+		malloc_trim(0);
+		uint64_t hold = vd_current_rss_bytes() +
+				8 * (st->nodes_before + dag_nodes(d) + 2 * VD_MAX_LEVELS);
+		/* and a margin for the heap's own overhead */
+		hold += VD_BUDGET_LOSSY_HEAP_MARGIN_BYTES +
+			o->mem_budget / VD_BUDGET_LOSSY_HEAP_MARGIN_DIV;
+		memo_limit = o->mem_budget > hold ? o->mem_budget - hold : 1;
+	}
+	err = dag_diff(orig, d, &st->voxels_cleared, &st->voxels_set,
+		       &st->voxels_after, memo_limit);
+	d->voxels = st->voxels_after;
+	st->seconds_diff = vd_seconds() - t0;
+	return err;
+}
+
 int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 		     struct vd_lossy_stats *st)
 {
@@ -1819,145 +1991,16 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	orig = *d;
 	memset(orig.lv, 0, sizeof orig.lv);
 	orig.bricks = NULL;
-	for (int l = A; l < L; l++) {
-		struct vd_dag_level *s = &d->lv[l], *t = &orig.lv[l];
-		t->nodes = s->nodes;
-		t->refs = s->refs;
-		t->mask = malloc(s->nodes + 1);
-		if (!t->mask) goto nomem;
-		memcpy(t->mask, s->mask, s->nodes);
-		if (l < L - 1) {
-			t->first = malloc((s->nodes + 1) * 8);
-			t->child = malloc((s->refs + 1) * 4);
-			if (!t->first || !t->child) goto nomem;
-			memcpy(t->first, s->first, (s->nodes + 1) * 8);
-			memcpy(t->child, s->child, s->refs * 4);
-		}
-	}
+	if (copy_levels(&orig, d)) goto nomem;
 	st->nodes_before = dag_nodes(d);
 	st->voxels_before = d->voxels;
 	double cpu0 = cpu_seconds();
 	int64_t net = 0; /* the voxel count change so far */
-	for (int l = L - 2; l >= A && !err; l--) {
-		struct vd_lossy_level_stats *ls = &st->level[st->n_levels++];
-		ls->level = l;
-		ls->height = L - l;
-		ls->nodes_before = dag_nodes(d);
-		ls->level_nodes_before = d->lv[l].nodes;
-		double t0 = vd_seconds();
-		uint64_t *eff[VD_MAX_LEVELS];
-		if (o->mem_budget) {
-			/* the level's arrays come before its graph's budget
-			 * is measured: they must fit beside what is held */
-			malloc_trim(0);
-			uint64_t rss = vd_current_rss_bytes(), need = level_need(d, l);
-			if (rss + need > o->mem_budget) {
-				err = vd_fail(VD_ERR_BUDGET, "the arrays of level %d "
-					      "(%" PRIu64 " nodes) need about %" PRIu64
-					      " MiB beside the %" PRIu64 " MiB in use, "
-					      "over the budget of %" PRIu64 " MiB "
-					      "(--mem-budget)", l, d->lv[l].nodes,
-					      need >> 20, rss >> 20, o->mem_budget >> 20);
-				break;
-			}
-		}
-		if ((err = vd_lossy_effective_refs(d, l, eff))) break;
-		double t1 = vd_seconds();
-		st->seconds_eff += t1 - t0;
-		struct vd_lossy_edge *e = NULL;
-		size_t ne = 0;
-		struct spill sp;
-		uint64_t *vox = NULL;
-		err = similar_pairs(d, l, eff[l], o->max_refs, o->diff_factor,
-				    o->threads, o->mem_budget, &e, &ne,
-				    &ls->candidates, o->graph_budget, &sp);
-		/* eff[l] stays for the representatives, and their voxel
-		 * counts come now: made during the search, they stayed
-		 * between the heap's freed arrays, and the graph's sort
-		 * then took new memory (the dragon at 2^12 peaked 25 MiB
-		 * higher) */
-		for (int k = 0; k < VD_MAX_LEVELS; k++)
-			if (k != l) free(eff[k]);
-		if (!err && (sp.fd >= 0 ? sp.n : ne))
-			err = level_voxels(d, l, &vox);
-		if (err) {
-			free(eff[l]);
-			free(e);
-			if (sp.fd >= 0) close(sp.fd);
-			break;
-		}
-		double t2 = vd_seconds();
-		st->seconds_graph += t2 - t1;
-		ls->edges = sp.fd >= 0 ? sp.n : ne;
-		if (!ls->edges) {
-			free(eff[l]);
-			free(vox);
-			free(e);
-			ls->nodes_after = ls->nodes_before;
-			ls->level_nodes_after = d->lv[l].nodes;
-			continue;
-		}
-		uint64_t nl = d->lv[l].nodes;
-		uint32_t *gid = malloc(nl * 4), *map = malloc(nl * 4);
-		if (!gid || !map) {
-			err = NOMEM();
-		} else {
-			for (uint64_t i = 0; i < nl; i++) {
-				map[i] = (uint32_t)i;
-				gid[i] = NONE;
-			}
-			if (sp.fd >= 0) {
-				ls->graph_spilled = 1;
-				err = cluster_spilled(l, nl, &sp, o, ls, gid, map,
-						      eff[l], vox, &net);
-			} else {
-				/* what is left beside the edges, the two
-				 * arrays above and the voxel counts */
-				uint64_t hold = ne * sizeof *e + nl * 16;
-				err = cluster_edges(e, ne, nl, o, ls, gid, map,
-						    sp.avail > hold ? sp.avail - hold :
-						    sp.avail ? 1 : 0, eff[l], vox, &net);
-			}
-		}
-		if (sp.fd >= 0) close(sp.fd);
-		free(e);
-		free(gid);
-		free(eff[l]);
-		free(vox);
-		double t3 = vd_seconds();
-		st->seconds_cluster += t3 - t2;
-		if (!err && l > A) {
-			struct vd_dag_level *pv = &d->lv[l - 1];
-			for (uint64_t j = 0; j < pv->refs; j++)
-				pv->child[j] = map[pv->child[j]];
-			err = dag_dedupe_up(d, l - 1);
-		}
-		st->seconds_reduce += vd_seconds() - t3;
-		free(map);
-		ls->nodes_after = dag_nodes(d);
-		ls->level_nodes_after = d->lv[l].nodes;
-	}
+	for (int l = L - 2; l >= A && !err; l--)
+		err = cluster_level(d, l, o, st, &net);
 	st->cpu_seconds_lossy = cpu_seconds() - cpu0;
 	if (!err) err = rebuild_bricks(d);
-	if (!err) {
-		double t0 = vd_seconds();
-		/* the difference's tables of pairs get what the budget leaves
-		 * beside the process and the voxel counts of both DAGs */
-		uint64_t memo_limit = 0;
-		if (o->mem_budget) {
-			malloc_trim(0);
-			uint64_t hold = vd_current_rss_bytes() +
-					8 * (st->nodes_before + dag_nodes(d) + 2 * VD_MAX_LEVELS);
-			/* and a margin for the heap's own overhead */
-			hold += VD_BUDGET_LOSSY_HEAP_MARGIN_BYTES +
-				o->mem_budget / VD_BUDGET_LOSSY_HEAP_MARGIN_DIV;
-			memo_limit = o->mem_budget > hold ? o->mem_budget - hold : 1;
-		}
-		err = dag_diff(&orig, d, &st->voxels_cleared, &st->voxels_set,
-			       &st->voxels_after, memo_limit);
-		d->voxels = st->voxels_after;
-		st->seconds_diff = vd_seconds() - t0;
-	}
+	if (!err) err = diff_levels(&orig, d, o, st);
 	st->nodes_after = dag_nodes(d);
 	vd_dag_release(&orig);
 	return err;

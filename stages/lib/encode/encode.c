@@ -1257,13 +1257,14 @@ static const int table_order[VD_ENC_ALL_] = {VD_ENC_SSVDAG48, VD_ENC_SSVDAG,
 					     VD_ENC_USSVDAG, VD_ENC_ESVDAG,
 					     VD_ENC_SVDAG};
 
-int vd_enc_write_tables(const char *dir, const char *name,
-			const struct vd_enc_row *rows, size_t n,
-			const struct vd_enc_timing *t, double seconds_encode)
+/* The JSON tables: Table 1 (scene, build times) and Table 2 (nodes,
+ * bytes, bits per voxel) per row, the paper's columns in table_order. */
+static int tables_json(const char *dir, const char *name,
+		       const struct vd_enc_row *rows, size_t n,
+		       const struct vd_enc_timing *t, double seconds_encode)
 {
 	char path[4096];
 	int err;
-	/* JSON */
 	snprintf(path, sizeof path, "%s/%s.tables.json", dir, name);
 	struct vd_json *j;
 	if ((err = vd_json_open(&j, path))) return err;
@@ -1315,100 +1316,122 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		vd_json_end_object(j);
 	}
 	vd_json_end_array(j);
-	if ((err = vd_json_close(j))) return err;
+	return vd_json_close(j);
+}
 
-	/* CSV */
-	struct text c = {0};
-	tprintf(&c, "levels,resolution,mvoxels,seconds_svo_to_dag,"
-		"seconds_symmetry_merge\n");
-	for (size_t i = 0; i < n; i++) {
-		tprintf(&c, "%d,%llu,%.6f,", rows[i].levels,
-			1ull << rows[i].levels, (double)rows[i].voxels / 1e6);
-		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
-			tprintf(&c, "%.3f", t->seconds_svo_to_dag);
-		tprintf(&c, ",");
-		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
-			tprintf(&c, "%.3f", t->seconds_symmetry_merge);
-		tprintf(&c, "\n");
-	}
-	if (c.nomem) {
-		free(c.s);
+/* Writes c's text as <dir>/<name>.<suffix> and empties c for the next
+ * file; on an error (c out of memory, the write) frees c's buffer. */
+static int text_publish(struct text *c, const char *dir, const char *name,
+			const char *suffix)
+{
+	if (c->nomem) {
+		free(c->s);
+		c->s = NULL;
 		return NOMEM();
 	}
-	err = write_text(dir, name, "table1.csv", c.s, c.n);
-	c.n = 0;
+	int err = write_text(dir, name, suffix, c->s, c->n);
+	c->n = 0;
 	if (err) {
-		free(c.s);
-		return err;
+		free(c->s);
+		c->s = NULL;
 	}
+	return err;
+}
+
+/* table1.csv: resolution, MVoxels and the build times (full resolution
+ * only; the lower rows are cuts of the same DAG). */
+static void table1_csv(struct text *c, const struct vd_enc_row *rows,
+		       size_t n, const struct vd_enc_timing *t)
+{
+	tprintf(c, "levels,resolution,mvoxels,seconds_svo_to_dag,"
+		"seconds_symmetry_merge\n");
+	for (size_t i = 0; i < n; i++) {
+		tprintf(c, "%d,%llu,%.6f,", rows[i].levels,
+			1ull << rows[i].levels, (double)rows[i].voxels / 1e6);
+		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
+			tprintf(c, "%.3f", t->seconds_svo_to_dag);
+		tprintf(c, ",");
+		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
+			tprintf(c, "%.3f", t->seconds_symmetry_merge);
+		tprintf(c, "\n");
+	}
+}
+
+/* table2.csv: nodes, bytes and bits per voxel, the paper's columns first
+ * and the 48-group's after them when the first row has it. */
+static void table2_csv(struct text *c, const struct vd_enc_row *rows,
+		       size_t n)
+{
 	int g48 = n && rows[0].has_ssvdag48;
-	tprintf(&c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
+	tprintf(c, "levels,resolution,voxels,nodes_ssvdag,nodes_svdag,"
 		"nodes_svo,bytes_ssvdag,bytes_ussvdag,bytes_esvdag,bytes_svdag,"
 		"bytes_svo,bpv_ssvdag,bpv_ussvdag,bpv_esvdag,bpv_svdag,bpv_svo%s\n",
 		g48 ? ",nodes_ssvdag48,bytes_ssvdag48,bpv_ssvdag48" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "%d,%llu,%llu,", r->levels, 1ull << r->levels,
+		tprintf(c, "%d,%llu,%llu,", r->levels, 1ull << r->levels,
 			(unsigned long long)r->voxels);
 		if (r->has_ssvdag)
-			tprintf(&c, "%llu", (unsigned long long)r->ssvdag_nodes);
-		tprintf(&c, ",%llu,%llu", (unsigned long long)r->dag_nodes,
+			tprintf(c, "%llu", (unsigned long long)r->ssvdag_nodes);
+		tprintf(c, ",%llu,%llu", (unsigned long long)r->dag_nodes,
 			(unsigned long long)r->svo_nodes);
 		/* k from 1: the paper's four */
 		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, ",%llu", (unsigned long long)r->bytes[f]);
-			else tprintf(&c, ",");
+			if (r->has[f]) tprintf(c, ",%llu", (unsigned long long)r->bytes[f]);
+			else tprintf(c, ",");
 		}
-		tprintf(&c, ",%llu", (unsigned long long)r->svo_bytes);
+		tprintf(c, ",%llu", (unsigned long long)r->svo_bytes);
 		for (int k = 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, ",%.4f", bpv(r->bytes[f], r->voxels));
-			else tprintf(&c, ",");
+			if (r->has[f]) tprintf(c, ",%.4f", bpv(r->bytes[f], r->voxels));
+			else tprintf(c, ",");
 		}
-		tprintf(&c, ",%.4f", bpv(r->svo_bytes, r->voxels));
+		tprintf(c, ",%.4f", bpv(r->svo_bytes, r->voxels));
 		if (g48) {
-			tprintf(&c, ",%llu,", (unsigned long long)r->ssvdag48_nodes);
+			tprintf(c, ",%llu,", (unsigned long long)r->ssvdag48_nodes);
 			if (r->has[VD_ENC_SSVDAG48])
-				tprintf(&c, "%llu,%.4f", (unsigned long long)
+				tprintf(c, "%llu,%.4f", (unsigned long long)
 					r->bytes[VD_ENC_SSVDAG48],
 					bpv(r->bytes[VD_ENC_SSVDAG48], r->voxels));
 			else
-				tprintf(&c, ",");
+				tprintf(c, ",");
 		}
-		tprintf(&c, "\n");
+		tprintf(c, "\n");
 	}
-	if (c.nomem) {
-		free(c.s);
-		return NOMEM();
-	}
-	err = write_text(dir, name, "table2.csv", c.s, c.n);
-	c.n = 0;
-	if (err) {
-		free(c.s);
-		return err;
-	}
+}
 
-	/* Markdown, laid out like the paper's tables */
-	tprintf(&c, "# %s\n\n## Table 1: scene and build times\n\n", name);
-	tprintf(&c, "| resolution | MVoxels | svo-to-dag (s) | symmetry-merge (s) |\n"
+/* tables.md's heading and Table 1, laid out like the paper's. */
+static void table1_md(struct text *c, const char *name,
+		      const struct vd_enc_row *rows, size_t n,
+		      const struct vd_enc_timing *t, double seconds_encode)
+{
+	tprintf(c, "# %s\n\n## Table 1: scene and build times\n\n", name);
+	tprintf(c, "| resolution | MVoxels | svo-to-dag (s) | symmetry-merge (s) |\n"
 		"|---:|---:|---:|---:|\n");
 	for (size_t i = 0; i < n; i++) {
-		tprintf(&c, "| %llu^3 | %.3f | ", 1ull << rows[i].levels,
+		tprintf(c, "| %llu^3 | %.3f | ", 1ull << rows[i].levels,
 			(double)rows[i].voxels / 1e6);
 		if (i == 0 && t && t->seconds_svo_to_dag >= 0)
-			tprintf(&c, "%.2f", t->seconds_svo_to_dag);
-		else tprintf(&c, "-");
-		tprintf(&c, " | ");
+			tprintf(c, "%.2f", t->seconds_svo_to_dag);
+		else tprintf(c, "-");
+		tprintf(c, " | ");
 		if (i == 0 && t && t->seconds_symmetry_merge >= 0)
-			tprintf(&c, "%.2f", t->seconds_symmetry_merge);
-		else tprintf(&c, "-");
-		tprintf(&c, " |\n");
+			tprintf(c, "%.2f", t->seconds_symmetry_merge);
+		else tprintf(c, "-");
+		tprintf(c, " |\n");
 	}
-	tprintf(&c, "\nBuild times are for the full resolution (the lower "
+	tprintf(c, "\nBuild times are for the full resolution (the lower "
 		"resolutions are cuts of the same DAG); encode took %.2f s.\n",
 		seconds_encode);
-	tprintf(&c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
+}
+
+/* tables.md's Table 2, laid out like the paper's; the 48-group's columns
+ * first when g48. */
+static void table2_md(struct text *c, const struct vd_enc_row *rows,
+		      size_t n, int g48)
+{
+	tprintf(c, "\n## Table 2: nodes (millions) and memory (MB = 2^20 bytes)\n\n"
 		"| resolution |%s nodes SSVDAG | nodes SVDAG | nodes SVO |%s "
 		"MB SSVDAG | MB USSVDAG | MB ESVDAG | MB SVDAG | MB SVO |\n"
 		"|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n",
@@ -1416,46 +1439,69 @@ int vd_enc_write_tables(const char *dir, const char *name,
 		g48 ? "---:|---:|" : "");
 	for (size_t i = 0; i < n; i++) {
 		const struct vd_enc_row *r = &rows[i];
-		tprintf(&c, "| %llu^3", 1ull << r->levels);
-		if (g48) tprintf(&c, " | %.3f", (double)r->ssvdag48_nodes / 1e6);
+		tprintf(c, "| %llu^3", 1ull << r->levels);
+		if (g48) tprintf(c, " | %.3f", (double)r->ssvdag48_nodes / 1e6);
 		if (r->has_ssvdag)
-			tprintf(&c, " | %.3f", (double)r->ssvdag_nodes / 1e6);
+			tprintf(c, " | %.3f", (double)r->ssvdag_nodes / 1e6);
 		else
-			tprintf(&c, " | -");
-		tprintf(&c, " | %.3f | %.3f", (double)r->dag_nodes / 1e6,
+			tprintf(c, " | -");
+		tprintf(c, " | %.3f | %.3f", (double)r->dag_nodes / 1e6,
 			(double)r->svo_nodes / 1e6);
 		for (int k = g48 ? 0 : 1; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
-			if (r->has[f]) tprintf(&c, " | %.3f", MB(r->bytes[f]));
-			else tprintf(&c, " | -");
+			if (r->has[f]) tprintf(c, " | %.3f", MB(r->bytes[f]));
+			else tprintf(c, " | -");
 		}
-		tprintf(&c, " | %.3f |\n", MB(r->svo_bytes));
+		tprintf(c, " | %.3f |\n", MB(r->svo_bytes));
 	}
+}
+
+/* tables.md's closing lines: bits per voxel of the full-resolution row and
+ * the compact encodings' sizes relative to the SVDAG. */
+static void bits_md(struct text *c, const struct vd_enc_row *rows, size_t n)
+{
 	if (n) {
 		const struct vd_enc_row *r = &rows[0];
-		tprintf(&c, "\nBits per voxel at %llu^3 (%llu voxels):",
+		tprintf(c, "\nBits per voxel at %llu^3 (%llu voxels):",
 			1ull << r->levels, (unsigned long long)r->voxels);
 		for (int k = 0; k < VD_ENC_ALL_; k++) {
 			int f = table_order[k];
 			if (r->has[f])
-				tprintf(&c, " %s %.3f,", format_names[f],
+				tprintf(c, " %s %.3f,", format_names[f],
 					bpv(r->bytes[f], r->voxels));
 		}
-		tprintf(&c, " svo %.3f.\n", bpv(r->svo_bytes, r->voxels));
+		tprintf(c, " svo %.3f.\n", bpv(r->svo_bytes, r->voxels));
 		if (r->has[VD_ENC_SSVDAG] && r->bytes[VD_ENC_SVDAG])
-			tprintf(&c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
+			tprintf(c, "SSVDAG/SVDAG = %.1f%%, ESVDAG/SVDAG = %.1f%%.\n",
 				100.0 * (double)r->bytes[VD_ENC_SSVDAG] / (double)r->bytes[VD_ENC_SVDAG],
 				100.0 * (double)r->bytes[VD_ENC_ESVDAG] / (double)r->bytes[VD_ENC_SVDAG]);
 		if (r->has[VD_ENC_SSVDAG48] && r->bytes[VD_ENC_SVDAG])
-			tprintf(&c, "SSVDAG48/SVDAG = %.1f%%.\n",
+			tprintf(c, "SSVDAG48/SVDAG = %.1f%%.\n",
 				100.0 * (double)r->bytes[VD_ENC_SSVDAG48] /
 				(double)r->bytes[VD_ENC_SVDAG]);
 	}
-	if (c.nomem) {
-		free(c.s);
-		return NOMEM();
-	}
-	err = write_text(dir, name, "tables.md", c.s, c.n);
+}
+
+int vd_enc_write_tables(const char *dir, const char *name,
+			const struct vd_enc_row *rows, size_t n,
+			const struct vd_enc_timing *t, double seconds_encode)
+{
+	int err;
+	if ((err = tables_json(dir, name, rows, n, t, seconds_encode)))
+		return err;
+	/* one text buffer, emptied between the files */
+	struct text c = {0};
+	table1_csv(&c, rows, n, t);
+	if ((err = text_publish(&c, dir, name, "table1.csv")))
+		return err;
+	int g48 = n && rows[0].has_ssvdag48;
+	table2_csv(&c, rows, n);
+	if ((err = text_publish(&c, dir, name, "table2.csv")))
+		return err;
+	table1_md(&c, name, rows, n, t, seconds_encode);
+	table2_md(&c, rows, n, g48);
+	bits_md(&c, rows, n);
+	err = text_publish(&c, dir, name, "tables.md");
 	free(c.s);
 	return err;
 }
@@ -1625,28 +1671,38 @@ static int encode_file(const char *name)
 	return 0;
 }
 
-int vd_enc_run(const struct vd_enc_job *job)
+/* One encode run's state, shared by its steps (vd_enc_run releases it). */
+struct enc_run {
+	const struct vd_enc_job *job;
+	const char *name;
+	struct vd_dag dag, ss, s48;
+	struct vd_transform t1;
+	const struct vd_dag *src[3]; /* dag, ssvdag, ssvdag48 or NULL */
+	struct vd_enc_timing tm;
+	char dir[4096]; /* the staging directory */
+	uint64_t bytes[VD_ENC_ALL_];
+	int written[VD_ENC_ALL_];
+	struct vd_enc_row *rows;
+	int *errs;
+	char (*details)[512];
+	double t0, t_load, t_enc, t_tab;
+};
+
+/* Reads the DAG and the symmetric DAGs given (their chunks' roots, within
+ * the memory budget) and refuses them unless they are one scene with
+ * voxels; sets r->src. */
+static int run_load(struct enc_run *r)
 {
-	struct vd_dag dag = {0}, ss = {0}, s48 = {0};
-	struct vd_transform t1, t2, t3;
-	struct vd_enc_row *rows = NULL;
-	int *errs = NULL;
-	char (*details)[512] = NULL;
-	int err, staged = 0;
-	char dir[4096];
+	const struct vd_enc_job *job = r->job;
+	struct vd_transform t2, t3;
+	int err;
 	uint64_t used = 0;
-	double t0 = vd_seconds();
-	const char *name = job->name ? job->name : "scene";
-	if (!job->dag_path || (!job->ssvdag_path && !job->ssvdag48_path) ||
-	    !job->outdir)
-		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
-			       "chunk and the output directory are needed");
 	/* the symmetric DAGs given: [0] the ssvdag, [1] the ssvdag48 */
-	struct vd_dag *sym[2] = {&ss, &s48};
+	struct vd_dag *sym[2] = {&r->ss, &r->s48};
 	struct vd_transform *st[2] = {&t2, &t3};
 	const char *sp[2] = {job->ssvdag_path, job->ssvdag48_path};
 	static const uint32_t sk[2] = {VD_KIND_SSVDAG, VD_KIND_SSVDAG48};
-	struct roots_job roots = {{NULL}, {&dag, &ss, &s48},
+	struct roots_job roots = {{NULL}, {&r->dag, &r->ss, &r->s48},
 			       {job->dag_path, sp[0], sp[1]},
 			       {VD_KIND_DAG, sk[0], sk[1]}, {0}, {{0}}};
 	err = VD_OK;
@@ -1655,160 +1711,215 @@ int vd_enc_run(const struct vd_enc_job *job)
 			err = open_root(&roots.c[k], roots.path[k], roots.kind[k], &used,
 					job->mem_budget_bytes);
 	if (!err) {
-		t1 = vd_chunk_header(roots.c[0])->transform;
+		r->t1 = vd_chunk_header(roots.c[0])->transform;
 		for (int k = 0; k < 2; k++)
 			if (roots.c[k + 1]) *st[k] = vd_chunk_header(roots.c[k + 1])->transform;
 		err = decode_roots(&roots, job->threads);
 	}
 	for (int k = 0; k < 3; k++) vd_chunk_free(roots.c[k]);
-	if (err) goto out;
+	if (err) return err;
 	for (int k = 0; k < 2; k++) {
 		if (!sp[k]) continue;
-		if (dag.levels != sym[k]->levels || dag.voxels != sym[k]->voxels ||
-		    !vd_transform_equal(&t1, st[k])) {
+		if (r->dag.levels != sym[k]->levels || r->dag.voxels != sym[k]->voxels ||
+		    !vd_transform_equal(&r->t1, st[k])) {
 			err = vd_fail(VD_ERR_MISMATCH, "cannot encode '%s' with "
 				      "'%s': not the same scene (%d and %d levels, %"
 				      PRIu64 " and %" PRIu64 " voxels, or another "
 				      "bounding box)", job->dag_path, sp[k],
-				      dag.levels, sym[k]->levels, dag.voxels,
+				      r->dag.levels, sym[k]->levels, r->dag.voxels,
 				      sym[k]->voxels);
-			goto out;
+			return err;
 		}
 	}
-	const struct vd_dag *src[3] = {&dag, job->ssvdag_path ? &ss : NULL,
-				       job->ssvdag48_path ? &s48 : NULL};
-	if (dag.voxels == 0) {
+	r->src[0] = &r->dag;
+	r->src[1] = job->ssvdag_path ? &r->ss : NULL;
+	r->src[2] = job->ssvdag48_path ? &r->s48 : NULL;
+	if (r->dag.voxels == 0) {
 		err = vd_fail(VD_ERR_EMPTY, "cannot encode '%s': the scene has "
 			      "no voxels", job->dag_path);
-		goto out;
+		return err;
 	}
-	struct vd_enc_timing tm = {-1, -1};
-	for (size_t i = 0; i < job->n_stats; i++)
-		if ((err = vd_enc_timing_add(&tm, job->stats_paths[i]))) {
-			err = reword(err, "cannot read", job->stats_paths[i]);
-			goto out;
-		}
-	/* every encoding and table or none: written into a staging directory
-	 * that replaces job->outdir whole (with its manifest, the encodings'
-	 * checksums) only once all are there */
-	if ((err = vd_dir_stage(job->outdir, encode_file, dir, sizeof dir)))
-		goto out;
-	staged = 1;
-	double t_load = vd_seconds() - t0, t_enc0 = vd_seconds();
-	uint64_t bytes[VD_ENC_ALL_] = {0};
-	int written[VD_ENC_ALL_] = {0};
-	char path[4096 + 512];
-	struct file_job fj = {src, &t1, dir, name, bytes, written, {0}, {{0}}};
-	if ((err = vd_parallel_for(VD_ENC_ALL_, job->threads, file_worker, &fj)))
-		goto out;
+	return VD_OK;
+}
+
+/* Builds and writes every encoding into the staging directory, in
+ * parallel; the first error in format order is the one reported. */
+static int run_files(struct enc_run *r)
+{
+	int err;
+	struct file_job fj = {r->src, &r->t1, r->dir, r->name, r->bytes,
+			      r->written, {0}, {{0}}};
+	if ((err = vd_parallel_for(VD_ENC_ALL_, r->job->threads, file_worker, &fj)))
+		return err;
 	for (int f = 0; f < VD_ENC_ALL_ && !err; f++)
 		if (fj.errs[f])
 			err = vd_fail(fj.errs[f], "%s", fj.details[f]);
-	if (err) goto out;
-	double t_enc = vd_seconds() - t_enc0, t_tab0 = vd_seconds();
+	return err;
+}
 
+/* Computes the tables' rows (one per resolution from job->min_level up,
+ * each joined from its three sources' rows, in parallel) and writes the
+ * tables into the staging directory. */
+static int run_tables(struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	int err = VD_OK;
 	int lo = job->min_level < 1 ? 1 : job->min_level;
-	size_t nrows = dag.levels >= lo ? (size_t)(dag.levels - lo + 1) : 1;
-	rows = calloc(3 * nrows, sizeof *rows);
-	errs = calloc(3 * nrows, sizeof *errs);
-	details = calloc(3 * nrows, sizeof *details);
-	if (!rows || !errs || !details) {
-		err = NOMEM();
-		goto out;
-	}
+	size_t nrows = r->dag.levels >= lo ? (size_t)(r->dag.levels - lo + 1) : 1;
+	r->rows = calloc(3 * nrows, sizeof *r->rows);
+	r->errs = calloc(3 * nrows, sizeof *r->errs);
+	r->details = calloc(3 * nrows, sizeof *r->details);
+	if (!r->rows || !r->errs || !r->details)
+		return NOMEM();
 	uint64_t counts[3][VD_MAX_LEVELS + 1];
 	for (int k = 0; k < 3 && !err; k++)
-		if (src[k]) err = vd_dag_svo_counts(src[k], counts[k]);
-	if (err) goto out;
-	struct row_job rj = {&dag, src[1], src[2], bytes, counts, rows, errs,
-			     details};
+		if (r->src[k]) err = vd_dag_svo_counts(r->src[k], counts[k]);
+	if (err) return err;
+	struct row_job rj = {&r->dag, r->src[1], r->src[2], r->bytes, counts,
+			     r->rows, r->errs, r->details};
 	if ((err = vd_parallel_for(3 * nrows, job->threads, row_worker, &rj)))
-		goto out;
+		return err;
 	for (size_t t = 0; t < 3 * nrows; t++)
-		if (errs[t]) {
-			err = vd_fail(errs[t], "cannot compute the %llu^3 row: "
-				      "%s: %s", 1ull << rows[t].levels,
-				      vd_strerror(errs[t]), details[t]);
-			goto out;
+		if (r->errs[t]) {
+			err = vd_fail(r->errs[t], "cannot compute the %llu^3 row: "
+				      "%s: %s", 1ull << r->rows[t].levels,
+				      vd_strerror(r->errs[t]), r->details[t]);
+			return err;
 		}
-	for (size_t i = 0; i < nrows; i++) row_join(&rows[i], &rows[3 * i]);
-	if ((err = vd_enc_write_tables(dir, name, rows, nrows, &tm,
-				       t_enc))) {
+	for (size_t i = 0; i < nrows; i++) row_join(&r->rows[i], &r->rows[3 * i]);
+	if ((err = vd_enc_write_tables(r->dir, r->name, r->rows, nrows, &r->tm,
+				       r->t_enc))) {
 		err = reword(err, "cannot write the tables in", job->outdir);
-		goto out;
+		return err;
 	}
-	double t_tab = vd_seconds() - t_tab0;
+	return VD_OK;
+}
 
-	snprintf(path, sizeof path, "%s/%s.encode.stats.json", dir, name);
+/* Writes <name>.encode.stats.json into the staging directory: the scene,
+ * each encoding's bytes (or why it was skipped) and the timings. */
+static int run_stats(struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	int err;
+	char path[4096 + 512];
+	snprintf(path, sizeof path, "%s/%s.encode.stats.json", r->dir, r->name);
 	struct vd_json *j;
 	if ((err = vd_json_open(&j, path))) {
 		err = reword(err, "cannot write", path);
-		goto out;
+		return err;
 	}
 	vd_json_str(j, "tool", job->tool ? job->tool : "encode");
 	vd_json_str(j, "version", VD_VERSION_STRING);
-	vd_json_u64(j, "levels", (uint64_t)dag.levels);
-	vd_json_u64(j, "voxels", dag.voxels);
-	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&dag));
-	if (src[1]) vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&ss));
-	if (src[2]) vd_json_u64(j, "nodes_ssvdag48", dag_total_nodes(&s48));
+	vd_json_u64(j, "levels", (uint64_t)r->dag.levels);
+	vd_json_u64(j, "voxels", r->dag.voxels);
+	vd_json_u64(j, "nodes_svdag", dag_total_nodes(&r->dag));
+	if (r->src[1]) vd_json_u64(j, "nodes_ssvdag", dag_total_nodes(&r->ss));
+	if (r->src[2]) vd_json_u64(j, "nodes_ssvdag48", dag_total_nodes(&r->s48));
 	for (int f = 0; f < VD_ENC_ALL_; f++) {
 		char key[64];
-		if (!written[f]) {
+		if (!r->written[f]) {
 			snprintf(key, sizeof key, "skipped_%s", format_names[f]);
-			vd_json_str(j, key, !src[source_of(f)] ?
+			vd_json_str(j, key, !r->src[source_of(f)] ?
 				    (f == VD_ENC_SSVDAG48 ? "no ssvdag48 input"
 							  : "no ssvdag input")
 				    : "fewer than 3 levels");
 			continue;
 		}
 		snprintf(key, sizeof key, "bytes_%s", format_names[f]);
-		vd_json_u64(j, key, bytes[f]);
+		vd_json_u64(j, key, r->bytes[f]);
 		snprintf(key, sizeof key, "file_bytes_%s", format_names[f]);
-		vd_json_u64(j, key, bytes[f] + (vd_enc_format_compact(f) ?
+		vd_json_u64(j, key, r->bytes[f] + (vd_enc_format_compact(f) ?
 			    VD_ENC_HEADER_BYTES_COMPACT : VD_ENC_HEADER_BYTES_WORDS));
 	}
-	vd_json_f64(j, "seconds_load", t_load);
-	vd_json_f64(j, "seconds_encode", t_enc);
-	vd_json_f64(j, "seconds_tables", t_tab);
-	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
+	vd_json_f64(j, "seconds_load", r->t_load);
+	vd_json_f64(j, "seconds_encode", r->t_enc);
+	vd_json_f64(j, "seconds_tables", r->t_tab);
+	vd_json_f64(j, "seconds_total", vd_seconds() - r->t0);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 	if ((err = vd_json_close(j))) {
 		err = reword(err, "cannot write", path);
+		return err;
+	}
+	return VD_OK;
+}
+
+/* The one progress line on stderr: each encoding's bytes, the compact
+ * ones relative to the SVDAG, and the times. */
+static void run_summary(const struct enc_run *r)
+{
+	const struct vd_enc_job *job = r->job;
+	const uint64_t *bytes = r->bytes;
+	const int *written = r->written;
+	fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
+		" B", job->tool ? job->tool : "encode",
+		1ull << r->dag.levels, r->dag.voxels, bytes[VD_ENC_SVDAG]);
+	if (written[VD_ENC_USSVDAG])
+		fprintf(stderr, ", ussvdag %" PRIu64 " B",
+			bytes[VD_ENC_USSVDAG]);
+	if (r->dag.levels < 3)
+		fprintf(stderr, ", no compact encodings (fewer than 3 "
+			"levels)");
+	if (written[VD_ENC_ESVDAG])
+		fprintf(stderr, ", esvdag %" PRIu64 " B",
+			bytes[VD_ENC_ESVDAG]);
+	for (int f = VD_ENC_SSVDAG; f <= VD_ENC_SSVDAG48; f++)
+		if (written[f])
+			fprintf(stderr, ", %s %" PRIu64 " B (%.1f%% of "
+				"svdag)", format_names[f], bytes[f],
+				100.0 * (double)bytes[f] /
+				(double)bytes[VD_ENC_SVDAG]);
+	fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
+		r->t_enc, r->t_tab, job->outdir);
+}
+
+int vd_enc_run(const struct vd_enc_job *job)
+{
+	struct enc_run r = {0};
+	int err, staged = 0;
+	r.job = job;
+	r.t0 = vd_seconds();
+	r.name = job->name ? job->name : "scene";
+	if (!job->dag_path || (!job->ssvdag_path && !job->ssvdag48_path) ||
+	    !job->outdir)
+		return vd_fail(VD_ERR_ARG, "the dag chunk, an ssvdag or ssvdag48 "
+			       "chunk and the output directory are needed");
+	if ((err = run_load(&r)))
 		goto out;
-	}
-	if (!job->quiet) {
-		fprintf(stderr, "%s: %llu^3, %" PRIu64 " voxels: svdag %" PRIu64
-			" B", job->tool ? job->tool : "encode",
-			1ull << dag.levels, dag.voxels, bytes[VD_ENC_SVDAG]);
-		if (written[VD_ENC_USSVDAG])
-			fprintf(stderr, ", ussvdag %" PRIu64 " B",
-				bytes[VD_ENC_USSVDAG]);
-		if (dag.levels < 3)
-			fprintf(stderr, ", no compact encodings (fewer than 3 "
-				"levels)");
-		if (written[VD_ENC_ESVDAG])
-			fprintf(stderr, ", esvdag %" PRIu64 " B",
-				bytes[VD_ENC_ESVDAG]);
-		for (int f = VD_ENC_SSVDAG; f <= VD_ENC_SSVDAG48; f++)
-			if (written[f])
-				fprintf(stderr, ", %s %" PRIu64 " B (%.1f%% of "
-					"svdag)", format_names[f], bytes[f],
-					100.0 * (double)bytes[f] /
-					(double)bytes[VD_ENC_SVDAG]);
-		fprintf(stderr, "; encode %.3f s, tables %.3f s, in '%s'\n",
-			t_enc, t_tab, job->outdir);
-	}
-	if (!err && (err = vd_dir_publish(dir, job->outdir)))
+	r.tm = (struct vd_enc_timing){-1, -1};
+	for (size_t i = 0; i < job->n_stats; i++)
+		if ((err = vd_enc_timing_add(&r.tm, job->stats_paths[i]))) {
+			err = reword(err, "cannot read", job->stats_paths[i]);
+			goto out;
+		}
+	/* every encoding and table or none: written into a staging directory
+	 * that replaces job->outdir whole (with its manifest, the encodings'
+	 * checksums) only once all are there */
+	if ((err = vd_dir_stage(job->outdir, encode_file, r.dir, sizeof r.dir)))
+		goto out;
+	staged = 1;
+	r.t_load = vd_seconds() - r.t0;
+	double t_enc0 = vd_seconds();
+	if ((err = run_files(&r)))
+		goto out;
+	r.t_enc = vd_seconds() - t_enc0;
+	double t_tab0 = vd_seconds();
+	if ((err = run_tables(&r)))
+		goto out;
+	r.t_tab = vd_seconds() - t_tab0;
+	if ((err = run_stats(&r)))
+		goto out;
+	if (!job->quiet)
+		run_summary(&r);
+	if (!err && (err = vd_dir_publish(r.dir, job->outdir)))
 		err = reword(err, "cannot finish", job->outdir);
 out:
 	if (err && staged)
-		vd_dir_abandon(dir);
-	free(rows);
-	free(errs);
-	free(details);
-	vd_dag_release(&dag);
-	vd_dag_release(&ss);
-	vd_dag_release(&s48);
+		vd_dir_abandon(r.dir);
+	free(r.rows);
+	free(r.errs);
+	free(r.details);
+	vd_dag_release(&r.dag);
+	vd_dag_release(&r.ss);
+	vd_dag_release(&r.s48);
 	return err;
 }

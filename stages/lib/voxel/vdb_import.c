@@ -581,6 +581,257 @@ static int choose_place(const struct scan *s, int levels, struct place *p)
 	return VD_OK;
 }
 
+/* Opens the colour grid when asked, fills res's grid fields and refuses a
+ * grid that alone takes more than the memory budget. */
+static int read_grids(struct run *r, const char *vdb_path,
+		      const struct vd_vdb_select *sel,
+		      struct vd_vdb_import_result *res)
+{
+	const struct vd_voxelize_opts *opts = r->opts;
+	double t0 = r->start;
+	int err;
+	if (opts->colours &&
+	    (err = vd_vdb_colour_open(&r->col, vdb_path, sel->colour_grid, r->vdb,
+				      &res->colour)))
+		return err;
+	res->colours = r->col != NULL;
+	res->mode = sel->mode;
+	res->fog_threshold = sel->fog_threshold;
+	res->seconds_read = vd_seconds() - t0;
+	uint64_t grid_rss = vd_peak_rss_bytes();
+	if (grid_rss > opts->mem_budget_bytes) {
+		err = vd_fail(VD_ERR_BUDGET, "the grid%s alone take%s %llu MiB, "
+			      "over --mem-budget %llu MiB", r->col ? "s" : "",
+			      r->col ? "" : "s",
+			      (unsigned long long)(grid_rss >> 20),
+			      (unsigned long long)(opts->mem_budget_bytes >> 20));
+		return err;
+	}
+	say(opts, t0, "read grid '%s' (%s, %s, %llu active voxels) in %.2fs",
+	    res->info.grid_name, res->info.value_type, res->info.grid_class,
+	    (unsigned long long)res->info.active_voxels, res->seconds_read);
+	if (r->col)
+		say(opts, t0, "colours from grid '%s' (%s, %s)",
+		    res->colour.grid_name, res->colour.value_type,
+		    res->colour.same_transform ? "same transform: read at each "
+		    "voxel's index" : "other transform: nearest voxel to each "
+		    "voxel's centre");
+	return VD_OK;
+}
+
+/* Step 1: collects the entries (leaves and tiles) the mode selects;
+ * refuses a grid with none. */
+static int scan_grid(struct run *r, struct scan *s,
+		     const struct vd_vdb_select *sel,
+		     struct vd_vdb_import_result *res)
+{
+	int err = vd_vdb_scan(r->vdb, scan_node, s);
+	if (err)
+		return err;
+	res->leaves_selected = s->leaves;
+	res->tiles_selected = s->tiles;
+	if (s->n == 0) {
+		err = vd_fail(VD_ERR_EMPTY, "grid '%s' has no voxel that mode "
+			      "%s selects", res->info.grid_name,
+			      vd_vdb_mode_name(sel->mode));
+		return err;
+	}
+	return VD_OK;
+}
+
+/* Step 2: places the entries in the cube (levels, resampling, offset),
+ * splits them at cell edges and sorts them by cell; fills max_bricks (the
+ * most bricks in one cell at each chunk level 0..F) and the transform. */
+static int place_entries(struct run *r, struct scan *s,
+			 const struct vd_vdb_import_result *res,
+			 uint64_t max_bricks[MAX_CHUNK_LEVEL + 1])
+{
+	const struct vd_voxelize_opts *opts = r->opts;
+	int err = choose_place(s, opts->levels, &r->pl);
+	if (err)
+		return err;
+	int L = r->pl.L;
+	int maxl = L - 2 > 0 ? L - 2 : 0;
+	maxl = maxl > MAX_CHUNK_LEVEL ? MAX_CHUNK_LEVEL : maxl;
+	if (opts->chunk_level > maxl) {
+		err = vd_fail(VD_ERR_RANGE, "--chunk-level %d is outside 0..%d "
+			      "for %d levels", opts->chunk_level, maxl, L);
+		return err;
+	}
+	/* cells of 8 voxels or more: a leaf then never straddles two */
+	r->pl.F = opts->chunk_level >= 0 ? opts->chunk_level
+		 : L - 3 > MAX_CHUNK_LEVEL ? MAX_CHUNK_LEVEL : L - 3 > 0 ? L - 3 : 0;
+	err = split_entries(s, &r->pl);
+	if (err)
+		return err;
+	qsort(s->e, s->n, sizeof *s->e, cmp_entry);
+	r->e = s->e;
+	int F = r->pl.F;
+	for (int l = 0; l <= F; l++) {
+		int sh = 3 * (F - l);
+		for (size_t i = 0; i < s->n;) {
+			uint64_t sum = 0, c = s->e[i].cell >> sh;
+			for (; i < s->n && s->e[i].cell >> sh == c; i++)
+				sum += s->e[i].bricks;
+			max_bricks[l] = sum > max_bricks[l] ? sum : max_bricks[l];
+		}
+	}
+	double vs_src = res->info.voxel_size;
+	double vs = vs_src * (double)((int64_t)1 << r->pl.k);
+	for (int a = 0; a < 3; a++) {
+		const double *t = res->info.translation;
+		r->tr.origin[a] = t[a] + ((double)r->pl.off[a] - 0.5) * vs_src;
+		r->tr.bbox_min[a] = (float)(t[a] + ((double)s->lo[a] - 0.5) * vs_src);
+		r->tr.bbox_max[a] = (float)(t[a] + ((double)s->hi[a] + 0.5) * vs_src);
+	}
+	r->tr.voxel_size = vs;
+	r->tr.root_side = (float)(vs * (double)((int64_t)1 << L));
+	return VD_OK;
+}
+
+/* Chooses the chunk level r->L0 and the number of workers: the most
+ * threads, then the coarsest level, whose cells fit the memory left. */
+static int choose_workers(struct run *r, const struct scan *s,
+			  const uint64_t max_bricks[MAX_CHUNK_LEVEL + 1],
+			  int *nworkers)
+{
+	const struct vd_voxelize_opts *opts = r->opts;
+	int L = r->pl.L, F = r->pl.F;
+	int err;
+	int threads = opts->threads > 0 ? opts->threads : vd_hardware_threads();
+	uint64_t base = vd_peak_rss_bytes();
+	uint64_t avail = opts->mem_budget_bytes > base ? opts->mem_budget_bytes - base : 0;
+	r->L0 = -1;
+	for (int want = threads; want >= 1 && r->L0 < 0; want = want > 1 ? 1 : 0)
+		for (int l = opts->chunk_level >= 0 ? F : 0; l <= F; l++) {
+			uint64_t per = max_bricks[l] * sizeof(struct pair) + WORKER_OVERHEAD;
+			if ((uint64_t)want * per <= avail) {
+				r->L0 = l;
+				*nworkers = want;
+				break;
+			}
+		}
+	if (r->L0 < 0) {
+		err = vd_fail(VD_ERR_BUDGET, "--mem-budget %llu MiB cannot hold "
+			      "the grid (%llu MiB) and one cell at chunk level "
+			      "%d (%llu MiB)",
+			      (unsigned long long)(opts->mem_budget_bytes >> 20),
+			      (unsigned long long)(base >> 20), F,
+			      (unsigned long long)((max_bricks[F] * sizeof(struct pair) +
+						    WORKER_OVERHEAD) >> 20) + 1);
+		return err;
+	}
+	say(opts, r->start, "%llu leaves and %llu tiles selected; %d levels%s, "
+	    "chunk level %d, %d threads", (unsigned long long)s->leaves,
+	    (unsigned long long)s->tiles, L, r->pl.k ? " (resampled)" : "", r->L0,
+	    *nworkers);
+	return VD_OK;
+}
+
+/* The jobs: runs of entries in one L0 cell, largest first (cmp_job); also
+ * allocates the per-job and per-worker arrays. */
+static int make_jobs(struct run *r, const struct scan *s, int nworkers)
+{
+	int F = r->pl.F;
+	int err;
+	int jsh = 3 * (F - r->L0);
+	size_t nj = 0;
+	for (size_t i = 0; i < s->n; i++)
+		nj += i == 0 || s->e[i].cell >> jsh != s->e[i - 1].cell >> jsh;
+	r->jobs = calloc(nj, sizeof *r->jobs);
+	r->written = calloc(nj, 1);
+	r->workers = calloc((size_t)nworkers, sizeof *r->workers);
+	if (!r->jobs || !r->written || !r->workers) {
+		err = vd_fail(VD_ERR_NOMEM, "%zu cells", nj);
+		return err;
+	}
+	for (size_t i = 0; i < s->n;) {
+		struct job *j = &r->jobs[r->njobs++];
+		j->begin = i;
+		j->cell = s->e[i].cell >> jsh;
+		for (; i < s->n && s->e[i].cell >> jsh == j->cell; i++)
+			j->bricks += s->e[i].bricks;
+		j->end = i;
+	}
+	qsort(r->jobs, r->njobs, sizeof *r->jobs, cmp_job);
+	return VD_OK;
+}
+
+/* Step 3: voxelizes and writes the cells' chunks in parallel into outdir
+ * (created, its old chunks removed: *cleaned then set); nodes gets the
+ * node counts of levels L0..L. */
+static int write_cells(struct run *r, const char *outdir, int nworkers,
+		       uint64_t nodes[VD_MAX_LEVELS + 1], int *cleaned)
+{
+	int err;
+	if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
+		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", outdir,
+			      strerror(errno));
+		return err;
+	}
+	vd_remove_chunks(outdir);
+	*cleaned = 1;
+	r->level_nodes = nodes;
+	err = vd_parallel_for(r->njobs, nworkers, cell_task, r);
+	if (!err && r->err)
+		err = vd_fail(r->err, "%s", r->detail);
+	return err;
+}
+
+/* Fills res: the node counts of the levels above L0 (distinct prefixes
+ * of the non-empty cells, sorted into *cells, which the caller frees),
+ * the placement and totals; refuses a run whose peak memory went over the
+ * budget. */
+static int fill_result(struct run *r, const uint64_t nodes[VD_MAX_LEVELS + 1],
+		       int nworkers, uint64_t **cells_out,
+		       struct vd_vdb_import_result *res)
+{
+	const struct vd_voxelize_opts *opts = r->opts;
+	double t0 = r->start;
+	int L = r->pl.L;
+	int err = VD_OK;
+	uint64_t *cells = malloc((r->njobs ? r->njobs : 1) * sizeof *cells);
+	*cells_out = cells;
+	if (!cells) {
+		err = vd_fail(VD_ERR_NOMEM, "cells");
+		return err;
+	}
+	size_t nonempty = 0;
+	for (size_t i = 0; i < r->njobs; i++)
+		if (r->written[i])
+			cells[nonempty++] = r->jobs[i].cell;
+	qsort(cells, nonempty, sizeof *cells, cmp_u64);
+	for (int l = 0; l < r->L0; l++) {
+		int sh = 3 * (r->L0 - l);
+		for (size_t i = 0; i < nonempty; i++)
+			res->level_nodes[l] += i == 0 || cells[i] >> sh != cells[i - 1] >> sh;
+	}
+	for (int l = r->L0; l <= L; l++)
+		res->level_nodes[l] = nodes[l - r->L0];
+	res->levels = L;
+	res->chunk_level = r->L0;
+	res->transform = r->tr;
+	res->resample_shift = r->pl.k;
+	for (int a = 0; a < 3; a++)
+		res->index_offset[a] = (int32_t)r->pl.off[a];
+	res->voxels = atomic_load(&r->voxels);
+	res->bricks = atomic_load(&r->bricks);
+	res->chunks = nonempty;
+	res->threads = nworkers;
+	res->mem_budget_bytes = opts->mem_budget_bytes;
+	res->seconds_total = vd_seconds() - t0;
+	res->peak_rss_bytes = vd_peak_rss_bytes();
+	say(opts, t0, "%llu voxels in %llu chunks, %.2fs",
+	    (unsigned long long)res->voxels, (unsigned long long)res->chunks,
+	    res->seconds_total);
+	if (res->peak_rss_bytes > opts->mem_budget_bytes)
+		err = vd_fail(VD_ERR_BUDGET, "peak memory %llu MiB exceeded "
+			      "--mem-budget %llu MiB",
+			      (unsigned long long)(res->peak_rss_bytes >> 20),
+			      (unsigned long long)(opts->mem_budget_bytes >> 20));
+	return err;
+}
+
 int vd_vdb_import(const char *vdb_path, const char *outdir,
 		  const struct vd_vdb_select *sel,
 		  const struct vd_voxelize_opts *opts,
@@ -600,197 +851,31 @@ int vd_vdb_import(const char *vdb_path, const char *outdir,
 	int err = vd_vdb_open(&r.vdb, vdb_path, sel, &res->info);
 	if (err)
 		return err;
-	if (opts->colours &&
-	    (err = vd_vdb_colour_open(&r.col, vdb_path, sel->colour_grid, r.vdb,
-				      &res->colour)))
+	if ((err = read_grids(&r, vdb_path, sel, res)))
 		goto out;
-	res->colours = r.col != NULL;
-	res->mode = sel->mode;
-	res->fog_threshold = sel->fog_threshold;
-	res->seconds_read = vd_seconds() - t0;
-	uint64_t grid_rss = vd_peak_rss_bytes();
-	if (grid_rss > opts->mem_budget_bytes) {
-		err = vd_fail(VD_ERR_BUDGET, "the grid%s alone take%s %llu MiB, "
-			      "over --mem-budget %llu MiB", r.col ? "s" : "",
-			      r.col ? "" : "s",
-			      (unsigned long long)(grid_rss >> 20),
-			      (unsigned long long)(opts->mem_budget_bytes >> 20));
-		goto out;
-	}
-	say(opts, t0, "read grid '%s' (%s, %s, %llu active voxels) in %.2fs",
-	    res->info.grid_name, res->info.value_type, res->info.grid_class,
-	    (unsigned long long)res->info.active_voxels, res->seconds_read);
-	if (r.col)
-		say(opts, t0, "colours from grid '%s' (%s, %s)",
-		    res->colour.grid_name, res->colour.value_type,
-		    res->colour.same_transform ? "same transform: read at each "
-		    "voxel's index" : "other transform: nearest voxel to each "
-		    "voxel's centre");
 
 	/* 1. scan */
 	double t1 = vd_seconds();
-	err = vd_vdb_scan(r.vdb, scan_node, &s);
-	if (err)
+	if ((err = scan_grid(&r, &s, sel, res)))
 		goto out;
-	res->leaves_selected = s.leaves;
-	res->tiles_selected = s.tiles;
-	if (s.n == 0) {
-		err = vd_fail(VD_ERR_EMPTY, "grid '%s' has no voxel that mode "
-			      "%s selects", res->info.grid_name,
-			      vd_vdb_mode_name(sel->mode));
-		goto out;
-	}
 
 	/* 2. place, split, plan */
-	err = choose_place(&s, opts->levels, &r.pl);
-	if (err)
-		goto out;
-	int L = r.pl.L;
-	int maxl = L - 2 > 0 ? L - 2 : 0;
-	maxl = maxl > MAX_CHUNK_LEVEL ? MAX_CHUNK_LEVEL : maxl;
-	if (opts->chunk_level > maxl) {
-		err = vd_fail(VD_ERR_RANGE, "--chunk-level %d is outside 0..%d "
-			      "for %d levels", opts->chunk_level, maxl, L);
-		goto out;
-	}
-	/* cells of 8 voxels or more: a leaf then never straddles two */
-	r.pl.F = opts->chunk_level >= 0 ? opts->chunk_level
-		 : L - 3 > MAX_CHUNK_LEVEL ? MAX_CHUNK_LEVEL : L - 3 > 0 ? L - 3 : 0;
-	err = split_entries(&s, &r.pl);
-	if (err)
-		goto out;
-	qsort(s.e, s.n, sizeof *s.e, cmp_entry);
-	r.e = s.e;
-	int F = r.pl.F;
 	uint64_t max_bricks[MAX_CHUNK_LEVEL + 1] = {0};
-	for (int l = 0; l <= F; l++) {
-		int sh = 3 * (F - l);
-		for (size_t i = 0; i < s.n;) {
-			uint64_t sum = 0, c = s.e[i].cell >> sh;
-			for (; i < s.n && s.e[i].cell >> sh == c; i++)
-				sum += s.e[i].bricks;
-			max_bricks[l] = sum > max_bricks[l] ? sum : max_bricks[l];
-		}
-	}
-	double vs_src = res->info.voxel_size;
-	double vs = vs_src * (double)((int64_t)1 << r.pl.k);
-	for (int a = 0; a < 3; a++) {
-		const double *t = res->info.translation;
-		r.tr.origin[a] = t[a] + ((double)r.pl.off[a] - 0.5) * vs_src;
-		r.tr.bbox_min[a] = (float)(t[a] + ((double)s.lo[a] - 0.5) * vs_src);
-		r.tr.bbox_max[a] = (float)(t[a] + ((double)s.hi[a] + 0.5) * vs_src);
-	}
-	r.tr.voxel_size = vs;
-	r.tr.root_side = (float)(vs * (double)((int64_t)1 << L));
+	if ((err = place_entries(&r, &s, res, max_bricks)))
+		goto out;
 	res->seconds_scan = vd_seconds() - t1;
-
-	int threads = opts->threads > 0 ? opts->threads : vd_hardware_threads();
-	uint64_t base = vd_peak_rss_bytes();
-	uint64_t avail = opts->mem_budget_bytes > base ? opts->mem_budget_bytes - base : 0;
-	r.L0 = -1;
-	for (int want = threads; want >= 1 && r.L0 < 0; want = want > 1 ? 1 : 0)
-		for (int l = opts->chunk_level >= 0 ? F : 0; l <= F; l++) {
-			uint64_t per = max_bricks[l] * sizeof(struct pair) + WORKER_OVERHEAD;
-			if ((uint64_t)want * per <= avail) {
-				r.L0 = l;
-				nworkers = want;
-				break;
-			}
-		}
-	if (r.L0 < 0) {
-		err = vd_fail(VD_ERR_BUDGET, "--mem-budget %llu MiB cannot hold "
-			      "the grid (%llu MiB) and one cell at chunk level "
-			      "%d (%llu MiB)",
-			      (unsigned long long)(opts->mem_budget_bytes >> 20),
-			      (unsigned long long)(base >> 20), F,
-			      (unsigned long long)((max_bricks[F] * sizeof(struct pair) +
-						    WORKER_OVERHEAD) >> 20) + 1);
+	if ((err = choose_workers(&r, &s, max_bricks, &nworkers)))
 		goto out;
-	}
-	say(opts, t0, "%llu leaves and %llu tiles selected; %d levels%s, "
-	    "chunk level %d, %d threads", (unsigned long long)s.leaves,
-	    (unsigned long long)s.tiles, L, r.pl.k ? " (resampled)" : "", r.L0,
-	    nworkers);
-
-	/* jobs: runs of entries in one L0 cell */
-	int jsh = 3 * (F - r.L0);
-	size_t nj = 0;
-	for (size_t i = 0; i < s.n; i++)
-		nj += i == 0 || s.e[i].cell >> jsh != s.e[i - 1].cell >> jsh;
-	r.jobs = calloc(nj, sizeof *r.jobs);
-	r.written = calloc(nj, 1);
-	r.workers = calloc((size_t)nworkers, sizeof *r.workers);
-	if (!r.jobs || !r.written || !r.workers) {
-		err = vd_fail(VD_ERR_NOMEM, "%zu cells", nj);
+	if ((err = make_jobs(&r, &s, nworkers)))
 		goto out;
-	}
-	for (size_t i = 0; i < s.n;) {
-		struct job *j = &r.jobs[r.njobs++];
-		j->begin = i;
-		j->cell = s.e[i].cell >> jsh;
-		for (; i < s.n && s.e[i].cell >> jsh == j->cell; i++)
-			j->bricks += s.e[i].bricks;
-		j->end = i;
-	}
-	qsort(r.jobs, r.njobs, sizeof *r.jobs, cmp_job);
 
 	/* 3. cells */
-	if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
-		err = vd_fail(VD_ERR_IO, "cannot create '%s': %s", outdir,
-			      strerror(errno));
-		goto out;
-	}
-	vd_remove_chunks(outdir);
-	cleaned = 1;
 	t1 = vd_seconds();
 	uint64_t nodes[VD_MAX_LEVELS + 1] = {0};
-	r.level_nodes = nodes;
-	err = vd_parallel_for(r.njobs, nworkers, cell_task, &r);
-	if (!err && r.err)
-		err = vd_fail(r.err, "%s", r.detail);
-	if (err)
+	if ((err = write_cells(&r, outdir, nworkers, nodes, &cleaned)))
 		goto out;
 	res->seconds_voxelize = vd_seconds() - t1;
-
-	/* levels above L0: distinct prefixes of the non-empty cells */
-	cells = malloc((r.njobs ? r.njobs : 1) * sizeof *cells);
-	if (!cells) {
-		err = vd_fail(VD_ERR_NOMEM, "cells");
-		goto out;
-	}
-	size_t nonempty = 0;
-	for (size_t i = 0; i < r.njobs; i++)
-		if (r.written[i])
-			cells[nonempty++] = r.jobs[i].cell;
-	qsort(cells, nonempty, sizeof *cells, cmp_u64);
-	for (int l = 0; l < r.L0; l++) {
-		int sh = 3 * (r.L0 - l);
-		for (size_t i = 0; i < nonempty; i++)
-			res->level_nodes[l] += i == 0 || cells[i] >> sh != cells[i - 1] >> sh;
-	}
-	for (int l = r.L0; l <= L; l++)
-		res->level_nodes[l] = nodes[l - r.L0];
-	res->levels = L;
-	res->chunk_level = r.L0;
-	res->transform = r.tr;
-	res->resample_shift = r.pl.k;
-	for (int a = 0; a < 3; a++)
-		res->index_offset[a] = (int32_t)r.pl.off[a];
-	res->voxels = atomic_load(&r.voxels);
-	res->bricks = atomic_load(&r.bricks);
-	res->chunks = nonempty;
-	res->threads = nworkers;
-	res->mem_budget_bytes = opts->mem_budget_bytes;
-	res->seconds_total = vd_seconds() - t0;
-	res->peak_rss_bytes = vd_peak_rss_bytes();
-	say(opts, t0, "%llu voxels in %llu chunks, %.2fs",
-	    (unsigned long long)res->voxels, (unsigned long long)res->chunks,
-	    res->seconds_total);
-	if (res->peak_rss_bytes > opts->mem_budget_bytes)
-		err = vd_fail(VD_ERR_BUDGET, "peak memory %llu MiB exceeded "
-			      "--mem-budget %llu MiB",
-			      (unsigned long long)(res->peak_rss_bytes >> 20),
-			      (unsigned long long)(opts->mem_budget_bytes >> 20));
+	err = fill_result(&r, nodes, nworkers, &cells, res);
 out:
 	if (r.workers)
 		for (int i = 0; i < nworkers; i++) {
