@@ -133,6 +133,7 @@ static int compare_images(const char *a, const char *b)
 	return 0;
 }
 
+/* Its length is the option switch, a case per option of --help. */
 int main(int argc, char **argv)
 {
 	static const struct option longopts[] = {

@@ -139,7 +139,8 @@ enum { OPT_GRID = 256, OPT_VDB_MODE, OPT_FOG_THRESHOLD, OPT_NO_COLOURS,
        OPT_STRICT, OPT_COLOUR_GRID };
 
 /* The command; main owns `provenance` and `argv_given` (argv before
- * getopt_long permutes it), so every early return frees them. */
+ * getopt_long permutes it), so every early return frees them. Its length
+ * is the option switch, a case per option of --help. */
 static int voxelize_main(int argc, char **argv, char *provenance,
 			 char **argv_given)
 {

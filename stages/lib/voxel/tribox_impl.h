@@ -641,7 +641,11 @@ enum { RN(VTAB) = 512 };
  * quotient and remainder (RN(dda)): no division after the triangle's
  * first but three per untabled row. All of it is exact integer
  * arithmetic: the same voxels as testing the 13 axes on every box. Returns 0, having visited nothing,
- * when the stepping state does not fit ST. */
+ * when the stepping state does not fit ST.
+ * One function of 300 lines on purpose: it is voxelize's innermost loop,
+ * and the stepping state of the rows and columns it carries from one
+ * iteration to the next is what the compiler keeps in registers; its
+ * steps are the commented blocks below. */
 static inline __attribute__((always_inline)) int
 RN(raster_core)(const struct vd_snapped_tri *tri, const int64_t vlo[3],
 		const int64_t vhi[3], const int64_t origin[3], int64_t s,
