@@ -1,4 +1,5 @@
-/* test_colour_dag.c - colour indices through the DAG (colour paper §3):
+/* test_voxcount.c - colour/voxcount.c, colour indices through the DAG
+ * (colour paper §3):
  * for every voxel of real scenes, the index found by summing voxel counts
  * along the path through an SVDAG, an SSVDAG (with reflections) and each
  * encoding equals the voxel's rank in the brute-force Morton order of the

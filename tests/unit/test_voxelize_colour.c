@@ -1,5 +1,5 @@
-/* test_colour_in.c - colours from meshes into colour chunks, against
- * references written apart from the library:
+/* test_voxelize_colour.c - voxelize's colour pass: colours from meshes
+ * into colour chunks, against references written apart from the library:
  * - texture sampling: hand-computed texels and blends of a 2x2 texture;
  * - one big textured / vertex-coloured triangle: voxels whose centres
  *   project inside it must carry the colour at the projection, computed
