@@ -28,6 +28,19 @@ uint64_t vd_current_rss_bytes(void);
  * with *cap > n; NULL when out of memory, the old array untouched. */
 void *vd_grow(void *a, size_t n, size_t *cap, size_t elem, size_t first);
 
+/* MurmurHash3's 64-bit finalizer: every bit of x moves every bit of the
+ * result. The mixing of the library's in-memory hash tables (DAG nodes,
+ * voxel counts) from keys that are already well spread. */
+static inline uint64_t vd_mix64(uint64_t x)
+{
+	x ^= x >> 33;
+	x *= 0xff51afd7ed558ccdULL;
+	x ^= x >> 33;
+	x *= 0xc4ceb9fe1a85ec53ULL;
+	x ^= x >> 33;
+	return x;
+}
+
 /* XXH3 64-bit hash (the library's one hash). */
 uint64_t vd_hash64(const void *data, size_t n, uint64_t seed);
 

@@ -13,26 +13,17 @@
  * per level keyed by that position (filled by one walk over the distinct
  * nodes). Below the brick level counts are popcounts and are not stored. */
 #include "voxdag.h"
+#include "util_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory for voxel counts")
 
-static inline uint64_t mix(uint64_t x)
-{
-	x ^= x >> 33;
-	x *= 0xff51afd7ed558ccdULL;
-	x ^= x >> 33;
-	x *= 0xc4ceb9fe1a85ec53ULL;
-	x ^= x >> 33;
-	return x;
-}
-
 /* Slot of `at` in level l's table (keys hold at + 1; 0 is free). */
 static uint64_t *slot(const struct vd_voxcount *vc, int l, uint64_t at)
 {
-	uint64_t m = vc->cap[l] - 1, i = mix(at) & m;
+	uint64_t m = vc->cap[l] - 1, i = vd_mix64(at) & m;
 	while (vc->key[l][i] && vc->key[l][i] != at + 1)
 		i = (i + 1) & m;
 	return &vc->key[l][i];

@@ -47,21 +47,11 @@ static uint64_t next_cap(uint64_t cap, uint64_t need)
 	return cap;
 }
 
-static inline uint64_t mix64(uint64_t x)
-{
-	x ^= x >> 33;
-	x *= 0xff51afd7ed558ccdULL;
-	x ^= x >> 33;
-	x *= 0xc4ceb9fe1a85ec53ULL;
-	x ^= x >> 33;
-	return x;
-}
-
 static inline uint64_t key_hash(const uint64_t *key, int k)
 {
-	uint64_t h = mix64(key[0] + 0x9e3779b97f4a7c15ULL);
+	uint64_t h = vd_mix64(key[0] + 0x9e3779b97f4a7c15ULL);
 	for (int i = 1; i <= k; i++)
-		h = mix64(h ^ (key[i] + (uint64_t)i * 0x9e3779b97f4a7c15ULL));
+		h = vd_mix64(h ^ (key[i] + (uint64_t)i * 0x9e3779b97f4a7c15ULL));
 	return h;
 }
 
@@ -127,7 +117,7 @@ static int table_rehash(uint64_t **slot, uint64_t *scap)
 static inline int bset_insert(struct bset *b, uint64_t v, uint8_t inv,
 			      uint32_t *id)
 {
-	uint64_t h = mix64(v), mask = b->scap - 1, s = SLOT_INDEX(h, mask);
+	uint64_t h = vd_mix64(v), mask = b->scap - 1, s = SLOT_INDEX(h, mask);
 	for (;; s = (s + 1) & mask) {
 		uint64_t e = b->slot[s];
 		if (!e) break;

@@ -34,16 +34,6 @@ static double cpu_seconds(void)
 	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
-static inline uint64_t mix64(uint64_t x)
-{
-	x ^= x >> 33;
-	x *= 0xff51afd7ed558ccdULL;
-	x ^= x >> 33;
-	x *= 0xc4ceb9fe1a85ec53ULL;
-	x ^= x >> 33;
-	return x;
-}
-
 /* The brick (height-2 encoding) of node i on level L-2: byte c = the leaf
  * mask of child slot c. */
 static uint64_t node_brick(const struct vd_dag *d, uint64_t i)
@@ -408,7 +398,7 @@ static void pair_slice(void *ctx, size_t k, int worker)
 			uint32_t nb[64], nn = 0;
 			uint64_t at[64];
 			for (unsigned b = 0; b < 64; b++) {
-				at[b] = mix64(c[a].key ^ (1ull << b)) & J->mask;
+				at[b] = vd_mix64(c[a].key ^ (1ull << b)) & J->mask;
 				__builtin_prefetch(&J->slot[at[b]]);
 			}
 			for (unsigned b = 0; b < 64; b++) {
@@ -500,7 +490,7 @@ static int search_pairs(const struct vd_dag *d, int l, const struct enc *c,
 		}
 		for (uint64_t s = 0; s < cap; s++) slot[s].node = NONE;
 		for (size_t a = 0; a < nc; a++) {
-			uint64_t s = mix64(c[a].key) & (cap - 1);
+			uint64_t s = vd_mix64(c[a].key) & (cap - 1);
 			while (slot[s].node != NONE) s = (s + 1) & (cap - 1);
 			slot[s] = (struct hslot){c[a].key, c[a].node};
 		}
@@ -596,13 +586,13 @@ static int similar_pairs(const struct vd_dag *d, int l, const uint64_t *eff,
 			break;
 		}
 		for (uint64_t i = 0; i < kv->nodes; i++) {
-			uint64_t hsh = mix64(kv->mask[i] + 0x9e3779b97f4a7c15ULL), v = 0;
+			uint64_t hsh = vd_mix64(kv->mask[i] + 0x9e3779b97f4a7c15ULL), v = 0;
 			if (k == L - 2) {
 				v = pop64(brick[i]);
 			} else {
 				for (uint64_t j = kv->first[i]; j < kv->first[i + 1]; j++) {
 					uint32_t ch = kv->child[j];
-					hsh = mix64(hsh ^ topo[k + 1][ch]) + j - kv->first[i];
+					hsh = vd_mix64(hsh ^ topo[k + 1][ch]) + j - kv->first[i];
 					v += vox[k + 1][ch];
 				}
 			}
@@ -1404,8 +1394,8 @@ static int dag_dedupe_up(struct vd_dag *d, int from)
 		memset(slot, 0xff, cap * 4);
 		for (uint64_t i = 0; i < lv->nodes; i++) {
 			uint64_t f = lv->first[i], k = lv->first[i + 1] - f;
-			uint64_t h = mix64(lv->mask[i]);
-			for (uint64_t j = 0; j < k; j++) h = mix64(h ^ lv->child[f + j]);
+			uint64_t h = vd_mix64(lv->mask[i]);
+			for (uint64_t j = 0; j < k; j++) h = vd_mix64(h ^ lv->child[f + j]);
 			uint64_t s = h & (cap - 1);
 			for (;;) {
 				uint32_t o = slot[s];
@@ -2063,7 +2053,7 @@ static int memo_grow(struct differ *x, struct pmemo *m)
 	memset(k, 0xff, nc * 8);
 	for (uint64_t i = 0; i < m->cap; i++) {
 		if (m->key[i] == UINT64_MAX) continue;
-		uint64_t s = mix64(m->key[i]) & (nc - 1);
+		uint64_t s = vd_mix64(m->key[i]) & (nc - 1);
 		while (k[s] != UINT64_MAX) s = (s + 1) & (nc - 1);
 		k[s] = m->key[i];
 		o[2 * s] = m->only[2 * i];
@@ -2093,7 +2083,7 @@ static void diff_node(struct differ *x, int l, uint32_t na, uint32_t nb,
 	struct pmemo *m = &x->memo[l];
 	uint64_t key = (uint64_t)na << 32 | nb;
 	if (m->cap) {
-		uint64_t s = mix64(key) & (m->cap - 1);
+		uint64_t s = vd_mix64(key) & (m->cap - 1);
 		while (m->key[s] != UINT64_MAX) {
 			if (m->key[s] == key) {
 				*oa = m->only[2 * s];
@@ -2128,7 +2118,7 @@ static void diff_node(struct differ *x, int l, uint32_t na, uint32_t nb,
 			return;
 		}
 	}
-	uint64_t s = mix64(key) & (m->cap - 1);
+	uint64_t s = vd_mix64(key) & (m->cap - 1);
 	while (m->key[s] != UINT64_MAX) s = (s + 1) & (m->cap - 1);
 	m->key[s] = key;
 	m->only[2 * s] = *oa;
