@@ -898,12 +898,9 @@ int vd_vdb_import_write_stats(const struct vd_vdb_import_result *res,
 			      const char *path)
 {
 	struct vd_json *j;
-	int err = vd_json_open(&j, path);
+	int err = vd_voxelize_stats_open(&j, path, "vdb");
 	if (err)
 		return err;
-	vd_json_str(j, "stage", "voxelize");
-	vd_json_str(j, "version", VD_VERSION_STRING);
-	vd_json_str(j, "input_format", "vdb");
 	vd_json_object(j, "vdb");
 	vd_json_str(j, "grid", res->info.grid_name);
 	vd_json_str(j, "value_type", res->info.value_type);

@@ -145,6 +145,12 @@ struct vd_voxelize_totals {
 	const struct vd_transform *transform;
 };
 
+/* Opens voxelize's statistics file at `path` with the fields every input
+ * starts with: stage, version and input_format (`format`: "ply", "vdb",
+ * ...). The mesh and OpenVDB writers add their own fields after them. */
+int vd_voxelize_stats_open(struct vd_json **j, const char *path,
+			   const char *format);
+
 /* Writes those fields into an open statistics object (mesh and OpenVDB
  * writers add their own around them). */
 void vd_voxelize_stats_totals(struct vd_json *j,

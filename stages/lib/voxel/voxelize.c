@@ -2831,6 +2831,18 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	return driver_release(&d, finish_result(&d));
 }
 
+int vd_voxelize_stats_open(struct vd_json **j, const char *path,
+			   const char *format)
+{
+	int err = vd_json_open(j, path);
+	if (err)
+		return err;
+	vd_json_str(*j, "stage", "voxelize");
+	vd_json_str(*j, "version", VD_VERSION_STRING);
+	vd_json_str(*j, "input_format", format);
+	return VD_OK;
+}
+
 void vd_voxelize_stats_totals(struct vd_json *j,
 			      const struct vd_voxelize_totals *t)
 {
@@ -2857,12 +2869,9 @@ int vd_voxelize_write_stats(const struct vd_voxelize_result *res,
 			    const char *path)
 {
 	struct vd_json *j;
-	int err = vd_json_open(&j, path);
+	int err = vd_voxelize_stats_open(&j, path, res->format);
 	if (err)
 		return err;
-	vd_json_str(j, "stage", "voxelize");
-	vd_json_str(j, "version", VD_VERSION_STRING);
-	vd_json_str(j, "input_format", res->format);
 	vd_json_u64(j, "levels", (uint64_t)res->levels);
 	vd_json_u64(j, "chunk_level", (uint64_t)res->chunk_level);
 	vd_json_u64(j, "triangles_read", res->mesh.triangles_read);

@@ -119,6 +119,7 @@ static void vd_mesh_attr_unpack(const uint8_t *p, struct vd_tri_attr *a,
 }
 
 static int vd_mesh_next(struct vd_mesh *m, int *got);
+static int vd_mesh_next_polygon(struct vd_mesh *m, int *got);
 
 /* Back to the first face, reading the file again from the start of its
  * body: vd_mesh_rewind without a spill, and the start of reading into
@@ -232,20 +233,11 @@ static int vd_mesh_spill_read(struct vd_mesh *m, struct vd_triangle *buf,
 				m->poly_next++;
 				continue;
 			}
-			if (m->done)
-				break;
 			int got = 0;
-			m->poly_n = m->poly_next = 0;
-			m->poly_mat = -1;
-			m->poly_has_tc = 0;
-			if ((e = vd_mesh_next(m, &got)))
+			if ((e = vd_mesh_next_polygon(m, &got)))
 				return e;
-			if (!got) {
-				m->done = 1;
+			if (!got)
 				break;
-			}
-			if ((e = vd_mesh_poly_done(m)))
-				return e;
 		}
 		if (m->kind == MESH_OBJ)
 			m->stats.vertices = m->nverts;
@@ -320,6 +312,27 @@ static int vd_mesh_next(struct vd_mesh *m, int *got)
 	}
 }
 
+/* The next polygon of the file into the polygon state, checked by
+ * vd_mesh_poly_done (a dropped face leaves poly_n 0). *got is 0, and the
+ * mesh done, at the end of the faces. */
+static int vd_mesh_next_polygon(struct vd_mesh *m, int *got)
+{
+	*got = 0;
+	if (m->done)
+		return VD_OK;
+	m->poly_n = m->poly_next = 0;
+	m->poly_mat = -1;
+	m->poly_has_tc = 0;
+	int e = vd_mesh_next(m, got);
+	if (e)
+		return e;
+	if (!*got) {
+		m->done = 1;
+		return VD_OK;
+	}
+	return vd_mesh_poly_done(m);
+}
+
 static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 			     struct vd_tri_attr *attr, size_t cap, size_t *n)
 {
@@ -363,19 +376,8 @@ static int vd_mesh_read_impl(struct vd_mesh *m, struct vd_triangle *buf,
 				m->poly_next++;
 				continue;
 			}
-			if (m->done)
-				break;
 			int got = 0;
-			m->poly_n = m->poly_next = 0;
-			m->poly_mat = -1;
-			m->poly_has_tc = 0;
-			if ((e = vd_mesh_next(m, &got)))
-				break;
-			if (!got) {
-				m->done = 1;
-				break;
-			}
-			if ((e = vd_mesh_poly_done(m)))
+			if ((e = vd_mesh_next_polygon(m, &got)) || !got)
 				break;
 			if (m->spill_wanted)
 				break; /* the vertices passed the limit */
