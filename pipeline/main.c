@@ -2,13 +2,14 @@
  * parallel within a memory budget, resumes after a crash, writes the
  * report. */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 static const char usage[] =
@@ -22,6 +23,10 @@ static const char usage[] =
 	"  report CONFIG   write the report (report.md, .json, .csv) again\n"
 	"  clean CONFIG    remove the output directory (out/<name>/ unless the\n"
 	"                  YAML's 'outputs' names another)\n"
+	"  clean --staging CONFIG\n"
+	"                  remove only what killed processes left half-written\n"
+	"                  (NAME.tmp.PID of processes that are gone); every run\n"
+	"                  does this when it starts and ends\n"
 	"\n"
 	"Options:\n"
 	"  -q, --quiet     no progress lines\n"
@@ -70,15 +75,22 @@ static int cmd_plan(struct plan *p)
 	return 0;
 }
 
-static int cmd_clean(struct plan *p)
+static int cmd_clean(struct plan *p, int staging)
 {
-	char lock[1200];
-	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
-	int fd = open(lock, O_RDWR);
-	if (fd >= 0 && flock(fd, LOCK_EX | LOCK_NB) != 0) {
-		fprintf(stderr, "voxdag: a runner is working on '%s'; not "
-			"removing it\n", p->dir);
+	struct stat st;
+	long holder;
+	if (stat(p->dir, &st) != 0)
+		return 0; /* nothing to clean */
+	if (lock_take(p->dir, &holder) == -1) {
+		fprintf(stderr, "voxdag: a runner (pid %ld) is working on '%s'; "
+			"not removing it\n", holder, p->dir);
 		return 1;
+	}
+	if (staging) {
+		long n = vd_staging_sweep(p->dir, 0);
+		printf("removed %ld staging entr%s from '%s'\n", n,
+		       n == 1 ? "y" : "ies", p->dir);
+		return 0;
 	}
 	char cmd[1300];
 	snprintf(cmd, sizeof cmd, "rm -rf -- '%s'", p->dir);
@@ -91,12 +103,14 @@ int main(int argc, char **argv)
 		{"quiet", no_argument, NULL, 'q'},
 		{"executor", required_argument, NULL, 'E'},
 		{"help", no_argument, NULL, 'h'},
+		{"staging", no_argument, NULL, 'S'},
 		{NULL, 0, NULL, 0},
 	};
 	if (argc > 1 && !strcmp(argv[1], "job-exec"))
 		return slurm_job_exec(argc, argv);
 	struct run_opts o = {0};
 	const char *executor = NULL;
+	int staging = 0;
 	int c;
 	while ((c = getopt_long(argc, argv, "qh", longopts, NULL)) != -1) {
 		if (c == 'q') {
@@ -109,6 +123,8 @@ int main(int argc, char **argv)
 				return 2;
 			}
 			executor = optarg;
+		} else if (c == 'S') {
+			staging = 1;
 		} else if (c == 'h') {
 			fputs(usage, stdout);
 			return 0;
@@ -131,6 +147,11 @@ int main(int argc, char **argv)
 	if (which < 0) {
 		fprintf(stderr, "voxdag: unknown command '%s' (run, plan, status, "
 			"report, clean)\nTry 'voxdag --help'.\n", cmd);
+		return 2;
+	}
+	if (staging && which != 4) {
+		fprintf(stderr, "voxdag: --staging goes with 'clean'\nTry "
+			"'voxdag --help'.\n");
 		return 2;
 	}
 	struct config cfg;
@@ -162,7 +183,7 @@ int main(int argc, char **argv)
 			printf("%s/report.md\n", p.dir);
 		break;
 	default:
-		rc = cmd_clean(&p);
+		rc = cmd_clean(&p, staging);
 		break;
 	}
 	plan_free(&p);

@@ -126,13 +126,14 @@ struct job {
 	int decl;                  /* the job_decl it comes from */
 	char **argv;               /* NULL-terminated; argv[0] is the program */
 	char *output;              /* the file (or directory) it produces */
-	char *extra_output;        /* a second output, a directory with its
-				    * manifest (an edit job's colours), or
-				    * NULL: its digest and signature are
-				    * mixed into the output's */
-	char *key_path;            /* output + ".key" (or DIR/.key for a
-				    * directory output), where keys were
-				    * kept before the journal (plan.c) */
+	int dir_output;            /* output is a directory with a manifest */
+	char *side[2];             /* what the job writes beside its output,
+				    * or NULL: a file output's statistics
+				    * (OUTPUT.stats.json), an edit job's
+				    * colour directory. The key covers them
+				    * as it covers the output (plan.c,
+				    * job_digest): a missing, empty or
+				    * changed one reruns the job */
 	int ndeps;
 	int *deps;                 /* indices of jobs that must finish first */
 	int cell;                  /* a per-cell job of a DAG stage */
@@ -207,6 +208,19 @@ void job_key_drop(const struct job *j);
  * runner holding DIR/.lock may ask, also opens it for appending. Returns
  * non-zero with a message when it cannot be written. */
 int keys_open(const char *dir, int write);
+
+/* Takes DIR/.lock, the runner's: returns its descriptor (the lock is held
+ * until the process exits), -1 when another process holds it (*holder:
+ * its pid, or 0 when it let go meanwhile) or -2 after saying why it could
+ * not be tried (run.c). */
+int lock_take(const char *dir, long *holder);
+/* The pid of the runner holding DIR/.lock, or 0 (a look, not a take). */
+long lock_holder(const char *dir);
+
+/* Makes the keys appended so far durable when a group is due (once a
+ * second or every 256 keys), or now with `force` (plan.c says the bound
+ * on what a power cut can lose). */
+void keys_sync(int force);
 
 /* 1 if j's output exists with a matching key and is still what j wrote
  * (resume). When 0 and the output was there but is damaged, `why` says

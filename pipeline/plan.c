@@ -135,9 +135,14 @@ static void index_grow(struct plan *p)
 		*index_slot(p, p->jobs[i].id) = i + 1;
 }
 
-/* Appends a job, or returns NULL when one with that id is planned. */
+enum { OUT_FILE, OUT_DIR };
+
+/* Appends a job, or returns NULL when one with that id is planned. A file
+ * output's statistics are its first side output: every stage that writes
+ * a file writes OUTPUT.stats.json beside it (a directory output keeps its
+ * statistics inside, under its manifest). */
 static struct job *add_job(struct plan *p, int decl, const char *id,
-			   const char *output, const char *key_path)
+			   const char *output, int kind)
 {
 	if (plan_find(p, id) >= 0)
 		return NULL; /* already planned */
@@ -153,7 +158,12 @@ static struct job *add_job(struct plan *p, int decl, const char *id,
 	j->decl = decl;
 	j->id = xstrdup(id);
 	j->output = xstrdup(output);
-	j->key_path = xstrdup(key_path);
+	j->dir_output = kind == OUT_DIR;
+	if (kind == OUT_FILE) {
+		size_t n = strlen(output) + sizeof ".stats.json";
+		j->side[0] = xrealloc(NULL, n);
+		snprintf(j->side[0], n, "%s.stats.json", output);
+	}
 	*index_slot(p, j->id) = p->n;
 	p->unfinished[decl]++;
 	return j;
@@ -407,25 +417,26 @@ static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
 	return 0;
 }
 
-/* output_digest and stat_sig over a job's outputs: its output, mixed with
- * its extra directory output when it has one (so a lost or changed colour
- * directory of an edit job reruns it). Without one they are the output's
- * own, so the keys of other jobs are unchanged. */
+/* output_digest and stat_sig over everything a job writes: its output,
+ * mixed with each side output it has (plan.c, add_job), so a lost, empty
+ * or changed statistics file or colour directory reruns the job. */
 static int job_digest(const struct job *j, uint64_t *digest, uint64_t *sig,
 		      int *sig_ok, char *why, size_t cap)
 {
 	if (output_digest(j->output, digest, sig, sig_ok, why, cap))
 		return 1;
-	if (!j->extra_output)
-		return 0;
-	uint64_t d2, s2;
-	int ok2;
-	if (output_digest(j->extra_output, &d2, &s2, &ok2, why, cap))
-		return 1;
-	uint64_t f[2] = {*digest, d2}, g[2] = {*sig, s2};
-	*digest = XXH3_64bits(f, sizeof f);
-	*sig = XXH3_64bits(g, sizeof g);
-	*sig_ok = *sig_ok && ok2;
+	for (int k = 0; k < 2; k++) {
+		if (!j->side[k])
+			continue;
+		uint64_t d2, s2;
+		int ok2;
+		if (output_digest(j->side[k], &d2, &s2, &ok2, why, cap))
+			return 1;
+		uint64_t f[2] = {*digest, d2}, g[2] = {*sig, s2};
+		*digest = XXH3_64bits(f, sizeof f);
+		*sig = XXH3_64bits(g, sizeof g);
+		*sig_ok = *sig_ok && ok2;
+	}
 	return 0;
 }
 
@@ -434,15 +445,17 @@ static int job_stat_sig(const struct job *j, int64_t t0, uint64_t *sig,
 {
 	if (stat_sig(j->output, t0, sig, ok) != 0)
 		return -1;
-	if (!j->extra_output)
-		return 0;
-	uint64_t s2;
-	int ok2;
-	if (stat_sig(j->extra_output, t0, &s2, &ok2) != 0)
-		return -1;
-	uint64_t g[2] = {*sig, s2};
-	*sig = XXH3_64bits(g, sizeof g);
-	*ok = *ok && ok2;
+	for (int k = 0; k < 2; k++) {
+		if (!j->side[k])
+			continue;
+		uint64_t s2;
+		int ok2;
+		if (stat_sig(j->side[k], t0, &s2, &ok2) != 0)
+			return -1;
+		uint64_t g[2] = {*sig, s2};
+		*sig = XXH3_64bits(g, sizeof g);
+		*ok = *ok && ok2;
+	}
 	return 0;
 }
 
@@ -461,7 +474,8 @@ int job_key(const struct job *j, char key[17])
 	if (!s)
 		return 1;
 	XXH3_64bits_reset(s);
-	XXH3_64bits_update(s, "voxdag-key-2", 12);
+	/* 3: the digest covers side outputs (statistics) too */
+	XXH3_64bits_update(s, "voxdag-key-3", 12);
 	/* argv[0] is an absolute path that may move: hash its name only, and
 	 * the stage's own version, so outputs of older code are rebuilt */
 	const char *prog = strrchr(j->argv[0], '/');
@@ -689,6 +703,29 @@ static const char *kj_name(const struct job *j)
 	return j->output;
 }
 
+/* Keys reach the disk in groups: an fdatasync of the journal once a
+ * second or once KJ_GROUP records wait, whichever comes first, and at the
+ * run's end (keys_sync). Each job's files were durable before its key was
+ * appended (every stage publishes through vd_atomic_*: fsync, rename,
+ * directory fsync, before it exits), so a key on disk never names an
+ * output that is not; a power cut loses at most the keys of the last
+ * group, and those jobs run again. */
+#define KJ_GROUP 256
+static size_t kj_unsynced;
+static double kj_synced_at;
+
+void keys_sync(int force)
+{
+	double now = (double)now_ns() * 1e-9;
+	if (kj.fd < 0 || !kj_unsynced ||
+	    (!force && kj_unsynced < KJ_GROUP && now - kj_synced_at < 1.0))
+		return;
+	/* a failed sync (EIO) loses only keys: those jobs run again */
+	fdatasync(kj.fd);
+	kj_unsynced = 0;
+	kj_synced_at = now;
+}
+
 /* 1 after a write that may have left part of a line (a full disk): the
  * next record starts on a line of its own, so only the torn one is lost. */
 static int kj_torn;
@@ -710,6 +747,8 @@ static int kj_append(const struct key_rec *r)
 		return -1;
 	}
 	kj_torn = 0;
+	kj_unsynced++;
+	keys_sync(0);
 	return 0;
 }
 
@@ -779,8 +818,9 @@ static int output_is_fresh(struct job *j, char *why, size_t cap)
 	if (job_digest(j, &digest, &sig, &sig_ok, why, cap))
 		return 0;
 	if (digest != r->digest) {
-		snprintf(why, cap, "'%s' changed after it was written",
-			 j->output);
+		snprintf(why, cap, "'%s'%s changed after it was written",
+			 j->output, j->side[0] || j->side[1]
+			 ? " or a file written with it" : "");
 		return 0;
 	}
 	if (sig_ok && kj.fd >= 0) {
@@ -857,10 +897,9 @@ static void budget_arg(char *buf, size_t cap, uint64_t bytes)
 static void plan_voxelize(struct plan *p, int d)
 {
 	const struct config *c = p->cfg;
-	char out[1100], key[1200], lv[16], cl[16], budget[32], threads[16];
+	char out[1100], lv[16], cl[16], budget[32], threads[16];
 	path_join(out, sizeof out, p->dir, decl_of(p, d)->name);
-	path_join(key, sizeof key, out, ".key");
-	struct job *j = add_job(p, d, decl_of(p, d)->name, out, key);
+	struct job *j = add_job(p, d, decl_of(p, d)->name, out, OUT_DIR);
 	if (!j)
 		return;
 	snprintf(lv, sizeof lv, "%d", c->levels);
@@ -1010,7 +1049,7 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 			uint64_t sum = 0;
 			while (k < n && (L0 > a ? parts[k].cell >> 3 * (L0 - a) : parts[k].cell) == anc)
 				sum += parts[k++].share;
-			char out[1200], key[1300], id[200], to[16], budget[32],
+			char out[1200], id[200], to[16], budget[32],
 				threads[16], name[64];
 			if (a == 0) {
 				snprintf(out, sizeof out, "%s/root.%s", dir, ext);
@@ -1021,13 +1060,12 @@ static int plan_merges(struct plan *p, int d, struct part *parts, int n,
 				snprintf(id, sizeof id, "%s/L%d-%llx", decl_of(p, d)->name,
 					 a, (unsigned long long)anc);
 			}
-			snprintf(key, sizeof key, "%s.key", out);
 			snprintf(to, sizeof to, "%d", a);
 			budget_arg(budget, sizeof budget,
 				   dag_job_budget(c, merge_estimate(sum, k - i)));
 			snprintf(threads, sizeof threads, "%d", c->threads);
 			int idx = plan_find(p, id);
-			struct job *j = idx < 0 ? add_job(p, d, id, out, key) : NULL;
+			struct job *j = idx < 0 ? add_job(p, d, id, out, OUT_FILE) : NULL;
 			if (j) {
 				char path[1100];
 				snprintf(path, sizeof path, "%s/%s", bin_dir(), prog);
@@ -1086,12 +1124,11 @@ static struct job *add_root_job(struct plan *p, int d, int src,
 	*in_job = stage_root_job(p, src);
 	if (*in_job < 0)
 		return NULL;
-	char out[1200], key[1300], id[200];
+	char out[1200], id[200];
 	snprintf(out, sizeof out, "%s/%s/root.%s", p->dir, decl_of(p, d)->name,
 		 ext);
-	snprintf(key, sizeof key, "%s.key", out);
 	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
-	struct job *j = add_job(p, d, id, out, key);
+	struct job *j = add_job(p, d, id, out, OUT_FILE);
 	if (j)
 		/* its input is a whole scene: the stage's bound from its
 		 * header is not known before it exists; the budget is the
@@ -1148,12 +1185,11 @@ static void plan_lossy(struct plan *p, int d)
 		int r = c->resolutions[i];
 		if (r >= c->levels)
 			continue;
-		char out[1200], key[1300], id[200], lv[16];
+		char out[1200], id[200], lv[16];
 		snprintf(out, sizeof out, "%s/%s/r%d.dag", p->dir, dd->name, r);
-		snprintf(key, sizeof key, "%s.key", out);
 		snprintf(id, sizeof id, "%s/r%d", dd->name, r);
 		snprintf(lv, sizeof lv, "%d", r);
-		struct job *rj = add_job(p, d, id, out, key);
+		struct job *rj = add_job(p, d, id, out, OUT_FILE);
 		if (!rj)
 			continue;
 		rj->mem_estimate = c->job_mem_budget;
@@ -1227,7 +1263,7 @@ static void plan_edit(struct plan *p, int d)
 	if (vox >= 0) {
 		char colours[1200], manifest[1200];
 		path_join(colours, sizeof colours, dir, "colours");
-		j->extra_output = xstrdup(colours);
+		j->side[1] = xstrdup(colours);
 		set_argv(j, "edit", src, "-o", j->output, "--script", script,
 			 "--colours", p->jobs[vox].output, "--colours-out",
 			 colours, "--mem-budget", budget, "--threads", threads,
@@ -1264,18 +1300,17 @@ static int plan_single_root(struct plan *p, int d, const char *src_dir,
 			    const char *name, int src_job)
 {
 	const struct config *c = p->cfg;
-	char in[1400], out[1200], key[1300], id[200], budget[32], threads[16];
+	char in[1400], out[1200], id[200], budget[32], threads[16];
 	snprintf(in, sizeof in, "%s/%s", src_dir, name);
 	struct vd_chunk_header h;
 	if (vd_chunk_read_header(in, &h) != VD_OK || h.chunk_level != 0)
 		return 0;
 	snprintf(out, sizeof out, "%s/%s/root.dag", p->dir, decl_of(p, d)->name);
-	snprintf(key, sizeof key, "%s.key", out);
 	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
 	uint64_t est = vd_dag_estimate_header(&h);
 	budget_arg(budget, sizeof budget, dag_job_budget(c, est));
 	snprintf(threads, sizeof threads, "%d", c->threads);
-	struct job *j = add_job(p, d, id, out, key);
+	struct job *j = add_job(p, d, id, out, OUT_FILE);
 	if (j) {
 		set_argv(j, "svo-to-dag", in, "-o", out, "--mem-budget", budget,
 			 "--threads", threads, "-q", NULL);
@@ -1365,11 +1400,10 @@ static void plan_dag_stage(struct plan *p, int d)
 		exit(1);
 	}
 	for (int i = 0; i < n; i++) {
-		char in[1400], out[1400], key[1500], id[300], budget[32], threads[16];
+		char in[1400], out[1400], id[300], budget[32], threads[16];
 		snprintf(in, sizeof in, "%s/%s", src_dir, names[i]);
 		snprintf(out, sizeof out, "%s/%.*s.%s", cells_dir,
 			 (int)(strlen(names[i]) - strlen(src_ext)), names[i], ext);
-		snprintf(key, sizeof key, "%s.key", out);
 		snprintf(id, sizeof id, "%s/cells/%.*s", dd->name,
 			 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
 		snprintf(threads, sizeof threads, "%d", c->threads);
@@ -1379,7 +1413,7 @@ static void plan_dag_stage(struct plan *p, int d)
 		uint64_t est = !ok ? c->job_mem_budget : is_dag ?
 			vd_dag_estimate_header(&h) : merge_share(&h, kind);
 		budget_arg(budget, sizeof budget, dag_job_budget(c, est));
-		struct job *j = add_job(p, d, id, out, key);
+		struct job *j = add_job(p, d, id, out, OUT_FILE);
 		if (j) {
 			j->cell = 1;
 			p->cells_left[d]++;
@@ -1508,10 +1542,9 @@ static void plan_encode(struct plan *p, int d)
 	}
 	if (dag < 0 || ssv < 0 || (want48 && s48 < 0))
 		return;
-	char out[1100], key[1200], budget[32], minl[16], threads[16];
+	char out[1100], budget[32], minl[16], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
-	path_join(key, sizeof key, out, ".key");
-	struct job *j = add_job(p, d, dd->name, out, key);
+	struct job *j = add_job(p, d, dd->name, out, OUT_DIR);
 	if (!j)
 		return;
 	int min = c->levels;
@@ -1610,11 +1643,10 @@ static void plan_colorize(struct plan *p, int d)
 		       : plan_find(p, decl_of(p, dd->needs[0])->name);
 	if (vox < 0)
 		return;
-	const char *src = edit ? p->jobs[vox].extra_output : p->jobs[vox].output;
-	char out[1100], key[1200], threads[16];
+	const char *src = edit ? p->jobs[vox].side[1] : p->jobs[vox].output;
+	char out[1100], threads[16];
 	path_join(out, sizeof out, p->dir, dd->name);
-	path_join(key, sizeof key, out, ".key");
-	struct job *j = add_job(p, d, dd->name, out, key);
+	struct job *j = add_job(p, d, dd->name, out, OUT_DIR);
 	if (!j)
 		return;
 	snprintf(threads, sizeof threads, "%d", c->threads);
@@ -1671,10 +1703,9 @@ static void plan_render(struct plan *p, int d)
 		      decl_of(p, dd->needs[1])->stage->type == STAGE_COLORIZE;
 	if (enc < 0 || (dd->nneeds > 1 && other < 0))
 		return;
-	char out[1100], key[1200], in[1300], threads[16];
+	char out[1100], in[1300], threads[16];
 	snprintf(out, sizeof out, "%s/%s.png", p->dir, dd->name);
-	snprintf(key, sizeof key, "%s.key", out);
-	struct job *j = add_job(p, d, dd->name, out, key);
+	struct job *j = add_job(p, d, dd->name, out, OUT_FILE);
 	if (!j)
 		return;
 	snprintf(in, sizeof in, "%s/%s.%s", p->jobs[enc].output, c->name,
@@ -1785,8 +1816,8 @@ void plan_free(struct plan *p)
 		free(j->rdeps);
 		free(j->id);
 		free(j->output);
-		free(j->extra_output);
-		free(j->key_path);
+		free(j->side[0]);
+		free(j->side[1]);
 	}
 	free(p->jobs);
 	free(p->index);

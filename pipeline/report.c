@@ -831,8 +831,6 @@ int status_print(struct plan *p)
 {
 	plan_expand(p);
 	int counts[JOB_BLOCKED + 1] = {0};
-	char lock[1200];
-	snprintf(lock, sizeof lock, "%s/.lock", p->dir);
 	int in_slurm = 0;
 	char *started = calloc((size_t)p->n + 1, 1);
 	if (!started) {
@@ -857,6 +855,9 @@ int status_print(struct plan *p)
 	printf("  done     %d\n  started  %d (running now, or interrupted or "
 	       "failed: see %s/logs/runner.log)\n  pending  %d\n", counts[JOB_SKIPPED],
 	       counts[JOB_FAILED], p->dir, counts[JOB_PENDING]);
+	long holder = lock_holder(p->dir);
+	if (holder > 0)
+		printf("  a runner (pid %ld) is working on it now\n", holder);
 	if (in_slurm)
 		printf("  in Slurm %d (submitted by a driver):\n", in_slurm);
 	for (int i = 0; i < p->n && in_slurm; i++) {

@@ -3,6 +3,7 @@
  * something, progress, and the failure report. */
 #include "pipeline.h"
 #include "spawn/spawn.h"
+#include "io/publish.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,7 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <poll.h>
-#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -92,30 +92,81 @@ static void log_path(const struct plan *p, const struct job *j, char *buf,
 	snprintf(buf, cap, "%s/logs/%s.log", p->dir, id);
 }
 
-/* Takes out/<name>/.lock; a second runner on the same directory refuses. */
-static int take_lock(const struct plan *p)
+/* The pid holding the lock on `fd`'s file, or 0. */
+static long holder_of(int fd)
+{
+	struct flock l = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+	if (fcntl(fd, F_GETLK, &l) != 0 || l.l_type == F_UNLCK)
+		return 0;
+	return (long)l.l_pid;
+}
+
+long lock_holder(const char *dir)
 {
 	char path[1200];
-	snprintf(path, sizeof path, "%s/.lock", p->dir);
+	snprintf(path, sizeof path, "%s/.lock", dir);
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0)
+		return 0;
+	long pid = holder_of(fd);
+	close(fd);
+	return pid;
+}
+
+int lock_take(const char *dir, long *holder)
+{
+	char path[1200];
+	snprintf(path, sizeof path, "%s/.lock", dir);
 	int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
 	if (fd < 0) {
 		fprintf(stderr, "voxdag: cannot create '%s': %s\n", path,
 			strerror(errno));
-		return -1;
+		return -2;
 	}
-	if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-		char pid[32] = "?";
-		ssize_t n = read(fd, pid, sizeof pid - 1);
-		pid[n > 0 ? n : 1] = 0;
-		pid[strcspn(pid, "\n")] = 0;
-		fprintf(stderr, "voxdag: another runner (pid %s) is working on "
-			"'%s'; wait for it or stop it first\n", pid, p->dir);
-		close(fd);
-		return -1;
+	/* a POSIX record lock: the kernel drops it when its holder exits
+	 * (before it is even a zombie), children do not inherit it, and
+	 * F_GETLK names the holder, so no pid file can be stale or not yet
+	 * written. The runner never opens .lock twice, which would drop it. */
+	struct flock l = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+	if (fcntl(fd, F_SETLK, &l) == 0) {
+		if (ftruncate(fd, 0) == 0) /* for people; the lock decides */
+			dprintf(fd, "%ld\n", (long)getpid());
+		return fd; /* held until the process exits */
 	}
-	if (ftruncate(fd, 0) == 0)
-		dprintf(fd, "%ld\n", (long)getpid());
-	return fd; /* held until the process exits */
+	int e = errno;
+	*holder = e == EACCES || e == EAGAIN ? holder_of(fd) : 0;
+	close(fd);
+	if (e != EACCES && e != EAGAIN) {
+		fprintf(stderr, "voxdag: cannot lock '%s': %s\n", path,
+			strerror(e));
+		return -2;
+	}
+	return -1;
+}
+
+/* Takes out/<name>/.lock; a second runner on the same directory refuses,
+ * naming the first. A holder that exits between the two fcntl calls is
+ * retried, so a run right after a killed one is never refused. */
+static int take_lock(const struct plan *p)
+{
+	for (int tries = 0; tries < 50; tries++) {
+		long holder;
+		int fd = lock_take(p->dir, &holder);
+		if (fd >= 0)
+			return fd;
+		if (fd == -2)
+			return -1;
+		if (holder > 0) {
+			fprintf(stderr, "voxdag: another runner (pid %ld) is "
+				"working on '%s'; wait for it or stop it "
+				"first\n", holder, p->dir);
+			return -1;
+		}
+		struct timespec ts = {0, 20 * 1000 * 1000};
+		nanosleep(&ts, NULL);
+	}
+	fprintf(stderr, "voxdag: cannot take the lock on '%s'\n", p->dir);
+	return -1;
 }
 
 /* The last lines of a job's log (the memory copy, which holds the same
@@ -156,7 +207,7 @@ static void prepare_output(struct job *j)
 	char dir[1100];
 	snprintf(dir, sizeof dir, "%s", j->output);
 	char *slash = strrchr(dir, '/');
-	if (slash && strcmp(j->key_path + strlen(j->key_path) - 5, "/.key") != 0) {
+	if (slash && !j->dir_output) {
 		*slash = 0;
 		if (strcmp(dir, made) != 0 && mkdir_p(dir) == 0)
 			snprintf(made, sizeof made, "%s", dir);
@@ -887,6 +938,17 @@ struct run_state {
 	sigset_t chld;
 };
 
+/* Removes the staging entries of dead processes under the outputs (every
+ * one with `all`: no job of ours runs anywhere) and says so in
+ * runner.log. */
+static void sweep_staging(const struct plan *p, int all)
+{
+	long n = vd_staging_sweep(p->dir, all);
+	if (n)
+		log_line("removed %ld staging entr%s of killed processes", n,
+			 n == 1 ? "y" : "ies");
+}
+
 /* Step 1 of a run: creates the logs directory, takes the lock and the
  * keys, checks Slurm, opens runner.log, catches the stop signals, starts
  * the launcher (locally) and expands the plan. Returns 0, or 1 after
@@ -915,6 +977,10 @@ static int run_open(struct plan *p)
 	signal(SIGHUP, on_stop);
 	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	/* what killed runs left half-written (locally: with Slurm, jobs of a
+	 * killed driver may still run elsewhere, under pids not ours) */
+	if (!slurm)
+		sweep_staging(p, 0);
 	if (!slurm)
 		spawn_setup();
 	plan_expand(p);
@@ -1108,6 +1174,7 @@ static void run_wait(struct run_state *s)
 			sigtimedwait(&s->chld, NULL, &ts);
 		}
 	}
+	keys_sync(0);
 	/* quiet, the clock still moves on: else every
 	 * wait after the first 5 s would end at once */
 	double now = vd_seconds();
@@ -1149,6 +1216,8 @@ static int run_close(struct run_state *s)
 	for (int i = 0; i < p->n; i++)
 		blocked += p->jobs[i].state == JOB_BLOCKED;
 	launcher_stop();
+	keys_sync(1);
+	sweep_staging(p, s->slurm); /* nothing of ours runs now */
 	/* the runner's own cost against the stages' (children reaped) */
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);

@@ -11,6 +11,7 @@
  * dag-verify before they read an encoding (whose bytes must stay SymVox's,
  * so the checksum cannot live inside the file). */
 #include "voxdag.h"
+#include "io/publish.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -346,33 +347,6 @@ int vd_manifest_check_file(const char *path)
 
 /* ---------------------------------------------------- publishing whole */
 
-/* Removes the regular files of dir (all of them) and dir itself. */
-static int remove_dir_files(const char *dir)
-{
-	DIR *d = opendir(dir);
-	if (!d)
-		return errno == ENOENT ? VD_OK
-				       : vd_fail(VD_ERR_IO, "cannot open '%s': %s",
-						 dir, strerror(errno));
-	struct dirent *e;
-	char path[PATH_MAX + 512];
-	while ((e = readdir(d))) {
-		if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
-			continue;
-		snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-		struct stat st;
-		if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode))
-			remove_dir_files(path); /* e.g. voxelize's bins.tmp */
-		else
-			unlink(path);
-	}
-	closedir(d);
-	if (rmdir(dir) != 0 && errno != ENOENT)
-		return vd_fail(VD_ERR_IO, "cannot remove '%s': %s", dir,
-			       strerror(errno));
-	return VD_OK;
-}
-
 /* 1 if dir may be replaced by a new output: every file in it but hidden
  * ones is listed in its manifest (a voxdag output) or accepted by `ours`
  * (outputs of versions before manifests). Anything else is the user's:
@@ -432,25 +406,6 @@ static int mkdir_parents(const char *path)
 	}
 }
 
-/* The pid of a staging directory name "<base>.tmp.<digits>", or 0 when
- * `name` is not exactly that (no sign, no space, nothing after). */
-static long staging_pid(const char *name, const char *base)
-{
-	size_t bl = strlen(base);
-	if (strncmp(name, base, bl) != 0 || strncmp(name + bl, ".tmp.", 5) != 0)
-		return 0;
-	const char *d = name + bl + 5;
-	long pid = 0;
-	if (!*d)
-		return 0;
-	for (; *d; d++) {
-		if (*d < '0' || *d > '9' || pid > INT_MAX / 10)
-			return 0;
-		pid = pid * 10 + (*d - '0');
-	}
-	return pid;
-}
-
 int vd_dir_stage(const char *given, int (*ours)(const char *name),
 		 char *staging, size_t cap)
 {
@@ -482,23 +437,25 @@ int vd_dir_stage(const char *given, int (*ours)(const char *name),
 	if (err)
 		return err;
 	/* staging directories of runs that died (kill -9, a power cut):
-	 * exactly <final>.tmp.<pid> whose process no longer exists. A live
-	 * run's, one we may not signal (EPERM: another user's, alive) and
-	 * any other name are left alone. A leftover under our own pid is
+	 * exactly <final>.tmp.<pid> whose process is dead (vd_pid_alive). A
+	 * live run's, one we may not signal (EPERM: another user's, alive)
+	 * and any other name are left alone. A leftover under our own pid is
 	 * an earlier process's: ours is created below. */
 	DIR *d = opendir(parent);
 	if (d) {
 		struct dirent *e;
+		size_t bl = strlen(base);
 		while ((e = readdir(d))) {
-			long pid = staging_pid(e->d_name, base);
-			if (pid <= 0)
+			long pid = vd_staging_pid(e->d_name);
+			if (pid <= 0 || strncmp(e->d_name, base, bl) != 0 ||
+			    strncmp(e->d_name + bl, ".tmp.", 5) != 0 ||
+			    strchr(e->d_name + bl + 5, '.'))
 				continue;
-			if (pid != (long)getpid() &&
-			    (kill((pid_t)pid, 0) == 0 || errno != ESRCH))
+			if (pid != (long)getpid() && vd_pid_alive(pid))
 				continue;
 			char stale[PATH_MAX + 512];
 			snprintf(stale, sizeof stale, "%s/%s", parent, e->d_name);
-			remove_dir_files(stale);
+			vd_remove_tree(stale);
 		}
 		closedir(d);
 	}
@@ -560,7 +517,7 @@ int vd_dir_publish(const char *staging, const char *final)
 	 * place whatever happens here: a failure to remove the old (a
 	 * directory made unreadable) is not the run's failure, and the next
 	 * vd_dir_stage removes what is left as a dead run's staging. */
-	if (had_old && remove_dir_files(staging) != VD_OK)
+	if (had_old && vd_remove_tree(staging) != VD_OK)
 		vd_error_clear();
 	return VD_OK;
 }
@@ -570,7 +527,7 @@ void vd_dir_abandon(const char *staging)
 	int saved = errno;
 	char detail[512];
 	snprintf(detail, sizeof detail, "%s", vd_error_detail());
-	remove_dir_files(staging);
+	vd_remove_tree(staging);
 	if (*detail)
 		vd_fail(VD_OK, "%s", detail); /* keep the caller's detail */
 	errno = saved;

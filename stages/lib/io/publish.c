@@ -15,8 +15,12 @@
  * directories of dead processes. */
 #include "io/publish.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -210,4 +214,108 @@ int vd_publish_pair(const char *staged_out, const char *out,
 	free(d1);
 	free(d2);
 	return err;
+}
+
+/* ------------------------------------------------------- staging sweeps */
+
+int vd_pid_alive(long pid)
+{
+	if (pid <= 0 || pid > INT_MAX)
+		return 0;
+	if (kill((pid_t)pid, 0) != 0)
+		return errno != ESRCH; /* EPERM: another user's, alive */
+	/* a zombie has exited: it writes nothing more, whoever reaps it */
+	char path[64], buf[512];
+	snprintf(path, sizeof path, "/proc/%ld/stat", pid);
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0)
+		return errno != ENOENT; /* no /proc: take it for alive */
+	ssize_t n = read(fd, buf, sizeof buf - 1);
+	close(fd);
+	if (n <= 0)
+		return 1;
+	buf[n] = 0;
+	/* "pid (comm) S ...": comm may hold spaces and parentheses */
+	const char *c = strrchr(buf, ')');
+	return !(c && c[1] == ' ' && (c[2] == 'Z' || c[2] == 'X'));
+}
+
+long vd_staging_pid(const char *name)
+{
+	const char *t = NULL;
+	for (const char *at = strstr(name, ".tmp."); at;
+	     at = strstr(at + 1, ".tmp."))
+		t = at;
+	if (!t || t == name)
+		return 0;
+	const char *d = t + 5;
+	long pid = 0;
+	if (*d < '0' || *d > '9')
+		return 0;
+	for (; *d >= '0' && *d <= '9'; d++) {
+		if (pid > INT_MAX / 10)
+			return 0;
+		pid = pid * 10 + (*d - '0');
+	}
+	return !*d || !strcmp(d, ".new") ? pid : 0;
+}
+
+int vd_remove_tree(const char *dir)
+{
+	DIR *d = opendir(dir);
+	if (!d)
+		return errno == ENOENT ? VD_OK
+				       : vd_fail(VD_ERR_IO, "cannot open '%s': %s",
+						 dir, strerror(errno));
+	struct dirent *e;
+	char path[PATH_MAX + 512];
+	while ((e = readdir(d))) {
+		if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+			continue;
+		snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+		struct stat st;
+		if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode))
+			vd_remove_tree(path); /* e.g. voxelize's bins.tmp */
+		else
+			unlink(path);
+	}
+	closedir(d);
+	if (rmdir(dir) != 0 && errno != ENOENT)
+		return vd_fail(VD_ERR_IO, "cannot remove '%s': %s", dir,
+			       strerror(errno));
+	return VD_OK;
+}
+
+long vd_staging_sweep(const char *dir, int all)
+{
+	DIR *d = opendir(dir);
+	if (!d)
+		return 0;
+	long removed = 0;
+	struct dirent *e;
+	char path[PATH_MAX + 512];
+	while ((e = readdir(d))) {
+		const char *nm = e->d_name;
+		if (!strcmp(nm, ".") || !strcmp(nm, ".."))
+			continue;
+		if ((size_t)snprintf(path, sizeof path, "%s/%s", dir, nm) >=
+		    sizeof path)
+			continue;
+		long pid = vd_staging_pid(nm);
+		int isdir = e->d_type == DT_DIR;
+		if (e->d_type == DT_UNKNOWN) {
+			struct stat st;
+			isdir = lstat(path, &st) == 0 && S_ISDIR(st.st_mode);
+		}
+		if (pid > 0 && (all || !vd_pid_alive(pid))) {
+			if (isdir ? vd_remove_tree(path) == VD_OK
+				  : unlink(path) == 0)
+				removed++;
+			vd_error_clear();
+		} else if (isdir && !pid) {
+			removed += vd_staging_sweep(path, all);
+		}
+	}
+	closedir(d);
+	return removed;
 }

@@ -28,4 +28,20 @@ int vd_stage_name(const char *final, char *buf, size_t cap);
 int vd_publish_pair(const char *staged_out, const char *out,
 		    const char *staged_stats, const char *stats);
 
+/* Staging entries (the temporaries and staging names above) of processes
+ * that died before publishing: a kill -9, a power cut. vd_staging_pid is
+ * the pid a name "<x>.tmp.<pid>" or "<x>.tmp.<pid>.new" carries, else 0.
+ * vd_pid_alive: 1 for a live process or one we may not signal (another
+ * user's); 0 for none and for a zombie (it has exited and writes nothing
+ * more). vd_staging_sweep removes every staging entry under `dir`
+ * (recursively; a staging directory whole) whose process is dead, or
+ * every one with `all` (the caller knows no writer runs), and returns how
+ * many it removed. A pid reused by an unrelated live process keeps its
+ * entry until that process ends: a leftover, never a live write lost.
+ * vd_remove_tree removes a directory and what it holds. */
+long vd_staging_pid(const char *name);
+int vd_pid_alive(long pid);
+long vd_staging_sweep(const char *dir, int all);
+int vd_remove_tree(const char *dir);
+
 #endif /* VD_PUBLISH_H */
