@@ -40,8 +40,16 @@ SAN := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recove
 CFLAGS   += -O1 $(SAN)
 CXXFLAGS += -O1 $(SAN)
 LDFLAGS  += $(SAN)
+else ifeq ($(config),nofsync)
+# make bench's price of durability only: release, every fsync skipped
+# (io/publish.c, vd_sync_fd). Never for real runs: a power cut can then
+# leave empty outputs behind keys.
+OUT := $(O)/nofsync
+CPPFLAGS += -DVD_NO_FSYNC
+CFLAGS   += -O2
+CXXFLAGS += -O2
 else
-$(error unknown config '$(config)': use release or sanitize)
+$(error unknown config '$(config)': use release, sanitize or nofsync)
 endif
 
 # The Debian packages the build and the tests need (checked by `make deps`).
@@ -191,6 +199,11 @@ $(OUT)/tests/%: tests/unit/%.c $(LIB) $(HEADERS)
 	$(CC) $(CPPFLAGS) -Itests/unit $(CFLAGS) -UNDEBUG -c -o $@.o $<
 	$(CXX) $(LDFLAGS) -o $@ $@.o $(TEST_OBJ) $(LIB) $(LDLIBS)
 
+# The power-cut test's tool (tests/cli/powercut.sh): no library.
+$(OUT)/tests/fs_shutdown: tests/tools/fs_shutdown.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -o $@ $<
+
 # The Assimp importer's test calls vd_assimp_import itself.
 $(OUT)/tests/test_assimp: LDLIBS += -lassimp
 
@@ -285,12 +298,13 @@ test: deps
 # compiles, io/vdb*.cc, that would otherwise leave a core idle).
 test-build: test-build-release test-build-sanitize fuzz-build
 test-build-release:
-	@$(MAKE) --no-print-directory all lib
+	@$(MAKE) --no-print-directory all lib $(OUT)/tests/fs_shutdown
 test-build-sanitize:
 	@$(MAKE) --no-print-directory config=sanitize all tests
 
 bench: deps
 	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation $(OUT)/bench/edit_site
+	@$(MAKE) --no-print-directory -j$(JOBS) config=nofsync all
 	@tests/bench.sh
 
 # Fuzzing (libFuzzer, Debian's clang): one target per reader,

@@ -20,6 +20,7 @@
  * sources_fresh).
  */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -721,7 +722,7 @@ void keys_sync(int force)
 	    (!force && kj_unsynced < KJ_GROUP && now - kj_synced_at < 1.0))
 		return;
 	/* a failed sync (EIO) loses only keys: those jobs run again */
-	fdatasync(kj.fd);
+	vd_sync_fd(kj.fd);
 	kj_unsynced = 0;
 	kj_synced_at = now;
 }

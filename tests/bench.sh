@@ -289,3 +289,7 @@ if [ "${VOXDAG_BENCH_RUNNER:-1}" != 0 ]; then
 		runner_scale terrain-stack14-11-L7 out/terrain-stack14.ply 11 7
 	fi
 fi
+
+# What durability costs: fsync on and off (tests/bench/durability.sh).
+echo
+tests/bench/durability.sh

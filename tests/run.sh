@@ -22,7 +22,8 @@ jobs=${TEST_JOBS:-$(nproc)}
 # do not start last and leave one core idle at the end.
 progs=()
 for t in out/sanitize/tests/test_voxelize out/sanitize/tests/test_edit_colour \
-	 tests/cli/fuzz.sh tests/cli/slurm.sh tests/cli/runner.sh; do
+	 tests/cli/fuzz.sh tests/cli/slurm.sh tests/cli/powercut.sh \
+	 tests/cli/runner.sh; do
 	progs+=("$t")
 done
 for t in out/sanitize/tests/test_* tests/cli/*.sh; do

@@ -7,7 +7,10 @@
 # its moment, it has resumed every kill of its chain and its outputs must
 # be byte-identical to an uninterrupted run's (the chain is checked and a
 # new one starts from nothing). A last run ends the last chain the same
-# way. Each kill must have interrupted something: a killed runner had
+# way, and leave no staging entry (NAME.tmp.PID...) of the killed
+# processes: runs sweep them when they start and end. Each run starts
+# right after the kill before it and must never be refused because of the
+# dead runner (its lock). Each kill must have interrupted something: a killed runner had
 # started a job and not finished; a killed job was stopped (SIGSTOP)
 # before the kill, so it was running, and the runner reported it killed.
 # VOXDAG_KILL_SEED repeats a sequence of moments.
@@ -22,12 +25,10 @@ SEED=${VOXDAG_KILL_SEED:-$$}
 RANDOM=$SEED
 echo "kill.sh: seed $SEED (VOXDAG_KILL_SEED=$SEED repeats it)" >&2
 bunny_pipeline $NAME 8 3 > "$CFG"
-# The outputs' checksums. A stage killed mid-write may leave its staging
-# directory or file (NAME.tmp.PID) behind; those are not outputs (nothing
-# reads them, a rerun builds anew), so they are left out.
+# The outputs' checksums.
 sums() {
 	(cd $D && find . -type f \( -name '*.svo' -o -name '*.dag' -o -name '*.sdag' \
-		-o -name '*dag' \) -not -path '*.tmp.*' | LC_ALL=C sort | xargs sha256sum)
+		-o -name '*dag' \) | LC_ALL=C sort | xargs sha256sum)
 }
 t0=$(date +%s%N)
 expect kill_setup 0 '' $R -q run "$CFG"
@@ -98,6 +99,10 @@ one_kill() {
 			sleep 0.01
 		done
 	fi
+	if grep -q 'another runner' "$T/kill.err"; then
+		fail "kill_${i}_${what}_not_refused" "a run right after a kill was refused" "$(cat "$T/kill.err")"
+		return 1
+	fi
 	if [ -z "$victim" ] || ! kill -9 "$victim" 2>/dev/null; then
 		wait $pid # nothing hit: the run ends on its own
 		rc=$?
@@ -146,10 +151,14 @@ chain=0
 check_chain() {
 	chain=$((chain + 1))
 	sums > "$T/got.sums"
+	local left
+	left=$(find $D -name '*.tmp.*' | head -3)
 	if [ $1 -ne 0 ]; then
 		fail "kill_chain_${chain}_resumed" "rerun exit $1" "$(cat "$T/err")"
 	elif ! cmp -s "$T/ref.sums" "$T/got.sums"; then
 		fail "kill_chain_${chain}_resumed" "$(diff "$T/ref.sums" "$T/got.sums" | head -4)"
+	elif [ -n "$left" ]; then
+		fail "kill_chain_${chain}_resumed" "staging entries left:" $left
 	else
 		pass "kill_chain_${chain}_resumed"
 	fi

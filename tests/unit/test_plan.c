@@ -739,7 +739,7 @@ static void test_single_cell(void)
 /* ------------------------------------------------------------------ keys */
 
 /* The key as pipeline.md defines it, computed here from the job's argv
- * and the files: XXH3-64 over "voxdag-key-2", the program's name and NUL,
+ * and the files: XXH3-64 over "voxdag-key-3", the program's name and NUL,
  * its stage version (int32), each argument and NUL but --threads N,
  * --mem-budget N, -q, --stats F, --stats-list F, then each input's
  * fingerprint: a chunk file's 24-byte footer hashed (the writer's own
@@ -748,7 +748,7 @@ static int ref_key(const struct job *j, char key[17])
 {
 	XXH3_state_t *s = XXH3_createState();
 	XXH3_64bits_reset(s);
-	XXH3_64bits_update(s, "voxdag-key-2", 12);
+	XXH3_64bits_update(s, "voxdag-key-3", 12);
 	const char *prog = strrchr(j->argv[0], '/') + 1;
 	XXH3_64bits_update(s, prog, strlen(prog) + 1);
 	int32_t v = vd_stage_version(prog);
@@ -972,8 +972,12 @@ static void test_global_jobs(void)
 			 "%s/vox --colours-out %s/ed/colours --mem-budget %s "
 			 "--threads 3 -q", o, o, o, o, o, B);
 		CHECK(cmd_is(j, want));
+		/* what the key covers beside the output: its statistics and
+		 * the edited colours */
+		snprintf(want, sizeof want, "%s/ed/root.dag.stats.json", o);
+		CHECK(j->side[0] && !strcmp(j->side[0], want));
 		snprintf(want, sizeof want, "%s/ed/colours", o);
-		CHECK(j->extra_output && !strcmp(j->extra_output, want));
+		CHECK(j->side[1] && !strcmp(j->side[1], want));
 		/* the inline lines, a line each, in the file the key covers */
 		snprintf(want, sizeof want, "%s/ed/script.txt", o);
 		char *script = test_slurp(want, NULL);
@@ -1172,16 +1176,26 @@ static void test_journal(void)
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
 	CHECK_EQ(j->key_absent, 1);
 	write_chunk(j->output, VD_KIND_DAG, 7, 3, 0x40, 1);
+	/* a file output's statistics are part of what it wrote: without
+	 * them the job did not finish */
+	char stats[800];
+	snprintf(stats, sizeof stats, "%s.stats.json", j->output);
+	CHECK(j->side[0] && !strcmp(j->side[0], stats));
+	CHECK(job_key_write(j, why, sizeof why) != 0);
+	write_text(stats, "{\"voxels\": 1}\n");
 	CHECK_EQ(job_key_write(j, why, sizeof why), 0);
 	/* the journal's one line: CHECK K KEY DIGEST SIG PATH, the path
 	 * relative to the outputs, the output just written so not settled
-	 * ("-"), CHECK the XXH3 of the rest */
+	 * ("-"), CHECK the XXH3 of the rest; DIGEST the XXH3 of the two
+	 * files' XXH3s, the output's first */
 	char kpath[800], key[17], body[600], line[700];
 	snprintf(kpath, sizeof kpath, "%s/keys", outs);
 	char *journal = test_slurp(kpath, NULL);
 	CHECK(ref_key(j, key) == 0);
-	uint64_t digest = 0, size;
-	CHECK_EQ(vd_file_xxh3(j->output, &digest, &size), VD_OK);
+	uint64_t digests[2] = {0, 0}, size;
+	CHECK_EQ(vd_file_xxh3(j->output, &digests[0], &size), VD_OK);
+	CHECK_EQ(vd_file_xxh3(stats, &digests[1], &size), VD_OK);
+	uint64_t digest = XXH3_64bits(digests, sizeof digests);
 	int n = snprintf(body, sizeof body, "K %s %016llx - "
 			 "svdag/cells/chunk-L3-040.dag", key,
 			 (unsigned long long)digest);
@@ -1196,11 +1210,24 @@ static void test_journal(void)
 	/* the output changed after it was written */
 	write_chunk(j->output, VD_KIND_DAG, 7, 3, 0x40, 2);
 	char want[900];
-	snprintf(want, sizeof want, "'%s' changed after it was written",
-		 j->output);
+	snprintf(want, sizeof want, "'%s' or a file written with it changed "
+		 "after it was written", j->output);
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
 	CHECK(!strcmp(why, want));
 	write_chunk(j->output, VD_KIND_DAG, 7, 3, 0x40, 1);
+	CHECK_EQ(job_is_fresh(j, why, sizeof why), 1);
+	/* its statistics emptied (what a power cut did before they were
+	 * fsynced), changed, deleted: it runs again */
+	write_text(stats, "");
+	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
+	CHECK(!strcmp(why, want));
+	write_text(stats, "{\"voxels\": 2}\n");
+	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
+	CHECK_EQ(unlink(stats), 0);
+	snprintf(want, sizeof want, "'%s' is missing", stats);
+	CHECK_EQ(job_is_fresh(j, why, sizeof why), 0);
+	CHECK(!strcmp(why, want));
+	write_text(stats, "{\"voxels\": 1}\n");
 	CHECK_EQ(job_is_fresh(j, why, sizeof why), 1);
 	/* the output deleted */
 	CHECK_EQ(unlink(j->output), 0);

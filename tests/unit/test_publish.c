@@ -3,7 +3,8 @@
  * before it; abort, a failed write (RLIMIT_FSIZE makes the disk "full") and
  * a non-regular file in the way each leave the old file intact and no
  * temporary; directory fsync of the right directory (and its errors);
- * vd_stage_name / vd_publish_pair; vd_dir_swap. The order of the system
+ * vd_stage_name / vd_publish_pair; vd_dir_swap; the staging names of
+ * dead processes (zombies too) and their sweep. The order of the system
  * calls (fsync, rename, directory fsync) is checked from the outside, with
  * strace, by tests/cli/publish.sh. */
 #include "check.h"
@@ -14,6 +15,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static const char *dir;
@@ -263,6 +265,105 @@ static void test_dir_swap(void)
 	CHECK(holds(test_path(dir, "d.tmp.1/f"), "two", 3));
 }
 
+static void test_staging_pid(void)
+{
+	CHECK_EQ(vd_staging_pid("a.dag.tmp.123"), 123);
+	CHECK_EQ(vd_staging_pid("a.dag.tmp.123.new"), 123);
+	CHECK_EQ(vd_staging_pid("keys.tmp.77"), 77);
+	CHECK_EQ(vd_staging_pid("r.dag.tmp.12.new.tmp.456"), 456);
+	CHECK_EQ(vd_staging_pid("vox.tmp.9"), 9);
+	/* not staging names: no digits, other text after them, no stem */
+	CHECK_EQ(vd_staging_pid("bins.tmp"), 0);
+	CHECK_EQ(vd_staging_pid("a.tmp."), 0);
+	CHECK_EQ(vd_staging_pid("a.tmp.12x"), 0);
+	CHECK_EQ(vd_staging_pid("a.tmp.12.old"), 0);
+	CHECK_EQ(vd_staging_pid(".tmp.5"), 0);
+	CHECK_EQ(vd_staging_pid("a.tmp.99999999999999"), 0);
+	CHECK_EQ(vd_staging_pid("chunk-L3-00b.dag"), 0);
+}
+
+/* A child that has exited: a zombie until reap_it. */
+static pid_t zombie(void)
+{
+	pid_t pid = fork();
+	if (pid == 0)
+		_exit(0);
+	char path[64], buf[256];
+	snprintf(path, sizeof path, "/proc/%ld/stat", (long)pid);
+	for (int i = 0; i < 2000; i++) { /* until it is a zombie */
+		FILE *f = fopen(path, "r");
+		size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+		if (f)
+			fclose(f);
+		buf[n] = 0;
+		char *c = strrchr(buf, ')');
+		if (c && c[1] == ' ' && c[2] == 'Z')
+			break;
+		usleep(1000);
+	}
+	return pid;
+}
+
+static void test_pid_alive(void)
+{
+	CHECK_EQ(vd_pid_alive(getpid()), 1);
+	CHECK_EQ(vd_pid_alive(1), 1); /* init: alive (or not ours: EPERM) */
+	pid_t z = zombie();
+	CHECK_EQ(vd_pid_alive(z), 0); /* exited: it writes nothing more */
+	waitpid(z, NULL, 0);
+	CHECK_EQ(vd_pid_alive(z), 0);
+	CHECK_EQ(vd_pid_alive(0), 0);
+	CHECK_EQ(vd_pid_alive(-5), 0);
+}
+
+static void test_staging_sweep(void)
+{
+	pid_t z = zombie();
+	long dead = (long)z, me = (long)getpid();
+	char root[600], name[700];
+	snprintf(root, sizeof root, "%s", test_path(dir, "sweep"));
+	CHECK_EQ(mkdir(root, 0777), 0);
+	CHECK_EQ(mkdir(test_path(dir, "sweep/cells"), 0777), 0);
+	/* what a killed run leaves: a temporary, a staged file, a staging
+	 * directory with files and a folder in it */
+	snprintf(name, sizeof name, "sweep/keys.tmp.%ld", dead);
+	put(test_path(dir, name), "k");
+	snprintf(name, sizeof name, "sweep/cells/c.dag.tmp.%ld.new", dead);
+	put(test_path(dir, name), "c");
+	snprintf(name, sizeof name, "sweep/vox.tmp.%ld", dead);
+	CHECK_EQ(mkdir(test_path(dir, name), 0777), 0);
+	snprintf(name, sizeof name, "sweep/vox.tmp.%ld/bins.tmp", dead);
+	CHECK_EQ(mkdir(test_path(dir, name), 0777), 0);
+	snprintf(name, sizeof name, "sweep/vox.tmp.%ld/bins.tmp/b", dead);
+	put(test_path(dir, name), "b");
+	snprintf(name, sizeof name, "sweep/vox.tmp.%ld/chunk.svo", dead);
+	put(test_path(dir, name), "s");
+	/* what must stay: a live process's, outputs, names that only look
+	 * alike */
+	snprintf(name, sizeof name, "sweep/cells/d.dag.tmp.%ld.new", me);
+	put(test_path(dir, name), "live");
+	put(test_path(dir, "sweep/cells/c.dag"), "out");
+	put(test_path(dir, "sweep/bins.tmp"), "x");
+	put(test_path(dir, "sweep/a.tmp.12.old"), "x");
+	CHECK_EQ(vd_staging_sweep(root, 0), 3);
+	snprintf(name, sizeof name, "sweep/keys.tmp.%ld", dead);
+	CHECK(!test_exists(test_path(dir, name)));
+	snprintf(name, sizeof name, "sweep/cells/c.dag.tmp.%ld.new", dead);
+	CHECK(!test_exists(test_path(dir, name)));
+	snprintf(name, sizeof name, "sweep/vox.tmp.%ld", dead);
+	CHECK(!test_exists(test_path(dir, name)));
+	snprintf(name, sizeof name, "sweep/cells/d.dag.tmp.%ld.new", me);
+	CHECK(holds(test_path(dir, name), "live", 4));
+	CHECK(holds(test_path(dir, "sweep/cells/c.dag"), "out", 3));
+	CHECK(test_exists(test_path(dir, "sweep/bins.tmp")));
+	CHECK(test_exists(test_path(dir, "sweep/a.tmp.12.old")));
+	/* nothing more the second time; with `all`, the live one too */
+	CHECK_EQ(vd_staging_sweep(root, 0), 0);
+	CHECK_EQ(vd_staging_sweep(root, 1), 1);
+	CHECK(!test_exists(test_path(dir, name)));
+	waitpid(z, NULL, 0);
+}
+
 int main(void)
 {
 	dir = test_tmpdir("test_publish");
@@ -274,5 +375,8 @@ int main(void)
 	RUN(test_fsync_dir);
 	RUN(test_publish_pair);
 	RUN(test_dir_swap);
+	RUN(test_staging_pid);
+	RUN(test_pid_alive);
+	RUN(test_staging_sweep);
 	return CHECK_DONE();
 }

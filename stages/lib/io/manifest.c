@@ -472,6 +472,10 @@ int vd_dir_stage(const char *given, int (*ours)(const char *name),
 int vd_dir_swap(const char *staging, const char *final, int *had_old)
 {
 	struct stat st;
+	/* its files' names, once for all (vd_fsync_parent skipped them) */
+	int err = vd_fsync_dir(staging);
+	if (err)
+		return err;
 	*had_old = stat(final, &st) == 0;
 	if (!*had_old) {
 		if (rename(staging, final) != 0)
@@ -484,10 +488,10 @@ int vd_dir_swap(const char *staging, const char *final, int *had_old)
 		return vd_fail(VD_ERR_IO, "cannot swap '%s' into '%s': %s",
 			       staging, final, strerror(errno));
 sync:
-	/* the files inside are durable already (vd_atomic_commit synced the
-	 * staging directory after each); the swap is in final's parent. If
-	 * that cannot be synced, the swap is undone: callers take a failed
-	 * swap for one that did not happen. */
+	/* the files inside are durable already (each fsynced by
+	 * vd_atomic_commit, their names above); the swap is in final's
+	 * parent. If that cannot be synced, the swap is undone: callers
+	 * take a failed swap for one that did not happen. */
 	if (vd_fsync_parent(final) != VD_OK) {
 		char detail[512];
 		snprintf(detail, sizeof detail, "%s", vd_error_detail());

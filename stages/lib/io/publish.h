@@ -5,6 +5,10 @@
 
 #include "voxdag.h"
 
+/* fsync(fd): the one place voxdag syncs, so that `make config=nofsync`
+ * can price durability for make bench (it skips them all). */
+int vd_sync_fd(int fd);
+
 /* Renames the finished temporary file `tmp` (written and fsynced by the
  * caller) onto `path`, then fsyncs path's directory: the last steps of
  * vd_atomic_commit(), for outputs written under a staging name first.
