@@ -631,6 +631,62 @@ static int kj_parse(char *line, size_t len)
 	return 1;
 }
 
+/* ------------------------------------------------------- the runner's lock
+ * One runner per output directory: it guards the key journal (only the
+ * lock's holder appends to it). */
+
+/* The pid holding the lock on `fd`'s file, or 0. */
+static long holder_of(int fd)
+{
+	struct flock l = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+	if (fcntl(fd, F_GETLK, &l) != 0 || l.l_type == F_UNLCK)
+		return 0;
+	return (long)l.l_pid;
+}
+
+long lock_holder(const char *dir)
+{
+	char path[1200];
+	snprintf(path, sizeof path, "%s/.lock", dir);
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0)
+		return 0;
+	long pid = holder_of(fd);
+	close(fd);
+	return pid;
+}
+
+int lock_take(const char *dir, long *holder)
+{
+	char path[1200];
+	snprintf(path, sizeof path, "%s/.lock", dir);
+	int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+	if (fd < 0) {
+		fprintf(stderr, "voxdag: cannot create '%s': %s\n", path,
+			strerror(errno));
+		return -2;
+	}
+	/* a POSIX record lock: the kernel drops it when its holder exits
+	 * (before it is even a zombie), children do not inherit it, and
+	 * F_GETLK names the holder, so no pid file can be stale or not yet
+	 * written. The runner never opens .lock twice, which would drop it. */
+	struct flock l = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+	if (fcntl(fd, F_SETLK, &l) == 0) {
+		if (ftruncate(fd, 0) == 0) /* for people; the lock decides */
+			dprintf(fd, "%ld\n", (long)getpid());
+		return fd; /* held until the process exits */
+	}
+	int e = errno;
+	*holder = e == EACCES || e == EAGAIN ? holder_of(fd) : 0;
+	close(fd);
+	if (e != EACCES && e != EAGAIN) {
+		fprintf(stderr, "voxdag: cannot lock '%s': %s\n", path,
+			strerror(e));
+		return -2;
+	}
+	return -1;
+}
+
 /* Loads DIR/keys; with `write` (the runner, holding the lock) also opens
  * it for appending, compacting it first when needed. Returns non-zero
  * (with a message) when it cannot be written. */
