@@ -226,8 +226,10 @@ expect launcher_killed_rerun_lossless 0 '' $BIN/dag-verify $D/ssvdag/root.sdag $
 rm -rf $D
 $R -q run "$CFG" &
 pid=$!
-while [ ! -s $D/.lock ] && kill -0 $pid 2>/dev/null; do sleep 0.01; done
-expect second_runner_refuses 1 'another runner .pid [0-9]+. is working' $R -q run "$CFG"
+while [ ! -e $D/.lock ] && kill -0 $pid 2>/dev/null; do sleep 0.01; done
+# the holder's pid comes from the lock itself (F_GETLK), never "pid ?"
+expect second_runner_refuses 1 "another runner .pid $pid. is working" $R -q run "$CFG"
+expect status_names_the_runner 0 "a runner .pid $pid. is working" $R status "$CFG"
 wait $pid
 
 # --- a lost output reruns only itself; its dependents see the same bytes
@@ -446,5 +448,23 @@ rm -rf $G
 
 # --- status and clean
 expect status_done 0 'done +[1-9]' $R status "$CFG"
+# what a killed process left (a dead pid: a child that has exited), and
+# what must stay: a live process's, the outputs
+sh -c 'exit 0' &
+dead=$!
+wait $dead
+cell=$(ls $D/dag/cells/*.dag | head -n 1)
+: > "$cell.tmp.$dead.new"
+mkdir "$D/vox.tmp.$dead" && : > "$D/vox.tmp.$dead/chunk.svo"
+: > "$D/keys.tmp.$dead"
+: > "$cell.tmp.$$.new"
+sums_before=$(sha256sum $D/dag/cells/*.dag | sha256sum)
+expect clean_staging 0 'removed 3 staging entries' $R clean --staging "$CFG"
+[ ! -e "$cell.tmp.$dead.new" ] && [ ! -e "$D/vox.tmp.$dead" ] &&
+	[ ! -e "$D/keys.tmp.$dead" ] && [ -e "$cell.tmp.$$.new" ] &&
+	[ "$(sha256sum $D/dag/cells/*.dag | sha256sum)" = "$sums_before" ] &&
+	pass clean_staging_only_the_dead || fail clean_staging_only_the_dead "$(ls $D $D/dag/cells | grep tmp)"
+rm -f "$cell.tmp.$$.new"
+expect clean_staging_is_for_clean 2 'goes with .clean.' $R status --staging "$CFG"
 expect clean 0 '' $R clean "$CFG"
 [ ! -d $D ] && pass clean_removes || fail clean_removes "$D still there"
