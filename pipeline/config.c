@@ -255,7 +255,8 @@ static int want_time_limit(struct ctx *x, const yaml_node_t *n,
 }
 
 /* slurm: {partition, account, time_limit, time: {stage: limit},
- * sbatch_args: [...]}; used with resources.executor: slurm. */
+ * sbatch_args: [...], shared_outputs: bool}; used with
+ * resources.executor: slurm. */
 static int parse_slurm(struct ctx *x, yaml_node_t *map)
 {
 	struct slurm_opts *o = &x->c->slurm;
@@ -314,10 +315,16 @@ static int parse_slurm(struct ctx *x, yaml_node_t *map)
 						       "with '-')");
 				o->nargs++;
 			}
+		} else if (!strcmp(key, "shared_outputs")) {
+			const char *b = scalar(v);
+			if (!b || (strcmp(b, "true") && strcmp(b, "false")))
+				return fail_at(x, v, "'shared_outputs' is true "
+					       "or false");
+			o->shared_outputs = !strcmp(b, "true");
 		} else {
 			return fail_at(x, k, "unknown key 'slurm.%s' (known: "
 				       "partition, account, time_limit, time, "
-				       "sbatch_args)", key);
+				       "sbatch_args, shared_outputs)", key);
 		}
 		if (err)
 			return 1;

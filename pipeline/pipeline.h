@@ -100,6 +100,10 @@ struct config {
 		char stage_time[STAGE_COUNT_][32]; /* ...its stage has one */
 		int nargs;
 		char args[8][256];                 /* extra sbatch arguments */
+		int shared_outputs;                /* the user vouches that
+						    * every node sees outputs
+						    * (a one-node cluster, a
+						    * site's shared /tmp) */
 	} slurm;
 };
 

@@ -267,12 +267,13 @@ int slurm_preflight(const struct plan *p)
 			strerror(errno));
 		return 1;
 	}
-	const char *why = node_local(p->dir);
+	const char *why = c->slurm.shared_outputs ? NULL : node_local(p->dir);
 	if (why) {
 		fprintf(stderr, "voxdag: executor slurm: the output directory "
 			"'%s' is %s, so jobs on other nodes cannot see it; set "
-			"'outputs:' to a directory every node shares\n", p->dir,
-			why);
+			"'outputs:' to a directory every node shares (or "
+			"'slurm: {shared_outputs: true}' on one node)\n",
+			p->dir, why);
 		return 1;
 	}
 	char dir[1200];

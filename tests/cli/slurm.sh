@@ -15,8 +15,9 @@ if [ "$(id -u)" != 0 ] || ! command -v slurmctld >/dev/null ||
 	exit 0
 fi
 
-# Outputs must be on a shared (here: not node-local) file system, so under
-# out/, not under /tmp.
+# Outputs on one node: under out/ of the checkout, which may itself be
+# under /tmp (a clone in a temporary directory), so the pipelines say
+# `slurm: {shared_outputs: true}`, as a one-node cluster's user would.
 W=out/tmp/slurm-cli
 rm -rf "$W" && mkdir -p "$W"
 S=$(mktemp -d /tmp/voxdag-slurm.XXXXXX)
@@ -28,13 +29,12 @@ fi
 eval "$env"
 pass slurm_starts
 
-# pipeline NAME [YAML lines...]: config/default.yaml with outputs in $W.
+# pipeline NAME [SLURM_KEYS]: config/default.yaml with outputs in $W and
+# `slurm: {shared_outputs: true, SLURM_KEYS}`.
 pipeline() {
-	local name=$1
-	shift
-	sed "s/^name: default/name: $name/" config/default.yaml > "$W/$name.yaml"
-	echo "outputs: $W/$name" >> "$W/$name.yaml"
-	for line in "$@"; do echo "$line" >> "$W/$name.yaml"; done
+	sed "s/^name: default/name: $1/" config/default.yaml > "$W/$1.yaml"
+	echo "outputs: $W/$1" >> "$W/$1.yaml"
+	echo "slurm: {shared_outputs: true${2:+, $2}}" >> "$W/$1.yaml"
 }
 
 # The bytes a run leaves: every chunk, encoding and picture.
@@ -87,8 +87,8 @@ fi
 # --- kill the driver while Slurm holds its jobs, resume ------------------
 # the same pipeline (same bytes expected), its jobs held until released
 $BIN/voxdag clean "$W/same.yaml"
-cp "$W/same.yaml" "$W/resume.yaml"
-echo "slurm: {sbatch_args: [--hold]}" >> "$W/resume.yaml"
+sed 's/^slurm: {shared_outputs: true}$/slurm: {shared_outputs: true, sbatch_args: [--hold]}/' \
+	"$W/same.yaml" > "$W/resume.yaml"
 $BIN/voxdag run "$W/resume.yaml" --executor slurm -q 2>"$T/err1" &
 r=$!
 release_held $r &
@@ -131,7 +131,7 @@ else
 fi
 
 # --- a cancelled job: its reason, its dependents not run -----------------
-pipeline cancel "slurm: {sbatch_args: [--hold]}"
+pipeline cancel "sbatch_args: [--hold]"
 $BIN/voxdag run "$W/cancel.yaml" --executor slurm -q 2>"$T/err" &
 r=$!
 if wait_log "$W/cancel/logs/runner.log" 'submitted voxelize' 30; then
@@ -155,7 +155,7 @@ fi
 
 # --- set-ups refused before anything is submitted ------------------------
 before=$(squeue --me -h | wc -l)
-pipeline badpart "slurm: {partition: nosuch}"
+pipeline badpart "partition: nosuch"
 expect slurm_unknown_partition 1 "partition 'nosuch' does not exist" \
 	$BIN/voxdag run "$W/badpart.yaml" --executor slurm -q
 sed "s/^name: default/name: local/" config/default.yaml > "$W/local.yaml"
@@ -171,9 +171,12 @@ expect slurm_controller_down 1 "controller does not answer" \
 	env SLURM_CONF="$T/down.conf" $BIN/voxdag run "$W/badpart.yaml" --executor slurm -q
 expect slurm_bad_executor 2 "--executor is 'local' or 'slurm'" \
 	$BIN/voxdag run "$W/badpart.yaml" --executor cloud
-pipeline badtime "slurm: {time: {svo-to-dag: soon}}"
+pipeline badtime "time: {svo-to-dag: soon}"
 expect slurm_bad_time_limit 1 "not a Slurm time limit" \
 	$BIN/voxdag run "$W/badtime.yaml" --executor slurm
+sed "s/^slurm: .*/slurm: {shared_outputs: yes}/" "$W/badtime.yaml" > "$W/badshared.yaml"
+expect slurm_bad_shared_outputs 1 "'shared_outputs' is true or false" \
+	$BIN/voxdag run "$W/badshared.yaml" --executor slurm
 after=$(squeue --me -h | wc -l)
 if [ "$after" -eq "$before" ] && [ ! -e "$W/badpart/voxelize" ]; then
 	pass slurm_refusals_submit_nothing
