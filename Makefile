@@ -63,11 +63,15 @@ endif
 # assimp-utils: `assimp export`, which tests/cli/assimp.sh uses to write
 # the test scene again with another glTF writer than ours.
 # pkg-config: tests/cli/install.sh builds examples/ as a user would.
+# libmicrohttpd-dev: `voxdag view`'s HTTP server (pipeline/view.c);
+# chromium, nodejs, npm: the viewer's tests (tests/viewer/), which drive
+# Debian's chromium headless with puppeteer-core from npm (no browser of
+# npm's own is downloaded).
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
                 libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils \
-                pkg-config
+                pkg-config libmicrohttpd-dev chromium nodejs npm
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c stages/lib/*/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc stages/lib/*/*/*.cc)
@@ -179,7 +183,7 @@ $(OUT)/obj/pipeline/%.o: pipeline/%.c pipeline/pipeline.h $(HEADERS)
 # The runner: pipeline/*.c over the library, with libyaml.
 $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
-	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
+	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson -lmicrohttpd $(LDLIBS)
 
 # The runner's job launcher (pipeline/spawn/spawn.c says why): static and
 # libc only, so it is small; no sanitizers, which would make it large and
@@ -214,7 +218,7 @@ TEST_PLAN_OBJ := $(filter-out $(OUT)/obj/pipeline/main.o,$(RUNNER_OBJ))
 $(OUT)/tests/test_plan: $(TEST_PLAN_OBJ) pipeline/pipeline.h
 $(OUT)/tests/test_plan: TEST_OBJ := $(TEST_PLAN_OBJ)
 $(OUT)/tests/test_plan: CPPFLAGS += -Ipipeline
-$(OUT)/tests/test_plan: LDLIBS += -lyaml
+$(OUT)/tests/test_plan: LDLIBS += -lyaml -lmicrohttpd
 
 # Installs missing Debian packages; silent when everything is there.
 deps:
