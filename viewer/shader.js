@@ -1,0 +1,233 @@
+// shader.js - the fragment shader that ray casts a compact encoding
+// (.ssvdag, .esvdag) straight from its words, a port of vd_render_trace()
+// (stages/lib/render/render.c) in float: the same octree DDA with a stack
+// of (address, reflection) per level, the same "pop to the deepest level
+// holding the next cell" step, the same decisions by plane times
+// tp(a, k) = (k - o[a]) * inv[a]. Doubles there, floats here: the two
+// agree except where a ray passes within float rounding of a voxel edge
+// (tests/viewer/ counts those pixels).
+//
+// Two outputs per pixel when ID is defined: RGBA32UI (x, y, z, level) of
+// the hit cell, all 0xffffffff on a miss, as render --voxel-id writes; and
+// RGBA32UI (depth bits, 1 on a hit, 0, 0). Without ID: a shaded colour.
+
+export const vertexSource = `#version 300 es
+in vec2 aPos;
+void main() { gl_Position = vec4(aPos, 0.0, 1.0); }
+`;
+
+export function fragmentSource(ids) {
+  return `#version 300 es
+precision highp float;
+precision highp int;
+precision highp usampler2D;
+${ids ? '#define ID 1' : ''}
+uniform usampler2D uData;
+uniform int uTexWidthLog2;
+uniform int uL;          // levels
+uniform int uCut;        // hit cells of this level (uL: voxels)
+uniform uint uLevelOff[22];
+uniform uint uBrickBase; // word index of the first brick
+uniform vec3 uEye;       // grid coordinates
+uniform vec3 uFwd, uRight, uUp; // unit, world
+uniform float uInvVs;    // 1 / voxel size
+uniform float uTanHalf, uAspect;
+uniform vec2 uSize;      // image size in pixels
+uniform vec3 uLightDir;
+uniform vec2 uOffset;    // this view's lower-left pixel in the canvas
+#ifdef ID
+layout(location = 0) out uvec4 outId;
+layout(location = 1) out uvec4 outDepth;
+#else
+out vec4 outColour;
+#endif
+
+uint word(uint i) {
+  return texelFetch(uData, ivec2(int(i & ((1u << uTexWidthLog2) - 1u)), int(i >> uTexWidthLog2)), 0).r;
+}
+uint u16at(uint i) {
+  uint w = word(i >> 1);
+  return (i & 1u) == 0u ? (w & 0xffffu) : (w >> 16);
+}
+// SymVox mirror bits (bit 0 X, 1 Y, 2 Z) to ours (4 X, 2 Y, 1 Z)
+uint mirror(uint m) { return (m >> 2 & 1u) | (m & 2u) | (m & 1u) << 2; }
+
+// GLSL ES 3.00 has neither bitCount nor findMSB
+uint popcount16(uint x) {
+  x = x - ((x >> 1) & 0x5555u);
+  x = (x & 0x3333u) + ((x >> 2) & 0x3333u);
+  x = (x + (x >> 4)) & 0x0f0fu;
+  return (x + (x >> 8)) & 0x1fu;
+}
+// exact for 0 < x < 2^24: the exponent of float(x)
+int msb(int x) { return int(floatBitsToUint(float(x)) >> 23) - 127; }
+
+float INF() { return uintBitsToFloat(0x7f800000u); }
+float tp(vec3 o, vec3 inv, int a, int k) { return (float(k) - o[a]) * inv[a]; }
+
+uint stackAt[22];
+uint stackRefl[22];
+uint brickLo, brickHi, brickRefl;
+
+bool childSet(int level, uint p, ivec3 clo) {
+  if (level < uL - 2) {
+    uint h = u16at(stackAt[level]);
+    uint s = (p ^ stackRefl[level]) & 7u;
+    return (h >> (2u * s) & 3u) != 0u;
+  }
+  if (level == uL - 2) {
+    uint s = (p ^ brickRefl) & 7u;
+    uint w = (s & 4u) != 0u ? brickHi : brickLo;
+    uint by = s >> 1 & 1u, bz = s & 1u;
+    return (w & (0x00330033u << (8u * by + 2u * bz))) != 0u;
+  }
+  uvec3 v = uvec3(clo & 3);
+  if ((brickRefl & 4u) != 0u) v.x = 3u - v.x;
+  if ((brickRefl & 2u) != 0u) v.y = 3u - v.y;
+  if ((brickRefl & 1u) != 0u) v.z = 3u - v.z;
+  uint bit = 16u * v.x + 4u * v.y + v.z;
+  uint w = bit >= 32u ? brickHi : brickLo;
+  return (w >> (bit & 31u) & 1u) != 0u;
+}
+
+void descend(int level, uint p) {
+  uint at = stackAt[level], refl = stackRefl[level];
+  uint s = (p ^ refl) & 7u;
+  uint h = u16at(at);
+  uint lo = h & 0x5555u, hi = h >> 1 & 0x5555u;
+  uint above = 0xffffu << (2u * s + 2u) & 0xffffu;
+  uint off = at + 1u + popcount16((lo | hi) & above) + popcount16(hi & above);
+  uint tag = h >> (2u * s) & 3u;
+  uint addr, m;
+  if (tag == 1u) {
+    uint w = u16at(off);
+    addr = w & 0x1fffu;
+    m = w >> 13;
+  } else {
+    uint v = u16at(off) << 16 | u16at(off + 1u);
+    addr = (v & 0x1fffffffu) | (tag & 1u) << 29;
+    m = v >> 29;
+  }
+  uint crefl = refl ^ mirror(m);
+  if (level + 1 < uL - 2) {
+    stackAt[level + 1] = uLevelOff[level + 1] + addr;
+    stackRefl[level + 1] = crefl;
+  } else {
+    brickLo = word(uBrickBase + 2u * addr);
+    brickHi = word(uBrickBase + 2u * addr + 1u);
+    brickRefl = crefl;
+  }
+}
+
+// Returns true on a hit: cell on the 2^hitLevel grid, entry time (world
+// units), the face axis (-1: started inside).
+bool trace(vec3 o, vec3 d, out ivec3 cell, out int hitLevel, out float tHit, out int axis) {
+  int L = uL;
+  int N = 1 << L;
+  vec3 inv = vec3(0.0);
+  ivec3 dir = ivec3(0);
+  ivec3 fo = ivec3(0);
+  float t = 0.0;
+  for (int a = 0; a < 3; a++) {
+    if (d[a] != 0.0 && !isinf(1.0 / d[a])) {
+      dir[a] = d[a] > 0.0 ? 1 : -1;
+      inv[a] = 1.0 / d[a];
+      t = max(t, tp(o, inv, a, dir[a] > 0 ? 0 : N));
+    } else {
+      float f = floor(o[a]);
+      if (!(f >= 0.0 && f < float(N))) return false;
+      fo[a] = int(f);
+    }
+  }
+  float tend = INF();
+  for (int a = 0; a < 3; a++)
+    if (dir[a] != 0) tend = min(tend, tp(o, inv, a, dir[a] > 0 ? N : 0));
+  if (!(t < tend)) return false;
+  int level = 0;
+  ivec3 lo = ivec3(0);
+  stackAt[0] = 0u;
+  stackRefl[0] = 0u;
+  for (int iter = 0; iter < 8192; iter++) {
+    int half_ = 1 << (L - level - 1);
+    uint p = 0u;
+    ivec3 clo;
+    for (int a = 0; a < 3; a++) {
+      int mid = lo[a] + half_;
+      bool up = dir[a] > 0 ? tp(o, inv, a, mid) <= t :
+                dir[a] < 0 ? tp(o, inv, a, mid) > t : fo[a] >= mid;
+      p |= uint(up) << (2 - a);
+      clo[a] = up ? mid : lo[a];
+    }
+    if (childSet(level, p, clo)) {
+      if (level + 1 >= uCut) {
+        float tin = -INF();
+        int ax = -1;
+        for (int a = 0; a < 3; a++) {
+          if (dir[a] == 0) continue;
+          float near = tp(o, inv, a, dir[a] > 0 ? clo[a] : clo[a] + half_);
+          if (near > tin) { tin = near; ax = a; }
+        }
+        if (tin < 0.0) { tHit = 0.0; axis = -1; } else { tHit = tin; axis = ax; }
+        cell = clo >> (L - level - 1);
+        hitLevel = level + 1;
+        return true;
+      }
+      if (level < L - 2) descend(level, p);
+      level++;
+      lo = clo;
+      continue;
+    }
+    vec3 far = vec3(INF());
+    float tx = INF();
+    for (int a = 0; a < 3; a++) {
+      if (dir[a] != 0) far[a] = tp(o, inv, a, dir[a] > 0 ? clo[a] + half_ : clo[a]);
+      tx = min(tx, far[a]);
+    }
+    if (isinf(tx)) return false;
+    int diff = 0;
+    ivec3 nc = clo;
+    for (int a = 0; a < 3; a++) {
+      if (far[a] == tx) {
+        nc[a] = dir[a] > 0 ? clo[a] + half_ : clo[a] - 1;
+        if (nc[a] < 0 || nc[a] >= N) return false;
+        diff |= nc[a] ^ clo[a];
+      }
+    }
+    int nl = L - msb(diff) - 1;
+    level = min(level, nl);
+    int cmask = ~((1 << (L - level)) - 1);
+    lo = nc & cmask;
+    t = tx;
+  }
+  return false;
+}
+
+void main() {
+  vec2 px = gl_FragCoord.xy - uOffset; // x from the left, y from the bottom
+  // render's pixel (x, ytop) centre: u = 2(x+0.5)/W - 1, v = 1 - 2(ytop+0.5)/H
+  float u = (2.0 * px.x / uSize.x - 1.0) * uTanHalf * uAspect;
+  float v = (2.0 * px.y / uSize.y - 1.0) * uTanHalf;
+  vec3 dw = normalize(uFwd + u * uRight + v * uUp);
+  vec3 dg = dw * uInvVs;
+  ivec3 cell; int lev; float th; int axis;
+  bool hit = trace(uEye, dg, cell, lev, th, axis);
+#ifdef ID
+  if (hit) {
+    outId = uvec4(uvec3(cell), uint(lev));
+    outDepth = uvec4(floatBitsToUint(th), 1u, 0u, 0u);
+  } else {
+    outId = uvec4(0xffffffffu);
+    outDepth = uvec4(floatBitsToUint(INF()), 0u, 0u, 0u);
+  }
+#else
+  if (!hit) { outColour = vec4(0.12, 0.13, 0.16, 1.0); return; }
+  vec3 n = vec3(0.0);
+  if (axis >= 0) n[axis] = dg[axis] > 0.0 ? -1.0 : 1.0; else n = -dw;
+  float lambert = max(dot(n, normalize(uLightDir)), 0.0);
+  vec3 base = vec3(0.75);
+  vec3 c = base * (0.25 + 0.75 * lambert);
+  outColour = vec4(pow(c, vec3(1.0 / 2.2)), 1.0);
+#endif
+}
+`;
+}
