@@ -535,7 +535,12 @@ int view_main(int argc, char **argv)
 	pthread_mutex_init(&s.lock, NULL);
 	struct stat st;
 	char dir[1024];
-	if (stat(arg, &st) == 0 && S_ISDIR(st.st_mode)) {
+	if (stat(arg, &st) != 0) {
+		fprintf(stderr, "voxdag: cannot serve '%s': %s\n", arg,
+			strerror(errno));
+		return 1;
+	}
+	if (S_ISDIR(st.st_mode)) {
 		snprintf(dir, sizeof dir, "%s", arg);
 		const char *b = strrchr(arg, '/');
 		snprintf(s.name, sizeof s.name, "%s", b && b[1] ? b + 1 : arg);

@@ -1,0 +1,159 @@
+#!/usr/bin/env bash
+# voxdag view and the browser viewer: the server serves only what is under
+# the output directory and the page's own files (no '..', encoded or not,
+# no hidden files, no directories), honours ranges, refuses a damaged
+# encoding; headless Debian chromium on the page reads back the id and
+# depth buffers for three cameras and they equal render's (but for at
+# most 0.05% of the hit pixels, rays grazing voxel edges in float).
+set -u
+cd "$(dirname "$0")/../.."
+. tests/cli/lib.sh
+
+# ---- the server (needs only curl)
+cat > "$T/bunny.yaml" <<EOF
+version: 1
+name: vbunny
+input: {mesh: $PWD/tests/data/bunny.ply}
+levels: 8
+chunk_level: 1
+outputs: $T/scene
+resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
+jobs:
+  vox:    {stage: voxelize}
+  svdag:  {stage: svo-to-dag, needs: [vox]}
+  ssvdag: {stage: symmetry-merge, needs: [svdag]}
+  encode: {stage: encode, needs: [svdag, ssvdag]}
+EOF
+"$BIN/voxdag" run "$T/bunny.yaml" -q || { fail viewer_pipeline "voxdag run failed"; exit 1; }
+
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done; rm -rf "$T"; }
+trap cleanup EXIT
+
+# serve NAME ARGS...: starts voxdag view on a free port; sets URL
+serve() {
+	local name=$1
+	shift
+	"$BIN/voxdag" view "$@" --port 0 > "$T/$name.url" 2> "$T/$name.err" &
+	pids+=($!)
+	for _ in $(seq 50); do
+		[ -s "$T/$name.url" ] && break
+		sleep 0.1
+	done
+	URL=$(head -1 "$T/$name.url")
+}
+serve main "$T/bunny.yaml"
+ENC=encode/$(ls "$T/scene/encode" | grep '\.ssvdag$')
+code() { curl -s --path-as-is -o "$T/body" -w '%{http_code}' "$@"; }
+
+[[ "$URL" =~ ^http://127\.0\.0\.1:[0-9]+/$ ]] && pass view_prints_url ||
+	fail view_prints_url "got '$URL'" "$(cat "$T/main.err")"
+[ "$(code "$URL")" = 200 ] && grep -q '<canvas' "$T/body" && pass view_serves_page ||
+	fail view_serves_page
+ct=$(curl -s -o /dev/null -w '%{content_type}' "${URL}viewer.js")
+[[ "$ct" == text/javascript* ]] && pass view_js_content_type ||
+	fail view_js_content_type "Content-Type '$ct'"
+[ "$(code "${URL}data/$ENC")" = 200 ] && cmp -s "$T/body" "$T/scene/$ENC" &&
+	pass view_serves_encoding || fail view_serves_encoding
+[ "$(code "${URL}scene.json")" = 200 ] && grep -q "\"$ENC\"" "$T/body" &&
+	pass view_scene_lists_encodings || fail view_scene_lists_encodings "$(head -c 300 "$T/body")"
+echo secret > "$T/secret"
+ln -s "$T/secret" "$T/scene/encode/link" 2>/dev/null
+bad=0
+for p in "data/../secret" "data/%2e%2e/secret" "data/%2E%2E/secret" \
+	 "data/encode/..%2f..%2fsecret" "data/encode%2f..%2f..%2fsecret" \
+	 "../secret" "%2e%2e/secret" "data/encode/link" "data/.lock" \
+	 "data/encode" "data/encode/" "data/" "data//etc/passwd" \
+	 "data/%2fetc%2fpasswd" "..%2fREADME.md" "data/encode/.%2e/.%2e/secret"; do
+	c=$(code "$URL$p")
+	if [ "$c" = 200 ] || grep -q secret "$T/body"; then
+		bad=1
+		echo "  $p answered $c" >&2
+	fi
+done
+rm -f "$T/scene/encode/link"
+[ $bad = 0 ] && pass view_no_traversal || fail view_no_traversal
+[ "$(code "${URL}data/encode/missing.ssvdag")" = 404 ] && pass view_missing_404 ||
+	fail view_missing_404
+size=$(stat -c %s "$T/scene/$ENC")
+c=$(curl -s -D "$T/hdr" -o "$T/body" -w '%{http_code}' -H 'Range: bytes=100-199' "${URL}data/$ENC")
+[ "$c" = 206 ] && [ "$(stat -c %s "$T/body")" = 100 ] &&
+	grep -qi "content-range: bytes 100-199/$size" "$T/hdr" &&
+	cmp -s "$T/body" <(tail -c +101 "$T/scene/$ENC" | head -c 100) &&
+	pass view_range || fail view_range "code $c" "$(cat "$T/hdr")"
+c=$(curl -s -o "$T/body" -w '%{http_code}' -H 'Range: bytes=-10' "${URL}data/$ENC")
+[ "$c" = 206 ] && cmp -s "$T/body" <(tail -c 10 "$T/scene/$ENC") &&
+	pass view_range_suffix || fail view_range_suffix "code $c"
+[ "$(code -H "Range: bytes=$size-" "${URL}data/$ENC")" = 416 ] &&
+	pass view_range_unsatisfiable || fail view_range_unsatisfiable
+expect view_port_busy 1 'cannot listen on 127\.0\.0\.1:[0-9]+: Address already in use' \
+	"$BIN/voxdag" view "$T/scene" --port "$(echo "$URL" | sed 's|.*:\([0-9]*\)/|\1|')"
+expect view_no_dir 1 "cannot serve '$T/nothere'" "$BIN/voxdag" view "$T/nothere" --port 0
+expect view_bad_port 2 'not a port' "$BIN/voxdag" view "$T/scene" --port 70000
+
+# --help lists exactly the options of view.c's table
+codeopts=$(grep -oE '^\s*\{"[a-z-]+", (no|required|optional)_argument' pipeline/view.c |
+	grep -oE '"[a-z-]+"' | tr -d '"' | sort -u)
+helpopts=$("$BIN/voxdag" view --help | grep -oE -- '--[a-z][a-z-]+' | sed 's/^--//' | sort -u)
+[ "$codeopts" = "$helpopts" ] && pass view_help_matches_code ||
+	fail view_help_matches_code "code: $(echo $codeopts)" "help: $(echo $helpopts)"
+
+# a damaged copy: one byte changed (the manifest's checksum catches it),
+# one truncated, and a truncated file without a manifest (the page's own
+# reader catches it)
+cp -r "$T/scene" "$T/bad"
+rm -f "$T/bad/.lock"
+cp "$T/scene/$ENC" "$T/bad/encode/cut.ssvdag"
+mkdir "$T/bad/loose"
+head -c 1000 "$T/scene/$ENC" > "$T/bad/loose/short.ssvdag"
+printf '\x55' | dd of="$T/bad/$ENC" bs=1 seek=300 conv=notrunc status=none
+truncate -s 5000 "$T/bad/encode/cut.ssvdag"
+serve bad "$T/bad"
+BADURL=$URL
+[ "$(code "${BADURL}data/$ENC")" = 409 ] && grep -q 'checksum\|XXH3\|differ\|changed' "$T/body" &&
+	pass view_refuses_damaged || fail view_refuses_damaged "$(cat "$T/body")"
+
+# ---- the page in headless chromium
+if ! command -v node >/dev/null || ! [ -x /usr/bin/chromium ]; then
+	echo "SKIP viewer_chromium (node or /usr/bin/chromium missing: make deps)"
+	exit 0
+fi
+if ! [ -d tests/viewer/node_modules/puppeteer-core ]; then
+	PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix tests/viewer --no-audit --no-fund \
+		>/dev/null 2>"$T/npm.err" || {
+		echo "SKIP viewer_chromium (npm ci failed: $(head -1 "$T/npm.err"))"
+		exit 0
+	}
+fi
+
+# three cameras on the bunny (bounding box about (-0.095, 0.033, -0.062)
+# .. (0.061, 0.187, 0.059)): front, a high oblique one, a close-up
+# inside the box's corner region
+cat > "$T/cam1.json" <<EOF
+{"eye": [-0.017, 0.11, 0.45], "target": [-0.017, 0.11, 0.0], "up": [0, 1, 0], "fov": 40, "width": 256, "height": 192}
+EOF
+cat > "$T/cam2.json" <<EOF
+{"eye": [0.25, 0.3, 0.2], "target": [-0.01, 0.1, -0.003], "up": [0, 1, 0], "fov": 35, "width": 256, "height": 192}
+EOF
+cat > "$T/cam3.json" <<EOF
+{"eye": [-0.2, 0.12, -0.12], "target": [-0.03, 0.09, 0.0], "up": [0.1, 1, 0], "fov": 50, "width": 256, "height": 192}
+EOF
+cases=
+for k in 1 2 3; do
+	"$BIN/render" "$T/scene/$ENC" --camera-file "$T/cam$k.json" -o "$T/r$k.png" \
+		--voxel-id "$T/r$k.vid" --depth "$T/r$k.pfm" -q -S ||
+		fail viewer_render_cam$k
+	cases="$cases{\"name\": \"viewer_bunny_cam$k\", \"file\": \"$ENC\", \"camera\": \"$T/cam$k.json\", \"ids\": \"$T/r$k.vid\", \"depth\": \"$T/r$k.pfm\"},"
+done
+cat > "$T/spec.json" <<EOF
+{"url": "$(head -1 "$T/main.url")", "maxMismatch": 0.0005, "cases": [${cases%,}]}
+EOF
+cat > "$T/spec-bad.json" <<EOF
+{"url": "$BADURL", "cases": [
+ {"name": "viewer_shows_damaged", "file": "$ENC", "expectError": "409"},
+ {"name": "viewer_shows_truncated", "file": "encode/cut.ssvdag", "expectError": "409"},
+ {"name": "viewer_shows_bad_file", "file": "loose/short.ssvdag", "expectError": "truncated"},
+ {"name": "viewer_shows_missing", "file": "encode/none.ssvdag", "expectError": "404"}]}
+EOF
+timeout 120 node tests/viewer/compare.mjs "$T/spec.json" || fail viewer_compare "node exited $?"
+timeout 60 node tests/viewer/compare.mjs "$T/spec-bad.json" || fail viewer_errors "node exited $?"
