@@ -7,6 +7,14 @@
  *   /scene.json        generated: the scene's name and every file the
  *                      manifests of the output's subdirectories list
  *   /data/DIR/FILE     a file of the output directory
+ *   /colours/DIR/FILE  a colour source of the output directory (colorize's
+ *                      colours.raw/.vbr/.palette, or voxelize's directory
+ *                      of colour chunks) decoded by the library into the
+ *                      scene's colour array, 3 bytes (R, G, B) per voxel
+ *                      in Morton order: the page looks colours up in it
+ *                      through per-node voxel counts. Decoding here means
+ *                      every method the library reads (and any it will)
+ *                      reaches the page without a decoder of its own.
  * Nothing else is reachable: every path component must be a plain name
  * (no "", ".", "..", no leading '.', so no hidden files such as .lock),
  * the resolved path (symlinks followed) must stay under the served
@@ -415,6 +423,50 @@ static enum MHD_Result serve_scene(struct server *s, struct MHD_Connection *c)
 	return ret;
 }
 
+/* The colour array of the source at `path` (checked by
+ * vd_colour_source_open against its manifest or SVO chunks), or 409 with
+ * the reason. */
+static enum MHD_Result serve_colours(struct MHD_Connection *c, const char *path)
+{
+	struct vd_colour_source src = {0};
+	if (vd_colour_source_open(&src, path)) {
+		char msg[600];
+		snprintf(msg, sizeof msg, "cannot read colours: %s\n",
+			 vd_error_detail());
+		vd_colour_source_release(&src);
+		return reply_text(c, MHD_HTTP_CONFLICT, msg);
+	}
+	if (src.voxels > ((uint64_t)1 << 31) / 3) {
+		vd_colour_source_release(&src);
+		return reply_text(c, MHD_HTTP_CONFLICT,
+				  "cannot read colours: more than 2^31 bytes\n");
+	}
+	size_t n = (size_t)src.voxels;
+	uint8_t *rgb = malloc(3 * n + 1);
+	if (!rgb) {
+		vd_colour_source_release(&src);
+		return reply_text(c, MHD_HTTP_INTERNAL_SERVER_ERROR,
+				  "out of memory\n");
+	}
+	for (size_t i = 0; i < n; i++)
+		src.get(&src, i, rgb + 3 * i);
+	char levels[16];
+	snprintf(levels, sizeof levels, "%d", src.levels);
+	vd_colour_source_release(&src);
+	struct MHD_Response *r = MHD_create_response_from_buffer(
+		3 * n, rgb, MHD_RESPMEM_MUST_FREE);
+	if (!r) {
+		free(rgb);
+		return MHD_NO;
+	}
+	MHD_add_response_header(r, "Content-Type", "application/octet-stream");
+	MHD_add_response_header(r, "Cache-Control", "no-store");
+	MHD_add_response_header(r, "X-Voxdag-Levels", levels);
+	enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_OK, r);
+	MHD_destroy_response(r);
+	return ret;
+}
+
 static enum MHD_Result handle(void *cls, struct MHD_Connection *c,
 			      const char *url, const char *method,
 			      const char *version, const char *upload_data,
@@ -436,7 +488,7 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c,
 		return reply_text(c, MHD_HTTP_BAD_REQUEST, "bad path\n");
 	const char *rel = url + 1;
 	const char *root = s->static_root;
-	int check = 0;
+	int check = 0, colours = 0;
 	if (!*rel)
 		rel = "index.html";
 	else if (!strcmp(rel, "scene.json"))
@@ -445,6 +497,10 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c,
 		rel += 5;
 		root = s->data_root;
 		check = 1;
+	} else if (!strncmp(rel, "colours/", 8)) {
+		rel += 8;
+		root = s->data_root;
+		colours = 1;
 	} else if (strchr(rel, '/')) {
 		return reply_text(c, MHD_HTTP_NOT_FOUND, "not found\n");
 	}
@@ -454,6 +510,8 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c,
 		return reply_text(c, MHD_HTTP_FORBIDDEN, "forbidden\n");
 	if (status)
 		return reply_text(c, MHD_HTTP_NOT_FOUND, "not found\n");
+	if (colours)
+		return serve_colours(c, path);
 	return serve_file(s, c, path, check);
 }
 

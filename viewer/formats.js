@@ -69,12 +69,16 @@ function decodeCompact(buf, name, format) {
   }
   if (n < 1) fail(name, 'no root node');
   const innerWords = (n + 1) >> 1;
-  const words = new Uint32Array(innerWords + b / 4);
+  // the per-node voxel counts after the bricks, one word per u16 of the
+  // inner array (at each node's first u16), filled by voxelCounts()
+  const words = new Uint32Array(innerWords + b / 4 + n);
   const src = new Uint8Array(buf);
   // the inner u16 array at byte 40, the bricks after it: copy byte-wise
   // into a fresh buffer (40 + 2n need not be 4-aligned)
   new Uint8Array(words.buffer, 0, 2 * n).set(src.subarray(40, 40 + 2 * n));
   new Uint8Array(words.buffer, 4 * innerWords, b).set(src.subarray(leafAt + 4, leafAt + 4 + b));
+  const countBase = innerWords + b / 4;
+  const voxels = voxelCounts(name, words, n, innerWords, b / 8, levelOffsets, h.levels, countBase);
   return {
     format,
     name,
@@ -82,10 +86,67 @@ function decodeCompact(buf, name, format) {
     ...placement(h),
     words,
     brickBase: innerWords,
+    countBase,
+    voxels,
     levelOffsets,
     countedBytes: 2 * n + b + 4 * (h.levels - 2),
     bricks: b / 8,
   };
+}
+
+function popcount32(x) {
+  x -= (x >>> 1) & 0x55555555;
+  x = (x & 0x33333333) + ((x >>> 2) & 0x33333333);
+  return (((x + (x >>> 4)) & 0x0f0f0f0f) * 0x01010101) >>> 24;
+}
+
+// Voxels below every inner node (colour paper section 3: a voxel's colour
+// index is the sum of its preceding siblings' counts along its path; the
+// shader sums them). One pass per level from the deepest inner level up:
+// a node's children are on the next level (counts already known) or are
+// bricks (popcounts). Reflections move voxels, never add any, so a count
+// per stored node is enough. Also checks that every pointer lands inside
+// its level, so the shader never reads beyond what was checked. Returns
+// the root's count: the scene's voxels.
+function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countBase) {
+  const inner = new Uint16Array(words.buffer, 0, n);
+  const brickCount = (a) => popcount32(words[innerWords + 2 * a]) + popcount32(words[innerWords + 2 * a + 1]);
+  for (let l = L - 3; l >= 0; l--) {
+    const start = levelOffsets[l], end = l + 1 < L - 2 ? levelOffsets[l + 1] : n;
+    const nextStart = l + 1 < L - 2 ? levelOffsets[l + 1] : 0;
+    const nextEnd = l + 2 < L - 2 ? levelOffsets[l + 2] : n;
+    let i = start;
+    while (i < end) {
+      const h = inner[i];
+      if (h === 0 && !(l === 0 && n === 1)) fail(name, `empty node at ${i} on level ${l}`);
+      let at = i + 1, sum = 0;
+      for (let c = 7; c >= 0; c--) {
+        const tag = (h >> (2 * c)) & 3;
+        if (!tag) continue;
+        let addr;
+        if (tag === 1) {
+          if (at >= end) fail(name, `node at ${i} on level ${l} runs past its level`);
+          addr = inner[at] & 0x1fff;
+          at += 1;
+        } else {
+          if (at + 1 >= end) fail(name, `node at ${i} on level ${l} runs past its level`);
+          addr = (((inner[at] << 16) | inner[at + 1]) & 0x1fffffff) + (tag & 1) * 2 ** 29;
+          at += 2;
+        }
+        if (l + 1 < L - 2) {
+          if (nextStart + addr >= nextEnd) fail(name, `a pointer of level ${l} leaves level ${l + 1}`);
+          sum += words[countBase + nextStart + addr];
+        } else {
+          if (addr >= bricks) fail(name, `a pointer of level ${l} to brick ${addr} of ${bricks}`);
+          sum += brickCount(addr);
+        }
+      }
+      if (sum > 0xffffffff) fail(name, 'more than 2^32 voxels: too large for this viewer');
+      words[countBase + i] = sum;
+      i = at;
+    }
+  }
+  return words[countBase];
 }
 
 export const decoders = {

@@ -28,6 +28,10 @@ uniform int uL;          // levels
 uniform int uCut;        // hit cells of this level (uL: voxels)
 uniform uint uLevelOff[22];
 uniform uint uBrickBase; // word index of the first brick
+uniform uint uCountBase; // word index of the voxel counts
+uniform sampler2D uColours; // the colour array, 4096 wide (RGB)
+uniform int uHasColours;
+uniform int uShade;      // 0: the voxel's colour as it is (tests)
 uniform vec3 uEye;       // grid coordinates
 uniform vec3 uFwd, uRight, uUp; // unit, world
 uniform float uInvVs;    // 1 / voxel size
@@ -69,6 +73,21 @@ uint stackAt[22];
 uint stackRefl[22];
 uint brickLo, brickHi, brickRefl;
 
+uint popcount32(uint x) {
+  x = x - ((x >> 1) & 0x55555555u);
+  x = (x & 0x33333333u) + ((x >> 2) & 0x33333333u);
+  return (((x + (x >> 4)) & 0x0f0f0f0fu) * 0x01010101u) >> 24;
+}
+
+bool brickVoxel(uvec3 v) { // logical coordinates in the current brick
+  if ((brickRefl & 4u) != 0u) v.x = 3u - v.x;
+  if ((brickRefl & 2u) != 0u) v.y = 3u - v.y;
+  if ((brickRefl & 1u) != 0u) v.z = 3u - v.z;
+  uint bit = 16u * v.x + 4u * v.y + v.z;
+  uint w = bit >= 32u ? brickHi : brickLo;
+  return (w >> (bit & 31u) & 1u) != 0u;
+}
+
 bool childSet(int level, uint p, ivec3 clo) {
   if (level < uL - 2) {
     uint h = u16at(stackAt[level]);
@@ -81,34 +100,32 @@ bool childSet(int level, uint p, ivec3 clo) {
     uint by = s >> 1 & 1u, bz = s & 1u;
     return (w & (0x00330033u << (8u * by + 2u * bz))) != 0u;
   }
-  uvec3 v = uvec3(clo & 3);
-  if ((brickRefl & 4u) != 0u) v.x = 3u - v.x;
-  if ((brickRefl & 2u) != 0u) v.y = 3u - v.y;
-  if ((brickRefl & 1u) != 0u) v.z = 3u - v.z;
-  uint bit = 16u * v.x + 4u * v.y + v.z;
-  uint w = bit >= 32u ? brickHi : brickLo;
-  return (w >> (bit & 31u) & 1u) != 0u;
+  return brickVoxel(uvec3(clo & 3));
+}
+
+// The pointer of stored slot s (present) of the node at "at" with header
+// h: the address relative to the child's level, *m our reflection bits.
+uint pointerAt(uint at, uint h, uint s, out uint m) {
+  uint lo = h & 0x5555u, hi = h >> 1 & 0x5555u;
+  uint above = 0xffffu << (2u * s + 2u) & 0xffffu;
+  uint off = at + 1u + popcount16((lo | hi) & above) + popcount16(hi & above);
+  uint tag = h >> (2u * s) & 3u;
+  if (tag == 1u) {
+    uint w = u16at(off);
+    m = mirror(w >> 13);
+    return w & 0x1fffu;
+  }
+  uint v = u16at(off) << 16 | u16at(off + 1u);
+  m = mirror(v >> 29);
+  return (v & 0x1fffffffu) | (tag & 1u) << 29;
 }
 
 void descend(int level, uint p) {
   uint at = stackAt[level], refl = stackRefl[level];
   uint s = (p ^ refl) & 7u;
-  uint h = u16at(at);
-  uint lo = h & 0x5555u, hi = h >> 1 & 0x5555u;
-  uint above = 0xffffu << (2u * s + 2u) & 0xffffu;
-  uint off = at + 1u + popcount16((lo | hi) & above) + popcount16(hi & above);
-  uint tag = h >> (2u * s) & 3u;
-  uint addr, m;
-  if (tag == 1u) {
-    uint w = u16at(off);
-    addr = w & 0x1fffu;
-    m = w >> 13;
-  } else {
-    uint v = u16at(off) << 16 | u16at(off + 1u);
-    addr = (v & 0x1fffffffu) | (tag & 1u) << 29;
-    m = v >> 29;
-  }
-  uint crefl = refl ^ mirror(m);
+  uint m;
+  uint addr = pointerAt(at, u16at(at), s, m);
+  uint crefl = refl ^ m;
   if (level + 1 < uL - 2) {
     stackAt[level + 1] = uLevelOff[level + 1] + addr;
     stackRefl[level + 1] = crefl;
@@ -117,6 +134,48 @@ void descend(int level, uint p) {
     brickHi = word(uBrickBase + 2u * addr + 1u);
     brickRefl = crefl;
   }
+}
+
+// The colour index of the first voxel of the hit cell (cell on the
+// 2^lev grid): the voxels of the preceding logical siblings summed down
+// its path (vd_voxcount_index), counts read at the stored nodes.
+uint colourIndex(ivec3 cell, int lev) {
+  int L = uL;
+  ivec3 v = cell << (L - lev);
+  uint idx = 0u, at = 0u, refl = 0u;
+  int top = min(lev, L - 2);
+  for (int level = 0; level < top; level++) {
+    int sh = L - level - 1;
+    uint p = uint((v.x >> sh & 1) << 2 | (v.y >> sh & 1) << 1 | (v.z >> sh & 1));
+    uint h = u16at(at);
+    for (uint q = 0u; q < p; q++) {
+      uint s = (q ^ refl) & 7u;
+      if ((h >> (2u * s) & 3u) == 0u) continue;
+      uint m;
+      uint a = pointerAt(at, h, s, m);
+      if (level + 1 < L - 2) idx += word(uCountBase + uLevelOff[level + 1] + a);
+      else idx += popcount32(word(uBrickBase + 2u * a)) + popcount32(word(uBrickBase + 2u * a + 1u));
+    }
+    uint m;
+    uint a = pointerAt(at, h, (p ^ refl) & 7u, m);
+    refl ^= m;
+    if (level + 1 < L - 2) {
+      at = uLevelOff[level + 1] + a;
+    } else {
+      brickLo = word(uBrickBase + 2u * a);
+      brickHi = word(uBrickBase + 2u * a + 1u);
+      brickRefl = refl;
+    }
+  }
+  if (lev > L - 2) { // inside the brick: its set voxels before v in Morton order
+    uvec3 lv = uvec3(v & 3);
+    uint mv = (lv.x >> 1) << 5 | (lv.y >> 1) << 4 | (lv.z >> 1) << 3 | (lv.x & 1u) << 2 | (lv.y & 1u) << 1 | (lv.z & 1u);
+    for (uint k = 0u; k < mv; k++) {
+      uvec3 u = uvec3((k >> 5 & 1u) << 1 | (k >> 2 & 1u), (k >> 4 & 1u) << 1 | (k >> 1 & 1u), (k >> 3 & 1u) << 1 | (k & 1u));
+      if (brickVoxel(u)) idx++;
+    }
+  }
+  return idx;
 }
 
 // Returns true on a hit: cell on the 2^hitLevel grid, entry time (world
@@ -223,9 +282,16 @@ void main() {
   if (!hit) { outColour = vec4(0.12, 0.13, 0.16, 1.0); return; }
   vec3 n = vec3(0.0);
   if (axis >= 0) n[axis] = dg[axis] > 0.0 ? -1.0 : 1.0; else n = -dw;
+  vec3 base = vec3(0.82, 0.76, 0.66); // render's grey (linear)
+  if (uHasColours != 0) {
+    uint i = colourIndex(cell, lev);
+    vec3 srgb = texelFetch(uColours, ivec2(int(i & 4095u), int(i >> 12)), 0).rgb;
+    if (uShade == 0) { outColour = vec4(srgb, 1.0); return; }
+    base = pow(srgb, vec3(2.2));
+  }
   float lambert = max(dot(n, normalize(uLightDir)), 0.0);
-  vec3 base = vec3(0.75);
-  vec3 c = base * (0.25 + 0.75 * lambert);
+  float sky = 0.5 + 0.5 * n.y;
+  vec3 c = base * (0.10 + 0.12 * sky + 0.80 * lambert);
   outColour = vec4(pow(c, vec3(1.0 / 2.2)), 1.0);
 #endif
 }

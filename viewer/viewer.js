@@ -92,6 +92,40 @@ class Renderer {
     return { tex, wlog };
   }
 
+  // A sampler2D must have a float texture bound even when unused.
+  noColours() {
+    if (!this.blank) {
+      const gl = this.gl;
+      this.blank = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, this.blank);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, 1, 1, 0, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    }
+    return this.blank;
+  }
+
+  // Uploads a colour array (3 bytes per voxel) as an RGB8 texture 4096
+  // wide, which the shader indexes by the voxel's colour index.
+  uploadColours(rgb, name) {
+    const gl = this.gl;
+    const n = rgb.length / 3, width = 4096;
+    const rows = Math.max(1, Math.ceil(n / width));
+    if (width > this.maxTex || rows > this.maxTex)
+      throw new Error(`${name}: ${n} colours need a ${width} x ${rows} texture; ` +
+        `this GPU allows ${this.maxTex} x ${this.maxTex} (MAX_TEXTURE_SIZE): too many to view here`);
+    const data = new Uint8Array(3 * width * rows);
+    data.set(rgb);
+    const tex = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB8, width, rows, 0, gl.RGB, gl.UNSIGNED_BYTE, data);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    const err = gl.getError();
+    if (err) throw new Error(`${name}: colour upload failed (GL error ${err}); the GPU may be out of memory`);
+    return { tex };
+  }
+
   setUniforms(p, view, cam, w, h, offset) {
     const gl = this.gl;
     const s = view.scene;
@@ -107,6 +141,12 @@ class Renderer {
     s.levelOffsets.forEach((o, i) => { offs[i] = o; });
     gl.uniform1uiv(u('uLevelOff'), offs);
     gl.uniform1ui(u('uBrickBase'), s.brickBase);
+    gl.uniform1ui(u('uCountBase'), s.countBase);
+    gl.activeTexture(gl.TEXTURE1);
+    gl.bindTexture(gl.TEXTURE_2D, view.colours ? view.colours.tex : this.noColours());
+    gl.uniform1i(u('uColours'), 1);
+    gl.uniform1i(u('uHasColours'), view.colours ? 1 : 0);
+    gl.uniform1i(u('uShade'), this.shade === false ? 0 : 1);
     gl.uniform3fv(u('uEye'), scale(sub(cam.eye, s.origin), 1 / s.voxelSize));
     gl.uniform3fv(u('uFwd'), f.fwd);
     gl.uniform3fv(u('uRight'), f.right);
@@ -218,7 +258,35 @@ function defaultCamera(s) {
   return { eye: add(centre, [0, 0, dist]), target: centre, up: [0, 1, 0], fov: 40 };
 }
 
-async function loadView(path) {
+// The colour sources scene.json lists: colorize's files (colours.*) and
+// voxelize's directories of colour chunks (*.col).
+function colourSources(files) {
+  const out = new Set();
+  for (const f of files) {
+    if (/(^|\/)colours\.[a-z0-9]+$/.test(f.path)) out.add(f.path);
+    else if (/\.col$/.test(f.path)) out.add(f.path.replace(/\/[^/]+$/, ''));
+  }
+  return [...out];
+}
+
+// The colour array of `path` as the server decodes it with the library
+// (every method the library reads), checked against the scene.
+async function loadColours(path, scene) {
+  const r = await fetch('colours/' + path);
+  if (!r.ok) {
+    const why = (await r.text()).trim();
+    throw new Error(`cannot load colours ${path}: ${r.status} ${r.statusText}${why ? ': ' + why : ''}`);
+  }
+  const levels = Number(r.headers.get('X-Voxdag-Levels'));
+  const rgb = new Uint8Array(await r.arrayBuffer());
+  if (levels !== scene.header.levels)
+    throw new Error(`colours ${path} were made at depth ${levels}, the scene has depth ${scene.header.levels}`);
+  if (rgb.length !== 3 * scene.voxels)
+    throw new Error(`colours ${path} cover ${rgb.length / 3} voxels, the scene has ${scene.voxels}`);
+  return state.renderer.uploadColours(rgb, path);
+}
+
+async function loadView(path, coloursPath) {
   const fmt = formatOf(path);
   if (!fmt) throw new Error(`${path}: not an encoding this viewer reads (.ssvdag, .esvdag)`);
   const t0 = performance.now();
@@ -226,17 +294,9 @@ async function loadView(path) {
     status(`loading ${path}: ${(got / 2 ** 20).toFixed(1)}${total ? ' of ' + (total / 2 ** 20).toFixed(1) : ''} MB`));
   const scene = decoders[fmt](buf, path);
   const gpu = state.renderer.upload(scene);
-  const loadMs = performance.now() - t0;
-  let voxels = null;
-  const statsPath = path.replace(/[^/]+$/, '') ;
-  const statsFile = state.scene.files.find((f) => f.path.startsWith(statsPath) && f.path.endsWith('.encode.stats.json'));
-  if (statsFile) {
-    try {
-      const st = await (await fetch('data/' + statsFile.path)).json();
-      voxels = st.voxels;
-    } catch (e) { /* statistics are optional */ }
-  }
-  return { path, scene, gpu, cut: scene.header.levels, loadMs, voxels, bytes: buf.byteLength };
+  const colours = coloursPath ? await loadColours(coloursPath, scene) : null;
+  return { path, scene, gpu, colours, cut: scene.header.levels, loadMs: performance.now() - t0,
+    voxels: scene.voxels, bytes: buf.byteLength };
 }
 
 function statsText(v) {
@@ -328,10 +388,13 @@ function setupInput(canvas) {
 }
 
 // ------------------------------------------------------------------- main
-async function showViews(paths) {
-  state.views.forEach((v) => state.renderer.gl.deleteTexture(v.gpu.tex));
+async function showViews(paths, coloursPath) {
+  state.views.forEach((v) => {
+    state.renderer.gl.deleteTexture(v.gpu.tex);
+    if (v.colours) state.renderer.gl.deleteTexture(v.colours.tex);
+  });
   state.views = [];
-  for (const p of paths) state.views.push(await loadView(p));
+  for (const p of paths) state.views.push(await loadView(p, coloursPath));
   const first = state.views[0];
   if (!state.cam) state.cam = defaultCamera(first.scene);
   const slider = $('cut');
@@ -367,13 +430,22 @@ async function main() {
   }
   pick2.add(new Option('(none)', ''), 0);
   pick2.value = '';
+  const pickC = $('colours');
+  pickC.add(new Option('(grey)', ''));
+  for (const c of colourSources(state.scene.files)) pickC.add(new Option(c, c));
+  if (params.get('colours')) {
+    if (![...pickC.options].some((o) => o.value === params.get('colours')))
+      pickC.add(new Option(params.get('colours'), params.get('colours')));
+    pickC.value = params.get('colours');
+  }
   const chosen = () => [pick.value, pick2.value].filter(Boolean);
   const wanted = params.get('file');
   if (wanted) pick.value = wanted;
   if (params.get('file2')) pick2.value = params.get('file2');
-  const reload = () => showViews(chosen()).catch(showError);
+  const reload = () => showViews(chosen(), pickC.value).catch(showError);
   pick.onchange = reload;
   pick2.onchange = reload;
+  pickC.onchange = reload;
   $('cut').oninput = () => {
     const c = Number($('cut').value);
     state.views.forEach((v) => { v.cut = c; });
@@ -389,7 +461,7 @@ async function main() {
   });
   $('reset').onclick = () => { state.cam = defaultCamera(state.views[0].scene); redraw(); };
   setupInput(canvas);
-  await showViews(wanted && !encodings.includes(wanted) ? [wanted] : chosen());
+  await showViews(wanted && !encodings.includes(wanted) ? [wanted] : chosen(), pickC.value);
 }
 
 function showError(e) {
@@ -407,6 +479,21 @@ window.voxdag = {
     const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };
     const r = state.renderer.readBack(state.views[viewIndex], c, cam.width, cam.height);
     return { ids: Array.from(r.ids), depth: Array.from(r.depth, (x) => (Number.isFinite(x) ? x : null)), ms: r.ms };
+  },
+  // The voxels' own colours (no shading) of view 0 for cam, RGB rows from
+  // the top, drawn into the canvas (sized by the URL's size=WxH).
+  colourImage(cam) {
+    const r = state.renderer, gl = r.gl;
+    const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };
+    r.shade = false;
+    r.draw(state.views[0], c, 0, 0, cam.width, cam.height);
+    r.shade = true;
+    const px = new Uint8Array(4 * cam.width * cam.height);
+    gl.readPixels(0, 0, cam.width, cam.height, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    const out = [];
+    for (let y = cam.height - 1; y >= 0; y--)
+      for (let x = 0; x < cam.width; x++) out.push(px[4 * (y * cam.width + x)], px[4 * (y * cam.width + x) + 1], px[4 * (y * cam.width + x) + 2]);
+    return out;
   },
   setCamera(cam) {
     state.cam = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };

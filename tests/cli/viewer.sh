@@ -155,5 +155,36 @@ cat > "$T/spec-bad.json" <<EOF
  {"name": "viewer_shows_bad_file", "file": "loose/short.ssvdag", "expectError": "truncated"},
  {"name": "viewer_shows_missing", "file": "encode/none.ssvdag", "expectError": "404"}]}
 EOF
+# the spider with colorize's raw colours, served as a directory: the ids
+# and depths again, and each hit pixel of render's picture must be the
+# page's colour for that voxel times one shading factor
+M=tests/data/spider/spider.obj
+mkdir -p "$T/spider"
+"$BIN/voxelize" $M -o "$T/spider/vox" --levels 8 -q &&
+	"$BIN/svo-to-dag" "$T/spider/vox/chunk-L0-0.svo" -o "$T/sp.dag" -q &&
+	"$BIN/symmetry-merge" "$T/sp.dag" -o "$T/sp.ssvdag" -q &&
+	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" -o "$T/spider/enc" -q &&
+	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/raw" --method raw -q ||
+	fail viewer_spider_build
+"$BIN/voxelize" tests/data/bunny.ply -o "$T/spider/vox-bunny" --levels 8 -q
+serve spider "$T/spider"
+SPURL=$URL
+SPENC=enc/$(ls "$T/spider/enc" | grep '\.ssvdag$')
+# the spider's box: about (-93, -42, -107) .. (58, 38, 87)
+echo '{"eye": [-17, 60, 300], "target": [-17, -2, -10], "up": [0, 1, 0], "fov": 45, "width": 256, "height": 192}' > "$T/sc1.json"
+echo '{"eye": [160, 140, 170], "target": [-17, -2, -10], "up": [0, 1, 0], "fov": 45, "width": 256, "height": 192}' > "$T/sc2.json"
+echo '{"eye": [-260, -20, 60], "target": [-17, -2, -10], "up": [0, 1, 0.1], "fov": 40, "width": 256, "height": 192}' > "$T/sc3.json"
+spcases=
+for k in 1 2 3; do
+	"$BIN/render" "$T/spider/$SPENC" --camera-file "$T/sc$k.json" -o "$T/s$k.png" \
+		--voxel-id "$T/s$k.vid" --depth "$T/s$k.pfm" -q -C "$T/spider/raw/colours.raw" ||
+		fail viewer_render_spider$k
+	spcases="$spcases{\"name\": \"viewer_spider_cam$k\", \"file\": \"$SPENC\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc$k.json\", \"ids\": \"$T/s$k.vid\", \"depth\": \"$T/s$k.pfm\", \"png\": \"$T/s$k.png\"},"
+done
+cat > "$T/spec-spider.json" <<EOF
+{"url": "$SPURL", "maxMismatch": 0.0005, "maxColourOff": 0.01, "cases": [$spcases
+ {"name": "viewer_refuses_other_colours", "file": "$SPENC", "colours": "vox-bunny", "expectError": "colours"}]}
+EOF
 timeout 120 node tests/viewer/compare.mjs "$T/spec.json" || fail viewer_compare "node exited $?"
 timeout 60 node tests/viewer/compare.mjs "$T/spec-bad.json" || fail viewer_errors "node exited $?"
+timeout 120 node tests/viewer/compare.mjs "$T/spec-spider.json" || fail viewer_spider "node exited $?"
