@@ -64,14 +64,14 @@ endif
 # the test scene again with another glTF writer than ours.
 # pkg-config: tests/cli/install.sh builds examples/ as a user would.
 # libmicrohttpd-dev: `voxdag view`'s HTTP server (pipeline/view.c);
-# chromium, nodejs, npm: the viewer's tests (tests/viewer/), which drive
-# Debian's chromium headless with puppeteer-core from npm (no browser of
-# npm's own is downloaded).
+# chromium, nodejs, npm, curl: the viewer's tests (tests/cli/viewer.sh,
+# tests/viewer/), which drive Debian's chromium headless with
+# puppeteer-core from npm (no browser of npm's own is downloaded).
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
                 libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils \
-                pkg-config libmicrohttpd-dev chromium nodejs npm
+                pkg-config libmicrohttpd-dev chromium nodejs npm curl
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c stages/lib/*/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc stages/lib/*/*/*.cc)
@@ -88,7 +88,7 @@ HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h stages/lib/*/*/*.h) $(wil
 ALL_BINS := $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn \
             $(OUT)/bin/voxelize-vdb $(OUT)/bin/voxelize-assimp
 
-.PHONY: all run pipeline test test-build test-build-release \
+.PHONY: all run pipeline test test-build test-build-release viewer-test-deps \
 	test-build-sanitize bench deps clean tests fuzz fuzz-build lib install \
 	uninstall
 .DEFAULT_GOAL := all
@@ -301,8 +301,20 @@ test: deps
 # builds share one job server and keep every core busy (each has long
 # compiles, io/vdb*.cc, that would otherwise leave a core idle).
 test-build: test-build-release test-build-sanitize fuzz-build
-test-build-release:
+test-build-release: viewer-test-deps
 	@$(MAKE) --no-print-directory all lib $(OUT)/tests/fs_shutdown
+
+# The viewer's test dependencies (puppeteer-core, pngjs) at the versions
+# of tests/viewer/package-lock.json; never a browser of npm's own
+# (PUPPETEER_SKIP_DOWNLOAD): the tests drive Debian's /usr/bin/chromium.
+# Without npm (make deps not run) tests/cli/viewer.sh says SKIP.
+VIEWER_NPM := tests/viewer/node_modules/.package-lock.json
+viewer-test-deps: $(VIEWER_NPM)
+$(VIEWER_NPM): tests/viewer/package-lock.json tests/viewer/package.json
+	@if command -v npm >/dev/null; then \
+		PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix tests/viewer --no-audit \
+			--no-fund --loglevel=error >/dev/null && touch $@; \
+	else echo "make: no npm for the viewer's tests (make deps installs it)"; fi
 test-build-sanitize:
 	@$(MAKE) --no-print-directory config=sanitize all tests
 

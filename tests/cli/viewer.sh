@@ -26,6 +26,9 @@ jobs:
 EOF
 "$BIN/voxdag" run "$T/bunny.yaml" -q || { fail viewer_pipeline "voxdag run failed"; exit 1; }
 
+grep -q "voxdag view $T/bunny.yaml" "$T/scene/report.md" && pass view_report_links ||
+	fail view_report_links "no 'voxdag view' line in report.md"
+
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done; rm -rf "$T"; }
 trap cleanup EXIT
