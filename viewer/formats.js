@@ -149,10 +149,75 @@ function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countB
   return words[countBase];
 }
 
+// .svdag and .ussvdag: 32-bit words, a header word (child mask, and for
+// .ussvdag the mirror bits per child at 8/16/24 for X/Y/Z) then absolute
+// pointers, highest child first; level L-1 nodes are one mask word.
+// Texture words: the file's words, then a voxel count per word (at each
+// node's header), filled by one depth-first walk that also checks every
+// pointer lands after its parent and inside the file.
+function decodeWords(buf, name, format) {
+  const dv = new DataView(buf);
+  const h = header(dv, name);
+  if (h.levels < 1 || h.levels > 21) fail(name, `levels ${h.levels} not in 1..21`);
+  if (dv.byteLength < 44) fail(name, 'truncated before the words');
+  const w = dv.getUint32(40, true);
+  if (44 + 4 * w > dv.byteLength) fail(name, `truncated: ${w} words do not fit`);
+  if (44 + 4 * w < dv.byteLength) fail(name, `${dv.byteLength - 44 - 4 * w} trailing bytes`);
+  if (w < 1) fail(name, 'no root node');
+  if (h.levels < 2) fail(name, 'a scene of one 2x2x2 node: nothing to view');
+  const words = new Uint32Array(2 * w);
+  new Uint8Array(words.buffer, 0, 4 * w).set(new Uint8Array(buf, 44, 4 * w));
+  const L = h.levels, plain = format === 'svdag';
+  const done = new Uint8Array(w);
+  const count = (at, level) => {
+    if (done[at]) return words[w + at];
+    const hw = words[at], mask = hw & 0xff;
+    if (!mask && !(at === 0 && w === 1)) fail(name, `empty node at word ${at}`);
+    let sum = 0;
+    if (level === L - 1) {
+      if (hw >>> 8) fail(name, `bits above the mask of leaf word ${at}`);
+      for (let c = 0; c < 8; c++) sum += (mask >> c) & 1;
+    } else {
+      if (plain && hw >>> 8) fail(name, `mirror bits in the plain header at word ${at}`);
+      let k = 1;
+      for (let c = 7; c >= 0; c--) {
+        if (!((mask >> c) & 1)) continue;
+        const pi = at + k++;
+        if (pi >= w) fail(name, `node at word ${at} runs past the file`);
+        const child = words[pi];
+        if (child <= pi || child >= w) fail(name, `pointer at word ${pi} out of order or beyond the file`);
+        sum += count(child, level + 1);
+      }
+    }
+    if (sum > 0xffffffff) fail(name, 'more than 2^32 voxels: too large for this viewer');
+    done[at] = 1;
+    words[w + at] = sum;
+    return sum;
+  };
+  const voxels = count(0, 0);
+  return {
+    format,
+    name,
+    header: h,
+    ...placement(h),
+    words,
+    brickBase: 0,
+    countBase: w,
+    levelOffsets: [],
+    voxels,
+    countedBytes: 4 * w,
+  };
+}
+
 export const decoders = {
   ssvdag: (buf, name) => decodeCompact(buf, name, 'ssvdag'),
   esvdag: (buf, name) => decodeCompact(buf, name, 'esvdag'),
+  svdag: (buf, name) => decodeWords(buf, name, 'svdag'),
+  ussvdag: (buf, name) => decodeWords(buf, name, 'ussvdag'),
 };
+
+// 0: compact (16-bit nodes, bricks), 1: 32-bit words; the shader's uFormat
+export const layoutOf = (scene) => (scene.format === 'svdag' || scene.format === 'ussvdag' ? 1 : 0);
 
 export function formatOf(path) {
   const m = /\.([a-z0-9]+)$/.exec(path);

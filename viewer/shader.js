@@ -29,6 +29,7 @@ uniform int uCut;        // hit cells of this level (uL: voxels)
 uniform uint uLevelOff[22];
 uniform uint uBrickBase; // word index of the first brick
 uniform uint uCountBase; // word index of the voxel counts
+uniform int uFormat;     // 0: compact (.ssvdag, .esvdag), 1: words (.svdag, .ussvdag)
 uniform sampler2D uColours; // the colour array, 4096 wide (RGB)
 uniform int uHasColours;
 uniform int uShade;      // 0: the voxel's colour as it is (tests)
@@ -88,7 +89,20 @@ bool brickVoxel(uvec3 v) { // logical coordinates in the current brick
   return (w >> (bit & 31u) & 1u) != 0u;
 }
 
+uint popcount8(uint x) { return popcount16(x & 0xffu); }
+
+// .svdag/.ussvdag: the child pointer of stored slot s of the node at "at"
+// (header h) and its mirror bits in our order.
+uint wordChild(uint at, uint h, uint s, out uint m) {
+  m = (h >> (8u + s) & 1u) << 2 | (h >> (16u + s) & 1u) << 1 | (h >> (24u + s) & 1u);
+  return word(at + popcount8((h & 0xffu) >> s));
+}
+
 bool childSet(int level, uint p, ivec3 clo) {
+  if (uFormat == 1) {
+    uint s = (p ^ stackRefl[level]) & 7u;
+    return (word(stackAt[level]) >> s & 1u) != 0u;
+  }
   if (level < uL - 2) {
     uint h = u16at(stackAt[level]);
     uint s = (p ^ stackRefl[level]) & 7u;
@@ -122,6 +136,12 @@ uint pointerAt(uint at, uint h, uint s, out uint m) {
 
 void descend(int level, uint p) {
   uint at = stackAt[level], refl = stackRefl[level];
+  if (uFormat == 1) {
+    uint m;
+    stackAt[level + 1] = wordChild(at, word(at), (p ^ refl) & 7u, m);
+    stackRefl[level + 1] = refl ^ m;
+    return;
+  }
   uint s = (p ^ refl) & 7u;
   uint m;
   uint addr = pointerAt(at, u16at(at), s, m);
@@ -143,6 +163,25 @@ uint colourIndex(ivec3 cell, int lev) {
   int L = uL;
   ivec3 v = cell << (L - lev);
   uint idx = 0u, at = 0u, refl = 0u;
+  if (uFormat == 1) {
+    for (int level = 0; level < lev; level++) {
+      int sh = L - level - 1;
+      uint p = uint((v.x >> sh & 1) << 2 | (v.y >> sh & 1) << 1 | (v.z >> sh & 1));
+      uint h = word(at), m;
+      if (level == L - 1) { // the leaf mask: its voxels before p
+        for (uint q = 0u; q < p; q++) idx += h >> ((q ^ refl) & 7u) & 1u;
+        break;
+      }
+      for (uint q = 0u; q < p; q++) {
+        uint s = (q ^ refl) & 7u;
+        if ((h >> s & 1u) == 0u) continue;
+        idx += word(uCountBase + wordChild(at, h, s, m));
+      }
+      at = wordChild(at, h, (p ^ refl) & 7u, m);
+      refl ^= m;
+    }
+    return idx;
+  }
   int top = min(lev, L - 2);
   for (int level = 0; level < top; level++) {
     int sh = L - level - 1;
@@ -231,7 +270,7 @@ bool trace(vec3 o, vec3 d, out ivec3 cell, out int hitLevel, out float tHit, out
         hitLevel = level + 1;
         return true;
       }
-      if (level < L - 2) descend(level, p);
+      if (level < L - 2 || (uFormat == 1 && level < L - 1)) descend(level, p);
       level++;
       lo = clo;
       continue;

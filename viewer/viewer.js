@@ -3,7 +3,7 @@
 // slider, side-by-side views, statistics, screenshots. window.voxdag is
 // the page's interface for tests/viewer/ (readBack with a camera file's
 // camera gives render --voxel-id's and --depth's buffers).
-import { decoders, formatOf, FormatError } from './formats.js';
+import { decoders, formatOf, layoutOf, FormatError } from './formats.js';
 import { vertexSource, fragmentSource } from './shader.js';
 
 const $ = (id) => document.getElementById(id);
@@ -142,6 +142,7 @@ class Renderer {
     gl.uniform1uiv(u('uLevelOff'), offs);
     gl.uniform1ui(u('uBrickBase'), s.brickBase);
     gl.uniform1ui(u('uCountBase'), s.countBase);
+    gl.uniform1i(u('uFormat'), layoutOf(s));
     gl.activeTexture(gl.TEXTURE1);
     gl.bindTexture(gl.TEXTURE_2D, view.colours ? view.colours.tex : this.noColours());
     gl.uniform1i(u('uColours'), 1);
@@ -288,7 +289,7 @@ async function loadColours(path, scene) {
 
 async function loadView(path, coloursPath) {
   const fmt = formatOf(path);
-  if (!fmt) throw new Error(`${path}: not an encoding this viewer reads (.ssvdag, .esvdag)`);
+  if (!fmt) throw new Error(`${path}: not an encoding this viewer reads (.ssvdag, .esvdag, .svdag, .ussvdag)`);
   const t0 = performance.now();
   const buf = await fetchWithProgress('data/' + path, (got, total) =>
     status(`loading ${path}: ${(got / 2 ** 20).toFixed(1)}${total ? ' of ' + (total / 2 ** 20).toFixed(1) : ''} MB`));
@@ -420,7 +421,7 @@ async function main() {
   document.title = `voxdag view: ${state.scene.name}`;
   $('title').textContent = state.scene.name;
   const encodings = state.scene.files.filter((f) => formatOf(f.path)).map((f) => f.path);
-  if (!encodings.length) throw new Error('the output directory has no .ssvdag or .esvdag encoding yet: run the pipeline first');
+  if (!encodings.length) throw new Error('the output directory has no encoding this viewer reads (.ssvdag, .esvdag, .svdag, .ussvdag) yet: run the pipeline first');
   // .ssvdag first: the smallest the pipeline writes
   encodings.sort((a, b) => (b.endsWith('.ssvdag') - a.endsWith('.ssvdag')) || a.localeCompare(b));
   const pick = $('file'), pick2 = $('file2');

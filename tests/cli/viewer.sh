@@ -184,6 +184,10 @@ for k in 1 2 3; do
 		fail viewer_render_spider$k
 	spcases="$spcases{\"name\": \"viewer_spider_cam$k\", \"file\": \"$SPENC\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc$k.json\", \"ids\": \"$T/s$k.vid\", \"depth\": \"$T/s$k.pfm\", \"png\": \"$T/s$k.png\"},"
 done
+# the word encodings too (one camera each)
+for f in svdag ussvdag; do
+	spcases="$spcases{\"name\": \"viewer_spider_$f\", \"file\": \"${SPENC%.ssvdag}.$f\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/s2.png\"},"
+done
 cat > "$T/spec-spider.json" <<EOF
 {"url": "$SPURL", "maxMismatch": 0.0005, "maxColourOff": 0.01, "cases": [$spcases
  {"name": "viewer_refuses_other_colours", "file": "$SPENC", "colours": "vox-bunny", "expectError": "colours"}]}
