@@ -141,18 +141,26 @@ static const char *content_type(const char *path)
 	return "application/octet-stream";
 }
 
-static enum MHD_Result reply_text(struct MHD_Connection *c, unsigned status,
-				  const char *text)
+/* Queues r (NULL: allocation failed) as the answer with its type, never
+ * cached (the pipeline may rewrite any file), and releases it. */
+static enum MHD_Result send_response(struct MHD_Connection *c, unsigned status,
+				     struct MHD_Response *r, const char *type)
 {
-	struct MHD_Response *r = MHD_create_response_from_buffer(
-		strlen(text), (void *)text, MHD_RESPMEM_MUST_COPY);
 	if (!r)
 		return MHD_NO;
-	MHD_add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+	MHD_add_response_header(r, "Content-Type", type);
 	MHD_add_response_header(r, "Cache-Control", "no-store");
 	enum MHD_Result ret = MHD_queue_response(c, status, r);
 	MHD_destroy_response(r);
 	return ret;
+}
+
+static enum MHD_Result reply_text(struct MHD_Connection *c, unsigned status,
+				  const char *text)
+{
+	return send_response(c, status, MHD_create_response_from_buffer(
+		strlen(text), (void *)text, MHD_RESPMEM_MUST_COPY),
+		"text/plain; charset=utf-8");
 }
 
 /* 1 when `path` (under the data root) may be served: no manifest beside
@@ -267,13 +275,10 @@ static enum MHD_Result serve_file(struct server *s, struct MHD_Connection *c,
 			snprintf(cr, sizeof cr, "bytes */%" PRIu64, size);
 			struct MHD_Response *r = MHD_create_response_from_buffer(
 				0, NULL, MHD_RESPMEM_PERSISTENT);
-			if (!r)
-				return MHD_NO;
-			MHD_add_response_header(r, "Content-Range", cr);
-			enum MHD_Result ret = MHD_queue_response(
-				c, MHD_HTTP_RANGE_NOT_SATISFIABLE, r);
-			MHD_destroy_response(r);
-			return ret;
+			if (r)
+				MHD_add_response_header(r, "Content-Range", cr);
+			return send_response(c, MHD_HTTP_RANGE_NOT_SATISFIABLE,
+					     r, "text/plain; charset=utf-8");
 		}
 		status = MHD_HTTP_PARTIAL_CONTENT;
 	}
@@ -284,18 +289,14 @@ static enum MHD_Result serve_file(struct server *s, struct MHD_Connection *c,
 		close(fd);
 		return MHD_NO;
 	}
-	MHD_add_response_header(r, "Content-Type", content_type(path));
 	MHD_add_response_header(r, "Accept-Ranges", "bytes");
-	MHD_add_response_header(r, "Cache-Control", "no-store");
 	if (status == MHD_HTTP_PARTIAL_CONTENT) {
 		char cr[96];
 		snprintf(cr, sizeof cr, "bytes %" PRIu64 "-%" PRIu64 "/%" PRIu64,
 			 lo, hi, size);
 		MHD_add_response_header(r, "Content-Range", cr);
 	}
-	enum MHD_Result ret = MHD_queue_response(c, status, r);
-	MHD_destroy_response(r);
-	return ret;
+	return send_response(c, status, r, content_type(path));
 }
 
 /* Appends s to the growing buffer as a JSON string. */
@@ -412,15 +413,9 @@ static enum MHD_Result serve_scene(struct server *s, struct MHD_Connection *c)
 	}
 	struct MHD_Response *r = MHD_create_response_from_buffer(
 		len, buf, MHD_RESPMEM_MUST_FREE);
-	if (!r) {
+	if (!r)
 		free(buf);
-		return MHD_NO;
-	}
-	MHD_add_response_header(r, "Content-Type", "application/json");
-	MHD_add_response_header(r, "Cache-Control", "no-store");
-	enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_OK, r);
-	MHD_destroy_response(r);
-	return ret;
+	return send_response(c, MHD_HTTP_OK, r, "application/json");
 }
 
 /* The colour array of the source at `path` (checked by
@@ -455,16 +450,11 @@ static enum MHD_Result serve_colours(struct MHD_Connection *c, const char *path)
 	vd_colour_source_release(&src);
 	struct MHD_Response *r = MHD_create_response_from_buffer(
 		3 * n, rgb, MHD_RESPMEM_MUST_FREE);
-	if (!r) {
+	if (!r)
 		free(rgb);
-		return MHD_NO;
-	}
-	MHD_add_response_header(r, "Content-Type", "application/octet-stream");
-	MHD_add_response_header(r, "Cache-Control", "no-store");
-	MHD_add_response_header(r, "X-Voxdag-Levels", levels);
-	enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_OK, r);
-	MHD_destroy_response(r);
-	return ret;
+	else
+		MHD_add_response_header(r, "X-Voxdag-Levels", levels);
+	return send_response(c, MHD_HTTP_OK, r, "application/octet-stream");
 }
 
 static enum MHD_Result handle(void *cls, struct MHD_Connection *c,

@@ -12,6 +12,14 @@ function fail(name, what) {
   throw new FormatError(`${name}: ${what}`);
 }
 
+// The 36-byte common header of `buf` with levels in minLevels..21.
+function start(buf, name, minLevels) {
+  const dv = new DataView(buf);
+  const h = header(dv, name);
+  if (h.levels < minLevels || h.levels > 21) fail(name, `levels ${h.levels} not in ${minLevels}..21`);
+  return { dv, h };
+}
+
 // The 36-byte common header.
 function header(dv, name) {
   if (dv.byteLength < 36) fail(name, `truncated: ${dv.byteLength} bytes, the header alone is 36`);
@@ -39,14 +47,18 @@ function placement(h) {
   return { origin, voxelSize: h.rootSide / 2 ** h.levels };
 }
 
+// What every decoder returns: the format, the file's name and header,
+// the grid's placement, the texture words, and the layout's own fields.
+function described(format, name, h, words, layout) {
+  return { format, name, header: h, ...placement(h), words, ...layout };
+}
+
 // .ssvdag (and .esvdag, the same layout without mirror bits): u16 inner
 // nodes, 8-byte bricks, level offsets. Texture words: the inner array as
 // u32 (two u16 per word, the lower index in the low half, as the file's
 // little-endian bytes), then the bricks, two words each.
 function decodeCompact(buf, name, format) {
-  const dv = new DataView(buf);
-  const h = header(dv, name);
-  if (h.levels < 3 || h.levels > 21) fail(name, `levels ${h.levels} not in 3..21`);
+  const { dv, h } = start(buf, name, 3);
   if (dv.byteLength < 40) fail(name, 'truncated before inner_count');
   const n = dv.getUint32(36, true);
   const leafAt = 40 + 2 * n;
@@ -79,19 +91,14 @@ function decodeCompact(buf, name, format) {
   new Uint8Array(words.buffer, 4 * innerWords, b).set(src.subarray(leafAt + 4, leafAt + 4 + b));
   const countBase = innerWords + b / 4;
   const voxels = voxelCounts(name, words, n, innerWords, b / 8, levelOffsets, h.levels, countBase);
-  return {
-    format,
-    name,
-    header: h,
-    ...placement(h),
-    words,
+  return described(format, name, h, words, {
     brickBase: innerWords,
     countBase,
     voxels,
     levelOffsets,
     countedBytes: 2 * n + b + 4 * (h.levels - 2),
     bricks: b / 8,
-  };
+  });
 }
 
 function popcount32(x) {
@@ -156,9 +163,7 @@ function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countB
 // node's header), filled by one depth-first walk that also checks every
 // pointer lands after its parent and inside the file.
 function decodeWords(buf, name, format) {
-  const dv = new DataView(buf);
-  const h = header(dv, name);
-  if (h.levels < 1 || h.levels > 21) fail(name, `levels ${h.levels} not in 1..21`);
+  const { dv, h } = start(buf, name, 1);
   if (dv.byteLength < 44) fail(name, 'truncated before the words');
   const w = dv.getUint32(40, true);
   if (44 + 4 * w > dv.byteLength) fail(name, `truncated: ${w} words do not fit`);
@@ -195,18 +200,13 @@ function decodeWords(buf, name, format) {
     return sum;
   };
   const voxels = count(0, 0);
-  return {
-    format,
-    name,
-    header: h,
-    ...placement(h),
-    words,
+  return described(format, name, h, words, {
     brickBase: 0,
     countBase: w,
     levelOffsets: [],
     voxels,
     countedBytes: 4 * w,
-  };
+  });
 }
 
 export const decoders = {

@@ -81,15 +81,25 @@ class Renderer {
         `this GPU allows ${this.maxTex} x ${this.maxTex} (MAX_TEXTURE_SIZE): too large to view here`);
     const data = new Uint32Array(width * rows);
     data.set(scene.words);
+    const tex = this.texture(gl.R32UI, gl.RED_INTEGER, gl.UNSIGNED_INT, width, rows, data, scene.name);
+    return { tex, wlog };
+  }
+
+  // A nearest-sampled 2D texture of width x rows texels from data.
+  texture(internal, format, type, width, rows, data, name) {
+    const gl = this.gl;
     const tex = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_2D, tex);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
-    gl.texImage2D(gl.TEXTURE_2D, 0, gl.R32UI, width, rows, 0, gl.RED_INTEGER, gl.UNSIGNED_INT, data);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, internal, width, rows, 0, format, type, data);
     const err = gl.getError();
-    if (err) throw new Error(`${scene.name}: texture upload failed (GL error ${err}); the GPU may be out of memory`);
-    return { tex, wlog };
+    if (err) {
+      gl.deleteTexture(tex);
+      throw new Error(`${name}: texture upload failed (GL error ${err}); the GPU may be out of memory`);
+    }
+    return tex;
   }
 
   // A sampler2D must have a float texture bound even when unused.
@@ -114,16 +124,7 @@ class Renderer {
         `this GPU allows ${this.maxTex} x ${this.maxTex} (MAX_TEXTURE_SIZE): too many to view here`);
     const data = new Uint8Array(3 * width * rows);
     data.set(rgb);
-    const tex = gl.createTexture();
-    gl.bindTexture(gl.TEXTURE_2D, tex);
-    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB8, width, rows, 0, gl.RGB, gl.UNSIGNED_BYTE, data);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
-    const err = gl.getError();
-    if (err) throw new Error(`${name}: colour upload failed (GL error ${err}); the GPU may be out of memory`);
-    return { tex };
+    return { tex: this.texture(gl.RGB8, gl.RGB, gl.UNSIGNED_BYTE, width, rows, data, name) };
   }
 
   setUniforms(p, view, cam, w, h, offset) {

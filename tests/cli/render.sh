@@ -74,18 +74,19 @@ expect camera_file_size_wins 0 '' $R "$M/enc/bunny.ssvdag" -o "$T/camf2.png" \
 	fail camera_file_size_flag
 expect camera_file_missing 1 "cannot read camera file '$T/nocam.json': No such file" \
 	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/nocam.json"
-echo '{"eye": [0, 0, 1], "target": [0, 0' > "$T/cam_bad.json"
-expect camera_file_malformed 1 "cannot read camera file '$T/cam_bad.json': line [0-9]+:" \
-	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam_bad.json"
-echo '{"target": [0, 0, 0]}' > "$T/cam_noeye.json"
-expect camera_file_no_eye 1 'no "eye"' \
-	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam_noeye.json"
-echo '{"eye": [0, 0, 1], "target": [0, 0, 0], "fov": 0}' > "$T/cam_fov.json"
-expect camera_file_fov 1 'field of view 0' \
-	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam_fov.json"
-echo '{"eye": [0, 0, 1], "target": [0, 0, 0], "width": 0}' > "$T/cam_w.json"
-expect camera_file_width 1 '"width" is not a number of pixels' \
-	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam_w.json"
+# NAME|JSON|the error's pattern: one line, exit 1 each
+while IFS='|' read -r name json pattern; do
+	echo "$json" > "$T/$name.json"
+	expect "$name" 1 "cannot read camera file '$T/$name.json': $pattern" \
+		$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/$name.json"
+done <<'CASES'
+camera_file_malformed|{"eye": [0, 0, 1], "target": [0, 0|line [0-9]+:
+camera_file_no_eye|{"target": [0, 0, 0]}|no "eye"
+camera_file_fov|{"eye": [0, 0, 1], "target": [0, 0, 0], "fov": 0}|field of view 0
+camera_file_width|{"eye": [0, 0, 1], "target": [0, 0, 0], "width": 0}|"width" is not a number of pixels
+camera_file_up|{"eye": [0, 0, 1], "target": [0, 0, 0], "up": [0, 0, 2]}|up vector is parallel
+camera_file_not_object|[1, 2, 3]|not a JSON object
+CASES
 expect camera_file_and_preset 2 'excludes' \
 	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam.json" --camera iso
 expect good_depth_png 0 '' $R "$M/enc/bunny.esvdag" -o "$T/d.png" --size 40x30 \

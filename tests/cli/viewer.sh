@@ -10,20 +10,7 @@ cd "$(dirname "$0")/../.."
 . tests/cli/lib.sh
 
 # ---- the server (needs only curl)
-cat > "$T/bunny.yaml" <<EOF
-version: 1
-name: vbunny
-input: {mesh: $PWD/tests/data/bunny.ply}
-levels: 8
-chunk_level: 1
-outputs: $T/scene
-resources: {jobs: 2, mem_budget: 2GiB, job_mem_budget: 512M}
-jobs:
-  vox:    {stage: voxelize}
-  svdag:  {stage: svo-to-dag, needs: [vox]}
-  ssvdag: {stage: symmetry-merge, needs: [svdag]}
-  encode: {stage: encode, needs: [svdag, ssvdag]}
-EOF
+{ bunny_pipeline vbunny 8 1; echo "outputs: $T/scene"; } > "$T/bunny.yaml"
 "$BIN/voxdag" run "$T/bunny.yaml" -q || { fail viewer_pipeline "voxdag run failed"; exit 1; }
 
 grep -q "voxdag view $T/bunny.yaml" "$T/scene/report.md" && pass view_report_links ||
@@ -46,7 +33,7 @@ serve() {
 	URL=$(head -1 "$T/$name.url")
 }
 serve main "$T/bunny.yaml"
-ENC=encode/$(ls "$T/scene/encode" | grep '\.ssvdag$')
+ENC=enc/$(ls "$T/scene/enc" | grep '\.ssvdag$')
 code() { curl -s --path-as-is -o "$T/body" -w '%{http_code}' "$@"; }
 
 [[ "$URL" =~ ^http://127\.0\.0\.1:[0-9]+/$ ]] && pass view_prints_url ||
@@ -61,22 +48,22 @@ ct=$(curl -s -o /dev/null -w '%{content_type}' "${URL}viewer.js")
 [ "$(code "${URL}scene.json")" = 200 ] && grep -q "\"$ENC\"" "$T/body" &&
 	pass view_scene_lists_encodings || fail view_scene_lists_encodings "$(head -c 300 "$T/body")"
 echo secret > "$T/secret"
-ln -s "$T/secret" "$T/scene/encode/link" 2>/dev/null
+ln -s "$T/secret" "$T/scene/enc/link" 2>/dev/null
 bad=0
 for p in "data/../secret" "data/%2e%2e/secret" "data/%2E%2E/secret" \
-	 "data/encode/..%2f..%2fsecret" "data/encode%2f..%2f..%2fsecret" \
-	 "../secret" "%2e%2e/secret" "data/encode/link" "data/.lock" \
-	 "data/encode" "data/encode/" "data/" "data//etc/passwd" \
-	 "data/%2fetc%2fpasswd" "..%2fREADME.md" "data/encode/.%2e/.%2e/secret"; do
+	 "data/enc/..%2f..%2fsecret" "data/enc%2f..%2f..%2fsecret" \
+	 "../secret" "%2e%2e/secret" "data/enc/link" "data/.lock" \
+	 "data/enc" "data/enc/" "data/" "data//etc/passwd" \
+	 "data/%2fetc%2fpasswd" "..%2fREADME.md" "data/enc/.%2e/.%2e/secret"; do
 	c=$(code "$URL$p")
 	if [ "$c" = 200 ] || grep -q secret "$T/body"; then
 		bad=1
 		echo "  $p answered $c" >&2
 	fi
 done
-rm -f "$T/scene/encode/link"
+rm -f "$T/scene/enc/link"
 [ $bad = 0 ] && pass view_no_traversal || fail view_no_traversal
-[ "$(code "${URL}data/encode/missing.ssvdag")" = 404 ] && pass view_missing_404 ||
+[ "$(code "${URL}data/enc/missing.ssvdag")" = 404 ] && pass view_missing_404 ||
 	fail view_missing_404
 size=$(stat -c %s "$T/scene/$ENC")
 c=$(curl -s -D "$T/hdr" -o "$T/body" -w '%{http_code}' -H 'Range: bytes=100-199' "${URL}data/$ENC")
@@ -106,11 +93,11 @@ helpopts=$("$BIN/voxdag" view --help | grep -oE -- '--[a-z][a-z-]+' | sed 's/^--
 # reader catches it)
 cp -r "$T/scene" "$T/bad"
 rm -f "$T/bad/.lock"
-cp "$T/scene/$ENC" "$T/bad/encode/cut.ssvdag"
+cp "$T/scene/$ENC" "$T/bad/enc/cut.ssvdag"
 mkdir "$T/bad/loose"
 head -c 1000 "$T/scene/$ENC" > "$T/bad/loose/short.ssvdag"
 printf '\x55' | dd of="$T/bad/$ENC" bs=1 seek=300 conv=notrunc status=none
-truncate -s 5000 "$T/bad/encode/cut.ssvdag"
+truncate -s 5000 "$T/bad/enc/cut.ssvdag"
 serve bad "$T/bad"
 BADURL=$URL
 [ "$(code "${BADURL}data/$ENC")" = 409 ] && grep -q 'checksum\|XXH3\|differ\|changed' "$T/body" &&
@@ -154,9 +141,9 @@ EOF
 cat > "$T/spec-bad.json" <<EOF
 {"url": "$BADURL", "cases": [
  {"name": "viewer_shows_damaged", "file": "$ENC", "expectError": "409"},
- {"name": "viewer_shows_truncated", "file": "encode/cut.ssvdag", "expectError": "409"},
+ {"name": "viewer_shows_truncated", "file": "enc/cut.ssvdag", "expectError": "409"},
  {"name": "viewer_shows_bad_file", "file": "loose/short.ssvdag", "expectError": "truncated"},
- {"name": "viewer_shows_missing", "file": "encode/none.ssvdag", "expectError": "404"}]}
+ {"name": "viewer_shows_missing", "file": "enc/none.ssvdag", "expectError": "404"}]}
 EOF
 # the spider with colorize's raw colours, served as a directory: the ids
 # and depths again, and each hit pixel of render's picture must be the
