@@ -83,17 +83,21 @@ function decodeCompact(buf, name, format) {
   const innerWords = (n + 1) >> 1;
   // the per-node voxel counts after the bricks, one word per u16 of the
   // inner array (at each node's first u16), filled by voxelCounts()
-  const words = new Uint32Array(innerWords + b / 4 + n);
+  // .ssvdag48: then the cube group's composition table, 48 x 48 words
+  const g48 = format === 'ssvdag48';
+  const words = new Uint32Array(innerWords + b / 4 + n + (g48 ? 48 * 48 : 0));
   const src = new Uint8Array(buf);
   // the inner u16 array at byte 40, the bricks after it: copy byte-wise
   // into a fresh buffer (40 + 2n need not be 4-aligned)
   new Uint8Array(words.buffer, 0, 2 * n).set(src.subarray(40, 40 + 2 * n));
   new Uint8Array(words.buffer, 4 * innerWords, b).set(src.subarray(leafAt + 4, leafAt + 4 + b));
   const countBase = innerWords + b / 4;
-  const voxels = voxelCounts(name, words, n, innerWords, b / 8, levelOffsets, h.levels, countBase);
+  const voxels = voxelCounts(name, words, n, innerWords, b / 8, levelOffsets, h.levels, countBase, g48);
+  if (g48) words.set(cubeComposition(), countBase + n);
   return described(format, name, h, words, {
     brickBase: innerWords,
     countBase,
+    compBase: countBase + n,
     voxels,
     levelOffsets,
     countedBytes: 2 * n + b + 4 * (h.levels - 2),
@@ -115,7 +119,10 @@ function popcount32(x) {
 // per stored node is enough. Also checks that every pointer lands inside
 // its level, so the shader never reads beyond what was checked. Returns
 // the root's count: the scene's voxels.
-function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countBase) {
+function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countBase, g48) {
+  // pointers (schemas/encodings.md): 13 + 3 or 29 + 3 bits, .ssvdag48
+  // 10 + 6 or 26 + 6 bits with transforms below 48
+  const abits = g48 ? 10 : 13, lbits = g48 ? 26 : 29;
   const inner = new Uint16Array(words.buffer, 0, n);
   const brickCount = (a) => popcount32(words[innerWords + 2 * a]) + popcount32(words[innerWords + 2 * a + 1]);
   for (let l = L - 3; l >= 0; l--) {
@@ -133,11 +140,14 @@ function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countB
         let addr;
         if (tag === 1) {
           if (at >= end) fail(name, `node at ${i} on level ${l} runs past its level`);
-          addr = inner[at] & 0x1fff;
+          addr = inner[at] & ((1 << abits) - 1);
+          if (g48 && inner[at] >>> abits >= 48) fail(name, `transform ${inner[at] >>> abits} >= 48 at ${at}`);
           at += 1;
         } else {
           if (at + 1 >= end) fail(name, `node at ${i} on level ${l} runs past its level`);
-          addr = (((inner[at] << 16) | inner[at + 1]) & 0x1fffffff) + (tag & 1) * 2 ** 29;
+          const v = ((inner[at] << 16) | inner[at + 1]) >>> 0;
+          addr = (v & ((1 << lbits) - 1)) + (tag & 1) * 2 ** lbits;
+          if (g48 && v >>> lbits >= 48) fail(name, `transform ${v >>> lbits} >= 48 at ${at}`);
           at += 2;
         }
         if (l + 1 < L - 2) {
@@ -209,9 +219,33 @@ function decodeWords(buf, name, format) {
   });
 }
 
+// The 48 cube symmetries, t = 8k + m (vd_dag.h, "Cube group"): output
+// axis i takes input axis PERM[k][i], then the axes of m mirrored (bit 2
+// X, bit 1 Y, bit 0 Z) in an n-cube.
+const PERM = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+function cubeApply(t, p, n) {
+  const k = t >> 3, m = t & 7;
+  const q = [p[PERM[k][0]], p[PERM[k][1]], p[PERM[k][2]]];
+  for (let i = 0; i < 3; i++) if ((m >> (2 - i)) & 1) q[i] = n - 1 - q[i];
+  return q;
+}
+
+// comp[48 a + t]: the transform p -> a(t(p)), found by its action on the
+// 2-cube's corners (which tell the 48 apart).
+function cubeComposition() {
+  const corners = [...Array(8).keys()].map((c) => [(c >> 2) & 1, (c >> 1) & 1, c & 1]);
+  const key = (f) => corners.map((p) => f(p).join('')).join(',');
+  const byKey = new Map([...Array(48).keys()].map((c) => [key((p) => cubeApply(c, p, 2)), c]));
+  const comp = new Uint32Array(48 * 48);
+  for (let a = 0; a < 48; a++)
+    for (let t = 0; t < 48; t++) comp[48 * a + t] = byKey.get(key((p) => cubeApply(a, cubeApply(t, p, 2), 2)));
+  return comp;
+}
+
 export const decoders = {
   ssvdag: (buf, name) => decodeCompact(buf, name, 'ssvdag'),
   esvdag: (buf, name) => decodeCompact(buf, name, 'esvdag'),
+  ssvdag48: (buf, name) => decodeCompact(buf, name, 'ssvdag48'),
   svdag: (buf, name) => decodeWords(buf, name, 'svdag'),
   ussvdag: (buf, name) => decodeWords(buf, name, 'ussvdag'),
 };

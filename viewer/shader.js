@@ -30,6 +30,8 @@ uniform uint uLevelOff[22];
 uniform uint uBrickBase; // word index of the first brick
 uniform uint uCountBase; // word index of the voxel counts
 uniform int uFormat;     // 0: compact (.ssvdag, .esvdag), 1: words (.svdag, .ussvdag)
+uniform int uG48;        // .ssvdag48: a reflection is one of the 48 cube symmetries
+uniform uint uCompBase;  // .ssvdag48: word index of the 48 x 48 composition table
 uniform sampler2D uColours; // the colour array, 4096 wide (RGB)
 uniform int uHasColours;
 uniform int uShade;      // 0: the voxel's colour as it is (tests)
@@ -67,6 +69,36 @@ uint popcount16(uint x) {
 // exact for 0 < x < 2^24: the exponent of float(x)
 int msb(int x) { return int(floatBitsToUint(float(x)) >> 23) - 127; }
 
+// The cube symmetry t = 8k + m (formats.js, vd_dag.h): q[i] = p[PERM[k][i]],
+// then the axes of m mirrored. Its inverse on a point q of an n-cube:
+const ivec3 PERM[6] = ivec3[6](ivec3(0, 1, 2), ivec3(0, 2, 1), ivec3(1, 0, 2),
+                               ivec3(1, 2, 0), ivec3(2, 0, 1), ivec3(2, 1, 0));
+uvec3 cubeUnapply(uint t, uvec3 q, uint n) {
+  if ((t & 4u) != 0u) q.x = n - 1u - q.x;
+  if ((t & 2u) != 0u) q.y = n - 1u - q.y;
+  if ((t & 1u) != 0u) q.z = n - 1u - q.z;
+  ivec3 k = PERM[t >> 3];
+  uvec3 p;
+  p[k.x] = q.x;
+  p[k.y] = q.y;
+  p[k.z] = q.z;
+  return p;
+}
+
+// The stored child slot of logical slot p in a node seen through refl.
+uint storedSlot(uint refl, uint p) {
+  if (uG48 == 0) return (p ^ refl) & 7u;
+  uvec3 s = cubeUnapply(refl, uvec3(p >> 2 & 1u, p >> 1 & 1u, p & 1u), 2u);
+  return s.x << 2 | s.y << 1 | s.z;
+}
+
+// The reflection (transform) of a child reached through t from refl.
+uint compose(uint refl, uint t) {
+  if (uG48 == 0) return refl ^ t;
+  return texelFetch(uData, ivec2(int((uCompBase + 48u * refl + t) & ((1u << uTexWidthLog2) - 1u)),
+                                 int((uCompBase + 48u * refl + t) >> uTexWidthLog2)), 0).r;
+}
+
 float INF() { return uintBitsToFloat(0x7f800000u); }
 float tp(vec3 o, vec3 inv, int a, int k) { return (float(k) - o[a]) * inv[a]; }
 
@@ -81,9 +113,13 @@ uint popcount32(uint x) {
 }
 
 bool brickVoxel(uvec3 v) { // logical coordinates in the current brick
-  if ((brickRefl & 4u) != 0u) v.x = 3u - v.x;
-  if ((brickRefl & 2u) != 0u) v.y = 3u - v.y;
-  if ((brickRefl & 1u) != 0u) v.z = 3u - v.z;
+  if (uG48 != 0) {
+    v = cubeUnapply(brickRefl, v, 4u);
+  } else {
+    if ((brickRefl & 4u) != 0u) v.x = 3u - v.x;
+    if ((brickRefl & 2u) != 0u) v.y = 3u - v.y;
+    if ((brickRefl & 1u) != 0u) v.z = 3u - v.z;
+  }
   uint bit = 16u * v.x + 4u * v.y + v.z;
   uint w = bit >= 32u ? brickHi : brickLo;
   return (w >> (bit & 31u) & 1u) != 0u;
@@ -105,11 +141,11 @@ bool childSet(int level, uint p, ivec3 clo) {
   }
   if (level < uL - 2) {
     uint h = u16at(stackAt[level]);
-    uint s = (p ^ stackRefl[level]) & 7u;
+    uint s = storedSlot(stackRefl[level], p);
     return (h >> (2u * s) & 3u) != 0u;
   }
   if (level == uL - 2) {
-    uint s = (p ^ brickRefl) & 7u;
+    uint s = storedSlot(brickRefl, p);
     uint w = (s & 4u) != 0u ? brickHi : brickLo;
     uint by = s >> 1 & 1u, bz = s & 1u;
     return (w & (0x00330033u << (8u * by + 2u * bz))) != 0u;
@@ -124,6 +160,16 @@ uint pointerAt(uint at, uint h, uint s, out uint m) {
   uint above = 0xffffu << (2u * s + 2u) & 0xffffu;
   uint off = at + 1u + popcount16((lo | hi) & above) + popcount16(hi & above);
   uint tag = h >> (2u * s) & 3u;
+  if (uG48 != 0) { // 10 + 6 or 26 + 6 bits, the transform as it is
+    if (tag == 1u) {
+      uint w = u16at(off);
+      m = w >> 10;
+      return w & 0x3ffu;
+    }
+    uint v = u16at(off) << 16 | u16at(off + 1u);
+    m = v >> 26;
+    return (v & 0x3ffffffu) | (tag & 1u) << 26;
+  }
   if (tag == 1u) {
     uint w = u16at(off);
     m = mirror(w >> 13);
@@ -142,10 +188,10 @@ void descend(int level, uint p) {
     stackRefl[level + 1] = refl ^ m;
     return;
   }
-  uint s = (p ^ refl) & 7u;
+  uint s = storedSlot(refl, p);
   uint m;
   uint addr = pointerAt(at, u16at(at), s, m);
-  uint crefl = refl ^ m;
+  uint crefl = compose(refl, m);
   if (level + 1 < uL - 2) {
     stackAt[level + 1] = uLevelOff[level + 1] + addr;
     stackRefl[level + 1] = crefl;
@@ -188,7 +234,7 @@ uint colourIndex(ivec3 cell, int lev) {
     uint p = uint((v.x >> sh & 1) << 2 | (v.y >> sh & 1) << 1 | (v.z >> sh & 1));
     uint h = u16at(at);
     for (uint q = 0u; q < p; q++) {
-      uint s = (q ^ refl) & 7u;
+      uint s = storedSlot(refl, q);
       if ((h >> (2u * s) & 3u) == 0u) continue;
       uint m;
       uint a = pointerAt(at, h, s, m);
@@ -196,8 +242,8 @@ uint colourIndex(ivec3 cell, int lev) {
       else idx += popcount32(word(uBrickBase + 2u * a)) + popcount32(word(uBrickBase + 2u * a + 1u));
     }
     uint m;
-    uint a = pointerAt(at, h, (p ^ refl) & 7u, m);
-    refl ^= m;
+    uint a = pointerAt(at, h, storedSlot(refl, p), m);
+    refl = compose(refl, m);
     if (level + 1 < L - 2) {
       at = uLevelOff[level + 1] + a;
     } else {

@@ -144,6 +144,8 @@ class Renderer {
     gl.uniform1ui(u('uBrickBase'), s.brickBase);
     gl.uniform1ui(u('uCountBase'), s.countBase);
     gl.uniform1i(u('uFormat'), layoutOf(s));
+    gl.uniform1i(u('uG48'), s.format === 'ssvdag48' ? 1 : 0);
+    gl.uniform1ui(u('uCompBase'), s.compBase || 0);
     gl.activeTexture(gl.TEXTURE1);
     gl.bindTexture(gl.TEXTURE_2D, view.colours ? view.colours.tex : this.noColours());
     gl.uniform1i(u('uColours'), 1);
@@ -290,7 +292,7 @@ async function loadColours(path, scene) {
 
 async function loadView(path, coloursPath) {
   const fmt = formatOf(path);
-  if (!fmt) throw new Error(`${path}: not an encoding this viewer reads (.ssvdag, .esvdag, .svdag, .ussvdag)`);
+  if (!fmt) throw new Error(`${path}: not an encoding this viewer reads (.ssvdag, .ssvdag48, .esvdag, .svdag, .ussvdag)`);
   const t0 = performance.now();
   const buf = await fetchWithProgress('data/' + path, (got, total) =>
     status(`loading ${path}: ${(got / 2 ** 20).toFixed(1)}${total ? ' of ' + (total / 2 ** 20).toFixed(1) : ''} MB`));
@@ -422,7 +424,7 @@ async function main() {
   document.title = `voxdag view: ${state.scene.name}`;
   $('title').textContent = state.scene.name;
   const encodings = state.scene.files.filter((f) => formatOf(f.path)).map((f) => f.path);
-  if (!encodings.length) throw new Error('the output directory has no encoding this viewer reads (.ssvdag, .esvdag, .svdag, .ussvdag) yet: run the pipeline first');
+  if (!encodings.length) throw new Error('the output directory has no encoding this viewer reads (.ssvdag, .ssvdag48, .esvdag, .svdag, .ussvdag) yet: run the pipeline first');
   // .ssvdag first: the smallest the pipeline writes
   encodings.sort((a, b) => (b.endsWith('.ssvdag') - a.endsWith('.ssvdag')) || a.localeCompare(b));
   const pick = $('file'), pick2 = $('file2');

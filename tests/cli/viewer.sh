@@ -153,7 +153,8 @@ mkdir -p "$T/spider"
 "$BIN/voxelize" $M -o "$T/spider/vox" --levels 8 -q &&
 	"$BIN/svo-to-dag" "$T/spider/vox/chunk-L0-0.svo" -o "$T/sp.dag" -q &&
 	"$BIN/symmetry-merge" "$T/sp.dag" -o "$T/sp.ssvdag" -q &&
-	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" -o "$T/spider/enc" -q &&
+	"$BIN/symmetry-merge" --group 48 "$T/sp.dag" -o "$T/sp.s48" -q &&
+	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" "$T/sp.s48" -o "$T/spider/enc" -q &&
 	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/raw" --method raw -q ||
 	fail viewer_spider_build
 "$BIN/voxelize" tests/data/bunny.ply -o "$T/spider/vox-bunny" --levels 8 -q
@@ -171,8 +172,9 @@ for k in 1 2 3; do
 		fail viewer_render_spider$k
 	spcases="$spcases{\"name\": \"viewer_spider_cam$k\", \"file\": \"$SPENC\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc$k.json\", \"ids\": \"$T/s$k.vid\", \"depth\": \"$T/s$k.pfm\", \"png\": \"$T/s$k.png\"},"
 done
-# the word encodings too (one camera each)
-for f in svdag ussvdag; do
+# the word encodings and the 48-group one too (one camera each; the
+# same voxels, so render's buffers of the .ssvdag)
+for f in svdag ussvdag ssvdag48; do
 	spcases="$spcases{\"name\": \"viewer_spider_$f\", \"file\": \"${SPENC%.ssvdag}.$f\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/s2.png\"},"
 done
 cat > "$T/spec-spider.json" <<EOF
