@@ -322,8 +322,38 @@ function draw() {
   const px = new Uint8Array(4);
   r.gl.readPixels(0, 0, 1, 1, r.gl.RGBA, r.gl.UNSIGNED_BYTE, px); // wait for the GPU
   state.frameMs = performance.now() - t0;
+  const diff = markDifferences(w, h);
   $('stats').textContent = state.views.map(statsText).join('\n') +
-    `\nframe: ${state.frameMs.toFixed(1)} ms for ${canvas.width}x${canvas.height}`;
+    `\nframe: ${state.frameMs.toFixed(1)} ms for ${canvas.width}x${canvas.height}` +
+    (diff === null ? '' : `\n${diff} pixels show a voxel set in only one of the two scenes (red)`);
+}
+
+// Two scenes side by side (lossless and lossy or edited): the pixels whose
+// hit cells differ, red on an overlay over both views, as render --diff
+// marks the voxels set in one scene only. Returns their count, or null
+// with one scene or the box unticked.
+function markDifferences(w, h) {
+  const overlay = $('overlay'), canvas = $('view');
+  overlay.width = canvas.width;
+  overlay.height = canvas.height;
+  const g = overlay.getContext('2d');
+  g.clearRect(0, 0, overlay.width, overlay.height);
+  state.diffPixels = null;
+  if (state.views.length !== 2 || !$('diff').checked) return null;
+  const [a, b] = state.views.map((v) => state.renderer.readBack(v, state.cam, w, h).ids);
+  const img = g.createImageData(w, h);
+  let n = 0;
+  for (let i = 0; i < w * h; i++) {
+    let same = true;
+    for (let k = 0; k < 4; k++) same = same && a[4 * i + k] === b[4 * i + k];
+    if (same) continue;
+    n++;
+    img.data.set([230, 13, 10, 255], 4 * i);
+  }
+  g.putImageData(img, 0, 0);
+  g.putImageData(img, w, 0);
+  state.diffPixels = n;
+  return n;
 }
 
 let pending = false;
@@ -446,6 +476,7 @@ async function main() {
   const wanted = params.get('file');
   if (wanted) pick.value = wanted;
   if (params.get('file2')) pick2.value = params.get('file2');
+  if (params.get('diff')) $('diff').checked = true;
   const reload = () => showViews(chosen(), pickC.value).catch(showError);
   pick.onchange = reload;
   pick2.onchange = reload;
@@ -457,7 +488,8 @@ async function main() {
     redraw();
   };
   $('mode').onchange = () => { state.mode = $('mode').value; };
-  $('shot').onclick = () => canvas.toBlob((b) => {
+  $('diff').onchange = redraw;
+  $('shot').onclick = () => composite().toBlob((b) => {
     const a = document.createElement('a');
     a.href = URL.createObjectURL(b);
     a.download = `${state.scene.name}.png`;
@@ -466,6 +498,17 @@ async function main() {
   $('reset').onclick = () => { state.cam = defaultCamera(state.views[0].scene); redraw(); };
   setupInput(canvas);
   await showViews(wanted && !encodings.includes(wanted) ? [wanted] : chosen(), pickC.value);
+}
+
+// The view with the difference overlay on top, for the screenshot.
+function composite() {
+  const c = document.createElement('canvas');
+  c.width = $('view').width;
+  c.height = $('view').height;
+  const g = c.getContext('2d');
+  g.drawImage($('view'), 0, 0);
+  g.drawImage($('overlay'), 0, 0);
+  return c;
 }
 
 function showError(e) {
@@ -477,7 +520,7 @@ function showError(e) {
 window.voxdag = {
   ready: null,
   error: () => state.error || null,
-  stats: () => ({ frameMs: state.frameMs, views: state.views.map((v) => ({ path: v.path, loadMs: v.loadMs, nodes: v.scene.header.nodeCount })) }),
+  stats: () => ({ frameMs: state.frameMs, diffPixels: state.diffPixels, views: state.views.map((v) => ({ path: v.path, loadMs: v.loadMs, nodes: v.scene.header.nodeCount })) }),
   // cam: a camera file's object {eye, target, up, fov, width, height}
   readBack(cam, viewIndex = 0) {
     const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };

@@ -155,7 +155,10 @@ mkdir -p "$T/spider"
 	"$BIN/symmetry-merge" "$T/sp.dag" -o "$T/sp.ssvdag" -q &&
 	"$BIN/symmetry-merge" --group 48 "$T/sp.dag" -o "$T/sp.s48" -q &&
 	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" "$T/sp.s48" -o "$T/spider/enc" -q &&
-	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/raw" --method raw -q ||
+	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/raw" --method raw -q &&
+	"$BIN/lossy-cluster" "$T/sp.dag" -o "$T/lossy.dag" -q &&
+	"$BIN/symmetry-merge" "$T/lossy.dag" -o "$T/lossy.ssvdag" -q &&
+	"$BIN/encode" "$T/lossy.dag" "$T/lossy.ssvdag" -o "$T/spider/lossy" --name lossy -q ||
 	fail viewer_spider_build
 "$BIN/voxelize" tests/data/bunny.ply -o "$T/spider/vox-bunny" --levels 8 -q
 serve spider "$T/spider"
@@ -177,6 +180,14 @@ done
 for f in svdag ussvdag ssvdag48; do
 	spcases="$spcases{\"name\": \"viewer_spider_$f\", \"file\": \"${SPENC%.ssvdag}.$f\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/s2.png\"},"
 done
+# lossless and lossy side by side: the pixels the page marks red are
+# the ones render --diff counts
+ndiff=$("$BIN/render" "$T/spider/$SPENC" --diff "$T/spider/lossy/lossy.ssvdag" \
+	--camera-file "$T/sc2.json" -o "$T/diff.png" 2>&1 |
+	sed -n 's/.*: \([0-9]*\) pixels show voxels set in only one.*/\1/p')
+[ -n "$ndiff" ] && [ "$ndiff" -gt 0 ] || fail viewer_render_diff "render --diff counted '$ndiff'"
+spcases="$spcases{\"name\": \"viewer_side_by_side_diff\", \"file\": \"$SPENC\", \"file2\": \"lossy/lossy.ssvdag\", \"camera\": \"$T/sc2.json\", \"renderDiff\": ${ndiff:-0}},"
+spcases="$spcases{\"name\": \"viewer_side_by_side_same\", \"file\": \"$SPENC\", \"file2\": \"${SPENC%.ssvdag}.svdag\", \"camera\": \"$T/sc2.json\", \"renderDiff\": 0},"
 cat > "$T/spec-spider.json" <<EOF
 {"url": "$SPURL", "maxMismatch": 0.0005, "maxColourOff": 0.01, "cases": [$spcases
  {"name": "viewer_refuses_other_colours", "file": "$SPENC", "colours": "vox-bunny", "expectError": "colours"}]}

@@ -53,13 +53,14 @@ const browser = await puppeteer.launch({
   args: ['--headless=new', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
 });
 const pages = new Map();
-async function pageFor(file, colours, w, h) {
-  const key = `${file}|${colours || ''}|${w}x${h}`;
+async function pageFor(file, colours, w, h, file2) {
+  const key = `${file}|${file2 || ''}|${colours || ''}|${w}x${h}`;
   if (pages.has(key)) return pages.get(key);
   const page = await browser.newPage();
   page.on('pageerror', (e) => console.error('  page error:', e.message));
   const q = new URLSearchParams({ file, size: `${w}x${h}` });
   if (colours) q.set('colours', colours);
+  if (file2) { q.set('file2', file2); q.set('diff', '1'); }
   const t0 = Date.now();
   await page.goto(`${spec.url}?${q}`);
   const verdict = await Promise.race([
@@ -82,6 +83,20 @@ for (const c of spec.cases) {
       continue;
     }
     const cam = JSON.parse(fs.readFileSync(c.camera, 'utf8'));
+    if (c.file2) {
+      // two scenes side by side, each cam.width wide: the pixels marked
+      // red must be the ones render --diff counts (same rule: the first
+      // hits of the two scenes are not one cell)
+      const p = await pageFor(c.file, null, 2 * cam.width, cam.height, c.file2);
+      if (p.verdict !== 'ok') { fail(c.name, `page: ${p.verdict}: ${p.error}`); continue; }
+      await p.page.evaluate((k) => window.voxdag.setCamera(k), cam);
+      const got = await p.page.evaluate(() => window.voxdag.stats().diffPixels);
+      const want = c.renderDiff;
+      const extra = `page marks ${got}, render --diff ${want}`;
+      if (got !== null && Math.abs(got - want) <= Math.max(2, 0.01 * want)) pass(c.name, extra);
+      else fail(c.name, extra);
+      continue;
+    }
     const ref = readIds(c.ids);
     const refD = readPfm(c.depth);
     const p = await pageFor(c.file, c.colours, cam.width, cam.height);
