@@ -233,7 +233,8 @@ deps:
 
 # `make install PREFIX=/usr/local` (DESTDIR honoured, as packagers expect):
 # the tools, libvoxdag.a, libvoxdag.so.X.Y.Z with its soname and
-# development links, the public headers under include/voxdag/ (voxdag.h
+# development links, the viewer's page under share/voxdag/viewer/ (where
+# `voxdag view` looks beside bin/), the public headers under include/voxdag/ (voxdag.h
 # and the per-concern vd_*.h it includes, globbed so a new one needs no
 # change here) and voxdag.pc from stages/lib/voxdag.pc.in. Libs.private
 # lists what the shared library links, plus -lstdc++ for the C++ parts,
@@ -244,6 +245,7 @@ bindir ?= $(PREFIX)/bin
 libdir ?= $(PREFIX)/lib
 includedir ?= $(PREFIX)/include
 pkgconfigdir ?= $(libdir)/pkgconfig
+datadir ?= $(PREFIX)/share
 PUBLIC_HEADERS := stages/lib/voxdag.h $(wildcard stages/lib/vd_*.h)
 # A directory under PREFIX as ${prefix}/..., so `pkg-config
 # --define-prefix` can relocate the tree.
@@ -258,6 +260,8 @@ install: all lib
 	ln -sf $(notdir $(SHLIB)) $(DESTDIR)$(libdir)/$(SONAME)
 	ln -sf $(SONAME) $(DESTDIR)$(libdir)/libvoxdag.so
 	install -m 644 $(PUBLIC_HEADERS) $(DESTDIR)$(includedir)/voxdag/
+	install -d $(DESTDIR)$(datadir)/voxdag/viewer
+	install -m 644 $(wildcard viewer/*.html viewer/*.js) $(DESTDIR)$(datadir)/voxdag/viewer/
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(LIB_VERSION)|' \
 	    -e 's|@LIBDIR@|$(call pc_dir,$(libdir))|' \
 	    -e 's|@INCLUDEDIR@|$(call pc_dir,$(includedir))|' \
@@ -270,7 +274,7 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(bindir)/,$(notdir $(ALL_BINS)))
 	rm -f $(DESTDIR)$(libdir)/libvoxdag.a $(DESTDIR)$(libdir)/libvoxdag.so \
 	      $(DESTDIR)$(libdir)/$(SONAME) $(DESTDIR)$(libdir)/$(notdir $(SHLIB))
-	rm -rf $(DESTDIR)$(includedir)/voxdag
+	rm -rf $(DESTDIR)$(includedir)/voxdag $(DESTDIR)$(datadir)/voxdag
 	rm -f $(DESTDIR)$(pkgconfigdir)/voxdag.pc
 
 # `make PIPELINE=config/x.yaml` builds what is missing and runs that

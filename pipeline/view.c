@@ -505,14 +505,17 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c,
 	return serve_file(s, c, path, check);
 }
 
-/* The viewer's directory: --static, else viewer/ two levels above the
- * executable (out/bin/voxdag -> viewer/), else ./viewer. */
+/* The viewer's directory: --static, else the first of DIR/viewer and
+ * DIR/share/voxdag/viewer (`make install`) holding index.html, for DIR
+ * each directory above the executable's (out/bin/voxdag -> the source
+ * tree's viewer/), else ./viewer. */
 static int find_static(const char *given, char out[PATH_MAX])
 {
 	if (given)
 		return realpath(given, out) ? 0 : -1;
 	char exe[PATH_MAX];
 	ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 32);
+	static const char *const under[] = {"viewer", "share/voxdag/viewer"};
 	if (n > 0) {
 		exe[n] = 0;
 		for (int up = 0; up < 3; up++) {
@@ -520,11 +523,15 @@ static int find_static(const char *given, char out[PATH_MAX])
 			if (!slash)
 				break;
 			*slash = 0;
-			char cand[PATH_MAX + 16];
-			snprintf(cand, sizeof cand, "%s/viewer/index.html", exe);
-			if (access(cand, R_OK) == 0) {
-				snprintf(cand, sizeof cand, "%s/viewer", exe);
-				return realpath(cand, out) ? 0 : -1;
+			for (int i = 0; i < 2; i++) {
+				char cand[PATH_MAX + 40];
+				snprintf(cand, sizeof cand, "%s/%s/index.html", exe,
+					 under[i]);
+				if (access(cand, R_OK) == 0) {
+					snprintf(cand, sizeof cand, "%s/%s", exe,
+						 under[i]);
+					return realpath(cand, out) ? 0 : -1;
+				}
 			}
 		}
 	}
