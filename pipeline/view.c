@@ -1,7 +1,8 @@
 /* view.c - `voxdag view`: serves a pipeline's output directory and the
  * browser viewer (viewer/ at the top of the tree) on 127.0.0.1.
  *
- * URL space (schemas/viewer.md says the same for the page):
+ * URL space (README.md, "Looking at a scene in the browser", says the
+ * same for users):
  *   /                  the page (viewer/index.html)
  *   /NAME              a static file of the page's directory (one level)
  *   /scene.json        generated: the scene's name and every file the
