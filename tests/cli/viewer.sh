@@ -155,7 +155,7 @@ mkdir -p "$T/spider"
 	"$BIN/symmetry-merge" "$T/sp.dag" -o "$T/sp.ssvdag" -q &&
 	"$BIN/symmetry-merge" --group 48 "$T/sp.dag" -o "$T/sp.s48" -q &&
 	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" "$T/sp.s48" -o "$T/spider/enc" -q &&
-	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/raw" --method raw -q &&
+	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/pack" --method raw,vbr,palette -q &&
 	"$BIN/lossy-cluster" "$T/sp.dag" -o "$T/lossy.dag" -q &&
 	"$BIN/symmetry-merge" "$T/lossy.dag" -o "$T/lossy.ssvdag" -q &&
 	"$BIN/encode" "$T/lossy.dag" "$T/lossy.ssvdag" -o "$T/spider/lossy" --name lossy -q ||
@@ -171,14 +171,22 @@ echo '{"eye": [-260, -20, 60], "target": [-17, -2, -10], "up": [0, 1, 0.1], "fov
 spcases=
 for k in 1 2 3; do
 	"$BIN/render" "$T/spider/$SPENC" --camera-file "$T/sc$k.json" -o "$T/s$k.png" \
-		--voxel-id "$T/s$k.vid" --depth "$T/s$k.pfm" -q -C "$T/spider/raw/colours.raw" ||
+		--voxel-id "$T/s$k.vid" --depth "$T/s$k.pfm" -q -C "$T/spider/pack/colours.raw" ||
 		fail viewer_render_spider$k
-	spcases="$spcases{\"name\": \"viewer_spider_cam$k\", \"file\": \"$SPENC\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc$k.json\", \"ids\": \"$T/s$k.vid\", \"depth\": \"$T/s$k.pfm\", \"png\": \"$T/s$k.png\"},"
+	spcases="$spcases{\"name\": \"viewer_spider_cam$k\", \"file\": \"$SPENC\", \"colours\": \"pack/colours.raw\", \"camera\": \"$T/sc$k.json\", \"ids\": \"$T/s$k.vid\", \"depth\": \"$T/s$k.pfm\", \"png\": \"$T/s$k.png\"},"
 done
 # the word encodings and the 48-group one too (one camera each; the
 # same voxels, so render's buffers of the .ssvdag)
 for f in svdag ussvdag ssvdag48; do
-	spcases="$spcases{\"name\": \"viewer_spider_$f\", \"file\": \"${SPENC%.ssvdag}.$f\", \"colours\": \"raw/colours.raw\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/s2.png\"},"
+	spcases="$spcases{\"name\": \"viewer_spider_$f\", \"file\": \"${SPENC%.ssvdag}.$f\", \"colours\": \"pack/colours.raw\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/s2.png\"},"
+done
+# the other colour sources, decoded by the library on the server: vbr
+# and palette files, voxelize's colour chunks (one camera each)
+for c in pack/colours.vbr pack/colours.palette vox; do
+	n=$(echo "$c" | tr '/.' '__')
+	"$BIN/render" "$T/spider/$SPENC" --camera-file "$T/sc2.json" -o "$T/c_$n.png" \
+		-q -C "$T/spider/$c" || fail viewer_render_colours_$n
+	spcases="$spcases{\"name\": \"viewer_spider_colours_$n\", \"file\": \"$SPENC\", \"colours\": \"$c\", \"camera\": \"$T/sc2.json\", \"ids\": \"$T/s2.vid\", \"depth\": \"$T/s2.pfm\", \"png\": \"$T/c_$n.png\"},"
 done
 # lossless and lossy side by side: the pixels the page marks red are
 # the ones render --diff counts
