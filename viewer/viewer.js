@@ -300,15 +300,41 @@ async function loadView(path, coloursPath) {
   const gpu = state.renderer.upload(scene);
   const colours = coloursPath ? await loadColours(coloursPath, scene) : null;
   return { path, scene, gpu, colours, cut: scene.header.levels, loadMs: performance.now() - t0,
-    voxels: scene.voxels, bytes: buf.byteLength };
+    voxels: scene.voxels, bytes: buf.byteLength, table: await lowerResolutions(path) };
+}
+
+// encode's Table 2 beside the encoding (DIR/*.tables.json): the numbers
+// of each lower resolution, which the slider shows (the DAG cut there and
+// reduced again, as the report counts it). Optional: null without it.
+async function lowerResolutions(path) {
+  const dir = path.replace(/[^/]+$/, '');
+  const f = state.scene.files.find((x) => x.path.startsWith(dir) && !x.path.slice(dir.length).includes('/') &&
+    x.path.endsWith('.tables.json'));
+  if (!f) return null;
+  try {
+    return (await (await fetch('data/' + f.path)).json()).table2 || null;
+  } catch (e) {
+    return null;
+  }
 }
 
 function statsText(v) {
-  const h = v.scene.header;
-  const mb = v.scene.countedBytes / 2 ** 20;
+  const h = v.scene.header, f = v.scene.format;
+  const loaded = `loaded in ${v.loadMs.toFixed(0)} ms`;
+  if (v.cut < h.levels) {
+    // what is shown: the scene at 2^cut, from encode's table
+    const row = v.table && v.table.find((r) => r.levels === v.cut);
+    const nodes = row && row[`nodes_${f === 'esvdag' ? 'svdag' : f === 'ussvdag' ? 'ssvdag' : f}`];
+    if (row && nodes !== undefined && row[`bytes_${f}`] !== undefined)
+      return `${v.path} at 2^${v.cut} (of 2^${h.levels}): ${nodes} nodes, ` +
+        `${(row[`bytes_${f}`] / 2 ** 20).toFixed(3)} MB, ${row[`bits_per_voxel_${f}`].toFixed(3)} bits/voxel, ` +
+        `${row.voxels} voxels (encode's table); ${loaded}`;
+    return `${v.path}: 2^${h.levels} shown at 2^${v.cut} (no table of 2^${v.cut}: the full scene's numbers) ` +
+      `${h.nodeCount} nodes, ${(v.scene.countedBytes / 2 ** 20).toFixed(3)} MB; ${loaded}`;
+  }
   const bpv = v.voxels ? ((8 * v.scene.countedBytes) / v.voxels).toFixed(3) : '?';
-  return `${v.path}: 2^${h.levels} (shown at 2^${v.cut}), ${h.nodeCount} nodes, ` +
-    `${mb.toFixed(3)} MB, ${bpv} bits/voxel, loaded in ${v.loadMs.toFixed(0)} ms`;
+  return `${v.path}: 2^${h.levels}, ${h.nodeCount} nodes, ${(v.scene.countedBytes / 2 ** 20).toFixed(3)} MB, ` +
+    `${bpv} bits/voxel, ${v.voxels} voxels; ${loaded}`;
 }
 
 function draw() {
