@@ -200,6 +200,5 @@ cat > "$T/spec-spider.json" <<EOF
 {"url": "$SPURL", "maxMismatch": 0.0005, "maxColourOff": 0.01, "cases": [$spcases
  {"name": "viewer_refuses_other_colours", "file": "$SPENC", "colours": "vox-bunny", "expectError": "colours"}]}
 EOF
-timeout 120 node tests/viewer/compare.mjs "$T/spec.json" || fail viewer_compare "node exited $?"
-timeout 60 node tests/viewer/compare.mjs "$T/spec-bad.json" || fail viewer_errors "node exited $?"
-timeout 120 node tests/viewer/compare.mjs "$T/spec-spider.json" || fail viewer_spider "node exited $?"
+timeout 240 node tests/viewer/compare.mjs "$T/spec.json" "$T/spec-bad.json" "$T/spec-spider.json" ||
+	fail viewer_compare "node exited $?"

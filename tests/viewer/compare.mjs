@@ -1,4 +1,4 @@
-// compare.mjs SPEC.json - drives Debian's chromium (headless, SwiftShader)
+// compare.mjs SPEC.json... - drives Debian's chromium (headless, SwiftShader)
 // on the viewer page and checks it against render. Prints one PASS/FAIL
 // line per case, details on stderr; exits 0 (the lines carry the verdict).
 //
@@ -17,7 +17,8 @@ import fs from 'node:fs';
 import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 
-const spec = JSON.parse(fs.readFileSync(process.argv[2], 'utf8'));
+// several specs share one browser (its start is a second or two here)
+let spec = null;
 const pass = (n, extra = '') => console.log(`PASS ${n}${extra ? ' (' + extra + ')' : ''}`);
 const fail = (n, why) => { console.log(`FAIL ${n}`); console.error(`  ${n}: ${why}`); };
 
@@ -54,7 +55,7 @@ const browser = await puppeteer.launch({
 });
 const pages = new Map();
 async function pageFor(file, colours, w, h, file2) {
-  const key = `${file}|${file2 || ''}|${colours || ''}|${w}x${h}`;
+  const key = `${spec.url}|${file}|${file2 || ''}|${colours || ''}|${w}x${h}`;
   if (pages.has(key)) return pages.get(key);
   const page = await browser.newPage();
   page.on('pageerror', (e) => console.error('  page error:', e.message));
@@ -72,6 +73,8 @@ async function pageFor(file, colours, w, h, file2) {
   return info;
 }
 
+for (const path of process.argv.slice(2)) {
+spec = JSON.parse(fs.readFileSync(path, 'utf8'));
 for (const c of spec.cases) {
   try {
     if (c.expectError) {
@@ -146,5 +149,6 @@ for (const c of spec.cases) {
   } catch (e) {
     fail(c.name, e.stack || String(e));
   }
+}
 }
 await browser.close();
