@@ -63,11 +63,15 @@ endif
 # assimp-utils: `assimp export`, which tests/cli/assimp.sh uses to write
 # the test scene again with another glTF writer than ours.
 # pkg-config: tests/cli/install.sh builds examples/ as a user would.
+# libmicrohttpd-dev: `voxdag view`'s HTTP server (pipeline/view.c);
+# chromium, nodejs, npm, curl: the viewer's tests (tests/cli/viewer.sh,
+# tests/viewer/), which drive Debian's chromium headless with
+# puppeteer-core from npm (no browser of npm's own is downloaded).
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
                 libjpeg62-turbo-dev libstb-dev netpbm libassimp-dev assimp-utils \
-                pkg-config
+                pkg-config libmicrohttpd-dev chromium nodejs npm curl
 
 LIB_C    := $(wildcard stages/lib/*.c stages/lib/*/*.c stages/lib/*/*/*.c)
 LIB_CC   := $(wildcard stages/lib/*.cc stages/lib/*/*.cc stages/lib/*/*/*.cc)
@@ -84,7 +88,7 @@ HEADERS  := $(wildcard stages/lib/*.h stages/lib/*/*.h stages/lib/*/*/*.h) $(wil
 ALL_BINS := $(BINS) $(OUT)/bin/voxdag $(OUT)/bin/voxdag-spawn \
             $(OUT)/bin/voxelize-vdb $(OUT)/bin/voxelize-assimp
 
-.PHONY: all run pipeline test test-build test-build-release \
+.PHONY: all run pipeline test test-build test-build-release viewer-test-deps \
 	test-build-sanitize bench deps clean tests fuzz fuzz-build lib install \
 	uninstall
 .DEFAULT_GOAL := all
@@ -179,7 +183,7 @@ $(OUT)/obj/pipeline/%.o: pipeline/%.c pipeline/pipeline.h $(HEADERS)
 # The runner: pipeline/*.c over the library, with libyaml.
 $(OUT)/bin/voxdag: $(RUNNER_OBJ) $(LIB)
 	@mkdir -p $(@D)
-	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson $(LDLIBS)
+	$(CXX) $(LDFLAGS) -o $@ $(RUNNER_OBJ) $(LIB) -lyaml -ljansson -lmicrohttpd $(LDLIBS)
 
 # The runner's job launcher (pipeline/spawn/spawn.c says why): static and
 # libc only, so it is small; no sanitizers, which would make it large and
@@ -214,7 +218,7 @@ TEST_PLAN_OBJ := $(filter-out $(OUT)/obj/pipeline/main.o,$(RUNNER_OBJ))
 $(OUT)/tests/test_plan: $(TEST_PLAN_OBJ) pipeline/pipeline.h
 $(OUT)/tests/test_plan: TEST_OBJ := $(TEST_PLAN_OBJ)
 $(OUT)/tests/test_plan: CPPFLAGS += -Ipipeline
-$(OUT)/tests/test_plan: LDLIBS += -lyaml
+$(OUT)/tests/test_plan: LDLIBS += -lyaml -lmicrohttpd
 
 # Installs missing Debian packages; silent when everything is there.
 deps:
@@ -229,7 +233,8 @@ deps:
 
 # `make install PREFIX=/usr/local` (DESTDIR honoured, as packagers expect):
 # the tools, libvoxdag.a, libvoxdag.so.X.Y.Z with its soname and
-# development links, the public headers under include/voxdag/ (voxdag.h
+# development links, the viewer's page under share/voxdag/viewer/ (where
+# `voxdag view` looks beside bin/), the public headers under include/voxdag/ (voxdag.h
 # and the per-concern vd_*.h it includes, globbed so a new one needs no
 # change here) and voxdag.pc from stages/lib/voxdag.pc.in. Libs.private
 # lists what the shared library links, plus -lstdc++ for the C++ parts,
@@ -240,6 +245,7 @@ bindir ?= $(PREFIX)/bin
 libdir ?= $(PREFIX)/lib
 includedir ?= $(PREFIX)/include
 pkgconfigdir ?= $(libdir)/pkgconfig
+datadir ?= $(PREFIX)/share
 PUBLIC_HEADERS := stages/lib/voxdag.h $(wildcard stages/lib/vd_*.h)
 # A directory under PREFIX as ${prefix}/..., so `pkg-config
 # --define-prefix` can relocate the tree.
@@ -254,6 +260,8 @@ install: all lib
 	ln -sf $(notdir $(SHLIB)) $(DESTDIR)$(libdir)/$(SONAME)
 	ln -sf $(SONAME) $(DESTDIR)$(libdir)/libvoxdag.so
 	install -m 644 $(PUBLIC_HEADERS) $(DESTDIR)$(includedir)/voxdag/
+	install -d $(DESTDIR)$(datadir)/voxdag/viewer
+	install -m 644 $(wildcard viewer/*.html viewer/*.js) $(DESTDIR)$(datadir)/voxdag/viewer/
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(LIB_VERSION)|' \
 	    -e 's|@LIBDIR@|$(call pc_dir,$(libdir))|' \
 	    -e 's|@INCLUDEDIR@|$(call pc_dir,$(includedir))|' \
@@ -266,7 +274,7 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(bindir)/,$(notdir $(ALL_BINS)))
 	rm -f $(DESTDIR)$(libdir)/libvoxdag.a $(DESTDIR)$(libdir)/libvoxdag.so \
 	      $(DESTDIR)$(libdir)/$(SONAME) $(DESTDIR)$(libdir)/$(notdir $(SHLIB))
-	rm -rf $(DESTDIR)$(includedir)/voxdag
+	rm -rf $(DESTDIR)$(includedir)/voxdag $(DESTDIR)$(datadir)/voxdag
 	rm -f $(DESTDIR)$(pkgconfigdir)/voxdag.pc
 
 # `make PIPELINE=config/x.yaml` builds what is missing and runs that
@@ -297,8 +305,20 @@ test: deps
 # builds share one job server and keep every core busy (each has long
 # compiles, io/vdb*.cc, that would otherwise leave a core idle).
 test-build: test-build-release test-build-sanitize fuzz-build
-test-build-release:
+test-build-release: viewer-test-deps
 	@$(MAKE) --no-print-directory all lib $(OUT)/tests/fs_shutdown
+
+# The viewer's test dependencies (puppeteer-core, pngjs) at the versions
+# of tests/viewer/package-lock.json; never a browser of npm's own
+# (PUPPETEER_SKIP_DOWNLOAD): the tests drive Debian's /usr/bin/chromium.
+# Without npm (make deps not run) tests/cli/viewer.sh says SKIP.
+VIEWER_NPM := tests/viewer/node_modules/.package-lock.json
+viewer-test-deps: $(VIEWER_NPM)
+$(VIEWER_NPM): tests/viewer/package-lock.json tests/viewer/package.json
+	@if command -v npm >/dev/null; then \
+		PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix tests/viewer --no-audit \
+			--no-fund --loglevel=error >/dev/null && touch $@; \
+	else echo "make: no npm for the viewer's tests (make deps installs it)"; fi
 test-build-sanitize:
 	@$(MAKE) --no-print-directory config=sanitize all tests
 

@@ -27,6 +27,9 @@ static const char usage[] =
 	"                  remove only what killed processes left half-written\n"
 	"                  (NAME.tmp.PID of processes that are gone); every run\n"
 	"                  does this when it starts and ends\n"
+	"  view CONFIG|OUT_DIR\n"
+	"                  serve the scene and the browser viewer on 127.0.0.1\n"
+	"                  ('voxdag view --help' lists its options)\n"
 	"\n"
 	"Options:\n"
 	"  -q, --quiet     no progress lines\n"
@@ -108,6 +111,8 @@ int main(int argc, char **argv)
 	};
 	if (argc > 1 && !strcmp(argv[1], "job-exec"))
 		return slurm_job_exec(argc, argv);
+	if (argc > 1 && !strcmp(argv[1], "view"))
+		return view_main(argc - 1, argv + 1);
 	struct run_opts o = {0};
 	const char *executor = NULL;
 	int staging = 0;
@@ -146,7 +151,7 @@ int main(int argc, char **argv)
 			which = i;
 	if (which < 0) {
 		fprintf(stderr, "voxdag: unknown command '%s' (run, plan, status, "
-			"report, clean)\nTry 'voxdag --help'.\n", cmd);
+			"report, clean, view)\nTry 'voxdag --help'.\n", cmd);
 		return 2;
 	}
 	if (staging && which != 4) {

@@ -288,6 +288,11 @@ void slurm_forget(const struct plan *p, const struct job *j);
  * stage, then writes END (exit status, seconds, peak memory) atomically. */
 int slurm_job_exec(int argc, char **argv);
 
+/* `voxdag view` (view.c): argv[0] is "view"; serves an output directory
+ * and the browser viewer on 127.0.0.1 until interrupted. Returns the exit
+ * status. */
+int view_main(int argc, char **argv);
+
 /* For `voxdag status`: the Slurm state of j ("PENDING", "RUNNING", ...)
  * when a driver submitted it, else NULL. */
 const char *slurm_state(const struct plan *p, const struct job *j,

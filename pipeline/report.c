@@ -596,6 +596,10 @@ static void write_report_md(FILE *f, const struct plan *p,
 		json_number(vstats, NULL, "triangles_read"),
 		json_number(vstats, NULL, "voxels"), json_number(vstats, NULL, "chunks"));
 	write_pictures(f, p);
+	if (tables)
+		fprintf(f, "To fly through the scene in a browser: `voxdag view "
+			"%s` (serves this directory and the viewer on 127.0.0.1 "
+			"and prints the URL to open).\n\n", c->path);
 	if (tables && nenc > 1)
 		fprintf(f, "# Scene of job `%s`\n\n",
 			c->jobs_decl[enc->decl].name);

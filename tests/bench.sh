@@ -9,6 +9,8 @@
 set -u
 cd "$(dirname "$0")/.."
 . tests/lossless_yaml.sh
+# the viewer's frame times need only the bundled bunny
+tests/bench/viewer_frames.sh
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
 OUT=out/bench
 if [ ! -d "$DATA" ]; then

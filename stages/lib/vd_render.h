@@ -111,6 +111,16 @@ int vd_camera_check(const struct vd_camera *c);
 int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 		     const char *name, double fov_deg, int width, int height);
 
+/* Reads a camera file (schemas/render-outputs.md, "Camera file"), the
+ * JSON object {"eye": [x,y,z], "target": [x,y,z], "up": [x,y,z], "fov":
+ * deg, "width": w, "height": h} that render --camera-file and the browser
+ * viewer both read; "up" (default [0,1,0]), "fov" (default 40), "width"
+ * and "height" may be left out (*width and *height are then untouched).
+ * The camera is checked (vd_camera_check). VD_ERR_IO when unreadable,
+ * VD_ERR_ARG (detail names the field) when malformed. */
+int vd_camera_read(const char *path, struct vd_camera *c, int *width,
+		   int *height);
+
 /* What to render. */
 struct vd_colour_source;
 

@@ -27,6 +27,9 @@ static const char usage[] =
 	"  -e, --eye X,Y,Z         camera position in world units (with --target,\n"
 	"                          instead of --camera)\n"
 	"  -t, --target X,Y,Z      point the camera looks at\n"
+	"  -F, --camera-file F     eye, target, up, fov and image size from the\n"
+	"                          JSON file F (schemas/render-outputs.md), the\n"
+	"                          one the browser viewer reads; --size wins\n"
 	"  -f, --fov DEG           vertical field of view in degrees, in (0, 180)\n"
 	"                          (default 40)\n"
 	"  -l, --light X,Y,Z       point light position in world units (default\n"
@@ -143,6 +146,7 @@ int main(int argc, char **argv)
 		{"eye", required_argument, NULL, 'e'},
 		{"target", required_argument, NULL, 't'},
 		{"fov", required_argument, NULL, 'f'},
+		{"camera-file", required_argument, NULL, 'F'},
 		{"light", required_argument, NULL, 'l'},
 		{"no-shadows", no_argument, NULL, 'S'},
 		{"depth", required_argument, NULL, 'd'},
@@ -162,9 +166,10 @@ int main(int argc, char **argv)
 	job.opts.height = 720;
 	job.opts.cam.fov_deg = 40;
 	job.opts.shadows = 1;
-	int has_target = 0, compare = 0;
+	int has_target = 0, compare = 0, has_size = 0;
+	const char *camera_file = NULL;
 	int c;
-	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:l:Sd:i:j:L:D:qC:h", longopts,
+	while ((c = getopt_long(argc, argv, "o:s:c:e:t:f:F:l:Sd:i:j:L:D:qC:h", longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -177,6 +182,10 @@ int main(int argc, char **argv)
 				return vd_cli_usage(TOOL, "--size '%s' is not WxH with each "
 						   "side in 1..16384 and at most "
 						   "2^26 pixels", optarg);
+			has_size = 1;
+			break;
+		case 'F':
+			camera_file = optarg;
 			break;
 		case 'c':
 			if (strcmp(optarg, "front") && strcmp(optarg, "side") &&
@@ -264,7 +273,26 @@ int main(int argc, char **argv)
 	if (job.has_eye && job.preset)
 		return vd_cli_usage(TOOL, "%s", "--camera and --eye/--target exclude "
 				   "each other");
-	if (job.has_eye) {
+	if (camera_file && (job.has_eye || job.preset))
+		return vd_cli_usage(TOOL, "%s", "--camera-file excludes --camera "
+				   "and --eye/--target");
+	if (camera_file) {
+		int w = job.opts.width, h = job.opts.height;
+		if (vd_camera_read(camera_file, &job.opts.cam, &w, &h)) {
+			fprintf(stderr, "render: cannot read camera file '%s': %s\n",
+				camera_file, vd_error_detail());
+			return 1;
+		}
+		if (!has_size) {
+			job.opts.width = w;
+			job.opts.height = h;
+		}
+		if ((uint64_t)job.opts.width * (uint64_t)job.opts.height >
+		    VD_RENDER_MAX_PIXELS)
+			return vd_cli_usage(TOOL, "%s", "the camera file's image is "
+					   "more than 2^26 pixels");
+		job.has_eye = 1;
+	} else if (job.has_eye) {
 		/* up is left zero: the library picks +Y, or -Z looking along Y */
 		double d = 0;
 		for (int a = 0; a < 3; a++)

@@ -40,6 +40,19 @@ done
 [ "$(readlink "$P/lib/libvoxdag.so")" = "libvoxdag.so.${version%%.*}" ] || ok=0
 readelf -d "$P/lib/libvoxdag.so.$version" | grep -q "SONAME.*\[libvoxdag.so.${version%%.*}\]" || ok=0
 [ $ok = 1 ] && pass tree || fail tree "$(cd "$P" && find . | sort)"
+# the installed voxdag view serves the installed page
+mkdir -p "$T/served"
+(cd "$T" && exec "$P/bin/voxdag" view "$T/served" --port 0 > "$T/view.url" 2>"$T/view.err") &
+vpid=$!
+for _ in $(seq 50); do [ -s "$T/view.url" ] && break; sleep 0.1; done
+if [ -s "$T/view.url" ] && command -v curl >/dev/null &&
+	curl -s "$(head -1 "$T/view.url")viewer.js" | cmp -s - viewer/viewer.js; then
+	pass installed_view_serves_page
+else
+	fail installed_view_serves_page "$(cat "$T/view.err")"
+fi
+kill $vpid 2>/dev/null
+wait $vpid 2>/dev/null
 
 export PKG_CONFIG_PATH="$P/lib/pkgconfig"
 [ "$(pkg-config --modversion voxdag 2>&1)" = "$version" ] &&

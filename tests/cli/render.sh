@@ -59,6 +59,36 @@ size=$(stat -c %s "$T/bunny_svdag.bin" 2>/dev/null || echo 0)
 [ "$size" = $((16 + 16 * 160 * 90)) ] && pass voxel_id_size || fail voxel_id_size "size $size"
 expect good_eye 0 '' $R "$M/enc/bunny.ssvdag" -o "$T/eye.png" --size 33x17 \
 	--eye 0.3,0.2,0.4 --target 0,0.1,0 --fov 60 --light 1,1,1 --no-shadows --lod 1 -q
+# --camera-file: the camera and size of --eye/--target/--fov/--size, from
+# the JSON file the browser viewer reads too (schemas/render-outputs.md)
+echo '{"eye": [0.3, 0.2, 0.4], "target": [0, 0.1, 0], "up": [0, 1, 0], "fov": 60, "width": 33, "height": 17}' > "$T/cam.json"
+$R "$M/enc/bunny.ssvdag" -o "$T/eye2.png" --size 33x17 --eye 0.3,0.2,0.4 \
+	--target 0,0.1,0 --fov 60 -q --voxel-id "$T/eye2.bin"
+expect camera_file 0 '' $R "$M/enc/bunny.ssvdag" -o "$T/camf.png" \
+	--camera-file "$T/cam.json" -q --voxel-id "$T/camf.bin"
+cmp -s "$T/eye2.png" "$T/camf.png" && cmp -s "$T/eye2.bin" "$T/camf.bin" &&
+	pass camera_file_equals_eye || fail camera_file_equals_eye
+expect camera_file_size_wins 0 '' $R "$M/enc/bunny.ssvdag" -o "$T/camf2.png" \
+	--camera-file "$T/cam.json" -q --size 20x10 --voxel-id "$T/camf2.bin"
+[ "$(stat -c %s "$T/camf2.bin")" = $((16 + 16 * 200)) ] && pass camera_file_size_flag ||
+	fail camera_file_size_flag
+expect camera_file_missing 1 "cannot read camera file '$T/nocam.json': No such file" \
+	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/nocam.json"
+# NAME|JSON|the error's pattern: one line, exit 1 each
+while IFS='|' read -r name json pattern; do
+	echo "$json" > "$T/$name.json"
+	expect "$name" 1 "cannot read camera file '$T/$name.json': $pattern" \
+		$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/$name.json"
+done <<'CASES'
+camera_file_malformed|{"eye": [0, 0, 1], "target": [0, 0|line [0-9]+:
+camera_file_no_eye|{"target": [0, 0, 0]}|no "eye"
+camera_file_fov|{"eye": [0, 0, 1], "target": [0, 0, 0], "fov": 0}|field of view 0
+camera_file_width|{"eye": [0, 0, 1], "target": [0, 0, 0], "width": 0}|"width" is not a number of pixels
+camera_file_up|{"eye": [0, 0, 1], "target": [0, 0, 0], "up": [0, 0, 2]}|up vector is parallel
+camera_file_not_object|[1, 2, 3]|not a JSON object
+CASES
+expect camera_file_and_preset 2 'excludes' \
+	$R "$M/enc/bunny.ssvdag" -o "$T/bad.png" --camera-file "$T/cam.json" --camera iso
 expect good_depth_png 0 '' $R "$M/enc/bunny.esvdag" -o "$T/d.png" --size 40x30 \
 	--camera top --depth "$T/depth.png" -q
 file "$T/depth.png" 2>/dev/null | grep -q '16-bit grayscale' && pass depth_png_16bit ||

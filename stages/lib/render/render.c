@@ -39,6 +39,7 @@
 #include "encode/encode_internal.h" /* the compact pointers */
 
 #include <errno.h>
+#include <jansson.h>
 #include <inttypes.h>
 #include <math.h>
 #include <png.h>
@@ -507,6 +508,65 @@ int vd_camera_preset(struct vd_camera *c, const struct vd_render_scene *s,
 		c->up[a] = presets[k].up[a];
 	}
 	c->fov_deg = fov_deg;
+	return VD_OK;
+}
+
+static int json_vec3(json_t *root, const char *key, double v[3], int need)
+{
+	json_t *a = json_object_get(root, key);
+	if (!a) return need ? vd_fail(VD_ERR_ARG, "no \"%s\"", key) : VD_OK;
+	if (!json_is_array(a) || json_array_size(a) != 3)
+		return vd_fail(VD_ERR_ARG, "\"%s\" is not [x, y, z]", key);
+	for (int i = 0; i < 3; i++) {
+		json_t *x = json_array_get(a, (size_t)i);
+		if (!json_is_number(x))
+			return vd_fail(VD_ERR_ARG, "\"%s\" is not [x, y, z]", key);
+		v[i] = json_number_value(x);
+	}
+	return VD_OK;
+}
+
+static int json_side(json_t *root, const char *key, int *out)
+{
+	json_t *x = json_object_get(root, key);
+	if (!x) return VD_OK;
+	if (!json_is_integer(x) || json_integer_value(x) < 1 ||
+	    json_integer_value(x) > VD_RENDER_MAX_SIDE)
+		return vd_fail(VD_ERR_ARG, "\"%s\" is not a number of pixels "
+			       "in 1..%d", key, VD_RENDER_MAX_SIDE);
+	*out = (int)json_integer_value(x);
+	return VD_OK;
+}
+
+int vd_camera_read(const char *path, struct vd_camera *c, int *width,
+		   int *height)
+{
+	json_error_t jerr;
+	json_t *root = json_load_file(path, JSON_REJECT_DUPLICATES, &jerr);
+	if (!root) {
+		if (access(path, R_OK) != 0)
+			return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+		return vd_fail(VD_ERR_ARG, "line %d: %s", jerr.line, jerr.text);
+	}
+	struct vd_camera k = {.up = {0, 1, 0}, .fov_deg = 40};
+	int w = *width, h = *height;
+	int err = json_is_object(root) ? VD_OK :
+		  vd_fail(VD_ERR_ARG, "not a JSON object");
+	if (!err) err = json_vec3(root, "eye", k.eye, 1);
+	if (!err) err = json_vec3(root, "target", k.target, 1);
+	if (!err) err = json_vec3(root, "up", k.up, 0);
+	json_t *fov = err ? NULL : json_object_get(root, "fov");
+	if (fov && !json_is_number(fov))
+		err = vd_fail(VD_ERR_ARG, "\"fov\" is not a number");
+	if (fov && !err) k.fov_deg = json_number_value(fov);
+	if (!err) err = json_side(root, "width", &w);
+	if (!err) err = json_side(root, "height", &h);
+	if (!err) err = vd_camera_check(&k);
+	json_decref(root);
+	if (err) return err;
+	*c = k;
+	*width = w;
+	*height = h;
 	return VD_OK;
 }
 
