@@ -66,7 +66,9 @@ endif
 # libmicrohttpd-dev: `voxdag view`'s HTTP server (pipeline/view.c);
 # chromium, nodejs, npm, curl: the viewer's tests (tests/cli/viewer.sh,
 # tests/viewer/), which drive Debian's chromium headless with
-# puppeteer-core from npm (no browser of npm's own is downloaded).
+# puppeteer-core from npm (no browser of npm's own is downloaded). npm
+# counts as there when its command is: NodeSource's nodejs carries its own
+# npm, and Debian's npm package conflicts with that nodejs.
 DEB_PACKAGES := gcc g++ make libzstd-dev libxxhash-dev libtbb-dev libyaml-dev mcl \
                 libpng-dev time libopenvdb-dev libboost-dev libopenvdb-tools \
                 slurm-wlm munge clang libjansson-dev python3-numpy python3-scipy \
@@ -222,7 +224,9 @@ $(OUT)/tests/test_plan: LDLIBS += -lyaml -lmicrohttpd
 
 # Installs missing Debian packages; silent when everything is there.
 deps:
-	@missing=$$(for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	@missing=$$(for p in $(DEB_PACKAGES); do \
+		case $$p in npm) command -v npm >/dev/null && continue ;; esac; \
+		dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 		echo "make deps: installing" $$missing; \
 		sudo=; [ "$$(id -u)" = 0 ] || sudo=sudo; \
