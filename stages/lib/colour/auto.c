@@ -516,11 +516,15 @@ static void encode_block(struct blk *k, int block_log)
 	k->best_bytes++; /* so that a mode as large as raw is not taken */
 	analyse(k);
 	/* the cheap modes first: the palette's leader search stops as soon
-	 * as it cannot beat them */
+	 * as it cannot beat them; but a block of a few colours tries the
+	 * palette first, so that it wins a tie (its colours are exact) */
 	try_const(k);
+	if (k->ndist <= 16)
+		try_palette(k);
 	try_endpoints(k, block_log);
 	try_quant(k);
-	try_palette(k);
+	if (k->ndist > 16)
+		try_palette(k);
 	if (k->best_entry >> 24 == VD_AUTO_RAW)
 		k->best_bytes--;
 }
