@@ -43,6 +43,13 @@ static inline uint32_t vd_auto_bits(const uint8_t *d, uint64_t pos,
 	return (v >> (pos & 7)) & ((1u << width) - 1);
 }
 
+/* x / (2^w - 1) for x < 2^16 as (x * R[w]) >> 32, exactly (R = floor(2^32
+ * / m) + 1 errs by less than x / 2^32 < 1/m): a lookup's three divisions
+ * cost more than the rest of it. */
+static const uint64_t vd_auto_recip[9] = {
+	0, 0x100000001ull, 0x55555556ull, 0x24924925ull, 0x11111112ull,
+	0x8421085ull, 0x4104105ull, 0x2040811ull, 0x1010102ull};
+
 static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 				  uint32_t j, uint8_t rgb[3])
 {
@@ -77,8 +84,8 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		}
 		unsigned w = vd_auto_bits(d + 1 + esz * parts, (uint64_t)j * b, b);
 		for (int c = 0; c < 3; c++)
-			rgb[c] = (uint8_t)((c0[c] * (m - w) + c1[c] * w +
-					    m / 2) / m);
+			rgb[c] = (uint8_t)(((uint64_t)(c0[c] * (m - w) + c1[c] * w +
+						       m / 2) * vd_auto_recip[b]) >> 32);
 		return;
 	}
 	case VD_AUTO_QUANT >> 4: {

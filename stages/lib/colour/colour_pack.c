@@ -652,6 +652,9 @@ struct vd_cpack {
 	uint16_t *c0, *c1;           /* vbr */
 	uint32_t *blk_pal, *blk_bit; /* palette */
 	uint32_t *dir;               /* auto: directory entries */
+	/* auto: seg_at[p] the segment holding voxel p << 18, so a lookup
+	 * searches only the segments that start in its 2^18 window */
+	uint32_t *seg_at;
 	int block_log;               /* auto */
 	uint8_t *data;               /* VWGT, POFS or the raw array */
 	size_t data_size;
@@ -676,6 +679,7 @@ void vd_cpack_free(struct vd_cpack *c)
 	free(c->blk_pal);
 	free(c->blk_bit);
 	free(c->dir);
+	free(c->seg_at);
 	free(c->data);
 	free(c->glb);
 	free(c->pal_first);
@@ -1132,6 +1136,16 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 	if (data != c->data_size)
 		return vd_fail(VD_ERR_CORRUPT, "%zu bytes of blocks, the blocks "
 			       "need %llu", c->data_size, (unsigned long long)data);
+	uint64_t windows = (c->voxels >> 18) + 2;
+	c->seg_at = malloc(windows * sizeof *c->seg_at);
+	if (!c->seg_at)
+		return vd_fail(VD_ERR_NOMEM, "segment index");
+	size_t s = 0;
+	for (uint64_t p = 0; p < windows; p++) {
+		while (s + 1 < c->segments && c->seg_first[s + 1] <= p << 18)
+			s++;
+		c->seg_at[p] = (uint32_t)s;
+	}
 	return VD_OK;
 }
 
@@ -1233,25 +1247,19 @@ static void colour_in(const struct vd_cpack *c, size_t s, uint64_t b,
 	memcpy(rgb, c->glb + 3 * (size_t)g, 3);
 }
 
-/* Segment of voxel i: the last whose first voxel is <= i. */
-static size_t segment_of(const struct vd_cpack *c, uint64_t i)
-{
-	size_t lo = 0, hi = (size_t)c->segments;
-	while (hi - lo > 1) {
-		size_t mid = lo + (hi - lo) / 2;
-		if (c->seg_first[mid] <= i)
-			lo = mid;
-		else
-			hi = mid;
-	}
-	return lo;
-}
-
 /* The auto method's lookup: the segment, then the block is the index
  * shifted (blocks have a fixed length), then one entry and its block. */
 static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 {
-	size_t s = segment_of(c, i);
+	uint64_t p = i >> 18;
+	size_t s = c->seg_at[p], hi = c->seg_at[p + 1] + 1;
+	while (hi - s > 1) { /* last segment first <= i */
+		size_t mid = s + (hi - s) / 2;
+		if (c->seg_first[mid] <= i)
+			s = mid;
+		else
+			hi = mid;
+	}
 	uint32_t k = (uint32_t)(i - c->seg_first[s]);
 	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
 	uint32_t first = k >> c->block_log << c->block_log;
