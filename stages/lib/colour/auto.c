@@ -283,7 +283,7 @@ static void try_palette(struct blk *k)
  * signed by their covariance with it), t[i] each colour's projection on
  * the segment between them, in [0, 1]. */
 static void fit_line(const uint8_t *rgb, uint32_t n, uint8_t c0[3],
-		     uint8_t c1[3], float *t)
+		     uint8_t c1[3], float *t, float *perp2, float *span2)
 {
 	unsigned lo[3] = {255, 255, 255}, hi[3] = {0, 0, 0};
 	long sum[3] = {0, 0, 0};
@@ -302,7 +302,7 @@ static void fit_line(const uint8_t *rgb, uint32_t n, uint8_t c0[3],
 	for (uint32_t i = 0; i < n; i++)
 		for (int c = 0; c < 3; c++)
 			cov[c] += ((long)n * rgb[3 * i + p] - sum[p]) *
-				  ((long)rgb[3 * i + c] * n - sum[c]) / (long)n;
+				  ((long)rgb[3 * i + c] * n - sum[c]);
 	int dir[3];
 	for (int c = 0; c < 3; c++)
 		dir[c] = (cov[c] < 0 ? -1 : 1) * (int)(hi[c] - lo[c]);
@@ -325,18 +325,25 @@ static void fit_line(const uint8_t *rgb, uint32_t n, uint8_t c0[3],
 		D[c] = c1[c] - c0[c];
 		L += (long)D[c] * D[c];
 	}
-	float inv = L ? 1.0f / (float)L : 0;
+	float inv = L ? 1.0f / (float)L : 0, worst = 0;
 	for (uint32_t i = 0; i < n; i++) {
-		long v = 0;
-		for (int c = 0; c < 3; c++)
-			v += (long)(rgb[3 * i + c] - c0[c]) * D[c];
+		long v = 0, r2 = 0;
+		for (int c = 0; c < 3; c++) {
+			int x = rgb[3 * i + c] - c0[c];
+			v += (long)x * D[c];
+			r2 += (long)x * x;
+		}
 		float x = (float)v * inv;
+		float p2 = (float)r2 - (float)v * x;
+		worst = p2 > worst ? p2 : worst;
 		t[i] = x < 0 ? 0 : x > 1 ? 1 : x;
 	}
+	*perp2 = worst;
+	*span2 = (float)L;
 }
 
 static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
-			   uint8_t e[64][6]);
+			   uint8_t e[64][6], unsigned wlo);
 
 /* Endpoints and W-bit weights, the VBR idea with 8-bit endpoints: the
  * block cut into parts of 2^s voxels (s from block_log down by up to 3,
@@ -356,15 +363,27 @@ static void try_endpoints(struct blk *k, int block_log)
 		if (1 + 4 * (size_t)parts + (n + 7) / 8 >= k->best_bytes)
 			return; /* more parts only cost more */
 		uint8_t e[64][6];
+		float perp2 = 0, span2 = 0;
 		for (uint32_t q = 0; q < parts; q++) {
 			uint32_t m = q + 1 < parts ? len : n - q * len;
+			float p2, s2;
 			fit_line(rgb + 3 * (size_t)q * len, m, e[q], e[q] + 3,
-				 k->t + q * len);
+				 k->t + q * len, &p2, &s2);
+			perp2 = p2 > perp2 ? p2 : perp2;
+			span2 = s2 > span2 ? s2 : span2;
 		}
+		/* a colour farther from the line through its part's ends
+		 * than the limit fits no weights on it (RGB565 endpoints
+		 * move the line a little: a heuristic there, and every
+		 * candidate is verified anyway) */
+		if (perp2 > (float)k->limit + 0.5f)
+			continue;
+		(void)span2;
+		unsigned wlo = 1;
 		/* RGB565 endpoints first (4 bytes a part, as VBR stores them),
 		 * then RGB8 */
 		for (int esz = 4; esz <= 6; esz += 2)
-			if (endpoints_parts(k, s, parts, esz, e))
+			if (endpoints_parts(k, s, parts, esz, e, wlo))
 				break;
 	}
 }
@@ -374,7 +393,7 @@ static void try_endpoints(struct blk *k, int block_log)
  * weight bits that keep every colour within the limit, offered. Returns 1
  * when one was found. */
 static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
-			   uint8_t e[64][6])
+			   uint8_t e[64][6], unsigned wlo)
 {
 	const uint8_t *rgb = k->rgb;
 	uint32_t n = k->n, len = 1u << s;
@@ -393,7 +412,7 @@ static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
 			vd_rgb565_decode(e565[q][h], ed[q] + 3 * h);
 		}
 	}
-	for (unsigned w = 1; w <= 8; w++) {
+	for (unsigned w = wlo; w <= 8; w++) {
 		size_t bytes = 1 + (size_t)esz * parts + ((size_t)n * w + 7) / 8;
 		if (bytes >= k->best_bytes)
 			return 0;
@@ -414,30 +433,26 @@ static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
 		uint8_t *wb = d + 1 + esz * parts;
 		uint32_t i = 0;
 		for (uint32_t q = 0; q < parts && i == q * len; q++) {
-			uint8_t dec[256][3];
-			for (unsigned x = 0; x <= m; x++)
-				for (int c = 0; c < 3; c++)
-					dec[x][c] = (uint8_t)((ed[q][c] * (m - x) +
-							       ed[q][3 + c] * x +
-							       m / 2) / m);
+			/* decoded on demand, not tabled: a table of 2^w entries
+			 * per part and per try cost more than the voxels */
+			const uint8_t *c0 = ed[q], *c1 = ed[q] + 3;
+			uint64_t r = vd_auto_recip[w];
 			uint32_t end = q + 1 < parts ? (q + 1) * len : n;
 			for (; i < end; i++) {
-				unsigned x = (unsigned)(k->t[i] * (float)m);
-				if (x > m)
-					x = m;
-				unsigned er = vd_rgb_dist2(dec[x], rgb + 3 * i);
-				if (x < m) {
-					unsigned e1 = vd_rgb_dist2(dec[x + 1],
-								   rgb + 3 * i);
+				const uint8_t *v = rgb + 3 * i;
+				unsigned x = (unsigned)(k->t[i] * (float)m), er = ~0u;
+				unsigned xb = x;
+				for (unsigned y = x ? x - 1 : 0; y <= x + 1 && y <= m; y++) {
+					uint8_t o[3];
+					for (int c = 0; c < 3; c++)
+						o[c] = (uint8_t)(((uint64_t)(c0[c] * (m - y) +
+									     c1[c] * y + m / 2) *
+								  r) >> 32);
+					unsigned e1 = vd_rgb_dist2(o, v);
 					if (e1 < er)
-						er = e1, x++;
+						er = e1, xb = y;
 				}
-				if (x > 0) {
-					unsigned e2 = vd_rgb_dist2(dec[x - 1],
-								   rgb + 3 * i);
-					if (e2 < er)
-						er = e2, x--;
-				}
+				x = xb;
 				if (er > k->limit)
 					break;
 				put_bits(wb, (uint64_t)i * w, w, x);
