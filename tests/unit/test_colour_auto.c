@@ -10,6 +10,7 @@
 #include "check.h"
 #include "le.h"
 #include "scene.h"
+#include "colour_fixture.h"
 
 #include <math.h>
 
@@ -154,10 +155,7 @@ static void test_golden(void)
 static uint64_t rng = 4242;
 static uint32_t next(void)
 {
-	rng ^= rng << 13;
-	rng ^= rng >> 7;
-	rng ^= rng << 17;
-	return (uint32_t)(rng >> 11);
+	return test_xorshift(&rng);
 }
 
 static uint8_t clamp8(double v)
@@ -416,23 +414,6 @@ static void test_spider(void)
 
 /* --------------------------------------------------------- bad input */
 
-static uint8_t *slurp(const char *name, size_t *n)
-{
-	char path[256];
-	path_of(path, sizeof path, name);
-	FILE *f = fopen(path, "rb");
-	CHECK(f != NULL);
-	if (!f)
-		return NULL;
-	fseek(f, 0, SEEK_END);
-	*n = (size_t)ftell(f);
-	fseek(f, 0, SEEK_SET);
-	uint8_t *b = malloc(*n);
-	CHECK_EQ(fread(b, 1, *n, f), *n);
-	fclose(f);
-	return b;
-}
-
 /* Every truncation and a flipped byte every few are refused. */
 static void test_damaged(void)
 {
@@ -442,27 +423,17 @@ static void test_damaged(void)
 	uint64_t n[1] = {72};
 	struct vd_auto_params p = {.max_error = 0, .block_log = 4};
 	CHECK_EQ(write_cells("d.auto", &p, 1, cells, n), VD_OK);
-	size_t len;
-	uint8_t *b = slurp("d.auto", &len);
+	size_t len = 0;
+	char path[256];
+	path_of(path, sizeof path, "d.auto");
+	uint8_t *b = (uint8_t *)test_slurp(path, &len);
+	CHECK(b != NULL);
 	if (!b)
 		return;
 	struct vd_cpack *c;
 	CHECK_EQ(vd_cpack_open_mem(&c, b, len), VD_OK);
 	vd_cpack_free(c);
-	int accepted = 0;
-	for (size_t cut = 0; cut < len; cut++)
-		if (vd_cpack_open_mem(&c, b, cut) == VD_OK) {
-			accepted++;
-			vd_cpack_free(c);
-		}
-	for (size_t i = 0; i < len; i += 2) {
-		b[i] ^= 0x10;
-		if (vd_cpack_open_mem(&c, b, len) == VD_OK) {
-			accepted++;
-			vd_cpack_free(c);
-		}
-		b[i] ^= 0x10;
-	}
+	int accepted = test_cpack_damage_accepted(b, len, 2, 0x10);
 	CHECK_EQ(accepted, 0);
 	free(b);
 }
@@ -475,11 +446,6 @@ static int open_crafted(uint32_t block_log, uint64_t voxels,
 {
 	char path[256];
 	path_of(path, sizeof path, "c.auto");
-	struct vd_chunk_header h = {.kind = VD_KIND_CPACK, .levels = 12,
-				    .level_count = 1, .transform = tr};
-	h.level_nodes[0] = voxels;
-	struct vd_chunk_writer *w;
-	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
 	uint8_t par[64] = {0}, seg[40] = {0}, blk[64];
 	le_put32(par, VD_CPACK_AUTO);
 	le_put32(par + 4, block_log);
@@ -489,15 +455,11 @@ static int open_crafted(uint32_t block_log, uint64_t voxels,
 	le_put32(seg + 36, (uint32_t)voxels);
 	for (uint32_t k = 0; k < nb; k++)
 		le_put32(blk + 4 * k, dirs[k]);
-	vd_chunk_writer_section(w, VD_TAG('C', 'P', 'A', 'R'), par, 64);
-	vd_chunk_writer_section(w, VD_TAG('C', 'S', 'E', 'G'), seg, 40);
-	vd_chunk_writer_section(w, VD_TAG('A', 'B', 'L', 'K'), blk, 4 * (size_t)nb);
-	vd_chunk_writer_section(w, VD_TAG('A', 'D', 'A', 'T'), data, nd);
-	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
-	struct vd_cpack *c;
-	int err = vd_cpack_open(&c, path);
-	vd_cpack_free(c);
-	return err;
+	const uint32_t tags[4] = {VD_TAG('C', 'P', 'A', 'R'), VD_TAG('C', 'S', 'E', 'G'),
+				  VD_TAG('A', 'B', 'L', 'K'), VD_TAG('A', 'D', 'A', 'T')};
+	const void *const d[4] = {par, seg, blk, data};
+	const size_t len[4] = {64, 40, 4 * (size_t)nb, nd};
+	return test_cpack_crafted(path, &tr, voxels, 4, tags, d, len);
 }
 
 static void test_inconsistent(void)

@@ -1247,19 +1247,27 @@ static void colour_in(const struct vd_cpack *c, size_t s, uint64_t b,
 	memcpy(rgb, c->glb + 3 * (size_t)g, 3);
 }
 
+/* The segment of voxel i among segments lo..hi-1: the last whose first
+ * voxel is <= i (the caller knows it is in that range). */
+static size_t segment_in(const struct vd_cpack *c, uint64_t i, size_t lo,
+			 size_t hi)
+{
+	while (hi - lo > 1) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (c->seg_first[mid] <= i)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	return lo;
+}
+
 /* The auto method's lookup: the segment, then the block is the index
  * shifted (blocks have a fixed length), then one entry and its block. */
 static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 {
 	uint64_t p = i >> 18;
-	size_t s = c->seg_at[p], hi = c->seg_at[p + 1] + 1;
-	while (hi - s > 1) { /* last segment first <= i */
-		size_t mid = s + (hi - s) / 2;
-		if (c->seg_first[mid] <= i)
-			s = mid;
-		else
-			hi = mid;
-	}
+	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 	uint32_t k = (uint32_t)(i - c->seg_first[s]);
 	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
 	uint32_t first = k >> c->block_log << c->block_log;
@@ -1282,14 +1290,7 @@ int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 		auto_colour(c, i, rgb);
 		return VD_OK;
 	}
-	size_t lo = 0, hi = (size_t)c->segments; /* last segment first <= i */
-	while (hi - lo > 1) {
-		size_t mid = lo + (hi - lo) / 2;
-		if (c->seg_first[mid] <= i)
-			lo = mid;
-		else
-			hi = mid;
-	}
+	size_t lo = segment_in(c, i, 0, (size_t)c->segments);
 	uint32_t k = (uint32_t)(i - c->seg_first[lo]);
 	uint64_t bl = c->seg_block[lo], bh = c->seg_block[lo + 1];
 	while (bh - bl > 1) { /* the paper's binary search over headers */
@@ -1322,15 +1323,7 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		return VD_OK;
 	}
 	/* walk blocks sequentially from the first voxel's */
-	size_t s = 0, lo = 0, hi = (size_t)c->segments;
-	while (hi - lo > 1) {
-		size_t mid = lo + (hi - lo) / 2;
-		if (c->seg_first[mid] <= first)
-			lo = mid;
-		else
-			hi = mid;
-	}
-	s = lo;
+	size_t s = segment_in(c, first, 0, (size_t)c->segments);
 	uint64_t done = 0;
 	while (done < n) {
 		uint32_t k = (uint32_t)(first + done - c->seg_first[s]);
