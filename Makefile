@@ -327,7 +327,8 @@ test-build-sanitize:
 	@$(MAKE) --no-print-directory config=sanitize all tests
 
 bench: deps
-	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation $(OUT)/bench/edit_site
+	@$(MAKE) --no-print-directory -j$(JOBS) all $(OUT)/bench/zstd_levels $(OUT)/bench/translation $(OUT)/bench/edit_site \
+		$(OUT)/bench/colour_lookup
 	@$(MAKE) --no-print-directory -j$(JOBS) config=nofsync all
 	@tests/bench.sh
 

@@ -247,7 +247,7 @@ static void write_colours(FILE *f, const struct plan *p)
 		const struct job_decl *cd = &c->jobs_decl[d];
 		if (cd->stage->type == STAGE_COLORIZE &&
 		    (!strcmp(cd->method, "raw") ||
-		     (!strcmp(cd->method, "palette") && cd->lossless)))
+		     (strcmp(cd->method, "vbr") && cd->lossless)))
 			ref = render_of_colours(c, d, &ref_enc);
 	}
 	fprintf(f, "# Colours (Dolonius et al. 2017, Table 3)\n\n");
@@ -283,6 +283,13 @@ static void write_colours(FILE *f, const struct plan *p)
 			snprintf(setting, sizeof setting, cd->lossless ?
 				 "lossless (%.0f colours)" : "%.0f colours",
 				 NUM("palette_colours"));
+		else if (!strcmp(cd->method, "auto") && cd->lossless)
+			snprintf(setting, sizeof setting, "lossless, %.0f-voxel "
+				 "blocks", NUM("block_voxels"));
+		else if (!strcmp(cd->method, "auto"))
+			snprintf(setting, sizeof setting, "max error %g, %.0f-voxel "
+				 "blocks", NUM("max_error_limit"),
+				 NUM("block_voxels"));
 		else
 			snprintf(setting, sizeof setting, "zstd");
 		char img[64] = "| |";

@@ -280,6 +280,16 @@ if [ "${VOXDAG_BENCH_LOSSY:-1}" != 0 ]; then
 	tests/bench/lossy_table.sh
 fi
 
+# Colours (issue 37): the auto colour method beside VBR, the palette and
+# zstd -19 on the colour benchmark's scenes at 2^12 (LEVELS="12 14" for
+# both): bytes, bits per voxel, GMSE, build and lookup speed per core and
+# each goal met or missed (tests/bench/colour_codec_all.sh, which also
+# runs alone). VOXDAG_BENCH_COLOUR=0 skips it.
+if [ "${VOXDAG_BENCH_COLOUR:-1}" != 0 ]; then
+	echo
+	VOXDAG_SHARED_DATA=$DATA tests/bench/colour_codec_all.sh
+fi
+
 if [ "${VOXDAG_BENCH_RUNNER:-1}" != 0 ]; then
 	echo
 	runner_scale bunny-9-L4 tests/data/bunny.ply 9 4

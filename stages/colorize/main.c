@@ -1,5 +1,6 @@
 /* colorize - a scene's voxel colours (voxelize's colour chunks) compressed:
- * variable-bitrate blocks, the palette baseline, raw zstd. */
+ * the auto blocks, variable-bitrate blocks, the palette baseline, raw
+ * zstd. */
 #include "voxdag.h"
 #include "cli.h"
 
@@ -16,24 +17,31 @@ static const char usage[] =
 	"voxelize wrote beside its SVO chunks in INDIR, read cell by cell in\n"
 	"cell order, each checked against its SVO chunk. Writes one packed\n"
 	"colours file per method (schemas/colour-formats.md) into OUTDIR:\n"
-	"colours.vbr, colours.palette, colours.raw, and colorize.stats.json\n"
+	"colours.auto, colours.vbr, colours.palette, colours.raw, and\n"
+	"colorize.stats.json\n"
 	"(bytes raw and compressed, percent of raw, GMSE, max error, blocks,\n"
 	"seconds, peak memory). OUTDIR is built beside the old one and replaces\n"
 	"it whole, with a manifest, only when complete.\n"
 	"\n"
 	"  -o, --output DIR        output directory\n"
-	"  -M, --method LIST       methods, comma-separated: vbr (variable-\n"
+	"  -M, --method LIST       methods, comma-separated: auto (fixed-size\n"
+	"                          blocks, each constant, a local palette,\n"
+	"                          two endpoints and weights, quantised or\n"
+	"                          raw, whichever is smallest), vbr (variable-\n"
 	"                          bitrate blocks, Dolonius et al. 2017),\n"
 	"                          palette (Dado et al. 2016), raw (zstd);\n"
 	"                          default vbr\n"
-	"  -e, --max-error X       vbr: largest sRGB distance of a decoded\n"
-	"                          colour, channels in [0,1] (default 0.025;\n"
-	"                          the paper uses 0.025, 0.038, 0.05, 0.1);\n"
-	"                          0.0236 and above always work\n"
+	"  -e, --max-error X       vbr, auto: largest sRGB distance of a\n"
+	"                          decoded colour, channels in [0,1] (default\n"
+	"                          0.025; the paper uses 0.025, 0.038, 0.05,\n"
+	"                          0.1); vbr: 0.0236 and above always work\n"
+	"  -B, --block-size N      auto: voxels per block, a power of two\n"
+	"                          from 16 to 4096 (default 256)\n"
 	"  -w, --weight-bits W     vbr: bits per voxel weight, 1..8 (default 3)\n"
 	"  -k, --palette-colours K palette: global palette size, 2..16777216\n"
 	"                          (default 4096)\n"
-	"  -L, --lossless          palette: every distinct colour (exact)\n"
+	"  -L, --lossless          palette: every distinct colour (exact);\n"
+	"                          auto: every colour exact (max error 0)\n"
 	"  -s, --stats FILE        also write the statistics JSON to FILE\n"
 	"  -j, --threads N         worker threads (default: all cores)\n"
 	"  -q, --quiet             no summary line on stderr\n"
@@ -51,7 +59,7 @@ static int parse_methods(const char *s, int *methods)
 	for (char *save, *t = strtok_r(buf, ",", &save); t;
 	     t = strtok_r(NULL, ",", &save)) {
 		int m = 0;
-		for (int k = 1; k <= VD_CPACK_RAW; k++)
+		for (int k = 1; k <= VD_CPACK_AUTO; k++)
 			if (!strcmp(t, vd_cpack_method_name(k)))
 				m = k;
 		if (!m)
@@ -68,6 +76,7 @@ int main(int argc, char **argv)
 		{"method", required_argument, NULL, 'M'},
 		{"max-error", required_argument, NULL, 'e'},
 		{"weight-bits", required_argument, NULL, 'w'},
+		{"block-size", required_argument, NULL, 'B'},
 		{"palette-colours", required_argument, NULL, 'k'},
 		{"lossless", no_argument, NULL, 'L'},
 		{"stats", required_argument, NULL, 's'},
@@ -83,7 +92,7 @@ int main(int argc, char **argv)
 	};
 	int c, k;
 	char *end;
-	while ((c = getopt_long(argc, argv, "o:M:e:w:k:Ls:j:qh", longopts,
+	while ((c = getopt_long(argc, argv, "o:M:e:w:B:k:Ls:j:qh", longopts,
 				NULL)) != -1) {
 		switch (c) {
 		case 'o':
@@ -92,7 +101,7 @@ int main(int argc, char **argv)
 		case 'M':
 			if (parse_methods(optarg, &job.methods))
 				return vd_cli_usage(TOOL, "--method '%s' is not a list "
-						    "of vbr, palette, raw", optarg);
+						    "of auto, vbr, palette, raw", optarg);
 			break;
 		case 'e':
 			job.vbr.max_error = strtod(optarg, &end);
@@ -105,6 +114,14 @@ int main(int argc, char **argv)
 			if (vd_cli_int(optarg, 1, 8, &job.vbr.weight_bits))
 				return vd_cli_usage(TOOL, "--weight-bits '%s' is not "
 						    "a number from 1 to 8", optarg);
+			break;
+		case 'B':
+			if (vd_cli_int(optarg, 16, 4096, &k) || (k & (k - 1)))
+				return vd_cli_usage(TOOL, "--block-size '%s' is not "
+						    "a power of two from 16 to 4096",
+						    optarg);
+			for (job.autop.block_log = 0; (1 << job.autop.block_log) < k;)
+				job.autop.block_log++;
 			break;
 		case 'k':
 			if (vd_cli_int(optarg, 2, 1 << 24, &k))
@@ -142,6 +159,7 @@ int main(int argc, char **argv)
 	if (!job.outdir)
 		return vd_cli_usage(TOOL, "%s", "no output directory (-o DIR) given");
 	job.indir = argv[optind];
+	job.autop.max_error = job.lossless ? 0 : job.vbr.max_error;
 	char *prov = vd_provenance_new(TOOL, argc, argv);
 	job.provenance = prov;
 	int err = vd_colorize_run(&job);

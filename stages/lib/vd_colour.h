@@ -28,6 +28,11 @@ extern "C" {
  *   indices, shared by every block with the same set), per-voxel offsets of
  *   the smallest width into the block palette.
  * - raw: the RGB8 array, zstd-compressed, for reference.
+ * - auto: fixed-size blocks (2^block_log voxels), each stored in the
+ *   cheapest of five modes (constant, local palette, two endpoints with
+ *   per-voxel weights, per-channel quantised offsets from the block's
+ *   minimum, raw) that keeps every colour within max_error (0: lossless).
+ *   A voxel's colour is one directory entry plus a few bytes of one block.
  * The array is cut into segments: a cell's voxels, split every
  * VD_CPACK_SEGMENT_MAX voxels. Blocks never span a segment, so a segment is
  * built from its cell alone (out of core, in parallel) and an edit rebuilds
@@ -42,9 +47,10 @@ enum vd_cpack_method {
 	VD_CPACK_VBR = 1,
 	VD_CPACK_PALETTE = 2,
 	VD_CPACK_RAW = 3,
+	VD_CPACK_AUTO = 4,
 };
 
-/* "vbr", "palette", "raw"; NULL if unknown. */
+/* "vbr", "palette", "raw", "auto"; NULL if unknown. */
 const char *vd_cpack_method_name(int method);
 
 /* RGB565: r5 << 11 | g6 << 5 | b5; decoded to 8 bits by bit replication
@@ -134,6 +140,46 @@ void vd_vbr_segment_release(struct vd_vbr_segment *s);
  * compare the two). */
 extern int vd_vbr_lanes;
 
+/* The auto method's blocks (schemas/colour-formats.md, method 4). */
+struct vd_auto_params {
+	double max_error;   /* sRGB distance, channels in [0,1]; 0: lossless */
+	int block_log;      /* blocks of 2^block_log voxels, 4..12 (0: 8) */
+};
+
+/* Block modes: the top byte of a block's directory entry. */
+enum vd_auto_mode {
+	VD_AUTO_CONST = 0x00,    /* colour in the entry's low 24 bits */
+	VD_AUTO_PALETTE = 0x10,  /* | index bits 1..8 */
+	VD_AUTO_ENDPOINTS = 0x20,/* | weight bits 1..8 */
+	VD_AUTO_QUANT = 0x30,
+	VD_AUTO_RAW = 0x40,
+};
+
+/* One segment encoded: dir[b] the directory entry of block b (mode << 24
+ * | byte offset in `data`, or | colour for a constant block), `data` the
+ * blocks' bytes in block order. */
+struct vd_auto_segment {
+	uint32_t n, count;
+	uint32_t *dir;
+	uint8_t *data;
+	size_t data_bytes;
+	uint64_t sse;
+	unsigned max_dist2;
+	uint64_t mode_blocks[5];  /* blocks per mode (by mode >> 4) */
+};
+
+/* Encodes rgb[0..n) (n <= VD_CPACK_SEGMENT_MAX) into blocks of
+ * 2^p->block_log voxels, each in the mode of fewest bytes whose every
+ * colour decodes within p->max_error (vd_colour_error_limit; 0: exactly).
+ * Errors: VD_ERR_ARG, VD_ERR_NOMEM. Release with
+ * vd_auto_segment_release(). */
+int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
+		   const struct vd_auto_params *p);
+/* Colour j (< n) of an encoded segment (the reader's decode). */
+void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
+			    uint32_t j, uint8_t rgb[3]);
+void vd_auto_segment_release(struct vd_auto_segment *s);
+
 /* Palette baseline. A histogram of 24-bit colours (2^24 u32 counts,
  * saturating), filled cell by cell, then the global palette. */
 struct vd_colour_hist {
@@ -175,6 +221,7 @@ void vd_palette_release(struct vd_palette *p);
 struct vd_cpack_params {
 	int method;                 /* enum vd_cpack_method */
 	struct vd_vbr_params vbr;
+	struct vd_auto_params autop;/* VD_CPACK_AUTO */
 	const struct vd_palette *palette; /* VD_CPACK_PALETTE: built first */
 	uint32_t palette_colours;   /* the K asked for (recorded) */
 	int zstd_level;             /* VD_CPACK_RAW (0: 9) */
@@ -189,6 +236,7 @@ struct vd_cpack_stats {
 	uint64_t sse;          /* sum of squared 8-bit errors */
 	unsigned max_dist2;
 	double seconds;
+	uint64_t mode_blocks[5]; /* auto: blocks per mode (enum vd_auto_mode >> 4) */
 };
 
 struct vd_cpack_writer;
@@ -234,6 +282,7 @@ struct vd_colorize_job {
 	const char *indir, *outdir, *stats_path;
 	int methods;              /* bit (1 << method) per method */
 	struct vd_vbr_params vbr;
+	struct vd_auto_params autop; /* auto: max_error (0 lossless), block */
 	uint32_t palette_colours; /* K */
 	int lossless;
 	int threads, quiet;

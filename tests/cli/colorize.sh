@@ -122,3 +122,22 @@ bad max_error_too_small 'too small for RGB565' "$I" --max-error 0.001 --weight-b
 mkdir -p "$T/foreign" && echo mine > "$T/foreign/notes.txt"
 expect foreign_output 1 'did not write' $C -q "$I" -o "$T/foreign"
 [ "$(cat "$T/foreign/notes.txt")" = mine ] && pass foreign_kept || fail foreign_kept
+
+# --- the auto method from the outside: its statistics, lossless exact,
+# files that chunk-check accepts, a block size that is no power of two
+# refused (every colour against its original: test_colour_auto)
+expect auto_run 0 'auto' $C "$I" -o "$T/auto" --method auto,raw --max-error 0.05 \
+	--block-size 64 --stats "$T/auto.json"
+python3 - "$T/auto.json" <<'PY' && pass auto_stats || fail auto_stats "$(cat "$T/auto.json")"
+import json, sys
+m = json.load(open(sys.argv[1]))["methods"]["auto"]
+assert m["file"] == "colours.auto" and m["block_voxels"] == 64, m
+assert 0 < m["max_error"] <= 0.05 and m["max_error_limit"] == 0.05 and m["lossless"] == 0, m
+assert sum(m["mode_blocks"].values()) == m["blocks"] > 0, m
+PY
+expect auto_lossless 0 '' $C -q "$I" -o "$T/autoll" --method auto --lossless --stats "$T/autoll.json"
+python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["methods"]["auto"]; assert m["gmse"]==0 and m["max_error"]==0 and m["lossless"]==1, m' "$T/autoll.json" &&
+	pass auto_lossless_exact || fail auto_lossless_exact "$(cat "$T/autoll.json")"
+$BIN/chunk-check "$T/auto/colours.auto" "$T/autoll/colours.auto" &&
+	pass auto_chunk_check || fail auto_chunk_check
+expect usage_block_size 2 "block-size '100'" $C a -o "$T/o" --block-size 100

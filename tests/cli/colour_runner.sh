@@ -24,7 +24,7 @@ bad() { # bad NAME PATTERN (jobs on stdin)
 	expect "$1" 1 "$2" $R plan "$T/bad.yaml"
 }
 echo '  c: {stage: colorize, needs: [vox], method: jpeg}' |
-	bad colour_bad_method "'method' is vbr, palette or raw"
+	bad colour_bad_method "'method' is auto, vbr, palette or raw"
 echo '  c: {stage: colorize, needs: [vox], max_error: 0.01}' |
 	bad colour_max_error_range "'max_error' is 0.01, outside 0.0236"
 echo '  c: {stage: colorize, needs: [enc]}' |
@@ -37,17 +37,20 @@ cfg > "$CFG" <<'EOF'
   raw:  {stage: colorize, needs: [vox], method: raw}
   vbr:  {stage: colorize, needs: [vox], method: vbr, max_error: 0.05}
   pal:  {stage: colorize, needs: [vox], method: palette, palette_colours: 256}
+  aut:  {stage: colorize, needs: [vox], max_error: 0.05}
   p0:   {stage: render, needs: [enc, raw]}
   p1:   {stage: render, needs: [enc, vbr]}
 EOF
 expect colour_run 0 '' $R -q run "$CFG"
+# a colorize job without a method gets the auto blocks
+[ -f $D/aut/colours.auto ] && pass colour_default_auto || fail colour_default_auto "$(ls $D/aut)"
 # the raw render equals render by hand with voxelize's own colour chunks
 $BIN/render $D/enc/$NAME.ssvdag -o "$T/hand.png" --size 960x720 --camera iso -q -C $D/vox
 cmp -s "$T/hand.png" $D/p0.png && pass colour_picture_is_the_chunks_colours ||
 	fail colour_picture_is_the_chunks_colours
 # Table 3's rows: the statistics' numbers, read here with python's json
 ok=1
-for j in vbr pal; do
+for j in vbr pal aut; do
 	read -r m pr gm gp < <(/usr/bin/python3 -c '
 import json, sys
 d = json.load(open(sys.argv[1]))["methods"]

@@ -1,6 +1,8 @@
 /* fuzz_chunk.c - libFuzzer target: the chunk file reader
  * (vd_chunk_open_mem, the same checks as vd_chunk_open), then each kind's
- * content reader: SVO bricks, DAG and SSVDAG levels. */
+ * content reader: SVO bricks, DAG and SSVDAG levels, packed colours (every
+ * colour of a file the reader accepts is looked up: its checks must keep
+ * each lookup inside the file's arrays). */
 #include "fuzz.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -24,6 +26,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			(void)vd_dag_memory_bytes(&d);
 		vd_dag_release(&d);
 	}
+	uint32_t kind = h->kind;
 	vd_chunk_free(c);
+	struct vd_cpack *p;
+	if (kind == VD_KIND_CPACK && !vd_cpack_open_mem(&p, data, size)) {
+		uint64_t voxels = vd_cpack_voxels(p);
+		for (uint64_t i = 0; i < voxels && i < 100000; i++) {
+			uint8_t rgb[3];
+			(void)vd_cpack_colour(p, i, rgb);
+		}
+		vd_cpack_free(p);
+	}
 	return 0;
 }

@@ -133,6 +133,10 @@ for L in 5 6; do
 		cp "$T/e$L/b.$f" $C/$f/bunny-L$L.$f
 	done
 done
+# A packed colours file of the auto method (its reader's checks).
+$BIN/colour-make-test "$T/v5" &&
+	$BIN/colorize -q "$T/v5" -o "$T/col5" --method auto --max-error 0.05 &&
+	cp "$T/col5/colours.auto" $C/chunk/colours-L5.auto
 
 # Textures: the bundled scene's small images, and SGI images from netpbm's
 # pnmtosgi (verbatim and RLE, grey and colour, 8 and 16 bits).

@@ -5,6 +5,7 @@
  * neighbours (blocks never span cells); damaged and inconsistent files
  * refused with one error each. */
 #include "check.h"
+#include "colour_fixture.h"
 #include "le.h"
 #include "voxdag.h"
 
@@ -18,10 +19,7 @@ static struct vd_transform tr;
 static uint64_t rng = 777;
 static uint32_t next(void)
 {
-	rng ^= rng << 13;
-	rng ^= rng >> 7;
-	rng ^= rng << 17;
-	return (uint32_t)(rng >> 11);
+	return test_xorshift(&rng);
 }
 
 /* Three cells; the second larger than a segment so it splits. */
@@ -342,14 +340,7 @@ static uint8_t *slurp(const char *name, size_t *n)
 {
 	char path[256];
 	path_of(path, sizeof path, name);
-	FILE *f = fopen(path, "rb");
-	fseek(f, 0, SEEK_END);
-	*n = (size_t)ftell(f);
-	fseek(f, 0, SEEK_SET);
-	uint8_t *b = malloc(*n);
-	CHECK_EQ(fread(b, 1, *n, f), *n);
-	fclose(f);
-	return b;
+	return (uint8_t *)test_slurp(path, n); /* NULL: the caller's CHECK */
 }
 
 /* Damage: every truncation and a flipped byte every few bytes are
@@ -367,27 +358,13 @@ static void test_damaged(void)
 	vd_palette_release(&pal);
 	static const char *const names[] = {"s.vbr", "s.pal"};
 	for (int f = 0; f < 2; f++) {
-		size_t n;
+		size_t n = 0;
 		uint8_t *b = slurp(names[f], &n);
+		CHECK(b != NULL);
 		struct vd_cpack *c;
 		CHECK_EQ(vd_cpack_open_mem(&c, b, n), VD_OK);
 		vd_cpack_free(c);
-		int accepted = 0;
-		for (size_t cut = 0; cut < n; cut++) {
-			if (vd_cpack_open_mem(&c, b, cut) == VD_OK) {
-				accepted++;
-				vd_cpack_free(c);
-			}
-		}
-		CHECK_EQ(accepted, 0);
-		for (size_t i = 0; i < n; i += 3) {
-			b[i] ^= 0x20;
-			if (vd_cpack_open_mem(&c, b, n) == VD_OK) {
-				accepted++;
-				vd_cpack_free(c);
-			}
-			b[i] ^= 0x20;
-		}
+		int accepted = test_cpack_damage_accepted(b, n, 3, 0x20);
 		CHECK_EQ(accepted, 0);
 		free(b);
 	}
@@ -413,11 +390,6 @@ static int open_crafted(const struct crafted *k)
 {
 	char path[256];
 	path_of(path, sizeof path, "c.vbr");
-	struct vd_chunk_header h = {.kind = VD_KIND_CPACK, .levels = 12,
-				    .level_count = 1, .transform = tr};
-	h.level_nodes[0] = k->header_voxels;
-	struct vd_chunk_writer *w;
-	CHECK_EQ(vd_chunk_writer_open(&w, path, &h, NULL), VD_OK);
 	uint8_t par[64] = {0}, seg[40] = {0}, blk[16] = {0}, wgt[64] = {0};
 	le_put32(par, k->method);
 	le_put32(par + 4, k->wbits);
@@ -427,16 +399,11 @@ static int open_crafted(const struct crafted *k)
 	le_put64(seg, k->seg_first);
 	le_put32(seg + 36, k->seg_n);
 	le_put32(blk + 8, k->b1_start);
-	vd_chunk_writer_section(w, VD_TAG('C', 'P', 'A', 'R'), par, 64);
-	vd_chunk_writer_section(w, VD_TAG('C', 'S', 'E', 'G'), seg, 40);
-	vd_chunk_writer_section(w, VD_TAG('V', 'B', 'L', 'K'), blk,
-				8 * (size_t)k->blocks);
-	vd_chunk_writer_section(w, VD_TAG('V', 'W', 'G', 'T'), wgt, k->wbytes);
-	CHECK_EQ(vd_chunk_writer_commit(w), VD_OK);
-	struct vd_cpack *c;
-	int err = vd_cpack_open(&c, path);
-	vd_cpack_free(c);
-	return err;
+	const uint32_t tags[4] = {VD_TAG('C', 'P', 'A', 'R'), VD_TAG('C', 'S', 'E', 'G'),
+				  VD_TAG('V', 'B', 'L', 'K'), VD_TAG('V', 'W', 'G', 'T')};
+	const void *const d[4] = {par, seg, blk, wgt};
+	const size_t len[4] = {64, 40, 8 * (size_t)k->blocks, k->wbytes};
+	return test_cpack_crafted(path, &tr, k->header_voxels, 4, tags, d, len);
 }
 
 static void test_inconsistent(void)

@@ -4,6 +4,7 @@
  * brute-force optimum (dynamic programming over every segmentation with
  * the same per-block fit rule) on tiny arrays. */
 #include "check.h"
+#include "colour_fixture.h"
 #include "voxdag.h"
 
 #include <math.h>
@@ -13,10 +14,7 @@
 static uint64_t rng = 12345;
 static uint32_t next(void)
 {
-	rng ^= rng << 13;
-	rng ^= rng >> 7;
-	rng ^= rng << 17;
-	return (uint32_t)(rng >> 11);
+	return test_xorshift(&rng);
 }
 
 static uint8_t clamp8(double v)

@@ -42,11 +42,12 @@ static int ends_with(const char *s, const char *e)
 }
 
 static const char *const out_names[] = {NULL, "colours.vbr",
-					"colours.palette", "colours.raw"};
+					"colours.palette", "colours.raw",
+					"colours.auto"};
 
 static int colorize_file(const char *name)
 {
-	for (int m = 1; m <= VD_CPACK_RAW; m++)
+	for (int m = 1; m <= VD_CPACK_AUTO; m++)
 		if (!strcmp(name, out_names[m]))
 			return 1;
 	return !strcmp(name, "colorize.stats.json");
@@ -218,6 +219,19 @@ static void json_method(struct vd_json *j, const struct vd_colorize_job *job,
 		vd_json_f64(j, "max_error_limit", job->vbr.max_error);
 		vd_json_u64(j, "weight_bits", (uint64_t)job->vbr.weight_bits);
 	}
+	if (r->method == VD_CPACK_AUTO) {
+		static const char *const mode[5] = {"constant", "palette",
+						    "endpoints", "quant", "raw"};
+		vd_json_f64(j, "max_error_limit", job->autop.max_error);
+		vd_json_u64(j, "lossless", job->autop.max_error == 0);
+		vd_json_u64(j, "block_voxels", 1u << (job->autop.block_log
+							? job->autop.block_log
+							: 8));
+		vd_json_object(j, "mode_blocks");
+		for (int m = 0; m < 5; m++)
+			vd_json_u64(j, mode[m], r->st.mode_blocks[m]);
+		vd_json_end_object(j);
+	}
 	if (r->method == VD_CPACK_PALETTE) {
 		vd_json_u64(j, "palette_colours", pal->k);
 		vd_json_u64(j, "palette_colours_requested", job->palette_colours);
@@ -266,7 +280,7 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 	size_t ncells = 0;
 	struct vd_palette pal = {0};
 	struct vd_colour_hist hist = {0};
-	struct method_run runs[3] = {{0}};
+	struct method_run runs[4] = {{0}};
 	int nruns = 0, staged = 0;
 	char staging[4096];
 	struct vd_chunk_header first = {0};
@@ -274,7 +288,7 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 	int err = list_cells(job->indir, &cells, &ncells);
 	if (err)
 		goto out;
-	for (int m = 1; m <= VD_CPACK_RAW; m++)
+	for (int m = 1; m <= VD_CPACK_AUTO; m++)
 		if (job->methods & 1 << m)
 			runs[nruns++].method = m;
 	if (!nruns) {
@@ -321,7 +335,7 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 					 out_names[runs[r].method]);
 				struct vd_cpack_params p = {
 					.method = runs[r].method, .vbr = job->vbr,
-					.palette = &pal,
+					.autop = job->autop, .palette = &pal,
 					.palette_colours = job->palette_colours,
 					.threads = job->threads};
 				err = vd_cpack_writer_open(&runs[r].w, path, &p,

@@ -23,6 +23,8 @@
 #define TAG_PBLK VD_TAG('P', 'B', 'L', 'K')
 #define TAG_POFS VD_TAG('P', 'O', 'F', 'S')
 #define TAG_RAWC VD_TAG('R', 'A', 'W', 'C')
+#define TAG_ABLK VD_TAG('A', 'B', 'L', 'K')
+#define TAG_ADAT VD_TAG('A', 'D', 'A', 'T')
 
 #define CPAR_SIZE 64
 #define CSEG_SIZE 40
@@ -36,6 +38,7 @@ const char *vd_cpack_method_name(int method)
 	case VD_CPACK_VBR: return "vbr";
 	case VD_CPACK_PALETTE: return "palette";
 	case VD_CPACK_RAW: return "raw";
+	case VD_CPACK_AUTO: return "auto";
 	}
 	return NULL;
 }
@@ -207,6 +210,7 @@ struct vd_cpack_writer {
 	struct buf seg;       /* CSEG */
 	struct palset ps;
 	uint64_t voxels, segments, blocks, data_bytes;
+	uint64_t mode_blocks[5];
 	uint64_t sse;
 	unsigned max_dist2;
 	int has_cell, cell_level;
@@ -237,6 +241,11 @@ static int spool_open(struct vd_cpack_writer *w, const char *path)
 	return VD_OK;
 }
 
+static int auto_block_log(const struct vd_cpack_params *p)
+{
+	return p->autop.block_log ? p->autop.block_log : 8;
+}
+
 int vd_cpack_writer_open(struct vd_cpack_writer **out, const char *path,
 			 const struct vd_cpack_params *p, int levels,
 			 const struct vd_transform *t,
@@ -264,6 +273,7 @@ int vd_cpack_writer_open(struct vd_cpack_writer **out, const char *path,
 	if (!err) {
 		uint32_t tag = p->method == VD_CPACK_VBR ? TAG_VWGT
 			       : p->method == VD_CPACK_PALETTE ? TAG_POFS
+			       : p->method == VD_CPACK_AUTO ? TAG_ADAT
 							       : TAG_RAWC;
 		int lvl = p->method == VD_CPACK_RAW
 				  ? (p->zstd_level ? p->zstd_level : 9)
@@ -284,6 +294,7 @@ struct seg_job {
 	uint64_t n;
 	struct vd_vbr_segment *vbr;
 	struct vd_palette_segment *pal;
+	struct vd_auto_segment *aut;
 	int *errs;
 	char (*details)[256];
 };
@@ -298,6 +309,8 @@ static void seg_run(void *ctx, size_t i, int worker)
 	const uint8_t *rgb = j->rgb + 3 * first;
 	int err = j->p->method == VD_CPACK_VBR
 			  ? vd_vbr_encode(&j->vbr[i], rgb, n, &j->p->vbr)
+		  : j->p->method == VD_CPACK_AUTO
+			  ? vd_auto_encode(&j->aut[i], rgb, n, &j->p->autop)
 			  : vd_palette_encode(&j->pal[i], rgb, n, j->p->palette);
 	j->errs[i] = err;
 	if (err)
@@ -349,6 +362,34 @@ static int put_vbr(struct vd_cpack_writer *w, const struct vd_vbr_segment *s)
 	w->blocks += s->count;
 	w->data_bytes += wb;
 	w->sse += s->sse;
+	if (s->max_dist2 > w->max_dist2)
+		w->max_dist2 = s->max_dist2;
+	return err;
+}
+
+/* Appends one auto segment: its blocks' bytes to the open section, their
+ * directory entries to the spool. */
+static int put_auto(struct vd_cpack_writer *w, const struct vd_auto_segment *s)
+{
+	int err = write_seg_entry(w, s->n, w->blocks);
+	if (!err)
+		err = vd_chunk_writer_write(w->cw, s->data, s->data_bytes);
+	uint8_t hb[4 * 1024];
+	size_t k = 0;
+	for (uint32_t b = 0; b < s->count && !err; b++) {
+		le_put32(hb + 4 * k, s->dir[b]);
+		if (++k == 1024) {
+			err = spool_write(w, hb, sizeof hb);
+			k = 0;
+		}
+	}
+	if (!err && k)
+		err = spool_write(w, hb, 4 * k);
+	w->blocks += s->count;
+	w->data_bytes += s->data_bytes;
+	w->sse += s->sse;
+	for (int m = 0; m < 5; m++)
+		w->mode_blocks[m] += s->mode_blocks[m];
 	if (s->max_dist2 > w->max_dist2)
 		w->max_dist2 = s->max_dist2;
 	return err;
@@ -444,10 +485,12 @@ int vd_cpack_writer_add(struct vd_cpack_writer *w, int chunk_level,
 	j.details = calloc(nseg, sizeof *j.details);
 	if (w->p.method == VD_CPACK_VBR)
 		j.vbr = calloc(nseg, sizeof *j.vbr);
+	else if (w->p.method == VD_CPACK_AUTO)
+		j.aut = calloc(nseg, sizeof *j.aut);
 	else
 		j.pal = calloc(nseg, sizeof *j.pal);
 	int err = VD_OK;
-	if (!j.errs || !j.details || (!j.vbr && !j.pal))
+	if (!j.errs || !j.details || (!j.vbr && !j.pal && !j.aut))
 		err = vd_fail(VD_ERR_NOMEM, "%zu segments", nseg);
 	if (!err)
 		err = vd_parallel_for(nseg, w->p.threads, seg_run, &j);
@@ -455,8 +498,10 @@ int vd_cpack_writer_add(struct vd_cpack_writer *w, int chunk_level,
 		if (j.errs[i])
 			err = vd_fail(j.errs[i], "%s", j.details[i]);
 	for (size_t i = 0; i < nseg && !err; i++) {
-		err = j.vbr ? put_vbr(w, &j.vbr[i]) : put_pal(w, &j.pal[i]);
-		uint32_t m = j.vbr ? j.vbr[i].n : j.pal[i].n;
+		err = j.vbr ? put_vbr(w, &j.vbr[i])
+		      : j.aut ? put_auto(w, &j.aut[i])
+			      : put_pal(w, &j.pal[i]);
+		uint32_t m = j.vbr ? j.vbr[i].n : j.aut ? j.aut[i].n : j.pal[i].n;
 		w->voxels += m;
 		w->segments++;
 	}
@@ -465,8 +510,11 @@ int vd_cpack_writer_add(struct vd_cpack_writer *w, int chunk_level,
 			vd_vbr_segment_release(&j.vbr[i]);
 		if (j.pal)
 			vd_palette_segment_release(&j.pal[i]);
+		if (j.aut)
+			vd_auto_segment_release(&j.aut[i]);
 	}
 	free(j.vbr);
+	free(j.aut);
 	free(j.pal);
 	free(j.errs);
 	free(j.details);
@@ -506,11 +554,15 @@ int vd_cpack_writer_commit(struct vd_cpack_writer *w,
 	int err = vd_chunk_writer_end(w->cw);
 	uint8_t par[CPAR_SIZE] = {0};
 	le_put32(par, (uint32_t)w->p.method);
-	le_put32(par + 4, w->p.method == VD_CPACK_VBR ? (uint32_t)w->p.vbr.weight_bits : 0);
+	le_put32(par + 4, w->p.method == VD_CPACK_VBR ? (uint32_t)w->p.vbr.weight_bits
+			  : w->p.method == VD_CPACK_AUTO ? (uint32_t)auto_block_log(&w->p)
+							 : 0);
 	le_put64(par + 8, w->voxels);
 	le_put64(par + 16, w->segments);
 	le_put64(par + 24, w->blocks);
-	double et = w->p.method == VD_CPACK_VBR ? w->p.vbr.max_error : 0;
+	double et = w->p.method == VD_CPACK_VBR ? w->p.vbr.max_error
+		    : w->p.method == VD_CPACK_AUTO ? w->p.autop.max_error
+						   : 0;
 	uint64_t etb;
 	memcpy(&etb, &et, 8);
 	le_put64(par + 32, etb);
@@ -529,6 +581,10 @@ int vd_cpack_writer_commit(struct vd_cpack_writer *w,
 	if (!err && w->p.method == VD_CPACK_VBR) {
 		err = copy_spool(w, TAG_VBLK);
 		bytes += w->blocks * VBLK_SIZE + w->data_bytes;
+	}
+	if (!err && w->p.method == VD_CPACK_AUTO) {
+		err = copy_spool(w, TAG_ABLK);
+		bytes += w->blocks * 4 + w->data_bytes;
 	}
 	if (!err && w->p.method == VD_CPACK_PALETTE) {
 		const struct vd_palette *pl = w->p.palette;
@@ -552,6 +608,7 @@ int vd_cpack_writer_commit(struct vd_cpack_writer *w,
 		.blocks = w->blocks, .palettes = w->ps.count,
 		.palette_entries = w->ps.entries, .sse = w->sse,
 		.max_dist2 = w->max_dist2};
+	memcpy(s.mode_blocks, w->mode_blocks, sizeof s.mode_blocks);
 	if (!err) {
 		err = vd_chunk_writer_commit(w->cw);
 		w->cw = NULL;
@@ -594,6 +651,11 @@ struct vd_cpack {
 	uint32_t *blk_start;
 	uint16_t *c0, *c1;           /* vbr */
 	uint32_t *blk_pal, *blk_bit; /* palette */
+	uint32_t *dir;               /* auto: directory entries */
+	/* auto: seg_at[p] the segment holding voxel p << 18, so a lookup
+	 * searches only the segments that start in its 2^18 window */
+	uint32_t *seg_at;
+	int block_log;               /* auto */
 	uint8_t *data;               /* VWGT, POFS or the raw array */
 	size_t data_size;
 	/* palette */
@@ -616,6 +678,8 @@ void vd_cpack_free(struct vd_cpack *c)
 	free(c->c1);
 	free(c->blk_pal);
 	free(c->blk_bit);
+	free(c->dir);
+	free(c->seg_at);
 	free(c->data);
 	free(c->glb);
 	free(c->pal_first);
@@ -673,6 +737,13 @@ static int read_cpar(struct vd_cpack *c, const struct vd_chunk *ch,
 			       (unsigned long long)h->level_nodes[0]);
 	if (c->method == VD_CPACK_VBR && (c->weight_bits < 1 || c->weight_bits > 8))
 		return vd_fail(VD_ERR_CORRUPT, "%d weight bits", c->weight_bits);
+	if (c->method == VD_CPACK_AUTO) {
+		c->block_log = c->weight_bits;
+		c->weight_bits = 0;
+		if (c->block_log < 4 || c->block_log > 12)
+			return vd_fail(VD_ERR_CORRUPT, "blocks of 2^%d colours",
+				       c->block_log);
+	}
 	return VD_OK;
 }
 
@@ -966,6 +1037,118 @@ static int check_offsets(const struct vd_cpack *c)
 	return VD_OK;
 }
 
+/* The auto method's ABLK (directory) and ADAT (blocks) sections: per
+ * segment exactly ceil(n / 2^block_log) blocks, each of a known mode, its
+ * bytes where the running sum of the segment's earlier blocks ends, every
+ * palette index below its palette's size, the data all used. The data is
+ * kept with VD_AUTO_PAD zero bytes after it for the 4-byte bit reads. */
+static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
+{
+	uint8_t *blk = NULL;
+	size_t n;
+	int err;
+	if ((err = section(ch, TAG_ABLK, &blk, &n, 4, "ABLK")))
+		return err;
+	if (n / 4 != c->blocks) {
+		free(blk);
+		return vd_fail(VD_ERR_CORRUPT, "%zu blocks, CPAR says %llu",
+			       n / 4, (unsigned long long)c->blocks);
+	}
+	c->dir = malloc((size_t)c->blocks * 4 + 4);
+	if (!c->dir) {
+		free(blk);
+		return vd_fail(VD_ERR_NOMEM, "%llu blocks",
+			       (unsigned long long)c->blocks);
+	}
+	for (uint64_t b = 0; b < c->blocks; b++)
+		c->dir[b] = le_get32(blk + 4 * b);
+	free(blk);
+	if ((err = section(ch, TAG_ADAT, &c->data, &c->data_size, 0, "ADAT")))
+		return err;
+	uint8_t *g = realloc(c->data, c->data_size + VD_AUTO_PAD);
+	if (!g)
+		return vd_fail(VD_ERR_NOMEM, "colour blocks");
+	c->data = g;
+	memset(c->data + c->data_size, 0, VD_AUTO_PAD);
+	c->bytes = CSEG_SIZE * (size_t)c->segments + 4 * (size_t)c->blocks +
+		   c->data_size;
+	uint64_t data = 0;
+	uint32_t bs = 1u << c->block_log;
+	for (size_t s = 0; s < (size_t)c->segments; s++) {
+		uint64_t nb = (c->seg_n[s] + bs - 1) >> c->block_log;
+		if (c->seg_block[s] + nb > c->blocks ||
+		    (s + 1 < c->segments && c->seg_block[s + 1] != c->seg_block[s] + nb) ||
+		    (s + 1 == c->segments && c->seg_block[s] + nb != c->blocks) ||
+		    c->seg_data[s] != data)
+			return vd_fail(VD_ERR_CORRUPT, "segment %zu: blocks from "
+				       "%llu, data at %llu (expected %llu blocks "
+				       "there, data at %llu)", s,
+				       (unsigned long long)c->seg_block[s],
+				       (unsigned long long)c->seg_data[s],
+				       (unsigned long long)nb,
+				       (unsigned long long)data);
+		uint64_t at = 0;
+		for (uint64_t b = 0; b < nb; b++) {
+			uint64_t bi = c->seg_block[s] + b;
+			uint32_t e = c->dir[bi], m = e >> 24;
+			uint32_t len = b + 1 < nb ? bs : c->seg_n[s] - (uint32_t)b * bs;
+			if (m == VD_AUTO_CONST)
+				continue;
+			int known = (m >> 4 == VD_AUTO_PALETTE >> 4 ||
+				     m >> 4 == VD_AUTO_ENDPOINTS >> 4)
+					    ? (m & 15) >= 1 && (m & 15) <= 8
+					    : m == VD_AUTO_QUANT || m == VD_AUTO_RAW;
+			uint64_t off = data + (e & 0xffffff);
+			/* the header bytes the size depends on must be there */
+			if (!known || (e & 0xffffff) != at ||
+			    off + 6 > c->data_size + (m == VD_AUTO_RAW ? 6 : 0))
+				return vd_fail(VD_ERR_CORRUPT, "block %llu: mode "
+					       "0x%02x at byte %u of its "
+					       "segment (expected %llu)",
+					       (unsigned long long)bi, m,
+					       e & 0xffffff, (unsigned long long)at);
+			const uint8_t *d = c->data + off;
+			int bad = 0;
+			if (m >> 4 == VD_AUTO_PALETTE >> 4)
+				bad = d[0] + 1u < 2 || width_of(d[0] + 1u) != (m & 15);
+			if (m >> 4 == VD_AUTO_ENDPOINTS >> 4)
+				bad = (d[0] & 15) > c->block_log || d[0] > 31;
+			if (m == VD_AUTO_QUANT)
+				bad = d[3] == 0 || (d[4] & 15) > 8 || d[4] >> 4 > 8 ||
+				      d[5] > 8;
+			size_t sz = bad ? 0 : vd_auto_block_bytes(e, d, len);
+			if (bad || off + sz > c->data_size)
+				return vd_fail(VD_ERR_CORRUPT, "block %llu: mode "
+					       "0x%02x header %s", (unsigned long long)bi,
+					       m, bad ? "invalid" : "runs past the data");
+			if (m >> 4 == VD_AUTO_PALETTE >> 4) {
+				unsigned k = d[0] + 1u, w = m & 15;
+				for (uint32_t j = 0; j < len && (1u << w) != k; j++)
+					if (vd_auto_bits(d + 1 + 3 * k, (uint64_t)j * w, w) >= k)
+						return vd_fail(VD_ERR_CORRUPT, "block %llu: "
+							       "index outside its %u-colour "
+							       "palette", (unsigned long long)bi, k);
+			}
+			at += sz;
+		}
+		data += at;
+	}
+	if (data != c->data_size)
+		return vd_fail(VD_ERR_CORRUPT, "%zu bytes of blocks, the blocks "
+			       "need %llu", c->data_size, (unsigned long long)data);
+	uint64_t windows = (c->voxels >> 18) + 2;
+	c->seg_at = malloc(windows * sizeof *c->seg_at);
+	if (!c->seg_at)
+		return vd_fail(VD_ERR_NOMEM, "segment index");
+	size_t s = 0;
+	for (uint64_t p = 0; p < windows; p++) {
+		while (s + 1 < c->segments && c->seg_first[s + 1] <= p << 18)
+			s++;
+		c->seg_at[p] = (uint32_t)s;
+	}
+	return VD_OK;
+}
+
 static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 {
 	const struct vd_chunk_header *h = vd_chunk_header(ch);
@@ -981,6 +1164,8 @@ static int from_chunk(struct vd_cpack *c, const struct vd_chunk *ch)
 		return err;
 	if (c->method == VD_CPACK_RAW)
 		return read_raw(c, ch); /* raw costs its file's size (zstd) */
+	if (c->method == VD_CPACK_AUTO)
+		return read_auto(c, ch);
 	int vbr = c->method == VD_CPACK_VBR;
 	size_t bsz = vbr ? VBLK_SIZE : PBLK_SIZE;
 	if ((err = read_blocks(c, ch, vbr, bsz)))
@@ -1062,6 +1247,35 @@ static void colour_in(const struct vd_cpack *c, size_t s, uint64_t b,
 	memcpy(rgb, c->glb + 3 * (size_t)g, 3);
 }
 
+/* The segment of voxel i among segments lo..hi-1: the last whose first
+ * voxel is <= i (the caller knows it is in that range). */
+static size_t segment_in(const struct vd_cpack *c, uint64_t i, size_t lo,
+			 size_t hi)
+{
+	while (hi - lo > 1) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (c->seg_first[mid] <= i)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	return lo;
+}
+
+/* The auto method's lookup: the segment, then the block is the index
+ * shifted (blocks have a fixed length), then one entry and its block. */
+static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
+{
+	uint64_t p = i >> 18;
+	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
+	uint32_t k = (uint32_t)(i - c->seg_first[s]);
+	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
+	uint32_t first = k >> c->block_log << c->block_log;
+	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
+	vd_auto_decode(e, c->data + c->seg_data[s] + (e & 0xffffff),
+		       left < bs ? left : bs, k - first, rgb);
+}
+
 int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 {
 	if (i >= c->voxels)
@@ -1072,14 +1286,11 @@ int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 		memcpy(rgb, c->data + 3 * i, 3);
 		return VD_OK;
 	}
-	size_t lo = 0, hi = (size_t)c->segments; /* last segment first <= i */
-	while (hi - lo > 1) {
-		size_t mid = lo + (hi - lo) / 2;
-		if (c->seg_first[mid] <= i)
-			lo = mid;
-		else
-			hi = mid;
+	if (c->method == VD_CPACK_AUTO) {
+		auto_colour(c, i, rgb);
+		return VD_OK;
 	}
+	size_t lo = segment_in(c, i, 0, (size_t)c->segments);
 	uint32_t k = (uint32_t)(i - c->seg_first[lo]);
 	uint64_t bl = c->seg_block[lo], bh = c->seg_block[lo + 1];
 	while (bh - bl > 1) { /* the paper's binary search over headers */
@@ -1106,16 +1317,13 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		memcpy(rgb, c->data + 3 * first, 3 * n);
 		return VD_OK;
 	}
-	/* walk blocks sequentially from the first voxel's */
-	size_t s = 0, lo = 0, hi = (size_t)c->segments;
-	while (hi - lo > 1) {
-		size_t mid = lo + (hi - lo) / 2;
-		if (c->seg_first[mid] <= first)
-			lo = mid;
-		else
-			hi = mid;
+	if (c->method == VD_CPACK_AUTO) {
+		for (uint64_t k = 0; k < n; k++)
+			auto_colour(c, first + k, rgb + 3 * k);
+		return VD_OK;
 	}
-	s = lo;
+	/* walk blocks sequentially from the first voxel's */
+	size_t s = segment_in(c, first, 0, (size_t)c->segments);
 	uint64_t done = 0;
 	while (done < n) {
 		uint32_t k = (uint32_t)(first + done - c->seg_first[s]);

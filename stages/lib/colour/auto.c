@@ -1,0 +1,610 @@
+/* The auto colour method (schemas/colour-formats.md, method 4): the colour
+ * array cut into blocks of 2^block_log voxels, each block stored in the
+ * mode of fewest bytes that keeps every colour within the error limit.
+ * Blocks have a fixed length so that a voxel's block is its index shifted
+ * (no search over block headers, unlike VBR's variable blocks), and each
+ * block decodes alone, so an edit can re-encode one block, or write a
+ * constant block for a uniform fill, without touching its neighbours.
+ *
+ * Every candidate is checked voxel by voxel with the decoder's own rule
+ * (vd_auto_decode), so the guarantee does not rest on the fitting's
+ * arithmetic: a mode either keeps every colour within the limit or is not
+ * taken; raw always is. */
+#include "voxdag.h"
+#include "colour/colour_internal.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_BLOCK (1u << 12)
+#define HASH_SLOTS 1024 /* > 2 x 256 distinct colours: short probes */
+
+static unsigned width_of(uint32_t colours)
+{
+	unsigned w = 0;
+	while ((1u << w) < colours)
+		w++;
+	return w;
+}
+
+/* LSB-first bit writer over a zeroed buffer. */
+static void put_bits(uint8_t *b, uint64_t pos, unsigned width, uint32_t v)
+{
+	uint8_t *p = b + (pos >> 3);
+	uint64_t x = (uint64_t)(v & (uint32_t)((1ull << width) - 1)) << (pos & 7);
+	for (; x; x >>= 8)
+		*p++ |= (uint8_t)x;
+}
+
+/* One block's analysis, shared by the modes. */
+struct blk {
+	const uint8_t *rgb;
+	uint32_t n;
+	unsigned limit;
+	unsigned lo[3], hi[3];
+	uint32_t ndist;              /* distinct colours; > 256: many */
+	uint32_t dist[256], cnt[256];
+	uint16_t id[MAX_BLOCK];      /* voxel -> distinct colour */
+	/* the hash of distinct colours, cleared by generation */
+	uint32_t key[HASH_SLOTS], gen[HASH_SLOTS], val[HASH_SLOTS], g;
+	/* candidates: the cheapest so far in best[], the next in try[] */
+	uint8_t bufa[3 * MAX_BLOCK + 1024 + VD_AUTO_PAD];
+	uint8_t bufb[3 * MAX_BLOCK + 1024 + VD_AUTO_PAD];
+	uint8_t *best, *cand;
+	size_t best_bytes;
+	uint32_t best_entry;         /* mode << 24 (| colour if constant) */
+	uint64_t best_sse;
+	unsigned best_max;
+	float t[MAX_BLOCK];
+};
+
+static void analyse(struct blk *k)
+{
+	const uint8_t *rgb = k->rgb;
+	for (int c = 0; c < 3; c++) {
+		k->lo[c] = 255;
+		k->hi[c] = 0;
+	}
+	k->g++;
+	k->ndist = 0;
+	for (uint32_t i = 0; i < k->n; i++) {
+		const uint8_t *x = rgb + 3 * i;
+		for (int c = 0; c < 3; c++) {
+			if (x[c] < k->lo[c])
+				k->lo[c] = x[c];
+			if (x[c] > k->hi[c])
+				k->hi[c] = x[c];
+		}
+		if (k->ndist > 256)
+			continue;
+		uint32_t key = (uint32_t)x[0] | (uint32_t)x[1] << 8 |
+			       (uint32_t)x[2] << 16;
+		uint32_t h = (key * 2654435761u) >> 22;
+		while (k->gen[h] == k->g && k->key[h] != key)
+			h = (h + 1) & (HASH_SLOTS - 1);
+		if (k->gen[h] != k->g) {
+			if (k->ndist == 256) {
+				k->ndist = 257;
+				continue;
+			}
+			k->gen[h] = k->g;
+			k->key[h] = key;
+			k->val[h] = k->ndist;
+			k->dist[k->ndist] = key;
+			k->cnt[k->ndist++] = 0;
+		}
+		k->id[i] = (uint16_t)k->val[h];
+		k->cnt[k->val[h]]++;
+	}
+}
+
+/* Adopts the candidate in k->cand if it is cheaper than the best. */
+static void offer(struct blk *k, uint32_t entry, size_t bytes, uint64_t sse,
+		  unsigned maxd)
+{
+	if (bytes >= k->best_bytes)
+		return;
+	uint8_t *t = k->best;
+	k->best = k->cand;
+	k->cand = t;
+	k->best_bytes = bytes;
+	k->best_entry = entry;
+	k->best_sse = sse;
+	k->best_max = maxd;
+}
+
+/* Every voxel of the candidate (entry, cand) within the limit; sets *sse
+ * and *maxd. */
+static int verify(const struct blk *k, uint32_t entry, const uint8_t *d,
+		  uint64_t *sse, unsigned *maxd)
+{
+	uint64_t s = 0;
+	unsigned m = 0;
+	for (uint32_t i = 0; i < k->n; i++) {
+		uint8_t o[3];
+		vd_auto_decode(entry, d, k->n, i, o);
+		unsigned e = vd_rgb_dist2(o, k->rgb + 3 * i);
+		if (e > k->limit)
+			return 0;
+		s += e;
+		if (e > m)
+			m = e;
+	}
+	*sse = s;
+	*maxd = m;
+	return 1;
+}
+
+static uint32_t packed(const uint8_t c[3])
+{
+	return (uint32_t)c[0] | (uint32_t)c[1] << 8 | (uint32_t)c[2] << 16;
+}
+
+/* Constant: one distinct colour, or (lossy) the mean, else the centre of
+ * the box, when every colour is within the limit of it. */
+static void try_const(struct blk *k)
+{
+	uint64_t sse;
+	unsigned maxd;
+	if (k->ndist == 1) {
+		offer(k, VD_AUTO_CONST << 24 | k->dist[0], 0, 0, 0);
+		return;
+	}
+	if (!k->limit)
+		return;
+	/* the box's half-diagonal bounds what any colour can reach: when
+	 * even the best centre is too far, skip the pass over the voxels */
+	unsigned r2 = 0;
+	for (int c = 0; c < 3; c++) {
+		unsigned h = (k->hi[c] - k->lo[c]) / 2;
+		r2 += h * h;
+	}
+	if (r2 > k->limit)
+		return;
+	uint64_t sum[3] = {0, 0, 0};
+	for (uint32_t i = 0; i < k->n; i++)
+		for (int c = 0; c < 3; c++)
+			sum[c] += k->rgb[3 * i + c];
+	uint8_t m[3], ctr[3];
+	for (int c = 0; c < 3; c++) {
+		m[c] = (uint8_t)((sum[c] + k->n / 2) / k->n);
+		ctr[c] = (uint8_t)((k->lo[c] + k->hi[c] + 1) / 2);
+	}
+	uint32_t e = VD_AUTO_CONST << 24 | packed(m);
+	if (verify(k, e, NULL, &sse, &maxd)) {
+		offer(k, e, 0, sse, maxd);
+		return;
+	}
+	e = VD_AUTO_CONST << 24 | packed(ctr);
+	if (verify(k, e, NULL, &sse, &maxd))
+		offer(k, e, 0, sse, maxd);
+}
+
+static void unpack(uint32_t p, uint8_t c[3])
+{
+	c[0] = (uint8_t)p;
+	c[1] = (uint8_t)(p >> 8);
+	c[2] = (uint8_t)(p >> 16);
+}
+
+/* Local palette: lossless, the block's distinct colours; lossy, leaders
+ * (each distinct colour joins the nearest leader within the limit or
+ * becomes one), each moved to its members' weighted mean when all of
+ * them stay within the limit (lower GMSE at the same bytes). */
+static void try_palette(struct blk *k)
+{
+	if (k->ndist < 2 || k->ndist > 256)
+		return;
+	uint8_t *d = k->cand;
+	uint32_t lead[256], of[256];
+	uint32_t np = 0;
+	if (!k->limit) {
+		for (uint32_t i = 0; i < k->ndist; i++)
+			lead[i] = k->dist[i], of[i] = i;
+		np = k->ndist;
+	} else {
+		/* leaders by channel, so the nearest-leader loop vectorises */
+		int lr[256], lg[256], lb[256];
+		for (uint32_t i = 0; i < k->ndist; i++) {
+			int r = k->dist[i] & 255, g = k->dist[i] >> 8 & 255,
+			    b = (int)(k->dist[i] >> 16);
+			int best = INT32_MAX;
+			uint32_t bi = 0;
+			for (uint32_t q = 0; q < np; q++) {
+				int e = (r - lr[q]) * (r - lr[q]) +
+					(g - lg[q]) * (g - lg[q]) +
+					(b - lb[q]) * (b - lb[q]);
+				if (e < best)
+					best = e, bi = q;
+			}
+			if (best <= (int)k->limit) {
+				of[i] = bi;
+				continue;
+			}
+			size_t need = 1 + 3 * (size_t)(np + 1) +
+				      ((size_t)k->n * width_of(np + 1) + 7) / 8;
+			if (need >= k->best_bytes)
+				return;
+			of[i] = np;
+			lr[np] = r, lg[np] = g, lb[np] = b;
+			lead[np++] = k->dist[i];
+		}
+		if (np < 2)
+			return; /* one leader: the constant mode's case */
+		uint64_t sum[256][3], wt[256];
+		memset(sum, 0, np * sizeof sum[0]);
+		memset(wt, 0, np * sizeof wt[0]);
+		for (uint32_t i = 0; i < k->ndist; i++) {
+			uint8_t a[3];
+			unpack(k->dist[i], a);
+			for (int c = 0; c < 3; c++)
+				sum[of[i]][c] += (uint64_t)a[c] * k->cnt[i];
+			wt[of[i]] += k->cnt[i];
+		}
+		uint8_t mean[256][3];
+		uint8_t ok[256];
+		for (uint32_t q = 0; q < np; q++) {
+			for (int c = 0; c < 3; c++)
+				mean[q][c] = (uint8_t)((sum[q][c] + wt[q] / 2) / wt[q]);
+			ok[q] = 1;
+		}
+		for (uint32_t i = 0; i < k->ndist; i++) {
+			uint8_t a[3];
+			unpack(k->dist[i], a);
+			if (vd_rgb_dist2(a, mean[of[i]]) > k->limit)
+				ok[of[i]] = 0;
+		}
+		for (uint32_t q = 0; q < np; q++)
+			if (ok[q])
+				lead[q] = packed(mean[q]);
+	}
+	unsigned b = width_of(np);
+	size_t bytes = 1 + 3 * (size_t)np + ((size_t)k->n * b + 7) / 8;
+	if (bytes >= k->best_bytes)
+		return;
+	memset(d, 0, bytes + VD_AUTO_PAD);
+	d[0] = (uint8_t)(np - 1);
+	for (uint32_t q = 0; q < np; q++)
+		unpack(lead[q], d + 1 + 3 * q);
+	uint8_t *idx = d + 1 + 3 * np;
+	for (uint32_t i = 0; i < k->n; i++)
+		put_bits(idx, (uint64_t)i * b, b, of[k->id[i]]);
+	uint32_t e = (uint32_t)(VD_AUTO_PALETTE | b) << 24;
+	uint64_t sse;
+	unsigned maxd;
+	if (verify(k, e, d, &sse, &maxd))
+		offer(k, e, bytes, sse, maxd);
+}
+
+/* The line through one part's colours: endpoints the part's colours at
+ * the two ends of its principal direction (the widest channel, the others
+ * signed by their covariance with it), t[i] each colour's projection on
+ * the segment between them, in [0, 1]. */
+static void fit_line(const uint8_t *rgb, uint32_t n, uint8_t c0[3],
+		     uint8_t c1[3], float *t, float *perp2, float *span2)
+{
+	unsigned lo[3] = {255, 255, 255}, hi[3] = {0, 0, 0};
+	long sum[3] = {0, 0, 0};
+	for (uint32_t i = 0; i < n; i++)
+		for (int c = 0; c < 3; c++) {
+			unsigned v = rgb[3 * i + c];
+			lo[c] = v < lo[c] ? v : lo[c];
+			hi[c] = v > hi[c] ? v : hi[c];
+			sum[c] += v;
+		}
+	int p = 0;
+	for (int c = 1; c < 3; c++)
+		if (hi[c] - lo[c] > hi[p] - lo[p])
+			p = c;
+	long cov[3] = {0, 0, 0};
+	for (uint32_t i = 0; i < n; i++)
+		for (int c = 0; c < 3; c++)
+			cov[c] += ((long)n * rgb[3 * i + p] - sum[p]) *
+				  ((long)rgb[3 * i + c] * n - sum[c]);
+	int dir[3];
+	for (int c = 0; c < 3; c++)
+		dir[c] = (cov[c] < 0 ? -1 : 1) * (int)(hi[c] - lo[c]);
+	long tmin = 0, tmax = 0;
+	uint32_t imin = 0, imax = 0;
+	for (uint32_t i = 0; i < n; i++) {
+		long v = 0;
+		for (int c = 0; c < 3; c++)
+			v += (long)dir[c] * rgb[3 * i + c];
+		if (i == 0 || v < tmin)
+			tmin = v, imin = i;
+		if (i == 0 || v > tmax)
+			tmax = v, imax = i;
+	}
+	memcpy(c0, rgb + 3 * imin, 3);
+	memcpy(c1, rgb + 3 * imax, 3);
+	int D[3];
+	long L = 0;
+	for (int c = 0; c < 3; c++) {
+		D[c] = c1[c] - c0[c];
+		L += (long)D[c] * D[c];
+	}
+	float inv = L ? 1.0f / (float)L : 0, worst = 0;
+	for (uint32_t i = 0; i < n; i++) {
+		long v = 0, r2 = 0;
+		for (int c = 0; c < 3; c++) {
+			int x = rgb[3 * i + c] - c0[c];
+			v += (long)x * D[c];
+			r2 += (long)x * x;
+		}
+		float x = (float)v * inv;
+		float p2 = (float)r2 - (float)v * x;
+		worst = p2 > worst ? p2 : worst;
+		t[i] = x < 0 ? 0 : x > 1 ? 1 : x;
+	}
+	*perp2 = worst;
+	*span2 = (float)L;
+}
+
+static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
+			   uint8_t e[64][6], unsigned wlo);
+
+/* Endpoints and W-bit weights, the VBR idea with 8-bit endpoints: the
+ * block cut into parts of 2^s voxels (s from block_log down by up to 3,
+ * so a block that holds two or more gradients still fits, as VBR's
+ * variable blocks would), each part two endpoints (fit_line), every voxel
+ * the weight whose decoded colour is nearest of the two around its
+ * projection; the fewest bytes over parts and weight bits that keep every
+ * colour within the limit. */
+static void try_endpoints(struct blk *k, int block_log)
+{
+	if (k->ndist < 2)
+		return;
+	const uint8_t *rgb = k->rgb;
+	uint32_t n = k->n;
+	for (int s = block_log; s >= block_log - 3 && s >= 4; s--) {
+		uint32_t len = 1u << s, parts = (n + len - 1) >> s;
+		if (1 + 4 * (size_t)parts + (n + 7) / 8 >= k->best_bytes)
+			return; /* more parts only cost more */
+		uint8_t e[64][6];
+		float perp2 = 0, span2 = 0;
+		for (uint32_t q = 0; q < parts; q++) {
+			uint32_t m = q + 1 < parts ? len : n - q * len;
+			float p2, s2;
+			fit_line(rgb + 3 * (size_t)q * len, m, e[q], e[q] + 3,
+				 k->t + q * len, &p2, &s2);
+			perp2 = p2 > perp2 ? p2 : perp2;
+			span2 = s2 > span2 ? s2 : span2;
+		}
+		/* a colour farther from the line through its part's ends
+		 * than the limit fits no weights on it (RGB565 endpoints
+		 * move the line a little: a heuristic there, and every
+		 * candidate is verified anyway) */
+		if (perp2 > (float)k->limit + 0.5f)
+			continue;
+		(void)span2;
+		unsigned wlo = 1;
+		/* RGB565 endpoints first (4 bytes a part, as VBR stores them),
+		 * then RGB8 */
+		for (int esz = 4; esz <= 6; esz += 2)
+			if (endpoints_parts(k, s, parts, esz, e, wlo))
+				break;
+	}
+}
+
+/* Endpoints mode of `parts` parts of 2^s voxels with the fitted endpoints
+ * e (RGB8), stored in esz = 4 (RGB565, nearest) or 6 bytes: the fewest
+ * weight bits that keep every colour within the limit, offered. Returns 1
+ * when one was found. */
+static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
+			   uint8_t e[64][6], unsigned wlo)
+{
+	const uint8_t *rgb = k->rgb;
+	uint32_t n = k->n, len = 1u << s;
+	uint8_t ed[64][6]; /* the endpoints as decoded */
+	uint16_t e565[64][2];
+	for (uint32_t q = 0; q < parts; q++) {
+		if (esz == 6) {
+			memcpy(ed[q], e[q], 6);
+			continue;
+		}
+		for (int h = 0; h < 2; h++) {
+			const uint8_t *c = e[q] + 3 * h;
+			e565[q][h] = (uint16_t)(((c[0] * 31 + 127) / 255) << 11 |
+						((c[1] * 63 + 127) / 255) << 5 |
+						((c[2] * 31 + 127) / 255));
+			vd_rgb565_decode(e565[q][h], ed[q] + 3 * h);
+		}
+	}
+	for (unsigned w = wlo; w <= 8; w++) {
+		size_t bytes = 1 + (size_t)esz * parts + ((size_t)n * w + 7) / 8;
+		if (bytes >= k->best_bytes)
+			return 0;
+		unsigned m = (1u << w) - 1;
+		uint8_t *d = k->cand;
+		memset(d, 0, bytes + VD_AUTO_PAD);
+		d[0] = (uint8_t)(s | (esz == 4 ? 16 : 0));
+		for (uint32_t q = 0; q < parts; q++) {
+			if (esz == 6) {
+				memcpy(d + 1 + 6 * q, ed[q], 6);
+				continue;
+			}
+			for (int h = 0; h < 2; h++) {
+				d[1 + 4 * q + 2 * h] = (uint8_t)e565[q][h];
+				d[2 + 4 * q + 2 * h] = (uint8_t)(e565[q][h] >> 8);
+			}
+		}
+		uint8_t *wb = d + 1 + esz * parts;
+		uint32_t i = 0;
+		for (uint32_t q = 0; q < parts && i == q * len; q++) {
+			/* decoded on demand, not tabled: a table of 2^w entries
+			 * per part and per try cost more than the voxels */
+			const uint8_t *c0 = ed[q], *c1 = ed[q] + 3;
+			uint64_t r = vd_auto_recip[w];
+			uint32_t end = q + 1 < parts ? (q + 1) * len : n;
+			for (; i < end; i++) {
+				const uint8_t *v = rgb + 3 * i;
+				unsigned x = (unsigned)(k->t[i] * (float)m), er = ~0u;
+				unsigned xb = x;
+				for (unsigned y = x ? x - 1 : 0; y <= x + 1 && y <= m; y++) {
+					uint8_t o[3];
+					for (int c = 0; c < 3; c++)
+						o[c] = (uint8_t)(((uint64_t)(c0[c] * (m - y) +
+									     c1[c] * y + m / 2) *
+								  r) >> 32);
+					unsigned e1 = vd_rgb_dist2(o, v);
+					if (e1 < er)
+						er = e1, xb = y;
+				}
+				x = xb;
+				if (er > k->limit)
+					break;
+				put_bits(wb, (uint64_t)i * w, w, x);
+			}
+		}
+		if (i < n)
+			continue;
+		uint32_t en = (uint32_t)(VD_AUTO_ENDPOINTS | w) << 24;
+		uint64_t sse;
+		unsigned maxd;
+		if (verify(k, en, d, &sse, &maxd)) {
+			offer(k, en, bytes, sse, maxd);
+			return 1;
+		}
+	}
+	return 0;
+}
+
+/* Per-channel offsets from the block's minimum in steps of s, each channel
+ * as many bits as its range needs: s odd and 3 ((s - 1) / 2)^2 <= limit,
+ * so the rounding keeps every colour within it (s = 1: lossless). */
+static void try_quant(struct blk *k)
+{
+	unsigned s = 1;
+	if (k->limit) {
+		unsigned h = (unsigned)sqrt(k->limit / 3.0);
+		while (3 * (h + 1) * (h + 1) <= k->limit)
+			h++;
+		while (h && 3 * h * h > k->limit)
+			h--;
+		s = 2 * h + 1;
+		if (s > 255)
+			s = 255;
+	}
+	unsigned half = s / 2, wd[3], wsum = 0;
+	uint8_t q[3][256];
+	for (int c = 0; c < 3; c++) {
+		unsigned range = k->hi[c] - k->lo[c];
+		for (unsigned o = 0; o <= range; o++)
+			q[c][o] = (uint8_t)((o + half) / s);
+		wd[c] = width_of(q[c][range] + 1u);
+		wsum += wd[c];
+	}
+	size_t bytes = 6 + ((size_t)k->n * wsum + 7) / 8;
+	if (bytes >= k->best_bytes)
+		return;
+	uint8_t *d = k->cand;
+	memset(d, 0, bytes + VD_AUTO_PAD);
+	for (int c = 0; c < 3; c++)
+		d[c] = (uint8_t)k->lo[c];
+	d[3] = (uint8_t)s;
+	d[4] = (uint8_t)(wd[0] | wd[1] << 4);
+	d[5] = (uint8_t)wd[2];
+	for (uint32_t i = 0; i < k->n; i++) {
+		const uint8_t *x = k->rgb + 3 * i;
+		uint32_t v = q[0][x[0] - k->lo[0]] |
+			     (uint32_t)q[1][x[1] - k->lo[1]] << wd[0] |
+			     (uint32_t)q[2][x[2] - k->lo[2]] << (wd[0] + wd[1]);
+		put_bits(d + 6, (uint64_t)i * wsum, wsum, v);
+	}
+	uint32_t e = (uint32_t)VD_AUTO_QUANT << 24;
+	uint64_t sse;
+	unsigned maxd;
+	if (verify(k, e, d, &sse, &maxd))
+		offer(k, e, bytes, sse, maxd);
+}
+
+static void encode_block(struct blk *k, int block_log)
+{
+	/* raw is the fallback every other mode must beat */
+	k->best_bytes = 3 * (size_t)k->n;
+	memcpy(k->best, k->rgb, k->best_bytes);
+	k->best_entry = (uint32_t)VD_AUTO_RAW << 24;
+	k->best_sse = 0;
+	k->best_max = 0;
+	k->best_bytes++; /* so that a mode as large as raw is not taken */
+	analyse(k);
+	/* the cheap modes first: the palette's leader search stops as soon
+	 * as it cannot beat them; but a block of a few colours tries the
+	 * palette first, so that it wins a tie (its colours are exact) */
+	try_const(k);
+	if (k->ndist <= 16)
+		try_palette(k);
+	try_endpoints(k, block_log);
+	try_quant(k);
+	if (k->ndist > 16)
+		try_palette(k);
+	if (k->best_entry >> 24 == VD_AUTO_RAW)
+		k->best_bytes--;
+}
+
+int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
+		   const struct vd_auto_params *p)
+{
+	memset(s, 0, sizeof *s);
+	int bl = p->block_log ? p->block_log : 8;
+	if (bl < 4 || bl > 12 || n == 0 || n > VD_CPACK_SEGMENT_MAX ||
+	    !(p->max_error >= 0))
+		return vd_fail(VD_ERR_ARG, "auto colour blocks of 2^%d, %u "
+			       "colours, max error %g", bl, n, p->max_error);
+	uint32_t bs = 1u << bl;
+	uint32_t nb = (n + bs - 1) >> bl;
+	struct blk *k = malloc(sizeof *k);
+	s->dir = malloc((size_t)nb * 4);
+	s->data = malloc(3 * (size_t)n + VD_AUTO_PAD);
+	if (!k || !s->dir || !s->data) {
+		free(k);
+		vd_auto_segment_release(s);
+		return vd_fail(VD_ERR_NOMEM, "auto colour segment of %u", n);
+	}
+	memset(k->gen, 0, sizeof k->gen);
+	k->g = 0;
+	k->best = k->bufa;
+	k->cand = k->bufb;
+	k->limit = vd_colour_error_limit(p->max_error);
+	s->n = n;
+	s->count = nb;
+	size_t at = 0;
+	for (uint32_t b = 0; b < nb; b++) {
+		k->rgb = rgb + 3 * (size_t)b * bs;
+		k->n = b + 1 < nb ? bs : n - b * bs;
+		encode_block(k, bl);
+		uint32_t e = k->best_entry;
+		if (e >> 24 != VD_AUTO_CONST) {
+			e |= (uint32_t)at;
+			memcpy(s->data + at, k->best, k->best_bytes);
+			at += k->best_bytes;
+		}
+		s->dir[b] = e;
+		s->sse += k->best_sse;
+		if (k->best_max > s->max_dist2)
+			s->max_dist2 = k->best_max;
+		s->mode_blocks[e >> 28]++;
+	}
+	memset(s->data + at, 0, VD_AUTO_PAD);
+	s->data_bytes = at;
+	free(k);
+	return VD_OK;
+}
+
+void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
+			    uint32_t j, uint8_t rgb[3])
+{
+	int bl = block_log ? block_log : 8;
+	uint32_t e = s->dir[j >> bl], first = j >> bl << bl;
+	uint32_t n = s->n - first < (1u << bl) ? s->n - first : 1u << bl;
+	vd_auto_decode(e, s->data + (e & 0xffffff), n, j - first, rgb);
+}
+
+void vd_auto_segment_release(struct vd_auto_segment *s)
+{
+	free(s->dir);
+	free(s->data);
+	memset(s, 0, sizeof *s);
+}
