@@ -283,6 +283,82 @@ static void test_texture_sample_hand(void)
 	CHECK_EQ(bad, 0);
 }
 
+/* vd_texture_sample as it was written first (libm's floor, fmod for
+ * every repeat), which its fast paths must match bit for bit: the colours
+ * of every scene voxelized before them depend on it. */
+static void old_pair(double x, uint32_t n, uint32_t *i0, uint32_t *i1)
+{
+	double r = fmod(x, (double)n);
+	if (r < 0)
+		r += (double)n;
+	uint32_t i = (uint32_t)r;
+	*i0 = i < n ? i : n - 1;
+	*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
+}
+
+static void old_sample(const struct vd_texture *t, double u, double v,
+		       uint8_t rgb[3])
+{
+	uint32_t w = t->width, h = t->height;
+	double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
+	if (!isfinite(x) || !isfinite(y))
+		x = y = 0;
+	double fx = floor(x), fy = floor(y);
+	double ax = x - fx, ay = y - fy;
+	uint32_t x0, x1, y0, y1;
+	old_pair(fx, w, &x0, &x1);
+	old_pair(fy, h, &y0, &y1);
+	const uint8_t *p00 = t->rgb + 3 * ((size_t)y0 * w + x0),
+		      *p10 = t->rgb + 3 * ((size_t)y0 * w + x1),
+		      *p01 = t->rgb + 3 * ((size_t)y1 * w + x0),
+		      *p11 = t->rgb + 3 * ((size_t)y1 * w + x1);
+	for (int c = 0; c < 3; c++) {
+		double top = p00[c] + ax * (p10[c] - p00[c]);
+		double bot = p01[c] + ax * (p11[c] - p01[c]);
+		double g = top + ay * (bot - top);
+		rgb[c] = !(g > 0) ? 0 : g >= 255 ? 255 : (uint8_t)(g + 0.5);
+	}
+}
+
+static void test_texture_sample_same_as_first(void)
+{
+	static const uint32_t sizes[][2] = {{1, 1}, {2, 2}, {7, 5}, {64, 33},
+					    {1, 300}};
+	uint64_t seed = 12345;
+	int bad = 0;
+	for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++) {
+		uint32_t w = sizes[k][0], h = sizes[k][1];
+		uint8_t *rgb = malloc(3 * (size_t)w * h);
+		for (size_t i = 0; i < 3 * (size_t)w * h; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			rgb[i] = (uint8_t)(seed >> 56);
+		}
+		struct vd_texture t = {w, h, rgb, {VD_WRAP_REPEAT, VD_WRAP_REPEAT}};
+		for (int i = 0; i < 200000; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double u = ((double)(seed >> 11) * 0x1p-53 - 0.5) * 8;
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double v = ((double)(seed >> 11) * 0x1p-53 - 0.5) * 8;
+			/* texel edges and centres exactly, and far periods */
+			if (i % 4 == 1)
+				u = floor(u * w * 2) / (2 * w);
+			if (i % 4 == 2)
+				v = floor(v * h * 2) / (2 * h), u *= 1e7;
+			if (i % 97 == 3)
+				u = -0.0, v = 1e300;
+			uint8_t a[3], b[3];
+			vd_texture_sample(&t, u, v, a);
+			old_sample(&t, u, v, b);
+			if (memcmp(a, b, 3) && bad++ < 5)
+				fprintf(stderr, "%ux%u u %.17g v %.17g: %d %d %d, "
+					"first %d %d %d\n", w, h, u, v, a[0],
+					a[1], a[2], b[0], b[1], b[2]);
+		}
+		free(rgb);
+	}
+	CHECK_EQ(bad, 0);
+}
+
 static void test_texture_formats(void)
 {
 	/* the bundled scene's lossless textures decode to make.py's texels */
@@ -1083,6 +1159,7 @@ int main(void)
 	snprintf(data, sizeof data, "%s.data", dir);
 	mkdir(data, 0777);
 	RUN(test_texture_sample_hand);
+	RUN(test_texture_sample_same_as_first);
 	RUN(test_texture_formats);
 	RUN(test_big_triangle_texture);
 	RUN(test_ac3d_texrep_texoff);

@@ -472,6 +472,30 @@ static void texel_pair(double x, uint32_t n, int mode, uint32_t *i0,
 	*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
 }
 
+/* floor(x) without libm's call where (int32_t)x is exact (the colour
+ * pass samples once per voxel). It may give +0 where floor gives -0,
+ * which neither texel_pair nor the weight x - floor(x) can tell apart. */
+static inline double floor_near(double x)
+{
+	if (!(x > -0x1p31 && x < 0x1p31))
+		return floor(x);
+	double t = (double)(int32_t)x;
+	return t > x ? t - 1 : t;
+}
+
+/* texel_pair, with the common case first: repeat wrapping of a floored x
+ * within [0, n - 1), where fmod would return x itself. */
+static inline void texel_pair_fast(double x, uint32_t n, int mode,
+				   uint32_t *i0, uint32_t *i1)
+{
+	if (mode == VD_WRAP_REPEAT && x >= 0 && x < (double)(n - 1)) {
+		*i0 = (uint32_t)x;
+		*i1 = *i0 + 1;
+		return;
+	}
+	texel_pair(x, n, mode, i0, i1);
+}
+
 void vd_texture_sample(const struct vd_texture *t, double u, double v,
 		       uint8_t rgb[3])
 {
@@ -479,11 +503,11 @@ void vd_texture_sample(const struct vd_texture *t, double u, double v,
 	double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
 	if (!isfinite(x) || !isfinite(y))
 		x = y = 0; /* |u| near DBL_MAX: any texel is as good */
-	double fx = floor(x), fy = floor(y);
+	double fx = floor_near(x), fy = floor_near(y);
 	double ax = x - fx, ay = y - fy;
 	uint32_t x0, x1, y0, y1;
-	texel_pair(fx, w, t->wrap[0], &x0, &x1);
-	texel_pair(fy, h, t->wrap[1], &y0, &y1);
+	texel_pair_fast(fx, w, t->wrap[0], &x0, &x1);
+	texel_pair_fast(fy, h, t->wrap[1], &y0, &y1);
 	const uint8_t *p00 = t->rgb + 3 * ((size_t)y0 * w + x0),
 		      *p10 = t->rgb + 3 * ((size_t)y0 * w + x1),
 		      *p01 = t->rgb + 3 * ((size_t)y1 * w + x0),
