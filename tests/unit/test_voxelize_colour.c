@@ -15,6 +15,7 @@
 #include "check.h"
 #include "scene.h"
 #include "voxdag.h"
+#include "voxel/voxel_internal.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -879,6 +880,79 @@ static void test_nearest_brute_force(void)
 	free(s.v);
 }
 
+/* A soup of random triangles with random vertex colours, a third of
+ * them without area (a repeated corner, or three corners on a line), so
+ * that every Voronoi region of nearest_bary and the segments of a flat
+ * triangle are met, in every lane of a batch. */
+static const char *random_soup(uint32_t ntri)
+{
+	const char *path = in("random.ply");
+	FILE *f = fopen(path, "wb");
+	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %u\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
+		"element face %u\nproperty list uchar int vertex_indices\n"
+		"end_header\n", 3 * ntri, ntri);
+	uint64_t seed = 99;
+	for (uint32_t i = 0; i < ntri; i++) {
+		float v[3][3];
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++) {
+				seed = seed * 6364136223846793005ull +
+				       1442695040888963407ull;
+				v[k][a] = (float)((double)(seed >> 40) * 0x1p-24);
+			}
+		if (i % 3 == 1) /* a repeated corner */
+			memcpy(v[2], v[0], sizeof v[0]);
+		if (i % 3 == 2) /* on a line */
+			for (int a = 0; a < 3; a++)
+				v[2][a] = (v[0][a] + v[1][a]) / 2;
+		for (int k = 0; k < 3; k++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			uint8_t c[3] = {(uint8_t)(seed >> 56), (uint8_t)(seed >> 48),
+					(uint8_t)(seed >> 40)};
+			fwrite(v[k], 4, 3, f);
+			fwrite(c, 1, 3, f);
+		}
+	}
+	for (uint32_t i = 0; i < ntri; i++) {
+		uint8_t three = 3;
+		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
+				  (int32_t)(3 * i + 2)};
+		fwrite(&three, 1, 1, f);
+		fwrite(idx, 4, 3, f);
+	}
+	CHECK_EQ(fclose(f), 0);
+	return path;
+}
+
+/* The colour pass's nearest points four at a time (AVX2) and one at a
+ * time: the same colours, bit for bit, on random triangles, flat ones,
+ * a scan and a textured model, whole and in cells. */
+static void test_simd_same_as_scalar(void)
+{
+	uint32_t ntri;
+	const char *meshes[3] = {random_soup(3000), bunny_soup(&ntri),
+				 "tests/data/spider/spider.obj"};
+	const int levels[3] = {7, 8, 9};
+	for (int i = 0; i < 3; i++)
+		for (int L0 = 0; L0 <= 1; L0++) {
+			struct cscene a, b;
+			vd_colour_simd = 0;
+			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
+				 VD_OK);
+			load_scene(&a);
+			vd_colour_simd = 1;
+			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
+				 VD_OK);
+			load_scene(&b);
+			CHECK(a.n > 1000);
+			CHECK(scene_equal(&a, &b));
+			free(a.v);
+			free(b.v);
+		}
+}
+
 static void test_chunked_concat(void)
 {
 	uint32_t ntri;
@@ -1167,6 +1241,7 @@ int main(void)
 	RUN(test_big_triangle_vertex_colours);
 	RUN(test_tie_earlier_wins);
 	RUN(test_nearest_brute_force);
+	RUN(test_simd_same_as_scalar);
 	RUN(test_chunked_concat);
 	RUN(test_svo_identical);
 	RUN(test_bundled_scene);

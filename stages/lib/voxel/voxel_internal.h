@@ -58,6 +58,11 @@ extern int vd_raster_table_max;
  * other with the brute-force reference too. */
 extern int vd_raster_simd;
 
+/* Whether voxelize's colour pass finds nearest points four at a time
+ * with AVX2 when the processor has it (1, the default): tests set 0 to
+ * compare the vector path with the scalar one, bit for bit. */
+extern int vd_colour_simd;
+
 /* The most bytes voxelize keeps of a mesh's triangles between its passes
  * over the file (besides a sixteenth of the budget): tests set 0 (every
  * pass reads the file) or a size a mesh overflows midway. */

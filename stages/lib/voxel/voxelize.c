@@ -1460,6 +1460,128 @@ static double nearest_bary(const double a[3], const double b[3],
 	return dot3(q, q);
 }
 
+/* The nearest points of four voxel centres at once, in the lanes of
+ * AVX2 vectors, when the processor has them: the same operations as
+ * nearest_bary in the same order (IEEE double, rounded alike; no FMA,
+ * which avx2 alone does not enable), so the same bits. Branches become
+ * masks: every region's weights are computed and the first region that
+ * holds, in nearest_bary's order, is kept. */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define NEAR_AVX2 1
+#include <immintrin.h>
+#else
+#define NEAR_AVX2 0
+#endif
+
+int vd_colour_simd = 1;
+
+#if NEAR_AVX2
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4l __attribute__((vector_size(32)));
+
+__attribute__((target("avx2"))) static inline v4d v4_dot(const v4d a[3],
+							  const v4d b[3])
+{
+	return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* m ? x : y, lane by lane */
+__attribute__((target("avx2"))) static inline v4d v4_sel(v4l m, v4d x,
+							  v4d y)
+{
+	return (v4d)(((v4l)x & m) | ((v4l)y & ~m));
+}
+
+__attribute__((target("avx2"))) static inline int v4_any(v4l m)
+{
+	return _mm256_movemask_pd((__m256d)m) != 0;
+}
+
+/* nearest_bary of the triangle tv (corners in voxels) seen from the
+ * centres (cx[l], cy[l], cz[l]) of lanes l = 0..3: the squared distance
+ * rounded to float into d2[l], the weights into w[0..2][l]. Returns the
+ * lanes (bit l) whose triangle has no area there, whose nearest point
+ * (of three segments) the caller finds with nearest_bary itself. */
+__attribute__((target("avx2"))) static int
+nearest4(const double tv[3][3], const double c[3][4], float d2[4],
+	 double w[3][4])
+{
+	v4d p[3][3], ab[3], ac[3], ap[3], bp[3], cp[3];
+	for (int i = 0; i < 3; i++) {
+		v4d ctr;
+		memcpy(&ctr, c[i], sizeof ctr);
+		for (int k = 0; k < 3; k++)
+			p[k][i] = tv[k][i] - ctr;
+		ab[i] = p[1][i] - p[0][i];
+		ac[i] = p[2][i] - p[0][i];
+		ap[i] = -p[0][i];
+		bp[i] = -p[1][i];
+		cp[i] = -p[2][i];
+	}
+	const v4d d1 = v4_dot(ab, ap), d2_ = v4_dot(ac, ap);
+	const v4d d3 = v4_dot(ab, bp), d4 = v4_dot(ac, bp);
+	const v4d d5 = v4_dot(ab, cp), d6 = v4_dot(ac, cp);
+	const v4d vc = d1 * d4 - d3 * d2_, vb = d5 * d2_ - d1 * d6,
+		  va = d3 * d6 - d5 * d4;
+	const v4d zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+	const v4d sum = va + vb + vc;
+	v4l done = (d1 <= 0) & (d2_ <= 0);
+	v4d w0 = v4_sel(done, one, zero), w1 = zero, w2 = zero;
+	v4l m = ~done & (d3 >= 0) & (d4 <= d3);
+	w1 = v4_sel(m, one, w1);
+	done |= m;
+	m = ~done & (d6 >= 0) & (d5 <= d6);
+	w2 = v4_sel(m, one, w2);
+	done |= m;
+	const v4l flat = ~done & ~(sum > 0);
+	done |= flat;
+	m = ~done & (vc <= 0) & (d1 >= 0) & (d3 <= 0);
+	if (v4_any(m)) {
+		v4d v = d1 / (d1 - d3);
+		w0 = v4_sel(m, 1 - v, w0);
+		w1 = v4_sel(m, v, w1);
+	}
+	done |= m;
+	m = ~done & (vb <= 0) & (d2_ >= 0) & (d6 <= 0);
+	if (v4_any(m)) {
+		v4d t = d2_ / (d2_ - d6);
+		w0 = v4_sel(m, 1 - t, w0);
+		w2 = v4_sel(m, t, w2);
+	}
+	done |= m;
+	m = ~done & (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0);
+	if (v4_any(m)) {
+		v4d t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+		w1 = v4_sel(m, 1 - t, w1);
+		w2 = v4_sel(m, t, w2);
+	}
+	done |= m;
+	m = ~done;
+	if (v4_any(m)) {
+		v4d den = 1 / sum;
+		v4d v = vb * den, t = vc * den;
+		w0 = v4_sel(m, 1 - v - t, w0);
+		w1 = v4_sel(m, v, w1);
+		w2 = v4_sel(m, t, w2);
+	}
+	v4d q[3];
+	for (int i = 0; i < 3; i++)
+		q[i] = w0 * p[0][i] + w1 * p[1][i] + w2 * p[2][i];
+	_mm_storeu_ps(d2, _mm256_cvtpd_ps((__m256d)v4_dot(q, q)));
+	memcpy(w[0], &w0, sizeof w0);
+	memcpy(w[1], &w1, sizeof w1);
+	memcpy(w[2], &w2, sizeof w2);
+	return _mm256_movemask_pd((__m256d)flat);
+}
+
+static int near_avx2(void)
+{
+	return vd_colour_simd && __builtin_cpu_supports("avx2");
+}
+#endif
+
+enum { NEAR_BATCH = 8 };  /* voxels whose nearest points go together */
+
 struct colour_ctx {
 	struct worker *w;
 	size_t nb;
@@ -1472,7 +1594,90 @@ struct colour_ctx {
 	uint32_t last_b[3];       /* block of the last voxel, */
 	size_t last;              /* its index in w->order */
 	int have_last;
+	int simd;                 /* nearest4 */
+	/* the triangle's voxels waiting for their nearest points: centres
+	 * (voxels) by axis, and where their bits are (block index in
+	 * w->order, word, bit), which are read only when the batch is done,
+	 * so that the loads of a batch overlap */
+	int nq;
+	double qc[3][NEAR_BATCH];
+	uint32_t qb[NEAR_BATCH];
+	uint16_t qw[NEAR_BATCH];
+	uint8_t qbit[NEAR_BATCH];
 };
+
+/* The nearest points of the waiting voxels, then their colours, in the
+ * order the voxels came (each voxel comes once per triangle, so the
+ * order only matters between triangles, and every triangle's voxels are
+ * done before the next one's). */
+static void colour_flush(struct colour_ctx *c)
+{
+	float d2[NEAR_BATCH];
+	double b[3][NEAR_BATCH];
+	struct vox_col *qv[NEAR_BATCH];
+	int n = c->nq, flat = (1 << n) - 1;
+	const struct worker *w = c->w;
+	/* the voxels' slots: their ranks in the cell's Morton order (the
+	 * slots' cache lines are fetched while the nearest points are
+	 * found: they are far apart when a triangle crosses blocks) */
+	for (int i = 0; i < n; i++) {
+		size_t bi = c->qb[i];
+		uint64_t word = w->blk[bi][c->qw[i]];
+		if (!(word >> c->qbit[i] & 1)) {
+			qv[i] = NULL; /* cannot be: the geometry pass set it */
+			continue;
+		}
+		uint64_t rank = w->base[bi] +
+				w->prefix[bi * BLOCK_WORDS + c->qw[i]] +
+				vd_popcount64(word & ((1ull << c->qbit[i]) - 1));
+		qv[i] = &w->vox[rank];
+		__builtin_prefetch(qv[i], 1);
+	}
+#if NEAR_AVX2
+	if (c->simd) {
+		/* the lanes past n repeat voxel 0: computed, not used */
+		for (int i = n; i < (n + 3) / 4 * 4; i++)
+			for (int a = 0; a < 3; a++)
+				c->qc[a][i] = c->qc[a][0];
+		flat = 0;
+		for (int g = 0; g < n; g += 4) {
+			double cg[3][4], wg[3][4];
+			for (int a = 0; a < 3; a++)
+				memcpy(cg[a], &c->qc[a][g], sizeof cg[a]);
+			flat |= nearest4(c->tv, cg, d2 + g, wg) << g;
+			for (int k = 0; k < 3; k++)
+				memcpy(&b[k][g], wg[k], sizeof wg[k]);
+		}
+		flat &= (1 << n) - 1;
+	}
+#endif
+	/* without AVX2 every voxel, with it the lanes without area: the
+	 * corners relative to the voxel's centre, in voxels: exact (lattice
+	 * integers over a power of two, less a half-integer, well inside 53
+	 * bits) and so the same in every chunking */
+	for (; flat; flat &= flat - 1) {
+		int i = __builtin_ctz((unsigned)flat);
+		double p[3][3], bi[3];
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				p[k][a] = c->tv[k][a] - c->qc[a][i];
+		d2[i] = (float)nearest_bary(p[0], p[1], p[2], bi);
+		for (int k = 0; k < 3; k++)
+			b[k][i] = bi[k];
+	}
+	for (int i = 0; i < n; i++) {
+		struct vox_col *v = qv[i];
+		if (!v)
+			continue;
+		if (v->set && !(d2[i] < v->d2))
+			continue; /* an earlier triangle is as near: it stays */
+		v->d2 = d2[i];
+		v->set = 1;
+		double bi[3] = {b[0][i], b[1][i], b[2][i]};
+		vd_tri_attr_colour(c->a, c->tex, bi, v->rgb);
+	}
+	c->nq = 0;
+}
 
 static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 				int64_t z)
@@ -1505,26 +1710,18 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 		      spread3[(lz >> 2) & 7];
 	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
 		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
-	uint64_t word = w->blk[bi][wi];
-	if (!(word >> bit & 1))
-		return; /* likewise */
-	uint64_t rank = w->base[bi] + w->prefix[(size_t)bi * BLOCK_WORDS + wi] +
-			vd_popcount64(word & ((1ull << bit) - 1));
-	struct vox_col *v = &w->vox[rank];
-	/* corners relative to the voxel's centre, in voxels: exact (lattice
-	 * integers over a power of two, less a half-integer, well inside 53
-	 * bits) and so the same in every chunking */
-	double ctr[3] = {(double)x + 0.5, (double)y + 0.5, (double)z + 0.5};
-	double p[3][3], b[3];
-	for (int k = 0; k < 3; k++)
-		for (int i = 0; i < 3; i++)
-			p[k][i] = c->tv[k][i] - ctr[i];
-	float d2 = (float)nearest_bary(p[0], p[1], p[2], b);
-	if (v->set && !(d2 < v->d2))
-		return; /* an earlier triangle is as near: it stays */
-	v->d2 = d2;
-	v->set = 1;
-	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
+	/* the word and its rank are read in colour_flush: fetched now */
+	__builtin_prefetch(&w->blk[bi][wi]);
+	__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
+	int q = c->nq;
+	c->qb[q] = (uint32_t)bi;
+	c->qw[q] = (uint16_t)wi;
+	c->qbit[q] = (uint8_t)bit;
+	c->qc[0][q] = (double)x + 0.5;
+	c->qc[1][q] = (double)y + 0.5;
+	c->qc[2][q] = (double)z + 0.5;
+	if ((c->nq = q + 1) == NEAR_BATCH)
+		colour_flush(c);
 }
 
 /* A run of voxels, in the order vd_raster_triangle visits them: the
@@ -1615,6 +1812,9 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
 			       strerror(errno));
 	struct colour_ctx cc = {.w = w, .nb = nb, .s = vd_snap_voxel(r->g.L)};
+#if NEAR_AVX2
+	cc.simd = near_avx2();
+#endif
 	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
 	memcpy(cc.lo, lo, sizeof cc.lo);
 	int err = VD_OK;
@@ -1639,6 +1839,8 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
 			vd_raster_triangle_spans(&st, r->g.L, clip_lo,
 						 clip_hi, colour_span, &cc);
+			if (cc.nq)
+				colour_flush(&cc);
 		}
 	}
 	if (!err && ferror(f))
