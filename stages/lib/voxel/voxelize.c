@@ -1665,12 +1665,22 @@ static void colour_flush(struct colour_ctx *c)
 		for (int k = 0; k < 3; k++)
 			b[k][i] = bi[k];
 	}
+	/* the voxels this triangle is nearer to, their texels fetched
+	 * before any is read */
+	int take = 0;
 	for (int i = 0; i < n; i++) {
 		struct vox_col *v = qv[i];
-		if (!v)
-			continue;
-		if (v->set && !(d2[i] < v->d2))
+		if (!v || (v->set && !(d2[i] < v->d2)))
 			continue; /* an earlier triangle is as near: it stays */
+		take |= 1 << i;
+		if (c->tex) {
+			double bi[3] = {b[0][i], b[1][i], b[2][i]};
+			vd_tri_attr_prefetch(c->a, c->tex, bi);
+		}
+	}
+	for (; take; take &= take - 1) {
+		int i = __builtin_ctz((unsigned)take);
+		struct vox_col *v = qv[i];
 		v->d2 = d2[i];
 		v->set = 1;
 		double bi[3] = {b[0][i], b[1][i], b[2][i]};
