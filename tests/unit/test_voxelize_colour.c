@@ -360,6 +360,52 @@ static void test_texture_sample_same_as_first(void)
 	CHECK_EQ(bad, 0);
 }
 
+/* voxelize takes a triangle's colour as it is when its three corners
+ * have the same colour and no texture, without interpolating, for
+ * weights within +-2 (those of every region of the nearest point sum to
+ * 1 within a few ulps there): vd_tri_attr_colour must give that colour
+ * for every value and such weights, as the regions write them. */
+static void test_uniform_colour(void)
+{
+	uint64_t seed = 7;
+	int bad = 0;
+	for (int c = 0; c < 256; c++) {
+		struct vd_tri_attr a;
+		memset(&a, 0, sizeof a);
+		a.texture = -1;
+		for (int k = 0; k < 3; k++)
+			a.rgb[k][0] = a.rgb[k][1] = a.rgb[k][2] = (uint8_t)c;
+		for (int i = 0; i < 20000; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double v = (double)(seed >> 11) * 0x1p-53 * 4 - 2;
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double t = (double)(seed >> 11) * 0x1p-53 * 4 - 2;
+			double b[3];
+			switch (i % 4) {
+			case 0: /* the face */
+				b[0] = 1 - v - t, b[1] = v, b[2] = t;
+				break;
+			case 1: /* an edge */
+				b[0] = 1 - v, b[1] = v, b[2] = 0;
+				break;
+			case 2:
+				b[0] = 0, b[1] = 1 - t, b[2] = t;
+				break;
+			default: /* a corner */
+				b[0] = b[1] = 0, b[2] = 1;
+			}
+			if (fabs(b[0]) > 2 || fabs(b[1]) > 2 || fabs(b[2]) > 2)
+				continue;
+			uint8_t got[3];
+			vd_tri_attr_colour(&a, NULL, b, got);
+			if ((got[0] != c || got[1] != c || got[2] != c) && bad++ < 5)
+				fprintf(stderr, "colour %d, weights %.17g %.17g "
+					"%.17g: %d\n", c, b[0], b[1], b[2], got[0]);
+		}
+	}
+	CHECK_EQ(bad, 0);
+}
+
 static void test_texture_formats(void)
 {
 	/* the bundled scene's lossless textures decode to make.py's texels */
@@ -1234,6 +1280,7 @@ int main(void)
 	mkdir(data, 0777);
 	RUN(test_texture_sample_hand);
 	RUN(test_texture_sample_same_as_first);
+	RUN(test_uniform_colour);
 	RUN(test_texture_formats);
 	RUN(test_big_triangle_texture);
 	RUN(test_ac3d_texrep_texoff);

@@ -1595,6 +1595,10 @@ struct colour_ctx {
 	size_t last;              /* its index in w->order */
 	int have_last;
 	int simd;                 /* nearest4 */
+	/* the triangle's colour does not depend on where: no texture, and
+	 * its three corners alike (a material's colour; test_uniform_colour
+	 * holds vd_tri_attr_colour to it for weights within +-2) */
+	int uniform;
 	/* the triangle's voxels waiting for their nearest points: centres
 	 * (voxels) by axis, and where their bits are (block index in
 	 * w->order, word, bit), which are read only when the batch is done,
@@ -1683,6 +1687,11 @@ static void colour_flush(struct colour_ctx *c)
 		struct vox_col *v = qv[i];
 		v->d2 = d2[i];
 		v->set = 1;
+		if (c->uniform && fabs(b[0][i]) <= 2 && fabs(b[1][i]) <= 2 &&
+		    fabs(b[2][i]) <= 2) {
+			memcpy(v->rgb, c->a->rgb[0], 3);
+			continue;
+		}
 		double bi[3] = {b[0][i], b[1][i], b[2][i]};
 		vd_tri_attr_colour(c->a, c->tex, bi, v->rgb);
 	}
@@ -1847,6 +1856,9 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
+			cc.uniform = !(rec.a.texture >= 0 && cc.tex) &&
+				     !memcmp(rec.a.rgb[0], rec.a.rgb[1], 3) &&
+				     !memcmp(rec.a.rgb[0], rec.a.rgb[2], 3);
 			vd_raster_triangle_spans(&st, r->g.L, clip_lo,
 						 clip_hi, colour_span, &cc);
 			if (cc.nq)
