@@ -972,9 +972,10 @@ static const char *random_soup(uint32_t ntri)
 	return path;
 }
 
-/* The colour pass's nearest points four at a time (AVX2) and one at a
- * time: the same colours, bit for bit, on random triangles, flat ones,
- * a scan and a textured model, whole and in cells. */
+/* The colour pass's fast paths (brick walks, nearest points four at a
+ * time in AVX2) and its reference (spans, one at a time): the same
+ * colours, bit for bit, on random triangles, flat ones, a scan and a
+ * textured model, whole and in cells. */
 static void test_simd_same_as_scalar(void)
 {
 	uint32_t ntri;
@@ -984,11 +985,11 @@ static void test_simd_same_as_scalar(void)
 	for (int i = 0; i < 3; i++)
 		for (int L0 = 0; L0 <= 1; L0++) {
 			struct cscene a, b;
-			vd_colour_simd = 0;
+			vd_colour_fast = 0;
 			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
 				 VD_OK);
 			load_scene(&a);
-			vd_colour_simd = 1;
+			vd_colour_fast = 1;
 			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
 				 VD_OK);
 			load_scene(&b);

@@ -1497,7 +1497,7 @@ static double nearest_bary(const double a[3], const double b[3],
 #define NEAR_AVX2 0
 #endif
 
-int vd_colour_simd = 1;
+int vd_colour_fast = 1;
 
 #if NEAR_AVX2
 typedef double v4d __attribute__((vector_size(32)));
@@ -1600,7 +1600,7 @@ nearest4(const double tv[3][3], const double c[3][4], float d2[4],
 
 static int near_avx2(void)
 {
-	return vd_colour_simd && __builtin_cpu_supports("avx2");
+	return vd_colour_fast && __builtin_cpu_supports("avx2");
 }
 #endif
 
@@ -1722,6 +1722,37 @@ static void colour_flush(struct colour_ctx *c)
 	c->nq = 0;
 }
 
+/* Voxel (x, y, z), bit `bit` of word wi of block bi (its index in
+ * w->order), joins the triangle's batch. */
+static inline void colour_push(struct colour_ctx *c, size_t bi, unsigned wi,
+			       unsigned bit, int64_t x, int64_t y, int64_t z)
+{
+	int q = c->nq;
+	c->qb[q] = (uint32_t)bi;
+	c->qw[q] = (uint16_t)wi;
+	c->qbit[q] = (uint8_t)bit;
+	c->qc[0][q] = (double)x + 0.5;
+	c->qc[1][q] = (double)y + 0.5;
+	c->qc[2][q] = (double)z + 0.5;
+	if ((c->nq = q + 1) == NEAR_BATCH)
+		colour_flush(c);
+}
+
+/* The index in w->order[0..nb) of the block of Morton key `key`, nb if
+ * none. */
+static size_t block_index(const struct worker *w, size_t nb, uint64_t key)
+{
+	size_t lo = 0, hi = nb;
+	while (lo < hi) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (w->order[mid] < key)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return lo < nb && w->order[lo] == key ? lo : nb;
+}
+
 static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 				int64_t z)
 {
@@ -1732,18 +1763,10 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 		       bz = lz >> BLOCK_SHIFT;
 	if (!c->have_last || bx != c->last_b[0] || by != c->last_b[1] ||
 	    bz != c->last_b[2]) {
-		const uint64_t key = vd_morton3(bx, by, bz);
-		size_t lo = 0, hi = c->nb;
-		while (lo < hi) {
-			size_t mid = lo + (hi - lo) / 2;
-			if (w->order[mid] < key)
-				lo = mid + 1;
-			else
-				hi = mid;
-		}
-		if (lo == c->nb || w->order[lo] != key)
+		size_t i = block_index(w, c->nb, vd_morton3(bx, by, bz));
+		if (i == c->nb)
 			return; /* cannot be: the geometry pass set it */
-		c->last = lo;
+		c->last = i;
 		c->last_b[0] = bx, c->last_b[1] = by, c->last_b[2] = bz;
 		c->have_last = 1;
 	}
@@ -1756,15 +1779,7 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 	/* the word and its rank are read in colour_flush: fetched now */
 	__builtin_prefetch(&w->blk[bi][wi]);
 	__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
-	int q = c->nq;
-	c->qb[q] = (uint32_t)bi;
-	c->qw[q] = (uint16_t)wi;
-	c->qbit[q] = (uint8_t)bit;
-	c->qc[0][q] = (double)x + 0.5;
-	c->qc[1][q] = (double)y + 0.5;
-	c->qc[2][q] = (double)z + 0.5;
-	if ((c->nq = q + 1) == NEAR_BATCH)
-		colour_flush(c);
+	colour_push(c, bi, wi, bit, x, y, z);
 }
 
 /* A run of voxels, in the order vd_raster_triangle visits them: the
@@ -1776,6 +1791,107 @@ static void colour_span(void *vctx, int axis, int64_t x, int64_t y,
 	int64_t p[3] = {x, y, z};
 	for (int64_t i = 0; i < n; i++, p[axis]++)
 		colour_voxel(c, p[0], p[1], p[2]);
+}
+
+/* A triangle's voxels for the colour pass as the geometry pass finds
+ * them: set by the brick rasterizer as bits of scratch blocks, then
+ * walked a brick at a time. perf put a quarter of the terrain's colour
+ * run in the span rasterizer and its one call a span (runs of 1-3
+ * voxels); the bits cost what the geometry's did, and a brick's word and
+ * rank are looked up once for all its voxels. A triangle over more than
+ * TRI_BLOCKS blocks takes the spans. */
+enum { TRI_BLOCKS = 64 };
+
+struct tri_blocks {
+	int n, overflow;
+	uint64_t key[TRI_BLOCKS];
+	uint64_t *mem;            /* TRI_BLOCKS zeroed blocks, block i at
+				   * mem + i * BLOCK_WORDS */
+};
+
+static uint64_t *tri_block(void *ctx, uint64_t key)
+{
+	struct tri_blocks *t = ctx;
+	for (int i = t->n - 1; i >= 0; i--)
+		if (t->key[i] == key)
+			return t->mem + (size_t)i * BLOCK_WORDS;
+	if (t->n == TRI_BLOCKS) {
+		t->overflow = 1;
+		return NULL;
+	}
+	t->key[t->n] = key;
+	return t->mem + (size_t)t->n++ * BLOCK_WORDS;
+}
+
+/* The voxels of triangle st within [clip_lo, clip_hi] into c's batches,
+ * through the scratch blocks tb (left zeroed). Returns 0, having left
+ * nothing behind, when they are too many blocks. */
+static int colour_walk(struct colour_ctx *c, struct tri_blocks *tb,
+		       const struct vd_snapped_tri *st, int L,
+		       const int64_t clip_lo[3], const int64_t clip_hi[3])
+{
+	struct vd_brick_sink sink = {.block = tri_block, .ctx = tb};
+	memcpy(sink.lo, c->lo, sizeof sink.lo);
+	tb->n = tb->overflow = 0;
+	vd_raster_triangle_bricks(st, L, clip_lo, clip_hi, &sink);
+	if (tb->overflow) {
+		memset(tb->mem, 0, (size_t)tb->n * BLOCK_WORDS * 8);
+		return 0;
+	}
+	/* the bricks to look at: the triangle's voxel box (a voxel wider
+	 * than the rasterizer's on every side), clipped, within the cell */
+	const int sh = __builtin_ctzll((unsigned long long)c->s);
+	int64_t vlo[3], vhi[3];
+	for (int a = 0; a < 3; a++) {
+		int64_t mn = st->v[0][a], mx = mn;
+		for (int k = 1; k < 3; k++) {
+			mn = st->v[k][a] < mn ? st->v[k][a] : mn;
+			mx = st->v[k][a] > mx ? st->v[k][a] : mx;
+		}
+		vlo[a] = (mn >> sh) - 1;
+		vhi[a] = (mx >> sh) + 1;
+		vlo[a] = (vlo[a] < clip_lo[a] ? clip_lo[a] : vlo[a]) - c->lo[a];
+		vhi[a] = (vhi[a] > clip_hi[a] ? clip_hi[a] : vhi[a]) - c->lo[a];
+	}
+	const struct worker *w = c->w;
+	for (int i = 0; i < tb->n; i++) {
+		uint64_t *tw = tb->mem + (size_t)i * BLOCK_WORDS;
+		uint32_t b[3];
+		vd_morton3_decode(tb->key[i], &b[0], &b[1], &b[2]);
+		size_t bi = block_index(w, c->nb, tb->key[i]);
+		int64_t k0[3], k1[3], org[3];
+		for (int a = 0; a < 3; a++) {
+			int64_t first = (int64_t)b[a] << BLOCK_SHIFT;
+			int64_t l = vlo[a] > first ? vlo[a] : first;
+			int64_t h = vhi[a] < first + 31 ? vhi[a] : first + 31;
+			k0[a] = (l - first) >> 2;
+			k1[a] = (h - first) >> 2;
+			org[a] = c->lo[a] + first;
+		}
+		for (int64_t x = k0[0]; x <= k1[0]; x++)
+			for (int64_t y = k0[1]; y <= k1[1]; y++)
+				for (int64_t z = k0[2]; z <= k1[2]; z++) {
+					unsigned wi = (unsigned)spread3[x] << 2 |
+						      (unsigned)spread3[y] << 1 |
+						      spread3[z];
+					uint64_t m = tw[wi];
+					if (!m)
+						continue;
+					tw[wi] = 0;
+					if (bi == c->nb)
+						continue; /* cannot be */
+					__builtin_prefetch(&w->blk[bi][wi]);
+					__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
+					for (; m; m &= m - 1) {
+						unsigned j = (unsigned)__builtin_ctzll(m);
+						colour_push(c, bi, wi, j,
+							    org[0] + 4 * x + (j >> 2 & 1) + (j >> 4 & 2),
+							    org[1] + 4 * y + (j >> 1 & 1) + (j >> 3 & 2),
+							    org[2] + 4 * z + (j & 1) + (j >> 2 & 2));
+					}
+				}
+	}
+	return 1;
 }
 
 /* The colour pass of a cell (whose geometry is complete; w->order[0..nb)
@@ -1860,6 +1976,11 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 #endif
 	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
 	memcpy(cc.lo, lo, sizeof cc.lo);
+	/* without the scratch blocks (or in the tests' reference pass),
+	 * every triangle takes the spans */
+	struct tri_blocks tb = {0};
+	if (vd_colour_fast)
+		tb.mem = calloc((size_t)TRI_BLOCKS * BLOCK_WORDS, 8);
 	int err = VD_OK;
 	size_t n;
 	unsigned char *rb = (unsigned char *)rd->tris;
@@ -1883,8 +2004,11 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 			cc.uniform = !(rec.a.texture >= 0 && cc.tex) &&
 				     !memcmp(rec.a.rgb[0], rec.a.rgb[1], 3) &&
 				     !memcmp(rec.a.rgb[0], rec.a.rgb[2], 3);
-			vd_raster_triangle_spans(&st, r->g.L, clip_lo,
-						 clip_hi, colour_span, &cc);
+			if (!tb.mem || !colour_walk(&cc, &tb, &st, r->g.L,
+						    clip_lo, clip_hi))
+				vd_raster_triangle_spans(&st, r->g.L, clip_lo,
+							 clip_hi, colour_span,
+							 &cc);
 			if (cc.nq)
 				colour_flush(&cc);
 		}
@@ -1892,6 +2016,7 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", bin);
 	fclose(f);
+	free(tb.mem);
 	return err;
 }
 
