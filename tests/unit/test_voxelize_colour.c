@@ -776,6 +776,32 @@ static double ref_tri(const double a[3], const double b[3], const double c[3])
 }
 
 /* The bunny as a triangle soup in which triangle i has colour i + 1. */
+/* Writes the n triangles t, corner k of triangle i coloured
+ * rgb[9i + 3k ..], as a binary PLY of separate triangles at `path`. */
+static void write_tri_ply(const char *path, size_t n,
+			  const struct vd_triangle *t, const uint8_t *rgb)
+{
+	FILE *f = fopen(path, "wb");
+	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %zu\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
+		"element face %zu\nproperty list uchar int vertex_indices\n"
+		"end_header\n", 3 * n, n);
+	for (size_t i = 0; i < n; i++)
+		for (int k = 0; k < 3; k++) {
+			fwrite(t[i].v[k], 4, 3, f);
+			fwrite(rgb + 9 * i + 3 * k, 1, 3, f);
+		}
+	for (size_t i = 0; i < n; i++) {
+		uint8_t three = 3;
+		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
+				  (int32_t)(3 * i + 2)};
+		fwrite(&three, 1, 1, f);
+		fwrite(idx, 4, 3, f);
+	}
+	CHECK_EQ(fclose(f), 0);
+}
+
 static const char *bunny_soup(uint32_t *ntri)
 {
 	struct vd_mesh *m;
@@ -792,29 +818,18 @@ static const char *bunny_soup(uint32_t *ntri)
 		count += n;
 	}
 	vd_mesh_close(m);
-	const char *path = in("soup.ply");
-	FILE *f = fopen(path, "wb");
-	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %zu\n"
-		"property float x\nproperty float y\nproperty float z\n"
-		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
-		"element face %zu\nproperty list uchar int vertex_indices\n"
-		"end_header\n", 3 * count, count);
+	/* each triangle's colour is its number, from 1 */
+	uint8_t *rgb = malloc(9 * count);
 	for (size_t i = 0; i < count; i++)
 		for (int k = 0; k < 3; k++) {
 			uint32_t id = (uint32_t)i + 1;
-			uint8_t c[3] = {(uint8_t)(id >> 16), (uint8_t)(id >> 8),
-					(uint8_t)id};
-			fwrite(all[i].v[k], 4, 3, f);
-			fwrite(c, 1, 3, f);
+			rgb[9 * i + 3 * k] = (uint8_t)(id >> 16);
+			rgb[9 * i + 3 * k + 1] = (uint8_t)(id >> 8);
+			rgb[9 * i + 3 * k + 2] = (uint8_t)id;
 		}
-	for (size_t i = 0; i < count; i++) {
-		uint8_t three = 3;
-		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
-				  (int32_t)(3 * i + 2)};
-		fwrite(&three, 1, 1, f);
-		fwrite(idx, 4, 3, f);
-	}
-	CHECK_EQ(fclose(f), 0);
+	const char *path = in("soup.ply");
+	write_tri_ply(path, count, all, rgb);
+	free(rgb);
 	free(all);
 	*ntri = (uint32_t)count;
 	return path;
@@ -932,43 +947,26 @@ static void test_nearest_brute_force(void)
  * triangle are met, in every lane of a batch. */
 static const char *random_soup(uint32_t ntri)
 {
-	const char *path = in("random.ply");
-	FILE *f = fopen(path, "wb");
-	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %u\n"
-		"property float x\nproperty float y\nproperty float z\n"
-		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
-		"element face %u\nproperty list uchar int vertex_indices\n"
-		"end_header\n", 3 * ntri, ntri);
+	struct vd_triangle *t = malloc(ntri * sizeof *t);
+	uint8_t *rgb = malloc(9 * (size_t)ntri);
 	uint64_t seed = 99;
 	for (uint32_t i = 0; i < ntri; i++) {
-		float v[3][3];
-		for (int k = 0; k < 3; k++)
-			for (int a = 0; a < 3; a++) {
-				seed = seed * 6364136223846793005ull +
-				       1442695040888963407ull;
-				v[k][a] = (float)((double)(seed >> 40) * 0x1p-24);
-			}
+		float (*v)[3] = t[i].v;
+		for (int k = 0; k < 9; k++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			v[k / 3][k % 3] = (float)((double)(seed >> 40) * 0x1p-24);
+			rgb[9 * (size_t)i + (size_t)k] = (uint8_t)(seed >> 32);
+		}
 		if (i % 3 == 1) /* a repeated corner */
 			memcpy(v[2], v[0], sizeof v[0]);
 		if (i % 3 == 2) /* on a line */
 			for (int a = 0; a < 3; a++)
 				v[2][a] = (v[0][a] + v[1][a]) / 2;
-		for (int k = 0; k < 3; k++) {
-			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-			uint8_t c[3] = {(uint8_t)(seed >> 56), (uint8_t)(seed >> 48),
-					(uint8_t)(seed >> 40)};
-			fwrite(v[k], 4, 3, f);
-			fwrite(c, 1, 3, f);
-		}
 	}
-	for (uint32_t i = 0; i < ntri; i++) {
-		uint8_t three = 3;
-		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
-				  (int32_t)(3 * i + 2)};
-		fwrite(&three, 1, 1, f);
-		fwrite(idx, 4, 3, f);
-	}
-	CHECK_EQ(fclose(f), 0);
+	const char *path = in("random.ply");
+	write_tri_ply(path, ntri, t, rgb);
+	free(t);
+	free(rgb);
 	return path;
 }
 
