@@ -5,7 +5,9 @@
 # The side-by-side comparison with the SSVDAG reference code is separate and
 # not run here: tests/bench/vs_symvox.sh /path/to/SVDAG-Compression.
 # Geometry only (--no-colours), comparable with earlier runs; the cost of
-# colours is measured by tests/bench/colour_in.sh.
+# colours (voxelize's CPU with and without them, per colour scene) is the
+# table of tests/bench/colour_in.sh at the end (VOXDAG_BENCH_COLOUR=0
+# leaves it out).
 set -u
 cd "$(dirname "$0")/.."
 . tests/lossless_yaml.sh
@@ -305,3 +307,9 @@ fi
 # What durability costs: fsync on and off (tests/bench/durability.sh).
 echo
 tests/bench/durability.sh
+
+# voxelize's colour pass against its geometry (issue 37: at most 1.5x)
+if [ "${VOXDAG_BENCH_COLOUR:-1}" != 0 ]; then
+	echo
+	VOXDAG_SHARED_DATA=$DATA tests/bench/colour_in.sh
+fi

@@ -171,6 +171,13 @@ void vd_tri_attr_colour(const struct vd_tri_attr *a,
 			const struct vd_texture *tex, const double b[3],
 			uint8_t rgb[3]);
 
+/* Starts fetching into the cache the texels vd_tri_attr_colour(a, tex, b)
+ * will read (nothing without a texture): a caller with many colours to
+ * find calls it for several before their vd_tri_attr_colour, so that
+ * their memory latencies overlap. */
+void vd_tri_attr_prefetch(const struct vd_tri_attr *a,
+			  const struct vd_texture *tex, const double b[3]);
+
 struct vd_mesh_open_opts {
 	uint64_t max_vertex_bytes; /* as vd_mesh_open_limited; 0: no limit */
 	int colours;               /* decode colours (vd_mesh_read_attr) */

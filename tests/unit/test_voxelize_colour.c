@@ -15,6 +15,7 @@
 #include "check.h"
 #include "scene.h"
 #include "voxdag.h"
+#include "voxel/voxel_internal.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -280,6 +281,128 @@ static void test_texture_sample_hand(void)
 			ref_sample(tex2, 2, 2, u, v, b);
 			bad += memcmp(a, b, 3) != 0;
 		}
+	CHECK_EQ(bad, 0);
+}
+
+/* vd_texture_sample as it was written first (libm's floor, fmod for
+ * every repeat), which its fast paths must match bit for bit: the colours
+ * of every scene voxelized before them depend on it. */
+static void old_pair(double x, uint32_t n, uint32_t *i0, uint32_t *i1)
+{
+	double r = fmod(x, (double)n);
+	if (r < 0)
+		r += (double)n;
+	uint32_t i = (uint32_t)r;
+	*i0 = i < n ? i : n - 1;
+	*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
+}
+
+static void old_sample(const struct vd_texture *t, double u, double v,
+		       uint8_t rgb[3])
+{
+	uint32_t w = t->width, h = t->height;
+	double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
+	if (!isfinite(x) || !isfinite(y))
+		x = y = 0;
+	double fx = floor(x), fy = floor(y);
+	double ax = x - fx, ay = y - fy;
+	uint32_t x0, x1, y0, y1;
+	old_pair(fx, w, &x0, &x1);
+	old_pair(fy, h, &y0, &y1);
+	const uint8_t *p00 = t->rgb + 3 * ((size_t)y0 * w + x0),
+		      *p10 = t->rgb + 3 * ((size_t)y0 * w + x1),
+		      *p01 = t->rgb + 3 * ((size_t)y1 * w + x0),
+		      *p11 = t->rgb + 3 * ((size_t)y1 * w + x1);
+	for (int c = 0; c < 3; c++) {
+		double top = p00[c] + ax * (p10[c] - p00[c]);
+		double bot = p01[c] + ax * (p11[c] - p01[c]);
+		double g = top + ay * (bot - top);
+		rgb[c] = !(g > 0) ? 0 : g >= 255 ? 255 : (uint8_t)(g + 0.5);
+	}
+}
+
+static void test_texture_sample_same_as_first(void)
+{
+	static const uint32_t sizes[][2] = {{1, 1}, {2, 2}, {7, 5}, {64, 33},
+					    {1, 300}};
+	uint64_t seed = 12345;
+	int bad = 0;
+	for (size_t k = 0; k < sizeof sizes / sizeof *sizes; k++) {
+		uint32_t w = sizes[k][0], h = sizes[k][1];
+		uint8_t *rgb = malloc(3 * (size_t)w * h);
+		for (size_t i = 0; i < 3 * (size_t)w * h; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			rgb[i] = (uint8_t)(seed >> 56);
+		}
+		struct vd_texture t = {w, h, rgb, {VD_WRAP_REPEAT, VD_WRAP_REPEAT}};
+		for (int i = 0; i < 200000; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double u = ((double)(seed >> 11) * 0x1p-53 - 0.5) * 8;
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double v = ((double)(seed >> 11) * 0x1p-53 - 0.5) * 8;
+			/* texel edges and centres exactly, and far periods */
+			if (i % 4 == 1)
+				u = floor(u * w * 2) / (2 * w);
+			if (i % 4 == 2)
+				v = floor(v * h * 2) / (2 * h), u *= 1e7;
+			if (i % 97 == 3)
+				u = -0.0, v = 1e300;
+			uint8_t a[3], b[3];
+			vd_texture_sample(&t, u, v, a);
+			old_sample(&t, u, v, b);
+			if (memcmp(a, b, 3) && bad++ < 5)
+				fprintf(stderr, "%ux%u u %.17g v %.17g: %d %d %d, "
+					"first %d %d %d\n", w, h, u, v, a[0],
+					a[1], a[2], b[0], b[1], b[2]);
+		}
+		free(rgb);
+	}
+	CHECK_EQ(bad, 0);
+}
+
+/* voxelize takes a triangle's colour as it is when its three corners
+ * have the same colour and no texture, without interpolating, for
+ * weights within +-2 (those of every region of the nearest point sum to
+ * 1 within a few ulps there): vd_tri_attr_colour must give that colour
+ * for every value and such weights, as the regions write them. */
+static void test_uniform_colour(void)
+{
+	uint64_t seed = 7;
+	int bad = 0;
+	for (int c = 0; c < 256; c++) {
+		struct vd_tri_attr a;
+		memset(&a, 0, sizeof a);
+		a.texture = -1;
+		for (int k = 0; k < 3; k++)
+			a.rgb[k][0] = a.rgb[k][1] = a.rgb[k][2] = (uint8_t)c;
+		for (int i = 0; i < 20000; i++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double v = (double)(seed >> 11) * 0x1p-53 * 4 - 2;
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			double t = (double)(seed >> 11) * 0x1p-53 * 4 - 2;
+			double b[3];
+			switch (i % 4) {
+			case 0: /* the face */
+				b[0] = 1 - v - t, b[1] = v, b[2] = t;
+				break;
+			case 1: /* an edge */
+				b[0] = 1 - v, b[1] = v, b[2] = 0;
+				break;
+			case 2:
+				b[0] = 0, b[1] = 1 - t, b[2] = t;
+				break;
+			default: /* a corner */
+				b[0] = b[1] = 0, b[2] = 1;
+			}
+			if (fabs(b[0]) > 2 || fabs(b[1]) > 2 || fabs(b[2]) > 2)
+				continue;
+			uint8_t got[3];
+			vd_tri_attr_colour(&a, NULL, b, got);
+			if ((got[0] != c || got[1] != c || got[2] != c) && bad++ < 5)
+				fprintf(stderr, "colour %d, weights %.17g %.17g "
+					"%.17g: %d\n", c, b[0], b[1], b[2], got[0]);
+		}
+	}
 	CHECK_EQ(bad, 0);
 }
 
@@ -653,6 +776,32 @@ static double ref_tri(const double a[3], const double b[3], const double c[3])
 }
 
 /* The bunny as a triangle soup in which triangle i has colour i + 1. */
+/* Writes the n triangles t, corner k of triangle i coloured
+ * rgb[9i + 3k ..], as a binary PLY of separate triangles at `path`. */
+static void write_tri_ply(const char *path, size_t n,
+			  const struct vd_triangle *t, const uint8_t *rgb)
+{
+	FILE *f = fopen(path, "wb");
+	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %zu\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
+		"element face %zu\nproperty list uchar int vertex_indices\n"
+		"end_header\n", 3 * n, n);
+	for (size_t i = 0; i < n; i++)
+		for (int k = 0; k < 3; k++) {
+			fwrite(t[i].v[k], 4, 3, f);
+			fwrite(rgb + 9 * i + 3 * k, 1, 3, f);
+		}
+	for (size_t i = 0; i < n; i++) {
+		uint8_t three = 3;
+		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
+				  (int32_t)(3 * i + 2)};
+		fwrite(&three, 1, 1, f);
+		fwrite(idx, 4, 3, f);
+	}
+	CHECK_EQ(fclose(f), 0);
+}
+
 static const char *bunny_soup(uint32_t *ntri)
 {
 	struct vd_mesh *m;
@@ -669,29 +818,18 @@ static const char *bunny_soup(uint32_t *ntri)
 		count += n;
 	}
 	vd_mesh_close(m);
-	const char *path = in("soup.ply");
-	FILE *f = fopen(path, "wb");
-	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %zu\n"
-		"property float x\nproperty float y\nproperty float z\n"
-		"property uchar red\nproperty uchar green\nproperty uchar blue\n"
-		"element face %zu\nproperty list uchar int vertex_indices\n"
-		"end_header\n", 3 * count, count);
+	/* each triangle's colour is its number, from 1 */
+	uint8_t *rgb = malloc(9 * count);
 	for (size_t i = 0; i < count; i++)
 		for (int k = 0; k < 3; k++) {
 			uint32_t id = (uint32_t)i + 1;
-			uint8_t c[3] = {(uint8_t)(id >> 16), (uint8_t)(id >> 8),
-					(uint8_t)id};
-			fwrite(all[i].v[k], 4, 3, f);
-			fwrite(c, 1, 3, f);
+			rgb[9 * i + 3 * k] = (uint8_t)(id >> 16);
+			rgb[9 * i + 3 * k + 1] = (uint8_t)(id >> 8);
+			rgb[9 * i + 3 * k + 2] = (uint8_t)id;
 		}
-	for (size_t i = 0; i < count; i++) {
-		uint8_t three = 3;
-		int32_t idx[3] = {(int32_t)(3 * i), (int32_t)(3 * i + 1),
-				  (int32_t)(3 * i + 2)};
-		fwrite(&three, 1, 1, f);
-		fwrite(idx, 4, 3, f);
-	}
-	CHECK_EQ(fclose(f), 0);
+	const char *path = in("soup.ply");
+	write_tri_ply(path, count, all, rgb);
+	free(rgb);
 	free(all);
 	*ntri = (uint32_t)count;
 	return path;
@@ -801,6 +939,63 @@ static void test_nearest_brute_force(void)
 	free(who);
 	free(st);
 	free(s.v);
+}
+
+/* A soup of random triangles with random vertex colours, a third of
+ * them without area (a repeated corner, or three corners on a line), so
+ * that every Voronoi region of nearest_bary and the segments of a flat
+ * triangle are met, in every lane of a batch. */
+static const char *random_soup(uint32_t ntri)
+{
+	struct vd_triangle *t = malloc(ntri * sizeof *t);
+	uint8_t *rgb = malloc(9 * (size_t)ntri);
+	uint64_t seed = 99;
+	for (uint32_t i = 0; i < ntri; i++) {
+		float (*v)[3] = t[i].v;
+		for (int k = 0; k < 9; k++) {
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			v[k / 3][k % 3] = (float)((double)(seed >> 40) * 0x1p-24);
+			rgb[9 * (size_t)i + (size_t)k] = (uint8_t)(seed >> 32);
+		}
+		if (i % 3 == 1) /* a repeated corner */
+			memcpy(v[2], v[0], sizeof v[0]);
+		if (i % 3 == 2) /* on a line */
+			for (int a = 0; a < 3; a++)
+				v[2][a] = (v[0][a] + v[1][a]) / 2;
+	}
+	const char *path = in("random.ply");
+	write_tri_ply(path, ntri, t, rgb);
+	free(t);
+	free(rgb);
+	return path;
+}
+
+/* The colour pass's fast paths (brick walks, nearest points four at a
+ * time in AVX2) and its reference (spans, one at a time): the same
+ * colours, bit for bit, on random triangles, flat ones, a scan and a
+ * textured model, whole and in cells. */
+static void test_simd_same_as_scalar(void)
+{
+	uint32_t ntri;
+	const char *meshes[3] = {random_soup(3000), bunny_soup(&ntri),
+				 "tests/data/spider/spider.obj"};
+	const int levels[3] = {7, 8, 9};
+	for (int i = 0; i < 3; i++)
+		for (int L0 = 0; L0 <= 1; L0++) {
+			struct cscene a, b;
+			vd_colour_fast = 0;
+			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
+				 VD_OK);
+			load_scene(&a);
+			vd_colour_fast = 1;
+			CHECK_EQ(run_voxelize(meshes[i], levels[i], L0, 1, 0, NULL),
+				 VD_OK);
+			load_scene(&b);
+			CHECK(a.n > 1000);
+			CHECK(scene_equal(&a, &b));
+			free(a.v);
+			free(b.v);
+		}
 }
 
 static void test_chunked_concat(void)
@@ -1083,6 +1278,8 @@ int main(void)
 	snprintf(data, sizeof data, "%s.data", dir);
 	mkdir(data, 0777);
 	RUN(test_texture_sample_hand);
+	RUN(test_texture_sample_same_as_first);
+	RUN(test_uniform_colour);
 	RUN(test_texture_formats);
 	RUN(test_big_triangle_texture);
 	RUN(test_ac3d_texrep_texoff);
@@ -1090,6 +1287,7 @@ int main(void)
 	RUN(test_big_triangle_vertex_colours);
 	RUN(test_tie_earlier_wins);
 	RUN(test_nearest_brute_force);
+	RUN(test_simd_same_as_scalar);
 	RUN(test_chunked_concat);
 	RUN(test_svo_identical);
 	RUN(test_bundled_scene);

@@ -79,11 +79,15 @@ static int load_png(struct vd_texture *t, const char *path, FILE *f)
 		png_image_free(&img);
 		return err;
 	}
-	/* RGBA, then the alpha dropped: without it libpng would composite
-	 * the texels over a background. */
-	img.format = PNG_FORMAT_RGBA;
+	/* An image with alpha (or a tRNS chunk) is read as RGBA, then the
+	 * alpha dropped: read as RGB, libpng would composite its texels over
+	 * a background. One without is read as RGB straight away: the same
+	 * texels (there is nothing to composite) without a quarter more to
+	 * decode and copy. */
+	const int alpha = (img.format & PNG_FORMAT_FLAG_ALPHA) != 0;
+	img.format = alpha ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB;
 	size_t n = (size_t)img.width * img.height;
-	uint8_t *rgba = malloc(4 * n);
+	uint8_t *rgba = malloc((alpha ? 4 : 3) * n);
 	if (!rgba) {
 		png_image_free(&img);
 		return vd_fail(VD_ERR_NOMEM, "texture '%s'", path);
@@ -94,9 +98,17 @@ static int load_png(struct vd_texture *t, const char *path, FILE *f)
 		png_image_free(&img);
 		return err;
 	}
-	for (size_t i = 0; i < n; i++)
-		memmove(rgba + 3 * i, rgba + 4 * i, 3);
-	uint8_t *rgb = realloc(rgba, 3 * n);
+	uint8_t *rgb = rgba;
+	if (alpha) {
+		/* in place, forwards: texel i's bytes move down to 3i <= 4i
+		 * (byte by byte: memmove of 3 bytes was a call a texel) */
+		for (size_t i = 0; i < n; i++) {
+			rgba[3 * i] = rgba[4 * i];
+			rgba[3 * i + 1] = rgba[4 * i + 1];
+			rgba[3 * i + 2] = rgba[4 * i + 2];
+		}
+		rgb = realloc(rgba, 3 * n);
+	}
 	t->rgb = rgb ? rgb : rgba;
 	t->width = img.width;
 	t->height = img.height;
@@ -472,22 +484,66 @@ static void texel_pair(double x, uint32_t n, int mode, uint32_t *i0,
 	*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
 }
 
-void vd_texture_sample(const struct vd_texture *t, double u, double v,
-		       uint8_t rgb[3])
+/* floor(x) without libm's call where (int32_t)x is exact (the colour
+ * pass samples once per voxel). It may give +0 where floor gives -0,
+ * which neither texel_pair nor the weight x - floor(x) can tell apart. */
+static inline double floor_near(double x)
+{
+	if (!(x > -0x1p31 && x < 0x1p31))
+		return floor(x);
+	double t = (double)(int32_t)x;
+	return t > x ? t - 1 : t;
+}
+
+/* texel_pair, with the common cases first: repeat wrapping of a floored
+ * x within [0, n - 1), where fmod would return x itself, and of one within
+ * 2^31 either side (a tiled texture's coordinates), where fmod of an
+ * integer is the integer remainder, exactly. */
+static inline void texel_pair_fast(double x, uint32_t n, int mode,
+				   uint32_t *i0, uint32_t *i1)
+{
+	if (mode == VD_WRAP_REPEAT && x >= 0 && x < (double)(n - 1)) {
+		*i0 = (uint32_t)x;
+		*i1 = *i0 + 1;
+		return;
+	}
+	if (mode == VD_WRAP_REPEAT && x > -0x1p31 && x < 0x1p31) {
+		int64_t r = (int64_t)x % (int64_t)n;
+		*i0 = (uint32_t)(r < 0 ? r + n : r);
+		*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
+		return;
+	}
+	texel_pair(x, n, mode, i0, i1);
+}
+
+/* The four texels around (u, v) (p[0] p[1] the upper row, left and
+ * right, p[2] p[3] the lower) and the weights of the right column and of
+ * the lower row. */
+static inline void texel_quad(const struct vd_texture *t, double u, double v,
+			      const uint8_t *p[4], double *ax, double *ay)
 {
 	uint32_t w = t->width, h = t->height;
 	double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
 	if (!isfinite(x) || !isfinite(y))
 		x = y = 0; /* |u| near DBL_MAX: any texel is as good */
-	double fx = floor(x), fy = floor(y);
-	double ax = x - fx, ay = y - fy;
+	double fx = floor_near(x), fy = floor_near(y);
+	*ax = x - fx, *ay = y - fy;
 	uint32_t x0, x1, y0, y1;
-	texel_pair(fx, w, t->wrap[0], &x0, &x1);
-	texel_pair(fy, h, t->wrap[1], &y0, &y1);
-	const uint8_t *p00 = t->rgb + 3 * ((size_t)y0 * w + x0),
-		      *p10 = t->rgb + 3 * ((size_t)y0 * w + x1),
-		      *p01 = t->rgb + 3 * ((size_t)y1 * w + x0),
-		      *p11 = t->rgb + 3 * ((size_t)y1 * w + x1);
+	texel_pair_fast(fx, w, t->wrap[0], &x0, &x1);
+	texel_pair_fast(fy, h, t->wrap[1], &y0, &y1);
+	p[0] = t->rgb + 3 * ((size_t)y0 * w + x0);
+	p[1] = t->rgb + 3 * ((size_t)y0 * w + x1);
+	p[2] = t->rgb + 3 * ((size_t)y1 * w + x0);
+	p[3] = t->rgb + 3 * ((size_t)y1 * w + x1);
+}
+
+void vd_texture_sample(const struct vd_texture *t, double u, double v,
+		       uint8_t rgb[3])
+{
+	const uint8_t *p[4];
+	double ax, ay;
+	texel_quad(t, u, v, p, &ax, &ay);
+	const uint8_t *p00 = p[0], *p10 = p[1], *p01 = p[2], *p11 = p[3];
 	for (int c = 0; c < 3; c++) {
 		double top = p00[c] + ax * (p10[c] - p00[c]);
 		double bot = p01[c] + ax * (p11[c] - p01[c]);
@@ -495,15 +551,35 @@ void vd_texture_sample(const struct vd_texture *t, double u, double v,
 	}
 }
 
+/* The texture coordinates at barycentric coordinates b. */
+static inline void attr_uv(const struct vd_tri_attr *a, const double b[3],
+			   double *u, double *v)
+{
+	*u = b[0] * a->uv[0][0] + b[1] * a->uv[1][0] + b[2] * a->uv[2][0];
+	*v = b[0] * a->uv[0][1] + b[1] * a->uv[1][1] + b[2] * a->uv[2][1];
+}
+
+void vd_tri_attr_prefetch(const struct vd_tri_attr *a,
+			  const struct vd_texture *tex, const double b[3])
+{
+	if (a->texture < 0 || !tex)
+		return;
+	double u, v, ax, ay;
+	const uint8_t *p[4];
+	attr_uv(a, b, &u, &v);
+	texel_quad(tex, u, v, p, &ax, &ay);
+	/* the right texels are mostly on their left neighbours' lines */
+	__builtin_prefetch(p[0]);
+	__builtin_prefetch(p[2]);
+}
+
 void vd_tri_attr_colour(const struct vd_tri_attr *a,
 			const struct vd_texture *tex, const double b[3],
 			uint8_t rgb[3])
 {
 	if (a->texture >= 0 && tex) {
-		double u = b[0] * a->uv[0][0] + b[1] * a->uv[1][0] +
-			   b[2] * a->uv[2][0];
-		double v = b[0] * a->uv[0][1] + b[1] * a->uv[1][1] +
-			   b[2] * a->uv[2][1];
+		double u, v;
+		attr_uv(a, b, &u, &v);
 		vd_texture_sample(tex, u, v, rgb);
 		return;
 	}

@@ -58,6 +58,13 @@ extern int vd_raster_table_max;
  * other with the brute-force reference too. */
 extern int vd_raster_simd;
 
+/* Whether voxelize's colour pass takes its fast paths (1, the default):
+ * a triangle's voxels from the brick rasterizer, walked a brick at a
+ * time, and nearest points four at a time in AVX2 when the processor has
+ * it. Tests set 0 (the span rasterizer, one nearest point at a time) to
+ * compare the two, bit for bit. */
+extern int vd_colour_fast;
+
 /* The most bytes voxelize keeps of a mesh's triangles between its passes
  * over the file (besides a sixteenth of the budget): tests set 0 (every
  * pass reads the file) or a size a mesh overflows midway. */

@@ -502,6 +502,7 @@ struct binner {
 	uint64_t *totals;      /* 8^L0: triangles binned to each cell */
 	struct bin_rec *recs;
 	struct bin_rec_col *crecs; /* instead of recs, with colours */
+	uint32_t *perm;        /* with colours: the order crecs are written */
 	size_t buffered, cap;  /* records held in memory */
 	uint64_t pairs;
 	uint64_t index;        /* triangles seen so far */
@@ -539,22 +540,46 @@ static int recs_sorted(const void *recs, size_t n, size_t size,
 	return 1;
 }
 
-/* The colour path's flush_bins: the same files, longer records. */
+enum { BUCKET_CELLS = 4096 };
+
+/* The colour path's flush_bins: the same files, longer records, each
+ * bin in input order. The records come in input order, so with few
+ * cells a stable counting sort of their positions (b->perm) orders them
+ * without moving them (qsort of the terrain's 100-byte records, in
+ * glibc's merge sort, cost a third of its binning); else qsort. */
 static int flush_bins_col(struct binner *b)
 {
 	char path[4096];
-	if (!recs_sorted(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col))
-		qsort(b->crecs, b->buffered, sizeof *b->crecs, cmp_rec_col);
-	for (size_t i = 0; i < b->buffered;) {
-		uint64_t c = b->crecs[i].cell;
+	const size_t n = b->buffered, ncell = (size_t)1 << 3 * b->g.L0;
+	uint32_t *perm = b->perm;
+	if (recs_sorted(b->crecs, n, sizeof *b->crecs, cmp_rec_col)) {
+		for (size_t i = 0; i < n; i++)
+			perm[i] = (uint32_t)i;
+	} else if (ncell <= BUCKET_CELLS) {
+		size_t at[BUCKET_CELLS + 1];
+		memset(at, 0, (ncell + 1) * sizeof *at);
+		for (size_t i = 0; i < n; i++)
+			at[b->crecs[i].cell + 1]++;
+		for (size_t c = 0; c < ncell; c++)
+			at[c + 1] += at[c];
+		for (size_t i = 0; i < n; i++)
+			perm[at[b->crecs[i].cell]++] = (uint32_t)i;
+	} else {
+		qsort(b->crecs, n, sizeof *b->crecs, cmp_rec_col);
+		for (size_t i = 0; i < n; i++)
+			perm[i] = (uint32_t)i;
+	}
+	for (size_t i = 0; i < n;) {
+		uint64_t c = b->crecs[perm[i]].cell;
 		bin_path(path, sizeof path, b->dir, c);
 		FILE *f = fopen(path, "ab");
 		if (!f)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
 		size_t w = 0, j = i;
-		for (; j < b->buffered && b->crecs[j].cell == c; j++)
-			w += fwrite(&b->crecs[j].index, BIN_BYTES_COL, 1, f);
+		for (; j < n && b->crecs[perm[j]].cell == c; j++)
+			w += fwrite(&b->crecs[perm[j]].index, BIN_BYTES_COL, 1,
+				    f);
 		int rc = fclose(f);
 		if (w != j - i || rc != 0)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
@@ -568,7 +593,6 @@ static int flush_bins_col(struct binner *b)
 /* Groups the records by cell (any order within a cell: the geometry
  * path ORs voxels). Few cells: in place, by counting (qsort of the
  * dragon's records took a tenth of its binning); else qsort. */
-enum { BUCKET_CELLS = 4096 };
 
 static void sort_recs(struct bin_rec *r, size_t n, size_t ncell)
 {
@@ -1460,6 +1484,128 @@ static double nearest_bary(const double a[3], const double b[3],
 	return dot3(q, q);
 }
 
+/* The nearest points of four voxel centres at once, in the lanes of
+ * AVX2 vectors, when the processor has them: the same operations as
+ * nearest_bary in the same order (IEEE double, rounded alike; no FMA,
+ * which avx2 alone does not enable), so the same bits. Branches become
+ * masks: every region's weights are computed and the first region that
+ * holds, in nearest_bary's order, is kept. */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define NEAR_AVX2 1
+#include <immintrin.h>
+#else
+#define NEAR_AVX2 0
+#endif
+
+int vd_colour_fast = 1;
+
+#if NEAR_AVX2
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4l __attribute__((vector_size(32)));
+
+__attribute__((target("avx2"))) static inline v4d v4_dot(const v4d a[3],
+							  const v4d b[3])
+{
+	return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* m ? x : y, lane by lane */
+__attribute__((target("avx2"))) static inline v4d v4_sel(v4l m, v4d x,
+							  v4d y)
+{
+	return (v4d)(((v4l)x & m) | ((v4l)y & ~m));
+}
+
+__attribute__((target("avx2"))) static inline int v4_any(v4l m)
+{
+	return _mm256_movemask_pd((__m256d)m) != 0;
+}
+
+/* nearest_bary of the triangle tv (corners in voxels) seen from the
+ * centres (cx[l], cy[l], cz[l]) of lanes l = 0..3: the squared distance
+ * rounded to float into d2[l], the weights into w[0..2][l]. Returns the
+ * lanes (bit l) whose triangle has no area there, whose nearest point
+ * (of three segments) the caller finds with nearest_bary itself. */
+__attribute__((target("avx2"))) static int
+nearest4(const double tv[3][3], const double c[3][4], float d2[4],
+	 double w[3][4])
+{
+	v4d p[3][3], ab[3], ac[3], ap[3], bp[3], cp[3];
+	for (int i = 0; i < 3; i++) {
+		v4d ctr;
+		memcpy(&ctr, c[i], sizeof ctr);
+		for (int k = 0; k < 3; k++)
+			p[k][i] = tv[k][i] - ctr;
+		ab[i] = p[1][i] - p[0][i];
+		ac[i] = p[2][i] - p[0][i];
+		ap[i] = -p[0][i];
+		bp[i] = -p[1][i];
+		cp[i] = -p[2][i];
+	}
+	const v4d d1 = v4_dot(ab, ap), d2_ = v4_dot(ac, ap);
+	const v4d d3 = v4_dot(ab, bp), d4 = v4_dot(ac, bp);
+	const v4d d5 = v4_dot(ab, cp), d6 = v4_dot(ac, cp);
+	const v4d vc = d1 * d4 - d3 * d2_, vb = d5 * d2_ - d1 * d6,
+		  va = d3 * d6 - d5 * d4;
+	const v4d zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
+	const v4d sum = va + vb + vc;
+	v4l done = (d1 <= 0) & (d2_ <= 0);
+	v4d w0 = v4_sel(done, one, zero), w1 = zero, w2 = zero;
+	v4l m = ~done & (d3 >= 0) & (d4 <= d3);
+	w1 = v4_sel(m, one, w1);
+	done |= m;
+	m = ~done & (d6 >= 0) & (d5 <= d6);
+	w2 = v4_sel(m, one, w2);
+	done |= m;
+	const v4l flat = ~done & ~(sum > 0);
+	done |= flat;
+	m = ~done & (vc <= 0) & (d1 >= 0) & (d3 <= 0);
+	if (v4_any(m)) {
+		v4d v = d1 / (d1 - d3);
+		w0 = v4_sel(m, 1 - v, w0);
+		w1 = v4_sel(m, v, w1);
+	}
+	done |= m;
+	m = ~done & (vb <= 0) & (d2_ >= 0) & (d6 <= 0);
+	if (v4_any(m)) {
+		v4d t = d2_ / (d2_ - d6);
+		w0 = v4_sel(m, 1 - t, w0);
+		w2 = v4_sel(m, t, w2);
+	}
+	done |= m;
+	m = ~done & (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0);
+	if (v4_any(m)) {
+		v4d t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+		w1 = v4_sel(m, 1 - t, w1);
+		w2 = v4_sel(m, t, w2);
+	}
+	done |= m;
+	m = ~done;
+	if (v4_any(m)) {
+		v4d den = 1 / sum;
+		v4d v = vb * den, t = vc * den;
+		w0 = v4_sel(m, 1 - v - t, w0);
+		w1 = v4_sel(m, v, w1);
+		w2 = v4_sel(m, t, w2);
+	}
+	v4d q[3];
+	for (int i = 0; i < 3; i++)
+		q[i] = w0 * p[0][i] + w1 * p[1][i] + w2 * p[2][i];
+	_mm_storeu_ps(d2, _mm256_cvtpd_ps((__m256d)v4_dot(q, q)));
+	memcpy(w[0], &w0, sizeof w0);
+	memcpy(w[1], &w1, sizeof w1);
+	memcpy(w[2], &w2, sizeof w2);
+	return _mm256_movemask_pd((__m256d)flat);
+}
+
+static int near_avx2(void)
+{
+	return vd_colour_fast && __builtin_cpu_supports("avx2");
+}
+#endif
+
+enum { NEAR_BATCH = 8 };  /* voxels whose nearest points go together */
+
 struct colour_ctx {
 	struct worker *w;
 	size_t nb;
@@ -1472,7 +1618,140 @@ struct colour_ctx {
 	uint32_t last_b[3];       /* block of the last voxel, */
 	size_t last;              /* its index in w->order */
 	int have_last;
+	int simd;                 /* nearest4 */
+	/* the triangle's colour does not depend on where: no texture, and
+	 * its three corners alike (a material's colour; test_uniform_colour
+	 * holds vd_tri_attr_colour to it for weights within +-2) */
+	int uniform;
+	/* the triangle's voxels waiting for their nearest points: centres
+	 * (voxels) by axis, and where their bits are (block index in
+	 * w->order, word, bit), which are read only when the batch is done,
+	 * so that the loads of a batch overlap */
+	int nq;
+	double qc[3][NEAR_BATCH];
+	uint32_t qb[NEAR_BATCH];
+	uint16_t qw[NEAR_BATCH];
+	uint8_t qbit[NEAR_BATCH];
 };
+
+/* The nearest points of the waiting voxels, then their colours, in the
+ * order the voxels came (each voxel comes once per triangle, so the
+ * order only matters between triangles, and every triangle's voxels are
+ * done before the next one's). */
+static void colour_flush(struct colour_ctx *c)
+{
+	float d2[NEAR_BATCH];
+	double b[3][NEAR_BATCH];
+	struct vox_col *qv[NEAR_BATCH];
+	int n = c->nq, flat = (1 << n) - 1;
+	const struct worker *w = c->w;
+	/* the voxels' slots: their ranks in the cell's Morton order (the
+	 * slots' cache lines are fetched while the nearest points are
+	 * found: they are far apart when a triangle crosses blocks) */
+	for (int i = 0; i < n; i++) {
+		size_t bi = c->qb[i];
+		uint64_t word = w->blk[bi][c->qw[i]];
+		if (!(word >> c->qbit[i] & 1)) {
+			qv[i] = NULL; /* cannot be: the geometry pass set it */
+			continue;
+		}
+		uint64_t rank = w->base[bi] +
+				w->prefix[bi * BLOCK_WORDS + c->qw[i]] +
+				vd_popcount64(word & ((1ull << c->qbit[i]) - 1));
+		qv[i] = &w->vox[rank];
+		__builtin_prefetch(qv[i], 1);
+	}
+#if NEAR_AVX2
+	if (c->simd) {
+		/* the lanes past n repeat voxel 0: computed, not used */
+		for (int i = n; i < (n + 3) / 4 * 4; i++)
+			for (int a = 0; a < 3; a++)
+				c->qc[a][i] = c->qc[a][0];
+		flat = 0;
+		for (int g = 0; g < n; g += 4) {
+			double cg[3][4], wg[3][4];
+			for (int a = 0; a < 3; a++)
+				memcpy(cg[a], &c->qc[a][g], sizeof cg[a]);
+			flat |= nearest4(c->tv, cg, d2 + g, wg) << g;
+			for (int k = 0; k < 3; k++)
+				memcpy(&b[k][g], wg[k], sizeof wg[k]);
+		}
+		flat &= (1 << n) - 1;
+	}
+#endif
+	/* without AVX2 every voxel, with it the lanes without area: the
+	 * corners relative to the voxel's centre, in voxels: exact (lattice
+	 * integers over a power of two, less a half-integer, well inside 53
+	 * bits) and so the same in every chunking */
+	for (; flat; flat &= flat - 1) {
+		int i = __builtin_ctz((unsigned)flat);
+		double p[3][3], bi[3];
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				p[k][a] = c->tv[k][a] - c->qc[a][i];
+		d2[i] = (float)nearest_bary(p[0], p[1], p[2], bi);
+		for (int k = 0; k < 3; k++)
+			b[k][i] = bi[k];
+	}
+	/* the voxels this triangle is nearer to, their texels fetched
+	 * before any is read */
+	int take = 0;
+	for (int i = 0; i < n; i++) {
+		struct vox_col *v = qv[i];
+		if (!v || (v->set && !(d2[i] < v->d2)))
+			continue; /* an earlier triangle is as near: it stays */
+		take |= 1 << i;
+		if (c->tex) {
+			double bi[3] = {b[0][i], b[1][i], b[2][i]};
+			vd_tri_attr_prefetch(c->a, c->tex, bi);
+		}
+	}
+	for (; take; take &= take - 1) {
+		int i = __builtin_ctz((unsigned)take);
+		struct vox_col *v = qv[i];
+		v->d2 = d2[i];
+		v->set = 1;
+		if (c->uniform && fabs(b[0][i]) <= 2 && fabs(b[1][i]) <= 2 &&
+		    fabs(b[2][i]) <= 2) {
+			memcpy(v->rgb, c->a->rgb[0], 3);
+			continue;
+		}
+		double bi[3] = {b[0][i], b[1][i], b[2][i]};
+		vd_tri_attr_colour(c->a, c->tex, bi, v->rgb);
+	}
+	c->nq = 0;
+}
+
+/* Voxel (x, y, z), bit `bit` of word wi of block bi (its index in
+ * w->order), joins the triangle's batch. */
+static inline void colour_push(struct colour_ctx *c, size_t bi, unsigned wi,
+			       unsigned bit, int64_t x, int64_t y, int64_t z)
+{
+	int q = c->nq;
+	c->qb[q] = (uint32_t)bi;
+	c->qw[q] = (uint16_t)wi;
+	c->qbit[q] = (uint8_t)bit;
+	c->qc[0][q] = (double)x + 0.5;
+	c->qc[1][q] = (double)y + 0.5;
+	c->qc[2][q] = (double)z + 0.5;
+	if ((c->nq = q + 1) == NEAR_BATCH)
+		colour_flush(c);
+}
+
+/* The index in w->order[0..nb) of the block of Morton key `key`, nb if
+ * none. */
+static size_t block_index(const struct worker *w, size_t nb, uint64_t key)
+{
+	size_t lo = 0, hi = nb;
+	while (lo < hi) {
+		size_t mid = lo + (hi - lo) / 2;
+		if (w->order[mid] < key)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	return lo < nb && w->order[lo] == key ? lo : nb;
+}
 
 static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 				int64_t z)
@@ -1484,18 +1763,10 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 		       bz = lz >> BLOCK_SHIFT;
 	if (!c->have_last || bx != c->last_b[0] || by != c->last_b[1] ||
 	    bz != c->last_b[2]) {
-		const uint64_t key = vd_morton3(bx, by, bz);
-		size_t lo = 0, hi = c->nb;
-		while (lo < hi) {
-			size_t mid = lo + (hi - lo) / 2;
-			if (w->order[mid] < key)
-				lo = mid + 1;
-			else
-				hi = mid;
-		}
-		if (lo == c->nb || w->order[lo] != key)
+		size_t i = block_index(w, c->nb, vd_morton3(bx, by, bz));
+		if (i == c->nb)
 			return; /* cannot be: the geometry pass set it */
-		c->last = lo;
+		c->last = i;
 		c->last_b[0] = bx, c->last_b[1] = by, c->last_b[2] = bz;
 		c->have_last = 1;
 	}
@@ -1505,26 +1776,10 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 		      spread3[(lz >> 2) & 7];
 	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
 		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
-	uint64_t word = w->blk[bi][wi];
-	if (!(word >> bit & 1))
-		return; /* likewise */
-	uint64_t rank = w->base[bi] + w->prefix[(size_t)bi * BLOCK_WORDS + wi] +
-			vd_popcount64(word & ((1ull << bit) - 1));
-	struct vox_col *v = &w->vox[rank];
-	/* corners relative to the voxel's centre, in voxels: exact (lattice
-	 * integers over a power of two, less a half-integer, well inside 53
-	 * bits) and so the same in every chunking */
-	double ctr[3] = {(double)x + 0.5, (double)y + 0.5, (double)z + 0.5};
-	double p[3][3], b[3];
-	for (int k = 0; k < 3; k++)
-		for (int i = 0; i < 3; i++)
-			p[k][i] = c->tv[k][i] - ctr[i];
-	float d2 = (float)nearest_bary(p[0], p[1], p[2], b);
-	if (v->set && !(d2 < v->d2))
-		return; /* an earlier triangle is as near: it stays */
-	v->d2 = d2;
-	v->set = 1;
-	vd_tri_attr_colour(c->a, c->tex, b, v->rgb);
+	/* the word and its rank are read in colour_flush: fetched now */
+	__builtin_prefetch(&w->blk[bi][wi]);
+	__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
+	colour_push(c, bi, wi, bit, x, y, z);
 }
 
 /* A run of voxels, in the order vd_raster_triangle visits them: the
@@ -1536,6 +1791,107 @@ static void colour_span(void *vctx, int axis, int64_t x, int64_t y,
 	int64_t p[3] = {x, y, z};
 	for (int64_t i = 0; i < n; i++, p[axis]++)
 		colour_voxel(c, p[0], p[1], p[2]);
+}
+
+/* A triangle's voxels for the colour pass as the geometry pass finds
+ * them: set by the brick rasterizer as bits of scratch blocks, then
+ * walked a brick at a time. perf put a quarter of the terrain's colour
+ * run in the span rasterizer and its one call a span (runs of 1-3
+ * voxels); the bits cost what the geometry's did, and a brick's word and
+ * rank are looked up once for all its voxels. A triangle over more than
+ * TRI_BLOCKS blocks takes the spans. */
+enum { TRI_BLOCKS = 64 };
+
+struct tri_blocks {
+	int n, overflow;
+	uint64_t key[TRI_BLOCKS];
+	uint64_t *mem;            /* TRI_BLOCKS zeroed blocks, block i at
+				   * mem + i * BLOCK_WORDS */
+};
+
+static uint64_t *tri_block(void *ctx, uint64_t key)
+{
+	struct tri_blocks *t = ctx;
+	for (int i = t->n - 1; i >= 0; i--)
+		if (t->key[i] == key)
+			return t->mem + (size_t)i * BLOCK_WORDS;
+	if (t->n == TRI_BLOCKS) {
+		t->overflow = 1;
+		return NULL;
+	}
+	t->key[t->n] = key;
+	return t->mem + (size_t)t->n++ * BLOCK_WORDS;
+}
+
+/* The voxels of triangle st within [clip_lo, clip_hi] into c's batches,
+ * through the scratch blocks tb (left zeroed). Returns 0, having left
+ * nothing behind, when they are too many blocks. */
+static int colour_walk(struct colour_ctx *c, struct tri_blocks *tb,
+		       const struct vd_snapped_tri *st, int L,
+		       const int64_t clip_lo[3], const int64_t clip_hi[3])
+{
+	struct vd_brick_sink sink = {.block = tri_block, .ctx = tb};
+	memcpy(sink.lo, c->lo, sizeof sink.lo);
+	tb->n = tb->overflow = 0;
+	vd_raster_triangle_bricks(st, L, clip_lo, clip_hi, &sink);
+	if (tb->overflow) {
+		memset(tb->mem, 0, (size_t)tb->n * BLOCK_WORDS * 8);
+		return 0;
+	}
+	/* the bricks to look at: the triangle's voxel box (a voxel wider
+	 * than the rasterizer's on every side), clipped, within the cell */
+	const int sh = __builtin_ctzll((unsigned long long)c->s);
+	int64_t vlo[3], vhi[3];
+	for (int a = 0; a < 3; a++) {
+		int64_t mn = st->v[0][a], mx = mn;
+		for (int k = 1; k < 3; k++) {
+			mn = st->v[k][a] < mn ? st->v[k][a] : mn;
+			mx = st->v[k][a] > mx ? st->v[k][a] : mx;
+		}
+		vlo[a] = (mn >> sh) - 1;
+		vhi[a] = (mx >> sh) + 1;
+		vlo[a] = (vlo[a] < clip_lo[a] ? clip_lo[a] : vlo[a]) - c->lo[a];
+		vhi[a] = (vhi[a] > clip_hi[a] ? clip_hi[a] : vhi[a]) - c->lo[a];
+	}
+	const struct worker *w = c->w;
+	for (int i = 0; i < tb->n; i++) {
+		uint64_t *tw = tb->mem + (size_t)i * BLOCK_WORDS;
+		uint32_t b[3];
+		vd_morton3_decode(tb->key[i], &b[0], &b[1], &b[2]);
+		size_t bi = block_index(w, c->nb, tb->key[i]);
+		int64_t k0[3], k1[3], org[3];
+		for (int a = 0; a < 3; a++) {
+			int64_t first = (int64_t)b[a] << BLOCK_SHIFT;
+			int64_t l = vlo[a] > first ? vlo[a] : first;
+			int64_t h = vhi[a] < first + 31 ? vhi[a] : first + 31;
+			k0[a] = (l - first) >> 2;
+			k1[a] = (h - first) >> 2;
+			org[a] = c->lo[a] + first;
+		}
+		for (int64_t x = k0[0]; x <= k1[0]; x++)
+			for (int64_t y = k0[1]; y <= k1[1]; y++)
+				for (int64_t z = k0[2]; z <= k1[2]; z++) {
+					unsigned wi = (unsigned)spread3[x] << 2 |
+						      (unsigned)spread3[y] << 1 |
+						      spread3[z];
+					uint64_t m = tw[wi];
+					if (!m)
+						continue;
+					tw[wi] = 0;
+					if (bi == c->nb)
+						continue; /* cannot be */
+					__builtin_prefetch(&w->blk[bi][wi]);
+					__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
+					for (; m; m &= m - 1) {
+						unsigned j = (unsigned)__builtin_ctzll(m);
+						colour_push(c, bi, wi, j,
+							    org[0] + 4 * x + (j >> 2 & 1) + (j >> 4 & 2),
+							    org[1] + 4 * y + (j >> 1 & 1) + (j >> 3 & 2),
+							    org[2] + 4 * z + (j & 1) + (j >> 2 & 2));
+					}
+				}
+	}
+	return 1;
 }
 
 /* The colour pass of a cell (whose geometry is complete; w->order[0..nb)
@@ -1615,8 +1971,16 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", bin,
 			       strerror(errno));
 	struct colour_ctx cc = {.w = w, .nb = nb, .s = vd_snap_voxel(r->g.L)};
+#if NEAR_AVX2
+	cc.simd = near_avx2();
+#endif
 	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
 	memcpy(cc.lo, lo, sizeof cc.lo);
+	/* without the scratch blocks (or in the tests' reference pass),
+	 * every triangle takes the spans */
+	struct tri_blocks tb = {0};
+	if (vd_colour_fast)
+		tb.mem = calloc((size_t)TRI_BLOCKS * BLOCK_WORDS, 8);
 	int err = VD_OK;
 	size_t n;
 	unsigned char *rb = (unsigned char *)rd->tris;
@@ -1637,13 +2001,22 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
-			vd_raster_triangle_spans(&st, r->g.L, clip_lo,
-						 clip_hi, colour_span, &cc);
+			cc.uniform = !(rec.a.texture >= 0 && cc.tex) &&
+				     !memcmp(rec.a.rgb[0], rec.a.rgb[1], 3) &&
+				     !memcmp(rec.a.rgb[0], rec.a.rgb[2], 3);
+			if (!tb.mem || !colour_walk(&cc, &tb, &st, r->g.L,
+						    clip_lo, clip_hi))
+				vd_raster_triangle_spans(&st, r->g.L, clip_lo,
+							 clip_hi, colour_span,
+							 &cc);
+			if (cc.nq)
+				colour_flush(&cc);
 		}
 	}
 	if (!err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", bin);
 	fclose(f);
+	free(tb.mem);
 	return err;
 }
 
@@ -2509,13 +2882,17 @@ static int bin_triangles(struct driver *d)
 	} else {
 		uint64_t bin_bytes = d->share.bin_bytes;
 		if (r->colours) {
-			b->cap = bin_bytes / sizeof *b->crecs;
+			/* the order of the writes out of the same share */
+			b->cap = bin_bytes / (sizeof *b->crecs + sizeof *b->perm);
+			if (b->cap > UINT32_MAX)
+				b->cap = UINT32_MAX;
 			b->crecs = malloc(b->cap * sizeof *b->crecs);
+			b->perm = malloc(b->cap * sizeof *b->perm);
 		} else {
 			b->cap = bin_bytes / sizeof *b->recs;
 			b->recs = malloc(b->cap * sizeof *b->recs);
 		}
-		if (!(b->recs || b->crecs))
+		if (!(b->recs || (b->crecs && b->perm)))
 			return vd_fail(VD_ERR_NOMEM, "bins");
 		progress_say(&d->prog, 1, "binning triangles into cells of "
 			     "level %d (%d threads, budget %llu MiB)", r->g.L0,
@@ -2578,9 +2955,11 @@ static int list_cells(struct driver *d)
 	free(b->totals);
 	free(b->recs);
 	free(b->crecs);
+	free(b->perm);
 	b->totals = NULL;
 	b->recs = NULL;
 	b->crecs = NULL;
+	b->perm = NULL;
 	qsort(r->jobs, r->njobs, sizeof *r->jobs, cmp_jobs);
 	return VD_OK;
 }
@@ -2740,6 +3119,7 @@ static int driver_release(struct driver *d, int err)
 	free(d->b.totals);
 	free(d->b.recs);
 	free(d->b.crecs);
+	free(d->b.perm);
 	free(d->attrs);
 	if (r->workers) {
 		for (int i = 0; i < r->nworkers; i++) {
