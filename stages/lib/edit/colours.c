@@ -9,6 +9,9 @@
  * per cell) whose unchanged cells are links to the source's files. */
 #include "edit_internal.h"
 #include "util_internal.h"
+/* the auto codec's block decoder, inline, so a colour read here costs
+ * what it costs the packed-file reader */
+#include "colour/colour_internal.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -31,30 +34,151 @@ static int col_charge(struct vd_hashdag *h, uint64_t more, const char *what)
 	return VD_OK;
 }
 
-static int seg_new(struct vd_hashdag *h, uint64_t n, struct hd_seg **out)
+static void seg_free(struct hd_seg *p)
 {
-	uint64_t more = sizeof **out + 3 * n;
-	int err = col_charge(h, more, "colours of a segment");
-	if (err)
-		return err;
-	struct hd_seg *p = malloc(more + 1);
-	if (!p) {
-		__atomic_sub_fetch(&h->col->bytes, more, __ATOMIC_RELAXED);
+	for (uint32_t i = 0; p && i < p->nparts; i++)
+		vd_auto_segment_release(&p->part[i]);
+	free(p);
+}
+
+/* A segment of n voxels with its parts' directories and data still to
+ * fill (nothing charged yet). */
+static int seg_alloc(uint64_t n, struct hd_seg **out)
+{
+	uint32_t np = n ? (uint32_t)((n - 1) >> HD_COL_PART_LOG) + 1 : 0;
+	struct hd_seg *p = calloc(1, sizeof *p + np * sizeof p->part[0]);
+	if (!p)
 		return vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
 			       (unsigned long long)n);
-	}
 	p->refs = 1;
 	p->n = n;
+	p->nparts = np;
 	*out = p;
 	return VD_OK;
+}
+
+/* Charges the finished segment's bytes (VD_ERR_BUDGET frees it). */
+static int seg_charge(struct vd_hashdag *h, struct hd_seg *p)
+{
+	p->bytes = sizeof *p + p->nparts * sizeof p->part[0];
+	for (uint32_t i = 0; i < p->nparts; i++)
+		p->bytes += 4ull * p->part[i].count + p->part[i].data_bytes +
+			    VD_AUTO_PAD;
+	int err = col_charge(h, p->bytes, "colours of a segment");
+	if (err)
+		seg_free(p);
+	return err;
+}
+
+/* rgb[0..n) as a segment of lossless auto blocks. The encoder's data
+ * buffer has room for raw colours; it is cut to what the blocks hold, as
+ * that is the memory the colours are meant to save. */
+static int seg_encode(struct vd_hashdag *h, const uint8_t *rgb, uint64_t n,
+		      struct hd_seg **out)
+{
+	static const struct vd_auto_params lossless = {
+		.max_error = 0, .block_log = HD_COL_BLOCK_LOG};
+	struct hd_seg *p;
+	int err = seg_alloc(n, &p);
+	for (uint32_t i = 0; !err && i < p->nparts; i++) {
+		uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
+		uint64_t k = n - at < (1ull << HD_COL_PART_LOG)
+				     ? n - at : 1ull << HD_COL_PART_LOG;
+		struct vd_auto_segment *a = &p->part[i];
+		err = vd_auto_encode(a, rgb + 3 * at, (uint32_t)k, &lossless);
+		uint8_t *d = err ? NULL
+				 : realloc(a->data, a->data_bytes + VD_AUTO_PAD);
+		if (d)
+			a->data = d;
+	}
+	if (err) {
+		seg_free(p);
+		return err;
+	}
+	if ((err = seg_charge(h, p)))
+		return err;
+	*out = p;
+	return VD_OK;
+}
+
+/* n voxels all of colour rgb: constant blocks only, no per-voxel work. */
+static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
+		     struct hd_seg **out)
+{
+	uint32_t e = (uint32_t)VD_AUTO_CONST << 24 | (uint32_t)rgb[0] |
+		     (uint32_t)rgb[1] << 8 | (uint32_t)rgb[2] << 16;
+	struct hd_seg *p;
+	int err = seg_alloc(n, &p);
+	for (uint32_t i = 0; !err && i < p->nparts; i++) {
+		uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
+		uint64_t k = n - at < (1ull << HD_COL_PART_LOG)
+				     ? n - at : 1ull << HD_COL_PART_LOG;
+		struct vd_auto_segment *a = &p->part[i];
+		a->n = (uint32_t)k;
+		a->count = (uint32_t)((k + (1u << HD_COL_BLOCK_LOG) - 1) >>
+				      HD_COL_BLOCK_LOG);
+		a->dir = malloc(4ull * a->count);
+		a->data = calloc(1, VD_AUTO_PAD);
+		if (!a->dir || !a->data) {
+			err = vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
+				      (unsigned long long)n);
+			break;
+		}
+		for (uint32_t b = 0; b < a->count; b++)
+			a->dir[b] = e;
+		a->mode_blocks[0] = a->count;
+	}
+	if (err) {
+		seg_free(p);
+		return err;
+	}
+	if ((err = seg_charge(h, p)))
+		return err;
+	*out = p;
+	return VD_OK;
+}
+
+/* Colour j (< n) of the segment: one directory entry and one block. */
+static void seg_colour(const struct hd_seg *p, uint64_t j, uint8_t rgb[3])
+{
+	const struct vd_auto_segment *a = &p->part[j >> HD_COL_PART_LOG];
+	uint32_t i = (uint32_t)(j & ((1u << HD_COL_PART_LOG) - 1));
+	uint32_t e = a->dir[i >> HD_COL_BLOCK_LOG];
+	uint32_t first = i >> HD_COL_BLOCK_LOG << HD_COL_BLOCK_LOG;
+	uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
+			       ? a->n - first : 1u << HD_COL_BLOCK_LOG;
+	vd_auto_decode(e, a->data + (e & 0xffffff), len, i - first, rgb);
+}
+
+/* The segment's colours into rgb (3 n bytes), block by block. */
+static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
+{
+	for (uint32_t i = 0; i < p->nparts; i++) {
+		const struct vd_auto_segment *a = &p->part[i];
+		for (uint32_t b = 0; b < a->count; b++) {
+			uint32_t e = a->dir[b], first = b << HD_COL_BLOCK_LOG;
+			uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
+					       ? a->n - first
+					       : 1u << HD_COL_BLOCK_LOG;
+			if (e >> 24 == VD_AUTO_CONST) {
+				uint8_t c[3] = {(uint8_t)e, (uint8_t)(e >> 8),
+						(uint8_t)(e >> 16)};
+				for (uint32_t k = 0; k < len; k++, rgb += 3)
+					memcpy(rgb, c, 3);
+				continue;
+			}
+			for (uint32_t k = 0; k < len; k++, rgb += 3)
+				vd_auto_decode(e, a->data + (e & 0xffffff),
+					       len, k, rgb);
+		}
+	}
 }
 
 static void seg_unref(struct hd_colours *c, struct hd_seg *p)
 {
 	if (p && __atomic_sub_fetch(&p->refs, 1, __ATOMIC_RELAXED) == 0) {
-		__atomic_sub_fetch(&c->bytes, sizeof *p + 3 * p->n,
-				   __ATOMIC_RELAXED);
-		free(p);
+		__atomic_sub_fetch(&c->bytes, p->bytes, __ATOMIC_RELAXED);
+		seg_free(p);
 	}
 }
 
@@ -137,7 +261,7 @@ static struct hd_seg *seg_find(const struct hd_cellcol *t, uint64_t code)
 static void cell_gather(const struct hd_cellcol *t, uint8_t *rgb)
 {
 	for (uint64_t i = 0; i < t->nseg; i++) {
-		memcpy(rgb, t->s[i].seg->rgb, 3 * t->s[i].seg->n);
+		seg_decode(t->s[i].seg, rgb);
 		rgb += 3 * t->s[i].seg->n;
 	}
 }
@@ -346,6 +470,8 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	const int64_t all_lo[3] = {0, 0, 0};
 	const int64_t all_hi[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
 	struct plist segs = {0};
+	uint8_t *buf = NULL;
+	uint64_t bufn = 0;
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
@@ -367,11 +493,21 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 					      (unsigned long long)s.voxels);
 				break;
 			}
-			struct hd_seg *g;
-			if ((err = seg_new(h, n, &g)))
-				break;
+			if (n > bufn) {
+				uint8_t *b = realloc(buf, 3 * n);
+				if (!b) {
+					err = vd_fail(VD_ERR_NOMEM, "colours of "
+						      "a segment");
+					break;
+				}
+				buf = b;
+				bufn = n;
+			}
 			for (uint64_t k = 0; k < n; k++)
-				s.get(&s, at + k, g->rgb + 3 * k);
+				s.get(&s, at + k, buf + 3 * k);
+			struct hd_seg *g;
+			if ((err = seg_encode(h, buf, n, &g)))
+				break;
 			at += n;
 			tab[ci]->s[tab[ci]->nseg].code = segs.code[i];
 			tab[ci]->s[tab[ci]->nseg++].seg = g;
@@ -381,6 +517,7 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 		c->input[ci] = tab[ci];
 	}
 	pl_free(&segs);
+	free(buf);
 	if (!err && at != s.voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
@@ -473,21 +610,86 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	}
 	if (a == v->n || v->m[a] != m)
 		return 0;
-	memcpy(rgb, x->src[lo].col->rgb + 3 * a, 3);
+	seg_colour(x->src[lo].col, a, rgb);
 	return 1;
 }
 
+/* Whether every voxel of segment `code` after the edit takes op->rgb, so
+ * the segment is constant blocks: a box fill with a colour or a box paint
+ * whose region holds the segment's whole cube (a fill sets every voxel
+ * of it, a paint colours every voxel it has). */
+static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
+		       uint64_t code)
+{
+	if (op->shape != VD_SHAPE_BOX ||
+	    !(op->kind == VD_EDIT_PAINT ||
+	      (op->kind == VD_EDIT_FILL && op->has_rgb)))
+		return 0;
+	int sh = h->levels - h->col->S;
+	uint32_t xyz[3];
+	vd_morton3_decode(code, &xyz[0], &xyz[1], &xyz[2]);
+	for (int a = 0; a < 3; a++) {
+		int64_t lo = (int64_t)xyz[a] << sh, hi = lo + (1ll << sh) - 1;
+		if (lo < op->lo[a] || hi > op->hi[a])
+			return 0;
+	}
+	return 1;
+}
+
+/* Voxels of `old` whose colour is not rgb: whole constant blocks at once,
+ * the others decoded. */
+static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t rgb[3])
+{
+	uint64_t ch = 0;
+	uint32_t want = (uint32_t)rgb[0] | (uint32_t)rgb[1] << 8 |
+			(uint32_t)rgb[2] << 16;
+	for (uint32_t i = 0; old && i < old->nparts; i++) {
+		const struct vd_auto_segment *a = &old->part[i];
+		for (uint32_t b = 0; b < a->count; b++) {
+			uint32_t e = a->dir[b], first = b << HD_COL_BLOCK_LOG;
+			uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
+					       ? a->n - first
+					       : 1u << HD_COL_BLOCK_LOG;
+			if (e >> 24 == VD_AUTO_CONST) {
+				ch += (e & 0xffffff) != want ? len : 0;
+				continue;
+			}
+			for (uint32_t k = 0; k < len; k++) {
+				uint8_t c[3];
+				vd_auto_decode(e, a->data + (e & 0xffffff), len,
+					       k, c);
+				ch += memcmp(c, rgb, 3) != 0;
+			}
+		}
+	}
+	return ch;
+}
+
 /* The colours of one segment after the edit, from its voxels before and
- * after (the same rules as a whole cell: see vd_hashdag_apply). */
+ * after (the same rules as a whole cell: see vd_hashdag_apply). The old
+ * blocks are decoded, the new colours made raw and encoded again; a
+ * uniform fill or paint of the whole segment writes constant blocks. */
 static int rebuild(struct cctx *x, struct sjob *jb)
 {
 	struct vd_hashdag *h = x->h;
 	const struct vd_edit_op *op = x->op;
-	const struct hd_seg *old = jb->old;
+	struct hd_seg *old = jb->old;
 	jb->out = NULL;
 	jb->changed = 0;
 	if (jb->np == HD_EMPTY)
 		return VD_OK;
+	if (seg_uniform(h, op, jb->code)) {
+		uint64_t n = hd_voxels_of(h, h->col->S, jb->np);
+		uint64_t ch = seg_count_not(old, op->rgb);
+		/* a full cube before and after, all of one colour already */
+		if (old && old->n == n && !ch) {
+			seg_ref(old);
+			jb->out = old;
+			return VD_OK;
+		}
+		jb->changed = ch;
+		return seg_const(h, op->rgb, n, &jb->out);
+	}
 	struct vlist ov = {0}, nv = {0};
 	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
 	if (!err)
@@ -497,9 +699,15 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 			      "colours", (unsigned long long)jb->code,
 			      (unsigned long long)ov.n,
 			      (unsigned long long)(old ? old->n : 0));
-	struct hd_seg *c = NULL;
-	if (!err)
-		err = seg_new(h, nv.n, &c);
+	uint8_t *was_rgb = NULL, *rgb = NULL;
+	if (!err) {
+		was_rgb = malloc(3 * ov.n + 1);
+		rgb = malloc(3 * nv.n + 1);
+		if (!was_rgb || !rgb)
+			err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
+		else if (old)
+			seg_decode(old, was_rgb);
+	}
 	int64_t d[3] = {0, 0, 0};
 	if (op->kind == VD_EDIT_COPY)
 		for (int a = 0; a < 3; a++)
@@ -510,8 +718,8 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 		while (j < ov.n && ov.m[j] < m)
 			j++;
 		int had = j < ov.n && ov.m[j] == m;
-		const uint8_t *was = had ? old->rgb + 3 * j : NULL;
-		uint8_t *to = c->rgb + 3 * i;
+		const uint8_t *was = had ? was_rgb + 3 * j : NULL;
+		uint8_t *to = rgb + 3 * i;
 		uint32_t vx, vy, vz;
 		vd_morton3_decode(m, &vx, &vy, &vz);
 		int ok = 1;
@@ -542,18 +750,20 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 	/* an unchanged segment (voxels and colours) keeps being shared */
 	int same = !err && old && ov.n == nv.n &&
 		   !memcmp(ov.m, nv.m, 8 * nv.n) &&
-		   !memcmp(old->rgb, c->rgb, 3 * c->n);
+		   !memcmp(was_rgb, rgb, 3 * nv.n);
+	struct hd_seg *c = NULL;
+	if (!err && same) {
+		c = old;
+		seg_ref(c);
+	} else if (!err) {
+		err = seg_encode(h, rgb, nv.n, &c);
+	}
 	vl_free(&ov);
 	vl_free(&nv);
-	if (err) {
-		seg_unref(h->col, c);
+	free(was_rgb);
+	free(rgb);
+	if (err)
 		return err;
-	}
-	if (same) {
-		seg_unref(h->col, c);
-		c = jb->old;
-		seg_ref(c);
-	}
 	jb->out = c;
 	jb->changed = ch;
 	return VD_OK;
