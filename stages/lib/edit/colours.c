@@ -557,6 +557,27 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 	return VD_OK;
 }
 
+int vd_hashdag_colour_stats(const struct vd_hashdag *h,
+			    struct vd_hashdag_colour_stats *st)
+{
+	memset(st, 0, sizeof *st);
+	if (!h->col)
+		return vd_fail(VD_ERR_UNSUPPORTED, "the scene has no colours");
+	struct hd_cellcol **tab = h->col->tab[h->cur];
+	for (uint64_t ci = 0; ci < h->col->ncells; ci++)
+		for (uint64_t i = 0; tab[ci] && i < tab[ci]->nseg; i++) {
+			const struct hd_seg *g = tab[ci]->s[i].seg;
+			st->voxels += g->n;
+			st->segments++;
+			st->bytes += g->bytes;
+			for (uint32_t k = 0; k < g->nparts; k++)
+				for (int m = 0; m < 5; m++)
+					st->mode_blocks[m] +=
+						g->part[k].mode_blocks[m];
+		}
+	return VD_OK;
+}
+
 /* ----------------------------------------------------------- editing */
 
 /* A copy's source segments, decoded in the scene before the edit. */
