@@ -138,18 +138,6 @@ static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
 	return VD_OK;
 }
 
-/* Colour j (< n) of the segment: one directory entry and one block. */
-static void seg_colour(const struct hd_seg *p, uint64_t j, uint8_t rgb[3])
-{
-	const struct vd_auto_segment *a = &p->part[j >> HD_COL_PART_LOG];
-	uint32_t i = (uint32_t)(j & ((1u << HD_COL_PART_LOG) - 1));
-	uint32_t e = a->dir[i >> HD_COL_BLOCK_LOG];
-	uint32_t first = i >> HD_COL_BLOCK_LOG << HD_COL_BLOCK_LOG;
-	uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
-			       ? a->n - first : 1u << HD_COL_BLOCK_LOG;
-	vd_auto_decode(e, a->data + (e & 0xffffff), len, i - first, rgb);
-}
-
 /* The segment's colours into rgb (3 n bytes), block by block. */
 static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
 {
@@ -585,6 +573,7 @@ struct srcseg {
 	uint64_t code;
 	struct vlist v;
 	const struct hd_seg *col;
+	uint8_t *rgb;             /* col decoded once: a copy reads them all */
 };
 
 /* One segment to rebuild. */
@@ -631,7 +620,7 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	}
 	if (a == v->n || v->m[a] != m)
 		return 0;
-	seg_colour(x->src[lo].col, a, rgb);
+	memcpy(rgb, x->src[lo].rgb + 3 * a, 3);
 	return 1;
 }
 
@@ -967,6 +956,11 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 			x.src[x.nsrc].col = seg_find(old[cell], ss.code[i]);
 			err = walk(h, c->S, ss.p[i], ss.code[i],
 				   &x.src[x.nsrc].v);
+			const struct hd_seg *g = x.src[x.nsrc].col;
+			if (!err && g && !(x.src[x.nsrc].rgb = malloc(3 * g->n)))
+				err = vd_fail(VD_ERR_NOMEM, "copy sources");
+			if (!err && g)
+				seg_decode(g, x.src[x.nsrc].rgb);
 			x.nsrc++;
 		}
 		pl_free(&ss);
@@ -1014,8 +1008,10 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	}
 	for (size_t i = 0; fresh && i < n; i++)
 		hd_cellcol_unref(c, fresh[i]);
-	for (size_t i = 0; i < x.nsrc; i++)
+	for (size_t i = 0; i < x.nsrc; i++) {
 		vl_free(&x.src[i].v);
+		free(x.src[i].rgb);
+	}
 	free(fresh);
 	free(first);
 	pl_free(&segs);
