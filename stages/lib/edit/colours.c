@@ -57,17 +57,40 @@ static int seg_alloc(uint64_t n, struct hd_seg **out)
 	return VD_OK;
 }
 
-/* Charges the finished segment's bytes (VD_ERR_BUDGET frees it). */
-static int seg_charge(struct vd_hashdag *h, struct hd_seg *p)
+/* Voxels of part i of a segment of n, and of block b of part a. */
+static uint32_t part_len(uint64_t n, uint32_t i)
 {
+	uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
+	return (uint32_t)(n - at < (1ull << HD_COL_PART_LOG)
+				  ? n - at : 1ull << HD_COL_PART_LOG);
+}
+
+static uint32_t block_len(const struct vd_auto_segment *a, uint32_t b)
+{
+	uint32_t first = b << HD_COL_BLOCK_LOG;
+	return a->n - first < (1u << HD_COL_BLOCK_LOG) ? a->n - first
+						       : 1u << HD_COL_BLOCK_LOG;
+}
+
+/* Finishes a segment made part by part: on success charges its bytes
+ * (VD_ERR_BUDGET frees it) and hands it to *out; on `err` frees it. */
+static int seg_finish(struct vd_hashdag *h, struct hd_seg *p, int err,
+		      struct hd_seg **out)
+{
+	if (err) {
+		seg_free(p);
+		return err;
+	}
 	p->bytes = sizeof *p + p->nparts * sizeof p->part[0];
 	for (uint32_t i = 0; i < p->nparts; i++)
 		p->bytes += 4ull * p->part[i].count + p->part[i].data_bytes +
 			    VD_AUTO_PAD;
-	int err = col_charge(h, p->bytes, "colours of a segment");
-	if (err)
+	if ((err = col_charge(h, p->bytes, "colours of a segment"))) {
 		seg_free(p);
-	return err;
+		return err;
+	}
+	*out = p;
+	return VD_OK;
 }
 
 /* rgb[0..n) as a segment of lossless auto blocks. The encoder's data
@@ -80,25 +103,18 @@ static int seg_encode(struct vd_hashdag *h, const uint8_t *rgb, uint64_t n,
 		.max_error = 0, .block_log = HD_COL_BLOCK_LOG};
 	struct hd_seg *p;
 	int err = seg_alloc(n, &p);
+	if (err)
+		return err;
 	for (uint32_t i = 0; !err && i < p->nparts; i++) {
-		uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
-		uint64_t k = n - at < (1ull << HD_COL_PART_LOG)
-				     ? n - at : 1ull << HD_COL_PART_LOG;
 		struct vd_auto_segment *a = &p->part[i];
-		err = vd_auto_encode(a, rgb + 3 * at, (uint32_t)k, &lossless);
+		err = vd_auto_encode(a, rgb + 3 * ((uint64_t)i << HD_COL_PART_LOG),
+				     part_len(n, i), &lossless);
 		uint8_t *d = err ? NULL
 				 : realloc(a->data, a->data_bytes + VD_AUTO_PAD);
 		if (d)
 			a->data = d;
 	}
-	if (err) {
-		seg_free(p);
-		return err;
-	}
-	if ((err = seg_charge(h, p)))
-		return err;
-	*out = p;
-	return VD_OK;
+	return seg_finish(h, p, err, out);
 }
 
 /* n voxels all of colour rgb: constant blocks only, no per-voxel work. */
@@ -109,14 +125,13 @@ static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
 		     (uint32_t)rgb[1] << 8 | (uint32_t)rgb[2] << 16;
 	struct hd_seg *p;
 	int err = seg_alloc(n, &p);
+	if (err)
+		return err;
 	for (uint32_t i = 0; !err && i < p->nparts; i++) {
-		uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
-		uint64_t k = n - at < (1ull << HD_COL_PART_LOG)
-				     ? n - at : 1ull << HD_COL_PART_LOG;
 		struct vd_auto_segment *a = &p->part[i];
-		a->n = (uint32_t)k;
-		a->count = (uint32_t)((k + (1u << HD_COL_BLOCK_LOG) - 1) >>
-				      HD_COL_BLOCK_LOG);
+		a->n = part_len(n, i);
+		a->count = (a->n + (1u << HD_COL_BLOCK_LOG) - 1) >>
+			   HD_COL_BLOCK_LOG;
 		a->dir = malloc(4ull * a->count);
 		a->data = calloc(1, VD_AUTO_PAD);
 		if (!a->dir || !a->data) {
@@ -128,14 +143,7 @@ static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
 			a->dir[b] = e;
 		a->mode_blocks[0] = a->count;
 	}
-	if (err) {
-		seg_free(p);
-		return err;
-	}
-	if ((err = seg_charge(h, p)))
-		return err;
-	*out = p;
-	return VD_OK;
+	return seg_finish(h, p, err, out);
 }
 
 /* The segment's colours into rgb (3 n bytes), block by block. */
@@ -144,10 +152,7 @@ static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
 	for (uint32_t i = 0; i < p->nparts; i++) {
 		const struct vd_auto_segment *a = &p->part[i];
 		for (uint32_t b = 0; b < a->count; b++) {
-			uint32_t e = a->dir[b], first = b << HD_COL_BLOCK_LOG;
-			uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
-					       ? a->n - first
-					       : 1u << HD_COL_BLOCK_LOG;
+			uint32_t e = a->dir[b], len = block_len(a, b);
 			if (e >> 24 == VD_AUTO_CONST) {
 				uint8_t c[3] = {(uint8_t)e, (uint8_t)(e >> 8),
 						(uint8_t)(e >> 16)};
@@ -656,10 +661,7 @@ static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t rgb[3])
 	for (uint32_t i = 0; old && i < old->nparts; i++) {
 		const struct vd_auto_segment *a = &old->part[i];
 		for (uint32_t b = 0; b < a->count; b++) {
-			uint32_t e = a->dir[b], first = b << HD_COL_BLOCK_LOG;
-			uint32_t len = a->n - first < (1u << HD_COL_BLOCK_LOG)
-					       ? a->n - first
-					       : 1u << HD_COL_BLOCK_LOG;
+			uint32_t e = a->dir[b], len = block_len(a, b);
 			if (e >> 24 == VD_AUTO_CONST) {
 				ch += (e & 0xffffff) != want ? len : 0;
 				continue;
