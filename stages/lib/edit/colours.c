@@ -414,6 +414,41 @@ static int segs_in(const struct vd_hashdag *h, int l, uint32_t p, uint32_t q,
 
 /* ----------------------------------------------------------- loading */
 
+/* One segment to load: its colours from the source, encoded. Encoding
+ * is most of a load's time, so the segments of a cell are encoded on
+ * the edit's threads. */
+struct ljob {
+	uint64_t at, n;           /* its first colour in the source, count */
+	struct hd_seg *g;
+	int err;
+	char detail[240];
+};
+
+struct lctx {
+	struct vd_hashdag *h;
+	const struct vd_colour_source *s;
+	struct ljob *jobs;
+};
+
+static void run_ljob(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct lctx *x = ctx;
+	struct ljob *j = &x->jobs[i];
+	uint8_t *buf = malloc(3 * j->n);
+	if (!buf) {
+		j->err = VD_ERR_NOMEM;
+		snprintf(j->detail, sizeof j->detail, "colours of a segment");
+		return;
+	}
+	for (uint64_t k = 0; k < j->n; k++)
+		x->s->get(x->s, j->at + k, buf + 3 * k);
+	j->err = seg_encode(x->h, buf, j->n, &j->g);
+	if (j->err)
+		snprintf(j->detail, sizeof j->detail, "%s", vd_error_detail());
+	free(buf);
+}
+
 int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 			    const uint8_t *fill_rgb)
 {
@@ -463,8 +498,9 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	const int64_t all_lo[3] = {0, 0, 0};
 	const int64_t all_hi[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
 	struct plist segs = {0};
-	uint8_t *buf = NULL;
-	uint64_t bufn = 0;
+	struct ljob *lj = NULL;
+	uint64_t nlj = 0;
+	struct lctx lx = {.h = h, .s = &s};
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
@@ -477,6 +513,17 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 				   0, &segs)) ||
 		    (err = cell_new(h, segs.n, &tab[ci])))
 			break;
+		if (segs.n > nlj) {
+			struct ljob *m = realloc(lj, segs.n * sizeof *lj);
+			if (!m) {
+				err = vd_fail(VD_ERR_NOMEM, "segment list");
+				break;
+			}
+			lj = m;
+			nlj = segs.n;
+		}
+		memset(lj, 0, segs.n * sizeof *lj);
+		lx.jobs = lj;
 		for (uint64_t i = 0; i < segs.n && !err; i++) {
 			uint64_t n = hd_voxels_of(h, c->S, segs.p[i]);
 			if (at + n > s.voxels) {
@@ -486,31 +533,28 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 					      (unsigned long long)s.voxels);
 				break;
 			}
-			if (n > bufn) {
-				uint8_t *b = realloc(buf, 3 * n);
-				if (!b) {
-					err = vd_fail(VD_ERR_NOMEM, "colours of "
-						      "a segment");
-					break;
-				}
-				buf = b;
-				bufn = n;
-			}
-			for (uint64_t k = 0; k < n; k++)
-				s.get(&s, at + k, buf + 3 * k);
-			struct hd_seg *g;
-			if ((err = seg_encode(h, buf, n, &g)))
-				break;
+			lj[i].at = at;
+			lj[i].n = n;
 			at += n;
 			tab[ci]->s[tab[ci]->nseg].code = segs.code[i];
-			tab[ci]->s[tab[ci]->nseg++].seg = g;
+			tab[ci]->s[tab[ci]->nseg++].seg = NULL;
 			tab[ci]->n += n;
 		}
+		if (!err && segs.n &&
+		    vd_parallel_for(segs.n, h->o.threads, run_ljob, &lx))
+			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+		for (uint64_t i = 0; i < segs.n && !err; i++)
+			tab[ci]->s[i].seg = lj[i].g;
+		for (uint64_t i = 0; i < segs.n && !err; i++)
+			if (lj[i].err)
+				err = vd_fail(lj[i].err, "%s", lj[i].detail);
+		if (err)
+			break;
 		tab[ci]->refs++;
 		c->input[ci] = tab[ci];
 	}
 	pl_free(&segs);
-	free(buf);
+	free(lj);
 	if (!err && at != s.voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
