@@ -161,6 +161,17 @@ int vd_hashdag_has_colours(const struct vd_hashdag *h);
  * order (*rgb: free with free()); VD_ERR_UNSUPPORTED without colours. */
 int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 			    uint64_t *voxels);
+/* How the current scene's colours are held: voxels, segments, the bytes
+ * of their compressed blocks as charged against the memory budget (each
+ * segment counted once per cell of the scene holding it), and blocks per
+ * mode of the auto codec (enum vd_auto_mode >> 4). VD_ERR_UNSUPPORTED
+ * without colours. */
+struct vd_hashdag_colour_stats {
+	uint64_t voxels, segments, bytes;
+	uint64_t mode_blocks[5];
+};
+int vd_hashdag_colour_stats(const struct vd_hashdag *h,
+			    struct vd_hashdag_colour_stats *st);
 /* Writes the current scene as a voxelize-style directory `dir`: per
  * non-empty cell its SVO chunk and colour chunk (chunk-L<C>-<cell>.svo,
  * .col) and a manifest, staged and published whole (vd_dir_stage). Cells

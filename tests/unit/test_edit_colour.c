@@ -353,6 +353,96 @@ static void test_textured_random(void)
 	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0);
 }
 
+/* Non-constant blocks of the current scene's colours. */
+static uint64_t mixed_blocks(const struct vd_hashdag_colour_stats *st)
+{
+	return st->mode_blocks[1] + st->mode_blocks[2] + st->mode_blocks[3] +
+	       st->mode_blocks[4];
+}
+
+/* Uniform fills and paints of whole segments are held as constant blocks
+ * of the auto codec (the colours stay compressed), and the colours follow
+ * the brute-force reference through fill, paint, undo, redo and gc. The
+ * spider at 2^7, cells 2^2, segments 8^3 (512 voxels, two blocks). */
+static void test_uniform_fill_blocks(void)
+{
+	char dir[512];
+	snprintf(dir, sizeof dir, "%s/uni", test_tmpdir("test_edit_colour"));
+	struct vd_dag d0 = {0};
+	struct vd_transform t;
+	struct cref r, r0;
+	if (!coloured_scene("tests/data/spider/spider.obj", 7, 2, dir, &d0, &t,
+			    &r))
+		return;
+	size_t bytes = (size_t)(r.n * r.n * r.n) * 4;
+	r0 = r;
+	r0.v = malloc(bytes);
+	memcpy(r0.v, r.v, bytes);
+	struct vd_hashdag_opts o = {.threads = 2, .colour_segment_log2 = 3};
+	struct vd_hashdag *h = NULL;
+	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, &o), VD_OK);
+	if (!h)
+		return;
+	CHECK_EQ(vd_hashdag_colours_open(h, dir, NULL), VD_OK);
+	struct vd_hashdag_colour_stats s0, s1, s2;
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s0), VD_OK);
+	CHECK(mixed_blocks(&s0) > 0); /* the spider is textured */
+	CHECK(s0.bytes < 3 * s0.voxels + 4096 * s0.segments);
+
+	/* one octant, aligned to segments: 512 segments of 512 voxels,
+	 * 1024 constant blocks, and no block of another mode inside it */
+	struct vd_edit_op op = {.kind = VD_EDIT_FILL, .shape = VD_SHAPE_BOX,
+				.lo = {64, 64, 64}, .hi = {127, 127, 127},
+				.has_rgb = 1, .rgb = {10, 200, 30}};
+	CHECK_EQ(vd_hashdag_apply(h, &op, NULL), VD_OK);
+	cref_apply(&r, &op);
+	CHECK_EQ(differ_h(h, &r), 0);
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s1), VD_OK);
+	CHECK(s1.mode_blocks[0] >= 2 * 512);
+	CHECK(mixed_blocks(&s1) <= mixed_blocks(&s0));
+
+	/* the whole grid painted: every block constant, 2 per segment */
+	struct vd_edit_op paint = {.kind = VD_EDIT_PAINT, .shape = VD_SHAPE_BOX,
+				   .lo = {0, 0, 0}, .hi = {127, 127, 127},
+				   .has_rgb = 1, .rgb = {1, 2, 250}};
+	CHECK_EQ(vd_hashdag_apply(h, &paint, NULL), VD_OK);
+	cref_apply(&r, &paint);
+	CHECK_EQ(differ_h(h, &r), 0);
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s2), VD_OK);
+	CHECK_EQ(mixed_blocks(&s2), 0);
+	CHECK_EQ(s2.voxels, s1.voxels);
+	CHECK(s2.bytes < s1.bytes);
+
+	/* and filled whole: 4096 segments of constant blocks */
+	op.lo[0] = op.lo[1] = op.lo[2] = 0;
+	CHECK_EQ(vd_hashdag_apply(h, &op, NULL), VD_OK);
+	cref_apply(&r, &op);
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s2), VD_OK);
+	CHECK_EQ(s2.voxels, 128 * 128 * 128);
+	CHECK_EQ(s2.segments, 4096);
+	CHECK_EQ(s2.mode_blocks[0], 8192);
+	CHECK_EQ(mixed_blocks(&s2), 0);
+	CHECK_EQ(differ_h(h, &r), 0);
+
+	/* the history: back to the textured colours and forward again */
+	while (vd_hashdag_undo(h) == VD_OK)
+		;
+	CHECK_EQ(differ_h(h, &r0), 0);
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s1), VD_OK);
+	CHECK_EQ(mixed_blocks(&s1), mixed_blocks(&s0));
+	while (vd_hashdag_redo(h) == VD_OK)
+		;
+	CHECK_EQ(differ_h(h, &r), 0);
+	CHECK_EQ(vd_hashdag_gc(h, 0, NULL), VD_OK);
+	CHECK_EQ(differ_h(h, &r), 0);
+	CHECK_EQ(vd_hashdag_colour_stats(h, &s1), VD_OK);
+	CHECK_EQ(s1.mode_blocks[0], 8192);
+	vd_hashdag_free(h);
+	vd_dag_release(&d0);
+	free(r.v);
+	free(r0.v);
+}
+
 /* One small paint: only its cell is written, the others are links to the
  * source's files; paint without a colour source is refused. */
 static void test_reuse_and_refusals(void)
@@ -485,5 +575,6 @@ int main(void)
 	RUN(test_textured_random);
 	RUN(test_segments_random);
 	RUN(test_budget);
+	RUN(test_uniform_fill_blocks);
 	return CHECK_DONE();
 }

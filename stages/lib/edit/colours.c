@@ -9,6 +9,9 @@
  * per cell) whose unchanged cells are links to the source's files. */
 #include "edit_internal.h"
 #include "util_internal.h"
+/* the auto codec's block decoder, inline, so a colour read here costs
+ * what it costs the packed-file reader */
+#include "colour/colour_internal.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -31,30 +34,144 @@ static int col_charge(struct vd_hashdag *h, uint64_t more, const char *what)
 	return VD_OK;
 }
 
-static int seg_new(struct vd_hashdag *h, uint64_t n, struct hd_seg **out)
+static void seg_free(struct hd_seg *p)
 {
-	uint64_t more = sizeof **out + 3 * n;
-	int err = col_charge(h, more, "colours of a segment");
-	if (err)
-		return err;
-	struct hd_seg *p = malloc(more + 1);
-	if (!p) {
-		__atomic_sub_fetch(&h->col->bytes, more, __ATOMIC_RELAXED);
+	for (uint32_t i = 0; p && i < p->nparts; i++)
+		vd_auto_segment_release(&p->part[i]);
+	free(p);
+}
+
+/* A segment of n voxels with its parts' directories and data still to
+ * fill (nothing charged yet). */
+static int seg_alloc(uint64_t n, struct hd_seg **out)
+{
+	uint32_t np = n ? (uint32_t)((n - 1) >> HD_COL_PART_LOG) + 1 : 0;
+	struct hd_seg *p = calloc(1, sizeof *p + np * sizeof p->part[0]);
+	if (!p)
 		return vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
 			       (unsigned long long)n);
-	}
 	p->refs = 1;
 	p->n = n;
+	p->nparts = np;
 	*out = p;
 	return VD_OK;
+}
+
+/* Voxels of part i of a segment of n, and of block b of part a. */
+static uint32_t part_len(uint64_t n, uint32_t i)
+{
+	uint64_t at = (uint64_t)i << HD_COL_PART_LOG;
+	return (uint32_t)(n - at < (1ull << HD_COL_PART_LOG)
+				  ? n - at : 1ull << HD_COL_PART_LOG);
+}
+
+static uint32_t block_len(const struct vd_auto_segment *a, uint32_t b)
+{
+	uint32_t first = b << HD_COL_BLOCK_LOG;
+	return a->n - first < (1u << HD_COL_BLOCK_LOG) ? a->n - first
+						       : 1u << HD_COL_BLOCK_LOG;
+}
+
+/* Finishes a segment made part by part: on success charges its bytes
+ * (VD_ERR_BUDGET frees it) and hands it to *out; on `err` frees it. */
+static int seg_finish(struct vd_hashdag *h, struct hd_seg *p, int err,
+		      struct hd_seg **out)
+{
+	if (err) {
+		seg_free(p);
+		return err;
+	}
+	p->bytes = sizeof *p + p->nparts * sizeof p->part[0];
+	for (uint32_t i = 0; i < p->nparts; i++)
+		p->bytes += 4ull * p->part[i].count + p->part[i].data_bytes +
+			    VD_AUTO_PAD;
+	if ((err = col_charge(h, p->bytes, "colours of a segment"))) {
+		seg_free(p);
+		return err;
+	}
+	*out = p;
+	return VD_OK;
+}
+
+/* rgb[0..n) as a segment of lossless auto blocks. The encoder's data
+ * buffer has room for raw colours; it is cut to what the blocks hold, as
+ * that is the memory the colours are meant to save. */
+static int seg_encode(struct vd_hashdag *h, const uint8_t *rgb, uint64_t n,
+		      struct hd_seg **out)
+{
+	static const struct vd_auto_params lossless = {
+		.max_error = 0, .block_log = HD_COL_BLOCK_LOG};
+	struct hd_seg *p;
+	int err = seg_alloc(n, &p);
+	if (err)
+		return err;
+	for (uint32_t i = 0; !err && i < p->nparts; i++) {
+		struct vd_auto_segment *a = &p->part[i];
+		err = vd_auto_encode(a, rgb + 3 * ((uint64_t)i << HD_COL_PART_LOG),
+				     part_len(n, i), &lossless);
+		uint8_t *d = err ? NULL
+				 : realloc(a->data, a->data_bytes + VD_AUTO_PAD);
+		if (d)
+			a->data = d;
+	}
+	return seg_finish(h, p, err, out);
+}
+
+/* n voxels all of colour rgb: constant blocks only, no per-voxel work. */
+static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
+		     struct hd_seg **out)
+{
+	uint32_t e = (uint32_t)VD_AUTO_CONST << 24 | (uint32_t)rgb[0] |
+		     (uint32_t)rgb[1] << 8 | (uint32_t)rgb[2] << 16;
+	struct hd_seg *p;
+	int err = seg_alloc(n, &p);
+	if (err)
+		return err;
+	for (uint32_t i = 0; !err && i < p->nparts; i++) {
+		struct vd_auto_segment *a = &p->part[i];
+		a->n = part_len(n, i);
+		a->count = (a->n + (1u << HD_COL_BLOCK_LOG) - 1) >>
+			   HD_COL_BLOCK_LOG;
+		a->dir = malloc(4ull * a->count);
+		a->data = calloc(1, VD_AUTO_PAD);
+		if (!a->dir || !a->data) {
+			err = vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
+				      (unsigned long long)n);
+			break;
+		}
+		for (uint32_t b = 0; b < a->count; b++)
+			a->dir[b] = e;
+		a->mode_blocks[0] = a->count;
+	}
+	return seg_finish(h, p, err, out);
+}
+
+/* The segment's colours into rgb (3 n bytes), block by block. */
+static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
+{
+	for (uint32_t i = 0; i < p->nparts; i++) {
+		const struct vd_auto_segment *a = &p->part[i];
+		for (uint32_t b = 0; b < a->count; b++) {
+			uint32_t e = a->dir[b], len = block_len(a, b);
+			if (e >> 24 == VD_AUTO_CONST) {
+				uint8_t c[3] = {(uint8_t)e, (uint8_t)(e >> 8),
+						(uint8_t)(e >> 16)};
+				for (uint32_t k = 0; k < len; k++, rgb += 3)
+					memcpy(rgb, c, 3);
+				continue;
+			}
+			for (uint32_t k = 0; k < len; k++, rgb += 3)
+				vd_auto_decode(e, a->data + (e & 0xffffff),
+					       len, k, rgb);
+		}
+	}
 }
 
 static void seg_unref(struct hd_colours *c, struct hd_seg *p)
 {
 	if (p && __atomic_sub_fetch(&p->refs, 1, __ATOMIC_RELAXED) == 0) {
-		__atomic_sub_fetch(&c->bytes, sizeof *p + 3 * p->n,
-				   __ATOMIC_RELAXED);
-		free(p);
+		__atomic_sub_fetch(&c->bytes, p->bytes, __ATOMIC_RELAXED);
+		seg_free(p);
 	}
 }
 
@@ -137,7 +254,7 @@ static struct hd_seg *seg_find(const struct hd_cellcol *t, uint64_t code)
 static void cell_gather(const struct hd_cellcol *t, uint8_t *rgb)
 {
 	for (uint64_t i = 0; i < t->nseg; i++) {
-		memcpy(rgb, t->s[i].seg->rgb, 3 * t->s[i].seg->n);
+		seg_decode(t->s[i].seg, rgb);
 		rgb += 3 * t->s[i].seg->n;
 	}
 }
@@ -297,6 +414,41 @@ static int segs_in(const struct vd_hashdag *h, int l, uint32_t p, uint32_t q,
 
 /* ----------------------------------------------------------- loading */
 
+/* One segment to load: its colours from the source, encoded. Encoding
+ * is most of a load's time, so the segments of a cell are encoded on
+ * the edit's threads. */
+struct ljob {
+	uint64_t at, n;           /* its first colour in the source, count */
+	struct hd_seg *g;
+	int err;
+	char detail[240];
+};
+
+struct lctx {
+	struct vd_hashdag *h;
+	const struct vd_colour_source *s;
+	struct ljob *jobs;
+};
+
+static void run_ljob(void *ctx, size_t i, int worker)
+{
+	(void)worker;
+	struct lctx *x = ctx;
+	struct ljob *j = &x->jobs[i];
+	uint8_t *buf = malloc(3 * j->n);
+	if (!buf) {
+		j->err = VD_ERR_NOMEM;
+		snprintf(j->detail, sizeof j->detail, "colours of a segment");
+		return;
+	}
+	for (uint64_t k = 0; k < j->n; k++)
+		x->s->get(x->s, j->at + k, buf + 3 * k);
+	j->err = seg_encode(x->h, buf, j->n, &j->g);
+	if (j->err)
+		snprintf(j->detail, sizeof j->detail, "%s", vd_error_detail());
+	free(buf);
+}
+
 int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 			    const uint8_t *fill_rgb)
 {
@@ -346,6 +498,9 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	const int64_t all_lo[3] = {0, 0, 0};
 	const int64_t all_hi[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
 	struct plist segs = {0};
+	struct ljob *lj = NULL;
+	uint64_t nlj = 0;
+	struct lctx lx = {.h = h, .s = &s};
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
@@ -358,6 +513,17 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 				   0, &segs)) ||
 		    (err = cell_new(h, segs.n, &tab[ci])))
 			break;
+		if (segs.n > nlj) {
+			struct ljob *m = realloc(lj, segs.n * sizeof *lj);
+			if (!m) {
+				err = vd_fail(VD_ERR_NOMEM, "segment list");
+				break;
+			}
+			lj = m;
+			nlj = segs.n;
+		}
+		memset(lj, 0, segs.n * sizeof *lj);
+		lx.jobs = lj;
 		for (uint64_t i = 0; i < segs.n && !err; i++) {
 			uint64_t n = hd_voxels_of(h, c->S, segs.p[i]);
 			if (at + n > s.voxels) {
@@ -367,20 +533,28 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 					      (unsigned long long)s.voxels);
 				break;
 			}
-			struct hd_seg *g;
-			if ((err = seg_new(h, n, &g)))
-				break;
-			for (uint64_t k = 0; k < n; k++)
-				s.get(&s, at + k, g->rgb + 3 * k);
+			lj[i].at = at;
+			lj[i].n = n;
 			at += n;
 			tab[ci]->s[tab[ci]->nseg].code = segs.code[i];
-			tab[ci]->s[tab[ci]->nseg++].seg = g;
+			tab[ci]->s[tab[ci]->nseg++].seg = NULL;
 			tab[ci]->n += n;
 		}
+		if (!err && segs.n &&
+		    vd_parallel_for(segs.n, h->o.threads, run_ljob, &lx))
+			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+		for (uint64_t i = 0; i < segs.n && !err; i++)
+			tab[ci]->s[i].seg = lj[i].g;
+		for (uint64_t i = 0; i < segs.n && !err; i++)
+			if (lj[i].err)
+				err = vd_fail(lj[i].err, "%s", lj[i].detail);
+		if (err)
+			break;
 		tab[ci]->refs++;
 		c->input[ci] = tab[ci];
 	}
 	pl_free(&segs);
+	free(lj);
 	if (!err && at != s.voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
@@ -420,6 +594,27 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 	return VD_OK;
 }
 
+int vd_hashdag_colour_stats(const struct vd_hashdag *h,
+			    struct vd_hashdag_colour_stats *st)
+{
+	memset(st, 0, sizeof *st);
+	if (!h->col)
+		return vd_fail(VD_ERR_UNSUPPORTED, "the scene has no colours");
+	struct hd_cellcol **tab = h->col->tab[h->cur];
+	for (uint64_t ci = 0; ci < h->col->ncells; ci++)
+		for (uint64_t i = 0; tab[ci] && i < tab[ci]->nseg; i++) {
+			const struct hd_seg *g = tab[ci]->s[i].seg;
+			st->voxels += g->n;
+			st->segments++;
+			st->bytes += g->bytes;
+			for (uint32_t k = 0; k < g->nparts; k++)
+				for (int m = 0; m < 5; m++)
+					st->mode_blocks[m] +=
+						g->part[k].mode_blocks[m];
+		}
+	return VD_OK;
+}
+
 /* ----------------------------------------------------------- editing */
 
 /* A copy's source segments, decoded in the scene before the edit. */
@@ -427,6 +622,7 @@ struct srcseg {
 	uint64_t code;
 	struct vlist v;
 	const struct hd_seg *col;
+	uint8_t *rgb;             /* col decoded once: a copy reads them all */
 };
 
 /* One segment to rebuild. */
@@ -473,21 +669,83 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	}
 	if (a == v->n || v->m[a] != m)
 		return 0;
-	memcpy(rgb, x->src[lo].col->rgb + 3 * a, 3);
+	memcpy(rgb, x->src[lo].rgb + 3 * a, 3);
 	return 1;
 }
 
+/* Whether every voxel of segment `code` after the edit takes op->rgb, so
+ * the segment is constant blocks: a box fill with a colour or a box paint
+ * whose region holds the segment's whole cube (a fill sets every voxel
+ * of it, a paint colours every voxel it has). */
+static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
+		       uint64_t code)
+{
+	if (op->shape != VD_SHAPE_BOX ||
+	    !(op->kind == VD_EDIT_PAINT ||
+	      (op->kind == VD_EDIT_FILL && op->has_rgb)))
+		return 0;
+	int sh = h->levels - h->col->S;
+	uint32_t xyz[3];
+	vd_morton3_decode(code, &xyz[0], &xyz[1], &xyz[2]);
+	for (int a = 0; a < 3; a++) {
+		int64_t lo = (int64_t)xyz[a] << sh, hi = lo + (1ll << sh) - 1;
+		if (lo < op->lo[a] || hi > op->hi[a])
+			return 0;
+	}
+	return 1;
+}
+
+/* Voxels of `old` whose colour is not rgb: whole constant blocks at once,
+ * the others decoded. */
+static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t rgb[3])
+{
+	uint64_t ch = 0;
+	uint32_t want = (uint32_t)rgb[0] | (uint32_t)rgb[1] << 8 |
+			(uint32_t)rgb[2] << 16;
+	for (uint32_t i = 0; old && i < old->nparts; i++) {
+		const struct vd_auto_segment *a = &old->part[i];
+		for (uint32_t b = 0; b < a->count; b++) {
+			uint32_t e = a->dir[b], len = block_len(a, b);
+			if (e >> 24 == VD_AUTO_CONST) {
+				ch += (e & 0xffffff) != want ? len : 0;
+				continue;
+			}
+			for (uint32_t k = 0; k < len; k++) {
+				uint8_t c[3];
+				vd_auto_decode(e, a->data + (e & 0xffffff), len,
+					       k, c);
+				ch += memcmp(c, rgb, 3) != 0;
+			}
+		}
+	}
+	return ch;
+}
+
 /* The colours of one segment after the edit, from its voxels before and
- * after (the same rules as a whole cell: see vd_hashdag_apply). */
+ * after (the same rules as a whole cell: see vd_hashdag_apply). The old
+ * blocks are decoded, the new colours made raw and encoded again; a
+ * uniform fill or paint of the whole segment writes constant blocks. */
 static int rebuild(struct cctx *x, struct sjob *jb)
 {
 	struct vd_hashdag *h = x->h;
 	const struct vd_edit_op *op = x->op;
-	const struct hd_seg *old = jb->old;
+	struct hd_seg *old = jb->old;
 	jb->out = NULL;
 	jb->changed = 0;
 	if (jb->np == HD_EMPTY)
 		return VD_OK;
+	if (seg_uniform(h, op, jb->code)) {
+		uint64_t n = hd_voxels_of(h, h->col->S, jb->np);
+		uint64_t ch = seg_count_not(old, op->rgb);
+		/* a full cube before and after, all of one colour already */
+		if (old && old->n == n && !ch) {
+			seg_ref(old);
+			jb->out = old;
+			return VD_OK;
+		}
+		jb->changed = ch;
+		return seg_const(h, op->rgb, n, &jb->out);
+	}
 	struct vlist ov = {0}, nv = {0};
 	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
 	if (!err)
@@ -497,9 +755,15 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 			      "colours", (unsigned long long)jb->code,
 			      (unsigned long long)ov.n,
 			      (unsigned long long)(old ? old->n : 0));
-	struct hd_seg *c = NULL;
-	if (!err)
-		err = seg_new(h, nv.n, &c);
+	uint8_t *was_rgb = NULL, *rgb = NULL;
+	if (!err) {
+		was_rgb = malloc(3 * ov.n + 1);
+		rgb = malloc(3 * nv.n + 1);
+		if (!was_rgb || !rgb)
+			err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
+		else if (old)
+			seg_decode(old, was_rgb);
+	}
 	int64_t d[3] = {0, 0, 0};
 	if (op->kind == VD_EDIT_COPY)
 		for (int a = 0; a < 3; a++)
@@ -510,8 +774,8 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 		while (j < ov.n && ov.m[j] < m)
 			j++;
 		int had = j < ov.n && ov.m[j] == m;
-		const uint8_t *was = had ? old->rgb + 3 * j : NULL;
-		uint8_t *to = c->rgb + 3 * i;
+		const uint8_t *was = had ? was_rgb + 3 * j : NULL;
+		uint8_t *to = rgb + 3 * i;
 		uint32_t vx, vy, vz;
 		vd_morton3_decode(m, &vx, &vy, &vz);
 		int ok = 1;
@@ -542,18 +806,20 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 	/* an unchanged segment (voxels and colours) keeps being shared */
 	int same = !err && old && ov.n == nv.n &&
 		   !memcmp(ov.m, nv.m, 8 * nv.n) &&
-		   !memcmp(old->rgb, c->rgb, 3 * c->n);
+		   !memcmp(was_rgb, rgb, 3 * nv.n);
+	struct hd_seg *c = NULL;
+	if (!err && same) {
+		c = old;
+		seg_ref(c);
+	} else if (!err) {
+		err = seg_encode(h, rgb, nv.n, &c);
+	}
 	vl_free(&ov);
 	vl_free(&nv);
-	if (err) {
-		seg_unref(h->col, c);
+	free(was_rgb);
+	free(rgb);
+	if (err)
 		return err;
-	}
-	if (same) {
-		seg_unref(h->col, c);
-		c = jb->old;
-		seg_ref(c);
-	}
 	jb->out = c;
 	jb->changed = ch;
 	return VD_OK;
@@ -736,6 +1002,11 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 			x.src[x.nsrc].col = seg_find(old[cell], ss.code[i]);
 			err = walk(h, c->S, ss.p[i], ss.code[i],
 				   &x.src[x.nsrc].v);
+			const struct hd_seg *g = x.src[x.nsrc].col;
+			if (!err && g && !(x.src[x.nsrc].rgb = malloc(3 * g->n)))
+				err = vd_fail(VD_ERR_NOMEM, "copy sources");
+			if (!err && g)
+				seg_decode(g, x.src[x.nsrc].rgb);
 			x.nsrc++;
 		}
 		pl_free(&ss);
@@ -783,8 +1054,10 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	}
 	for (size_t i = 0; fresh && i < n; i++)
 		hd_cellcol_unref(c, fresh[i]);
-	for (size_t i = 0; i < x.nsrc; i++)
+	for (size_t i = 0; i < x.nsrc; i++) {
 		vl_free(&x.src[i].v);
+		free(x.src[i].rgb);
+	}
 	free(fresh);
 	free(first);
 	pl_free(&segs);

@@ -31,10 +31,23 @@ struct hd_level {
 /* The colours (RGB8, depth-first) of one segment: the subtree of a node
  * on the segment level S below the cell level C. Shared by reference
  * between the cells' tables that did not change it. */
+/* A segment's colours, kept compressed in the auto codec's blocks
+ * (schemas/colour-formats.md, method 4) at max_error 0, so they decode
+ * to exactly the colours stored and a saved scene is byte-identical to
+ * one kept raw. Blocks are 2^HD_COL_BLOCK_LOG voxels and decode alone: a
+ * read touches one directory entry and one block, and a uniform fill of
+ * a whole segment is written as constant blocks without a byte of block
+ * data. The auto encoder takes at most VD_CPACK_SEGMENT_MAX voxels, so a
+ * segment larger than that (a large colour_segment_log2) is several
+ * parts of that many voxels end to end. */
+#define HD_COL_BLOCK_LOG 8
+#define HD_COL_PART_LOG 18 /* VD_CPACK_SEGMENT_MAX */
 struct hd_seg {
 	uint64_t refs;
 	uint64_t n;           /* voxels */
-	uint8_t rgb[];        /* 3 n bytes */
+	uint64_t bytes;       /* charged: the struct, directories, data */
+	uint32_t nparts;
+	struct vd_auto_segment part[];
 };
 
 struct hd_cellseg {
