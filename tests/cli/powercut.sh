@@ -2,7 +2,7 @@
 # Power cuts: a multi-hundred-job pipeline (bunny 2^8 in cells of 32^3)
 # writes to a loop-mounted ext4 image whose power is cut at 20 random
 # moments, four in each phase (voxelize, the cells, the merges, encode, the
-# report), with ext4's shutdown ioctl without flushing the journal
+# report: while it is written or just after the run ended), with ext4's shutdown ioctl without flushing the journal
 # (tests/tools/fs_shutdown.c): the file system stops at once and, once
 # remounted, holds only what had reached the device. After each cut the
 # image is remounted and the same command run again; it must exit 0 with
@@ -99,10 +99,13 @@ one_cut() {
 	while [ "$(count "$pat")" -lt $at ] && kill -0 $pid 2>/dev/null; do
 		sleep 0.002
 	done
-	sleep "0.0$((RANDOM % 21))"
+	[ $phase = report ] || sleep "0.0$((RANDOM % 21))"
 	if ! kill -0 $pid 2>/dev/null; then
 		wait $pid
-		return 2
+		# the report is written in a few milliseconds after the last
+		# job: a cut just after the run ended tests what it left as
+		# much (keys synced at the end, the report), so it counts
+		[ $phase = report ] || return 2
 	fi
 	$CUT "$M" || { fail "powercut_${i}_$phase" "the shutdown ioctl failed"; return 1; }
 	kill -9 -- -$pid 2>/dev/null
