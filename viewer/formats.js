@@ -125,6 +125,10 @@ function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countB
   const abits = g48 ? 10 : 13, lbits = g48 ? 26 : 29;
   const inner = new Uint16Array(words.buffer, 0, n);
   const brickCount = (a) => popcount32(words[innerWords + 2 * a]) + popcount32(words[innerWords + 2 * a + 1]);
+  // exact counts (a double holds any count up to 2^53); the texture's
+  // u32 words saturate, and only colours need them (colours of more than
+  // 2^32 voxels are refused when loaded)
+  const exact = new Float64Array(n);
   for (let l = L - 3; l >= 0; l--) {
     const start = levelOffsets[l], end = l + 1 < L - 2 ? levelOffsets[l + 1] : n;
     const nextStart = l + 1 < L - 2 ? levelOffsets[l + 1] : 0;
@@ -152,18 +156,18 @@ function voxelCounts(name, words, n, innerWords, bricks, levelOffsets, L, countB
         }
         if (l + 1 < L - 2) {
           if (nextStart + addr >= nextEnd) fail(name, `a pointer of level ${l} leaves level ${l + 1}`);
-          sum += words[countBase + nextStart + addr];
+          sum += exact[nextStart + addr];
         } else {
           if (addr >= bricks) fail(name, `a pointer of level ${l} to brick ${addr} of ${bricks}`);
           sum += brickCount(addr);
         }
       }
-      if (sum > 0xffffffff) fail(name, 'more than 2^32 voxels: too large for this viewer');
-      words[countBase + i] = sum;
+      exact[i] = sum;
+      words[countBase + i] = Math.min(sum, 0xffffffff);
       i = at;
     }
   }
-  return words[countBase];
+  return exact[0];
 }
 
 // .svdag and .ussvdag: 32-bit words, a header word (child mask, and for
@@ -184,8 +188,9 @@ function decodeWords(buf, name, format) {
   new Uint8Array(words.buffer, 0, 4 * w).set(new Uint8Array(buf, 44, 4 * w));
   const L = h.levels, plain = format === 'svdag';
   const done = new Uint8Array(w);
+  const exact = new Float64Array(w); // as in voxelCounts: words saturate
   const count = (at, level) => {
-    if (done[at]) return words[w + at];
+    if (done[at]) return exact[at];
     const hw = words[at], mask = hw & 0xff;
     if (!mask && !(at === 0 && w === 1)) fail(name, `empty node at word ${at}`);
     let sum = 0;
@@ -204,9 +209,9 @@ function decodeWords(buf, name, format) {
         sum += count(child, level + 1);
       }
     }
-    if (sum > 0xffffffff) fail(name, 'more than 2^32 voxels: too large for this viewer');
     done[at] = 1;
-    words[w + at] = sum;
+    exact[at] = sum;
+    words[w + at] = Math.min(sum, 0xffffffff);
     return sum;
   };
   const voxels = count(0, 0);

@@ -276,6 +276,10 @@ function colourSources(files) {
 // The colour array of `path` as the server decodes it with the library
 // (every method the library reads), checked against the scene.
 async function loadColours(path, scene) {
+  // the shader's per-node counts are u32 words (formats.js saturates
+  // them): geometry of any size, colours of at most 2^32 - 1 voxels
+  if (scene.voxels > 0xffffffff)
+    throw new Error(`colours of ${scene.voxels} voxels: this viewer looks colours up through 32-bit counts (at most 4294967295 voxels)`);
   const r = await fetch('colours/' + path);
   if (!r.ok) {
     const why = (await r.text()).trim();
