@@ -93,57 +93,71 @@ static int seg_finish(struct vd_hashdag *h, struct hd_seg *p, int err,
 	return VD_OK;
 }
 
-/* rgb[0..n) as a segment of lossless auto blocks. The encoder's data
- * buffer has room for raw colours; it is cut to what the blocks hold, as
- * that is the memory the colours are meant to save. */
-static int seg_encode(struct vd_hashdag *h, const uint8_t *rgb, uint64_t n,
-		      struct hd_seg **out)
+/* A segment of n voxels whose parts `fill` makes, one call a part (part
+ * i: voxels i << HD_COL_PART_LOG.., part_len(n, i) of them); allocation,
+ * the part loop and the budget's count are the same for every kind. */
+static int seg_build(struct vd_hashdag *h, uint64_t n,
+		     int (*fill)(struct vd_auto_segment *a, uint32_t i,
+				 uint64_t n, const uint8_t *rgb),
+		     const uint8_t *rgb, struct hd_seg **out)
 {
-	static const struct vd_auto_params lossless = {
-		.max_error = 0, .block_log = HD_COL_BLOCK_LOG};
-	struct hd_seg *p;
+	struct hd_seg *p = NULL;
 	int err = seg_alloc(n, &p);
 	if (err)
 		return err;
-	for (uint32_t i = 0; !err && i < p->nparts; i++) {
-		struct vd_auto_segment *a = &p->part[i];
-		err = vd_auto_encode(a, rgb + 3 * ((uint64_t)i << HD_COL_PART_LOG),
-				     part_len(n, i), &lossless);
-		uint8_t *d = err ? NULL
-				 : realloc(a->data, a->data_bytes + VD_AUTO_PAD);
-		if (d)
-			a->data = d;
-	}
+	for (uint32_t i = 0; !err && i < p->nparts; i++)
+		err = fill(&p->part[i], i, n, rgb);
 	return seg_finish(h, p, err, out);
 }
 
-/* n voxels all of colour rgb: constant blocks only, no per-voxel work. */
-static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
-		     struct hd_seg **out)
+/* Part i of rgb[0..n) as lossless auto blocks. The encoder's data buffer
+ * has room for raw colours; it is cut to what the blocks hold, as that is
+ * the memory the colours are meant to save. */
+static int fill_encoded(struct vd_auto_segment *a, uint32_t i, uint64_t n,
+			const uint8_t *rgb)
+{
+	static const struct vd_auto_params lossless = {
+		.max_error = 0, .block_log = HD_COL_BLOCK_LOG};
+	int err = vd_auto_encode(a, rgb + 3 * ((uint64_t)i << HD_COL_PART_LOG),
+				 part_len(n, i), &lossless);
+	uint8_t *d = err ? NULL : realloc(a->data, a->data_bytes + VD_AUTO_PAD);
+	if (d)
+		a->data = d;
+	return err;
+}
+
+/* Part i of n voxels all of colour rgb[0..3): constant blocks only, no
+ * per-voxel work. */
+static int fill_constant(struct vd_auto_segment *a, uint32_t i, uint64_t n,
+			 const uint8_t *rgb)
 {
 	uint32_t e = (uint32_t)VD_AUTO_CONST << 24 | (uint32_t)rgb[0] |
 		     (uint32_t)rgb[1] << 8 | (uint32_t)rgb[2] << 16;
-	struct hd_seg *p;
-	int err = seg_alloc(n, &p);
-	if (err)
-		return err;
-	for (uint32_t i = 0; !err && i < p->nparts; i++) {
-		struct vd_auto_segment *a = &p->part[i];
-		a->n = part_len(n, i);
-		a->count = (a->n + (1u << HD_COL_BLOCK_LOG) - 1) >>
-			   HD_COL_BLOCK_LOG;
-		a->dir = malloc(4ull * a->count);
-		a->data = calloc(1, VD_AUTO_PAD);
-		if (!a->dir || !a->data) {
-			err = vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
-				      (unsigned long long)n);
-			break;
-		}
-		for (uint32_t b = 0; b < a->count; b++)
-			a->dir[b] = e;
-		a->mode_blocks[0] = a->count;
-	}
-	return seg_finish(h, p, err, out);
+	a->n = part_len(n, i);
+	a->count = (a->n + (1u << HD_COL_BLOCK_LOG) - 1) >> HD_COL_BLOCK_LOG;
+	a->dir = malloc(4ull * a->count);
+	a->data = calloc(1, VD_AUTO_PAD);
+	if (!a->dir || !a->data)
+		return vd_fail(VD_ERR_NOMEM, "colours of %llu voxels",
+			       (unsigned long long)n);
+	for (uint32_t b = 0; b < a->count; b++)
+		a->dir[b] = e;
+	a->mode_blocks[0] = a->count;
+	return VD_OK;
+}
+
+/* rgb[0..n) as a segment of lossless auto blocks. */
+static int seg_encode(struct vd_hashdag *h, const uint8_t *rgb, uint64_t n,
+		      struct hd_seg **out)
+{
+	return seg_build(h, n, fill_encoded, rgb, out);
+}
+
+/* n voxels all of colour rgb. */
+static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
+		     struct hd_seg **out)
+{
+	return seg_build(h, n, fill_constant, rgb, out);
 }
 
 /* The segment's colours into rgb (3 n bytes), block by block. */
