@@ -30,6 +30,7 @@
 #include "pipeline.h"
 
 #include <arpa/inet.h>
+#include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -55,6 +56,11 @@ static const char view_usage[] =
 	"viewer's own files are served; no listing.\n"
 	"\n"
 	"  -p, --port N        TCP port (default 8642; 0: any free port)\n"
+	"  -F, --camera-file F start the page at the camera of F, the JSON\n"
+	"                      file render --camera-file reads\n"
+	"                      (schemas/render-outputs.md): the printed URL\n"
+	"                      carries it; the page's \"camera file\" button\n"
+	"                      saves the current one\n"
 	"      --static DIR    the viewer's files (default: viewer/ beside the\n"
 	"                      directory holding bin/voxdag's out/, else\n"
 	"                      ./viewer)\n"
@@ -547,19 +553,55 @@ static void on_signal(int sig)
 	stop = 1;
 }
 
+/* "?camera=..." for the camera file `path`: read and checked as render
+ * reads it, written back as JSON (17 significant digits, so the page
+ * gets render's doubles) and percent-encoded. */
+static int camera_query(const char *path, char *out, size_t cap)
+{
+	struct vd_camera cam;
+	int w = 0, h = 0;
+	if (vd_camera_read(path, &cam, &w, &h)) {
+		fprintf(stderr, "voxdag: camera file '%s': %s\n", path,
+			vd_error_detail());
+		return -1;
+	}
+	char json[512];
+	int n = snprintf(json, sizeof json,
+			 "{\"eye\":[%.17g,%.17g,%.17g],\"target\":[%.17g,%.17g,"
+			 "%.17g],\"up\":[%.17g,%.17g,%.17g],\"fov\":%.17g",
+			 cam.eye[0], cam.eye[1], cam.eye[2], cam.target[0],
+			 cam.target[1], cam.target[2], cam.up[0], cam.up[1],
+			 cam.up[2], cam.fov_deg);
+	if (w > 0 && h > 0)
+		n += snprintf(json + n, sizeof json - (size_t)n,
+			      ",\"width\":%d,\"height\":%d", w, h);
+	snprintf(json + n, sizeof json - (size_t)n, "}");
+	size_t k = (size_t)snprintf(out, cap, "?camera=");
+	for (const char *p = json; *p && k + 4 < cap; p++) {
+		unsigned char ch = (unsigned char)*p;
+		if (isalnum(ch) || strchr("-._~", ch))
+			out[k++] = (char)ch;
+		else
+			k += (size_t)snprintf(out + k, cap - k, "%%%02X", ch);
+	}
+	out[k] = '\0';
+	return 0;
+}
+
 int view_main(int argc, char **argv)
 {
 	static const struct option longopts[] = {
 		{"port", required_argument, NULL, 'p'},
 		{"static", required_argument, NULL, 'S'},
+		{"camera-file", required_argument, NULL, 'F'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
 	int port = 8642;
-	const char *static_dir = NULL;
+	const char *static_dir = NULL, *camera_file = NULL;
 	int c;
 	optind = 1;
-	while ((c = getopt_long(argc, argv, "p:h", longopts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, "p:F:h", longopts, NULL)) != -1) {
 		if (c == 'p') {
 			char *end;
 			errno = 0;
@@ -573,6 +615,8 @@ int view_main(int argc, char **argv)
 			port = (int)v;
 		} else if (c == 'S') {
 			static_dir = optarg;
+		} else if (c == 'F') {
+			camera_file = optarg;
 		} else if (c == 'h') {
 			fputs(view_usage, stdout);
 			return 0;
@@ -587,6 +631,9 @@ int view_main(int argc, char **argv)
 		return 2;
 	}
 	const char *arg = argv[optind];
+	char query[2048] = "";
+	if (camera_file && camera_query(camera_file, query, sizeof query))
+		return 1;
 	static struct server s;
 	pthread_mutex_init(&s.lock, NULL);
 	struct stat st;
@@ -655,7 +702,7 @@ int view_main(int argc, char **argv)
 	}
 	signal(SIGINT, on_signal);
 	signal(SIGTERM, on_signal);
-	printf("http://127.0.0.1:%d/\n", ntohs(sa.sin_port));
+	printf("http://127.0.0.1:%d/%s\n", ntohs(sa.sin_port), query);
 	fflush(stdout);
 	fprintf(stderr, "voxdag: serving '%s' and the viewer '%s'; Ctrl-C "
 		"stops\n", s.data_root, s.static_root);

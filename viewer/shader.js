@@ -26,6 +26,9 @@ uniform usampler2D uData;
 uniform int uTexWidthLog2;
 uniform int uL;          // levels
 uniform int uCut;        // hit cells of this level (uL: voxels)
+uniform float uLod;      // level of detail: a node of side S voxels whose
+                         // S <= uLod * t (its projection at most the
+                         // chosen pixels) is hit whole, as render --lod
 uniform uint uLevelOff[22];
 uniform uint uBrickBase; // word index of the first brick
 uniform uint uCountBase; // word index of the voxel counts
@@ -303,7 +306,7 @@ bool trace(vec3 o, vec3 d, out ivec3 cell, out int hitLevel, out float tHit, out
       clo[a] = up ? mid : lo[a];
     }
     if (childSet(level, p, clo)) {
-      if (level + 1 >= uCut) {
+      if (level + 1 >= uCut || float(half_) <= uLod * t) {
         float tin = -INF();
         int ax = -1;
         for (int a = 0; a < 3; a++) {
@@ -355,6 +358,17 @@ void main() {
   vec3 dg = dw * uInvVs;
   ivec3 cell; int lev; float th; int axis;
   bool hit = trace(uEye, dg, cell, lev, th, axis);
+#ifndef ID
+  // render's normal from the depth buffer, from this pixel's quad partner
+  // (derivatives here, in uniform flow): the surface, not the voxel
+  // staircase, whose faces alias into moire once voxels are smaller than
+  // pixels. A partner more than 4 cells or pixels away in depth is another
+  // surface: then the hit face's normal.
+  float tq = hit ? th : 1e30;
+  vec3 hp = uEye + dg * tq;
+  vec3 ex = dFdx(hp), ey = dFdy(hp);
+  float dtx = abs(dFdx(tq)), dty = abs(dFdy(tq));
+#endif
 #ifdef ID
   if (hit) {
     outId = uvec4(uvec3(cell), uint(lev));
@@ -367,6 +381,13 @@ void main() {
   if (!hit) { outColour = vec4(0.12, 0.13, 0.16, 1.0); return; }
   vec3 n = vec3(0.0);
   if (axis >= 0) n[axis] = dg[axis] > 0.0 ? -1.0 : 1.0; else n = -dw;
+  float cellSide = float(1 << (uL - lev)) / uInvVs;
+  float limit = 4.0 * max(cellSide, th * 2.0 * uTanHalf / uSize.y);
+  vec3 ns = cross(ex, ey);
+  if (dtx < limit && dty < limit && dot(ns, ns) > 0.0) {
+    n = normalize(ns);
+    if (dot(n, dw) > 0.0) n = -n;
+  }
   vec3 base = vec3(0.82, 0.76, 0.66); // render's grey (linear)
   if (uHasColours != 0) {
     uint i = colourIndex(cell, lev);

@@ -138,6 +138,9 @@ class Renderer {
     gl.uniform1i(u('uTexWidthLog2'), view.gpu.wlog);
     gl.uniform1i(u('uL'), s.header.levels);
     gl.uniform1i(u('uCut'), Math.min(view.cut, s.header.levels));
+    // render's lod_k: a node of side S voxels at distance t spans
+    // S * voxelSize / (t * pixel angle) pixels
+    gl.uniform1f(u('uLod'), (this.lod || 0) * 2 * f.tanHalf / h / s.voxelSize);
     const offs = new Uint32Array(22);
     s.levelOffsets.forEach((o, i) => { offs[i] = o; });
     gl.uniform1uiv(u('uLevelOff'), offs);
@@ -250,8 +253,28 @@ const state = {
   views: [],         // {path, scene, gpu, cut, stats}
   cam: null,         // {eye, target, up, fov}
   mode: 'orbit',
+  startCam: null,    // the URL's camera (voxdag view --camera-file), else null
+  lod: 0,            // pixels (render --lod); 0: every voxel exactly
   frameMs: 0,
 };
+
+// A camera file's object (schemas/render-outputs.md), checked as render's
+// vd_camera_check does; throws with the field that is wrong.
+function cameraFromFile(o) {
+  const vec = (k, dflt) => {
+    const v = o[k] === undefined ? dflt : o[k];
+    if (!Array.isArray(v) || v.length !== 3 || !v.every(Number.isFinite)) throw new Error(`camera: "${k}" is not 3 numbers`);
+    return v.slice();
+  };
+  if (o === null || typeof o !== 'object') throw new Error('camera: not a JSON object');
+  const c = { eye: vec('eye'), target: vec('target'), up: vec('up', [0, 1, 0]), fov: o.fov === undefined ? 40 : o.fov };
+  if (!(Number.isFinite(c.fov) && c.fov > 0 && c.fov < 180)) throw new Error('camera: "fov" is not in (0, 180) degrees');
+  const f = sub(c.target, c.eye);
+  if (!(dot(f, f) > 0)) throw new Error('camera: "eye" equals "target"');
+  const x = cross(norm(f), c.up);
+  if (!(dot(x, x) > 1e-12)) throw new Error('camera: "up" is parallel to the view');
+  return c;
+}
 
 function defaultCamera(s) {
   // render's "front" preset: looking along -Z, framing the bounding box
@@ -348,6 +371,9 @@ function draw() {
   const n = state.views.length;
   const w = Math.floor(canvas.width / n), h = canvas.height;
   const t0 = performance.now();
+  // the red differences are exact (as render --diff refuses --lod): so is
+  // the picture under them
+  r.lod = state.views.length === 2 && $('diff').checked ? 0 : state.lod;
   state.views.forEach((v, i) => r.draw(v, state.cam, i * w, 0, w, h));
   const px = new Uint8Array(4);
   r.gl.readPixels(0, 0, 1, 1, r.gl.RGBA, r.gl.UNSIGNED_BYTE, px); // wait for the GPU
@@ -460,7 +486,7 @@ async function showViews(paths, coloursPath) {
   state.views = [];
   for (const p of paths) state.views.push(await loadView(p, coloursPath));
   const first = state.views[0];
-  if (!state.cam) state.cam = defaultCamera(first.scene);
+  if (!state.cam) state.cam = state.startCam ? { ...state.startCam } : defaultCamera(first.scene);
   const slider = $('cut');
   slider.max = first.scene.header.levels;
   slider.value = first.cut;
@@ -472,6 +498,24 @@ async function showViews(paths, coloursPath) {
 async function main() {
   const canvas = $('view');
   const params = new URLSearchParams(location.search);
+  if (params.get('camera')) {
+    // voxdag view --camera-file: a camera file's JSON, image size included
+    let o;
+    try { o = JSON.parse(params.get('camera')); } catch (e) { throw new Error(`camera: not JSON (${e.message})`); }
+    state.startCam = cameraFromFile(o);
+    if (Number.isInteger(o.width) && Number.isInteger(o.height) && o.width > 0 && o.height > 0) {
+      canvas.width = Math.min(o.width, 16384);
+      canvas.height = Math.min(o.height, 16384);
+    }
+  }
+  if (params.get('lod') !== null) {
+    state.lod = Number(params.get('lod'));
+    if (!(Number.isFinite(state.lod) && state.lod >= 0)) throw new Error(`lod '${params.get('lod')}' is not a number of pixels >= 0`);
+  }
+  const lodPick = $('lod');
+  if (![...lodPick.options].some((o) => Number(o.value) === state.lod)) lodPick.add(new Option(`${state.lod} px`, String(state.lod)));
+  lodPick.value = String(state.lod);
+  lodPick.onchange = () => { state.lod = Number(lodPick.value); redraw(); };
   if (params.get('size')) {
     const [w, h] = params.get('size').split('x').map(Number);
     canvas.width = w;
@@ -525,7 +569,16 @@ async function main() {
     a.download = `${state.scene.name}.png`;
     a.click();
   });
-  $('reset').onclick = () => { state.cam = defaultCamera(state.views[0].scene); redraw(); };
+  $('reset').onclick = () => { state.cam = state.startCam ? { ...state.startCam } : defaultCamera(state.views[0].scene); redraw(); };
+  // the camera as a file render --camera-file reads: same picture, on the CPU
+  $('camfile').onclick = () => {
+    const c = state.cam;
+    const text = JSON.stringify({ eye: c.eye, target: c.target, up: c.up, fov: c.fov, width: canvas.width, height: canvas.height }) + '\n';
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(new Blob([text], { type: 'application/json' }));
+    a.download = `${state.scene.name}.camera.json`;
+    a.click();
+  };
   setupInput(canvas);
   await showViews(wanted && !encodings.includes(wanted) ? [wanted] : chosen(), pickC.value);
 }
@@ -554,6 +607,7 @@ window.voxdag = {
   // cam: a camera file's object {eye, target, up, fov, width, height}
   readBack(cam, viewIndex = 0) {
     const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };
+    state.renderer.lod = state.lod;
     const r = state.renderer.readBack(state.views[viewIndex], c, cam.width, cam.height);
     return { ids: Array.from(r.ids), depth: Array.from(r.depth, (x) => (Number.isFinite(x) ? x : null)), ms: r.ms };
   },
@@ -563,6 +617,7 @@ window.voxdag = {
     const r = state.renderer, gl = r.gl;
     const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };
     r.shade = false;
+    r.lod = state.lod;
     r.draw(state.views[0], c, 0, 0, cam.width, cam.height);
     r.shade = true;
     const px = new Uint8Array(4 * cam.width * cam.height);
@@ -572,6 +627,9 @@ window.voxdag = {
       for (let x = 0; x < cam.width; x++) out.push(px[4 * (y * cam.width + x)], px[4 * (y * cam.width + x) + 1], px[4 * (y * cam.width + x) + 2]);
     return out;
   },
+  camera: () => state.cam,
+  // what the screenshot button saves, as a data: URL
+  screenshot: () => composite().toDataURL('image/png'),
   setCamera(cam) {
     state.cam = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };
     draw();

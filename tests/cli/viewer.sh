@@ -135,6 +135,22 @@ for k in 1 2 3; do
 		fail viewer_render_cam$k
 	cases="$cases{\"name\": \"viewer_bunny_cam$k\", \"file\": \"$ENC\", \"camera\": \"$T/cam$k.json\", \"ids\": \"$T/r$k.vid\", \"depth\": \"$T/r$k.pfm\"},"
 done
+# level of detail: the page's lod=2 against render --lod 2 (the bunny's
+# 512 voxels span about 150 pixels here, so whole nodes are hit)
+"$BIN/render" "$T/scene/$ENC" --camera-file "$T/cam2.json" -o "$T/rl.png" --lod 2 \
+	--voxel-id "$T/rl.vid" --depth "$T/rl.pfm" -q -S || fail viewer_render_lod
+cases="$cases{\"name\": \"viewer_bunny_lod2\", \"file\": \"$ENC\", \"query\": \"lod=2\", \"camera\": \"$T/cam2.json\", \"ids\": \"$T/rl.vid\", \"depth\": \"$T/rl.pfm\"},"
+# voxdag view --camera-file: the printed URL carries the camera, and the
+# page starts there, number for number (render's doubles survive the trip)
+serve cam "$T/scene" --camera-file "$T/cam2.json"
+CAMQ=${URL#*\?}
+[[ "$URL" =~ ^http://127\.0\.0\.1:[0-9]+/\?camera=%7B ]] && pass view_camera_url ||
+	fail view_camera_url "got '$URL'" "$(cat "$T/cam.err")"
+echo '{"eye": [1, 2, 3], "target": [1, 2, 3]}' > "$T/badcam.json"
+expect view_bad_camera_file 1 "camera file '$T/badcam.json'" \
+	"$BIN/voxdag" view "$T/scene" --port 0 --camera-file "$T/badcam.json"
+cases="$cases{\"name\": \"viewer_starts_at_camera_file\", \"file\": \"$ENC\", \"query\": \"$CAMQ\", \"expectCamera\": \"$T/cam2.json\"},"
+cases="$cases{\"name\": \"viewer_shows_bad_camera\", \"file\": \"$ENC\", \"query\": \"camera=%7B%22eye%22%3A%5B1%2C2%5D%7D\", \"expectError\": \"camera: .eye. is not 3 numbers\"},"
 cat > "$T/spec.json" <<EOF
 {"url": "$(head -1 "$T/main.url")", "maxMismatch": 0.0005, "cases": [${cases%,}]}
 EOF

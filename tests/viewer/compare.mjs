@@ -8,7 +8,13 @@
 //           "ids": "render.vid", "depth": "render.pfm",
 //           "png": "render.png" (optional: colours, with "colours"),
 //           "colours": "raw/colours.raw" (optional)},
-//          {"name", "file", "expectError": "regex"}]}
+//          {"name", "file", "expectError": "regex"},
+//          {"name", "file", "query": "camera=...", "expectCamera": "cam.json"}]}
+// The page draws every voxel, as render does by default, unless a case's
+// "query" says lod=N (then render --lod N is the reference).
+// A case's "query" is added to the page's URL (what voxdag view
+// --camera-file prints); "expectCamera" wants the page's starting camera
+// to be the file's, number for number.
 // A pixel mismatches when its hit cell differs from render's, or its depth
 // differs by more than 1e-4 of the depth (float against double). Their
 // share of the pixels either side hits must stay within maxMismatch: the
@@ -54,12 +60,14 @@ const browser = await puppeteer.launch({
   args: ['--headless=new', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
 });
 const pages = new Map();
-async function pageFor(file, colours, w, h, file2) {
-  const key = `${spec.url}|${file}|${file2 || ''}|${colours || ''}|${w}x${h}`;
+async function pageFor(file, colours, w, h, file2, extra) {
+  const key = `${spec.url}|${file}|${file2 || ''}|${colours || ''}|${w}x${h}|${extra || ''}`;
   if (pages.has(key)) return pages.get(key);
   const page = await browser.newPage();
   page.on('pageerror', (e) => console.error('  page error:', e.message));
-  const q = new URLSearchParams({ file, size: `${w}x${h}` });
+  const q = new URLSearchParams(extra || '');
+  q.set('file', file);
+  q.set('size', `${w}x${h}`);
   if (colours) q.set('colours', colours);
   if (file2) { q.set('file2', file2); q.set('diff', '1'); }
   const t0 = Date.now();
@@ -78,11 +86,21 @@ spec = JSON.parse(fs.readFileSync(path, 'utf8'));
 for (const c of spec.cases) {
   try {
     if (c.expectError) {
-      const p = await pageFor(c.file, c.colours, 64, 48);
+      const p = await pageFor(c.file, c.colours, 64, 48, null, c.query);
       const shown = await p.page.$eval('#status', (e) => e.className === 'error' ? e.textContent : '');
       if (p.verdict === 'error' && new RegExp(c.expectError).test(p.error) && shown)
         pass(c.name);
       else fail(c.name, `verdict ${p.verdict}, error '${p.error}', shown '${shown}', expected /${c.expectError}/`);
+      continue;
+    }
+    if (c.expectCamera) {
+      const want = JSON.parse(fs.readFileSync(c.expectCamera, 'utf8'));
+      const p = await pageFor(c.file, null, 64, 48, null, c.query);
+      if (p.verdict !== 'ok') { fail(c.name, `page: ${p.verdict}: ${p.error}`); continue; }
+      const got = await p.page.evaluate(() => window.voxdag.camera());
+      const same = ['eye', 'target', 'up'].every((k) => [0, 1, 2].every((a) => got[k][a] === (want[k] || [0, 1, 0])[a])) &&
+        got.fov === (want.fov || 40);
+      if (same) pass(c.name); else fail(c.name, `page's camera ${JSON.stringify(got)}, file's ${JSON.stringify(want)}`);
       continue;
     }
     const cam = JSON.parse(fs.readFileSync(c.camera, 'utf8'));
@@ -102,11 +120,11 @@ for (const c of spec.cases) {
     }
     const ref = readIds(c.ids);
     const refD = readPfm(c.depth);
-    const p = await pageFor(c.file, c.colours, cam.width, cam.height);
+    const p = await pageFor(c.file, c.colours, cam.width, cam.height, null, c.query);
     if (p.verdict !== 'ok') { fail(c.name, `page: ${p.verdict}: ${p.error}`); continue; }
     const got = await p.page.evaluate((k) => window.voxdag.readBack(k), cam);
     const frameMs = await p.page.evaluate((k) => window.voxdag.setCamera(k), cam);
-    let hits = 0, bad = 0, badDepth = 0;
+    let hits = 0, bad = 0, badDepth = 0, edge = 0;
     const n = cam.width * cam.height;
     if (ref.w !== cam.width || ref.h !== cam.height) throw new Error(`render wrote ${ref.w}x${ref.h}`);
     for (let i = 0; i < n; i++) {
@@ -115,12 +133,19 @@ for (const c of spec.cases) {
       hits++;
       let same = rh && gh;
       for (let k = 0; same && k < 4; k++) same = ref.ids[4 * i + k] === got.ids[4 * i + k];
-      if (!same) { bad++; continue; }
+      if (!same) {
+        bad++;
+        // a ray grazing a voxel edge: the neighbouring cell at the same depth
+        let near = rh && gh && ref.ids[4 * i + 3] === got.ids[4 * i + 3];
+        for (let k = 0; near && k < 3; k++) near = Math.abs(ref.ids[4 * i + k] - got.ids[4 * i + k]) <= 1;
+        if (near && Math.abs(refD.d[i] - got.depth[i]) <= 1e-4 * Math.abs(refD.d[i]) + 1e-6) edge++;
+        continue;
+      }
       const a = refD.d[i], b = got.depth[i];
       if (!(Math.abs(a - b) <= 1e-4 * Math.abs(a) + 1e-6)) { bad++; badDepth++; }
     }
     const share = hits ? bad / hits : 1;
-    const extra = `${bad} of ${hits} hit pixels differ (${badDepth} in depth only), ` +
+    const extra = `${bad} of ${hits} hit pixels differ (${edge} a neighbouring cell at the same depth, ${badDepth} in depth only), ` +
       `load ${p.seconds.toFixed(1)} s, id pass ${got.ms.toFixed(0)} ms, frame ${frameMs.toFixed(0)} ms`;
     if (hits > 0.02 * n && share <= spec.maxMismatch) pass(c.name, extra);
     else fail(c.name, extra + (hits <= 0.02 * n ? ': the camera sees almost nothing' : ''));

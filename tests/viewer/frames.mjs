@@ -14,7 +14,9 @@ const browser = await puppeteer.launch({
 for (const size of ['256x192', '512x512', '960x540']) {
   const page = await browser.newPage();
   const t0 = Date.now();
-  await page.goto(`${url}?size=${size}`);
+  const u = new URL(url);
+  u.searchParams.set('size', size);
+  await page.goto(u.href);
   const verdict = await page.evaluate(() => window.voxdag.ready);
   if (verdict !== 'ok') {
     console.log(`${size}: ${await page.evaluate(() => window.voxdag.error())}`);
