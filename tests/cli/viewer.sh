@@ -149,6 +149,8 @@ CAMQ=${URL#*\?}
 echo '{"eye": [1, 2, 3], "target": [1, 2, 3]}' > "$T/badcam.json"
 expect view_bad_camera_file 1 "camera file '$T/badcam.json'" \
 	"$BIN/voxdag" view "$T/scene" --port 0 --camera-file "$T/badcam.json"
+expect view_camera_file_dir 1 "camera file '$T': Is a directory" \
+	"$BIN/voxdag" view "$T/scene" --port 0 --camera-file "$T"
 cases="$cases{\"name\": \"viewer_starts_at_camera_file\", \"file\": \"$ENC\", \"query\": \"$CAMQ\", \"expectCamera\": \"$T/cam2.json\"},"
 cases="$cases{\"name\": \"viewer_shows_bad_camera\", \"file\": \"$ENC\", \"query\": \"camera=%7B%22eye%22%3A%5B1%2C2%5D%7D\", \"expectError\": \"camera: .eye. is not 3 numbers\"},"
 cat > "$T/spec.json" <<EOF

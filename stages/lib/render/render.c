@@ -45,6 +45,7 @@
 #include <png.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory")
@@ -544,8 +545,11 @@ int vd_camera_read(const char *path, struct vd_camera *c, int *width,
 	json_error_t jerr;
 	json_t *root = json_load_file(path, JSON_REJECT_DUPLICATES, &jerr);
 	if (!root) {
+		struct stat st;
 		if (access(path, R_OK) != 0)
 			return vd_fail(VD_ERR_IO, "%s", strerror(errno));
+		if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+			return vd_fail(VD_ERR_IO, "%s", strerror(EISDIR));
 		return vd_fail(VD_ERR_ARG, "line %d: %s", jerr.line, jerr.text);
 	}
 	struct vd_camera k = {.up = {0, 1, 0}, .fov_deg = 40};
