@@ -415,6 +415,7 @@ static int parse_script(struct ctx *x, struct job_decl *d, yaml_node_t *v)
  * come after them). */
 struct job_params {
 	yaml_node_t *lossy, *edit, *colour, *group;
+	yaml_node_t *max_error; /* its value: vbr's floor depends on method */
 };
 
 /* Starts the declaration of job `name` in c->jobs_decl[c->njobs] (not
@@ -522,12 +523,13 @@ static int parse_job_key(struct ctx *x, struct job_decl *d,
 		strcpy(d->method, m);
 		pp->colour = k;
 	} else if (!strcmp(key, "max_error")) {
-		/* colorize's own range: below 0.0236 a single colour
-		 * may not fit RGB565 endpoints */
-		if (want_number(x, v, key, 0.0236, 1.8, 0, d->max_error,
+		/* colorize's own range; vbr's floor is checked with the
+		 * method, which may come after */
+		if (want_number(x, v, key, 0, 1.8, 1, d->max_error,
 				sizeof d->max_error))
 			return 1;
 		pp->colour = k;
+		pp->max_error = v;
 	} else if (!strcmp(key, "weight_bits")) {
 		int w;
 		if (want_int(x, v, key, 1, 8, &w))
@@ -591,6 +593,13 @@ static int job_finish(struct ctx *x, struct job_decl *d,
 	 * than vbr (Algorithm 1, kept as the paper's reference) */
 	if (d->stage->type == STAGE_COLORIZE && !*d->method)
 		strcpy(d->method, "auto");
+	/* below 0.0236 a single colour may not fit vbr's RGB565 endpoints */
+	if (pp->max_error && !strcmp(d->method, "vbr") &&
+	    strtod(d->max_error, NULL) < 0.0236)
+		return fail_at(x, pp->max_error, "'max_error' %s is below "
+			       "0.0236, the least method vbr always meets "
+			       "(RGB565 endpoints); method auto takes any "
+			       "above 0", d->max_error);
 	if (pp->edit && d->stage->type != STAGE_EDIT)
 		return fail_at(x, pp->edit, "'script' is a parameter of edit "
 			       "jobs, not of '%s' (stage %s)", n, d->stage->name);

@@ -25,8 +25,13 @@ bad() { # bad NAME PATTERN (jobs on stdin)
 }
 echo '  c: {stage: colorize, needs: [vox], method: jpeg}' |
 	bad colour_bad_method "'method' is auto, vbr, palette or raw"
-echo '  c: {stage: colorize, needs: [vox], max_error: 0.01}' |
-	bad colour_max_error_range "'max_error' is 0.01, outside 0.0236"
+echo '  c: {stage: colorize, needs: [vox], max_error: 0.01, method: vbr}' |
+	bad colour_max_error_vbr "'max_error' 0.01 is below 0.0236, the least method vbr"
+echo '  c: {stage: colorize, needs: [vox], max_error: 0}' |
+	bad colour_max_error_range "'max_error' is 0, outside \(0..1.8"
+# auto meets any max_error above 0 (lossless is lossless: true)
+echo '  c: {stage: colorize, needs: [vox], max_error: 0.01}' | cfg > "$T/small.yaml"
+expect colour_max_error_auto_small 0 '' $R plan "$T/small.yaml"
 echo '  c: {stage: colorize, needs: [enc]}' |
 	bad colour_needs_voxelize "takes needs: \[a voxelize job\]"
 echo '  d2: {stage: svo-to-dag, needs: [vox], weight_bits: 3}' |
