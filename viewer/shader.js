@@ -294,7 +294,10 @@ bool trace(vec3 o, vec3 d, out ivec3 cell, out int hitLevel, out float tHit, out
   ivec3 lo = ivec3(0);
   stackAt[0] = 0u;
   stackRefl[0] = 0u;
-  for (int iter = 0; iter < 8192; iter++) {
+  // a bound only against a runaway loop (a GPU watchdog resets the page):
+  // a ray crossing a 2^16 scene along a floor of single voxels visits tens
+  // of thousands of empty nodes, and a ray cut short would be a wrong miss
+  for (int iter = 0; iter < 262144; iter++) {
     int half_ = 1 << (L - level - 1);
     uint p = 0u;
     ivec3 clo;
