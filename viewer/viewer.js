@@ -326,7 +326,7 @@ async function loadView(path, coloursPath) {
   const scene = decoders[fmt](buf, path);
   const gpu = state.renderer.upload(scene);
   const colours = coloursPath ? await loadColours(coloursPath, scene) : null;
-  return { path, scene, gpu, colours, cut: scene.header.levels, loadMs: performance.now() - t0,
+  return { path, scene, gpu, colours, coloursPath: colours ? coloursPath : '', cut: scene.header.levels, loadMs: performance.now() - t0,
     voxels: scene.voxels, bytes: buf.byteLength, table: await lowerResolutions(path) };
 }
 
@@ -540,11 +540,18 @@ async function main() {
   pick2.value = '';
   const pickC = $('colours');
   pickC.add(new Option('(grey)', ''));
-  for (const c of colourSources(state.scene.files)) pickC.add(new Option(c, c));
-  if (params.get('colours')) {
-    if (![...pickC.options].some((o) => o.value === params.get('colours')))
+  const sources = colourSources(state.scene.files);
+  for (const c of sources) pickC.add(new Option(c, c));
+  // the URL's colours (colours= for grey), else the pipeline's own:
+  // colorize's compressed file first (auto, the pipelines' method), then
+  // any colorize file, then voxelize's chunks
+  const colourDefault = params.get('colours') === null;
+  if (!colourDefault) {
+    if (params.get('colours') && ![...pickC.options].some((o) => o.value === params.get('colours')))
       pickC.add(new Option(params.get('colours'), params.get('colours')));
     pickC.value = params.get('colours');
+  } else {
+    pickC.value = sources.find((c) => /colours\.auto$/.test(c)) || sources.find((c) => /colours\./.test(c)) || sources[0] || '';
   }
   const chosen = () => [pick.value, pick2.value].filter(Boolean);
   const wanted = params.get('file');
@@ -580,7 +587,17 @@ async function main() {
     a.click();
   };
   setupInput(canvas);
-  await showViews(wanted && !encodings.includes(wanted) ? [wanted] : chosen(), pickC.value);
+  const first = wanted && !encodings.includes(wanted) ? [wanted] : chosen();
+  try {
+    await showViews(first, pickC.value);
+  } catch (e) {
+    // colours chosen here, not asked for, that cannot be shown (another
+    // voxel set, more than the GPU holds): the geometry in grey, and why
+    if (!colourDefault || !pickC.value) throw e;
+    pickC.value = '';
+    await showViews(first, '');
+    status(`showing ${first.join(', ')} in grey: ${e.message}`);
+  }
 }
 
 // The view with the difference overlay on top, for the screenshot.
@@ -603,7 +620,7 @@ function showError(e) {
 window.voxdag = {
   ready: null,
   error: () => state.error || null,
-  stats: () => ({ frameMs: state.frameMs, diffPixels: state.diffPixels, views: state.views.map((v) => ({ path: v.path, loadMs: v.loadMs, nodes: v.scene.header.nodeCount })) }),
+  stats: () => ({ frameMs: state.frameMs, diffPixels: state.diffPixels, views: state.views.map((v) => ({ path: v.path, colours: v.coloursPath, loadMs: v.loadMs, nodes: v.scene.header.nodeCount })) }),
   // cam: a camera file's object {eye, target, up, fov, width, height}
   readBack(cam, viewIndex = 0) {
     const c = { eye: cam.eye, target: cam.target, up: cam.up || [0, 1, 0], fov: cam.fov || 40 };

@@ -173,12 +173,16 @@ mkdir -p "$T/spider"
 	"$BIN/symmetry-merge" "$T/sp.dag" -o "$T/sp.ssvdag" -q &&
 	"$BIN/symmetry-merge" --group 48 "$T/sp.dag" -o "$T/sp.s48" -q &&
 	"$BIN/encode" "$T/sp.dag" "$T/sp.ssvdag" "$T/sp.s48" -o "$T/spider/enc" -q &&
-	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/pack" --method raw,vbr,palette -q &&
+	"$BIN/colorize" "$T/spider/vox" -o "$T/spider/pack" --method raw,vbr,palette,auto -q &&
 	"$BIN/lossy-cluster" "$T/sp.dag" -o "$T/lossy.dag" -q &&
 	"$BIN/symmetry-merge" "$T/lossy.dag" -o "$T/lossy.ssvdag" -q &&
 	"$BIN/encode" "$T/lossy.dag" "$T/lossy.ssvdag" -o "$T/spider/lossy" --name lossy -q ||
 	fail viewer_spider_build
-"$BIN/voxelize" tests/data/bunny.ply -o "$T/spider/vox-bunny" --levels 8 -q
+"$BIN/voxelize" tests/data/bunny.ply -o "$T/spider/vox-bunny" --levels 8 -q &&
+	"$BIN/svo-to-dag" "$T/spider/vox-bunny/chunk-L0-0.svo" -o "$T/bn.dag" -q &&
+	"$BIN/symmetry-merge" "$T/bn.dag" -o "$T/bn.ssvdag" -q &&
+	"$BIN/encode" "$T/bn.dag" "$T/bn.ssvdag" -o "$T/spider/benc" --name bunny -q ||
+	fail viewer_spider_bunny_build
 serve spider "$T/spider"
 SPURL=$URL
 SPENC=enc/$(ls "$T/spider/enc" | grep '\.ssvdag$')
@@ -214,6 +218,10 @@ ndiff=$("$BIN/render" "$T/spider/$SPENC" --diff "$T/spider/lossy/lossy.ssvdag" \
 [ -n "$ndiff" ] && [ "$ndiff" -gt 0 ] || fail viewer_render_diff "render --diff counted '$ndiff'"
 spcases="$spcases{\"name\": \"viewer_side_by_side_diff\", \"file\": \"$SPENC\", \"file2\": \"lossy/lossy.ssvdag\", \"camera\": \"$T/sc2.json\", \"renderDiff\": ${ndiff:-0}},"
 spcases="$spcases{\"name\": \"viewer_side_by_side_same\", \"file\": \"$SPENC\", \"file2\": \"${SPENC%.ssvdag}.svdag\", \"camera\": \"$T/sc2.json\", \"renderDiff\": 0},"
+# no colours in the URL: the pipeline's compressed colours (auto), and
+# grey with the reason for a scene they do not cover (the bunny's)
+spcases="$spcases{\"name\": \"viewer_default_colours\", \"file\": \"$SPENC\", \"expectColours\": \"pack/colours.auto\"},"
+spcases="$spcases{\"name\": \"viewer_default_colours_grey\", \"file\": \"benc/bunny.svdag\", \"expectColours\": \"\", \"expectStatus\": \"in grey: colours .* cover [0-9]+ voxels, the scene has [0-9]+\"},"
 cat > "$T/spec-spider.json" <<EOF
 {"url": "$SPURL", "maxMismatch": 0.0005, "maxColourOff": 0.01, "cases": [$spcases
  {"name": "viewer_refuses_other_colours", "file": "$SPENC", "colours": "vox-bunny", "expectError": "colours"}]}

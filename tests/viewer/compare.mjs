@@ -9,7 +9,9 @@
 //           "png": "render.png" (optional: colours, with "colours"),
 //           "colours": "raw/colours.raw" (optional)},
 //          {"name", "file", "expectError": "regex"},
-//          {"name", "file", "query": "camera=...", "expectCamera": "cam.json"}]}
+//          {"name", "file", "query": "camera=...", "expectCamera": "cam.json"},
+//          {"name", "file", "expectColours": "dir/colours.auto" or "",
+//           "expectStatus": "regex" (optional)}]}
 // The page draws every voxel, as render does by default, unless a case's
 // "query" says lod=N (then render --lod N is the reference).
 // A case's "query" is added to the page's URL (what voxdag view
@@ -91,6 +93,17 @@ for (const c of spec.cases) {
       if (p.verdict === 'error' && new RegExp(c.expectError).test(p.error) && shown)
         pass(c.name);
       else fail(c.name, `verdict ${p.verdict}, error '${p.error}', shown '${shown}', expected /${c.expectError}/`);
+      continue;
+    }
+    if (c.expectColours !== undefined) {
+      // no colours in the URL: the page picks the pipeline's own, or
+      // falls back to grey saying why (expectStatus)
+      const p = await pageFor(c.file, null, 64, 48);
+      if (p.verdict !== 'ok') { fail(c.name, `page: ${p.verdict}: ${p.error}`); continue; }
+      const got = await p.page.evaluate(() => window.voxdag.stats().views[0].colours);
+      const shown = await p.page.$eval('#status', (e) => e.textContent);
+      if (got === c.expectColours && (!c.expectStatus || new RegExp(c.expectStatus).test(shown))) pass(c.name);
+      else fail(c.name, `colours '${got}', status '${shown}'; expected '${c.expectColours}'${c.expectStatus ? ' and /' + c.expectStatus + '/' : ''}`);
       continue;
     }
     if (c.expectCamera) {
