@@ -2,12 +2,12 @@
  * two integer types: RT for the axes and the per-triangle and per-row setup
  * (products of coordinates), ST for the state stepped from row to row and
  * column to column (quotients and remainders, which stay near the extent
- * in voxels and the divisors). tribox.c includes it four times: RT = ST =
+ * in voxels and the divisors). tribox.c includes it five times: RT = ST =
  * int64_t for small triangles, twice (once built for x86-64-v3, with
  * RN_VEC); RT = __int128, ST = int64_t for large ones whose stepping state
  * fits int64 (every triangle inside the cube at the depths that have large
- * triangles); RT = ST = __int128 for the rest (see the bounds in
- * tribox.c).
+ * triangles), twice likewise; RT = ST = __int128 for the rest (see the
+ * bounds in tribox.c).
  *
  * Define before including: RT, ST and RN(name) (a name suffix); RN_VEC
  * (ST = int64_t only, x86-64-v3) to step three states at once in a
