@@ -574,6 +574,18 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 	for (uint32_t b = 0; b < nb; b++) {
 		k->rgb = rgb + 3 * (size_t)b * bs;
 		k->n = b + 1 < nb ? bs : n - b * bs;
+		/* a block of one colour is the constant block whatever the
+		 * limit (no mode beats 0 bytes): found without the analysis,
+		 * as flat areas and edits' fills are most blocks */
+		uint32_t same = 1;
+		while (same < k->n && !memcmp(k->rgb + 3 * same, k->rgb, 3))
+			same++;
+		if (same == k->n) {
+			uint32_t e = VD_AUTO_CONST << 24 | packed(k->rgb);
+			s->dir[b] = e;
+			s->mode_blocks[0]++;
+			continue;
+		}
 		encode_block(k, bl);
 		uint32_t e = k->best_entry;
 		if (e >> 24 != VD_AUTO_CONST) {

@@ -20,6 +20,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* An edit reads the old colours still in the source of at most this many
+ * bytes of segments before rebuilding them, then the next batch: what an
+ * edit of the whole scene holds raw at once. */
+#define HD_COL_BATCH_BYTES (8ull << 20)
+
 /* ------------------------------------------------------------ cells */
 
 /* dir/name into buf; -1 when it does not fit. */
@@ -877,16 +882,11 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	return 1;
 }
 
-/* Whether every voxel of segment `code` after the edit takes op->rgb, so
- * the segment is constant blocks: a box fill with a colour or a box paint
- * whose region holds the segment's whole cube (a fill sets every voxel
- * of it, a paint colours every voxel it has). */
-static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
+/* 1 when op is a box whose region holds segment `code`'s whole cube. */
+static int cube_in_box(const struct vd_hashdag *h, const struct vd_edit_op *op,
 		       uint64_t code)
 {
-	if (op->shape != VD_SHAPE_BOX ||
-	    !(op->kind == VD_EDIT_PAINT ||
-	      (op->kind == VD_EDIT_FILL && op->has_rgb)))
+	if (op->shape != VD_SHAPE_BOX || op->kind == VD_EDIT_COPY)
 		return 0;
 	int sh = h->levels - h->col->S;
 	uint32_t xyz[3];
@@ -897,6 +897,71 @@ static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
 			return 0;
 	}
 	return 1;
+}
+
+/* The one colour every voxel of the segment after the edit takes, so
+ * that it is constant blocks without a walk of its voxels, or NULL: a
+ * box fill with a colour or a box paint whose region holds the segment's
+ * whole cube (a fill sets every voxel of it, a paint colours every voxel
+ * it has), or any fill of a segment that was empty (every voxel it has
+ * now is the fill's: its colour, or the fill colour). */
+static const uint8_t *seg_uniform(const struct vd_hashdag *h,
+				  const struct vd_edit_op *op,
+				  const struct sjob *jb)
+{
+	if (op->kind == VD_EDIT_FILL && jb->op == HD_EMPTY)
+		return op->has_rgb ? op->rgb : h->col->fill_rgb;
+	if ((op->kind == VD_EDIT_PAINT ||
+	     (op->kind == VD_EDIT_FILL && op->has_rgb)) &&
+	    cube_in_box(h, op, jb->code))
+		return op->rgb;
+	return NULL;
+}
+
+/* A box fill without a colour over the segment's whole cube: every voxel
+ * of the cube is set, the old ones keep their colours, the others take
+ * the fill colour. In Morton order the cube's voxels are its indices, so
+ * the old colours are put in place without a walk of the new voxels. */
+static int rebuild_full(struct cctx *x, struct sjob *jb)
+{
+	struct vd_hashdag *h = x->h;
+	struct hd_seg *old = jb->old;
+	int sh = 3 * (h->levels - h->col->S);
+	uint64_t n = 1ull << sh, base = jb->code << sh;
+	if (old && old->n == n) { /* full before: nothing changes */
+		seg_ref(old);
+		jb->out = old;
+		return VD_OK;
+	}
+	struct vlist ov = {0};
+	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
+	if (!err && ov.n != old->n)
+		err = vd_fail(VD_ERR_INTERNAL, "segment %llx: %llu voxels, %llu "
+			      "colours", (unsigned long long)jb->code,
+			      (unsigned long long)ov.n,
+			      (unsigned long long)old->n);
+	uint8_t *was = NULL, *rgb = NULL;
+	if (!err) {
+		was = jb->old_rgb ? jb->old_rgb : malloc(3 * ov.n + 1);
+		rgb = malloc(3 * n);
+		if (!was || !rgb)
+			err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
+		else if (!jb->old_rgb)
+			seg_decode(old, was);
+	}
+	if (!err) {
+		const uint8_t *f = h->col->fill_rgb;
+		for (uint64_t i = 0; i < n; i++)
+			memcpy(rgb + 3 * i, f, 3);
+		for (uint64_t j = 0; j < ov.n; j++)
+			memcpy(rgb + 3 * (ov.m[j] - base), was + 3 * j, 3);
+		err = seg_encode(h, rgb, n, &jb->out);
+	}
+	vl_free(&ov);
+	if (was != jb->old_rgb)
+		free(was);
+	free(rgb);
+	return err;
 }
 
 /* Voxels of `old` whose colour is not rgb: whole constant blocks at once,
@@ -944,9 +1009,10 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 	jb->changed = 0;
 	if (jb->np == HD_EMPTY)
 		return VD_OK;
-	if (seg_uniform(h, op, jb->code)) {
+	const uint8_t *u = seg_uniform(h, op, jb);
+	if (u) {
 		uint64_t n = hd_voxels_of(h, h->col->S, jb->np);
-		uint64_t ch = seg_count_not(old, jb->old_rgb, op->rgb);
+		uint64_t ch = seg_count_not(old, jb->old_rgb, u);
 		/* a full cube before and after, all of one colour already */
 		if (old && old->n == n && !ch) {
 			seg_ref(old);
@@ -954,8 +1020,10 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 			return VD_OK;
 		}
 		jb->changed = ch;
-		return seg_const(h, op->rgb, n, &jb->out);
+		return seg_const(h, u, n, &jb->out);
 	}
+	if (op->kind == VD_EDIT_FILL && cube_in_box(h, op, jb->code))
+		return rebuild_full(x, jb);
 	struct vlist ov = {0}, nv = {0};
 	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
 	if (!err)

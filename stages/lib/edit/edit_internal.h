@@ -50,9 +50,6 @@ struct hd_level {
  * parts of that many voxels end to end. */
 #define HD_COL_BLOCK_LOG 8
 #define HD_COL_PART_LOG 18 /* VD_CPACK_SEGMENT_MAX */
-/* An edit reads the old colours still in the source of at most this many
- * bytes of segments before rebuilding them (then the next batch). */
-#define HD_COL_BATCH_BYTES (64ull << 20)
 struct hd_seg {
 	uint64_t refs;
 	uint64_t n;           /* voxels */
