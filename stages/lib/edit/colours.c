@@ -826,9 +826,13 @@ int vd_hashdag_colour_stats(const struct vd_hashdag *h,
 /* A copy's source segments, decoded in the scene before the edit. */
 struct srcseg {
 	uint64_t code;
-	struct vlist v;
+	uint32_t p;               /* its node before the edit */
 	const struct hd_seg *col;
-	uint8_t *rgb;             /* col decoded once: a copy reads them all */
+	/* read for the batch of jobs that needs it (need), then dropped: a
+	 * large copy holds the sources of a batch, not all of them */
+	int need, loaded;
+	struct vlist v;
+	uint8_t *rgb;
 };
 
 /* One segment to rebuild. */
@@ -865,7 +869,8 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 		else
 			hi = mid;
 	}
-	if (lo == x->nsrc || x->src[lo].code != code || !x->src[lo].col)
+	if (lo == x->nsrc || x->src[lo].code != code || !x->src[lo].col ||
+	    !x->src[lo].loaded)
 		return 0;
 	const struct vlist *v = &x->src[lo].v;
 	uint64_t a = 0, b = v->n;
@@ -880,6 +885,77 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 		return 0;
 	memcpy(rgb, x->src[lo].rgb + 3 * a, 3);
 	return 1;
+}
+
+/* Marks the source segments the copy reads for destination segment
+ * `code` (its cube moved back by the copy's offset, within the copied
+ * box: at most 8 segments). Returns the bytes of the newly marked ones
+ * not read yet. */
+static uint64_t mark_sources(struct cctx *x, uint64_t code)
+{
+	const struct vd_hashdag *h = x->h;
+	const struct vd_edit_op *op = x->op;
+	int sh = h->levels - h->col->S;
+	uint32_t xyz[3];
+	vd_morton3_decode(code, &xyz[0], &xyz[1], &xyz[2]);
+	int64_t a[3], b[3];
+	for (int k = 0; k < 3; k++) {
+		int64_t d = op->dst[k] - op->lo[k];
+		int64_t lo = ((int64_t)xyz[k] << sh) - d;
+		int64_t hi = lo + (1ll << sh) - 1;
+		lo = lo < op->lo[k] ? op->lo[k] : lo;
+		hi = hi > op->hi[k] ? op->hi[k] : hi;
+		if (lo > hi)
+			return 0;
+		a[k] = lo >> sh;
+		b[k] = hi >> sh;
+	}
+	uint64_t bytes = 0;
+	for (int64_t i = a[0]; i <= b[0]; i++)
+		for (int64_t j = a[1]; j <= b[1]; j++)
+			for (int64_t k = a[2]; k <= b[2]; k++) {
+				uint64_t c = vd_morton3((uint32_t)i, (uint32_t)j,
+							(uint32_t)k);
+				size_t lo = 0, hi = x->nsrc;
+				while (lo < hi) {
+					size_t mid = (lo + hi) / 2;
+					if (x->src[mid].code < c)
+						lo = mid + 1;
+					else
+						hi = mid;
+				}
+				struct srcseg *g = &x->src[lo];
+				if (lo == x->nsrc || g->code != c || g->need)
+					continue;
+				g->need = 1;
+				if (!g->loaded && g->col)
+					bytes += 11 * g->col->n;
+			}
+	return bytes;
+}
+
+/* Reads a source segment the batch needs (its voxels and colours), or
+ * drops one it does not. */
+static int src_load(struct cctx *x, struct srcread *r, struct srcseg *g)
+{
+	if (!g->need || !g->col) {
+		if (g->loaded) {
+			vl_free(&g->v);
+			free(g->rgb);
+			g->rgb = NULL;
+			g->loaded = 0;
+		}
+		return VD_OK;
+	}
+	if (g->loaded)
+		return VD_OK;
+	int err = walk(x->h, x->h->col->S, g->p, g->code, &g->v);
+	if (!err && !(g->rgb = malloc(3 * g->col->n)))
+		err = vd_fail(VD_ERR_NOMEM, "copy sources");
+	if (!err)
+		err = seg_read(r, g->code, g->col, g->rgb);
+	g->loaded = !err;
+	return err;
 }
 
 /* 1 when op is a box whose region holds segment `code`'s whole cube. */
@@ -1280,16 +1356,8 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		for (uint64_t i = 0; i < ss.n && !err; i++) {
 			uint64_t cell = ss.code[i] >> 3 * (c->S - c->C);
 			x.src[x.nsrc].code = ss.code[i];
-			x.src[x.nsrc].col = seg_find(old[cell], ss.code[i]);
-			err = walk(h, c->S, ss.p[i], ss.code[i],
-				   &x.src[x.nsrc].v);
-			const struct hd_seg *g = x.src[x.nsrc].col;
-			if (!err && g && !(x.src[x.nsrc].rgb = malloc(3 * g->n)))
-				err = vd_fail(VD_ERR_NOMEM, "copy sources");
-			if (!err && g)
-				err = seg_read(&r, ss.code[i], g,
-					       x.src[x.nsrc].rgb);
-			x.nsrc++;
+			x.src[x.nsrc].p = ss.p[i];
+			x.src[x.nsrc++].col = seg_find(old[cell], ss.code[i]);
 		}
 		pl_free(&ss);
 	}
@@ -1310,9 +1378,13 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	 * decompressed once), at most HD_COL_BATCH_BYTES of them */
 	for (size_t b0 = 0, b1; b0 < segs.n && !err; b0 = b1) {
 		uint64_t bytes = 0;
+		for (size_t i = 0; i < x.nsrc; i++)
+			x.src[i].need = 0;
 		for (b1 = b0; b1 < segs.n && !err &&
 			      (b1 == b0 || bytes < HD_COL_BATCH_BYTES); b1++) {
 			struct sjob *j = &x.jobs[b1];
+			if (op->kind == VD_EDIT_COPY && j->np != HD_EMPTY)
+				bytes += mark_sources(&x, j->code);
 			if (!j->old || j->old->nparts || j->np == HD_EMPTY)
 				continue;
 			if (!(j->old_rgb = malloc(3 * j->old->n)))
@@ -1321,6 +1393,8 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 				err = seg_read(&r, j->code, j->old, j->old_rgb);
 			bytes += 3 * j->old->n;
 		}
+		for (size_t i = 0; i < x.nsrc && !err; i++)
+			err = src_load(&x, &r, &x.src[i]);
 		x.base = b0;
 		if (!err && vd_parallel_for(b1 - b0, h->o.threads, run_sjob, &x))
 			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
