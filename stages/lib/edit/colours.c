@@ -1499,31 +1499,93 @@ static int next_seg(void *ctx, const uint8_t **rgb, size_t *n)
 	return err;
 }
 
+/* The bricks of a cell passed to the SVO writer in batches: pass -1
+ * counts them, 0 gives the keys, 1 the keys and masks. */
+struct bstream {
+	struct vd_svo_writer *w;
+	int pass;
+	uint64_t count;
+	size_t k;
+	uint64_t key[1024], mask[1024];
+};
+
+static int bs_flush(struct bstream *b)
+{
+	int err = VD_OK;
+	if (b->pass == 0)
+		err = vd_svo_writer_keys(b->w, b->key, b->k);
+	else if (b->pass == 1)
+		err = vd_svo_writer_masks(b->w, b->key, b->mask, b->k);
+	b->k = 0;
+	return err;
+}
+
+/* Every brick (key at level L-2, mask) of the subtree of p, in order. */
+static int walk_bricks(const struct vd_hashdag *h, int l, uint32_t p,
+		       uint64_t key, struct bstream *b)
+{
+	if (p == HD_EMPTY)
+		return VD_OK;
+	if (l == h->levels - 2) {
+		b->count++;
+		if (b->pass < 0)
+			return VD_OK;
+		b->key[b->k] = key;
+		b->mask[b->k++] = hd_brick(h, p);
+		return b->k == 1024 ? bs_flush(b) : VD_OK;
+	}
+	for (int c = 0; c < 8; c++) {
+		int err = walk_bricks(h, l + 1, hd_child(h, l, p, c),
+				      key << 3 | (uint64_t)c, b);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+/* A cell's SVO chunk and colour chunk, streamed: its bricks walked in
+ * the DAG three times (count, keys, masks) and its colours a segment at
+ * a time, so saving a cell holds neither its bricks nor its colours. */
 static int write_cell(const struct vd_hashdag *h, struct srcread *r,
 		      uint64_t ci, const struct hd_cellcol *cell,
 		      const char *dir, const char *svo_name,
 		      const char *col_name, const char *provenance)
 {
-	struct vlist v = {.bricks = 1};
 	char path[4096];
 	struct segstream w = {.r = r, .cell = cell};
-	int err = walk(h, h->col->C, cell_ptr(h, h->roots[h->cur], ci), ci, &v);
-	struct vd_svo s = {.levels = h->levels, .chunk_level = h->col->C,
-			   .cell_morton = ci, .count = v.n, .keys = v.m,
-			   .masks = v.mask};
-	struct vd_chunk_header sh;
+	struct bstream *b = calloc(1, sizeof *b);
+	if (!b)
+		return vd_fail(VD_ERR_NOMEM, "bricks of a cell");
+	uint32_t cp = cell_ptr(h, h->roots[h->cur], ci);
+	int C = h->col->C;
+	b->pass = -1;
+	int err = walk_bricks(h, C, cp, ci, b);
+	uint64_t digest = 0;
 	if (!err && join(path, sizeof path, dir, svo_name))
 		err = vd_fail(VD_ERR_ARG, "directory name too long");
 	if (!err)
-		err = vd_svo_save(&s, &h->t, path, provenance);
+		err = vd_svo_writer_open(&b->w, path, h->levels, C, ci, &h->t,
+					 provenance, b->count);
+	for (int pass = 0; pass < 2 && !err; pass++) {
+		b->pass = pass;
+		b->k = 0;
+		err = walk_bricks(h, C, cp, ci, b);
+		if (!err && b->k)
+			err = bs_flush(b);
+	}
+	if (!err)
+		err = vd_svo_writer_commit(b->w, &digest);
+	else
+		vd_svo_writer_abort(b->w);
+	free(b);
+	struct vd_chunk_header sh;
 	if (!err)
 		err = vd_chunk_read_header(path, &sh);
 	if (!err && join(path, sizeof path, dir, col_name))
 		err = vd_fail(VD_ERR_ARG, "directory name too long");
 	if (!err)
-		err = vd_colours_write(path, &sh, vd_svo_digest(v.m, v.mask, v.n),
-				       cell->n, next_seg, &w, provenance);
-	vl_free(&v);
+		err = vd_colours_write(path, &sh, digest, cell->n, next_seg, &w,
+				       provenance);
 	free(w.buf);
 	return err;
 }
