@@ -614,6 +614,14 @@ void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
 	vd_auto_decode(e, s->data + (e & 0xffffff), n, j - first, rgb);
 }
 
+void vd_auto_block_decode(uint32_t entry, const uint8_t *data, uint32_t n,
+			  uint8_t *rgb)
+{
+	const uint8_t *d = data + (entry & 0xffffff);
+	for (uint32_t k = 0; k < n; k++)
+		vd_auto_decode(entry, d, n, k, rgb + 3 * k);
+}
+
 void vd_auto_segment_release(struct vd_auto_segment *s)
 {
 	free(s->dir);

@@ -9,9 +9,6 @@
  * per cell) whose unchanged cells are links to the source's files. */
 #include "edit_internal.h"
 #include "util_internal.h"
-/* the auto codec's block decoder, inline, so a colour read here costs
- * what it costs the packed-file reader */
-#include "colour/colour_internal.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -202,9 +199,8 @@ static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
 					memcpy(rgb, c, 3);
 				continue;
 			}
-			for (uint32_t k = 0; k < len; k++, rgb += 3)
-				vd_auto_decode(e, a->data + (e & 0xffffff),
-					       len, k, rgb);
+			vd_auto_block_decode(e, a->data, len, rgb);
+			rgb += 3 * len;
 		}
 	}
 }
@@ -1061,12 +1057,10 @@ static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t *old_rgb,
 				ch += (e & 0xffffff) != want ? len : 0;
 				continue;
 			}
-			for (uint32_t k = 0; k < len; k++) {
-				uint8_t c[3];
-				vd_auto_decode(e, a->data + (e & 0xffffff), len,
-					       k, c);
-				ch += memcmp(c, rgb, 3) != 0;
-			}
+			uint8_t c[3 << HD_COL_BLOCK_LOG];
+			vd_auto_block_decode(e, a->data, len, c);
+			for (uint32_t k = 0; k < len; k++)
+				ch += memcmp(c + 3 * k, rgb, 3) != 0;
 		}
 	}
 	return ch;
