@@ -49,6 +49,11 @@ struct vd_hashdag_opts {
 				  2^this, so an edit rebuilds the segments
 				  it meets only (0: 6; clamped to the cell
 				  and brick sides) */
+	uint64_t colour_batch_bytes; /* with colours: an edit reads the old
+				  colours still in the source and a copy
+				  its source segments for batches of
+				  segments holding about this many bytes
+				  at once (0: 8 MiB); for tests */
 };
 
 enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,

@@ -252,8 +252,13 @@ static void random_op(struct vd_edit_op *op, int L)
 	}
 }
 
+/* src: 0 the voxelize directory, 1 a lossless auto file of colorize
+ * (the colours read from it on demand); batch: colour_batch_bytes (1:
+ * each segment its own batch, so a copy reads and drops its sources
+ * between every two destination segments). */
 static void random_colours(const char *mesh, int L, int L0, int nops,
-			   uint64_t seed, int threads, int seg_log2)
+			   uint64_t seed, int threads, int seg_log2, int src,
+			   uint64_t batch)
 {
 	char dir[512], out[600];
 	snprintf(dir, sizeof dir, "%s/src", test_tmpdir("test_edit_colour"));
@@ -267,12 +272,23 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 	r0.v = malloc((size_t)(r.n * r.n * r.n) * 4);
 	memcpy(r0.v, r.v, (size_t)(r.n * r.n * r.n) * 4);
 	struct vd_hashdag_opts o = {.threads = threads,
-				    .colour_segment_log2 = seg_log2};
+				    .colour_segment_log2 = seg_log2,
+				    .colour_batch_bytes = batch};
 	struct vd_hashdag *h = NULL;
 	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, &o), VD_OK);
 	if (!h)
 		return;
-	CHECK_EQ(vd_hashdag_colours_open(h, dir, NULL), VD_OK);
+	char pack[700], packfile[800];
+	snprintf(pack, sizeof pack, "%s.pack", dir);
+	snprintf(packfile, sizeof packfile, "%s/colours.auto", pack);
+	if (src) {
+		struct vd_colorize_job cj = {.indir = dir, .outdir = pack,
+					     .methods = 1 << VD_CPACK_AUTO,
+					     .threads = 2, .quiet = 1,
+					     .provenance = "test"};
+		CHECK_EQ(vd_colorize_run(&cj), VD_OK);
+	}
+	CHECK_EQ(vd_hashdag_colours_open(h, src ? packfile : dir, NULL), VD_OK);
 	CHECK_EQ(differ_h(h, &r), 0);
 	test_rng = seed;
 	uint64_t painted = 0;
@@ -336,7 +352,8 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 
 static void test_spider_random(void)
 {
-	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2, 0);
+	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2, 0,
+		       0, 0);
 }
 
 /* Cells cut into many segments (bricks, then 8-cubes): edits meet a few
@@ -344,13 +361,29 @@ static void test_spider_random(void)
  * kept ones, drop segments they empty and insert the ones they fill. */
 static void test_segments_random(void)
 {
-	random_colours("tests/data/spider/spider.obj", 7, 1, 150, 4242, 2, 2);
-	random_colours("tests/data/textured/scene.obj", 7, 2, 120, 77, 1, 3);
+	random_colours("tests/data/spider/spider.obj", 7, 1, 150, 4242, 2, 2,
+		       0, 0);
+	random_colours("tests/data/textured/scene.obj", 7, 2, 120, 77, 1, 3,
+		       0, 0);
 }
 
 static void test_textured_random(void)
 {
-	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0);
+	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0,
+		       0, 0);
+}
+
+/* The colours read from a packed file of colorize rather than the colour
+ * chunks, and edits cut into batches of one segment (copies reading and
+ * dropping their sources between destination segments). */
+static void test_sources_and_batches(void)
+{
+	random_colours("tests/data/spider/spider.obj", 7, 2, 120, 5150, 2, 3,
+		       1, 0);
+	random_colours("tests/data/spider/spider.obj", 7, 2, 120, 8086, 2, 3,
+		       0, 1);
+	random_colours("tests/data/textured/scene.obj", 7, 1, 100, 6502, 1, 2,
+		       1, 1);
 }
 
 /* Non-constant blocks of the current scene's colours. */
@@ -579,6 +612,7 @@ int main(void)
 	RUN(test_spider_random);
 	RUN(test_textured_random);
 	RUN(test_segments_random);
+	RUN(test_sources_and_batches);
 	RUN(test_budget);
 	RUN(test_uniform_fill_blocks);
 	return CHECK_DONE();

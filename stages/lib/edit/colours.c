@@ -1370,12 +1370,14 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	/* the jobs in batches, each with the colours of its old segments
 	 * still in the source read first, in cell order (a cell's chunk is
 	 * decompressed once), at most HD_COL_BATCH_BYTES of them */
+	uint64_t batch = h->o.colour_batch_bytes ? h->o.colour_batch_bytes
+						 : HD_COL_BATCH_BYTES;
 	for (size_t b0 = 0, b1; b0 < segs.n && !err; b0 = b1) {
 		uint64_t bytes = 0;
 		for (size_t i = 0; i < x.nsrc; i++)
 			x.src[i].need = 0;
 		for (b1 = b0; b1 < segs.n && !err &&
-			      (b1 == b0 || bytes < HD_COL_BATCH_BYTES); b1++) {
+			      (b1 == b0 || bytes < batch); b1++) {
 			struct sjob *j = &x.jobs[b1];
 			if (op->kind == VD_EDIT_COPY && j->np != HD_EMPTY)
 				bytes += mark_sources(&x, j->code);
