@@ -548,6 +548,33 @@ static void test_reuse_and_refusals(void)
 	CHECK(linked >= 1);
 	CHECK_EQ(wrong, 0);
 	vd_hashdag_free(h);
+	/* a load reads the colour chunks' headers only; the bricks beside a
+	 * chunk are checked when its colours are first read: here the painted
+	 * cell's SVO chunk is another cell's, so the paint fails, one clear
+	 * error, and the scene keeps its colours */
+	char bad[700], cmd[4096], name[64], other[64];
+	snprintf(bad, sizeof bad, "%s.bad", dir);
+	uint64_t pc = vd_morton3((uint32_t)(v0 / (r.n * r.n) >> shift),
+				 (uint32_t)(v0 / r.n % r.n >> shift),
+				 (uint32_t)(v0 % r.n >> shift));
+	vd_chunk_file_name(name, sizeof name, L0, pc, "svo");
+	other[0] = 0;
+	for (uint64_t cell = 0; cell < 1ull << 3 * L0 && !other[0]; cell++) {
+		char path[1024];
+		vd_chunk_file_name(other, sizeof other, L0, cell, "svo");
+		snprintf(path, sizeof path, "%s/%s", dir, other);
+		if (cell == pc || access(path, R_OK))
+			other[0] = 0;
+	}
+	snprintf(cmd, sizeof cmd, "rm -rf '%s' && cp -r '%s' '%s' && cp '%s/%s' "
+		 "'%s/%s'", bad, dir, bad, dir, other, bad, name);
+	CHECK(other[0] && system(cmd) == 0);
+	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, NULL), VD_OK);
+	CHECK_EQ(vd_hashdag_colours_open(h, bad, NULL), VD_OK);
+	CHECK_EQ(vd_hashdag_apply(h, &op, NULL), VD_ERR_MISMATCH);
+	CHECK(strstr(vd_error_detail(), "bricks of cell") != NULL);
+	CHECK_EQ(vd_hashdag_undo(h), VD_ERR_RANGE); /* no root was pushed */
+	vd_hashdag_free(h);
 	vd_dag_release(&d0);
 	free(r.v);
 }

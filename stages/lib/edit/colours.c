@@ -337,16 +337,27 @@ static int sr_get(struct srcread *r, uint64_t ci, uint64_t at, uint64_t n,
 		    (int)sizeof path)
 			return vd_fail(VD_ERR_ARG, "directory name too long");
 		struct vd_colours col;
-		struct vd_chunk_header hd;
+		struct vd_chunk_header hd, sh;
+		struct vd_svo svo;
 		int err = vd_colours_load(&col, &hd, path);
-		if (!err && (hd.cell_morton != ci || hd.chunk_level != (uint32_t)c->C ||
-			     col.voxels != want)) {
+		/* the bricks beside them must be the ones coloured */
+		size_t len = strlen(path);
+		memcpy(path + len - 3, "svo", 3);
+		if (!err && !(err = vd_svo_load(&svo, &sh, path))) {
+			err = vd_colours_match(&hd, &col, &sh, &svo);
+			vd_svo_release(&svo);
+		}
+		memcpy(path + len - 3, "col", 3);
+		if (err)
 			vd_colours_release(&col);
+		else if (hd.cell_morton != ci || hd.chunk_level != (uint32_t)c->C ||
+			 col.voxels != want) {
 			err = vd_fail(VD_ERR_MISMATCH, "not the colours loaded "
 				      "(%llu colours, %llu when loaded): was "
 				      "it replaced?",
 				      (unsigned long long)col.voxels,
 				      (unsigned long long)want);
+			vd_colours_release(&col);
 		}
 		if (err)
 			return vd_fail(err, "'%s': %s", path, vd_error_detail());
@@ -574,13 +585,78 @@ static int dir_cells(const char *dir, int *C, uint64_t *count)
 	return err;
 }
 
-/* Cell ci's colour chunk in the source directory belongs to the scene:
- * its depth, cell and grid, `n` colours, and the digest of the bricks it
- * was written for equal to the scene's bricks of the cell (the check
- * voxelize's SVO chunk beside it would give, made against the scene
- * itself). Only the chunk's header and digest are read: its colours stay
- * on disk until an edit needs them. `first` is the first cell's header
- * (set when *have_first is 0). */
+/* Voxels below the nodes of levels S .. L-3, memoized per node (a hash
+ * per level): the segments' counts at load visit each distinct node of
+ * the DAG once rather than every brick of the scene. */
+struct vmemo {
+	uint32_t *key;            /* node + 1, 0: free */
+	uint64_t *val;
+	uint64_t cap, used;
+};
+
+static uint64_t memo_slot(uint32_t key, uint64_t cap)
+{
+	return (key * 0x9e3779b97f4a7c15ull >> 29) & (cap - 1);
+}
+
+static uint64_t memo_voxels(const struct vd_hashdag *h, struct vmemo *m,
+			    int l, uint32_t p, int *err)
+{
+	if (p == HD_EMPTY || *err)
+		return 0;
+	if (p == h->lv[l].full)
+		return 1ull << 3 * (h->levels - l);
+	if (l == h->levels - 2)
+		return (uint64_t)__builtin_popcountll(hd_brick(h, p));
+	struct vmemo *t = &m[l];
+	if (2 * (t->used + 1) > t->cap) {
+		uint64_t cap = t->cap ? 2 * t->cap : 1024;
+		uint32_t *k = calloc(cap, sizeof *k);
+		uint64_t *v = malloc(cap * sizeof *v);
+		if (!k || !v) {
+			free(k);
+			free(v);
+			*err = vd_fail(VD_ERR_NOMEM, "voxel counts");
+			return 0;
+		}
+		for (uint64_t i = 0; i < t->cap; i++) {
+			if (!t->key[i])
+				continue;
+			uint64_t j = memo_slot(t->key[i], cap);
+			while (k[j])
+				j = (j + 1) & (cap - 1);
+			k[j] = t->key[i];
+			v[j] = t->val[i];
+		}
+		free(t->key);
+		free(t->val);
+		t->key = k;
+		t->val = v;
+		t->cap = cap;
+	}
+	uint64_t j = memo_slot(p + 1, t->cap);
+	while (t->key[j] && t->key[j] != p + 1)
+		j = (j + 1) & (t->cap - 1);
+	if (t->key[j])
+		return t->val[j];
+	uint64_t n = 0;
+	for (int c = 0; c < 8; c++)
+		n += memo_voxels(h, m, l + 1, hd_child(h, l, p, c), err);
+	/* slot j still holds: the children are on deeper levels, whose
+	 * tables are others */
+	t->key[j] = p + 1;
+	t->val[j] = n;
+	t->used++;
+	return n;
+}
+
+/* Cell ci's colour chunk in the source directory is whole (its
+ * checksums) and belongs to the scene: its depth, cell and grid, and `n`
+ * colours, the scene's voxels in the cell. Its colours stay compressed
+ * on disk until an edit needs them; then they are checked against the
+ * bricks of the SVO chunk beside them (sr_get), as a load checked them
+ * before. `first` is the first cell's header (set when *have_first is
+ * 0). */
 static int check_chunk(const struct vd_hashdag *h, uint64_t ci, uint64_t n,
 		       struct vd_chunk_header *first, int *have_first)
 {
@@ -595,8 +671,6 @@ static int check_chunk(const struct vd_hashdag *h, uint64_t ci, uint64_t n,
 		return vd_fail(err, "'%s': %s", path, vd_error_detail());
 	const struct vd_chunk_header *hd = vd_chunk_header(ch);
 	uint64_t cn = hd->level_count ? hd->level_nodes[hd->level_count - 1] : 0;
-	void *dig = NULL;
-	size_t dsize = 0;
 	if (hd->levels != (uint32_t)h->levels || hd->cell_morton != ci)
 		err = vd_fail(VD_ERR_MISMATCH, "colours of a cell of another "
 			      "grid or place");
@@ -608,28 +682,11 @@ static int check_chunk(const struct vd_hashdag *h, uint64_t ci, uint64_t n,
 						    &first->transform))
 		err = vd_fail(VD_ERR_MISMATCH, "placed in another grid than "
 			      "the other cells");
-	else if (!(err = vd_chunk_read_section(ch, VD_TAG_BDIG, &dig, &dsize)) &&
-		 dsize != 8)
-		err = vd_fail(VD_ERR_CORRUPT, "brick digest of %zu bytes", dsize);
 	if (!err && !*have_first) {
 		*first = *hd;
 		*have_first = 1;
 	}
 	vd_chunk_free(ch);
-	struct vlist v = {.bricks = 1};
-	if (!err)
-		err = walk(h, c->C, cell_ptr(h, h->roots[h->cur], ci), ci, &v);
-	if (!err) {
-		const uint8_t *d = dig;
-		uint64_t want = 0;
-		for (int k = 7; k >= 0; k--)
-			want = want << 8 | d[k];
-		if (vd_svo_digest(v.m, v.mask, v.n) != want)
-			err = vd_fail(VD_ERR_MISMATCH, "colours written for other "
-				      "bricks (brick digest differs)");
-	}
-	vl_free(&v);
-	free(dig);
 	if (err)
 		return vd_fail(err, "'%s': %s", path, vd_error_detail());
 	return VD_OK;
@@ -705,6 +762,7 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 	struct plist segs = {0};
 	struct vd_chunk_header first;
 	int have_first = 0;
+	struct vmemo memo[VD_MAX_LEVELS] = {{0}};
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
@@ -719,7 +777,7 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 			break;
 		struct hd_cellcol *t = tab[ci];
 		for (uint64_t i = 0; i < segs.n && !err; i++) {
-			uint64_t n = hd_voxels_of(h, c->S, segs.p[i]);
+			uint64_t n = memo_voxels(h, memo, c->S, segs.p[i], &err);
 			t->s[t->nseg].code = segs.code[i];
 			err = seg_source(h, t->n, n, &t->s[t->nseg].seg);
 			if (!err)
@@ -736,7 +794,7 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 			err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours, "
 				      "fewer than the scene's voxels", src,
 				      (unsigned long long)src_voxels);
-		if (c->src_dir)
+		if (!err && c->src_dir)
 			err = check_chunk(h, ci, t->n, &first, &have_first);
 		if (err)
 			break;
@@ -744,6 +802,10 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 		c->input[ci] = t;
 	}
 	pl_free(&segs);
+	for (int l = 0; l < VD_MAX_LEVELS; l++) {
+		free(memo[l].key);
+		free(memo[l].val);
+	}
 	if (!err && !c->src_dir && at != src_voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
