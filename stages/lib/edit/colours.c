@@ -1655,6 +1655,14 @@ int vd_hashdag_colours_stage(const struct vd_hashdag *h, const char *dir,
 	if (!h->col)
 		return vd_fail(VD_ERR_UNSUPPORTED, "the scene has no colours");
 	const struct hd_colours *c = h->col;
+	/* the source is read while the scene's colours are in it, and its
+	 * files are linked into the output: the output cannot replace it */
+	struct stat a, b;
+	if (c->src_dir && !stat(c->src_dir, &a) && !stat(dir, &b) &&
+	    a.st_dev == b.st_dev && a.st_ino == b.st_ino)
+		return vd_fail(VD_ERR_ARG, "'%s' is the colour source, read "
+			       "while editing: write the colours elsewhere",
+			       dir);
 	int err = vd_dir_stage(dir, NULL, staging, cap);
 	if (err)
 		return err;
