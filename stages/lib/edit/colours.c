@@ -6,7 +6,12 @@
  * cell is shared, by reference, with the previous root of the history. Undo
  * and redo switch tables; gc drops the tables of the roots it drops. The
  * colours are saved as a voxelize-style directory (SVO and colour chunk
- * per cell) whose unchanged cells are links to the source's files. */
+ * per cell) whose unchanged cells are links to the source's files.
+ *
+ * A segment no edit wrote is only its place in the source, read on
+ * demand (a load neither decodes nor encodes colours); one an edit wrote
+ * is lossless auto blocks. Reading, rebuilding and saving go segment by
+ * segment, in batches: no step holds a cell's colours or bricks whole. */
 #include "edit_internal.h"
 #include "util_internal.h"
 
