@@ -341,11 +341,30 @@ static int sr_get(struct srcread *r, uint64_t ci, uint64_t at, uint64_t n,
 		if (snprintf(path, sizeof path, "%s/%s", c->src_dir, name) >=
 		    (int)sizeof path)
 			return vd_fail(VD_ERR_ARG, "directory name too long");
-		struct vd_colours col;
+		/* the bricks beside the colours must be the ones coloured:
+		 * checked from the chunk's digest and count before its colours
+		 * are decompressed, so the cell's bricks and its colours are
+		 * never held together */
+		struct vd_chunk *ch = NULL;
+		struct vd_colours col = {0};
 		struct vd_chunk_header hd, sh;
 		struct vd_svo svo;
-		int err = vd_colours_load(&col, &hd, path);
-		/* the bricks beside them must be the ones coloured */
+		void *dig = NULL;
+		size_t dsize = 0;
+		int err = vd_chunk_open(&ch, path, VD_KIND_COLOURS);
+		if (!err) {
+			hd = *vd_chunk_header(ch);
+			col.voxels = hd.level_count ?
+				     hd.level_nodes[hd.level_count - 1] : 0;
+			err = vd_chunk_read_section(ch, VD_TAG_BDIG, &dig, &dsize);
+		}
+		if (!err && dsize != 8)
+			err = vd_fail(VD_ERR_CORRUPT, "brick digest of %zu bytes",
+				      dsize);
+		for (int k = 7; !err && k >= 0; k--)
+			col.svo_digest = col.svo_digest << 8 |
+					 ((const uint8_t *)dig)[k];
+		free(dig);
 		size_t len = strlen(path);
 		memcpy(path + len - 3, "svo", 3);
 		if (!err && !(err = vd_svo_load(&svo, &sh, path))) {
@@ -353,17 +372,16 @@ static int sr_get(struct srcread *r, uint64_t ci, uint64_t at, uint64_t n,
 			vd_svo_release(&svo);
 		}
 		memcpy(path + len - 3, "col", 3);
-		if (err)
-			vd_colours_release(&col);
-		else if (hd.cell_morton != ci || hd.chunk_level != (uint32_t)c->C ||
-			 col.voxels != want) {
+		if (!err && (hd.cell_morton != ci ||
+			     hd.chunk_level != (uint32_t)c->C || col.voxels != want))
 			err = vd_fail(VD_ERR_MISMATCH, "not the colours loaded "
 				      "(%llu colours, %llu when loaded): was "
 				      "it replaced?",
 				      (unsigned long long)col.voxels,
 				      (unsigned long long)want);
-			vd_colours_release(&col);
-		}
+		if (!err)
+			err = vd_colours_from_chunk(&col, ch);
+		vd_chunk_free(ch);
 		if (err)
 			return vd_fail(err, "'%s': %s", path, vd_error_detail());
 		r->ci = ci;
