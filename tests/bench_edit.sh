@@ -14,9 +14,10 @@
 # scene is built once per depth and kept in out/bench-edit/.
 #   tests/bench_edit.sh [SCENE LEVELS]...   (default: dragon 12, dragon 14)
 #   SCENE is a file of the shared data folder, or a path (with a '/');
-#   VOXDAG_BENCH_MODES="plain" skips the coloured runs (edit holds the
-#   colours raw, 3 bytes a voxel: the 777 at 2^16, 3.5 G voxels, peaks at
-#   20 GB with them, 1.07 GB without), e.g.
+#   VOXDAG_BENCH_MODES="plain" skips the coloured runs (when edit held
+#   the colours raw, 3 bytes a voxel, the 777 at 2^16, 3.5 G voxels,
+#   peaked at 20 GB with them, 1.07 GB without; now colours no edit wrote
+#   stay in the source), e.g.
 #     VOXDAG_BENCH_MODES=plain tests/bench_edit.sh \
 #         out/data/boeing777/77L.ac 16
 #   VOXDAG_BENCH_BIN=DIR takes the tools from DIR (default out/bin), to

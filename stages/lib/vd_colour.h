@@ -178,6 +178,16 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 /* Colour j (< n) of an encoded segment (the reader's decode). */
 void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
 			    uint32_t j, uint8_t rgb[3]);
+/* Readable bytes the decoder needs past a segment's last block (it reads
+ * bit fields 4 bytes at a time); vd_auto_encode leaves them zero. */
+#define VD_AUTO_PAD 8
+/* The n colours of one block into rgb (3n bytes): `entry` its directory
+ * entry (dir[b]), `data` the bytes of its segment (its blocks from offset
+ * 0, with VD_AUTO_PAD readable bytes after the last), n its length (the
+ * block length, or what is left of the segment for its last block).
+ * Blocks decode alone: an editor decodes the blocks it changes. */
+void vd_auto_block_decode(uint32_t entry, const uint8_t *data, uint32_t n,
+			  uint8_t *rgb);
 void vd_auto_segment_release(struct vd_auto_segment *s);
 
 /* Palette baseline. A histogram of 24-bit colours (2^24 u32 counts,

@@ -49,6 +49,11 @@ struct vd_hashdag_opts {
 				  2^this, so an edit rebuilds the segments
 				  it meets only (0: 6; clamped to the cell
 				  and brick sides) */
+	uint64_t colour_batch_bytes; /* with colours: an edit reads the old
+				  colours still in the source and a copy
+				  its source segments for batches of
+				  segments holding about this many bytes
+				  at once (0: 8 MiB); for tests */
 };
 
 enum vd_edit_kind { VD_EDIT_FILL, VD_EDIT_CARVE, VD_EDIT_COPY,
@@ -163,12 +168,15 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 			    uint64_t *voxels);
 /* How the current scene's colours are held: voxels, segments, the bytes
  * of their compressed blocks as charged against the memory budget (each
- * segment counted once per cell of the scene holding it), and blocks per
- * mode of the auto codec (enum vd_auto_mode >> 4). VD_ERR_UNSUPPORTED
- * without colours. */
+ * segment counted once per cell of the scene holding it), blocks per
+ * mode of the auto codec (enum vd_auto_mode >> 4) of the segments edits
+ * wrote, and the voxels of the segments no edit wrote, whose colours are
+ * still only in the source (read on demand, no blocks, no bytes).
+ * VD_ERR_UNSUPPORTED without colours. */
 struct vd_hashdag_colour_stats {
 	uint64_t voxels, segments, bytes;
 	uint64_t mode_blocks[5];
+	uint64_t source_voxels;
 };
 int vd_hashdag_colour_stats(const struct vd_hashdag *h,
 			    struct vd_hashdag_colour_stats *st);

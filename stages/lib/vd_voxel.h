@@ -48,6 +48,27 @@ void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts);
 int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 		const char *path, const char *provenance);
 
+/* Writing an SVO chunk without holding the cell's bricks (edit writes
+ * cells it holds as a DAG): open with the number of bricks `n`, give the
+ * n keys in increasing order (vd_svo_writer_keys, any number of calls),
+ * then the same bricks again with their masks (vd_svo_writer_masks), then
+ * commit. The file is byte for byte what vd_svo_save writes for the same
+ * bricks. Keys out of order, bricks missing or extra, an empty mask:
+ * VD_ERR_ARG. Commit publishes the file (atomic, as vd_svo_save), puts
+ * the bricks' vd_svo_digest() in *digest (may be NULL) and frees w either
+ * way; abort drops an unfinished one (accepts NULL). */
+struct vd_svo_writer;
+int vd_svo_writer_open(struct vd_svo_writer **w, const char *path,
+		       int levels, int chunk_level, uint64_t cell_morton,
+		       const struct vd_transform *t, const char *provenance,
+		       uint64_t n);
+int vd_svo_writer_keys(struct vd_svo_writer *w, const uint64_t *keys,
+		       size_t m);
+int vd_svo_writer_masks(struct vd_svo_writer *w, const uint64_t *keys,
+			const uint64_t *masks, size_t m);
+int vd_svo_writer_commit(struct vd_svo_writer *w, uint64_t *digest);
+void vd_svo_writer_abort(struct vd_svo_writer *w);
+
 void vd_svo_release(struct vd_svo *svo);
 
 /* ---------------------------------------------------- triangle/box overlap

@@ -167,6 +167,12 @@ expect colours-replace 0 '' "$BIN/edit" "$T/c.dag" --colours "$T/cv" -o "$T/ce.d
 "$BIN/render" "$T/ce.dag" -o "$T/ce2.png" -s 160x120 -c iso -q -C "$T/ce"
 cmp -s "$T/c.png" "$T/ce2.png" && ! ls "$T" | grep -q '\.tmp\.' && pass colours-replaced ||
 	fail colours-replaced "$(ls "$T")"
+# the colour source is read while editing: the output cannot replace it
+cp -r "$T/cv" "$T/cvsame"
+expect colours-out-is-source 1 "is the colour source" "$BIN/edit" "$T/c.dag" \
+	--colours "$T/cvsame" -o "$T/same.dag" --colours-out "$T/cvsame" --script "$T/paint.txt" -q
+[ ! -e "$T/same.dag" ] && diff -r "$T/cv" "$T/cvsame" >/dev/null && pass colours-out-is-source-untouched ||
+	fail colours-out-is-source-untouched
 bad mem-budget 'needs .* bytes \(bucket tables\).*--mem-budget of 65536' 'fill box 0 0 0 3 3 3' --mem-budget 64K
 
 head -c 3000 "$T/b.dag" >"$T/trunc.dag"

@@ -202,6 +202,64 @@ static void test_svo_round_trip(void)
 	CHECK(access(tmp, F_OK) != 0);
 }
 
+/* The streaming SVO writer gives vd_svo_save's bytes (keys and masks in
+ * uneven batches) and the bricks' digest; keys out of order, too few or
+ * too many bricks and an empty mask are refused and leave no file. */
+static void test_svo_writer_stream(void)
+{
+	char a[600], b[600];
+	snprintf(a, sizeof a, "%s/svo.chk", dir);
+	snprintf(b, sizeof b, "%s/svo-stream.chk", dir);
+	write_sample_svo(a);
+	struct vd_svo s;
+	CHECK_EQ(vd_svo_load(&s, NULL, a), VD_OK);
+	struct vd_transform t = {.voxel_size = 1, .root_side = 64};
+	struct vd_svo_writer *w;
+	CHECK_EQ(vd_svo_writer_open(&w, b, 6, 1, 3, &t, "tool=test", s.count),
+		 VD_OK);
+	for (size_t i = 0; i < s.count; i += 7)
+		CHECK_EQ(vd_svo_writer_keys(w, s.keys + i,
+					    s.count - i < 7 ? s.count - i : 7),
+			 VD_OK);
+	for (size_t i = 0; i < s.count; i += 100)
+		CHECK_EQ(vd_svo_writer_masks(w, s.keys + i, s.masks + i,
+					     s.count - i < 100 ? s.count - i : 100),
+			 VD_OK);
+	uint64_t dig = 0;
+	CHECK_EQ(vd_svo_writer_commit(w, &dig), VD_OK);
+	CHECK_EQ(dig, vd_svo_digest(s.keys, s.masks, s.count));
+	size_t na, nb;
+	char *x = test_slurp(a, &na), *y = test_slurp(b, &nb);
+	CHECK(x && y && na == nb && !memcmp(x, y, na));
+	free(x);
+	free(y);
+	/* refusals */
+	unlink(b);
+	CHECK_EQ(vd_svo_writer_open(&w, b, 6, 1, 3, &t, NULL, 2), VD_OK);
+	uint64_t k2[2] = {s.keys[1], s.keys[0]};
+	CHECK_EQ(vd_svo_writer_keys(w, k2, 2), VD_ERR_ARG);
+	vd_svo_writer_abort(w);
+	CHECK_EQ(vd_svo_writer_open(&w, b, 6, 1, 3, &t, NULL, 2), VD_OK);
+	CHECK_EQ(vd_svo_writer_keys(w, s.keys, 3), VD_ERR_ARG); /* extra */
+	CHECK_EQ(vd_svo_writer_keys(w, s.keys, 1), VD_OK);
+	CHECK_EQ(vd_svo_writer_masks(w, s.keys, s.masks, 1), VD_ERR_ARG);
+	vd_svo_writer_abort(w);
+	CHECK_EQ(vd_svo_writer_open(&w, b, 6, 1, 3, &t, NULL, 2), VD_OK);
+	uint64_t zero[2] = {0, 0};
+	CHECK_EQ(vd_svo_writer_keys(w, s.keys, 2), VD_OK);
+	CHECK_EQ(vd_svo_writer_masks(w, s.keys, zero, 2), VD_ERR_ARG);
+	vd_svo_writer_abort(w);
+	CHECK_EQ(vd_svo_writer_open(&w, b, 6, 1, 3, &t, NULL, 2), VD_OK);
+	CHECK_EQ(vd_svo_writer_keys(w, s.keys, 2), VD_OK);
+	CHECK_EQ(vd_svo_writer_masks(w, s.keys, s.masks, 1), VD_OK);
+	CHECK_EQ(vd_svo_writer_commit(w, NULL), VD_ERR_ARG); /* one missing */
+	CHECK(access(b, F_OK) != 0);
+	char cmd[700];
+	snprintf(cmd, sizeof cmd, "ls '%s' | grep -q 'svo-stream.*tmp'", dir);
+	CHECK(system(cmd) != 0);
+	vd_svo_release(&s);
+}
+
 static int open_bytes(const uint8_t *b, size_t n, uint32_t kind)
 {
 	struct vd_chunk *c;
@@ -468,6 +526,7 @@ int main(void)
 	dir = test_tmpdir("chunk");
 	RUN(test_golden_bytes);
 	RUN(test_svo_round_trip);
+	RUN(test_svo_writer_stream);
 	RUN(test_every_truncation);
 	RUN(test_each_corruption);
 	RUN(test_abort_leaves_nothing);

@@ -252,8 +252,13 @@ static void random_op(struct vd_edit_op *op, int L)
 	}
 }
 
+/* src: 0 the voxelize directory, 1 a lossless auto file of colorize
+ * (the colours read from it on demand); batch: colour_batch_bytes (1:
+ * each segment its own batch, so a copy reads and drops its sources
+ * between every two destination segments). */
 static void random_colours(const char *mesh, int L, int L0, int nops,
-			   uint64_t seed, int threads, int seg_log2)
+			   uint64_t seed, int threads, int seg_log2, int src,
+			   uint64_t batch)
 {
 	char dir[512], out[600];
 	snprintf(dir, sizeof dir, "%s/src", test_tmpdir("test_edit_colour"));
@@ -267,12 +272,23 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 	r0.v = malloc((size_t)(r.n * r.n * r.n) * 4);
 	memcpy(r0.v, r.v, (size_t)(r.n * r.n * r.n) * 4);
 	struct vd_hashdag_opts o = {.threads = threads,
-				    .colour_segment_log2 = seg_log2};
+				    .colour_segment_log2 = seg_log2,
+				    .colour_batch_bytes = batch};
 	struct vd_hashdag *h = NULL;
 	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, &o), VD_OK);
 	if (!h)
 		return;
-	CHECK_EQ(vd_hashdag_colours_open(h, dir, NULL), VD_OK);
+	char pack[700], packfile[800];
+	snprintf(pack, sizeof pack, "%s.pack", dir);
+	snprintf(packfile, sizeof packfile, "%s/colours.auto", pack);
+	if (src) {
+		struct vd_colorize_job cj = {.indir = dir, .outdir = pack,
+					     .methods = 1 << VD_CPACK_AUTO,
+					     .threads = 2, .quiet = 1,
+					     .provenance = "test"};
+		CHECK_EQ(vd_colorize_run(&cj), VD_OK);
+	}
+	CHECK_EQ(vd_hashdag_colours_open(h, src ? packfile : dir, NULL), VD_OK);
 	CHECK_EQ(differ_h(h, &r), 0);
 	test_rng = seed;
 	uint64_t painted = 0;
@@ -336,7 +352,8 @@ static void random_colours(const char *mesh, int L, int L0, int nops,
 
 static void test_spider_random(void)
 {
-	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2, 0);
+	random_colours("tests/data/spider/spider.obj", 7, 2, 150, 31337, 2, 0,
+		       0, 0);
 }
 
 /* Cells cut into many segments (bricks, then 8-cubes): edits meet a few
@@ -344,13 +361,29 @@ static void test_spider_random(void)
  * kept ones, drop segments they empty and insert the ones they fill. */
 static void test_segments_random(void)
 {
-	random_colours("tests/data/spider/spider.obj", 7, 1, 150, 4242, 2, 2);
-	random_colours("tests/data/textured/scene.obj", 7, 2, 120, 77, 1, 3);
+	random_colours("tests/data/spider/spider.obj", 7, 1, 150, 4242, 2, 2,
+		       0, 0);
+	random_colours("tests/data/textured/scene.obj", 7, 2, 120, 77, 1, 3,
+		       0, 0);
 }
 
 static void test_textured_random(void)
 {
-	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0);
+	random_colours("tests/data/textured/scene.obj", 7, 1, 120, 99, 1, 0,
+		       0, 0);
+}
+
+/* The colours read from a packed file of colorize rather than the colour
+ * chunks, and edits cut into batches of one segment (copies reading and
+ * dropping their sources between destination segments). */
+static void test_sources_and_batches(void)
+{
+	random_colours("tests/data/spider/spider.obj", 7, 2, 120, 5150, 2, 3,
+		       1, 0);
+	random_colours("tests/data/spider/spider.obj", 7, 2, 120, 8086, 2, 3,
+		       0, 1);
+	random_colours("tests/data/textured/scene.obj", 7, 1, 100, 6502, 1, 2,
+		       1, 1);
 }
 
 /* Non-constant blocks of the current scene's colours. */
@@ -386,8 +419,11 @@ static void test_uniform_fill_blocks(void)
 	CHECK_EQ(vd_hashdag_colours_open(h, dir, NULL), VD_OK);
 	struct vd_hashdag_colour_stats s0, s1, s2;
 	CHECK_EQ(vd_hashdag_colour_stats(h, &s0), VD_OK);
-	CHECK(mixed_blocks(&s0) > 0); /* the spider is textured */
-	CHECK(s0.bytes < 3 * s0.voxels + 4096 * s0.segments);
+	/* loading decodes and encodes nothing: every colour is still only
+	 * in the source, charged at a segment's bookkeeping */
+	CHECK_EQ(s0.source_voxels, s0.voxels);
+	CHECK_EQ(mixed_blocks(&s0) + s0.mode_blocks[0], 0);
+	CHECK(s0.bytes <= 64 * s0.segments);
 
 	/* one octant, aligned to segments: 512 segments of 512 voxels,
 	 * 1024 constant blocks, and no block of another mode inside it */
@@ -411,7 +447,8 @@ static void test_uniform_fill_blocks(void)
 	CHECK_EQ(vd_hashdag_colour_stats(h, &s2), VD_OK);
 	CHECK_EQ(mixed_blocks(&s2), 0);
 	CHECK_EQ(s2.voxels, s1.voxels);
-	CHECK(s2.bytes < s1.bytes);
+	CHECK_EQ(s2.source_voxels, 0); /* every segment written */
+	CHECK(s2.bytes <= 256 * s2.segments); /* no block data */
 
 	/* and filled whole: 4096 segments of constant blocks */
 	op.lo[0] = op.lo[1] = op.lo[2] = 0;
@@ -430,6 +467,7 @@ static void test_uniform_fill_blocks(void)
 	CHECK_EQ(differ_h(h, &r0), 0);
 	CHECK_EQ(vd_hashdag_colour_stats(h, &s1), VD_OK);
 	CHECK_EQ(mixed_blocks(&s1), mixed_blocks(&s0));
+	CHECK_EQ(s1.source_voxels, s0.source_voxels);
 	while (vd_hashdag_redo(h) == VD_OK)
 		;
 	CHECK_EQ(differ_h(h, &r), 0);
@@ -510,6 +548,33 @@ static void test_reuse_and_refusals(void)
 	CHECK(linked >= 1);
 	CHECK_EQ(wrong, 0);
 	vd_hashdag_free(h);
+	/* a load reads the colour chunks' headers only; the bricks beside a
+	 * chunk are checked when its colours are first read: here the painted
+	 * cell's SVO chunk is another cell's, so the paint fails, one clear
+	 * error, and the scene keeps its colours */
+	char bad[700], cmd[4096], name[64], other[64];
+	snprintf(bad, sizeof bad, "%s.bad", dir);
+	uint64_t pc = vd_morton3((uint32_t)(v0 / (r.n * r.n) >> shift),
+				 (uint32_t)(v0 / r.n % r.n >> shift),
+				 (uint32_t)(v0 % r.n >> shift));
+	vd_chunk_file_name(name, sizeof name, L0, pc, "svo");
+	other[0] = 0;
+	for (uint64_t cell = 0; cell < 1ull << 3 * L0 && !other[0]; cell++) {
+		char path[1024];
+		vd_chunk_file_name(other, sizeof other, L0, cell, "svo");
+		snprintf(path, sizeof path, "%s/%s", dir, other);
+		if (cell == pc || access(path, R_OK))
+			other[0] = 0;
+	}
+	snprintf(cmd, sizeof cmd, "rm -rf '%s' && cp -r '%s' '%s' && cp '%s/%s' "
+		 "'%s/%s'", bad, dir, bad, dir, other, bad, name);
+	CHECK(other[0] && system(cmd) == 0);
+	CHECK_EQ(vd_hashdag_from_dag(&h, &d0, &t, NULL), VD_OK);
+	CHECK_EQ(vd_hashdag_colours_open(h, bad, NULL), VD_OK);
+	CHECK_EQ(vd_hashdag_apply(h, &op, NULL), VD_ERR_MISMATCH);
+	CHECK(strstr(vd_error_detail(), "bricks of cell") != NULL);
+	CHECK_EQ(vd_hashdag_undo(h), VD_ERR_RANGE); /* no root was pushed */
+	vd_hashdag_free(h);
 	vd_dag_release(&d0);
 	free(r.v);
 }
@@ -574,6 +639,7 @@ int main(void)
 	RUN(test_spider_random);
 	RUN(test_textured_random);
 	RUN(test_segments_random);
+	RUN(test_sources_and_batches);
 	RUN(test_budget);
 	RUN(test_uniform_fill_blocks);
 	return CHECK_DONE();

@@ -574,6 +574,18 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 	for (uint32_t b = 0; b < nb; b++) {
 		k->rgb = rgb + 3 * (size_t)b * bs;
 		k->n = b + 1 < nb ? bs : n - b * bs;
+		/* a block of one colour is the constant block whatever the
+		 * limit (no mode beats 0 bytes): found without the analysis,
+		 * as flat areas and edits' fills are most blocks */
+		uint32_t same = 1;
+		while (same < k->n && !memcmp(k->rgb + 3 * same, k->rgb, 3))
+			same++;
+		if (same == k->n) {
+			uint32_t e = VD_AUTO_CONST << 24 | packed(k->rgb);
+			s->dir[b] = e;
+			s->mode_blocks[0]++;
+			continue;
+		}
 		encode_block(k, bl);
 		uint32_t e = k->best_entry;
 		if (e >> 24 != VD_AUTO_CONST) {
@@ -600,6 +612,14 @@ void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
 	uint32_t e = s->dir[j >> bl], first = j >> bl << bl;
 	uint32_t n = s->n - first < (1u << bl) ? s->n - first : 1u << bl;
 	vd_auto_decode(e, s->data + (e & 0xffffff), n, j - first, rgb);
+}
+
+void vd_auto_block_decode(uint32_t entry, const uint8_t *data, uint32_t n,
+			  uint8_t *rgb)
+{
+	const uint8_t *d = data + (entry & 0xffffff);
+	for (uint32_t k = 0; k < n; k++)
+		vd_auto_decode(entry, d, n, k, rgb + 3 * k);
 }
 
 void vd_auto_segment_release(struct vd_auto_segment *s)

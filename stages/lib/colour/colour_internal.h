@@ -32,8 +32,6 @@ void vd_palette_segment_release(struct vd_palette_segment *s);
  * its end. Corrupt bytes decode to some colour, never outside the block:
  * the reader checks the blocks' sizes and palette indices when it opens
  * the file, and QUANT clamps to 255. */
-#define VD_AUTO_PAD 8
-
 static inline uint32_t vd_auto_bits(const uint8_t *d, uint64_t pos,
 				    unsigned width)
 {

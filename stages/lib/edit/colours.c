@@ -6,20 +6,36 @@
  * cell is shared, by reference, with the previous root of the history. Undo
  * and redo switch tables; gc drops the tables of the roots it drops. The
  * colours are saved as a voxelize-style directory (SVO and colour chunk
- * per cell) whose unchanged cells are links to the source's files. */
+ * per cell) whose unchanged cells are links to the source's files.
+ *
+ * A segment no edit wrote is only its place in the source, read on
+ * demand (a load neither decodes nor encodes colours); one an edit wrote
+ * is lossless auto blocks. Reading, rebuilding and saving go segment by
+ * segment, in batches: no step holds a cell's colours or bricks whole. */
 #include "edit_internal.h"
 #include "util_internal.h"
-/* the auto codec's block decoder, inline, so a colour read here costs
- * what it costs the packed-file reader */
-#include "colour/colour_internal.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* An edit reads the old colours still in the source of at most this many
+ * bytes of segments before rebuilding them, then the next batch: what an
+ * edit of the whole scene holds raw at once. */
+#define HD_COL_BATCH_BYTES (8ull << 20)
+
 /* ------------------------------------------------------------ cells */
+
+/* dir/name into buf; -1 when it does not fit. */
+static int join(char *buf, size_t cap, const char *dir, const char *name)
+{
+	int n = snprintf(buf, cap, "%s/%s", dir, name);
+	return n < 0 || (size_t)n >= cap ? -1 : 0;
+}
+
 
 /* Counts `more` bytes of colours against the budget (VD_ERR_BUDGET). */
 static int col_charge(struct vd_hashdag *h, uint64_t more, const char *what)
@@ -160,6 +176,20 @@ static int seg_const(struct vd_hashdag *h, const uint8_t rgb[3], uint64_t n,
 	return seg_build(h, n, fill_constant, rgb, out);
 }
 
+/* n voxels still in the source: colours at .. at + n - 1 of the cell's
+ * array there (only the struct is charged). */
+static int seg_source(struct vd_hashdag *h, uint64_t at, uint64_t n,
+		      struct hd_seg **out)
+{
+	struct hd_seg *p = calloc(1, sizeof *p);
+	if (!p)
+		return vd_fail(VD_ERR_NOMEM, "colour segments");
+	p->refs = 1;
+	p->n = n;
+	p->src_at = at;
+	return seg_finish(h, p, VD_OK, out);
+}
+
 /* The segment's colours into rgb (3 n bytes), block by block. */
 static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
 {
@@ -174,9 +204,8 @@ static void seg_decode(const struct hd_seg *p, uint8_t *rgb)
 					memcpy(rgb, c, 3);
 				continue;
 			}
-			for (uint32_t k = 0; k < len; k++, rgb += 3)
-				vd_auto_decode(e, a->data + (e & 0xffffff),
-					       len, k, rgb);
+			vd_auto_block_decode(e, a->data, len, rgb);
+			rgb += 3 * len;
 		}
 	}
 }
@@ -245,6 +274,9 @@ void hd_colours_free(struct hd_colours *c)
 	hd_coltab_free(c, c->input);
 	free(c->tab);
 	free(c->src_dir);
+	free(c->cell_first);
+	if (c->pack.release)
+		vd_colour_source_release(&c->pack);
 	free(c);
 }
 
@@ -264,13 +296,128 @@ static struct hd_seg *seg_find(const struct hd_cellcol *t, uint64_t code)
 	return lo < t->nseg && t->s[lo].code == code ? t->s[lo].seg : NULL;
 }
 
+/* ------------------------------------------------ reading the source */
+
+/* Reads segments still in the source, one cell's colours held at a time:
+ * a colour chunk is decompressed whole, so its segments are best read
+ * together, in cell order. */
+struct srcread {
+	const struct hd_colours *c;
+	uint64_t ci;              /* the cell in rgb, UINT64_MAX: none */
+	uint8_t *rgb;
+	uint64_t n;
+};
+
+static void sr_init(struct srcread *r, const struct hd_colours *c)
+{
+	r->c = c;
+	r->ci = UINT64_MAX;
+	r->rgb = NULL;
+	r->n = 0;
+}
+
+static void sr_release(struct srcread *r)
+{
+	free(r->rgb);
+	sr_init(r, r->c);
+}
+
+/* Colours at .. at + n - 1 of cell ci's array in the source into out. */
+static int sr_get(struct srcread *r, uint64_t ci, uint64_t at, uint64_t n,
+		  uint8_t *out)
+{
+	const struct hd_colours *c = r->c;
+	uint64_t want = c->input[ci] ? c->input[ci]->n : 0;
+	if (!c->src_dir) {
+		const struct vd_colour_source *s = &c->pack;
+		for (uint64_t k = 0; k < n; k++)
+			s->get(s, c->cell_first[ci] + at + k, out + 3 * k);
+		return VD_OK;
+	}
+	if (r->ci != ci) {
+		sr_release(r);
+		char name[64], path[4096];
+		vd_chunk_file_name(name, sizeof name, c->C, ci, "col");
+		if (snprintf(path, sizeof path, "%s/%s", c->src_dir, name) >=
+		    (int)sizeof path)
+			return vd_fail(VD_ERR_ARG, "directory name too long");
+		/* the bricks beside the colours must be the ones coloured:
+		 * checked from the chunk's digest and count before its colours
+		 * are decompressed, so the cell's bricks and its colours are
+		 * never held together */
+		struct vd_chunk *ch = NULL;
+		struct vd_colours col = {0};
+		struct vd_chunk_header hd, sh;
+		struct vd_svo svo;
+		void *dig = NULL;
+		size_t dsize = 0;
+		int err = vd_chunk_open(&ch, path, VD_KIND_COLOURS);
+		if (!err) {
+			hd = *vd_chunk_header(ch);
+			col.voxels = hd.level_count ?
+				     hd.level_nodes[hd.level_count - 1] : 0;
+			err = vd_chunk_read_section(ch, VD_TAG_BDIG, &dig, &dsize);
+		}
+		if (!err && dsize != 8)
+			err = vd_fail(VD_ERR_CORRUPT, "brick digest of %zu bytes",
+				      dsize);
+		for (int k = 7; !err && k >= 0; k--)
+			col.svo_digest = col.svo_digest << 8 |
+					 ((const uint8_t *)dig)[k];
+		free(dig);
+		size_t len = strlen(path);
+		memcpy(path + len - 3, "svo", 3);
+		if (!err && !(err = vd_svo_load(&svo, &sh, path))) {
+			err = vd_colours_match(&hd, &col, &sh, &svo);
+			vd_svo_release(&svo);
+		}
+		memcpy(path + len - 3, "col", 3);
+		if (!err && (hd.cell_morton != ci ||
+			     hd.chunk_level != (uint32_t)c->C || col.voxels != want))
+			err = vd_fail(VD_ERR_MISMATCH, "not the colours loaded "
+				      "(%llu colours, %llu when loaded): was "
+				      "it replaced?",
+				      (unsigned long long)col.voxels,
+				      (unsigned long long)want);
+		if (!err)
+			err = vd_colours_from_chunk(&col, ch);
+		vd_chunk_free(ch);
+		if (err)
+			return vd_fail(err, "'%s': %s", path, vd_error_detail());
+		r->ci = ci;
+		r->rgb = col.rgb;
+		r->n = col.voxels;
+	}
+	if (at > r->n || n > r->n - at)
+		return vd_fail(VD_ERR_INTERNAL, "colours %llu..+%llu of a cell "
+			       "of %llu", (unsigned long long)at,
+			       (unsigned long long)n, (unsigned long long)r->n);
+	memcpy(out, r->rgb + 3 * at, 3 * n);
+	return VD_OK;
+}
+
+/* Segment p of `code` (level S) into rgb (3 p->n bytes), wherever it is. */
+static int seg_read(struct srcread *r, uint64_t code, const struct hd_seg *p,
+		    uint8_t *rgb)
+{
+	if (p->nparts) {
+		seg_decode(p, rgb);
+		return VD_OK;
+	}
+	return sr_get(r, code >> 3 * (r->c->S - r->c->C), p->src_at, p->n, rgb);
+}
+
 /* The cell's colours end to end into rgb (3 n bytes). */
-static void cell_gather(const struct hd_cellcol *t, uint8_t *rgb)
+static int cell_gather(struct srcread *r, const struct hd_cellcol *t,
+		       uint8_t *rgb)
 {
 	for (uint64_t i = 0; i < t->nseg; i++) {
-		seg_decode(t->s[i].seg, rgb);
+		int err = seg_read(r, t->s[i].code, t->s[i].seg, rgb);
+		if (err)
+			return err;
 		rgb += 3 * t->s[i].seg->n;
 	}
+	return VD_OK;
 }
 
 int vd_hashdag_has_colours(const struct vd_hashdag *h)
@@ -428,39 +575,144 @@ static int segs_in(const struct vd_hashdag *h, int l, uint32_t p, uint32_t q,
 
 /* ----------------------------------------------------------- loading */
 
-/* One segment to load: its colours from the source, encoded. Encoding
- * is most of a load's time, so the segments of a cell are encoded on
- * the edit's threads. */
-struct ljob {
-	uint64_t at, n;           /* its first colour in the source, count */
-	struct hd_seg *g;
-	int err;
-	char detail[240];
-};
-
-struct lctx {
-	struct vd_hashdag *h;
-	const struct vd_colour_source *s;
-	struct ljob *jobs;
-};
-
-static void run_ljob(void *ctx, size_t i, int worker)
+/* The chunk level and the number of the colour chunks in `dir`. */
+static int dir_cells(const char *dir, int *C, uint64_t *count)
 {
-	(void)worker;
-	struct lctx *x = ctx;
-	struct ljob *j = &x->jobs[i];
-	uint8_t *buf = malloc(3 * j->n);
-	if (!buf) {
-		j->err = VD_ERR_NOMEM;
-		snprintf(j->detail, sizeof j->detail, "colours of a segment");
-		return;
+	DIR *d = opendir(dir);
+	if (!d)
+		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", dir,
+			       strerror(errno));
+	struct dirent *e;
+	char path[4096];
+	int err = VD_OK;
+	*count = 0;
+	*C = -1;
+	while (!err && (e = readdir(d))) {
+		size_t len = strlen(e->d_name);
+		if (len < 5 || strcmp(e->d_name + len - 4, ".col"))
+			continue;
+		if (++*count > 1)
+			continue;
+		struct vd_chunk_header hd;
+		if (join(path, sizeof path, dir, e->d_name))
+			err = vd_fail(VD_ERR_ARG, "directory name too long");
+		else if ((err = vd_chunk_read_header(path, &hd)))
+			err = vd_fail(err, "'%s': %s", path, vd_error_detail());
+		else
+			*C = (int)hd.chunk_level;
 	}
-	for (uint64_t k = 0; k < j->n; k++)
-		x->s->get(x->s, j->at + k, buf + 3 * k);
-	j->err = seg_encode(x->h, buf, j->n, &j->g);
-	if (j->err)
-		snprintf(j->detail, sizeof j->detail, "%s", vd_error_detail());
-	free(buf);
+	closedir(d);
+	if (!err && !*count)
+		err = vd_fail(VD_ERR_EMPTY, "no colour chunks (*.col) in '%s': "
+			      "was the mesh voxelized with colours?", dir);
+	return err;
+}
+
+/* Voxels below the nodes of levels S .. L-3, memoized per node (a hash
+ * per level): the segments' counts at load visit each distinct node of
+ * the DAG once rather than every brick of the scene. */
+struct vmemo {
+	uint32_t *key;            /* node + 1, 0: free */
+	uint64_t *val;
+	uint64_t cap, used;
+};
+
+static uint64_t memo_slot(uint32_t key, uint64_t cap)
+{
+	return (key * 0x9e3779b97f4a7c15ull >> 29) & (cap - 1);
+}
+
+static uint64_t memo_voxels(const struct vd_hashdag *h, struct vmemo *m,
+			    int l, uint32_t p, int *err)
+{
+	if (p == HD_EMPTY || *err)
+		return 0;
+	if (p == h->lv[l].full)
+		return 1ull << 3 * (h->levels - l);
+	if (l == h->levels - 2)
+		return (uint64_t)__builtin_popcountll(hd_brick(h, p));
+	struct vmemo *t = &m[l];
+	if (2 * (t->used + 1) > t->cap) {
+		uint64_t cap = t->cap ? 2 * t->cap : 1024;
+		uint32_t *k = calloc(cap, sizeof *k);
+		uint64_t *v = malloc(cap * sizeof *v);
+		if (!k || !v) {
+			free(k);
+			free(v);
+			*err = vd_fail(VD_ERR_NOMEM, "voxel counts");
+			return 0;
+		}
+		for (uint64_t i = 0; i < t->cap; i++) {
+			if (!t->key[i])
+				continue;
+			uint64_t j = memo_slot(t->key[i], cap);
+			while (k[j])
+				j = (j + 1) & (cap - 1);
+			k[j] = t->key[i];
+			v[j] = t->val[i];
+		}
+		free(t->key);
+		free(t->val);
+		t->key = k;
+		t->val = v;
+		t->cap = cap;
+	}
+	uint64_t j = memo_slot(p + 1, t->cap);
+	while (t->key[j] && t->key[j] != p + 1)
+		j = (j + 1) & (t->cap - 1);
+	if (t->key[j])
+		return t->val[j];
+	uint64_t n = 0;
+	for (int c = 0; c < 8; c++)
+		n += memo_voxels(h, m, l + 1, hd_child(h, l, p, c), err);
+	/* slot j still holds: the children are on deeper levels, whose
+	 * tables are others */
+	t->key[j] = p + 1;
+	t->val[j] = n;
+	t->used++;
+	return n;
+}
+
+/* Cell ci's colour chunk in the source directory is whole (its
+ * checksums) and belongs to the scene: its depth, cell and grid, and `n`
+ * colours, the scene's voxels in the cell. Its colours stay compressed
+ * on disk until an edit needs them; then they are checked against the
+ * bricks of the SVO chunk beside them (sr_get), as a load checked them
+ * before. `first` is the first cell's header (set when *have_first is
+ * 0). */
+static int check_chunk(const struct vd_hashdag *h, uint64_t ci, uint64_t n,
+		       struct vd_chunk_header *first, int *have_first)
+{
+	const struct hd_colours *c = h->col;
+	char name[64], path[4096];
+	vd_chunk_file_name(name, sizeof name, c->C, ci, "col");
+	if (join(path, sizeof path, c->src_dir, name))
+		return vd_fail(VD_ERR_ARG, "directory name too long");
+	struct vd_chunk *ch;
+	int err = vd_chunk_open(&ch, path, VD_KIND_COLOURS);
+	if (err)
+		return vd_fail(err, "'%s': %s", path, vd_error_detail());
+	const struct vd_chunk_header *hd = vd_chunk_header(ch);
+	uint64_t cn = hd->level_count ? hd->level_nodes[hd->level_count - 1] : 0;
+	if (hd->levels != (uint32_t)h->levels || hd->cell_morton != ci)
+		err = vd_fail(VD_ERR_MISMATCH, "colours of a cell of another "
+			      "grid or place");
+	else if (cn != n)
+		err = vd_fail(VD_ERR_MISMATCH, "%llu colours for the scene's "
+			      "%llu voxels of the cell", (unsigned long long)cn,
+			      (unsigned long long)n);
+	else if (*have_first && !vd_transform_equal(&hd->transform,
+						    &first->transform))
+		err = vd_fail(VD_ERR_MISMATCH, "placed in another grid than "
+			      "the other cells");
+	if (!err && !*have_first) {
+		*first = *hd;
+		*have_first = 1;
+	}
+	vd_chunk_free(ch);
+	if (err)
+		return vd_fail(err, "'%s': %s", path, vd_error_detail());
+	return VD_OK;
 }
 
 int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
@@ -471,34 +723,53 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 		return vd_fail(VD_ERR_ARG, "the scene has colours already");
 	if (h->nroots != 1)
 		return vd_fail(VD_ERR_ARG, "colours are opened before any edit");
-	struct vd_colour_source s;
-	int err = vd_colour_source_open(&s, src);
-	if (err)
-		return err;
 	int L = h->levels;
-	if (s.levels != L) {
-		vd_colour_source_release(&s);
-		return vd_fail(VD_ERR_MISMATCH, "'%s' colours a 2^%d grid, the "
-			       "scene is 2^%d", src, s.levels, L);
-	}
+	struct stat st;
+	if (stat(src, &st) != 0)
+		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", src,
+			       strerror(errno));
 	struct hd_colours *c = calloc(1, sizeof *c);
-	if (!c) {
-		vd_colour_source_release(&s);
+	if (!c)
 		return vd_fail(VD_ERR_NOMEM, "colours");
-	}
-	c->C = s.cell_level >= 0 && s.cell_level <= L - 2
-		       ? s.cell_level : (L - 2 < 3 ? L - 2 : 3);
-	c->ncells = 1ull << 3 * c->C;
 	c->tab_free = hd_coltab_free;
 	c->free = hd_colours_free;
 	memcpy(c->fill_rgb, fill_rgb ? fill_rgb : grey, 3);
-	struct stat st;
-	if (!stat(src, &st) && S_ISDIR(st.st_mode) && !(c->src_dir = strdup(src)))
-		err = vd_fail(VD_ERR_NOMEM, "colours");
+	/* a directory's chunks are read when needed; a packed file stays
+	 * open (in memory, compressed) for the structure's life */
+	int err = VD_OK, C = -1, levels = L;
+	uint64_t nfiles = 0, src_voxels = 0;
+	if (S_ISDIR(st.st_mode)) {
+		if (!(c->src_dir = strdup(src)))
+			err = vd_fail(VD_ERR_NOMEM, "colours");
+		else
+			err = dir_cells(src, &C, &nfiles);
+	} else if (!(err = vd_colour_source_open(&c->pack, src))) {
+		C = c->pack.cell_level;
+		levels = c->pack.levels;
+		src_voxels = c->pack.voxels;
+	}
+	if (err) {
+		hd_colours_free(c);
+		return err;
+	}
+	if (levels != L) {
+		hd_colours_free(c);
+		return vd_fail(VD_ERR_MISMATCH, "'%s' colours a 2^%d grid, the "
+			       "scene is 2^%d", src, levels, L);
+	}
+	if (c->src_dir && (C < 0 || C > L - 2)) {
+		hd_colours_free(c);
+		return vd_fail(VD_ERR_MISMATCH, "'%s' has cells of level %d in "
+			       "a 2^%d grid", src, C, L);
+	}
+	c->C = C >= 0 && C <= L - 2 ? C : (L - 2 < 3 ? L - 2 : 3);
+	c->ncells = 1ull << 3 * c->C;
 	c->tab = calloc(h->cap_roots ? h->cap_roots : 1, sizeof *c->tab);
 	struct hd_cellcol **tab = calloc(c->ncells, sizeof *tab);
 	c->input = calloc(c->ncells, sizeof *tab);
-	if (!err && (!c->tab || !tab || !c->input))
+	if (!c->src_dir)
+		c->cell_first = calloc(c->ncells, sizeof *c->cell_first);
+	if (!c->tab || !tab || !c->input || (!c->src_dir && !c->cell_first))
 		err = vd_fail(VD_ERR_NOMEM, "colour tables");
 	h->col = c;
 	int sl = h->o.colour_segment_log2 ? h->o.colour_segment_log2 : 6;
@@ -507,14 +778,14 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 		c->S = L - 2;
 	if (c->S < c->C)
 		c->S = c->C;
-	uint64_t at = 0;
+	uint64_t at = 0, ncells = 0;
 	uint32_t root = h->roots[h->cur];
 	const int64_t all_lo[3] = {0, 0, 0};
 	const int64_t all_hi[3] = {INT64_MAX, INT64_MAX, INT64_MAX};
 	struct plist segs = {0};
-	struct ljob *lj = NULL;
-	uint64_t nlj = 0;
-	struct lctx lx = {.h = h, .s = &s};
+	struct vd_chunk_header first;
+	int have_first = 0;
+	struct vmemo memo[VD_MAX_LEVELS] = {{0}};
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		uint32_t p = cell_ptr(h, root, ci);
 		if (p == HD_EMPTY)
@@ -527,54 +798,47 @@ int vd_hashdag_colours_open(struct vd_hashdag *h, const char *src,
 				   0, &segs)) ||
 		    (err = cell_new(h, segs.n, &tab[ci])))
 			break;
-		if (segs.n > nlj) {
-			struct ljob *m = realloc(lj, segs.n * sizeof *lj);
-			if (!m) {
-				err = vd_fail(VD_ERR_NOMEM, "segment list");
-				break;
-			}
-			lj = m;
-			nlj = segs.n;
-		}
-		memset(lj, 0, segs.n * sizeof *lj);
-		lx.jobs = lj;
+		struct hd_cellcol *t = tab[ci];
 		for (uint64_t i = 0; i < segs.n && !err; i++) {
-			uint64_t n = hd_voxels_of(h, c->S, segs.p[i]);
-			if (at + n > s.voxels) {
-				err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu "
-					      "colours, fewer than the scene's "
-					      "voxels", src,
-					      (unsigned long long)s.voxels);
-				break;
-			}
-			lj[i].at = at;
-			lj[i].n = n;
-			at += n;
-			tab[ci]->s[tab[ci]->nseg].code = segs.code[i];
-			tab[ci]->s[tab[ci]->nseg++].seg = NULL;
-			tab[ci]->n += n;
+			uint64_t n = memo_voxels(h, memo, c->S, segs.p[i], &err);
+			t->s[t->nseg].code = segs.code[i];
+			err = seg_source(h, t->n, n, &t->s[t->nseg].seg);
+			if (!err)
+				t->nseg++;
+			t->n += n;
 		}
-		if (!err && segs.n &&
-		    vd_parallel_for(segs.n, h->o.threads, run_ljob, &lx))
-			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
-		for (uint64_t i = 0; i < segs.n && !err; i++)
-			tab[ci]->s[i].seg = lj[i].g;
-		for (uint64_t i = 0; i < segs.n && !err; i++)
-			if (lj[i].err)
-				err = vd_fail(lj[i].err, "%s", lj[i].detail);
 		if (err)
 			break;
-		tab[ci]->refs++;
-		c->input[ci] = tab[ci];
+		ncells++;
+		if (c->cell_first)
+			c->cell_first[ci] = at;
+		at += t->n;
+		if (!c->src_dir && at > src_voxels)
+			err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours, "
+				      "fewer than the scene's voxels", src,
+				      (unsigned long long)src_voxels);
+		if (!err && c->src_dir)
+			err = check_chunk(h, ci, t->n, &first, &have_first);
+		if (err)
+			break;
+		t->refs++;
+		c->input[ci] = t;
 	}
 	pl_free(&segs);
-	free(lj);
-	if (!err && at != s.voxels)
+	for (int l = 0; l < VD_MAX_LEVELS; l++) {
+		free(memo[l].key);
+		free(memo[l].val);
+	}
+	if (!err && !c->src_dir && at != src_voxels)
 		err = vd_fail(VD_ERR_MISMATCH, "'%s' has %llu colours for a "
 			      "scene of %llu voxels", src,
-			      (unsigned long long)s.voxels,
+			      (unsigned long long)src_voxels,
 			      (unsigned long long)at);
-	vd_colour_source_release(&s);
+	if (!err && c->src_dir && nfiles != ncells)
+		err = vd_fail(VD_ERR_MISMATCH, "'%s' has colours of %llu cells, "
+			      "the scene %llu non-empty cells", src,
+			      (unsigned long long)nfiles,
+			      (unsigned long long)ncells);
 	if (err) {
 		hd_coltab_free(c, tab);
 		hd_colours_free(c);
@@ -598,11 +862,19 @@ int vd_hashdag_colour_array(const struct vd_hashdag *h, uint8_t **rgb,
 	if (!a)
 		return vd_fail(VD_ERR_NOMEM, "colour array");
 	n = 0;
-	for (uint64_t ci = 0; ci < h->col->ncells; ci++)
+	struct srcread r;
+	sr_init(&r, h->col);
+	int err = VD_OK;
+	for (uint64_t ci = 0; ci < h->col->ncells && !err; ci++)
 		if (tab[ci]) {
-			cell_gather(tab[ci], a + 3 * n);
+			err = cell_gather(&r, tab[ci], a + 3 * n);
 			n += tab[ci]->n;
 		}
+	sr_release(&r);
+	if (err) {
+		free(a);
+		return err;
+	}
 	*rgb = a;
 	*voxels = n;
 	return VD_OK;
@@ -621,6 +893,7 @@ int vd_hashdag_colour_stats(const struct vd_hashdag *h,
 			st->voxels += g->n;
 			st->segments++;
 			st->bytes += g->bytes;
+			st->source_voxels += g->nparts ? 0 : g->n;
 			for (uint32_t k = 0; k < g->nparts; k++)
 				for (int m = 0; m < 5; m++)
 					st->mode_blocks[m] +=
@@ -634,9 +907,13 @@ int vd_hashdag_colour_stats(const struct vd_hashdag *h,
 /* A copy's source segments, decoded in the scene before the edit. */
 struct srcseg {
 	uint64_t code;
-	struct vlist v;
+	uint32_t p;               /* its node before the edit */
 	const struct hd_seg *col;
-	uint8_t *rgb;             /* col decoded once: a copy reads them all */
+	/* read for the batch of jobs that needs it (need), then dropped: a
+	 * large copy holds the sources of a batch, not all of them */
+	int need, loaded;
+	struct vlist v;
+	uint8_t *rgb;
 };
 
 /* One segment to rebuild. */
@@ -645,6 +922,8 @@ struct sjob {
 	uint32_t op, np;          /* its node before and after the edit */
 	size_t cell;              /* index in the list of cells */
 	struct hd_seg *old, *out; /* out NULL: empty after the edit */
+	uint8_t *old_rgb;         /* old's colours when it is in the source,
+				   * read before the jobs run */
 	uint64_t changed;
 	int err;
 	char detail[240];
@@ -656,6 +935,7 @@ struct cctx {
 	struct srcseg *src;
 	size_t nsrc;
 	struct sjob *jobs;
+	size_t base;              /* of the batch of jobs running */
 };
 
 static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
@@ -670,7 +950,8 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 		else
 			hi = mid;
 	}
-	if (lo == x->nsrc || x->src[lo].code != code || !x->src[lo].col)
+	if (lo == x->nsrc || x->src[lo].code != code || !x->src[lo].col ||
+	    !x->src[lo].loaded)
 		return 0;
 	const struct vlist *v = &x->src[lo].v;
 	uint64_t a = 0, b = v->n;
@@ -687,16 +968,82 @@ static int src_colour(const struct cctx *x, uint64_t m, uint8_t rgb[3])
 	return 1;
 }
 
-/* Whether every voxel of segment `code` after the edit takes op->rgb, so
- * the segment is constant blocks: a box fill with a colour or a box paint
- * whose region holds the segment's whole cube (a fill sets every voxel
- * of it, a paint colours every voxel it has). */
-static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
+/* Marks the source segments the copy reads for destination segment
+ * `code` (its cube moved back by the copy's offset, within the copied
+ * box: at most 8 segments). Returns the bytes of the newly marked ones
+ * not read yet. */
+static uint64_t mark_sources(struct cctx *x, uint64_t code)
+{
+	const struct vd_hashdag *h = x->h;
+	const struct vd_edit_op *op = x->op;
+	int sh = h->levels - h->col->S;
+	uint32_t xyz[3];
+	vd_morton3_decode(code, &xyz[0], &xyz[1], &xyz[2]);
+	int64_t a[3], b[3];
+	for (int k = 0; k < 3; k++) {
+		int64_t d = op->dst[k] - op->lo[k];
+		int64_t lo = ((int64_t)xyz[k] << sh) - d;
+		int64_t hi = lo + (1ll << sh) - 1;
+		lo = lo < op->lo[k] ? op->lo[k] : lo;
+		hi = hi > op->hi[k] ? op->hi[k] : hi;
+		if (lo > hi)
+			return 0;
+		a[k] = lo >> sh;
+		b[k] = hi >> sh;
+	}
+	uint64_t bytes = 0;
+	for (int64_t i = a[0]; i <= b[0]; i++)
+		for (int64_t j = a[1]; j <= b[1]; j++)
+			for (int64_t k = a[2]; k <= b[2]; k++) {
+				uint64_t c = vd_morton3((uint32_t)i, (uint32_t)j,
+							(uint32_t)k);
+				size_t lo = 0, hi = x->nsrc;
+				while (lo < hi) {
+					size_t mid = (lo + hi) / 2;
+					if (x->src[mid].code < c)
+						lo = mid + 1;
+					else
+						hi = mid;
+				}
+				struct srcseg *g = &x->src[lo];
+				if (lo == x->nsrc || g->code != c || g->need)
+					continue;
+				g->need = 1;
+				if (!g->loaded && g->col)
+					bytes += 11 * g->col->n;
+			}
+	return bytes;
+}
+
+/* Reads a source segment the batch needs (its voxels and colours), or
+ * drops one it does not. */
+static int src_load(struct cctx *x, struct srcread *r, struct srcseg *g)
+{
+	if (!g->need || !g->col) {
+		if (g->loaded) {
+			vl_free(&g->v);
+			free(g->rgb);
+			g->rgb = NULL;
+			g->loaded = 0;
+		}
+		return VD_OK;
+	}
+	if (g->loaded)
+		return VD_OK;
+	int err = walk(x->h, x->h->col->S, g->p, g->code, &g->v);
+	if (!err && !(g->rgb = malloc(3 * g->col->n)))
+		err = vd_fail(VD_ERR_NOMEM, "copy sources");
+	if (!err)
+		err = seg_read(r, g->code, g->col, g->rgb);
+	g->loaded = !err;
+	return err;
+}
+
+/* 1 when op is a box whose region holds segment `code`'s whole cube. */
+static int cube_in_box(const struct vd_hashdag *h, const struct vd_edit_op *op,
 		       uint64_t code)
 {
-	if (op->shape != VD_SHAPE_BOX ||
-	    !(op->kind == VD_EDIT_PAINT ||
-	      (op->kind == VD_EDIT_FILL && op->has_rgb)))
+	if (op->shape != VD_SHAPE_BOX || op->kind == VD_EDIT_COPY)
 		return 0;
 	int sh = h->levels - h->col->S;
 	uint32_t xyz[3];
@@ -709,11 +1056,82 @@ static int seg_uniform(const struct vd_hashdag *h, const struct vd_edit_op *op,
 	return 1;
 }
 
+/* The one colour every voxel of the segment after the edit takes, so
+ * that it is constant blocks without a walk of its voxels, or NULL: a
+ * box fill with a colour or a box paint whose region holds the segment's
+ * whole cube (a fill sets every voxel of it, a paint colours every voxel
+ * it has), or any fill of a segment that was empty (every voxel it has
+ * now is the fill's: its colour, or the fill colour). */
+static const uint8_t *seg_uniform(const struct vd_hashdag *h,
+				  const struct vd_edit_op *op,
+				  const struct sjob *jb)
+{
+	if (op->kind == VD_EDIT_FILL && jb->op == HD_EMPTY)
+		return op->has_rgb ? op->rgb : h->col->fill_rgb;
+	if ((op->kind == VD_EDIT_PAINT ||
+	     (op->kind == VD_EDIT_FILL && op->has_rgb)) &&
+	    cube_in_box(h, op, jb->code))
+		return op->rgb;
+	return NULL;
+}
+
+/* A box fill without a colour over the segment's whole cube: every voxel
+ * of the cube is set, the old ones keep their colours, the others take
+ * the fill colour. In Morton order the cube's voxels are its indices, so
+ * the old colours are put in place without a walk of the new voxels. */
+static int rebuild_full(struct cctx *x, struct sjob *jb)
+{
+	struct vd_hashdag *h = x->h;
+	struct hd_seg *old = jb->old;
+	int sh = 3 * (h->levels - h->col->S);
+	uint64_t n = 1ull << sh, base = jb->code << sh;
+	if (old && old->n == n) { /* full before: nothing changes */
+		seg_ref(old);
+		jb->out = old;
+		return VD_OK;
+	}
+	struct vlist ov = {0};
+	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
+	if (!err && ov.n != old->n)
+		err = vd_fail(VD_ERR_INTERNAL, "segment %llx: %llu voxels, %llu "
+			      "colours", (unsigned long long)jb->code,
+			      (unsigned long long)ov.n,
+			      (unsigned long long)old->n);
+	uint8_t *was = NULL, *rgb = NULL;
+	if (!err) {
+		was = jb->old_rgb ? jb->old_rgb : malloc(3 * ov.n + 1);
+		rgb = malloc(3 * n);
+		if (!was || !rgb)
+			err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
+		else if (!jb->old_rgb)
+			seg_decode(old, was);
+	}
+	if (!err) {
+		const uint8_t *f = h->col->fill_rgb;
+		for (uint64_t i = 0; i < n; i++)
+			memcpy(rgb + 3 * i, f, 3);
+		for (uint64_t j = 0; j < ov.n; j++)
+			memcpy(rgb + 3 * (ov.m[j] - base), was + 3 * j, 3);
+		err = seg_encode(h, rgb, n, &jb->out);
+	}
+	vl_free(&ov);
+	if (was != jb->old_rgb)
+		free(was);
+	free(rgb);
+	return err;
+}
+
 /* Voxels of `old` whose colour is not rgb: whole constant blocks at once,
- * the others decoded. */
-static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t rgb[3])
+ * the others decoded (old_rgb: old's colours when it is in the source). */
+static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t *old_rgb,
+			      const uint8_t rgb[3])
 {
 	uint64_t ch = 0;
+	if (old && !old->nparts) {
+		for (uint64_t k = 0; k < old->n; k++)
+			ch += memcmp(old_rgb + 3 * k, rgb, 3) != 0;
+		return ch;
+	}
 	uint32_t want = (uint32_t)rgb[0] | (uint32_t)rgb[1] << 8 |
 			(uint32_t)rgb[2] << 16;
 	for (uint32_t i = 0; old && i < old->nparts; i++) {
@@ -724,12 +1142,10 @@ static uint64_t seg_count_not(const struct hd_seg *old, const uint8_t rgb[3])
 				ch += (e & 0xffffff) != want ? len : 0;
 				continue;
 			}
-			for (uint32_t k = 0; k < len; k++) {
-				uint8_t c[3];
-				vd_auto_decode(e, a->data + (e & 0xffffff), len,
-					       k, c);
-				ch += memcmp(c, rgb, 3) != 0;
-			}
+			uint8_t c[3 << HD_COL_BLOCK_LOG];
+			vd_auto_block_decode(e, a->data, len, c);
+			for (uint32_t k = 0; k < len; k++)
+				ch += memcmp(c + 3 * k, rgb, 3) != 0;
 		}
 	}
 	return ch;
@@ -748,9 +1164,10 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 	jb->changed = 0;
 	if (jb->np == HD_EMPTY)
 		return VD_OK;
-	if (seg_uniform(h, op, jb->code)) {
+	const uint8_t *u = seg_uniform(h, op, jb);
+	if (u) {
 		uint64_t n = hd_voxels_of(h, h->col->S, jb->np);
-		uint64_t ch = seg_count_not(old, op->rgb);
+		uint64_t ch = seg_count_not(old, jb->old_rgb, u);
 		/* a full cube before and after, all of one colour already */
 		if (old && old->n == n && !ch) {
 			seg_ref(old);
@@ -758,8 +1175,10 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 			return VD_OK;
 		}
 		jb->changed = ch;
-		return seg_const(h, op->rgb, n, &jb->out);
+		return seg_const(h, u, n, &jb->out);
 	}
+	if (op->kind == VD_EDIT_FILL && cube_in_box(h, op, jb->code))
+		return rebuild_full(x, jb);
 	struct vlist ov = {0}, nv = {0};
 	int err = walk(h, h->col->S, jb->op, jb->code, &ov);
 	if (!err)
@@ -771,11 +1190,11 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 			      (unsigned long long)(old ? old->n : 0));
 	uint8_t *was_rgb = NULL, *rgb = NULL;
 	if (!err) {
-		was_rgb = malloc(3 * ov.n + 1);
+		was_rgb = jb->old_rgb ? jb->old_rgb : malloc(3 * ov.n + 1);
 		rgb = malloc(3 * nv.n + 1);
 		if (!was_rgb || !rgb)
 			err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
-		else if (old)
+		else if (old && !jb->old_rgb)
 			seg_decode(old, was_rgb);
 	}
 	int64_t d[3] = {0, 0, 0};
@@ -830,7 +1249,8 @@ static int rebuild(struct cctx *x, struct sjob *jb)
 	}
 	vl_free(&ov);
 	vl_free(&nv);
-	free(was_rgb);
+	if (was_rgb != jb->old_rgb)
+		free(was_rgb);
 	free(rgb);
 	if (err)
 		return err;
@@ -843,7 +1263,7 @@ static void run_sjob(void *ctx, size_t i, int worker)
 {
 	(void)worker;
 	struct cctx *x = ctx;
-	struct sjob *j = &x->jobs[i];
+	struct sjob *j = &x->jobs[x->base + i];
 	j->err = rebuild(x, j);
 	if (j->err)
 		snprintf(j->detail, sizeof j->detail, "%s", vd_error_detail());
@@ -959,6 +1379,8 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	struct hd_colours *c = h->col;
 	struct hd_cellcol **old = c->tab[h->cur];
 	struct cctx x = {.h = h, .op = op};
+	struct srcread r;
+	sr_init(&r, c);
 	int64_t lo[3], hi[3];
 	uint64_t *cells = NULL, *scells = NULL;
 	size_t n = 0, ns = 0;
@@ -1013,15 +1435,8 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 		for (uint64_t i = 0; i < ss.n && !err; i++) {
 			uint64_t cell = ss.code[i] >> 3 * (c->S - c->C);
 			x.src[x.nsrc].code = ss.code[i];
-			x.src[x.nsrc].col = seg_find(old[cell], ss.code[i]);
-			err = walk(h, c->S, ss.p[i], ss.code[i],
-				   &x.src[x.nsrc].v);
-			const struct hd_seg *g = x.src[x.nsrc].col;
-			if (!err && g && !(x.src[x.nsrc].rgb = malloc(3 * g->n)))
-				err = vd_fail(VD_ERR_NOMEM, "copy sources");
-			if (!err && g)
-				seg_decode(g, x.src[x.nsrc].rgb);
-			x.nsrc++;
+			x.src[x.nsrc].p = ss.p[i];
+			x.src[x.nsrc++].col = seg_find(old[cell], ss.code[i]);
 		}
 		pl_free(&ss);
 	}
@@ -1037,9 +1452,39 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 			j->cell = i;
 			j->old = seg_find(old[cells[i]], j->code);
 		}
-	if (!err && segs.n &&
-	    vd_parallel_for(segs.n, h->o.threads, run_sjob, &x))
-		err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+	/* the jobs in batches, each with the colours of its old segments
+	 * still in the source read first, in cell order (a cell's chunk is
+	 * decompressed once), at most HD_COL_BATCH_BYTES of them */
+	uint64_t batch = h->o.colour_batch_bytes ? h->o.colour_batch_bytes
+						 : HD_COL_BATCH_BYTES;
+	for (size_t b0 = 0, b1; b0 < segs.n && !err; b0 = b1) {
+		uint64_t bytes = 0;
+		for (size_t i = 0; i < x.nsrc; i++)
+			x.src[i].need = 0;
+		for (b1 = b0; b1 < segs.n && !err &&
+			      (b1 == b0 || bytes < batch); b1++) {
+			struct sjob *j = &x.jobs[b1];
+			if (op->kind == VD_EDIT_COPY && j->np != HD_EMPTY)
+				bytes += mark_sources(&x, j->code);
+			if (!j->old || j->old->nparts || j->np == HD_EMPTY)
+				continue;
+			if (!(j->old_rgb = malloc(3 * j->old->n)))
+				err = vd_fail(VD_ERR_NOMEM, "colours of a segment");
+			else
+				err = seg_read(&r, j->code, j->old, j->old_rgb);
+			bytes += 3 * j->old->n;
+		}
+		for (size_t i = 0; i < x.nsrc && !err; i++)
+			err = src_load(&x, &r, &x.src[i]);
+		x.base = b0;
+		if (!err && vd_parallel_for(b1 - b0, h->o.threads, run_sjob, &x))
+			err = vd_fail(VD_ERR_INTERNAL, "thread pool");
+		for (size_t q = b0; q < b1; q++) {
+			free(x.jobs[q].old_rgb);
+			x.jobs[q].old_rgb = NULL;
+		}
+	}
+	sr_release(&r);
 	for (size_t i = 0; i < segs.n && !err; i++)
 		if (x.jobs[i].err)
 			err = vd_fail(x.jobs[i].err, "%s", x.jobs[i].detail);
@@ -1079,6 +1524,7 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 	free(x.jobs);
 	free(cells);
 	free(scells);
+	sr_release(&r);
 	if (err) {
 		free(tab);
 		return err;
@@ -1088,13 +1534,6 @@ int hd_colours_edit(struct vd_hashdag *h, const struct vd_edit_op *op,
 }
 
 /* ------------------------------------------------------------ saving */
-
-/* dir/name into buf; -1 when it does not fit. */
-static int join(char *buf, size_t cap, const char *dir, const char *name)
-{
-	int n = snprintf(buf, cap, "%s/%s", dir, name);
-	return n < 0 || (size_t)n >= cap ? -1 : 0;
-}
 
 /* Links the cell's two files from the source directory (0), or -1. */
 static int link_cell(const char *src, const char *dst, const char *svo,
@@ -1112,35 +1551,123 @@ static int link_cell(const char *src, const char *dst, const char *svo,
 	return 0;
 }
 
-static int write_cell(const struct vd_hashdag *h, uint64_t ci,
-		      const struct hd_cellcol *cell, const char *dir,
-		      const char *svo_name, const char *col_name,
-		      const char *provenance)
+/* The colours of a cell one segment at a time (vd_colours_write's
+ * `next`): a saved cell costs a segment of raw colours, not the cell's. */
+struct segstream {
+	struct srcread *r;
+	const struct hd_cellcol *cell;
+	uint64_t i;
+	uint8_t *buf;
+	uint64_t cap;
+};
+
+static int next_seg(void *ctx, const uint8_t **rgb, size_t *n)
 {
-	struct vlist v = {.bricks = 1};
+	struct segstream *w = ctx;
+	*n = 0;
+	if (w->i == w->cell->nseg)
+		return VD_OK;
+	const struct hd_cellseg *g = &w->cell->s[w->i++];
+	if (g->seg->n > w->cap) {
+		free(w->buf);
+		w->cap = g->seg->n;
+		if (!(w->buf = malloc(3 * w->cap)))
+			return vd_fail(VD_ERR_NOMEM, "colours of a segment");
+	}
+	int err = seg_read(w->r, g->code, g->seg, w->buf);
+	*rgb = w->buf;
+	*n = (size_t)g->seg->n;
+	return err;
+}
+
+/* The bricks of a cell passed to the SVO writer in batches: pass -1
+ * counts them, 0 gives the keys, 1 the keys and masks. */
+struct bstream {
+	struct vd_svo_writer *w;
+	int pass;
+	uint64_t count;
+	size_t k;
+	uint64_t key[1024], mask[1024];
+};
+
+static int bs_flush(struct bstream *b)
+{
+	int err = VD_OK;
+	if (b->pass == 0)
+		err = vd_svo_writer_keys(b->w, b->key, b->k);
+	else if (b->pass == 1)
+		err = vd_svo_writer_masks(b->w, b->key, b->mask, b->k);
+	b->k = 0;
+	return err;
+}
+
+/* Every brick (key at level L-2, mask) of the subtree of p, in order. */
+static int walk_bricks(const struct vd_hashdag *h, int l, uint32_t p,
+		       uint64_t key, struct bstream *b)
+{
+	if (p == HD_EMPTY)
+		return VD_OK;
+	if (l == h->levels - 2) {
+		b->count++;
+		if (b->pass < 0)
+			return VD_OK;
+		b->key[b->k] = key;
+		b->mask[b->k++] = hd_brick(h, p);
+		return b->k == 1024 ? bs_flush(b) : VD_OK;
+	}
+	for (int c = 0; c < 8; c++) {
+		int err = walk_bricks(h, l + 1, hd_child(h, l, p, c),
+				      key << 3 | (uint64_t)c, b);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+/* A cell's SVO chunk and colour chunk, streamed: its bricks walked in
+ * the DAG three times (count, keys, masks) and its colours a segment at
+ * a time, so saving a cell holds neither its bricks nor its colours. */
+static int write_cell(const struct vd_hashdag *h, struct srcread *r,
+		      uint64_t ci, const struct hd_cellcol *cell,
+		      const char *dir, const char *svo_name,
+		      const char *col_name, const char *provenance)
+{
 	char path[4096];
-	uint8_t *rgb = malloc(3 * cell->n + 1);
-	if (!rgb)
-		return vd_fail(VD_ERR_NOMEM, "colours of a cell");
-	cell_gather(cell, rgb);
-	int err = walk(h, h->col->C, cell_ptr(h, h->roots[h->cur], ci), ci, &v);
-	struct vd_svo s = {.levels = h->levels, .chunk_level = h->col->C,
-			   .cell_morton = ci, .count = v.n, .keys = v.m,
-			   .masks = v.mask};
-	struct vd_chunk_header sh;
+	struct segstream w = {.r = r, .cell = cell};
+	struct bstream *b = calloc(1, sizeof *b);
+	if (!b)
+		return vd_fail(VD_ERR_NOMEM, "bricks of a cell");
+	uint32_t cp = cell_ptr(h, h->roots[h->cur], ci);
+	int C = h->col->C;
+	b->pass = -1;
+	int err = walk_bricks(h, C, cp, ci, b);
+	uint64_t digest = 0;
 	if (!err && join(path, sizeof path, dir, svo_name))
 		err = vd_fail(VD_ERR_ARG, "directory name too long");
 	if (!err)
-		err = vd_svo_save(&s, &h->t, path, provenance);
+		err = vd_svo_writer_open(&b->w, path, h->levels, C, ci, &h->t,
+					 provenance, b->count);
+	for (int pass = 0; pass < 2 && !err; pass++) {
+		b->pass = pass;
+		b->k = 0;
+		err = walk_bricks(h, C, cp, ci, b);
+		if (!err && b->k)
+			err = bs_flush(b);
+	}
+	if (!err)
+		err = vd_svo_writer_commit(b->w, &digest);
+	else
+		vd_svo_writer_abort(b->w);
+	free(b);
+	struct vd_chunk_header sh;
 	if (!err)
 		err = vd_chunk_read_header(path, &sh);
 	if (!err && join(path, sizeof path, dir, col_name))
 		err = vd_fail(VD_ERR_ARG, "directory name too long");
 	if (!err)
-		err = vd_colours_save(path, &sh, vd_svo_digest(v.m, v.mask, v.n),
-				      rgb, cell->n, provenance);
-	vl_free(&v);
-	free(rgb);
+		err = vd_colours_write(path, &sh, digest, cell->n, next_seg, &w,
+				       provenance);
+	free(w.buf);
 	return err;
 }
 
@@ -1151,10 +1678,20 @@ int vd_hashdag_colours_stage(const struct vd_hashdag *h, const char *dir,
 	if (!h->col)
 		return vd_fail(VD_ERR_UNSUPPORTED, "the scene has no colours");
 	const struct hd_colours *c = h->col;
+	/* the source is read while the scene's colours are in it, and its
+	 * files are linked into the output: the output cannot replace it */
+	struct stat a, b;
+	if (c->src_dir && !stat(c->src_dir, &a) && !stat(dir, &b) &&
+	    a.st_dev == b.st_dev && a.st_ino == b.st_ino)
+		return vd_fail(VD_ERR_ARG, "'%s' is the colour source, read "
+			       "while editing: write the colours elsewhere",
+			       dir);
 	int err = vd_dir_stage(dir, NULL, staging, cap);
 	if (err)
 		return err;
 	struct hd_cellcol **tab = c->tab[h->cur];
+	struct srcread r;
+	sr_init(&r, c);
 	for (uint64_t ci = 0; ci < c->ncells && !err; ci++) {
 		if (!tab[ci])
 			continue;
@@ -1164,8 +1701,10 @@ int vd_hashdag_colours_stage(const struct vd_hashdag *h, const char *dir,
 		if (c->src_dir && tab[ci] == c->input[ci] &&
 		    !link_cell(c->src_dir, staging, svo, col))
 			continue;
-		err = write_cell(h, ci, tab[ci], staging, svo, col, provenance);
+		err = write_cell(h, &r, ci, tab[ci], staging, svo, col,
+				 provenance);
 	}
+	sr_release(&r);
 	if (!err)
 		err = vd_manifest_write(staging);
 	if (err)

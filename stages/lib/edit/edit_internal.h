@@ -30,8 +30,16 @@ struct hd_level {
 
 /* The colours (RGB8, depth-first) of one segment: the subtree of a node
  * on the segment level S below the cell level C. Shared by reference
- * between the cells' tables that did not change it. */
-/* A segment's colours, kept compressed in the auto codec's blocks
+ * between the cells' tables that did not change it.
+ *
+ * A segment no edit has changed stays where it was loaded from (nparts
+ * 0): colours src_at .. src_at + n - 1 of its cell's array in the source
+ * (a cell's colour chunk, or the packed file), read when an edit, a copy
+ * or a save needs them. So loading costs no decoding or encoding, and
+ * untouched colours cost no memory: a segment is encoded only when an
+ * edit writes it.
+ *
+ * A segment's colours, once an edit wrote them, kept compressed in the auto codec's blocks
  * (schemas/colour-formats.md, method 4) at max_error 0, so they decode
  * to exactly the colours stored and a saved scene is byte-identical to
  * one kept raw. Blocks are 2^HD_COL_BLOCK_LOG voxels and decode alone: a
@@ -46,7 +54,8 @@ struct hd_seg {
 	uint64_t refs;
 	uint64_t n;           /* voxels */
 	uint64_t bytes;       /* charged: the struct, directories, data */
-	uint32_t nparts;
+	uint64_t src_at;      /* nparts 0: first colour in its cell's source */
+	uint32_t nparts;      /* 0: in the source (n > 0 always) */
 	struct vd_auto_segment part[];
 };
 
@@ -76,6 +85,11 @@ struct hd_colours {
 	struct hd_cellcol ***tab;    /* [cap_roots] */
 	struct hd_cellcol **input;   /* the cells as loaded (reuse on save) */
 	char *src_dir;               /* the source directory, or NULL */
+	/* The source the segments still in it are read from: the cells'
+	 * colour chunks in src_dir, or (src_dir NULL) the packed file, open
+	 * for the structure's life, cell ci's colours from cell_first[ci]. */
+	struct vd_colour_source pack;
+	uint64_t *cell_first;
 	uint8_t fill_rgb[3];
 	uint64_t bytes;              /* of all tables and segments alive */
 	/* Set by colours.c when it attaches the colours: the history of roots

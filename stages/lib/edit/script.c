@@ -644,11 +644,18 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	vd_dag_release(&dag);
 	/* the colours are staged too before anything is replaced */
 	char cstage[4096];
+	t0 = vd_seconds();
+	c0 = hd_cpu_seconds();
 	if (!err && job->colours_out &&
 	    (err = vd_hashdag_colours_stage(h, job->colours_out,
 					    job->provenance, cstage,
 					    sizeof cstage)))
 		err = rewrap(err, 1, "cannot write '%s'", job->colours_out);
+	if (!err && job->colours_out) {
+		vd_json_f64(j, "seconds_save_colours", vd_seconds() - t0);
+		vd_json_f64(j, "cpu_seconds_save_colours", hd_cpu_seconds() - c0);
+		vd_json_u64(j, "peak_rss_bytes_colours", vd_peak_rss_bytes());
+	}
 	if (!err && (err = vd_json_close(j))) {
 		err = rewrap(err, 1, "cannot write '%s'", stats);
 		if (job->colours_out)

@@ -123,6 +123,147 @@ int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
 	return vd_chunk_writer_commit(w);
 }
 
+struct vd_svo_writer {
+	struct vd_chunk_writer *w;
+	int levels, chunk_level;
+	uint64_t n, got, prev;
+	int pass;                  /* 0 keys, 1 masks */
+	uint64_t counts[VD_MAX_LEVELS + 1];
+	uint32_t level_count;
+	XXH3_state_t *dig;
+};
+
+int vd_svo_writer_open(struct vd_svo_writer **out, const char *path,
+		       int levels, int chunk_level, uint64_t cell_morton,
+		       const struct vd_transform *t, const char *provenance,
+		       uint64_t n)
+{
+	*out = NULL;
+	struct vd_svo_writer *s = calloc(1, sizeof *s);
+	if (!s || !(s->dig = XXH3_createState())) {
+		free(s);
+		return vd_fail(VD_ERR_NOMEM, "SVO writer");
+	}
+	XXH3_64bits_reset(s->dig);
+	s->levels = levels;
+	s->chunk_level = chunk_level;
+	s->n = n;
+	struct vd_chunk_header h = {0};
+	h.kind = VD_KIND_SVO;
+	h.levels = (uint32_t)levels;
+	h.chunk_level = (uint32_t)chunk_level;
+	h.cell_morton = cell_morton;
+	h.transform = *t;
+	h.level_count = s->level_count = (uint32_t)(levels - chunk_level + 1);
+	uint8_t buf[8];
+	le_put64(buf, n);
+	int err = vd_chunk_writer_open(&s->w, path, &h, provenance);
+	if (!err)
+		err = vd_chunk_writer_begin(s->w, VD_TAG_BRKS, 0);
+	if (!err)
+		err = vd_chunk_writer_write(s->w, buf, 8);
+	if (err) {
+		vd_svo_writer_abort(s);
+		return err;
+	}
+	*out = s;
+	return VD_OK;
+}
+
+int vd_svo_writer_keys(struct vd_svo_writer *s, const uint64_t *keys,
+		       size_t m)
+{
+	enum { BATCH = 4096 };
+	uint8_t buf[8 * BATCH];
+	if (s->pass != 0 || m > s->n - s->got)
+		return vd_fail(VD_ERR_ARG, "more than %llu brick keys",
+			       (unsigned long long)s->n);
+	for (size_t i = 0; i < m;) {
+		size_t k = 0;
+		for (; k < BATCH && i < m; k++, i++, s->got++) {
+			if (s->got && keys[i] <= s->prev)
+				return vd_fail(VD_ERR_ARG, "brick keys out of "
+					       "order");
+			le_put64(buf + 8 * k, s->got ? keys[i] - s->prev : keys[i]);
+			s->prev = keys[i];
+		}
+		int err = vd_chunk_writer_write(s->w, buf, 8 * k);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+int vd_svo_writer_masks(struct vd_svo_writer *s, const uint64_t *keys,
+			const uint64_t *masks, size_t m)
+{
+	enum { BATCH = 256 };
+	uint8_t buf[8 * BATCH], pair[16 * BATCH];
+	if (s->pass == 0) {
+		if (s->got != s->n)
+			return vd_fail(VD_ERR_ARG, "%llu brick keys of %llu",
+				       (unsigned long long)s->got,
+				       (unsigned long long)s->n);
+		s->pass = 1;
+		s->got = 0;
+	}
+	if (m > s->n - s->got)
+		return vd_fail(VD_ERR_ARG, "more than %llu brick masks",
+			       (unsigned long long)s->n);
+	for (size_t i = 0; i < m;) {
+		size_t k = 0;
+		for (; k < BATCH && i < m; k++, i++, s->got++) {
+			if (!masks[i])
+				return vd_fail(VD_ERR_ARG, "an empty brick");
+			vd_svo_count_brick(s->counts, s->levels, s->chunk_level,
+					   s->got == 0, s->prev, keys[i],
+					   masks[i]);
+			s->prev = keys[i];
+			le_put64(buf + 8 * k, masks[i]);
+			le_put64(pair + 16 * k, keys[i]);
+			le_put64(pair + 16 * k + 8, masks[i]);
+		}
+		XXH3_64bits_update(s->dig, pair, 16 * k);
+		int err = vd_chunk_writer_write(s->w, buf, 8 * k);
+		if (err)
+			return err;
+	}
+	return VD_OK;
+}
+
+int vd_svo_writer_commit(struct vd_svo_writer *s, uint64_t *digest)
+{
+	int err = VD_OK;
+	if ((s->pass == 0 && s->n) || s->got != s->n)
+		err = vd_fail(VD_ERR_ARG, "%llu bricks of %llu given",
+			      (unsigned long long)s->got,
+			      (unsigned long long)s->n);
+	if (!err)
+		err = vd_chunk_writer_end(s->w);
+	if (!err)
+		err = vd_chunk_writer_set_counts(s->w, s->counts,
+						 s->level_count);
+	if (err) {
+		vd_svo_writer_abort(s);
+		return err;
+	}
+	if (digest)
+		*digest = XXH3_64bits_digest(s->dig);
+	err = vd_chunk_writer_commit(s->w);
+	s->w = NULL;
+	vd_svo_writer_abort(s);
+	return err;
+}
+
+void vd_svo_writer_abort(struct vd_svo_writer *s)
+{
+	if (!s)
+		return;
+	vd_chunk_writer_abort(s->w);
+	XXH3_freeState(s->dig);
+	free(s);
+}
+
 int vd_svo_save(const struct vd_svo *svo, const struct vd_transform *t,
 		const char *path, const char *provenance)
 {
