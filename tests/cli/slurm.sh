@@ -196,6 +196,32 @@ pipeline badqueued "max_queued: many"
 expect slurm_bad_max_queued 1 "'max_queued' must be a whole number" \
 	$BIN/voxdag run "$W/badqueued.yaml" --executor slurm
 
+# --- job-exec, what a bundle runs ----------------------------------------
+expect job_exec_usage 2 "usage: voxdag job-exec --list FILE" $BIN/voxdag job-exec
+expect job_exec_no_list 1 "cannot open '$T/none.list'" \
+	$BIN/voxdag job-exec --list "$T/none.list"
+printf 'voxdag-job-list 1\njob a 0\nend %s\n' "$T/a.end" > "$T/cut.list"
+expect job_exec_cut_list 1 "is not a job list \(line 3\)" \
+	$BIN/voxdag job-exec --list "$T/cut.list"
+# a fails; b needs a (skipped, no end); c does not (runs); one log line each
+{
+	echo "voxdag-job-list 1"
+	printf 'job a 0\nend %s\nlog %s\narg /bin/false\nrun\n' "$T/a.end" "$T/a.log"
+	printf 'job b 0\nend %s\nlog %s\nafter %s\narg /bin/true\nrun\n' \
+		"$T/b.end" "$T/b.log" "$T/a.end"
+	printf 'job c 0\nend %s\nlog %s\narg /bin/echo\narg hi\nrun\n' "$T/c.end" "$T/c.log"
+} > "$T/deps.list"
+$BIN/voxdag job-exec --list "$T/deps.list" 2>"$T/err"
+rc=$?
+if [ $rc -eq 0 ] && grep -q '^exit 1$' "$T/a.end" && [ ! -e "$T/b.end" ] &&
+	[ ! -e "$T/b.log" ] && grep -q '^exit 0$' "$T/c.end" &&
+	[ "$(cat "$T/c.log")" = "$(printf '$ /bin/echo hi\nhi')" ] &&
+	grep -q "job b not run: the job that wrote '$T/a.end' did not succeed" "$T/err"; then
+	pass job_exec_skips_dependents_of_a_failure
+else
+	fail job_exec_skips_dependents_of_a_failure "exit $rc" "$(cat "$T/err")"
+fi
+
 # --- a cluster with a site's limits ---------------------------------------
 # The first cluster goes (its CPUs are the test's), a capped one comes.
 # MinJobAge=5: ended jobs count against MaxJobCount until purged.
