@@ -263,7 +263,8 @@ struct bundle {
 	char **ids;       /* an earlier driver's bundle: its jobs' ids */
 	uint64_t *hashes; /* ...and their commands' hashes */
 	int left;         /* its jobs the driver still waits for */
-	int ended;        /* Slurm no longer has it */
+	int ended;        /* its ends were read (its .done, or gone) */
+	int gone;         /* Slurm no longer lists it */
 	int reason_asked;
 	char state[24];   /* an earlier driver's: squeue's state at load */
 	char reason[160];
@@ -271,7 +272,8 @@ struct bundle {
 
 static struct bundle *bundles;
 static int nbundles, capbundles;
-static int live_tasks;          /* bundles Slurm still has */
+static int live_tasks;          /* bundles Slurm still lists */
+static int starved;             /* ready jobs wait for room in the queue */
 static struct slurm_site {
 	long max_job_count, max_array_size, min_job_age;
 	int cpus;                     /* the partition's, all nodes */
@@ -291,7 +293,7 @@ static struct end_rec {
 	struct job_end e;
 } *ends;
 static int nends, headends, capends;
-static double next_poll;
+static double next_poll, next_squeue, last_squeue;
 
 /* Per declared job: its jobs' seconds against their priors, to correct
  * the estimates of the next bundles. */
@@ -659,9 +661,12 @@ static int load_previous(const struct plan *p)
 		b->array_id = aid;
 		snprintf(b->sid, sizeof b->sid, "%ld_%d", aid, task);
 		const struct live *lv = live_find(live, nlive, b->sid);
-		b->ended = !lv;
+		char done[1500];
+		snprintf(done, sizeof done, "%s/%s.%d.done", dir, name, task);
+		b->gone = !lv;
+		b->ended = b->gone || access(done, F_OK) == 0;
 		snprintf(b->state, sizeof b->state, "%s", lv ? lv->state : "");
-		live_tasks += !b->ended;
+		live_tasks += !b->gone;
 		b->njobs = n;
 		b->jobs = malloc((size_t)n * sizeof *b->jobs);
 		b->ids = malloc((size_t)n * sizeof *b->ids);
@@ -1145,6 +1150,7 @@ int slurm_flush(struct plan *p, int *failed)
 	const struct config *c = p->cfg;
 	int submitted = 0;
 	*failed = 0;
+	starved = 0;
 	int *g = malloc(((size_t)nwanted + 1) * sizeof *g);
 	int *start = malloc(((size_t)nwanted + 2) * sizeof *start);
 	if (!g || !start) {
@@ -1163,8 +1169,12 @@ int slurm_flush(struct plan *p, int *failed)
 				wanted[to++] = wanted[i];
 		nwanted = to;
 		int free_tasks = site.max_queued - live_tasks;
-		if (ng == 0 || free_tasks <= 0)
+		if (ng == 0)
 			continue;
+		if (free_tasks <= 0) {
+			starved = 1;
+			continue;
+		}
 		double total = 0;
 		for (int i = 0; i < ng; i++)
 			total += est_seconds(&p->jobs[g[i]]);
@@ -1220,7 +1230,8 @@ int slurm_flush(struct plan *p, int *failed)
 			int rc = submit_array(p, gg, tstart, take, why, sizeof why);
 			free(tstart);
 			if (rc == 1) {
-				next_poll = 0; /* see what ended, then again */
+				/* see what ended, then again */
+				next_poll = next_squeue = 0;
 				break;
 			}
 			for (int k = 0; k < njobs; k++) {
@@ -1255,6 +1266,8 @@ int slurm_flush(struct plan *p, int *failed)
 				sizeof *start);
 			nt -= take;
 		}
+		if (nt > 0)
+			starved = 1;
 	}
 	nwanted = 0;
 	free(g);
@@ -1320,28 +1333,28 @@ void slurm_forget(const struct plan *p, struct job *j)
 		bundle_drop(&bundles[j->bundle - 1], j);
 }
 
-/* Notes the bundles that left the queue and queues their jobs' ends. */
-static int poll_bundles(const struct plan *p)
+/* Bundle bi went through its list (by_done: its .done is there) or left
+ * the queue without: queues its jobs' ends, in bundle order, so a failed
+ * dependency is recorded before the jobs skipped for it. */
+static void bundle_ended(const struct plan *p, int bi, int by_done)
 {
-	int nlive;
-	struct live *live = squeue_live(&nlive);
-	if (!live)
-		return -1; /* no answer now: ask again later */
-	for (int bi = 0; bi < nbundles; bi++) {
-		struct bundle *b = &bundles[bi];
-		if (b->ended || live_find(live, nlive, b->sid))
+	struct bundle *b = &bundles[bi];
+	b->ended = 1;
+	for (int k = 0; k < b->njobs; k++) {
+		int ji = b->jobs[k];
+		if (ji < 0 || p->jobs[ji].state != JOB_RUNNING ||
+		    p->jobs[ji].bundle != bi + 1)
 			continue;
-		b->ended = 1;
-		live_tasks--;
-		for (int k = 0; k < b->njobs; k++) {
-			int ji = b->jobs[k];
-			if (ji < 0 || p->jobs[ji].state != JOB_RUNNING ||
-			    p->jobs[ji].bundle != bi + 1)
-				continue;
-			char end[1300];
-			struct job_end e;
-			job_file(p, &p->jobs[ji], "slurm", "end", end, sizeof end);
-			if (read_end(end, &e) != 0) {
+		char end[1300];
+		struct job_end e;
+		job_file(p, &p->jobs[ji], "slurm", "end", end, sizeof end);
+		if (read_end(end, &e) != 0) {
+			memset(&e, 0, sizeof e);
+			if (by_done) {
+				snprintf(e.reason, sizeof e.reason, "not run in "
+					 "Slurm job %s: a job it needs did not "
+					 "succeed", b->sid);
+			} else {
 				if (!b->reason_asked) {
 					char log[1300];
 					b->reason_asked = 1;
@@ -1350,11 +1363,43 @@ static int poll_bundles(const struct plan *p)
 					slurm_reason(b->sid, log, b->reason,
 						     sizeof b->reason);
 				}
-				memset(&e, 0, sizeof e);
 				snprintf(e.reason, sizeof e.reason, "%s", b->reason);
 			}
-			push_end(ji, &e);
 		}
+		push_end(ji, &e);
+	}
+}
+
+/* Looks for bundles that ended: their .done files (a stat each, cheap),
+ * and with ask_slurm one squeue for those that left the queue without
+ * one (cancelled, killed, out of memory or time). Returns -1 when squeue
+ * does not answer. */
+static int poll_bundles(const struct plan *p, int ask_slurm)
+{
+	for (int bi = 0; bi < nbundles; bi++) {
+		struct bundle *b = &bundles[bi];
+		if (b->ended || !b->sid[0])
+			continue;
+		char done[1300];
+		snprintf(done, sizeof done, "%s/slurm/%s.%d.done", p->dir,
+			 b->name, b->task);
+		if (access(done, F_OK) == 0)
+			bundle_ended(p, bi, 1);
+	}
+	if (!ask_slurm)
+		return 0;
+	int nlive;
+	struct live *live = squeue_live(&nlive);
+	if (!live)
+		return -1; /* no answer now: ask again later */
+	for (int bi = 0; bi < nbundles; bi++) {
+		struct bundle *b = &bundles[bi];
+		if (b->gone || live_find(live, nlive, b->sid))
+			continue;
+		b->gone = 1;
+		live_tasks--;
+		if (!b->ended)
+			bundle_ended(p, bi, 0);
 	}
 	free(live);
 	return 0;
@@ -1380,10 +1425,21 @@ int slurm_reap(const struct plan *p, struct job_end *e)
 	double now = vd_seconds();
 	if (now < next_poll)
 		return -1;
-	/* soon after a submission (short bundles end in seconds), then
-	 * every 2 s: one squeue for all the bundles */
-	next_poll = now + 2.0;
-	if (poll_bundles(p) == 0 && headends < nends)
+	/* the .done files twice a second (slower with thousands of
+	 * bundles in flight); squeue every 15 s for bundles that died,
+	 * or every 2 s while ready jobs wait for room in the queue and
+	 * bundles that finished may not have left it yet */
+	next_poll = now + 0.5 + live_tasks * 0.0005;
+	int waiting_room = 0;
+	for (int bi = 0; bi < nbundles && starved && !waiting_room; bi++)
+		waiting_room = bundles[bi].ended && !bundles[bi].gone;
+	int ask = now >= next_squeue ||
+		  (waiting_room && now >= last_squeue + 2.0);
+	if (ask) {
+		last_squeue = now;
+		next_squeue = now + 15.0;
+	}
+	if (poll_bundles(p, ask) == 0 && headends < nends)
 		return slurm_reap(p, e);
 	return -1;
 }
@@ -1401,6 +1457,7 @@ void slurm_done(const struct plan *p)
 		size_t len = strlen(e->d_name);
 		if (e->d_name[0] == 'b' &&
 		    ((len > 5 && !strcmp(e->d_name + len - 5, ".list")) ||
+		     (len > 5 && !strcmp(e->d_name + len - 5, ".done")) ||
 		     (len > 4 && !strcmp(e->d_name + len - 4, ".sub")))) {
 			char path[1500];
 			snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
@@ -1437,7 +1494,7 @@ const char *slurm_state(const struct plan *p, const struct job *j,
 			 e.exited ? e.code : 128 + e.signal);
 		return buf;
 	}
-	if (b->ended) {
+	if (b->gone) {
 		char why[160], log[1300];
 		snprintf(log, sizeof log, "%s/logs/%s.%d.log", p->dir, b->name,
 			 b->task);
@@ -1593,5 +1650,18 @@ int slurm_job_exec(int argc, char **argv)
 			rc = 1;
 	}
 	list_free(l, n);
-	return stopping ? 128 + stopping : rc;
+	if (stopping)
+		return 128 + stopping;
+	/* through the list: the driver sees this before squeue does */
+	size_t len = strlen(argv[3]);
+	if (len > 5 && !strcmp(argv[3] + len - 5, ".list")) {
+		char done[1300];
+		snprintf(done, sizeof done, "%.*s.done", (int)(len - 5), argv[3]);
+		if (write_whole(done, "done\n") != 0) {
+			fprintf(stderr, "voxdag: cannot write '%s': %s\n", done,
+				strerror(errno));
+			rc = 1;
+		}
+	}
+	return rc;
 }

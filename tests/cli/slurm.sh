@@ -50,9 +50,9 @@ sums() {
 		xargs sha256sum)
 }
 
-release_held() { # releases our held jobs until the runner $1 exits
+release_held() { # releases our held jobs (named $2, if given) until the runner $1 exits
 	while kill -0 "$1" 2>/dev/null; do
-		squeue --me -h -t PD -o %i | xargs -r scontrol release 2>/dev/null
+		squeue --me -h -t PD ${2:+-n "$2"} -o %i | xargs -r scontrol release 2>/dev/null
 		sleep 0.3
 	done
 }
@@ -97,7 +97,7 @@ sed 's/^slurm: {shared_outputs: true}$/slurm: {shared_outputs: true, sbatch_args
 	"$W/same.yaml" > "$W/resume.yaml"
 $BIN/voxdag run "$W/resume.yaml" --executor slurm -q 2>"$T/err1" &
 r=$!
-release_held $r &
+release_held $r voxdag:same:voxelize & # the cells' bundle stays held
 rel=$!
 # kill once the cells are submitted and held, voxelize done
 if wait_log "$W/same/logs/runner.log" 'submitted svdag/cells/chunk-L1-7' 60; then
@@ -233,13 +233,14 @@ if ! env=$(tests/slurm/local-slurm.sh start "$S2" MaxJobCount=60 \
 fi
 eval "$env"
 
-# big NAME [SLURM_KEYS]: the bunny at 2^9 with chunk level 4 (1,679 jobs),
-# bundles of about 2 s so that there are more than the queue holds
-big() {
-	sed -e "s/^name: default/name: $1/" -e 's/^chunk_level: 1 .*/chunk_level: 4/' \
+# bunny NAME L0 [SLURM_KEYS]: the bunny at 2^9 with chunk level L0 (4:
+# 1,679 jobs), bundles of about 2 s so that there are more than the queue
+# holds
+bunny() {
+	sed -e "s/^name: default/name: $1/" -e "s/^chunk_level: 1 .*/chunk_level: $2/" \
 		config/default.yaml > "$W/$1.yaml"
 	echo "outputs: $W/$1" >> "$W/$1.yaml"
-	echo "slurm: {shared_outputs: true, bundle_seconds: 2${2:+, $2}}" >> "$W/$1.yaml"
+	echo "slurm: {shared_outputs: true, bundle_seconds: 2${3:+, $3}}" >> "$W/$1.yaml"
 }
 sample_queue() { # the queue's length every 0.3 s into $1 until killed
 	while :; do squeue --me -h -r | wc -l >> "$1"; sleep 0.3; done
@@ -257,7 +258,7 @@ once() {
 	return 1
 }
 
-big capped
+bunny capped 4
 t0=$SECONDS
 $BIN/voxdag run "$W/capped.yaml" -q 2>"$T/err" || fail slurm_capped_local_run "$(cat "$T/err")"
 sums "$W/capped" > "$W/capped-local.sum"
@@ -324,38 +325,46 @@ else
 fi
 
 # --- one array task cancelled alone: its jobs by name, rerun finishes ----
-$BIN/voxdag clean "$W/capped.yaml"
-# every array starts 3 s after its sbatch: time to cancel one pending task
-big onetask "sbatch_args: [--begin=now+3]"
-sed -i "s|^outputs: .*|outputs: $W/capped|" "$W/onetask.yaml"
+# chunk level 2 (some 30 cells: a few bundles of cells), every array
+# starting 3 s after its sbatch: time to cancel one pending task
+bunny onetask 2 "bundle_seconds: 1, sbatch_args: [--begin=now+3]"
+sed -i 's/bundle_seconds: 2, //' "$W/onetask.yaml"
+sed 's/, sbatch_args: .*/}/' "$W/onetask.yaml" > "$W/onetask-rerun.yaml"
+$BIN/voxdag run "$W/onetask.yaml" -q 2>"$T/err" || fail slurm_onetask_local_run "$(cat "$T/err")"
+sums "$W/onetask" > "$W/onetask-local.sum"
+$BIN/voxdag clean "$W/onetask.yaml"
+rl=$W/onetask/logs/runner.log
 $BIN/voxdag run "$W/onetask.yaml" --executor slurm -q 2>"$T/err" &
 r=$!
-if wait_log "$rl" 'sbatch: .* svdag jobs' 60; then
-	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [0-9]* bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
-	victim=$(grep " (Slurm job ${arr}_3, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
-	scancel "${arr}_3"
+if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
+	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
+	victim=$(grep " (Slurm job ${arr}_1, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
+	scancel "${arr}_1"
 	wait $r
 	rc=$?
 	ssv=ssvdag/cells/${victim#svdag/cells/}
 	if [ $rc -eq 1 ] && [ -n "$victim" ] &&
-		grep -q "job $victim did not finish: Slurm job ${arr}_3" "$T/err" &&
-		grep -q 'jobs\{0,1\} failed' "$T/err" &&
+		grep -q "job $victim did not finish: Slurm job ${arr}_1 left the queue before it started" "$T/err" &&
+		grep -q "  log: .*/logs/${victim//\//.}.log" "$T/err" &&
+		grep -q 'jobs\{0,1\} failed' "$T/err" && grep -q "submitted svdag/cells/" "$rl" &&
 		! grep -q "submitted $ssv " "$rl" && ! grep -q "submitted svdag/root " "$rl"; then
 		pass slurm_array_task_cancelled_reported
 	else
 		fail slurm_array_task_cancelled_reported "exit $rc, victim '$victim' of $arr" \
 			"$(head -5 "$T/err")"
 	fi
-	$BIN/voxdag run "$W/capped.yaml" --executor slurm -q 2>"$T/err"
+	$BIN/voxdag run "$W/onetask-rerun.yaml" --executor slurm -q 2>"$T/err"
 	rc=$?
-	sums "$W/capped" > "$W/capped-rerun.sum"
-	if [ $rc -eq 0 ] && cmp -s "$W/capped-local.sum" "$W/capped-rerun.sum"; then
+	sums "$W/onetask" > "$W/onetask-rerun.sum"
+	if [ $rc -eq 0 ] && [ "$(wc -l < "$W/onetask-local.sum")" -ge 30 ] &&
+		cmp -s "$W/onetask-local.sum" "$W/onetask-rerun.sum"; then
 		pass slurm_array_task_rerun_finishes
 	else
 		fail slurm_array_task_rerun_finishes "exit $rc" "$(cat "$T/err")"
 	fi
 else
 	kill $r 2>/dev/null
-	fail slurm_array_task_cancelled_reported "no svdag bundle was submitted"
+	fail slurm_array_task_cancelled_reported "no array of svdag bundles:" \
+		"$(grep sbatch: "$rl")"
 fi
 rm -rf "$W"
