@@ -289,10 +289,11 @@ int slurm_flush(struct plan *p, int *failed);
 int slurm_adopt(const struct plan *p, struct job *j);
 
 /* Looks for a running job that ended. Returns its index and fills *end,
- * or -1 when none has (yet). Asks squeue at most every 2 s which bundles
- * Slurm still has and reads the end files of those that left; a job
- * without one (cancelled, out of memory, time limit, node failure) gets
- * Slurm's reason for its bundle. */
+ * or -1 when none has (yet). Reads the end files of a bundle once it left
+ * its .done (job-exec went through its list) or left the queue (squeue,
+ * every few seconds, one call for all); a job without one (cancelled, out
+ * of memory, time limit, node failure) gets Slurm's reason for its
+ * bundle. */
 int slurm_reap(const struct plan *p, struct job_end *end);
 
 /* 1 while ends read by the last poll are not all taken by slurm_reap. */

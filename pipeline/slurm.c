@@ -1426,7 +1426,7 @@ int slurm_reap(const struct plan *p, struct job_end *e)
 	if (now < next_poll)
 		return -1;
 	/* the .done files twice a second (slower with thousands of
-	 * bundles in flight); squeue every 15 s for bundles that died,
+	 * bundles in flight); squeue every 5 s for bundles that died,
 	 * or every 2 s while ready jobs wait for room in the queue and
 	 * bundles that finished may not have left it yet */
 	next_poll = now + 0.5 + live_tasks * 0.0005;
@@ -1437,7 +1437,7 @@ int slurm_reap(const struct plan *p, struct job_end *e)
 		  (waiting_room && now >= last_squeue + 2.0);
 	if (ask) {
 		last_squeue = now;
-		next_squeue = now + 15.0;
+		next_squeue = now + 5.0;
 	}
 	if (poll_bundles(p, ask) == 0 && headends < nends)
 		return slurm_reap(p, e);

@@ -325,9 +325,9 @@ else
 fi
 
 # --- one array task cancelled alone: its jobs by name, rerun finishes ----
-# chunk level 2 (some 30 cells: a few bundles of cells), every array
-# starting 3 s after its sbatch: time to cancel one pending task
-bunny onetask 2 "bundle_seconds: 1, sbatch_args: [--begin=now+3]"
+# chunk level 2 (some 30 cells: a few bundles of cells), every array held
+# until released: voxelize's at once, the cells' once one task is cancelled
+bunny onetask 2 "bundle_seconds: 1, sbatch_args: [--hold]"
 sed -i 's/bundle_seconds: 2, //' "$W/onetask.yaml"
 sed 's/, sbatch_args: .*/}/' "$W/onetask.yaml" > "$W/onetask-rerun.yaml"
 $BIN/voxdag run "$W/onetask.yaml" -q 2>"$T/err" || fail slurm_onetask_local_run "$(cat "$T/err")"
@@ -336,12 +336,18 @@ $BIN/voxdag clean "$W/onetask.yaml"
 rl=$W/onetask/logs/runner.log
 $BIN/voxdag run "$W/onetask.yaml" --executor slurm -q 2>"$T/err" &
 r=$!
+release_held $r voxdag:onetask:voxelize &
+rel=$!
 if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
 	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
 	victim=$(grep " (Slurm job ${arr}_1, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
 	scancel "${arr}_1"
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	release_held $r &
+	rel=$!
 	wait $r
 	rc=$?
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
 	ssv=ssvdag/cells/${victim#svdag/cells/}
 	if [ $rc -eq 1 ] && [ -n "$victim" ] &&
 		grep -q "job $victim did not finish: Slurm job ${arr}_1 left the queue before it started" "$T/err" &&
@@ -363,7 +369,7 @@ if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
 		fail slurm_array_task_rerun_finishes "exit $rc" "$(cat "$T/err")"
 	fi
 else
-	kill $r 2>/dev/null
+	kill $r $rel 2>/dev/null
 	fail slurm_array_task_cancelled_reported "no array of svdag bundles:" \
 		"$(grep sbatch: "$rl")"
 fi
