@@ -256,7 +256,7 @@ static int read_end(const char *path, struct job_end *e)
 struct bundle {
 	char sid[48];     /* Slurm's id of the task, "123_4" */
 	long array_id;    /* 123 */
-	char name[48];    /* b<start>-<n>: its files' names */
+	char name[48];    /* b<start>-<pid>-<n>: its files' names */
 	int task;
 	int *jobs, njobs; /* indices into the plan (jobs of an earlier
 			   * driver: -1 until adopted) */
@@ -295,9 +295,10 @@ static struct end_rec {
 static int nends, headends, capends;
 static double next_poll, next_squeue, last_squeue;
 
-/* Per declared job: its jobs' seconds against their priors, to correct
- * the estimates of the next bundles. */
-static double seen_seconds[MAX_JOBS_DECL + 1], seen_prior[MAX_JOBS_DECL + 1];
+/* Per declared job, then for cell jobs and for the others of every
+ * declared job: the jobs' seconds against their priors, to correct the
+ * estimates of the next bundles. */
+static double seen_seconds[MAX_JOBS_DECL + 2], seen_prior[MAX_JOBS_DECL + 2];
 
 static void *grow(void *q, int *cap, int need, size_t size)
 {
@@ -939,9 +940,10 @@ static double prior_seconds(const struct job *j)
 static double est_seconds(const struct job *j)
 {
 	double s = seen_seconds[j->decl], q = seen_prior[j->decl];
-	if (q <= 0) { /* none of its own yet: every declared job's */
-		s = seen_seconds[MAX_JOBS_DECL];
-		q = seen_prior[MAX_JOBS_DECL];
+	if (q <= 0) { /* none of its own yet: every declared job's cells
+		       * (or non-cells: one voxelize says little of a cell) */
+		s = seen_seconds[MAX_JOBS_DECL + !j->cell];
+		q = seen_prior[MAX_JOBS_DECL + !j->cell];
 	}
 	double f = q > 0 ? s / q : 1;
 	if (f < 0.01)
@@ -974,7 +976,10 @@ static int submit_array(struct plan *p, const int *g, const int *start,
 	if (!sub_start)
 		sub_start = (long)time(NULL);
 	char name[48], sub[1300];
-	snprintf(name, sizeof name, "b%ld-%d", sub_start, sub_count++);
+	/* unique across drivers: time and pid (a restarted driver may
+	 * start within the second its predecessor did) */
+	snprintf(name, sizeof name, "b%ld-%ld-%d", sub_start, (long)getpid(),
+		 sub_count++);
 	snprintf(sub, sizeof sub, "%s/slurm/%s.sub", p->dir, name);
 	int first = nbundles;
 	uint64_t mem = 0;
@@ -1417,8 +1422,8 @@ int slurm_reap(const struct plan *p, struct job_end *e)
 			int d = j->decl;
 			seen_seconds[d] += e->seconds;
 			seen_prior[d] += prior_seconds(j);
-			seen_seconds[MAX_JOBS_DECL] += e->seconds;
-			seen_prior[MAX_JOBS_DECL] += prior_seconds(j);
+			seen_seconds[MAX_JOBS_DECL + !j->cell] += e->seconds;
+			seen_prior[MAX_JOBS_DECL + !j->cell] += prior_seconds(j);
 		}
 		return r->job;
 	}

@@ -373,4 +373,47 @@ else
 	fail slurm_array_task_cancelled_reported "no array of svdag bundles:" \
 		"$(grep sbatch: "$rl")"
 fi
+# --- a job failing inside a bundle: named, with its log; only its --------
+# dependents not run; the others of its bundle and stage go on
+$BIN/voxdag clean "$W/onetask-rerun.yaml"
+sed 's/^name: onetask$/name: failjob/' "$W/onetask.yaml" > "$W/failjob.yaml"
+sed 's/^name: onetask$/name: failjob/' "$W/onetask-rerun.yaml" > "$W/failjob-rerun.yaml"
+$BIN/voxdag run "$W/failjob.yaml" --executor slurm -q 2>"$T/err" &
+r=$!
+release_held $r voxdag:failjob:voxelize &
+rel=$!
+if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
+	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
+	victim=$(grep " (Slurm job ${arr}_0, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | sed -n 2p)
+	cell=${victim#svdag/cells/}
+	truncate -s 100 "$W/onetask/voxelize/$cell.svo" # a cut chunk: svo-to-dag refuses it
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	release_held $r &
+	rel=$!
+	wait $r
+	rc=$?
+	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	if [ $rc -eq 1 ] && [ -n "$cell" ] &&
+		grep -q "job $victim failed (exit [1-9]" "$T/err" &&
+		grep -q "  log: .*/logs/svdag.cells.$cell.log" "$T/err" && grep -q '  | ' "$T/err" &&
+		grep -q "done svdag/cells/" "$rl" && grep -q "done ssvdag/cells/" "$rl" &&
+		! grep -q "submitted ssvdag/cells/$cell " "$rl" && ! grep -q "submitted svdag/root " "$rl"; then
+		pass slurm_failed_job_in_bundle_reported
+	else
+		fail slurm_failed_job_in_bundle_reported "exit $rc, victim '$victim'" "$(head -8 "$T/err")"
+	fi
+	# the cut chunk no longer matches voxelize's key: rebuilt, then all
+	$BIN/voxdag run "$W/failjob-rerun.yaml" --executor slurm -q 2>"$T/err"
+	rc=$?
+	sums "$W/onetask" > "$W/failjob-rerun.sum"
+	if [ $rc -eq 0 ] && cmp -s "$W/onetask-local.sum" "$W/failjob-rerun.sum"; then
+		pass slurm_failed_job_rerun_finishes
+	else
+		fail slurm_failed_job_rerun_finishes "exit $rc" "$(cat "$T/err")"
+	fi
+else
+	kill $r $rel 2>/dev/null
+	fail slurm_failed_job_in_bundle_reported "no array of svdag bundles:" \
+		"$(grep sbatch: "$rl")"
+fi
 rm -rf "$W"
