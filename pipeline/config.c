@@ -255,7 +255,8 @@ static int want_time_limit(struct ctx *x, const yaml_node_t *n,
 }
 
 /* slurm: {partition, account, time_limit, time: {stage: limit},
- * sbatch_args: [...], shared_outputs: bool}; used with
+ * sbatch_args: [...], shared_outputs: bool, bundle_seconds: N,
+ * max_queued: N}; used with
  * resources.executor: slurm. */
 static int parse_slurm(struct ctx *x, yaml_node_t *map)
 {
@@ -321,10 +322,15 @@ static int parse_slurm(struct ctx *x, yaml_node_t *map)
 				return fail_at(x, v, "'shared_outputs' is true "
 					       "or false");
 			o->shared_outputs = !strcmp(b, "true");
+		} else if (!strcmp(key, "bundle_seconds")) {
+			err = want_int(x, v, key, 1, 86400, &o->bundle_seconds);
+		} else if (!strcmp(key, "max_queued")) {
+			err = want_int(x, v, key, 1, 10000000, &o->max_queued);
 		} else {
 			return fail_at(x, k, "unknown key 'slurm.%s' (known: "
 				       "partition, account, time_limit, time, "
-				       "sbatch_args, shared_outputs)", key);
+				       "sbatch_args, shared_outputs, "
+				       "bundle_seconds, max_queued)", key);
 		}
 		if (err)
 			return 1;
@@ -929,6 +935,7 @@ int config_load(struct config *c, const char *path)
 	c->jobs = 2;
 	c->mem_budget = 4ull << 30;
 	c->job_mem_budget = 2ull << 30;
+	c->slurm.bundle_seconds = 300;
 	FILE *f = fopen(path, "rb");
 	if (!f) {
 		fprintf(stderr, "voxdag: cannot read '%s': %s\n", path,

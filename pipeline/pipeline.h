@@ -104,6 +104,11 @@ struct config {
 						    * every node sees outputs
 						    * (a one-node cluster, a
 						    * site's shared /tmp) */
+		int bundle_seconds;                /* a bundle's target run
+						    * time (default 300) */
+		int max_queued;                    /* bundles in Slurm at
+						    * once; 0: half of the
+						    * cluster's MaxJobCount */
 	} slurm;
 };
 
@@ -126,7 +131,9 @@ struct job {
 	/* strings on the heap: a plan holds up to millions of jobs, so the
 	 * struct stays small (a few hundred bytes a job) */
 	char *id;                  /* "svdag/cell-L2-3f", for logs and status */
-	long slurm_id;             /* with executor slurm: its Slurm job, or 0 */
+	long slurm_id;             /* with executor slurm: the Slurm job array
+				    * of its bundle, or 0 */
+	int bundle;                /* ...and the bundle (slurm.c), + 1 */
 	int decl;                  /* the job_decl it comes from */
 	char **argv;               /* NULL-terminated; argv[0] is the program */
 	char *output;              /* the file (or directory) it produces */
@@ -252,41 +259,72 @@ struct job_end {
 };
 
 /* ---------------------------------------------------- the Slurm executor
- * (slurm.c). The runner stays the driver: it submits each job with sbatch
- * once its dependencies are done or themselves submitted (afterok), polls
- * for ends, and on a restart adopts jobs still queued or running. Per job
- * it keeps DIR/slurm/<job>.id (the Slurm job id) and the job writes
- * DIR/slurm/<job>.end through `voxdag job-exec`. */
+ * (slurm.c). The runner stays the driver: it packs the jobs that are ready
+ * (their dependencies done, or themselves in Slurm) into bundles, each
+ * bundle a task of a Slurm job array that runs its jobs in sequence
+ * (`voxdag job-exec --list FILE`), polls Slurm once per poll for the
+ * bundles that left the queue, and on a restart adopts the jobs of bundles
+ * still queued or running. Each job still writes DIR/slurm/<job>.end and
+ * DIR/logs/<job>.log. */
 
 /* Checks, before anything is submitted: sbatch on PATH, the controller
- * answers, the partition exists, the output directory is not node-local.
- * Prints one line and returns non-zero on a problem. */
+ * answers, the partition exists, the output directory is not node-local;
+ * reads the cluster's limits and what an earlier driver submitted. Prints
+ * one line and returns non-zero on a problem. */
 int slurm_preflight(const struct plan *p);
 
-/* Submits j (its dependencies running in Slurm become afterok). Returns 0
- * and sets j->slurm_id, or prints one line and returns non-zero. */
-int slurm_submit(const struct plan *p, struct job *j);
+/* Marks j, ready, for the next slurm_flush (its state stays pending). */
+void slurm_want(const struct plan *p, struct job *j);
+
+/* Submits the jobs slurm_want marked since the last call, as bundles
+ * within the queue's cap: those submitted become JOB_RUNNING (their count
+ * is returned), those sbatch refused JOB_FAILED (counted in *failed, each
+ * array said on stderr), the rest stay pending for a later call. */
+int slurm_flush(struct plan *p, int *failed);
 
 /* If a previous driver submitted j with the same command and Slurm still
- * has it queued or running, or it ended while no driver watched: sets
- * j->slurm_id and returns 1 (the caller then treats j as running). */
+ * has its bundle, or the bundle wrote j's end while no driver watched:
+ * sets j->slurm_id and j->bundle and returns 1 (the caller then treats j
+ * as running). */
 int slurm_adopt(const struct plan *p, struct job *j);
 
-/* Looks for a running Slurm job that ended. Returns its index and fills
- * *end, or -1 when none has (yet). Asks squeue at most every few seconds
- * for jobs that vanished without an end file (cancelled, out of memory,
- * time limit, node failure) and takes Slurm's reason for them. */
+/* Looks for a running job that ended. Returns its index and fills *end,
+ * or -1 when none has (yet). Reads the end files of a bundle once it left
+ * its .done (job-exec went through its list) or left the queue (squeue,
+ * every few seconds, one call for all); a job without one (cancelled, out
+ * of memory, time limit, node failure) gets Slurm's reason for its
+ * bundle. */
 int slurm_reap(const struct plan *p, struct job_end *end);
 
-/* Cancels j in Slurm (a dependency of it failed). */
+/* 1 while ends read by the last poll are not all taken by slurm_reap. */
+int slurm_ends_waiting(void);
+
+/* j is no longer waited for in its bundle (blocked by a failed
+ * dependency: job-exec skips it); a bundle left with nothing to wait for
+ * is cancelled in Slurm. */
 void slurm_cancel(const struct plan *p, struct job *j);
 
-/* Forgets j's id and end files once its output is recorded. */
-void slurm_forget(const struct plan *p, const struct job *j);
+/* j's end is recorded: the same bookkeeping as slurm_cancel. */
+void slurm_forget(const struct plan *p, struct job *j);
 
-/* `voxdag job-exec END -- PROG ARGS...`, what each Slurm job runs: runs the
- * stage, then writes END (exit status, seconds, peak memory) atomically. */
+/* "123_4", the Slurm task of j's bundle, or "". */
+const char *slurm_bundle_name(const struct job *j);
+
+/* The CPU seconds of the stages whose ends the driver read. */
+double slurm_stages_cpu(void);
+
+/* At the end of a run (nothing of ours in Slurm): removes the bundles'
+ * lists and records. */
+void slurm_done(const struct plan *p);
+
+/* `voxdag job-exec --list FILE`, what each bundle runs: each job of the
+ * list in turn, skipping one whose dependency's end does not say success,
+ * its output appended to its log, then its end file (exit status,
+ * seconds, peak memory) written atomically. */
 int slurm_job_exec(int argc, char **argv);
+
+/* A line in the run's runner.log (run.c). */
+void run_log(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* `voxdag view` (view.c): argv[0] is "view"; serves an output directory
  * and the browser viewer on 127.0.0.1 until interrupted. Returns the exit

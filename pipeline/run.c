@@ -25,7 +25,25 @@
 static FILE *runner_log;
 
 static void log_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static void log_vline(const char *fmt, va_list ap);
+
+void run_log(const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	log_vline(fmt, ap);
+	va_end(ap);
+}
+
 static void log_line(const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	log_vline(fmt, ap);
+	va_end(ap);
+}
+
+static void log_vline(const char *fmt, va_list ap)
 {
 	if (!runner_log)
 		return;
@@ -41,10 +59,7 @@ static void log_line(const char *fmt, ...)
 		last = now;
 	}
 	fprintf(runner_log, "%s ", ts);
-	va_list ap;
-	va_start(ap, fmt);
 	vfprintf(runner_log, fmt, ap);
-	va_end(ap);
 	fputc('\n', runner_log);
 	fflush(runner_log);
 }
@@ -884,6 +899,8 @@ struct run_state {
 	int scan_from;
 	/* SIGCHLD, blocked while the runner runs locally */
 	sigset_t chld;
+	/* Slurm: a job ended or was submitted since the last pass */
+	int dirty;
 };
 
 /* Removes the staging entries of dead processes under the outputs (every
@@ -914,8 +931,6 @@ static int run_open(struct plan *p)
 	if (take_lock(p) < 0 || keys_open(p->dir, 1) != 0)
 		return 1;
 	int slurm = c->executor == EXECUTOR_SLURM;
-	if (slurm && slurm_preflight(p) != 0)
-		return 1;
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
 	runner_log = fopen(rl, "a");
@@ -925,6 +940,8 @@ static int run_open(struct plan *p)
 	signal(SIGHUP, on_stop);
 	tzset();
 	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	if (slurm && slurm_preflight(p) != 0)
+		return 1;
 	/* what killed runs left half-written (locally: with Slurm, jobs of a
 	 * killed driver may still run elsewhere, under pids not ours) */
 	if (!slurm)
@@ -944,17 +961,12 @@ static int launch_ready(struct run_state *s, int i, int lone)
 	const struct config *c = s->c;
 	struct job *j = &p->jobs[i];
 	if (s->slurm) {
-		/* Slurm schedules within the cluster's limits */
+		/* bundled and submitted at the end of the pass (slurm_flush):
+		 * its key is gone from now on, so it is not looked for again */
 		prepare_output(j);
-		if (slurm_submit(p, j) != 0) {
-			job_set_state(p, j, JOB_FAILED);
-			s->failures++;
-			cancel_dependents(p, &s->running);
-			return 0;
-		}
-		log_line("submitted %s (Slurm job %ld, %llu MiB)",
-			 j->id, j->slurm_id,
-			 (unsigned long long)(j->mem_estimate >> 20));
+		j->fresh_checked = 1;
+		slurm_want(p, j);
+		return 0;
 	} else {
 		if (s->running >= c->jobs ||
 		    (s->running > 0 &&
@@ -1008,8 +1020,8 @@ static void consider_job(struct run_state *s, int i, int lone)
 			j->state = JOB_RUNNING;
 			j->start = vd_seconds();
 			s->running++;
-			log_line("adopted %s (Slurm job %ld)", j->id,
-				 j->slurm_id);
+			log_line("adopted %s (Slurm job %s)", j->id,
+				 slurm_bundle_name(j));
 			return;
 		}
 	}
@@ -1071,6 +1083,14 @@ static void start_ready(struct run_state *s)
 		if (!s->slurm && s->failures)
 			break;
 		consider_job(s, i, lone);
+	}
+	if (s->slurm) {
+		int failed;
+		s->running += slurm_flush(p, &failed);
+		if (failed) {
+			s->failures += failed;
+			cancel_dependents(p, &s->running);
+		}
 	}
 }
 
@@ -1166,17 +1186,30 @@ static int run_close(struct run_state *s)
 	launcher_stop();
 	keys_sync(1);
 	sweep_staging(p, s->slurm); /* nothing of ours runs now */
+	if (s->slurm)
+		slurm_done(p);
 	/* the runner's own cost against the stages' (children reaped) */
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);
 	getrusage(RUSAGE_CHILDREN, &kids);
 	/* starting jobs is the runner's work, though the launcher did it as
 	 * its child */
-	log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, runner cpu "
-		 "%.3fs (%.3fs of it starting jobs), stages cpu %.3fs, runner "
-		 "peak %ld MiB", s->failures, blocked, vd_seconds() - s->t0,
-		 p->n, rusage_seconds(&self) + spawn_cpu, spawn_cpu,
-		 rusage_seconds(&kids) - spawn_cpu, self.ru_maxrss / 1024);
+	if (s->slurm) /* the children are sbatch, squeue, scontrol, scancel:
+		       * the driver's cost; the stages' is in their ends */
+		log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, "
+			 "runner cpu %.3fs (%.3fs of it in Slurm's commands), "
+			 "stages cpu %.3fs, runner peak %ld MiB", s->failures,
+			 blocked, vd_seconds() - s->t0, p->n,
+			 rusage_seconds(&self) + rusage_seconds(&kids),
+			 rusage_seconds(&kids), slurm_stages_cpu(),
+			 self.ru_maxrss / 1024);
+	else
+		log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, "
+			 "runner cpu %.3fs (%.3fs of it starting jobs), stages "
+			 "cpu %.3fs, runner peak %ld MiB", s->failures, blocked,
+			 vd_seconds() - s->t0, p->n, rusage_seconds(&self) +
+			 spawn_cpu, spawn_cpu, rusage_seconds(&kids) - spawn_cpu,
+			 self.ru_maxrss / 1024);
 	if (s->failures || blocked) {
 		fprintf(stderr, "voxdag: %d job%s failed, %d not run because of "
 			"them; rerun 'voxdag run %s' after fixing the cause "
@@ -1203,6 +1236,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	s.t0 = vd_seconds();
 	s.last = 0;
 	s.every = o->quiet ? 5.0 : s.tty ? 0.5 : 10.0;
+	s.dirty = 1;
 	running_local = calloc((size_t)c->jobs + 1, sizeof *running_local);
 	direct_pids = calloc((size_t)c->jobs + 1, sizeof *direct_pids);
 	if (!running_local || !direct_pids) {
@@ -1216,8 +1250,16 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 	sigaddset(&s.chld, SIGCHLD);
 	sigprocmask(SIG_BLOCK, s.slurm ? NULL : &s.chld, &child_mask);
 	for (;;) {
-		start_ready(&s);
+		/* with Slurm, a pass only when something can have changed
+		 * (an end, a submission), and after the ends a poll brought
+		 * are all recorded: the bundles are cut from every ready job */
+		if (!s.slurm || (s.dirty && !slurm_ends_waiting())) {
+			int before = s.running;
+			start_ready(&s);
+			s.dirty = s.running != before;
+		}
 		if (s.running == 0) {
+			s.dirty = 1;
 			if (run_idle(&s))
 				break;
 			continue;
@@ -1232,6 +1274,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 			continue;
 		}
 		run_reaped(&s, done, &end);
+		s.dirty = 1;
 	}
 	return run_close(&s);
 }

@@ -13,6 +13,13 @@ cd "$(dirname "$0")/.."
 . tests/lossless_yaml.sh
 # the viewer's frame times need only the bundled bunny
 tests/bench/viewer_frames.sh
+# the Slurm executor at >= 10,000 jobs (issue 40), also on the bundled
+# bunny: sbatch calls, driver CPU per job, wall against the local executor
+# (tests/bench/slurm_bundles.sh; ~10 min on 2 cores; skipped without root
+# and slurm-wlm). VOXDAG_BENCH_SLURM=0 skips it.
+if [ "${VOXDAG_BENCH_SLURM:-1}" != 0 ]; then
+	tests/bench/slurm_bundles.sh
+fi
 DATA=${VOXDAG_SHARED_DATA:-../shared/data}
 OUT=out/bench
 if [ ! -d "$DATA" ]; then

@@ -1,13 +1,22 @@
 #!/usr/bin/env bash
-# local-slurm.sh start DIR | stop DIR: a one-node Slurm cluster on this
-# machine for the tests (Debian slurm-wlm + munge, run as root), all state
-# in DIR. `start` writes DIR/slurm.conf, starts munged, slurmctld and slurmd,
+# local-slurm.sh start DIR [KEY=VALUE...] | stop DIR: a one-node Slurm
+# cluster on this machine for the tests (Debian slurm-wlm + munge, run as
+# root), all state in DIR. KEY=VALUE lines go into slurm.conf as given,
+# over the defaults below (e.g. MaxJobCount=60 MaxArraySize=20: a cluster
+# with a site's limits). `start` writes DIR/slurm.conf, starts munged, slurmctld and slurmd,
 # waits until the node is idle and prints `export SLURM_CONF=...` for the
 # caller to eval. `stop` kills the three daemons by the process ids recorded
 # in DIR (never by name: other clusters may run here) and waits for them.
 set -u
 cmd=${1:-}; dir=${2:-}
-[ -n "$cmd" ] && [ -n "$dir" ] || { echo "usage: $0 start|stop DIR" >&2; exit 2; }
+[ -n "$cmd" ] && [ -n "$dir" ] || { echo "usage: $0 start|stop DIR [KEY=VALUE...]" >&2; exit 2; }
+shift 2
+for kv in "$@"; do
+	case "$kv" in
+	[A-Za-z]*=*) ;;
+	*) echo "local-slurm: '$kv' is not a slurm.conf KEY=VALUE" >&2; exit 2 ;;
+	esac
+done
 
 stop() {
 	local f pid
@@ -66,6 +75,10 @@ JobAcctGatherType=jobacct_gather/none
 NodeName=$host CPUs=$cpus RealMemory=$mem_mb State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
 CONF
+for kv in "$@"; do # the caller's, in place of a default
+	sed -i "/^${kv%%=*}=/d" "$dir/slurm.conf"
+	sed -i "1i $kv" "$dir/slurm.conf"
+done
 trap 'stop' ERR
 munged --force --socket="$dir/munge.socket" --key-file="$dir/munge.key" \
 	--pid-file="$dir/munged.pid" --log-file="$dir/log/munged.log" \
