@@ -262,7 +262,7 @@ struct job_end {
  * (slurm.c). The runner stays the driver: it packs the jobs that are ready
  * (their dependencies done, or themselves in Slurm) into bundles, each
  * bundle a task of a Slurm job array that runs its jobs in sequence
- * (`voxdag job-exec --list FILE`), polls Slurm once per poll for the
+ * (`voxdag job-exec LIST`), polls Slurm once per poll for the
  * bundles that left the queue, and on a restart adopts the jobs of bundles
  * still queued or running. Each job still writes DIR/slurm/<job>.end and
  * DIR/logs/<job>.log. */
@@ -317,7 +317,7 @@ double slurm_stages_cpu(void);
  * lists and records. */
 void slurm_done(const struct plan *p);
 
-/* `voxdag job-exec --list FILE`, what each bundle runs: each job of the
+/* `voxdag job-exec LIST`, what each bundle runs: each job of the
  * list in turn, skipping one whose dependency's end does not say success,
  * its output appended to its log, then its end file (exit status,
  * seconds, peak memory) written atomically. */

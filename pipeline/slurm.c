@@ -7,7 +7,7 @@
  *   about `slurm.bundle_seconds` each (from the jobs' estimates, corrected
  *   by what the stage's jobs really took so far), at least as many as the
  *   partition has CPUs for while each keeps a tenth of that target, and a
- *   bundle's one task runs its jobs in sequence (`voxdag job-exec --list
+ *   bundle's one task runs its jobs in sequence (`voxdag job-exec
  *   FILE`). Every bundle submitted at once goes out in one `sbatch
  *   --array=0-N`, within MaxArraySize, with the largest memory estimate and
  *   thread count of its jobs, and `afterany` on the arrays that hold jobs
@@ -1030,7 +1030,6 @@ static int submit_array(struct plan *p, const int *g, const int *start,
 	snprintf(listp, sizeof listp, "%s/slurm/%s.", p->dir, name);
 	int bad = shell_quote(wrap, wcap, &wn, self) ||
 		  shell_quote(wrap, wcap, &wn, "job-exec") ||
-		  shell_quote(wrap, wcap, &wn, "--list") ||
 		  shell_quote(wrap, wcap, &wn, listp);
 	const char *tail = "\"$SLURM_ARRAY_TASK_ID\"'.list'";
 	if (bad || wn + strlen(tail) + 1 >= wcap) {
@@ -1595,21 +1594,21 @@ static int exec_one(const struct list_job *lj)
 
 int slurm_job_exec(int argc, char **argv)
 {
-	/* voxdag job-exec --list FILE */
-	if (argc != 4 || strcmp(argv[2], "--list") != 0) {
-		fprintf(stderr, "usage: voxdag job-exec --list FILE\n");
+	/* voxdag job-exec LIST */
+	if (argc != 3 || argv[2][0] == '-') {
+		fprintf(stderr, "usage: voxdag job-exec LIST\n");
 		return 2;
 	}
 	char sub[1300] = "";
 	struct list_job *l;
-	int line, n = list_read(argv[3], sub, sizeof sub, &l, &line);
+	int line, n = list_read(argv[2], sub, sizeof sub, &l, &line);
 	if (n < 0) {
 		if (!line)
 			fprintf(stderr, "voxdag: job-exec: cannot open '%s': %s\n",
-				argv[3], strerror(errno));
+				argv[2], strerror(errno));
 		else
 			fprintf(stderr, "voxdag: job-exec: '%s' is not a job "
-				"list (line %d)\n", argv[3], line);
+				"list (line %d)\n", argv[2], line);
 		return 1;
 	}
 	/* run nothing unless the driver recorded this very array: one whose
@@ -1658,10 +1657,10 @@ int slurm_job_exec(int argc, char **argv)
 	if (stopping)
 		return 128 + stopping;
 	/* through the list: the driver sees this before squeue does */
-	size_t len = strlen(argv[3]);
-	if (len > 5 && !strcmp(argv[3] + len - 5, ".list")) {
+	size_t len = strlen(argv[2]);
+	if (len > 5 && !strcmp(argv[2] + len - 5, ".list")) {
 		char done[1300];
-		snprintf(done, sizeof done, "%.*s.done", (int)(len - 5), argv[3]);
+		snprintf(done, sizeof done, "%.*s.done", (int)(len - 5), argv[2]);
 		if (write_whole(done, "done\n") != 0) {
 			fprintf(stderr, "voxdag: cannot write '%s': %s\n", done,
 				strerror(errno));

@@ -197,12 +197,12 @@ expect slurm_bad_max_queued 1 "'max_queued' must be a whole number" \
 	$BIN/voxdag run "$W/badqueued.yaml" --executor slurm
 
 # --- job-exec, what a bundle runs ----------------------------------------
-expect job_exec_usage 2 "usage: voxdag job-exec --list FILE" $BIN/voxdag job-exec
+expect job_exec_usage 2 "usage: voxdag job-exec LIST" $BIN/voxdag job-exec
 expect job_exec_no_list 1 "cannot open '$T/none.list'" \
-	$BIN/voxdag job-exec --list "$T/none.list"
+	$BIN/voxdag job-exec "$T/none.list"
 printf 'voxdag-job-list 1\njob a 0\nend %s\n' "$T/a.end" > "$T/cut.list"
 expect job_exec_cut_list 1 "is not a job list \(line 3\)" \
-	$BIN/voxdag job-exec --list "$T/cut.list"
+	$BIN/voxdag job-exec "$T/cut.list"
 # a fails; b needs a (skipped, no end); c does not (runs); one log line each
 {
 	echo "voxdag-job-list 1"
@@ -211,7 +211,7 @@ expect job_exec_cut_list 1 "is not a job list \(line 3\)" \
 		"$T/b.end" "$T/b.log" "$T/a.end"
 	printf 'job c 0\nend %s\nlog %s\narg /bin/echo\narg hi\nrun\n' "$T/c.end" "$T/c.log"
 } > "$T/deps.list"
-$BIN/voxdag job-exec --list "$T/deps.list" 2>"$T/err"
+$BIN/voxdag job-exec "$T/deps.list" 2>"$T/err"
 rc=$?
 if [ $rc -eq 0 ] && grep -q '^exit 1$' "$T/a.end" && [ ! -e "$T/b.end" ] &&
 	[ ! -e "$T/b.log" ] && grep -q '^exit 0$' "$T/c.end" &&
