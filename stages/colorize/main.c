@@ -160,6 +160,8 @@ int main(int argc, char **argv)
 		return vd_cli_usage(TOOL, "%s", "no output directory (-o DIR) given");
 	job.indir = argv[optind];
 	job.autop.max_error = job.lossless ? 0 : job.vbr.max_error;
+	/* lossless auto: coded segments (format 1.2), the fewest bytes */
+	job.autop.coded = job.lossless;
 	char *prov = vd_provenance_new(TOOL, argc, argv);
 	job.provenance = prov;
 	int err = vd_colorize_run(&job);

@@ -125,9 +125,109 @@ static inline size_t vd_auto_block_bytes(uint32_t e, const uint8_t *d,
 	case VD_AUTO_QUANT >> 4:
 		return 6 + ((size_t)n * ((d[4] & 15) + (d[4] >> 4) +
 					 (d[5] & 15)) + 7) / 8;
+	case VD_AUTO_CODED >> 4:
+		return 5 + (size_t)(d[0] | d[1] << 8);
 	default:
 		return 3 * (size_t)n;
 	}
+}
+
+
+/* ---- the coded mode (format 1.2, lossless): a block's colours as
+ * symbols of its segment's canonical Huffman code. Each voxel after the
+ * first is either a hit in the list of the last VD_AUTO_RECENT distinct
+ * colours of the block (symbol 0..7 of alphabet A, most recent first: 0
+ * repeats the previous voxel) or a delta from the previous voxel in the
+ * decorrelated space y = (G, R - G, B - G) mod 256: symbol 8 + dy0 of A,
+ * then dy1 in alphabet B, dy2 in alphabet C. Why: textured scenes are
+ * noisy but neighbours in Morton order are close (deltas of few bits)
+ * and flat or few-colour areas alternate between a handful of colours
+ * (recent hits); a code per segment fits each scene's statistics, which
+ * zstd learns across the array and a per-block mode cannot. */
+#define VD_AUTO_RECENT 8
+#define VD_AUTO_SYM_A 264         /* 8 hits + 256 deltas of y0 */
+#define VD_AUTO_SYMS (264 + 256 + 256)
+#define VD_AUTO_TABLE_BYTES 388   /* VD_AUTO_SYMS lengths of 4 bits */
+#define VD_AUTO_MAXLEN 11
+
+/* Decode tables of one segment: per alphabet, for every 11-bit window of
+ * the stream (LSB first), symbol << 4 | code length (0: no code). */
+struct vd_auto_code {
+	uint16_t t[3][1 << VD_AUTO_MAXLEN];
+};
+
+/* Builds c from the table's 388 bytes (symbol i's length in nibble i,
+ * low nibble first). Returns 0, or -1 when a length exceeds
+ * VD_AUTO_MAXLEN or an alphabet's lengths over-fill the code space. */
+int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab);
+
+static inline uint32_t vd_auto_peek(const uint8_t *d, uint64_t pos)
+{
+	const uint8_t *p = d + (pos >> 3);
+	uint64_t v;
+	memcpy(&v, p, 8); /* the data keeps VD_AUTO_PAD bytes after it */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	v = __builtin_bswap64(v);
+#endif
+	return (uint32_t)(v >> (pos & 7)) & ((1u << VD_AUTO_MAXLEN) - 1);
+}
+
+/* Colours of voxels 0..j of the coded block at d (u16 stream bytes S,
+ * R, G, B of voxel 0, the stream): the last one in rgb. Returns the bits
+ * of the stream read, or -1 for a symbol with no code or a hit past the
+ * list (the reader runs every block through this once, with j = n - 1,
+ * and compares the bits with S). `all`, when not NULL, receives the
+ * colours of voxels 0..j, 3 bytes each. */
+static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
+					   const uint8_t *d, uint32_t j,
+					   uint8_t rgb[3], uint8_t *all)
+{
+	uint32_t recent[VD_AUTO_RECENT], nr = 1;
+	uint32_t cur = (uint32_t)d[2] | (uint32_t)d[3] << 8 | (uint32_t)d[4] << 16;
+	recent[0] = cur;
+	const uint8_t *s = d + 5;
+	uint64_t pos = 0;
+	if (all)
+		memcpy(all, d + 2, 3);
+	for (uint32_t i = 1; i <= j; i++) {
+		uint32_t e = c->t[0][vd_auto_peek(s, pos)];
+		if (!(e & 15))
+			return -1;
+		pos += e & 15;
+		uint32_t a = e >> 4;
+		if (a < VD_AUTO_RECENT) {
+			if (a >= nr)
+				return -1;
+			cur = recent[a];
+			for (; a; a--)
+				recent[a] = recent[a - 1];
+		} else {
+			uint32_t e1 = c->t[1][vd_auto_peek(s, pos)];
+			pos += e1 & 15;
+			uint32_t e2 = c->t[2][vd_auto_peek(s, pos)];
+			pos += e2 & 15;
+			if (!(e1 & 15) || !(e2 & 15))
+				return -1;
+			unsigned r = cur & 255, g = cur >> 8 & 255, b = cur >> 16;
+			unsigned g2 = (g + a - 8) & 255;
+			unsigned r2 = (g2 + ((r - g + (e1 >> 4)) & 255)) & 255;
+			unsigned b2 = (g2 + ((b - g + (e2 >> 4)) & 255)) & 255;
+			cur = r2 | g2 << 8 | b2 << 16;
+			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
+			for (; a; a--)
+				recent[a] = recent[a - 1];
+		}
+		recent[0] = cur;
+		if (all) {
+			all[3 * i] = (uint8_t)cur;
+			all[3 * i + 1] = (uint8_t)(cur >> 8);
+			all[3 * i + 2] = (uint8_t)(cur >> 16);
+		}
+	}
+	rgb[0] = (uint8_t)cur;
+	rgb[1] = (uint8_t)(cur >> 8);
+	rgb[2] = (uint8_t)(cur >> 16);
+	return (int64_t)pos;
 }
 
 #endif /* VD_COLOUR_INTERNAL_H */
