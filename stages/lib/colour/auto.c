@@ -82,6 +82,8 @@ int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
 					  VD_AUTO_SYMS};
 	uint8_t len[VD_AUTO_SYMS];
 	uint16_t code[VD_AUTO_SYMS];
+	if ((VD_AUTO_SYMS & 1) && tab[VD_AUTO_SYMS / 2] >> 4)
+		return -1; /* the unused last nibble */
 	for (unsigned i = 0; i < VD_AUTO_SYMS; i++) {
 		len[i] = (uint8_t)(tab[i >> 1] >> (4 * (i & 1)) & 15);
 		if (len[i] > VD_AUTO_MAXLEN)
@@ -106,23 +108,38 @@ int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
 
 /* The symbols (global numbers: A 0.., B VD_AUTO_SYM_A.., C + 256..) of
  * voxels 1..n-1 of a block, the list of recent colours kept as the
- * decoder keeps it; returns how many. */
+ * decoder keeps it; a run of L repeats is the longest run symbols that
+ * fit, greedily. Returns how many. */
 static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 {
 	uint32_t recent[VD_AUTO_RECENT], nr = 1, m = 0;
 	recent[0] = packed_rgb(rgb);
-	for (uint32_t i = 1; i < n; i++) {
+	for (uint32_t i = 1; i < n;) {
 		const uint8_t *x = rgb + 3 * i, *p = x - 3;
 		uint32_t key = packed_rgb(x), a = 0;
+		if (key == recent[0]) {
+			uint32_t len = 1;
+			while (i + len < n && packed_rgb(x + 3 * len) == key)
+				len++;
+			i += len;
+			while (len) {
+				int r = VD_AUTO_RUNS - 1;
+				while (vd_auto_run[r] > len)
+					r--;
+				sym[m++] = (uint16_t)r;
+				len -= vd_auto_run[r];
+			}
+			continue;
+		}
 		while (a < nr && recent[a] != key)
 			a++;
 		if (a < nr) {
-			sym[m++] = (uint16_t)a;
+			sym[m++] = (uint16_t)(VD_AUTO_HIT0 - 1 + a);
 		} else {
 			unsigned d0 = (x[1] - p[1]) & 255;
 			unsigned d1 = ((x[0] - x[1]) - (p[0] - p[1])) & 255;
 			unsigned d2 = ((x[2] - x[1]) - (p[2] - p[1])) & 255;
-			sym[m++] = (uint16_t)(8 + d0);
+			sym[m++] = (uint16_t)(VD_AUTO_DELTA0 + d0);
 			sym[m++] = (uint16_t)(VD_AUTO_SYM_A + d1);
 			sym[m++] = (uint16_t)(VD_AUTO_SYM_A + 256 + d2);
 			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
@@ -130,6 +147,7 @@ static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 		for (; a; a--)
 			recent[a] = recent[a - 1];
 		recent[0] = key;
+		i++;
 	}
 	return m;
 }
@@ -192,7 +210,7 @@ static void huffman_lengths(const uint32_t *freq, unsigned n, uint8_t *len)
 	}
 }
 
-/* A segment's code: lengths, encoder codes, the 388 bytes of the table. */
+/* A segment's code: lengths, encoder codes, the bytes of its table. */
 struct seg_code {
 	uint32_t freq[VD_AUTO_SYMS];
 	uint8_t len[VD_AUTO_SYMS];

@@ -134,21 +134,32 @@ static inline size_t vd_auto_block_bytes(uint32_t e, const uint8_t *d,
 
 
 /* ---- the coded mode (format 1.2, lossless): a block's colours as
- * symbols of its segment's canonical Huffman code. Each voxel after the
- * first is either a hit in the list of the last VD_AUTO_RECENT distinct
- * colours of the block (symbol 0..7 of alphabet A, most recent first: 0
- * repeats the previous voxel) or a delta from the previous voxel in the
- * decorrelated space y = (G, R - G, B - G) mod 256: symbol 8 + dy0 of A,
- * then dy1 in alphabet B, dy2 in alphabet C. Why: textured scenes are
- * noisy but neighbours in Morton order are close (deltas of few bits)
- * and flat or few-colour areas alternate between a handful of colours
- * (recent hits); a code per segment fits each scene's statistics, which
- * zstd learns across the array and a per-block mode cannot. */
-#define VD_AUTO_RECENT 8
-#define VD_AUTO_SYM_A 264         /* 8 hits + 256 deltas of y0 */
-#define VD_AUTO_SYMS (264 + 256 + 256)
-#define VD_AUTO_TABLE_BYTES 388   /* VD_AUTO_SYMS lengths of 4 bits */
+ * symbols of its segment's canonical Huffman code. After the block's
+ * first voxel (3 bytes), each step is one symbol of alphabet A:
+ *   0..19   a run: the previous colour repeated vd_auto_run[s] times;
+ *   20..34  a hit: the colour at position 1..15 of the list of the
+ *           block's last VD_AUTO_RECENT distinct colours, most recent
+ *           first (position 0 is the previous colour: runs);
+ *   35..290 a delta from the previous voxel in the decorrelated space
+ *           y = (G, R - G, B - G) mod 256: dy0 = s - 35, then dy1 as one
+ *           symbol of alphabet B and dy2 of alphabet C.
+ * Why: textured scenes are noisy but neighbours in Morton order are close
+ * (deltas of few bits), few-colour areas alternate between a handful of
+ * colours (hits), flat ones repeat (runs: a Huffman code spends at least
+ * a bit a symbol, so a voxel a symbol would cost a bit a voxel); one code
+ * per segment fits each scene's statistics, which zstd learns across the
+ * array and a per-block mode cannot. */
+#define VD_AUTO_RECENT 16
+#define VD_AUTO_RUNS 20
+#define VD_AUTO_HIT0 VD_AUTO_RUNS                        /* 20: position 1 */
+#define VD_AUTO_DELTA0 (VD_AUTO_RUNS + VD_AUTO_RECENT - 1) /* 35 */
+#define VD_AUTO_SYM_A (VD_AUTO_DELTA0 + 256)             /* 291 */
+#define VD_AUTO_SYMS (VD_AUTO_SYM_A + 512)               /* 803 */
+#define VD_AUTO_TABLE_BYTES ((VD_AUTO_SYMS + 1) / 2)     /* 402 */
 #define VD_AUTO_MAXLEN 11
+
+static const uint16_t vd_auto_run[VD_AUTO_RUNS] = {
+	1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 32, 64, 128, 256};
 
 /* Decode tables of one segment: per alphabet, for every 11-bit window of
  * the stream (LSB first), symbol << 4 | code length (0: no code). */
@@ -156,9 +167,10 @@ struct vd_auto_code {
 	uint16_t t[3][1 << VD_AUTO_MAXLEN];
 };
 
-/* Builds c from the table's 388 bytes (symbol i's length in nibble i,
- * low nibble first). Returns 0, or -1 when a length exceeds
- * VD_AUTO_MAXLEN or an alphabet's lengths over-fill the code space. */
+/* Builds c from the table's VD_AUTO_TABLE_BYTES bytes (symbol i's length
+ * in nibble i, low nibble first; A's symbols, then B's, then C's).
+ * Returns 0, or -1 when a length exceeds VD_AUTO_MAXLEN or an alphabet's
+ * lengths over-fill the code space. */
 int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab);
 
 static inline uint32_t vd_auto_peek(const uint8_t *d, uint64_t pos)
@@ -172,12 +184,13 @@ static inline uint32_t vd_auto_peek(const uint8_t *d, uint64_t pos)
 	return (uint32_t)(v >> (pos & 7)) & ((1u << VD_AUTO_MAXLEN) - 1);
 }
 
-/* Colours of voxels 0..j of the coded block at d (u16 stream bytes S,
- * R, G, B of voxel 0, the stream): the last one in rgb. Returns the bits
- * of the stream read, or -1 for a symbol with no code or a hit past the
- * list (the reader runs every block through this once, with j = n - 1,
- * and compares the bits with S). `all`, when not NULL, receives the
- * colours of voxels 0..j, 3 bytes each. */
+/* Colour of voxel j of the coded block at d (u16 stream bytes S, R, G, B
+ * of voxel 0, the stream) into rgb, decoding from the block's start.
+ * Returns the bits of the stream read, or -1 for a symbol with no code,
+ * a hit past the list, or (when all != NULL) a run past voxel j. The
+ * reader runs every block through this once with j = n - 1 and all set
+ * (every voxel's colour, 3 bytes each, goes to all[0..3(j+1))) and
+ * compares the bits with S. */
 static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 					   const uint8_t *d, uint32_t j,
 					   uint8_t rgb[3], uint8_t *all)
@@ -189,18 +202,31 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 	uint64_t pos = 0;
 	if (all)
 		memcpy(all, d + 2, 3);
-	for (uint32_t i = 1; i <= j; i++) {
+	for (uint32_t i = 1; i <= j;) {
 		uint32_t e = c->t[0][vd_auto_peek(s, pos)];
 		if (!(e & 15))
 			return -1;
 		pos += e & 15;
 		uint32_t a = e >> 4;
-		if (a < VD_AUTO_RECENT) {
+		if (a < VD_AUTO_RUNS) {
+			uint32_t run = vd_auto_run[a];
+			if (all) {
+				if (run > j + 1 - i)
+					return -1;
+				for (uint32_t q = i; q < i + run; q++) {
+					all[3 * q] = (uint8_t)cur;
+					all[3 * q + 1] = (uint8_t)(cur >> 8);
+					all[3 * q + 2] = (uint8_t)(cur >> 16);
+				}
+			}
+			i += run;
+			continue;
+		}
+		if (a < VD_AUTO_DELTA0) {
+			a -= VD_AUTO_HIT0 - 1;
 			if (a >= nr)
 				return -1;
 			cur = recent[a];
-			for (; a; a--)
-				recent[a] = recent[a - 1];
 		} else {
 			uint32_t e1 = c->t[1][vd_auto_peek(s, pos)];
 			pos += e1 & 15;
@@ -209,20 +235,21 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 			if (!(e1 & 15) || !(e2 & 15))
 				return -1;
 			unsigned r = cur & 255, g = cur >> 8 & 255, b = cur >> 16;
-			unsigned g2 = (g + a - 8) & 255;
+			unsigned g2 = (g + a - VD_AUTO_DELTA0) & 255;
 			unsigned r2 = (g2 + ((r - g + (e1 >> 4)) & 255)) & 255;
 			unsigned b2 = (g2 + ((b - g + (e2 >> 4)) & 255)) & 255;
 			cur = r2 | g2 << 8 | b2 << 16;
 			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
-			for (; a; a--)
-				recent[a] = recent[a - 1];
 		}
+		for (; a; a--)
+			recent[a] = recent[a - 1];
 		recent[0] = cur;
 		if (all) {
 			all[3 * i] = (uint8_t)cur;
 			all[3 * i + 1] = (uint8_t)(cur >> 8);
 			all[3 * i + 2] = (uint8_t)(cur >> 16);
 		}
+		i++;
 	}
 	rgb[0] = (uint8_t)cur;
 	rgb[1] = (uint8_t)(cur >> 8);

@@ -1096,7 +1096,9 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_NOMEM, "code tables");
 	/* a coded block's bytes and what 33 bits a voxel can read past them */
 #define SCRATCH_PAD ((33u << 12) / 8 + 16)
-	uint8_t *scratch = c->coded ? malloc(5 + 65535 + SCRATCH_PAD) : NULL;
+	uint8_t *scratch = c->coded ? malloc(5 + 65535 + SCRATCH_PAD +
+					     3 * ((size_t)1 << c->block_log))
+				    : NULL;
 	if (c->coded && !scratch)
 		return vd_fail(VD_ERR_NOMEM, "colour blocks");
 	err = read_auto_blocks(c, scratch);
@@ -1125,7 +1127,7 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 		uint64_t at = 0;
 		struct vd_auto_code *code = NULL;
 		if (c->coded) {
-			/* u16 T, then T bytes of code table (0 or 388) */
+			/* u16 T, then T bytes of code table (0 or the table's size) */
 			uint32_t T = data + 2 <= c->data_size
 					     ? le_get16(c->data + data) : 1;
 			if ((T != 0 && T != VD_AUTO_TABLE_BYTES) ||
@@ -1193,13 +1195,14 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 				memset(scratch, 0, sz + SCRATCH_PAD);
 				memcpy(scratch, d, sz);
 				int64_t bits = len < 2 ? -1
-					: vd_auto_coded_decode(code, scratch, len - 1, last, NULL);
+					: vd_auto_coded_decode(code, scratch, len - 1, last,
+							       scratch + 5 + 65535 + SCRATCH_PAD);
 				if (bits < 0 || (uint64_t)(bits + 7) / 8 != sz - 5)
 					return vd_fail(VD_ERR_CORRUPT, "block %llu: "
 						       "coded colours %s",
 						       (unsigned long long)bi,
-						       bits < 0 ? "with a code or a "
-						       "recent colour that is not "
+						       bits < 0 ? "with a code, a recent "
+						       "colour or a run that is not "
 						       "there" : "not filling their "
 						       "bytes");
 			}
