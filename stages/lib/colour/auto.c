@@ -76,10 +76,14 @@ static int canonical(const uint8_t *len, unsigned n, uint16_t *code)
 	return 1;
 }
 
+/* Each alphabet's first symbol in the table: A in its contexts, B, C. */
+static const unsigned alpha_first[VD_AUTO_ALPHABETS + 1] = {
+	0, VD_AUTO_SYM_A, 2 * VD_AUTO_SYM_A, VD_AUTO_SYM_B, VD_AUTO_SYM_B + 256,
+	VD_AUTO_SYMS};
+
 int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
 {
-	static const unsigned first[4] = {0, VD_AUTO_SYM_A, VD_AUTO_SYM_A + 256,
-					  VD_AUTO_SYMS};
+	const unsigned *first = alpha_first;
 	uint8_t len[VD_AUTO_SYMS];
 	uint16_t code[VD_AUTO_SYMS];
 	if ((VD_AUTO_SYMS & 1) && tab[VD_AUTO_SYMS / 2] >> 4)
@@ -90,7 +94,7 @@ int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
 			return -1;
 	}
 	memset(c, 0, sizeof *c);
-	for (int a = 0; a < 3; a++) {
+	for (int a = 0; a < VD_AUTO_ALPHABETS; a++) {
 		unsigned n = first[a + 1] - first[a];
 		if (!canonical(len + first[a], n, code + first[a]))
 			return -1;
@@ -106,13 +110,15 @@ int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
 	return 0;
 }
 
-/* The symbols (global numbers: A 0.., B VD_AUTO_SYM_A.., C + 256..) of
+/* The symbols (global numbers: A in context x at x VD_AUTO_SYM_A.., B at
+ * VD_AUTO_SYM_B.., C at VD_AUTO_SYM_B + 256..) of
  * voxels 1..n-1 of a block, the list of recent colours kept as the
  * decoder keeps it; a run of L repeats is the longest run symbols that
  * fit, greedily. Returns how many. */
 static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 {
 	uint32_t recent[VD_AUTO_RECENT], nr = 1, m = 0;
+	unsigned ctx = 2 * VD_AUTO_SYM_A; /* A's context, as a symbol offset */
 	recent[0] = packed_rgb(rgb);
 	for (uint32_t i = 1; i < n;) {
 		const uint8_t *x = rgb + 3 * i, *p = x - 3;
@@ -126,22 +132,25 @@ static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 				int r = VD_AUTO_RUNS - 1;
 				while (vd_auto_run[r] > len)
 					r--;
-				sym[m++] = (uint16_t)r;
+				sym[m++] = (uint16_t)(ctx + r);
 				len -= vd_auto_run[r];
+				ctx = 0;
 			}
 			continue;
 		}
 		while (a < nr && recent[a] != key)
 			a++;
 		if (a < nr) {
-			sym[m++] = (uint16_t)(VD_AUTO_HIT0 - 1 + a);
+			sym[m++] = (uint16_t)(ctx + VD_AUTO_HIT0 - 1 + a);
+			ctx = VD_AUTO_SYM_A;
 		} else {
 			unsigned d0 = (x[1] - p[1]) & 255;
 			unsigned d1 = ((x[0] - x[1]) - (p[0] - p[1])) & 255;
 			unsigned d2 = ((x[2] - x[1]) - (p[2] - p[1])) & 255;
-			sym[m++] = (uint16_t)(VD_AUTO_DELTA0 + d0);
-			sym[m++] = (uint16_t)(VD_AUTO_SYM_A + d1);
-			sym[m++] = (uint16_t)(VD_AUTO_SYM_A + 256 + d2);
+			sym[m++] = (uint16_t)(ctx + VD_AUTO_DELTA0 + d0);
+			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + d1);
+			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + 256 + d2);
+			ctx = 2 * VD_AUTO_SYM_A;
 			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
 		}
 		for (; a; a--)
@@ -222,9 +231,8 @@ struct seg_code {
 
 static void seg_code_make(struct seg_code *sc)
 {
-	static const unsigned first[4] = {0, VD_AUTO_SYM_A, VD_AUTO_SYM_A + 256,
-					  VD_AUTO_SYMS};
-	for (int a = 0; a < 3; a++) {
+	const unsigned *first = alpha_first;
+	for (int a = 0; a < VD_AUTO_ALPHABETS; a++) {
 		huffman_lengths(sc->freq + first[a], first[a + 1] - first[a],
 				sc->len + first[a]);
 		canonical(sc->len + first[a], first[a + 1] - first[a],

@@ -143,6 +143,7 @@ static inline size_t vd_auto_block_bytes(uint32_t e, const uint8_t *d,
  *   35..290 a delta from the previous voxel in the decorrelated space
  *           y = (G, R - G, B - G) mod 256: dy0 = s - 35, then dy1 as one
  *           symbol of alphabet B and dy2 of alphabet C.
+ * A is coded in one of three contexts (below); B and C have one code.
  * Why: textured scenes are noisy but neighbours in Morton order are close
  * (deltas of few bits), few-colour areas alternate between a handful of
  * colours (hits), flat ones repeat (runs: a Huffman code spends at least
@@ -154,8 +155,14 @@ static inline size_t vd_auto_block_bytes(uint32_t e, const uint8_t *d,
 #define VD_AUTO_HIT0 VD_AUTO_RUNS                        /* 20: position 1 */
 #define VD_AUTO_DELTA0 (VD_AUTO_RUNS + VD_AUTO_RECENT - 1) /* 35 */
 #define VD_AUTO_SYM_A (VD_AUTO_DELTA0 + 256)             /* 291 */
-#define VD_AUTO_SYMS (VD_AUTO_SYM_A + 512)               /* 803 */
-#define VD_AUTO_TABLE_BYTES ((VD_AUTO_SYMS + 1) / 2)     /* 402 */
+/* A has one code per context, the kind of the previous step: 0 after a
+ * run, 1 after a hit, 2 after a delta or at the block's start (a run is
+ * seldom followed by another, a hit often by a hit) */
+#define VD_AUTO_CTX 3
+#define VD_AUTO_SYM_B (VD_AUTO_CTX * VD_AUTO_SYM_A)      /* 873 */
+#define VD_AUTO_SYMS (VD_AUTO_SYM_B + 512)               /* 1385 */
+#define VD_AUTO_TABLE_BYTES ((VD_AUTO_SYMS + 1) / 2)     /* 693 */
+#define VD_AUTO_ALPHABETS (VD_AUTO_CTX + 2)
 #define VD_AUTO_MAXLEN 11
 
 static const uint16_t vd_auto_run[VD_AUTO_RUNS] = {
@@ -164,7 +171,7 @@ static const uint16_t vd_auto_run[VD_AUTO_RUNS] = {
 /* Decode tables of one segment: per alphabet, for every 11-bit window of
  * the stream (LSB first), symbol << 4 | code length (0: no code). */
 struct vd_auto_code {
-	uint16_t t[3][1 << VD_AUTO_MAXLEN];
+	uint16_t t[VD_AUTO_ALPHABETS][1 << VD_AUTO_MAXLEN];
 };
 
 /* Builds c from the table's VD_AUTO_TABLE_BYTES bytes (symbol i's length
@@ -200,10 +207,11 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 	recent[0] = cur;
 	const uint8_t *s = d + 5;
 	uint64_t pos = 0;
+	unsigned ctx = 2;
 	if (all)
 		memcpy(all, d + 2, 3);
 	for (uint32_t i = 1; i <= j;) {
-		uint32_t e = c->t[0][vd_auto_peek(s, pos)];
+		uint32_t e = c->t[ctx][vd_auto_peek(s, pos)];
 		if (!(e & 15))
 			return -1;
 		pos += e & 15;
@@ -220,6 +228,7 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 				}
 			}
 			i += run;
+			ctx = 0;
 			continue;
 		}
 		if (a < VD_AUTO_DELTA0) {
@@ -227,10 +236,11 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 			if (a >= nr)
 				return -1;
 			cur = recent[a];
+			ctx = 1;
 		} else {
-			uint32_t e1 = c->t[1][vd_auto_peek(s, pos)];
+			uint32_t e1 = c->t[VD_AUTO_CTX][vd_auto_peek(s, pos)];
 			pos += e1 & 15;
-			uint32_t e2 = c->t[2][vd_auto_peek(s, pos)];
+			uint32_t e2 = c->t[VD_AUTO_CTX + 1][vd_auto_peek(s, pos)];
 			pos += e2 & 15;
 			if (!(e1 & 15) || !(e2 & 15))
 				return -1;
@@ -240,6 +250,7 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 			unsigned b2 = (g2 + ((b - g + (e2 >> 4)) & 255)) & 255;
 			cur = r2 | g2 << 8 | b2 << 16;
 			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
+			ctx = 2;
 		}
 		for (; a; a--)
 			recent[a] = recent[a - 1];
