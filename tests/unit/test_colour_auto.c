@@ -414,6 +414,15 @@ static void check_file(const char *name, int cells, uint8_t *const *rgb,
 		}
 	CHECK_EQ(bad, 0);
 	CHECK_EQ(ra_bad, 0);
+	/* ranges that start and end inside blocks (a coded block is decoded
+	 * whole for them) */
+	for (uint64_t f = total / 7, k = 0; k < 3 && f < total; k++, f += total / 5 + 13) {
+		uint64_t m = total - f < 777 ? total - f : 777;
+		uint8_t *part = malloc(3 * m);
+		CHECK_EQ(vd_cpack_decode(c, f, m, part), VD_OK);
+		CHECK(!memcmp(part, all + 3 * f, 3 * m));
+		free(part);
+	}
 	uint8_t x[3];
 	CHECK_EQ(vd_cpack_colour(c, total, x), VD_ERR_RANGE);
 	free(all);

@@ -1400,8 +1400,28 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		return VD_OK;
 	}
 	if (c->method == VD_CPACK_AUTO) {
-		for (uint64_t k = 0; k < n; k++)
-			auto_colour(c, first + k, rgb + 3 * k);
+		/* a coded block decodes from its start: decode it whole once
+		 * for the voxels of the range it holds */
+		uint8_t all[3 << 12];
+		for (uint64_t k = 0; k < n;) {
+			uint64_t i = first + k, p = i >> 18;
+			size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
+			uint32_t j = (uint32_t)(i - c->seg_first[s]);
+			uint32_t e = c->dir[c->seg_block[s] + (j >> c->block_log)];
+			uint32_t b0 = j >> c->block_log << c->block_log;
+			uint32_t len = c->seg_n[s] - b0 < (1u << c->block_log)
+					       ? c->seg_n[s] - b0 : 1u << c->block_log;
+			if (e >> 24 != VD_AUTO_CODED) {
+				auto_colour(c, i, rgb + 3 * k++);
+				continue;
+			}
+			uint8_t last[3];
+			vd_auto_coded_decode(c->code[s], c->data + c->seg_data[s] +
+						 (e & 0xffffff), len - 1, last, all);
+			uint64_t m = b0 + len - j < n - k ? b0 + len - j : n - k;
+			memcpy(rgb + 3 * k, all + 3 * (size_t)(j - b0), 3 * m);
+			k += m;
+		}
 		return VD_OK;
 	}
 	/* walk blocks sequentially from the first voxel's */
