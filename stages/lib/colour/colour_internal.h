@@ -202,9 +202,11 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 					   const uint8_t *d, uint32_t j,
 					   uint8_t rgb[3], uint8_t *all)
 {
-	uint32_t recent[VD_AUTO_RECENT], nr = 1;
+	/* the list as a ring (position q at ring[(h + q) & 15]): a delta,
+	 * the common step of noisy textures, inserts in O(1) */
+	uint32_t ring[VD_AUTO_RECENT], nr = 1, h = 0;
 	uint32_t cur = (uint32_t)d[2] | (uint32_t)d[3] << 8 | (uint32_t)d[4] << 16;
-	recent[0] = cur;
+	ring[0] = cur;
 	const uint8_t *s = d + 5;
 	uint64_t pos = 0;
 	unsigned ctx = 2;
@@ -235,7 +237,11 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 			a -= VD_AUTO_HIT0 - 1;
 			if (a >= nr)
 				return -1;
-			cur = recent[a];
+			cur = ring[(h + a) & (VD_AUTO_RECENT - 1)];
+			for (; a; a--)
+				ring[(h + a) & (VD_AUTO_RECENT - 1)] =
+					ring[(h + a - 1) & (VD_AUTO_RECENT - 1)];
+			ring[h] = cur;
 			ctx = 1;
 		} else {
 			uint32_t e1 = c->t[VD_AUTO_CTX][vd_auto_peek(s, pos)];
@@ -249,12 +255,11 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 			unsigned r2 = (g2 + ((r - g + (e1 >> 4)) & 255)) & 255;
 			unsigned b2 = (g2 + ((b - g + (e2 >> 4)) & 255)) & 255;
 			cur = r2 | g2 << 8 | b2 << 16;
-			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
+			nr += nr < VD_AUTO_RECENT;
+			h = (h - 1) & (VD_AUTO_RECENT - 1);
+			ring[h] = cur;
 			ctx = 2;
 		}
-		for (; a; a--)
-			recent[a] = recent[a - 1];
-		recent[0] = cur;
 		if (all) {
 			all[3 * i] = (uint8_t)cur;
 			all[3 * i + 1] = (uint8_t)(cur >> 8);
