@@ -144,6 +144,9 @@ extern int vd_vbr_lanes;
 struct vd_auto_params {
 	double max_error;   /* sRGB distance, channels in [0,1]; 0: lossless */
 	int block_log;      /* blocks of 2^block_log voxels, 4..12 (0: 8) */
+	int coded;          /* 1 (lossless only): each segment may carry a
+			     * code table and blocks in the coded mode
+			     * (format 1.2); 0: the 1.1 layout */
 };
 
 /* Block modes: the top byte of a block's directory entry. */
@@ -153,7 +156,9 @@ enum vd_auto_mode {
 	VD_AUTO_ENDPOINTS = 0x20,/* | weight bits 1..8 */
 	VD_AUTO_QUANT = 0x30,
 	VD_AUTO_RAW = 0x40,
+	VD_AUTO_CODED = 0x50,    /* lossless, needs its segment's code table */
 };
+#define VD_AUTO_MODES 6
 
 /* One segment encoded: dir[b] the directory entry of block b (mode << 24
  * | byte offset in `data`, or | colour for a constant block), `data` the
@@ -165,7 +170,9 @@ struct vd_auto_segment {
 	size_t data_bytes;
 	uint64_t sse;
 	unsigned max_dist2;
-	uint64_t mode_blocks[5];  /* blocks per mode (by mode >> 4) */
+	uint64_t mode_blocks[VD_AUTO_MODES]; /* blocks per mode (by mode >> 4) */
+	uint32_t table_bytes;     /* coded: bytes of the segment's code table
+				   * (0: none), after the u16 at data[0] */
 };
 
 /* Encodes rgb[0..n) (n <= VD_CPACK_SEGMENT_MAX) into blocks of
@@ -246,7 +253,7 @@ struct vd_cpack_stats {
 	uint64_t sse;          /* sum of squared 8-bit errors */
 	unsigned max_dist2;
 	double seconds;
-	uint64_t mode_blocks[5]; /* auto: blocks per mode (enum vd_auto_mode >> 4) */
+	uint64_t mode_blocks[VD_AUTO_MODES]; /* auto: blocks per mode (enum vd_auto_mode >> 4) */
 };
 
 struct vd_cpack_writer;

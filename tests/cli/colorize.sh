@@ -136,8 +136,19 @@ assert 0 < m["max_error"] <= 0.05 and m["max_error_limit"] == 0.05 and m["lossle
 assert sum(m["mode_blocks"].values()) == m["blocks"] > 0, m
 PY
 expect auto_lossless 0 '' $C -q "$I" -o "$T/autoll" --method auto --lossless --stats "$T/autoll.json"
-python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["methods"]["auto"]; assert m["gmse"]==0 and m["max_error"]==0 and m["lossless"]==1, m' "$T/autoll.json" &&
+python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["methods"]["auto"]; assert m["gmse"]==0 and m["max_error"]==0 and m["lossless"]==1 and "coded" in m["mode_blocks"] and sum(m["mode_blocks"].values())==m["blocks"], m' "$T/autoll.json" &&
 	pass auto_lossless_exact || fail auto_lossless_exact "$(cat "$T/autoll.json")"
 $BIN/chunk-check "$T/auto/colours.auto" "$T/autoll/colours.auto" &&
 	pass auto_chunk_check || fail auto_chunk_check
+# a lossless (coded, format 1.2) file with one byte of its blocks changed
+# and the checksums left as they were: one line, exit 1
+cp "$T/autoll/colours.auto" "$T/autoll-bad.auto"
+python3 - "$T/autoll-bad.auto" <<'PY'
+import sys
+b = bytearray(open(sys.argv[1], "rb").read())
+i = b.find(b"ADAT")
+b[i + 64] ^= 0x40
+open(sys.argv[1], "wb").write(b)
+PY
+expect auto_coded_damaged 1 'autoll-bad.auto' $BIN/chunk-check "$T/autoll-bad.auto"
 expect usage_block_size 2 "block-size '100'" $C a -o "$T/o" --block-size 100

@@ -29,6 +29,11 @@ static unsigned width_of(uint32_t colours)
 	return w;
 }
 
+static uint32_t packed_rgb(const uint8_t *c)
+{
+	return (uint32_t)c[0] | (uint32_t)c[1] << 8 | (uint32_t)c[2] << 16;
+}
+
 /* LSB-first bit writer over a zeroed buffer. */
 static void put_bits(uint8_t *b, uint64_t pos, unsigned width, uint32_t v)
 {
@@ -36,6 +41,207 @@ static void put_bits(uint8_t *b, uint64_t pos, unsigned width, uint32_t v)
 	uint64_t x = (uint64_t)(v & (uint32_t)((1ull << width) - 1)) << (pos & 7);
 	for (; x; x >>= 8)
 		*p++ |= (uint8_t)x;
+}
+
+
+/* ------------------------------------------------ the coded mode (1.2) */
+
+/* Canonical codes (DEFLATE's rule: by length, then symbol) of the
+ * lengths len[0..n), each code's bits reversed for the LSB-first stream;
+ * 0 when the lengths over-fill the code space. */
+static int canonical(const uint8_t *len, unsigned n, uint16_t *code)
+{
+	unsigned count[VD_AUTO_MAXLEN + 1] = {0}, next[VD_AUTO_MAXLEN + 2];
+	for (unsigned i = 0; i < n; i++)
+		count[len[i]]++;
+	count[0] = 0;
+	unsigned c = 0;
+	uint32_t room = 1u << VD_AUTO_MAXLEN, used = 0;
+	for (unsigned l = 1; l <= VD_AUTO_MAXLEN; l++) {
+		c = (c + count[l - 1]) << 1;
+		next[l] = c;
+		used += count[l] << (VD_AUTO_MAXLEN - l);
+	}
+	if (used > room)
+		return 0;
+	for (unsigned i = 0; i < n; i++) {
+		unsigned l = len[i];
+		if (!l)
+			continue;
+		unsigned v = next[l]++, r = 0;
+		for (unsigned b = 0; b < l; b++)
+			r |= (v >> b & 1) << (l - 1 - b);
+		code[i] = (uint16_t)r;
+	}
+	return 1;
+}
+
+/* Each alphabet's first symbol in the table: A in its contexts, B, C. */
+static const unsigned alpha_first[VD_AUTO_ALPHABETS + 1] = {
+	0, VD_AUTO_SYM_A, 2 * VD_AUTO_SYM_A, VD_AUTO_SYM_B, VD_AUTO_SYM_B + 256,
+	VD_AUTO_SYMS};
+
+int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
+{
+	const unsigned *first = alpha_first;
+	uint8_t len[VD_AUTO_SYMS];
+	uint16_t code[VD_AUTO_SYMS];
+	if ((VD_AUTO_SYMS & 1) && tab[VD_AUTO_SYMS / 2] >> 4)
+		return -1; /* the unused last nibble */
+	for (unsigned i = 0; i < VD_AUTO_SYMS; i++) {
+		len[i] = (uint8_t)(tab[i >> 1] >> (4 * (i & 1)) & 15);
+		if (len[i] > VD_AUTO_MAXLEN)
+			return -1;
+	}
+	memset(c, 0, sizeof *c);
+	for (int a = 0; a < VD_AUTO_ALPHABETS; a++) {
+		unsigned n = first[a + 1] - first[a];
+		if (!canonical(len + first[a], n, code + first[a]))
+			return -1;
+		for (unsigned i = 0; i < n; i++) {
+			unsigned l = len[first[a] + i];
+			if (!l)
+				continue;
+			for (unsigned x = code[first[a] + i]; x < (1u << VD_AUTO_MAXLEN);
+			     x += 1u << l)
+				c->t[a][x] = (uint16_t)(i << 4 | l);
+		}
+	}
+	return 0;
+}
+
+/* The symbols (global numbers: A in context x at x VD_AUTO_SYM_A.., B at
+ * VD_AUTO_SYM_B.., C at VD_AUTO_SYM_B + 256..) of
+ * voxels 1..n-1 of a block, the list of recent colours kept as the
+ * decoder keeps it; a run of L repeats is the longest run symbols that
+ * fit, greedily. Returns how many. */
+static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
+{
+	uint32_t recent[VD_AUTO_RECENT], nr = 1, m = 0;
+	unsigned ctx = 2 * VD_AUTO_SYM_A; /* A's context, as a symbol offset */
+	recent[0] = packed_rgb(rgb);
+	for (uint32_t i = 1; i < n;) {
+		const uint8_t *x = rgb + 3 * i, *p = x - 3;
+		uint32_t key = packed_rgb(x), a = 0;
+		if (key == recent[0]) {
+			uint32_t len = 1;
+			while (i + len < n && packed_rgb(x + 3 * len) == key)
+				len++;
+			i += len;
+			while (len) {
+				int r = VD_AUTO_RUNS - 1;
+				while (vd_auto_run[r] > len)
+					r--;
+				sym[m++] = (uint16_t)(ctx + r);
+				len -= vd_auto_run[r];
+				ctx = 0;
+			}
+			continue;
+		}
+		while (a < nr && recent[a] != key)
+			a++;
+		if (a < nr) {
+			sym[m++] = (uint16_t)(ctx + VD_AUTO_HIT0 - 1 + a);
+			ctx = VD_AUTO_SYM_A;
+		} else {
+			unsigned d0 = (x[1] - p[1]) & 255;
+			unsigned d1 = ((x[0] - x[1]) - (p[0] - p[1])) & 255;
+			unsigned d2 = ((x[2] - x[1]) - (p[2] - p[1])) & 255;
+			sym[m++] = (uint16_t)(ctx + VD_AUTO_DELTA0 + d0);
+			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + d1);
+			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + 256 + d2);
+			ctx = 2 * VD_AUTO_SYM_A;
+			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
+		}
+		for (; a; a--)
+			recent[a] = recent[a - 1];
+		recent[0] = key;
+		i++;
+	}
+	return m;
+}
+
+/* Huffman code lengths of at most VD_AUTO_MAXLEN bits for freq[0..n)
+ * (0: symbol unused): the plain Huffman lengths, the counts halved (kept
+ * >= 1) until none is longer. One used symbol gets length 1. */
+static void huffman_lengths(const uint32_t *freq, unsigned n, uint8_t *len)
+{
+	uint32_t f[VD_AUTO_SYM_A];
+	for (unsigned i = 0; i < n; i++)
+		f[i] = freq[i];
+	memset(len, 0, n);
+	for (;;) {
+		/* nodes: leaves 0..n-1, internal n..; two-queue merge over
+		 * leaves sorted by count */
+		unsigned idx[VD_AUTO_SYM_A], m = 0;
+		for (unsigned i = 0; i < n; i++)
+			if (f[i])
+				idx[m++] = i;
+		if (m == 0)
+			return;
+		if (m == 1) {
+			len[idx[0]] = 1;
+			return;
+		}
+		for (unsigned i = 1; i < m; i++) /* insertion sort, stable */
+			for (unsigned j = i; j && f[idx[j - 1]] > f[idx[j]]; j--) {
+				unsigned t = idx[j];
+				idx[j] = idx[j - 1];
+				idx[j - 1] = t;
+			}
+		uint64_t w[2 * VD_AUTO_SYM_A];
+		unsigned parent[2 * VD_AUTO_SYM_A];
+		for (unsigned i = 0; i < m; i++)
+			w[i] = f[idx[i]];
+		unsigned lq = 0, iq = m, in = m;
+		for (unsigned k = 0; k + 1 < m; k++) {
+			unsigned pick[2];
+			for (int t = 0; t < 2; t++)
+				pick[t] = (lq < m && (iq == in || w[lq] <= w[iq]))
+						  ? lq++ : iq++;
+			w[in] = w[pick[0]] + w[pick[1]];
+			parent[pick[0]] = parent[pick[1]] = in++;
+		}
+		unsigned depth[2 * VD_AUTO_SYM_A], maxd = 0;
+		depth[in - 1] = 0;
+		for (unsigned x = in - 1; x-- > 0;)
+			depth[x] = depth[parent[x]] + 1;
+		for (unsigned i = 0; i < m; i++)
+			maxd = depth[i] > maxd ? depth[i] : maxd;
+		if (maxd <= VD_AUTO_MAXLEN) {
+			for (unsigned i = 0; i < m; i++)
+				len[idx[i]] = (uint8_t)depth[i];
+			return;
+		}
+		for (unsigned i = 0; i < n; i++)
+			if (f[i])
+				f[i] = (f[i] >> 1) | 1;
+	}
+}
+
+/* A segment's code: lengths, encoder codes, the bytes of its table. */
+struct seg_code {
+	uint32_t freq[VD_AUTO_SYMS];
+	uint8_t len[VD_AUTO_SYMS];
+	uint16_t code[VD_AUTO_SYMS];
+	uint8_t table[VD_AUTO_TABLE_BYTES];
+	struct vd_auto_code dec;
+	uint16_t sym[3 * MAX_BLOCK];
+};
+
+static void seg_code_make(struct seg_code *sc)
+{
+	const unsigned *first = alpha_first;
+	for (int a = 0; a < VD_AUTO_ALPHABETS; a++) {
+		huffman_lengths(sc->freq + first[a], first[a + 1] - first[a],
+				sc->len + first[a]);
+		canonical(sc->len + first[a], first[a + 1] - first[a],
+			  sc->code + first[a]);
+	}
+	memset(sc->table, 0, sizeof sc->table);
+	for (unsigned i = 0; i < VD_AUTO_SYMS; i++)
+		sc->table[i >> 1] |= (uint8_t)(sc->len[i] << (4 * (i & 1)));
+	vd_auto_code_build(&sc->dec, sc->table);
 }
 
 /* One block's analysis, shared by the modes. */
@@ -58,6 +264,9 @@ struct blk {
 	uint64_t best_sse;
 	unsigned best_max;
 	float t[MAX_BLOCK];
+	struct seg_code *code;       /* the segment's code, NULL: no coded mode */
+	size_t plain_bytes;          /* the best without the coded mode */
+	uint8_t all[3 * MAX_BLOCK];
 };
 
 static void analyse(struct blk *k)
@@ -520,6 +729,43 @@ static void try_quant(struct blk *k)
 		offer(k, e, bytes, sse, maxd);
 }
 
+/* Coded (lossless, with the segment's code): the block's symbols, priced
+ * by the code's lengths; a symbol the code lacks rules the mode out. */
+static void try_coded(struct blk *k)
+{
+	struct seg_code *sc = k->code;
+	if (!sc || k->n < 2 || k->limit)
+		return;
+	uint32_t m = coded_symbols(k->rgb, k->n, sc->sym);
+	uint64_t bits = 0;
+	for (uint32_t i = 0; i < m; i++) {
+		unsigned l = sc->len[sc->sym[i]];
+		if (!l)
+			return;
+		bits += l;
+	}
+	size_t bytes = 5 + (size_t)((bits + 7) / 8);
+	if (bytes >= k->best_bytes || bytes - 5 > 65535)
+		return;
+	uint8_t *d = k->cand;
+	memset(d, 0, bytes + VD_AUTO_PAD);
+	d[0] = (uint8_t)(bytes - 5);
+	d[1] = (uint8_t)((bytes - 5) >> 8);
+	memcpy(d + 2, k->rgb, 3);
+	uint64_t pos = 0;
+	for (uint32_t i = 0; i < m; i++) {
+		unsigned l = sc->len[sc->sym[i]];
+		put_bits(d + 5, pos, l, sc->code[sc->sym[i]]);
+		pos += l;
+	}
+	uint8_t last[3];
+	if (vd_auto_coded_decode(&sc->dec, d, k->n - 1, last, k->all) !=
+		    (int64_t)bits ||
+	    memcmp(k->all, k->rgb, 3 * (size_t)k->n))
+		return; /* cannot happen: the decoder is the rule */
+	offer(k, (uint32_t)VD_AUTO_CODED << 24, bytes, 0, 0);
+}
+
 static void encode_block(struct blk *k, int block_log)
 {
 	/* raw is the fallback every other mode must beat */
@@ -540,37 +786,24 @@ static void encode_block(struct blk *k, int block_log)
 	try_quant(k);
 	if (k->ndist > 16)
 		try_palette(k);
+	k->plain_bytes = k->best_bytes -
+			 (k->best_entry >> 24 == VD_AUTO_RAW ? 1 : 0);
+	try_coded(k);
 	if (k->best_entry >> 24 == VD_AUTO_RAW)
 		k->best_bytes--;
 }
 
-int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
-		   const struct vd_auto_params *p)
+/* The blocks of s (n voxels of rgb, blocks of 2^bl) after `head` bytes
+ * of the data; returns what the coded blocks saved against the best
+ * other mode. */
+static size_t encode_blocks(struct vd_auto_segment *s, struct blk *k,
+			    const uint8_t *rgb, uint32_t n, int bl, size_t head)
 {
-	memset(s, 0, sizeof *s);
-	int bl = p->block_log ? p->block_log : 8;
-	if (bl < 4 || bl > 12 || n == 0 || n > VD_CPACK_SEGMENT_MAX ||
-	    !(p->max_error >= 0))
-		return vd_fail(VD_ERR_ARG, "auto colour blocks of 2^%d, %u "
-			       "colours, max error %g", bl, n, p->max_error);
-	uint32_t bs = 1u << bl;
-	uint32_t nb = (n + bs - 1) >> bl;
-	struct blk *k = malloc(sizeof *k);
-	s->dir = malloc((size_t)nb * 4);
-	s->data = malloc(3 * (size_t)n + VD_AUTO_PAD);
-	if (!k || !s->dir || !s->data) {
-		free(k);
-		vd_auto_segment_release(s);
-		return vd_fail(VD_ERR_NOMEM, "auto colour segment of %u", n);
-	}
-	memset(k->gen, 0, sizeof k->gen);
-	k->g = 0;
-	k->best = k->bufa;
-	k->cand = k->bufb;
-	k->limit = vd_colour_error_limit(p->max_error);
-	s->n = n;
-	s->count = nb;
-	size_t at = 0;
+	uint32_t bs = 1u << bl, nb = s->count;
+	size_t at = head, saved = 0;
+	s->sse = 0;
+	s->max_dist2 = 0;
+	memset(s->mode_blocks, 0, sizeof s->mode_blocks);
 	for (uint32_t b = 0; b < nb; b++) {
 		k->rgb = rgb + 3 * (size_t)b * bs;
 		k->n = b + 1 < nb ? bs : n - b * bs;
@@ -588,6 +821,8 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 		}
 		encode_block(k, bl);
 		uint32_t e = k->best_entry;
+		if (e >> 24 == VD_AUTO_CODED)
+			saved += k->plain_bytes - k->best_bytes;
 		if (e >> 24 != VD_AUTO_CONST) {
 			e |= (uint32_t)at;
 			memcpy(s->data + at, k->best, k->best_bytes);
@@ -599,8 +834,74 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 			s->max_dist2 = k->best_max;
 		s->mode_blocks[e >> 28]++;
 	}
-	memset(s->data + at, 0, VD_AUTO_PAD);
 	s->data_bytes = at;
+	return saved;
+}
+
+/* Coded segments (format 1.2): the code is fitted to the symbols of every
+ * block of more than one colour (a constant block stays constant), and
+ * kept only when the blocks it codes save more than its table costs;
+ * else the segment is encoded again without it (u16 0, no table). */
+int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
+		   const struct vd_auto_params *p)
+{
+	memset(s, 0, sizeof *s);
+	int bl = p->block_log ? p->block_log : 8;
+	if (bl < 4 || bl > 12 || n == 0 || n > VD_CPACK_SEGMENT_MAX ||
+	    !(p->max_error >= 0) || (p->coded && p->max_error != 0))
+		return vd_fail(VD_ERR_ARG, "auto colour blocks of 2^%d, %u "
+			       "colours, max error %g%s", bl, n, p->max_error,
+			       p->coded ? ", coded" : "");
+	uint32_t bs = 1u << bl;
+	uint32_t nb = (n + bs - 1) >> bl;
+	size_t head = p->coded ? 2 + VD_AUTO_TABLE_BYTES : 0;
+	struct blk *k = malloc(sizeof *k);
+	struct seg_code *sc = p->coded ? calloc(1, sizeof *sc) : NULL;
+	s->dir = malloc((size_t)nb * 4);
+	s->data = malloc(head + 3 * (size_t)n + VD_AUTO_PAD);
+	if (!k || !s->dir || !s->data || (p->coded && !sc)) {
+		free(k);
+		free(sc);
+		vd_auto_segment_release(s);
+		return vd_fail(VD_ERR_NOMEM, "auto colour segment of %u", n);
+	}
+	memset(k->gen, 0, sizeof k->gen);
+	k->g = 0;
+	k->best = k->bufa;
+	k->cand = k->bufb;
+	k->limit = vd_colour_error_limit(p->max_error);
+	k->code = NULL;
+	s->n = n;
+	s->count = nb;
+	if (sc) {
+		for (uint32_t b = 0; b < nb; b++) {
+			const uint8_t *x = rgb + 3 * (size_t)b * bs;
+			uint32_t m = b + 1 < nb ? bs : n - b * bs, i = 1;
+			while (i < m && !memcmp(x + 3 * i, x, 3))
+				i++;
+			if (i == m)
+				continue;
+			uint32_t c = coded_symbols(x, m, sc->sym);
+			for (uint32_t q = 0; q < c; q++)
+				sc->freq[sc->sym[q]]++;
+		}
+		seg_code_make(sc);
+		k->code = sc;
+		if (encode_blocks(s, k, rgb, n, bl, head) > VD_AUTO_TABLE_BYTES) {
+			s->table_bytes = VD_AUTO_TABLE_BYTES;
+			memcpy(s->data + 2, sc->table, VD_AUTO_TABLE_BYTES);
+		} else {
+			k->code = NULL;
+			head = 2;
+			encode_blocks(s, k, rgb, n, bl, head);
+		}
+		s->data[0] = (uint8_t)s->table_bytes;
+		s->data[1] = (uint8_t)(s->table_bytes >> 8);
+	} else {
+		encode_blocks(s, k, rgb, n, bl, 0);
+	}
+	memset(s->data + s->data_bytes, 0, VD_AUTO_PAD);
+	free(sc);
 	free(k);
 	return VD_OK;
 }
@@ -611,6 +912,17 @@ void vd_auto_segment_colour(const struct vd_auto_segment *s, int block_log,
 	int bl = block_log ? block_log : 8;
 	uint32_t e = s->dir[j >> bl], first = j >> bl << bl;
 	uint32_t n = s->n - first < (1u << bl) ? s->n - first : 1u << bl;
+	if (e >> 24 == VD_AUTO_CODED) {
+		/* the tables are built on every call: a check, not a reader */
+		struct vd_auto_code *c = malloc(sizeof *c);
+		if (c && !vd_auto_code_build(c, s->data + 2))
+			vd_auto_coded_decode(c, s->data + (e & 0xffffff),
+					     j - first, rgb, NULL);
+		else
+			memset(rgb, 0, 3);
+		free(c);
+		return;
+	}
 	vd_auto_decode(e, s->data + (e & 0xffffff), n, j - first, rgb);
 }
 

@@ -220,15 +220,16 @@ static void json_method(struct vd_json *j, const struct vd_colorize_job *job,
 		vd_json_u64(j, "weight_bits", (uint64_t)job->vbr.weight_bits);
 	}
 	if (r->method == VD_CPACK_AUTO) {
-		static const char *const mode[5] = {"constant", "palette",
-						    "endpoints", "quant", "raw"};
+		static const char *const mode[VD_AUTO_MODES] = {
+			"constant", "palette", "endpoints", "quant", "raw",
+			"coded"};
 		vd_json_f64(j, "max_error_limit", job->autop.max_error);
 		vd_json_u64(j, "lossless", job->autop.max_error == 0);
 		vd_json_u64(j, "block_voxels", 1u << (job->autop.block_log
 							? job->autop.block_log
 							: 8));
 		vd_json_object(j, "mode_blocks");
-		for (int m = 0; m < 5; m++)
+		for (int m = 0; m < VD_AUTO_MODES; m++)
 			vd_json_u64(j, mode[m], r->st.mode_blocks[m]);
 		vd_json_end_object(j);
 	}

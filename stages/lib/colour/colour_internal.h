@@ -123,9 +123,152 @@ static inline size_t vd_auto_block_bytes(uint32_t e, const uint8_t *d,
 	case VD_AUTO_QUANT >> 4:
 		return 6 + ((size_t)n * ((d[4] & 15) + (d[4] >> 4) +
 					 (d[5] & 15)) + 7) / 8;
+	case VD_AUTO_CODED >> 4:
+		return 5 + (size_t)(d[0] | d[1] << 8);
 	default:
 		return 3 * (size_t)n;
 	}
+}
+
+
+/* ---- the coded mode (format 1.2, lossless): a block's colours as
+ * symbols of its segment's canonical Huffman code. After the block's
+ * first voxel (3 bytes), each step is one symbol of alphabet A:
+ *   0..19   a run: the previous colour repeated vd_auto_run[s] times;
+ *   20..34  a hit: the colour at position 1..15 of the list of the
+ *           block's last VD_AUTO_RECENT distinct colours, most recent
+ *           first (position 0 is the previous colour: runs);
+ *   35..290 a delta from the previous voxel in the decorrelated space
+ *           y = (G, R - G, B - G) mod 256: dy0 = s - 35, then dy1 as one
+ *           symbol of alphabet B and dy2 of alphabet C.
+ * A is coded in one of three contexts (below); B and C have one code.
+ * Why: textured scenes are noisy but neighbours in Morton order are close
+ * (deltas of few bits), few-colour areas alternate between a handful of
+ * colours (hits), flat ones repeat (runs: a Huffman code spends at least
+ * a bit a symbol, so a voxel a symbol would cost a bit a voxel); one code
+ * per segment fits each scene's statistics, which zstd learns across the
+ * array and a per-block mode cannot. */
+#define VD_AUTO_RECENT 16
+#define VD_AUTO_RUNS 20
+#define VD_AUTO_HIT0 VD_AUTO_RUNS                        /* 20: position 1 */
+#define VD_AUTO_DELTA0 (VD_AUTO_RUNS + VD_AUTO_RECENT - 1) /* 35 */
+#define VD_AUTO_SYM_A (VD_AUTO_DELTA0 + 256)             /* 291 */
+/* A has one code per context, the kind of the previous step: 0 after a
+ * run, 1 after a hit, 2 after a delta or at the block's start (a run is
+ * seldom followed by another, a hit often by a hit) */
+#define VD_AUTO_CTX 3
+#define VD_AUTO_SYM_B (VD_AUTO_CTX * VD_AUTO_SYM_A)      /* 873 */
+#define VD_AUTO_SYMS (VD_AUTO_SYM_B + 512)               /* 1385 */
+#define VD_AUTO_TABLE_BYTES ((VD_AUTO_SYMS + 1) / 2)     /* 693 */
+#define VD_AUTO_ALPHABETS (VD_AUTO_CTX + 2)
+#define VD_AUTO_MAXLEN 11
+
+static const uint16_t vd_auto_run[VD_AUTO_RUNS] = {
+	1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 32, 64, 128, 256};
+
+/* Decode tables of one segment: per alphabet, for every 11-bit window of
+ * the stream (LSB first), symbol << 4 | code length (0: no code). */
+struct vd_auto_code {
+	uint16_t t[VD_AUTO_ALPHABETS][1 << VD_AUTO_MAXLEN];
+};
+
+/* Builds c from the table's VD_AUTO_TABLE_BYTES bytes (symbol i's length
+ * in nibble i, low nibble first; A's symbols, then B's, then C's).
+ * Returns 0, or -1 when a length exceeds VD_AUTO_MAXLEN or an alphabet's
+ * lengths over-fill the code space. */
+int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab);
+
+static inline uint32_t vd_auto_peek(const uint8_t *d, uint64_t pos)
+{
+	const uint8_t *p = d + (pos >> 3);
+	uint64_t v;
+	memcpy(&v, p, 8); /* the data keeps VD_AUTO_PAD bytes after it */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	v = __builtin_bswap64(v);
+#endif
+	return (uint32_t)(v >> (pos & 7)) & ((1u << VD_AUTO_MAXLEN) - 1);
+}
+
+/* Colour of voxel j of the coded block at d (u16 stream bytes S, R, G, B
+ * of voxel 0, the stream) into rgb, decoding from the block's start.
+ * Returns the bits of the stream read, or -1 for a symbol with no code,
+ * a hit past the list, or (when all != NULL) a run past voxel j. The
+ * reader runs every block through this once with j = n - 1 and all set
+ * (every voxel's colour, 3 bytes each, goes to all[0..3(j+1))) and
+ * compares the bits with S. */
+static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
+					   const uint8_t *d, uint32_t j,
+					   uint8_t rgb[3], uint8_t *all)
+{
+	/* the list as a ring (position q at ring[(h + q) & 15]): a delta,
+	 * the common step of noisy textures, inserts in O(1) */
+	uint32_t ring[VD_AUTO_RECENT], nr = 1, h = 0;
+	uint32_t cur = (uint32_t)d[2] | (uint32_t)d[3] << 8 | (uint32_t)d[4] << 16;
+	ring[0] = cur;
+	const uint8_t *s = d + 5;
+	uint64_t pos = 0;
+	unsigned ctx = 2;
+	if (all)
+		memcpy(all, d + 2, 3);
+	for (uint32_t i = 1; i <= j;) {
+		uint32_t e = c->t[ctx][vd_auto_peek(s, pos)];
+		if (!(e & 15))
+			return -1;
+		pos += e & 15;
+		uint32_t a = e >> 4;
+		if (a < VD_AUTO_RUNS) {
+			uint32_t run = vd_auto_run[a];
+			if (all) {
+				if (run > j + 1 - i)
+					return -1;
+				for (uint32_t q = i; q < i + run; q++) {
+					all[3 * q] = (uint8_t)cur;
+					all[3 * q + 1] = (uint8_t)(cur >> 8);
+					all[3 * q + 2] = (uint8_t)(cur >> 16);
+				}
+			}
+			i += run;
+			ctx = 0;
+			continue;
+		}
+		if (a < VD_AUTO_DELTA0) {
+			a -= VD_AUTO_HIT0 - 1;
+			if (a >= nr)
+				return -1;
+			cur = ring[(h + a) & (VD_AUTO_RECENT - 1)];
+			for (; a; a--)
+				ring[(h + a) & (VD_AUTO_RECENT - 1)] =
+					ring[(h + a - 1) & (VD_AUTO_RECENT - 1)];
+			ring[h] = cur;
+			ctx = 1;
+		} else {
+			uint32_t e1 = c->t[VD_AUTO_CTX][vd_auto_peek(s, pos)];
+			pos += e1 & 15;
+			uint32_t e2 = c->t[VD_AUTO_CTX + 1][vd_auto_peek(s, pos)];
+			pos += e2 & 15;
+			if (!(e1 & 15) || !(e2 & 15))
+				return -1;
+			unsigned r = cur & 255, g = cur >> 8 & 255, b = cur >> 16;
+			unsigned g2 = (g + a - VD_AUTO_DELTA0) & 255;
+			unsigned r2 = (g2 + ((r - g + (e1 >> 4)) & 255)) & 255;
+			unsigned b2 = (g2 + ((b - g + (e2 >> 4)) & 255)) & 255;
+			cur = r2 | g2 << 8 | b2 << 16;
+			nr += nr < VD_AUTO_RECENT;
+			h = (h - 1) & (VD_AUTO_RECENT - 1);
+			ring[h] = cur;
+			ctx = 2;
+		}
+		if (all) {
+			all[3 * i] = (uint8_t)cur;
+			all[3 * i + 1] = (uint8_t)(cur >> 8);
+			all[3 * i + 2] = (uint8_t)(cur >> 16);
+		}
+		i++;
+	}
+	rgb[0] = (uint8_t)cur;
+	rgb[1] = (uint8_t)(cur >> 8);
+	rgb[2] = (uint8_t)(cur >> 16);
+	return (int64_t)pos;
 }
 
 #endif /* VD_COLOUR_INTERNAL_H */

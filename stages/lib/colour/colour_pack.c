@@ -210,7 +210,7 @@ struct vd_cpack_writer {
 	struct buf seg;       /* CSEG */
 	struct palset ps;
 	uint64_t voxels, segments, blocks, data_bytes;
-	uint64_t mode_blocks[5];
+	uint64_t mode_blocks[VD_AUTO_MODES];
 	uint64_t sse;
 	unsigned max_dist2;
 	int has_cell, cell_level;
@@ -388,7 +388,7 @@ static int put_auto(struct vd_cpack_writer *w, const struct vd_auto_segment *s)
 	w->blocks += s->count;
 	w->data_bytes += s->data_bytes;
 	w->sse += s->sse;
-	for (int m = 0; m < 5; m++)
+	for (int m = 0; m < VD_AUTO_MODES; m++)
 		w->mode_blocks[m] += s->mode_blocks[m];
 	if (s->max_dist2 > w->max_dist2)
 		w->max_dist2 = s->max_dist2;
@@ -566,6 +566,8 @@ int vd_cpack_writer_commit(struct vd_cpack_writer *w,
 	uint64_t etb;
 	memcpy(&etb, &et, 8);
 	le_put64(par + 32, etb);
+	if (w->p.method == VD_CPACK_AUTO && w->p.autop.coded)
+		le_put32(par + 48, 1); /* coded segments (1.2) */
 	if (w->p.method == VD_CPACK_PALETTE) {
 		le_put32(par + 40, w->p.palette->k);
 		le_put32(par + 44, w->p.palette_colours);
@@ -656,6 +658,8 @@ struct vd_cpack {
 	 * searches only the segments that start in its 2^18 window */
 	uint32_t *seg_at;
 	int block_log;               /* auto */
+	int coded;                   /* auto: segments carry code tables */
+	struct vd_auto_code **code;  /* auto, coded: per segment, NULL: none */
 	uint8_t *data;               /* VWGT, POFS or the raw array */
 	size_t data_size;
 	/* palette */
@@ -680,6 +684,10 @@ void vd_cpack_free(struct vd_cpack *c)
 	free(c->blk_bit);
 	free(c->dir);
 	free(c->seg_at);
+	if (c->code)
+		for (uint64_t s = 0; s < c->segments; s++)
+			free(c->code[s]);
+	free(c->code);
 	free(c->data);
 	free(c->glb);
 	free(c->pal_first);
@@ -740,6 +748,15 @@ static int read_cpar(struct vd_cpack *c, const struct vd_chunk *ch,
 	if (c->method == VD_CPACK_AUTO) {
 		c->block_log = c->weight_bits;
 		c->weight_bits = 0;
+		c->coded = c->lossless;
+		c->lossless = 0;
+		if ((unsigned)c->coded > 1)
+			return vd_fail(VD_ERR_CORRUPT, "auto flags 0x%x",
+				       (unsigned)c->coded);
+		if (c->coded && c->max_error != 0)
+			return vd_fail(VD_ERR_CORRUPT, "coded segments with max "
+				       "error %g (coded is lossless only)",
+				       c->max_error);
 		if (c->block_log < 4 || c->block_log > 12)
 			return vd_fail(VD_ERR_CORRUPT, "blocks of 2^%d colours",
 				       c->block_log);
@@ -1037,6 +1054,8 @@ static int check_offsets(const struct vd_cpack *c)
 	return VD_OK;
 }
 
+static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch);
+
 /* The auto method's ABLK (directory) and ADAT (blocks) sections: per
  * segment exactly ceil(n / 2^block_log) blocks, each of a known mode, its
  * bytes where the running sum of the segment's earlier blocks ends, every
@@ -1072,6 +1091,24 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 	memset(c->data + c->data_size, 0, VD_AUTO_PAD);
 	c->bytes = CSEG_SIZE * (size_t)c->segments + 4 * (size_t)c->blocks +
 		   c->data_size;
+	if (c->coded && !(c->code = calloc((size_t)c->segments + 1,
+					   sizeof *c->code)))
+		return vd_fail(VD_ERR_NOMEM, "code tables");
+	/* a coded block's bytes and what 33 bits a voxel can read past them */
+#define SCRATCH_PAD ((33u << 12) / 8 + 16)
+	uint8_t *scratch = c->coded ? malloc(5 + 65535 + SCRATCH_PAD +
+					     3 * ((size_t)1 << c->block_log))
+				    : NULL;
+	if (c->coded && !scratch)
+		return vd_fail(VD_ERR_NOMEM, "colour blocks");
+	err = read_auto_blocks(c, scratch);
+	free(scratch);
+	return err;
+}
+
+/* read_auto's per segment checks (scratch: a coded block's copy). */
+static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
+{
 	uint64_t data = 0;
 	uint32_t bs = 1u << c->block_log;
 	for (size_t s = 0; s < (size_t)c->segments; s++) {
@@ -1088,6 +1125,27 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 				       (unsigned long long)nb,
 				       (unsigned long long)data);
 		uint64_t at = 0;
+		struct vd_auto_code *code = NULL;
+		if (c->coded) {
+			/* u16 T, then T bytes of code table (0 or the table's size) */
+			uint32_t T = data + 2 <= c->data_size
+					     ? le_get16(c->data + data) : 1;
+			if ((T != 0 && T != VD_AUTO_TABLE_BYTES) ||
+			    data + 2 + T > c->data_size)
+				return vd_fail(VD_ERR_CORRUPT, "segment %zu: code "
+					       "table of %u bytes", s, T);
+			if (T) {
+				code = c->code[s] = malloc(sizeof *code);
+				if (!code)
+					return vd_fail(VD_ERR_NOMEM, "code tables");
+				if (vd_auto_code_build(code, c->data + data + 2))
+					return vd_fail(VD_ERR_CORRUPT, "segment %zu: "
+						       "code lengths over 11 "
+						       "bits or more than the "
+						       "code space", s);
+			}
+			at = 2 + T;
+		}
 		for (uint64_t b = 0; b < nb; b++) {
 			uint64_t bi = c->seg_block[s] + b;
 			uint32_t e = c->dir[bi], m = e >> 24;
@@ -1097,7 +1155,8 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 			int known = (m >> 4 == VD_AUTO_PALETTE >> 4 ||
 				     m >> 4 == VD_AUTO_ENDPOINTS >> 4)
 					    ? (m & 15) >= 1 && (m & 15) <= 8
-					    : m == VD_AUTO_QUANT || m == VD_AUTO_RAW;
+					    : m == VD_AUTO_QUANT || m == VD_AUTO_RAW ||
+						      (m == VD_AUTO_CODED && code);
 			uint64_t off = data + (e & 0xffffff);
 			/* the header bytes the size depends on must be there */
 			if (!known || (e & 0xffffff) != at ||
@@ -1128,6 +1187,24 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 						return vd_fail(VD_ERR_CORRUPT, "block %llu: "
 							       "index outside its %u-colour "
 							       "palette", (unsigned long long)bi, k);
+			}
+			if (m == VD_AUTO_CODED) {
+				/* decoded from a copy padded with zeros, so that a
+				 * corrupt stream cannot run past the data */
+				uint8_t last[3];
+				memset(scratch, 0, sz + SCRATCH_PAD);
+				memcpy(scratch, d, sz);
+				int64_t bits = len < 2 ? -1
+					: vd_auto_coded_decode(code, scratch, len - 1, last,
+							       scratch + 5 + 65535 + SCRATCH_PAD);
+				if (bits < 0 || (uint64_t)(bits + 7) / 8 != sz - 5)
+					return vd_fail(VD_ERR_CORRUPT, "block %llu: "
+						       "coded colours %s",
+						       (unsigned long long)bi,
+						       bits < 0 ? "with a code, a recent "
+						       "colour or a run that is not "
+						       "there" : "not filling their "
+						       "bytes");
 			}
 			at += sz;
 		}
@@ -1272,6 +1349,11 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
 	uint32_t first = k >> c->block_log << c->block_log;
 	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
+	if (e >> 24 == VD_AUTO_CODED) {
+		vd_auto_coded_decode(c->code[s], c->data + c->seg_data[s] +
+						 (e & 0xffffff), k - first, rgb, NULL);
+		return;
+	}
 	vd_auto_decode(e, c->data + c->seg_data[s] + (e & 0xffffff),
 		       left < bs ? left : bs, k - first, rgb);
 }
@@ -1318,8 +1400,28 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		return VD_OK;
 	}
 	if (c->method == VD_CPACK_AUTO) {
-		for (uint64_t k = 0; k < n; k++)
-			auto_colour(c, first + k, rgb + 3 * k);
+		/* a coded block decodes from its start: decode it whole once
+		 * for the voxels of the range it holds */
+		uint8_t all[3 << 12];
+		for (uint64_t k = 0; k < n;) {
+			uint64_t i = first + k, p = i >> 18;
+			size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
+			uint32_t j = (uint32_t)(i - c->seg_first[s]);
+			uint32_t e = c->dir[c->seg_block[s] + (j >> c->block_log)];
+			uint32_t b0 = j >> c->block_log << c->block_log;
+			uint32_t len = c->seg_n[s] - b0 < (1u << c->block_log)
+					       ? c->seg_n[s] - b0 : 1u << c->block_log;
+			if (e >> 24 != VD_AUTO_CODED) {
+				auto_colour(c, i, rgb + 3 * k++);
+				continue;
+			}
+			uint8_t last[3];
+			vd_auto_coded_decode(c->code[s], c->data + c->seg_data[s] +
+						 (e & 0xffffff), len - 1, last, all);
+			uint64_t m = b0 + len - j < n - k ? b0 + len - j : n - k;
+			memcpy(rgb + 3 * k, all + 3 * (size_t)(j - b0), 3 * m);
+			k += m;
+		}
 		return VD_OK;
 	}
 	/* walk blocks sequentially from the first voxel's */
