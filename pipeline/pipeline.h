@@ -323,7 +323,12 @@ void slurm_done(const struct plan *p);
  * seconds, peak memory) written atomically. */
 int slurm_job_exec(int argc, char **argv);
 
-/* A line in the run's runner.log (run.c). */
+/* The run's log, <outputs>/logs/runner.log (log.c, below the driver and
+ * the executors that write to it): run_log_open appends to `path` and
+ * returns its descriptor (for a signal handler's write(2)), -1 when it
+ * cannot be opened (then run_log writes nothing). run_log: one line,
+ * stamped with the local time. */
+int run_log_open(const char *path);
 void run_log(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* `voxdag view` (view.c): argv[0] is "view"; serves an output directory

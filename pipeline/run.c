@@ -9,7 +9,6 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <poll.h>
@@ -21,48 +20,6 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
-
-static FILE *runner_log;
-
-static void log_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static void log_vline(const char *fmt, va_list ap);
-
-void run_log(const char *fmt, ...)
-{
-	va_list ap;
-	va_start(ap, fmt);
-	log_vline(fmt, ap);
-	va_end(ap);
-}
-
-static void log_line(const char *fmt, ...)
-{
-	va_list ap;
-	va_start(ap, fmt);
-	log_vline(fmt, ap);
-	va_end(ap);
-}
-
-static void log_vline(const char *fmt, va_list ap)
-{
-	if (!runner_log)
-		return;
-	/* one stamp a second: localtime() would also stat /etc/localtime on
-	 * every line (localtime_r does not, once tzset ran) */
-	static time_t last;
-	static char ts[32];
-	time_t now = time(NULL);
-	if (now != last || !*ts) {
-		struct tm tm;
-		localtime_r(&now, &tm);
-		strftime(ts, sizeof ts, "%Y-%m-%d %H:%M:%S", &tm);
-		last = now;
-	}
-	fprintf(runner_log, "%s ", ts);
-	vfprintf(runner_log, fmt, ap);
-	fputc('\n', runner_log);
-	fflush(runner_log);
-}
 
 /* A runner stopped by SIGTERM, SIGINT or SIGHUP says so, in runner.log
  * and on stderr, before it dies of the signal (its jobs die with it:
@@ -258,7 +215,7 @@ static void spawn_setup(void)
 		close(sv[0]);
 		spawn_path[0] = 0;
 	}
-	log_line("no voxdag-spawn beside the runner: jobs start directly, "
+	run_log("no voxdag-spawn beside the runner: jobs start directly, "
 		 "and their peak memory includes the runner's");
 }
 
@@ -278,7 +235,7 @@ static void launcher_lost(int status, int reaped)
 		snprintf(how, sizeof how, "killed by signal %d", WTERMSIG(status));
 	else
 		snprintf(how, sizeof how, "exit %d", WEXITSTATUS(status));
-	log_line("the job launcher (pid %ld) died (%s): its running jobs "
+	run_log("the job launcher (pid %ld) died (%s): its running jobs "
 		 "failed, later ones start directly", (long)pid, how);
 	fprintf(stderr, "voxdag: the job launcher voxdag-spawn died (%s); "
 		"the jobs it was running failed with it\n", how);
@@ -589,7 +546,7 @@ static uint64_t job_voxels(const struct job *j)
 
 /* The last line of a running job's log (what a long job last said),
  * trimmed; nothing while the log holds only its command line. */
-static void last_log_line(const struct job *j, char *buf, size_t cap)
+static void last_run_log(const struct job *j, char *buf, size_t cap)
 {
 	buf[0] = 0;
 	off_t n = j->log_fd >= 0 ? lseek(j->log_fd, 0, SEEK_END) : -1;
@@ -637,7 +594,7 @@ static void progress(const struct plan *p, double t0, int tty, int final)
 		for (int i = 0; i < p->n; i++)
 			if (p->jobs[i].state == JOB_RUNNING) {
 				char line[160];
-				last_log_line(&p->jobs[i], line, sizeof line);
+				last_run_log(&p->jobs[i], line, sizeof line);
 				if (*line)
 					snprintf(said, sizeof said, " [%s: %s]",
 						 p->jobs[i].id, line);
@@ -778,7 +735,7 @@ static int end_job(struct plan *p, struct job *j, const struct job_end *e,
 		job_set_state(p, j, JOB_DONE);
 		if (!j->cell) /* a cell's count was read when it was planned */
 			j->voxels = job_voxels(j);
-		log_line("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
+		run_log("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
 			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
 			 (unsigned long long)(j->mem_estimate >> 20));
 		if (j->slurm_id > 0)
@@ -792,7 +749,7 @@ static int end_job(struct plan *p, struct job *j, const struct job_end *e,
 	job_set_state(p, j, JOB_FAILED);
 	char lp[1300];
 	log_path(p, j, lp, sizeof lp);
-	log_line("failed %s%s%s%s%s", j->id, *e->reason ? ": " : "", e->reason,
+	run_log("failed %s%s%s%s%s", j->id, *e->reason ? ": " : "", e->reason,
 		 *key_error ? ": " : "", key_error);
 	if (tty)
 		fputs("\r\033[K", stderr);
@@ -873,7 +830,7 @@ static void cancel_dependents(struct plan *p, int *running)
 				continue;
 			slurm_cancel(p, j);
 			job_set_state(p, j, JOB_BLOCKED);
-			log_line("blocked %s (cancelled in Slurm)", j->id);
+			run_log("blocked %s (cancelled in Slurm)", j->id);
 			(*running)--;
 			changed = 1;
 		}
@@ -910,7 +867,7 @@ static void sweep_staging(const struct plan *p, int all)
 {
 	long n = vd_staging_sweep(p->dir, all);
 	if (n)
-		log_line("removed %ld staging entr%s of killed processes", n,
+		run_log("removed %ld staging entr%s of killed processes", n,
 			 n == 1 ? "y" : "ies");
 }
 
@@ -933,13 +890,11 @@ static int run_open(struct plan *p)
 	int slurm = c->executor == EXECUTOR_SLURM;
 	char rl[1300];
 	snprintf(rl, sizeof rl, "%s/runner.log", logs);
-	runner_log = fopen(rl, "a");
-	runner_log_fd = runner_log ? fileno(runner_log) : -1;
+	runner_log_fd = run_log_open(rl);
 	signal(SIGTERM, on_stop);
 	signal(SIGINT, on_stop);
 	signal(SIGHUP, on_stop);
-	tzset();
-	log_line("run %s (pid %ld)", c->path, (long)getpid());
+	run_log("run %s (pid %ld)", c->path, (long)getpid());
 	if (slurm && slurm_preflight(p) != 0)
 		return 1;
 	/* what killed runs left half-written (locally: with Slurm, jobs of a
@@ -986,7 +941,7 @@ static int launch_ready(struct run_state *s, int i, int lone)
 		}
 		running_local[nrunning_local++] = i;
 		s->mem_used += j->mem_estimate;
-		log_line("started %s (estimate %llu MiB)", j->id,
+		run_log("started %s (estimate %llu MiB)", j->id,
 			 (unsigned long long)(j->mem_estimate >> 20));
 	}
 	return 1;
@@ -1002,7 +957,7 @@ static void consider_job(struct run_state *s, int i, int lone)
 	struct job *j = &p->jobs[i];
 	if (j->state == JOB_SKIPPED && !j->logged) {
 		/* found fresh when planned */
-		log_line("skipped %s (output is fresh)", j->id);
+		run_log("skipped %s (output is fresh)", j->id);
 		j->logged = 1;
 	}
 	if (j->state != JOB_PENDING)
@@ -1010,7 +965,7 @@ static void consider_job(struct run_state *s, int i, int lone)
 	int ds = deps_state(p, j);
 	if (ds == 2) {
 		job_set_state(p, j, JOB_BLOCKED);
-		log_line("blocked %s", j->id);
+		run_log("blocked %s", j->id);
 		return;
 	}
 	if (s->slurm && !j->adopt_checked) {
@@ -1020,7 +975,7 @@ static void consider_job(struct run_state *s, int i, int lone)
 			j->state = JOB_RUNNING;
 			j->start = vd_seconds();
 			s->running++;
-			log_line("adopted %s (Slurm job %s)", j->id,
+			run_log("adopted %s (Slurm job %s)", j->id,
 				 slurm_bundle_name(j));
 			return;
 		}
@@ -1035,11 +990,11 @@ static void consider_job(struct run_state *s, int i, int lone)
 	if (fresh == 1) {
 		job_set_state(p, j, JOB_SKIPPED);
 		j->logged = 1;
-		log_line("skipped %s (output is fresh)", j->id);
+		run_log("skipped %s (output is fresh)", j->id);
 		return;
 	}
 	if (fresh < 0) {
-		log_line("failed %s: %s", j->id, why);
+		run_log("failed %s: %s", j->id, why);
 		fprintf(stderr, "%svoxdag: cannot check job %s: %s\n",
 			s->tty ? "\r\033[K" : "", j->id, why);
 		job_set_state(p, j, JOB_FAILED);
@@ -1047,7 +1002,7 @@ static void consider_job(struct run_state *s, int i, int lone)
 		return;
 	}
 	if (*why) {
-		log_line("rebuilding %s: %s", j->id, why);
+		run_log("rebuilding %s: %s", j->id, why);
 		if (!s->o->quiet)
 			fprintf(stderr, "%svoxdag: rebuilding %s: %s\n",
 				s->tty ? "\r\033[K" : "", j->id, why);
@@ -1196,7 +1151,7 @@ static int run_close(struct run_state *s)
 	 * its child */
 	if (s->slurm) /* the children are sbatch, squeue, scontrol, scancel:
 		       * the driver's cost; the stages' is in their ends */
-		log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, "
+		run_log("finished: %d failed, %d blocked, %.1fs, %d jobs, "
 			 "runner cpu %.3fs (%.3fs of it in Slurm's commands), "
 			 "stages cpu %.3fs, runner peak %ld MiB", s->failures,
 			 blocked, vd_seconds() - s->t0, p->n,
@@ -1204,7 +1159,7 @@ static int run_close(struct run_state *s)
 			 rusage_seconds(&kids), slurm_stages_cpu(),
 			 self.ru_maxrss / 1024);
 	else
-		log_line("finished: %d failed, %d blocked, %.1fs, %d jobs, "
+		run_log("finished: %d failed, %d blocked, %.1fs, %d jobs, "
 			 "runner cpu %.3fs (%.3fs of it starting jobs), stages "
 			 "cpu %.3fs, runner peak %ld MiB", s->failures, blocked,
 			 vd_seconds() - s->t0, p->n, rusage_seconds(&self) +
