@@ -144,6 +144,22 @@ static int run_capture(char *const argv[], char *out, size_t cap, char *err,
 	return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+/* `sinfo -h -o FMT`, of the pipeline's partition when it names one:
+ * run_capture's status. */
+static int sinfo(const struct config *c, const char *fmt, char *out,
+		 size_t cap, char *err, size_t ecap)
+{
+	char part[MAX_NAME + 4], f[16];
+	snprintf(part, sizeof part, "%s", c->slurm.partition);
+	snprintf(f, sizeof f, "%s", fmt);
+	char *argv[] = {"sinfo", "-h", "-o", f, NULL, NULL, NULL};
+	if (*part) {
+		argv[4] = "-p";
+		argv[5] = part;
+	}
+	return run_capture(argv, out, cap, err, ecap, QUERY_TIMEOUT);
+}
+
 /* The first line of s, for one-line messages. */
 static const char *first_line(char *s)
 {
@@ -772,15 +788,8 @@ static int site_limits(const struct plan *p)
 			l = l ? l + 1 : NULL;
 		}
 	}
-	char part[MAX_NAME + 4];
-	snprintf(part, sizeof part, "%s", c->slurm.partition);
-	char *sinfo[] = {"sinfo", "-h", "-o", "%C", NULL, NULL, NULL};
-	if (*part) {
-		sinfo[4] = "-p";
-		sinfo[5] = part;
-	}
 	site.cpus = 0;
-	if (run_capture(sinfo, out, cap, err, sizeof err, QUERY_TIMEOUT) == 0)
+	if (sinfo(c, "%C", out, cap, err, sizeof err) == 0)
 		for (char *l = out; l && *l;) {
 			long a, i, o, t;
 			if (sscanf(l, "%ld/%ld/%ld/%ld", &a, &i, &o, &t) == 4)
@@ -845,20 +854,12 @@ int slurm_preflight(const struct plan *p)
 				  : "failed");
 		return 1;
 	}
-	char part[MAX_NAME + 4];
-	snprintf(part, sizeof part, "%s", c->slurm.partition);
-	char *sinfo[] = {"sinfo", "-h", "-o", "%P", NULL, NULL, NULL};
-	if (*part) {
-		sinfo[4] = "-p";
-		sinfo[5] = part;
-	}
-	rc = run_capture(sinfo, out, sizeof out, err, sizeof err,
-			 QUERY_TIMEOUT);
+	rc = sinfo(c, "%P", out, sizeof out, err, sizeof err);
 	if (rc != 0 || !*out) {
-		if (*part)
+		if (*c->slurm.partition)
 			fprintf(stderr, "voxdag: executor slurm: partition '%s' "
 				"does not exist (sinfo lists the partitions)\n",
-				part);
+				c->slurm.partition);
 		else
 			fprintf(stderr, "voxdag: executor slurm: the cluster "
 				"has no partition ('sinfo': %s)\n",

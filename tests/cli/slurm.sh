@@ -334,12 +334,18 @@ $BIN/voxdag run "$W/onetask.yaml" -q 2>"$T/err" || fail slurm_onetask_local_run 
 sums "$W/onetask" > "$W/onetask-local.sum"
 $BIN/voxdag clean "$W/onetask.yaml"
 rl=$W/onetask/logs/runner.log
-$BIN/voxdag run "$W/onetask.yaml" --executor slurm -q 2>"$T/err" &
-r=$!
-release_held $r voxdag:onetask:voxelize &
-rel=$!
-if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
+# start_held_run: the onetask pipeline on Slurm in the background (pid
+# r), its voxelize released (rel); once the svdag bundles are submitted,
+# arr is their array's Slurm job. 1 when they never come.
+start_held_run() {
+	$BIN/voxdag run "$W/onetask.yaml" --executor slurm -q 2>"$T/err" &
+	r=$!
+	release_held $r voxdag:onetask:voxelize &
+	rel=$!
+	wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60 || return 1
 	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
+}
+if start_held_run; then
 	victim=$(grep " (Slurm job ${arr}_1, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
 	scancel "${arr}_1"
 	kill $rel 2>/dev/null; wait $rel 2>/dev/null
@@ -377,12 +383,7 @@ fi
 # dependents not run; the others of its bundle and stage go on
 # (the same pipeline: the picture is named after it)
 $BIN/voxdag clean "$W/onetask-rerun.yaml"
-$BIN/voxdag run "$W/onetask.yaml" --executor slurm -q 2>"$T/err" &
-r=$!
-release_held $r voxdag:onetask:voxelize &
-rel=$!
-if wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60; then
-	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
+if start_held_run; then
 	victim=$(grep " (Slurm job ${arr}_0, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | sed -n 2p)
 	cell=${victim#svdag/cells/}
 	truncate -s 100 "$W/onetask/voxelize/$cell.svo" # a cut chunk: svo-to-dag refuses it

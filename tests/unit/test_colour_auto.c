@@ -207,6 +207,62 @@ static int write_cells(const char *name, const struct vd_auto_params *ap,
 	return vd_cpack_writer_commit(w, NULL);
 }
 
+/* A one-cell file of the n colours rgb written with p: its sections hold
+ * exactly the specification's bytes (CPAR par; CSEG seg unless NULL; the
+ * directory dir of nb blocks; the data), and the reader gives every
+ * colour back. */
+static void check_golden_file(const char *name,
+			      const struct vd_auto_params *p,
+			      const uint8_t *rgb, uint32_t n,
+			      const uint8_t par[64], const uint8_t seg[40],
+			      const uint32_t *bdir, uint32_t nb,
+			      const uint8_t *data, size_t ndata)
+{
+	uint8_t *cells[1] = {(uint8_t *)rgb};
+	uint64_t counts[1] = {n};
+	CHECK_EQ(write_cells(name, p, 1, cells, counts), VD_OK);
+	char path[256];
+	path_of(path, sizeof path, name);
+	struct vd_chunk *ch;
+	CHECK_EQ(vd_chunk_open(&ch, path, VD_KIND_CPACK), VD_OK);
+	if (!ch)
+		return;
+	void *d;
+	size_t len;
+	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('C', 'P', 'A', 'R'), &d, &len),
+		 VD_OK);
+	CHECK(len == 64 && !memcmp(d, par, 64));
+	free(d);
+	if (seg) {
+		CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('C', 'S', 'E', 'G'),
+					       &d, &len), VD_OK);
+		CHECK(len == 40 && !memcmp(d, seg, 40));
+		free(d);
+	}
+	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'B', 'L', 'K'), &d, &len),
+		 VD_OK);
+	CHECK_EQ(len, 4 * (size_t)nb);
+	for (uint32_t b = 0; b < nb && len == 4 * (size_t)nb; b++)
+		CHECK_EQ(le_get32((uint8_t *)d + 4 * b), bdir[b]);
+	free(d);
+	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'D', 'A', 'T'), &d, &len),
+		 VD_OK);
+	CHECK(len == ndata && !memcmp(d, data, len));
+	free(d);
+	vd_chunk_free(ch);
+	struct vd_cpack *c;
+	CHECK_EQ(vd_cpack_open(&c, path), VD_OK);
+	if (c) {
+		CHECK_EQ(vd_cpack_bytes(c), 40 + 4 * nb + ndata);
+		for (uint32_t i = 0; i < n; i++) {
+			uint8_t o[3];
+			CHECK_EQ(vd_cpack_colour(c, (uint64_t)i, o), VD_OK);
+			CHECK(!memcmp(o, rgb + 3 * i, 3));
+		}
+		vd_cpack_free(c);
+	}
+}
+
 static void test_golden(void)
 {
 	uint8_t rgb[216];
@@ -224,49 +280,12 @@ static void test_golden(void)
 	vd_auto_segment_release(&s);
 
 	/* the file: its sections hold exactly the specification's bytes */
-	uint8_t *cells[1] = {rgb};
-	uint64_t n[1] = {72};
-	CHECK_EQ(write_cells("golden.auto", &p, 1, cells, n), VD_OK);
-	char path[256];
-	path_of(path, sizeof path, "golden.auto");
-	struct vd_chunk *ch;
-	CHECK_EQ(vd_chunk_open(&ch, path, VD_KIND_CPACK), VD_OK);
-	void *d;
-	size_t len;
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('C', 'P', 'A', 'R'), &d, &len),
-		 VD_OK);
 	uint8_t par[64] = {4, 0, 0, 0, 4, 0, 0, 0, 72, 0, 0, 0, 0, 0, 0, 0,
 			   1, 0, 0, 0, 0, 0, 0, 0, 5, 0, 0, 0, 0, 0, 0, 0};
-	CHECK(len == 64 && !memcmp(d, par, 64));
-	free(d);
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('C', 'S', 'E', 'G'), &d, &len),
-		 VD_OK);
 	uint8_t seg[40] = {0};
 	seg[24] = 3, seg[32] = 2, seg[36] = 72;
-	CHECK(len == 40 && !memcmp(d, seg, 40));
-	free(d);
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'B', 'L', 'K'), &d, &len),
-		 VD_OK);
-	CHECK_EQ(len, 20);
-	for (int b = 0; b < 5 && len == 20; b++)
-		CHECK_EQ(le_get32((uint8_t *)d + 4 * b), golden_dir[b]);
-	free(d);
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'D', 'A', 'T'), &d, &len),
-		 VD_OK);
-	CHECK(len == sizeof golden_data && !memcmp(d, golden_data, len));
-	free(d);
-	vd_chunk_free(ch);
-	struct vd_cpack *c;
-	CHECK_EQ(vd_cpack_open(&c, path), VD_OK);
-	if (c) {
-		CHECK_EQ(vd_cpack_bytes(c), 40 + 20 + 90);
-		for (int i = 0; i < 72; i++) {
-			uint8_t o[3];
-			CHECK_EQ(vd_cpack_colour(c, (uint64_t)i, o), VD_OK);
-			CHECK(!memcmp(o, rgb + 3 * i, 3));
-		}
-		vd_cpack_free(c);
-	}
+	check_golden_file("golden.auto", &p, rgb, 72, par, seg, golden_dir, 5,
+			  golden_data, sizeof golden_data);
 }
 
 /* check_file, below */
@@ -300,44 +319,13 @@ static void test_golden_coded(void)
 	struct vd_auto_params lossy = {.max_error = 0.05, .coded = 1};
 	CHECK_EQ(vd_auto_encode(&s, rgb, 1024, &lossy), VD_ERR_ARG);
 
-	uint8_t *cells[1] = {rgb};
-	uint64_t n[1] = {1024};
-	CHECK_EQ(write_cells("golden2.auto", &p, 1, cells, n), VD_OK);
-	char path[256];
-	path_of(path, sizeof path, "golden2.auto");
-	struct vd_chunk *ch;
-	CHECK_EQ(vd_chunk_open(&ch, path, VD_KIND_CPACK), VD_OK);
-	void *d;
-	size_t len;
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('C', 'P', 'A', 'R'), &d, &len),
-		 VD_OK);
 	uint8_t par[64] = {4, 0, 0, 0, 6, 0, 0, 0, 0, 4, 0, 0, 0, 0, 0, 0,
 			   1, 0, 0, 0, 0, 0, 0, 0, 16, 0, 0, 0, 0, 0, 0, 0};
 	par[48] = 1; /* coded segments */
-	CHECK(len == 64 && !memcmp(d, par, 64));
-	free(d);
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'B', 'L', 'K'), &d, &len),
-		 VD_OK);
-	CHECK_EQ(len, 64);
-	for (int b = 0; b < 16 && len == 64; b++)
-		CHECK_EQ(le_get32((uint8_t *)d + 4 * b), golden2_dir[b]);
-	free(d);
-	CHECK_EQ(vd_chunk_read_section(ch, VD_TAG('A', 'D', 'A', 'T'), &d, &len),
-		 VD_OK);
-	CHECK(len == sizeof golden2_data && !memcmp(d, golden2_data, len));
-	free(d);
-	vd_chunk_free(ch);
-	struct vd_cpack *c;
-	CHECK_EQ(vd_cpack_open(&c, path), VD_OK);
-	if (c) {
-		CHECK_EQ(vd_cpack_bytes(c), 40 + 64 + sizeof golden2_data);
-		for (int i = 0; i < 1024; i++) {
-			uint8_t o[3];
-			CHECK_EQ(vd_cpack_colour(c, (uint64_t)i, o), VD_OK);
-			CHECK(!memcmp(o, rgb + 3 * i, 3));
-		}
-		vd_cpack_free(c);
-	}
+	check_golden_file("golden2.auto", &p, rgb, 1024, par, NULL, golden2_dir,
+			  16, golden2_data, sizeof golden2_data);
+	uint8_t *cells[1] = {rgb};
+	uint64_t n[1] = {1024};
 	check_file("golden2.auto", 1, cells, n, 0);
 }
 

@@ -70,20 +70,26 @@ void vd_svo_count_levels(const struct vd_svo *svo, uint64_t *counts)
 				   svo->masks[i]);
 }
 
+/* An SVO chunk's header: its node counts zero, for the writer to fill. */
+static void svo_header(struct vd_chunk_header *h, int levels, int chunk_level,
+		       uint64_t cell, const struct vd_transform *t)
+{
+	memset(h, 0, sizeof *h);
+	h->kind = VD_KIND_SVO;
+	h->levels = (uint32_t)levels;
+	h->chunk_level = (uint32_t)chunk_level;
+	h->cell_morton = cell;
+	h->transform = *t;
+	h->level_count = (uint32_t)(levels - chunk_level + 1);
+}
+
 int vd_svo_write(const char *path, int levels, int chunk_level, uint64_t cell,
 		 const struct vd_transform *t, const char *provenance, size_t n,
 		 const uint64_t *keys, const uint64_t *masks, size_t stride,
 		 uint64_t *counts)
 {
-	struct vd_chunk_header h = {0};
-	h.kind = VD_KIND_SVO;
-	h.levels = (uint32_t)levels;
-	h.chunk_level = (uint32_t)chunk_level;
-	h.cell_morton = cell;
-	h.transform = *t;
-	h.level_count = (uint32_t)(levels - chunk_level + 1);
-	for (uint32_t l = 0; l < h.level_count; l++)
-		h.level_nodes[l] = 0;
+	struct vd_chunk_header h;
+	svo_header(&h, levels, chunk_level, cell, t);
 	for (size_t i = 0; i < n; i++)
 		vd_svo_count_brick(h.level_nodes, levels, chunk_level, i == 0,
 				   i ? keys[(i - 1) * stride] : 0, keys[i * stride],
@@ -148,13 +154,9 @@ int vd_svo_writer_open(struct vd_svo_writer **out, const char *path,
 	s->levels = levels;
 	s->chunk_level = chunk_level;
 	s->n = n;
-	struct vd_chunk_header h = {0};
-	h.kind = VD_KIND_SVO;
-	h.levels = (uint32_t)levels;
-	h.chunk_level = (uint32_t)chunk_level;
-	h.cell_morton = cell_morton;
-	h.transform = *t;
-	h.level_count = s->level_count = (uint32_t)(levels - chunk_level + 1);
+	struct vd_chunk_header h;
+	svo_header(&h, levels, chunk_level, cell_morton, t);
+	s->level_count = h.level_count;
 	uint8_t buf[8];
 	le_put64(buf, n);
 	int err = vd_chunk_writer_open(&s->w, path, &h, provenance);
