@@ -345,15 +345,20 @@ start_held_run() {
 	wait_log "$rl" 'sbatch: .* [2-9] bundles of [0-9]* svdag jobs' 60 || return 1
 	arr=$(sed -n 's/.* sbatch: Slurm job \([0-9]*\), [2-9] bundles of [0-9]* svdag jobs.*/\1/p' "$rl" | head -1)
 }
-if start_held_run; then
-	victim=$(grep " (Slurm job ${arr}_1, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
-	scancel "${arr}_1"
+# finish_held_run: releases every held job of the run r until it ends;
+# rc is its exit status.
+finish_held_run() {
 	kill $rel 2>/dev/null; wait $rel 2>/dev/null
 	release_held $r &
 	rel=$!
 	wait $r
 	rc=$?
 	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+}
+if start_held_run; then
+	victim=$(grep " (Slurm job ${arr}_1, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | head -1)
+	scancel "${arr}_1"
+	finish_held_run
 	ssv=ssvdag/cells/${victim#svdag/cells/}
 	if [ $rc -eq 1 ] && [ -n "$victim" ] &&
 		grep -q "job $victim did not finish: Slurm job ${arr}_1 left the queue before it started" "$T/err" &&
@@ -387,12 +392,7 @@ if start_held_run; then
 	victim=$(grep " (Slurm job ${arr}_0, " "$rl" | sed 's/.* submitted \([^ ]*\) .*/\1/' | sed -n 2p)
 	cell=${victim#svdag/cells/}
 	truncate -s 100 "$W/onetask/voxelize/$cell.svo" # a cut chunk: svo-to-dag refuses it
-	kill $rel 2>/dev/null; wait $rel 2>/dev/null
-	release_held $r &
-	rel=$!
-	wait $r
-	rc=$?
-	kill $rel 2>/dev/null; wait $rel 2>/dev/null
+	finish_held_run
 	if [ $rc -eq 1 ] && [ -n "$cell" ] &&
 		grep -q "job $victim failed (exit [1-9]" "$T/err" &&
 		grep -q "  log: .*/logs/svdag.cells.$cell.log" "$T/err" && grep -q '  | ' "$T/err" &&
