@@ -38,14 +38,15 @@ enum {
 	 * speed-up only, never needed, so small: it is still held when the
 	 * plan measures `base`, and takes from the cells what it holds. */
 	VD_BUDGET_TRI_CACHE_DIV = 16,
-	/* The estimate's hash set of the 32^3 blocks triangles may touch
-	 * (estimate pass). Freed before the plan: its peak is its own, not
-	 * added to the cells'. Past its share the set coarsens (a looser
-	 * bound), it never grows; an eighth keeps the bound exact for all
-	 * but the largest scenes of a budget. */
+	/* The estimate's keys of the 32^3 blocks triangles may touch
+	 * (estimate pass: sorted keys, a buffer and its sort's copy).
+	 * Freed before the plan: its peak is its own, not added to the
+	 * cells'. Past its share the keys coarsen (a looser bound), they
+	 * never grow; an eighth keeps the bound exact for all but the
+	 * largest scenes of a budget. */
 	VD_BUDGET_ESTIMATE_DIV = 8,
-	/* Keys of the estimate's set: 8 bytes each, at most a quarter of the
-	 * slots filled (open addressing stays short past that); never fewer
+	/* Keys of the estimate: 8 bytes each, max_keys of them a quarter of
+	 * the share (the arrays hold 2.5 max_keys at most); never fewer
 	 * than VD_BUDGET_ESTIMATE_MIN_KEYS, so a tiny budget still gets a
 	 * usable bound. */
 	VD_BUDGET_ESTIMATE_KEY_BYTES = 8,
