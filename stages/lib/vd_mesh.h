@@ -171,12 +171,20 @@ void vd_tri_attr_colour(const struct vd_tri_attr *a,
 			const struct vd_texture *tex, const double b[3],
 			uint8_t rgb[3]);
 
-/* Starts fetching into the cache the texels vd_tri_attr_colour(a, tex, b)
- * will read (nothing without a texture): a caller with many colours to
- * find calls it for several before their vd_tri_attr_colour, so that
- * their memory latencies overlap. */
-void vd_tri_attr_prefetch(const struct vd_tri_attr *a,
-			  const struct vd_texture *tex, const double b[3]);
+/* vd_tri_attr_colour in two steps, for a caller with many colours to
+ * find: vd_tri_attr_texels finds the four texels the colour at b blends
+ * and starts fetching them into the cache (returns 0, q untouched, when
+ * `a` has no texture: then vd_tri_attr_colour), vd_texel_quad_colour
+ * blends them later, once the memory latencies of several have
+ * overlapped. The same colour as vd_tri_attr_colour, bit for bit. */
+struct vd_texel_quad {
+	const uint8_t *p[4];   /* upper row left, right; lower row */
+	double ax, ay;         /* weights of the right column, lower row */
+};
+int vd_tri_attr_texels(const struct vd_tri_attr *a,
+		       const struct vd_texture *tex, const double b[3],
+		       struct vd_texel_quad *q);
+void vd_texel_quad_colour(const struct vd_texel_quad *q, uint8_t rgb[3]);
 
 struct vd_mesh_open_opts {
 	uint64_t max_vertex_bytes; /* as vd_mesh_open_limited; 0: no limit */

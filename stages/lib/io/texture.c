@@ -508,6 +508,13 @@ static inline void texel_pair_fast(double x, uint32_t n, int mode,
 		return;
 	}
 	if (mode == VD_WRAP_REPEAT && x > -0x1p31 && x < 0x1p31) {
+		if (!(n & (n - 1))) {
+			/* a power of two (most textures): the mask is the
+			 * remainder, negative x too, without a division */
+			*i0 = (uint32_t)((int64_t)x & (int64_t)(n - 1));
+			*i1 = (*i0 + 1) & (n - 1);
+			return;
+		}
 		int64_t r = (int64_t)x % (int64_t)n;
 		*i0 = (uint32_t)(r < 0 ? r + n : r);
 		*i1 = *i0 + 1 == n ? 0 : *i0 + 1;
@@ -537,18 +544,25 @@ static inline void texel_quad(const struct vd_texture *t, double u, double v,
 	p[3] = t->rgb + 3 * ((size_t)y1 * w + x1);
 }
 
-void vd_texture_sample(const struct vd_texture *t, double u, double v,
-		       uint8_t rgb[3])
+/* The bilinear blend of q's texels, rounded. */
+static inline void quad_blend(const struct vd_texel_quad *q, uint8_t rgb[3])
 {
-	const uint8_t *p[4];
-	double ax, ay;
-	texel_quad(t, u, v, p, &ax, &ay);
-	const uint8_t *p00 = p[0], *p10 = p[1], *p01 = p[2], *p11 = p[3];
+	const uint8_t *p00 = q->p[0], *p10 = q->p[1], *p01 = q->p[2],
+		      *p11 = q->p[3];
+	const double ax = q->ax, ay = q->ay;
 	for (int c = 0; c < 3; c++) {
 		double top = p00[c] + ax * (p10[c] - p00[c]);
 		double bot = p01[c] + ax * (p11[c] - p01[c]);
 		rgb[c] = round_u8(top + ay * (bot - top));
 	}
+}
+
+void vd_texture_sample(const struct vd_texture *t, double u, double v,
+		       uint8_t rgb[3])
+{
+	struct vd_texel_quad q;
+	texel_quad(t, u, v, q.p, &q.ax, &q.ay);
+	quad_blend(&q, rgb);
 }
 
 /* The texture coordinates at barycentric coordinates b. */
@@ -559,18 +573,24 @@ static inline void attr_uv(const struct vd_tri_attr *a, const double b[3],
 	*v = b[0] * a->uv[0][1] + b[1] * a->uv[1][1] + b[2] * a->uv[2][1];
 }
 
-void vd_tri_attr_prefetch(const struct vd_tri_attr *a,
-			  const struct vd_texture *tex, const double b[3])
+int vd_tri_attr_texels(const struct vd_tri_attr *a,
+		       const struct vd_texture *tex, const double b[3],
+		       struct vd_texel_quad *q)
 {
 	if (a->texture < 0 || !tex)
-		return;
-	double u, v, ax, ay;
-	const uint8_t *p[4];
+		return 0;
+	double u, v;
 	attr_uv(a, b, &u, &v);
-	texel_quad(tex, u, v, p, &ax, &ay);
+	texel_quad(tex, u, v, q->p, &q->ax, &q->ay);
 	/* the right texels are mostly on their left neighbours' lines */
-	__builtin_prefetch(p[0]);
-	__builtin_prefetch(p[2]);
+	__builtin_prefetch(q->p[0]);
+	__builtin_prefetch(q->p[2]);
+	return 1;
+}
+
+void vd_texel_quad_colour(const struct vd_texel_quad *q, uint8_t rgb[3])
+{
+	quad_blend(q, rgb);
 }
 
 void vd_tri_attr_colour(const struct vd_tri_attr *a,

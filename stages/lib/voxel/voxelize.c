@@ -1734,9 +1734,10 @@ static void colour_flush(struct colour_ctx *c)
 		for (int k = 0; k < 3; k++)
 			b[k][i] = bi[k];
 	}
-	/* the voxels this triangle is nearer to, their texels fetched
-	 * before any is read */
-	int take = 0;
+	/* the voxels this triangle is nearer to, their texels found and
+	 * fetched before any is read */
+	int take = 0, texels = 0;
+	struct vd_texel_quad tq[NEAR_BATCH];
 	for (int i = 0; i < n; i++) {
 		struct vox_col *v = qv[i];
 		if (!v || (v->set && !(d2[i] < v->d2)))
@@ -1744,7 +1745,7 @@ static void colour_flush(struct colour_ctx *c)
 		take |= 1 << i;
 		if (c->tex) {
 			double bi[3] = {b[0][i], b[1][i], b[2][i]};
-			vd_tri_attr_prefetch(c->a, c->tex, bi);
+			texels |= vd_tri_attr_texels(c->a, c->tex, bi, &tq[i]) << i;
 		}
 	}
 	for (; take; take &= take - 1) {
@@ -1752,6 +1753,10 @@ static void colour_flush(struct colour_ctx *c)
 		struct vox_col *v = qv[i];
 		v->d2 = d2[i];
 		v->set = 1;
+		if (texels >> i & 1) {
+			vd_texel_quad_colour(&tq[i], v->rgb);
+			continue;
+		}
 		if (c->uniform && fabs(b[0][i]) <= 2 && fabs(b[1][i]) <= 2 &&
 		    fabs(b[2][i]) <= 2) {
 			memcpy(v->rgb, c->a->rgb[0], 3);
