@@ -277,7 +277,7 @@ static int job_finished(const struct job *j)
  * Returns 0 if the file is missing or cannot be read whole. */
 static int fingerprint(const char *path, uint64_t *out)
 {
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	if (fd < 0)
 		return 0;
 	struct stat st;

@@ -3,6 +3,7 @@
  * memory against the budget), gathered from every job's statistics file so
  * a resumed run reports the same work as an uninterrupted one. */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -16,7 +17,7 @@
  * reads one statistics file per job. */
 static char *slurp(const char *path)
 {
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	struct stat st;
 	if (fd < 0)
 		return NULL;

@@ -34,6 +34,7 @@
  *   between sbatch and that write runs nothing, and its jobs are submitted
  *   again by the next driver (never twice). */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -254,7 +255,7 @@ static int write_whole(const char *path, const char *text)
 static int read_end(const char *path, struct job_end *e)
 {
 	memset(e, 0, sizeof *e);
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	if (fd < 0)
 		return -1;
 	char text[512];

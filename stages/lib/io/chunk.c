@@ -9,6 +9,7 @@
 #include "voxdag.h"
 #include "util_internal.h"
 #include "le.h"
+#include "io/publish.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -626,7 +627,7 @@ int vd_chunk_read_header(const char *path, struct vd_chunk_header *h)
 {
 	/* no stdio: the runner reads the header of every cell it plans */
 	uint8_t buf[HEADER_MAX];
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	if (fd < 0)
 		return vd_fail(VD_ERR_IO, "%s", strerror(errno));
 	size_t n = 0;
