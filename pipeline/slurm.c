@@ -732,7 +732,8 @@ static int load_previous(const struct plan *p)
 	}
 	closedir(d);
 	free(live);
-	qsort(old_ends, (size_t)nold_ends, sizeof *old_ends, cmp_str);
+	if (nold_ends)
+		qsort(old_ends, (size_t)nold_ends, sizeof *old_ends, cmp_str);
 	prev_index_build();
 	previous_loaded = 1;
 	return 0;
@@ -1191,7 +1192,8 @@ static void drop_stale_end(const struct plan *p, const struct job *j)
 	job_file(p, j, "slurm", "end", end, sizeof end);
 	const char *name = strrchr(end, '/') + 1;
 	if (previous_of(j, &k) ||
-	    bsearch(&name, old_ends, (size_t)nold_ends, sizeof *old_ends, cmp_str))
+	    (nold_ends && bsearch(&name, old_ends, (size_t)nold_ends,
+				  sizeof *old_ends, cmp_str)))
 		unlink(end);
 }
 
