@@ -327,9 +327,13 @@ int slurm_job_exec(int argc, char **argv);
  * the executors that write to it): run_log_open appends to `path` and
  * returns its descriptor (for a signal handler's write(2)), -1 when it
  * cannot be opened (then run_log writes nothing). run_log: one line,
- * stamped with the local time. */
+ * stamped with the local time, kept in memory until run_log_flush (before
+ * the driver waits; at the exit too) or run_log_flush_signal (the same,
+ * from a signal's handler). */
 int run_log_open(const char *path);
 void run_log(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void run_log_flush(void);
+void run_log_flush_signal(void);
 
 /* `voxdag view` (view.c): argv[0] is "view"; serves an output directory
  * and the browser viewer on 127.0.0.1 until interrupted. Returns the exit

@@ -277,7 +277,7 @@ static int job_finished(const struct job *j)
  * Returns 0 if the file is missing or cannot be read whole. */
 static int fingerprint(const char *path, uint64_t *out)
 {
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	if (fd < 0)
 		return 0;
 	struct stat st;
@@ -343,13 +343,17 @@ static int settled(const struct stat *st, int64_t t0)
 
 /* The signature of `path` (a file, or a directory output: itself and every
  * entry in it but the runner's key, in any order). Returns 0 and sets *ok
- * to whether every part was settled at t0; non-zero if it cannot be read. */
-static int stat_sig(const char *path, int64_t t0, uint64_t *sig, int *ok)
+ * to whether every part was settled at t0, *is_dir (when not NULL) to
+ * whether path is a directory; non-zero if it cannot be read. */
+static int stat_sig(const char *path, int64_t t0, uint64_t *sig, int *ok,
+		    int *is_dir)
 {
 	struct stat st;
 	if (stat(path, &st) != 0)
 		return -1;
 	*ok = settled(&st, t0);
+	if (is_dir)
+		*is_dir = S_ISDIR(st.st_mode);
 	if (!S_ISDIR(st.st_mode)) {
 		*sig = stat_hash("", &st);
 		return 0;
@@ -391,17 +395,16 @@ static int stat_sig(const char *path, int64_t t0, uint64_t *sig, int *ok)
 static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
 			 int *sig_ok, char *why, size_t cap)
 {
-	struct stat st;
-	int err;
+	int err, is_dir;
 	int64_t t0 = now_ns();
 	uint64_t after;
 	int ok_after;
 	*sig_ok = 0;
-	if (stat_sig(path, t0, sig, sig_ok) != 0 || stat(path, &st) != 0) {
+	if (stat_sig(path, t0, sig, sig_ok, &is_dir) != 0) {
 		snprintf(why, cap, "'%s' is missing", path);
 		return 1;
 	}
-	if (S_ISDIR(st.st_mode)) {
+	if (is_dir) {
 		err = vd_manifest_verify(path, digest);
 	} else {
 		uint64_t size;
@@ -412,7 +415,7 @@ static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
 		vd_error_clear();
 		return 1;
 	}
-	if (*sig_ok && (stat_sig(path, t0, &after, &ok_after) != 0 ||
+	if (*sig_ok && (stat_sig(path, t0, &after, &ok_after, NULL) != 0 ||
 			after != *sig))
 		*sig_ok = 0;
 	return 0;
@@ -444,14 +447,14 @@ static int job_digest(const struct job *j, uint64_t *digest, uint64_t *sig,
 static int job_stat_sig(const struct job *j, int64_t t0, uint64_t *sig,
 			int *ok)
 {
-	if (stat_sig(j->output, t0, sig, ok) != 0)
+	if (stat_sig(j->output, t0, sig, ok, NULL) != 0)
 		return -1;
 	for (int k = 0; k < 2; k++) {
 		if (!j->side[k])
 			continue;
 		uint64_t s2;
 		int ok2;
-		if (stat_sig(j->side[k], t0, &s2, &ok2) != 0)
+		if (stat_sig(j->side[k], t0, &s2, &ok2, NULL) != 0)
 			return -1;
 		uint64_t g[2] = {*sig, s2};
 		*sig = XXH3_64bits(g, sizeof g);

@@ -3,30 +3,40 @@
  * memory against the budget), gathered from every job's statistics file so
  * a resumed run reports the same work as an uninterrupted one. */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <jansson.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
-/* Reads a whole small text file (NULL if absent). */
+/* Reads a whole small text file (NULL if absent). No stdio: a report
+ * reads one statistics file per job. */
 static char *slurp(const char *path)
 {
-	FILE *f = fopen(path, "rb");
-	if (!f)
+	int fd = vd_open_read(path);
+	struct stat st;
+	if (fd < 0)
 		return NULL;
-	fseek(f, 0, SEEK_END);
-	long n = ftell(f);
-	fseek(f, 0, SEEK_SET);
-	char *s = malloc((size_t)n + 1);
-	if (s && fread(s, 1, (size_t)n, f) != (size_t)n) {
-		free(s);
-		s = NULL;
+	char *s = fstat(fd, &st) == 0 ? malloc((size_t)st.st_size + 1) : NULL;
+	size_t n = 0;
+	while (s && n < (size_t)st.st_size) {
+		ssize_t r = read(fd, s + n, (size_t)st.st_size - n);
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (r <= 0) { /* shorter than it was: not whole */
+			free(s);
+			s = NULL;
+			break;
+		}
+		n += (size_t)r;
 	}
 	if (s)
 		s[n] = 0;
-	fclose(f);
+	close(fd);
 	return s;
 }
 

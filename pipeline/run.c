@@ -42,6 +42,7 @@ static void on_stop(int sig)
 			   "carries on\n";
 	for (size_t i = 0; tail[i] && n < sizeof line - 1; i++)
 		line[n++] = tail[i];
+	run_log_flush_signal(); /* the lines before it first */
 	if (runner_log_fd >= 0 && write(runner_log_fd, line, n) < 0) {
 		/* nothing more can be done */
 	}
@@ -1076,6 +1077,7 @@ static int run_idle(struct run_state *s)
  * when it is. */
 static void run_wait(struct run_state *s)
 {
+	run_log_flush();
 	if (s->slurm) {
 		struct timespec ts = {0, 200 * 1000 * 1000};
 		nanosleep(&ts, NULL);

@@ -34,6 +34,7 @@
  *   between sbatch and that write runs nothing, and its jobs are submitted
  *   again by the next driver (never twice). */
 #include "pipeline.h"
+#include "io/publish.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -42,6 +43,7 @@
 #include <math.h>
 #include <poll.h>
 #include <signal.h>
+#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,38 +70,42 @@ double slurm_stages_cpu(void)
 
 /* Runs argv (searched on PATH) with no standard input, its standard output
  * into out (NUL-terminated, cut at cap) and its standard error into err.
- * Returns its exit status, 124 after timeout_s seconds (it is killed), or
- * -1 when it could not be started. */
+ * Returns its exit status, 124 after timeout_s seconds (it is killed), 127
+ * (why in err) when it could not be started, or -1 without pipes. Started
+ * with posix_spawn, not fork: a fork copied the driver's page tables (its
+ * plan of every job), then threw them away at the exec, for each squeue:
+ * a twentieth of the driver's CPU. */
 static int run_capture(char *const argv[], char *out, size_t cap, char *err,
 		       size_t ecap, int timeout_s)
 {
 	int po[2], pe[2];
 	out[0] = err[0] = 0;
-	if (pipe(po) != 0)
+	if (pipe2(po, O_CLOEXEC) != 0)
 		return -1;
-	if (pipe(pe) != 0) {
+	if (pipe2(pe, O_CLOEXEC) != 0) {
 		close(po[0]);
 		close(po[1]);
 		return -1;
 	}
-	pid_t pid = fork();
-	if (pid < 0) {
-		close(po[0]), close(po[1]), close(pe[0]), close(pe[1]);
-		return -1;
-	}
-	if (pid == 0) {
-		int null = open("/dev/null", O_RDONLY);
-		if (null >= 0)
-			dup2(null, 0);
-		dup2(po[1], 1);
-		dup2(pe[1], 2);
-		close(po[0]), close(po[1]), close(pe[0]), close(pe[1]);
-		execvp(argv[0], argv);
-		fprintf(stderr, "%s: %s", argv[0], strerror(errno));
-		_exit(127);
+	posix_spawn_file_actions_t fa;
+	pid_t pid;
+	int rc = posix_spawn_file_actions_init(&fa);
+	if (rc == 0) {
+		/* dup2 clears close-on-exec on the copies */
+		posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+		posix_spawn_file_actions_adddup2(&fa, po[1], 1);
+		posix_spawn_file_actions_adddup2(&fa, pe[1], 2);
+		rc = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+		posix_spawn_file_actions_destroy(&fa);
 	}
 	close(po[1]);
 	close(pe[1]);
+	if (rc != 0) { /* as a child that could not exec said it */
+		close(po[0]);
+		close(pe[0]);
+		snprintf(err, ecap, "%s: %s", argv[0], strerror(rc));
+		return 127;
+	}
 	struct pollfd fds[2] = {{po[0], POLLIN, 0}, {pe[0], POLLIN, 0}};
 	size_t n[2] = {0, 0}, caps[2] = {cap, ecap};
 	char *bufs[2] = {out, err};
@@ -244,23 +250,29 @@ static int write_whole(const char *path, const char *text)
 	return 0;
 }
 
-/* Reads an end file; 0 when it is complete and well formed. */
+/* Reads an end file; 0 when it is complete and well formed. One read,
+ * no stdio: the driver reads one per job. */
 static int read_end(const char *path, struct job_end *e)
 {
-	FILE *f = fopen(path, "r");
-	if (!f)
-		return -1;
-	char magic[32] = "";
-	unsigned long long rss = 0;
 	memset(e, 0, sizeof *e);
-	int ok = fgets(magic, sizeof magic, f) &&
-		 !strncmp(magic, END_MAGIC "\n", sizeof END_MAGIC) &&
-		 fscanf(f, "exit %d\nsignal %d\nseconds %lf\npeak_rss %llu\n",
-			&e->code, &e->signal, &e->seconds, &rss) == 4;
+	int fd = vd_open_read(path);
+	if (fd < 0)
+		return -1;
+	char text[512];
+	ssize_t n = read(fd, text, sizeof text - 1);
+	close(fd);
+	if (n <= 0)
+		return -1;
+	text[n] = 0;
+	unsigned long long rss = 0;
+	int at = 0;
+	int ok = !strncmp(text, END_MAGIC "\n", sizeof END_MAGIC) &&
+		 sscanf(text + sizeof END_MAGIC, "exit %d\nsignal %d\nseconds "
+			"%lf\npeak_rss %llu\n%n", &e->code, &e->signal,
+			&e->seconds, &rss, &at) == 4 && at > 0;
 	double cpu = 0;
-	if (ok && fscanf(f, "cpu %lf", &cpu) == 1) /* since bundles */
-		stages_cpu_seen += cpu;
-	fclose(f);
+	if (ok && sscanf(text + sizeof END_MAGIC + at, "cpu %lf", &cpu) == 1)
+		stages_cpu_seen += cpu; /* since bundles */
 	e->exited = e->signal == 0;
 	e->peak_rss = rss;
 	return ok ? 0 : -1;
@@ -298,6 +310,12 @@ static struct slurm_site {
 static long sub_start;          /* names of this driver's submissions */
 static int sub_count;
 static int previous_loaded;
+
+/* The end files DIR/slurm held when the driver started (names, sorted):
+ * the only ones besides an earlier driver's jobs' that can be stale when
+ * a job is submitted, so the others are not unlinked one by one. */
+static char **old_ends;
+static int nold_ends;
 
 /* Ready jobs waiting for slurm_flush. */
 static int *wanted, nwanted, capwanted;
@@ -616,6 +634,11 @@ static int list_read(const char *path, char *sub, size_t subcap,
 
 /* ------------------------------------------------ an earlier driver's */
 
+static int cmp_str(const void *a, const void *b)
+{
+	return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
 static void prev_index_build(void);
 
 /* Loads the submissions an earlier driver left (DIR/slurm/<bundle>.sub and their
@@ -635,9 +658,16 @@ static int load_previous(const struct plan *p)
 	}
 	struct dirent *e;
 	int nlive = 0, asked = 0;
+	int capold = 0;
 	struct live *live = NULL;
 	while ((e = readdir(d))) {
 		size_t len = strlen(e->d_name);
+		if (len > 4 && !strcmp(e->d_name + len - 4, ".end")) {
+			old_ends = grow(old_ends, &capold, nold_ends + 1,
+					sizeof *old_ends);
+			old_ends[nold_ends++] = dup_or_die(e->d_name);
+			continue;
+		}
 		if (len < 6 || strcmp(e->d_name + len - 5, ".list") != 0)
 			continue;
 		char path[1500], sub[1300] = "", name[48];
@@ -702,6 +732,8 @@ static int load_previous(const struct plan *p)
 	}
 	closedir(d);
 	free(live);
+	if (nold_ends)
+		qsort(old_ends, (size_t)nold_ends, sizeof *old_ends, cmp_str);
 	prev_index_build();
 	previous_loaded = 1;
 	return 0;
@@ -1150,6 +1182,21 @@ fail:
 	return -1;
 }
 
+/* Removes j's end file when an earlier run may have left one: it was
+ * there when the driver started, or an earlier driver's bundle (maybe
+ * still running) holds j. */
+static void drop_stale_end(const struct plan *p, const struct job *j)
+{
+	char end[1300];
+	int k;
+	job_file(p, j, "slurm", "end", end, sizeof end);
+	const char *name = strrchr(end, '/') + 1;
+	if (previous_of(j, &k) ||
+	    (nold_ends && bsearch(&name, old_ends, (size_t)nold_ends,
+				  sizeof *old_ends, cmp_str)))
+		unlink(end);
+}
+
 int slurm_flush(struct plan *p, int *failed)
 {
 	const struct config *c = p->cfg;
@@ -1226,12 +1273,8 @@ int slurm_flush(struct plan *p, int *failed)
 			int njobs = start[take] - start[0];
 			/* stale ends of earlier runs must not be read as
 			 * this submission's */
-			for (int k = 0; k < njobs; k++) {
-				char end[1300];
-				job_file(p, &p->jobs[gg[k]], "slurm", "end", end,
-					 sizeof end);
-				unlink(end);
-			}
+			for (int k = 0; k < njobs; k++)
+				drop_stale_end(p, &p->jobs[gg[k]]);
 			int rc = submit_array(p, gg, tstart, take, why, sizeof why);
 			free(tstart);
 			if (rc == 1) {

@@ -9,6 +9,7 @@
 #include "voxdag.h"
 #include "util_internal.h"
 #include "le.h"
+#include "io/publish.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -624,12 +625,21 @@ static int parse_header(const uint8_t *b, size_t len,
 
 int vd_chunk_read_header(const char *path, struct vd_chunk_header *h)
 {
+	/* no stdio: the runner reads the header of every cell it plans */
 	uint8_t buf[HEADER_MAX];
-	FILE *f = fopen(path, "rb");
-	if (!f)
+	int fd = vd_open_read(path);
+	if (fd < 0)
 		return vd_fail(VD_ERR_IO, "%s", strerror(errno));
-	size_t n = fread(buf, 1, sizeof buf, f);
-	fclose(f);
+	size_t n = 0;
+	while (n < sizeof buf) {
+		ssize_t r = read(fd, buf + n, sizeof buf - n);
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (r <= 0)
+			break; /* an error reads as a short header */
+		n += (size_t)r;
+	}
+	close(fd);
 	uint32_t hsize;
 	return parse_header(buf, n, h, &hsize, VD_KIND_ANY);
 }

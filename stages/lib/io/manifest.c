@@ -38,7 +38,7 @@ static int listed_name(const char *name)
 
 int vd_file_xxh3(const char *path, uint64_t *hash, uint64_t *size)
 {
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	int fd = vd_open_read(path);
 	if (fd < 0)
 		return vd_fail(VD_ERR_IO, "cannot open '%s': %s", path,
 			       strerror(errno));

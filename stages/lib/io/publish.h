@@ -5,6 +5,13 @@
 
 #include "voxdag.h"
 
+/* open(path, O_RDONLY | O_CLOEXEC) that leaves the file's access time
+ * alone (O_NOATIME) where the process may, i.e. owns the file or is root;
+ * a plain open elsewhere. The runner reads every output once right after
+ * its job wrote it, and on a relatime mount that first read wrote the
+ * inode back for its atime: a twentieth of the Slurm driver's CPU. */
+int vd_open_read(const char *path);
+
 /* fsync(fd): the one place voxdag syncs, so that `make config=nofsync`
  * can price durability for make bench (it skips them all). */
 int vd_sync_fd(int fd);
