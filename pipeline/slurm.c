@@ -864,10 +864,32 @@ static const char *node_local(const char *dir)
 	return NULL;
 }
 
+/* This program's path, read once (slurm_preflight, before any job): read
+ * again after `make` relinked it, /proc/self/exe names the unlinked file
+ * ("... (deleted)"), and every bundle submitted then would fail to start.
+ * NULL when it cannot be read (errno says why). */
+static const char *self_exe(void)
+{
+	static char self[PATH_MAX];
+	static int err;
+	if (!*self && !err) {
+		ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+		if (n <= 0) {
+			err = n < 0 ? errno : ENAMETOOLONG;
+			self[0] = 0;
+		} else {
+			self[n] = 0;
+		}
+	}
+	errno = err;
+	return *self ? self : NULL;
+}
+
 int slurm_preflight(const struct plan *p)
 {
 	const struct config *c = p->cfg;
 	char out[4096], err[4096];
+	(void)self_exe(); /* now, while it is the file that runs */
 	if (!on_path("sbatch")) {
 		fprintf(stderr, "voxdag: executor slurm: no 'sbatch' on PATH "
 			"(install Slurm's client commands, or use executor: "
@@ -998,14 +1020,13 @@ static int submit_array(struct plan *p, const int *g, const int *start,
 			int ntasks, char *why, size_t whycap)
 {
 	const struct config *c = p->cfg;
-	char self[PATH_MAX], cwd[PATH_MAX];
-	ssize_t sl = readlink("/proc/self/exe", self, sizeof self - 1);
-	if (sl <= 0 || !getcwd(cwd, sizeof cwd)) {
+	char cwd[PATH_MAX];
+	const char *self = self_exe();
+	if (!self || !getcwd(cwd, sizeof cwd)) {
 		snprintf(why, whycap, "cannot find this program's path: %s",
 			 strerror(errno));
 		return -1;
 	}
-	self[sl] = 0;
 	if (!sub_start)
 		sub_start = (long)time(NULL);
 	char name[48], sub[1300];
