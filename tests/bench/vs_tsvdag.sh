@@ -198,12 +198,13 @@ jobs:
   enc:    {stage: encode, needs: [dag, ssvdag, s48]}
 EOF
 	t0=$(date +%s.%N)
-	if ! out/bin/voxdag run "$d/ours.yaml" -q > "$d/ours.log" 2>&1; then
+	if ! /usr/bin/time -f '%U %S' -o "$d/ours.time" out/bin/voxdag run "$d/ours.yaml" -q > "$d/ours.log" 2>&1; then
 		echo "vs_tsvdag: $base 2^$L: voxdag run failed (see $d/ours.log)"
 		echo "$base $L FAIL" >> "$summary"
 		continue
 	fi
 	ours_wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
+	ours_cpu=$(awk '{ printf "%.2f", $1 + $2 }' "$d/ours.time")
 	enc=$d/ours/enc
 	svdag=$enc/$name.svdag
 	[ -f "$svdag" ] || die "voxdag wrote no '$svdag'"
@@ -226,13 +227,14 @@ EOF
 		continue
 	fi
 	read -r conv_s conv_kib < "$d/convert.time"
-	if ! (cd "$d" && /usr/bin/time -f '%e %M' -o "$d/their.time" nice -n 5 "$ENCODER" "$d/their.svo" \
+	if ! (cd "$d" && /usr/bin/time -f '%e %M %U %S' -o "$d/their.time" nice -n 5 "$ENCODER" "$d/their.svo" \
 		--out "$d/their.tdag16" --stats "$d/their.stats.json" $FLAGS --noverify > "$d/their.log" 2>&1); then
 		echo "vs_tsvdag: $base 2^$L: svdag_encoding failed (see $d/their.log)"
 		echo "$base $L FAIL" >> "$summary"
 		continue
 	fi
-	read -r their_s their_kib < "$d/their.time"
+	read -r their_s their_kib their_u their_sys < "$d/their.time"
+	their_cpu=$(awk -v u="$their_u" -v s="$their_sys" 'BEGIN { printf "%.2f", u + s }')
 	their_file=$(stat -c %s "$d/their.tdag16")
 	their_count=$(sed -n 's/.*Size in bytes: \([0-9]*\).*/\1/p' "$d/their.log" | tail -1)
 	# their final nodes: inner nodes per level (statistics) and the 4^3 masks (log)
@@ -259,10 +261,10 @@ EOF
 	fi
 	echo "$check" > "$d/check.out"
 	echo "vs_tsvdag: $base 2^$L: theirs $their_s s (+ $conv_s s .svdag -> .svo) $((their_kib / 1024)) MiB $their_file B; ours $ours_wall s ($ours_from_svdag s from the SVDAG) $((ours_peak / 1024)) MiB; $check"
-	printf '%s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s\n' "$base" "$L" "$vox" \
+	printf '%s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s %s\n' "$base" "$L" "$vox" \
 		"$their_file" "$their_count" "$their_s" "$their_kib" "$b_svdag" "$b_ssvdag" "$b_s48" \
 		"$ours_wall" "$ours_from_svdag" "$ours_peak" "$ours_ok" "$read_ok" "$tdag_ok" \
-		"$conv_s" "$their_nodes_st" "$their_nodes" "$n_svdag" "$n_ssvdag" "$n_s48" "$conv_kib" >> "$summary"
+		"$conv_s" "$their_nodes_st" "$their_nodes" "$n_svdag" "$n_ssvdag" "$n_s48" "$conv_kib" "$their_cpu" "$ours_cpu" >> "$summary"
 	# their logs and statistics stay (small); the scenes go
 	[ "${VS_TSVDAG_KEEP:-0}" = 1 ] || rm -rf "$d/ours" "$d/their-roundtrip.svdag" "$d/their.svo"
 done
@@ -273,18 +275,20 @@ echo "  and the .tdag16 file (adds its Huffman code tables and vector lengths); 
 echo "  counted bytes (file minus header); ratios use the counted bytes"
 echo "seconds: theirs = svdag_encoding from their .svo of our .svdag (+ their voxelizer's"
 echo "  .svdag -> .svo conversion); ours = the whole pipeline from the mesh, and from the SVDAG"
-echo "  (symmetry-merge 8 + 48 and encode jobs); MiB = peak RSS of the largest process"
+echo "  (symmetry-merge 8 + 48 and encode jobs); CPU = user + system seconds (GNU time; ours: the"
+echo "  runner and all its stages), steadier than wall time on a loaded machine; MiB = peak RSS"
+echo "  of the largest process"
 echo "checks: ours = our .svdag decoded equals our SVO chunks; read = their import of our .svdag,"
 echo "  written back, equals it; tdag16 = their .tdag16 read back and decoded equals our voxels"
 echo "  (voxel count of a full decode + every voxel of every non-empty 4^3 brick of ours)"
 echo
 awk 'function r(a, b) { return b > 0 ? sprintf("%.2f", a / b) : "-" }
-BEGIN { print "| mesh | res | voxels | B theirs (.tdag16 file) | B .svdag | B .ssvdag | B .ssvdag48 | theirs/.ssvdag | .ssvdag48/theirs | their s (+conv) | our s mesh / SVDAG | their s / our SVDAG s | their MiB | our MiB | checked ours/read/tdag16 |"
-	print "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|" }
+BEGIN { print "| mesh | res | voxels | B theirs (.tdag16 file) | B .svdag | B .ssvdag | B .ssvdag48 | theirs/.ssvdag | .ssvdag48/theirs | their s (+conv) | our s mesh / SVDAG | their s / our SVDAG s | CPU s theirs / ours (mesh) | their MiB | our MiB | checked ours/read/tdag16 |"
+	print "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|" }
 $3 == "FAIL" { printf "| %s | 2^%s | failed |\n", $1, $2; next }
-{ printf "| %s | 2^%d | %.0f | %.0f (%.0f) | %.0f | %.0f | %.0f | %s | %s | %.1f (+%.1f) | %.2f / %.2f | %s | %.0f | %.0f | %s/%s/%s |\n",
+{ printf "| %s | 2^%d | %.0f | %.0f (%.0f) | %.0f | %.0f | %.0f | %s | %s | %.1f (+%.1f) | %.2f / %.2f | %s | %.1f / %.2f | %.0f | %.0f | %s/%s/%s |\n",
 	$1, $2, $3, $5, $4, $8, $9, $10, r($5, $9), r($10, $5), $6, $17, $11, $12, r($6, $12),
-	$7 / 1024, $13 / 1024, $14, $15, $16 }' "$summary"
+	$24, $25, $7 / 1024, $13 / 1024, $14, $15, $16 }' "$summary"
 echo
 echo "nodes: theirs over levels 2 (4^3 bricks) to the root, with symmetry + axis permutation only"
 echo "  and with translations too (their final DAG); ours over levels 0..L-1 (2^3 masks included,"
