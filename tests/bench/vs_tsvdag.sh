@@ -9,7 +9,7 @@
 #
 # MESH defaults to every mesh of ../shared/data (VOXDAG_SHARED_DATA), each
 # at the levels VS_TSVDAG_LEVELS (default "10 12"), and the bunny also at
-# VS_TSVDAG_BUNNY_LEVELS (default 13).
+# VS_TSVDAG_BUNNY_LEVELS (default 13; empty for none).
 #
 # The reference's CPU tools (tools/lib, tools/svdag_encoding,
 # tools/voxelizer) are compiled with g++ OUTSIDE the repository's sources:
@@ -71,7 +71,7 @@ shift
 [ -f "$SRC/tools/svdag_encoding/src/main.cpp" ] ||
 	die "cannot find '$SRC/tools/svdag_encoding/src/main.cpp': not an i3d2025-voxel-transform-dag checkout"
 LEVELS=${VS_TSVDAG_LEVELS:-10 12}
-BUNNY_LEVELS=${VS_TSVDAG_BUNNY_LEVELS:-13}
+BUNNY_LEVELS=${VS_TSVDAG_BUNNY_LEVELS-13}
 for l in $LEVELS $BUNNY_LEVELS; do
 	case $l in *[!0-9]*) die "bad level '$l' in VS_TSVDAG_LEVELS or VS_TSVDAG_BUNNY_LEVELS";; esac
 done
