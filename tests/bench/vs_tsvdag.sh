@@ -238,10 +238,8 @@ EOF
 	their_cpu=$(awk -v u="$their_u" -v s="$their_sys" 'BEGIN { printf "%.2f", u + s }')
 	their_file=$(stat -c %s "$d/their.tdag16")
 	their_count=$(sed -n 's/.*Size in bytes: \([0-9]*\).*/\1/p' "$d/their.log" | tail -1)
-	# their final nodes: inner nodes per level (statistics) and the 4^3 masks (log)
+	# their final nodes per level, the 4^3 masks (level 2) included
 	their_nodes=$(jq '[.encoding_stats.levels[].num_nodes] | add' "$d/their.stats.json" 2>/dev/null || echo '?')
-	their_leaves=$(sed -n 's/.*\] \[2\] [0-9]* KiB (\([0-9]*\) leaves).*/\1/p' "$d/their.log" | tail -1)
-	their_nodes=$((their_nodes + ${their_leaves:-0}))
 	# their nodes with symmetry and axis permutation only (before the
 	# translation search), levels 2 (4^3 bricks) to the root
 	their_nodes_st=$(sed -n 's/.*\] Reduced SVO \(nodes\|leaves\) from [0-9]* to \([0-9]*\) using.*/\2/p' "$d/their.log" |
