@@ -94,8 +94,8 @@ fi
 for tool in g++ make patch pkg-config jq /usr/bin/time; do
 	command -v "$tool" >/dev/null || die "needs $tool (benchmark dependency, not a project one)"
 done
-for pc in absl_flat_hash_map assimp fmt spdlog tbb freeimage; do
-	pkg-config --exists "$pc" 2>/dev/null || [ "$pc" = freeimage ] ||
+for pc in absl_flat_hash_map assimp fmt spdlog tbb; do
+	pkg-config --exists "$pc" 2>/dev/null ||
 		die "needs the pkg-config module '$pc' (Debian: see the list at the top of this script)"
 done
 for h in CLI/App.hpp eigen3/Eigen/Eigen glm/glm.hpp nlohmann/json.hpp FreeImagePlus.h; do
