@@ -234,7 +234,8 @@ bash tests/bench/g48_table.sh
 # also runs alone and says what it builds and needs). Runs only when
 # TSVDAG_DIR names a checkout of the reference code (make bench
 # TSVDAG_DIR=...); long: their build takes up to an hour per mesh at 2^12
-# on 2 cores, hours in all (VS_TSVDAG_LEVELS=10 for the short version).
+# on 2 cores, hours in all (VS_TSVDAG_LEVELS=10 VS_TSVDAG_BUNNY_LEVELS=
+# for the short version: ~8 min).
 echo
 if [ -n "${TSVDAG_DIR:-}" ]; then
 	tests/bench/vs_tsvdag.sh "$TSVDAG_DIR"
