@@ -233,7 +233,7 @@ bash tests/bench/g48_table.sh
 # memory and the voxel sets checked equal (tests/bench/vs_tsvdag.sh, which
 # also runs alone and says what it builds and needs). Runs only when
 # TSVDAG_DIR names a checkout of the reference code (make bench
-# TSVDAG_DIR=...); long: their build takes up to an hour per mesh at 2^12
+# TSVDAG_DIR=...); long: their build took 35 min for the bunny at 2^12
 # on 2 cores, hours in all (VS_TSVDAG_LEVELS=10 VS_TSVDAG_BUNNY_LEVELS=
 # for the short version: ~8 min).
 echo

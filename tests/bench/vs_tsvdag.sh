@@ -58,9 +58,9 @@
 # shared): wall seconds are noisy, CPU seconds (also printed) less so.
 # VS_TSVDAG_KEEP=1 keeps every output under $VS_TSVDAG_BUILD/runs.
 # Long: their translation search dominates. On 2 shared cores their build
-# took 11-105 s per mesh at 2^10 and ~50 min for the bunny at 2^12 (its 16^3
-# level alone: 206,142 grids, searched in batches of 100,000 at ~930 s a
-# batch); all meshes at 2^12 and the bunny at 2^13 take hours.
+# took 11-105 s per mesh at 2^10 and 35 min for the bunny at 2^12 (2115 s,
+# 1303 s of CPU: its 16^3 level alone has 206,142 grids to search); all
+# meshes at 2^12 and the bunny at 2^13 take hours.
 # Part of make bench when TSVDAG_DIR is set (tests/bench.sh).
 set -u
 cd "$(dirname "$0")/../.."
