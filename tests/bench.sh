@@ -3,7 +3,9 @@
 # and print throughput and peak memory. Skips cleanly when the data is
 # absent. Numbers come from each run's voxelize.stats.json and GNU time.
 # The side-by-side comparison with the SSVDAG reference code is separate and
-# not run here: tests/bench/vs_symvox.sh /path/to/SVDAG-Compression.
+# not run here: tests/bench/vs_symvox.sh /path/to/SVDAG-Compression; the one
+# with the transform-aware SVDAG (tests/bench/vs_tsvdag.sh) runs when
+# TSVDAG_DIR is set.
 # Geometry only (--no-colours), comparable with earlier runs; the cost of
 # colours (voxelize's CPU with and without them, per colour scene) is the
 # table of tests/bench/colour_in.sh at the end (VOXDAG_BENCH_COLOUR=0
@@ -224,6 +226,22 @@ translation
 # each .ssvdag48 checked lossless (tests/bench/g48_table.sh).
 echo && echo "48-group table:"
 bash tests/bench/g48_table.sh
+
+# The transform-aware SVDAG of I3D 2025 side by side (issue 41): its
+# .tdag16 built from our .svdag against our .svdag/.ssvdag/.ssvdag48, every
+# shared mesh at 2^10 and 2^12 and the bunny at 2^13, bytes, seconds, peak
+# memory and the voxel sets checked equal (tests/bench/vs_tsvdag.sh, which
+# also runs alone and says what it builds and needs). Runs only when
+# TSVDAG_DIR names a checkout of the reference code (make bench
+# TSVDAG_DIR=...); long: their build took 35 min for the bunny at 2^12
+# on 2 cores, hours in all (VS_TSVDAG_LEVELS=10 VS_TSVDAG_BUNNY_LEVELS=
+# for the short version: ~8 min).
+echo
+if [ -n "${TSVDAG_DIR:-}" ]; then
+	tests/bench/vs_tsvdag.sh "$TSVDAG_DIR"
+else
+	echo "bench: TSVDAG_DIR is unset; no side-by-side with the transform-aware SVDAG (tests/bench/vs_tsvdag.sh)"
+fi
 
 # The runner's own cost at scale (issue 10): a pipeline of over 100,000
 # cells planned and run, the runner's CPU (getrusage of itself) against the
