@@ -377,7 +377,13 @@ static int estimate_add(struct estimate *e, uint64_t key)
 		return VD_OK;
 	*rc = key + 1;
 	if (e->nbuf == e->bcap) {
+		/* half the keys so far, at least 4096, at most max_keys / 2:
+		 * merges stay linear in the keys added, and a small scene's
+		 * buffer stays small (the plan measures the process's memory
+		 * after this pass) */
 		size_t most = e->max_keys / 2 ? e->max_keys / 2 : 1;
+		size_t half = e->n / 2 > 4096 ? e->n / 2 : 4096;
+		most = half < most ? half : most;
 		if (e->bcap < most) {
 			/* grown while the mesh is small, up to max_keys */
 			size_t cap = e->bcap ? 2 * e->bcap : 4096;
@@ -471,6 +477,11 @@ static int estimate_sorted(struct estimate *e, uint64_t **keys, size_t *n)
 		err = vd_fail(VD_ERR_NOMEM, "block estimate");
 	if (err)
 		return err;
+	/* to their size: they stay through the plan, which measures the
+	 * process's memory, and the merges grew them by doubling */
+	uint64_t *k = realloc(e->keys, (e->n ? e->n : 1) * sizeof *k);
+	if (k)
+		e->keys = k;
 	*keys = e->keys;
 	*n = e->n;
 	e->keys = NULL;
