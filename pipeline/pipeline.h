@@ -164,6 +164,8 @@ struct job {
 	off_t log_head;            /* its first line: the command */
 	double start, seconds;
 	uint64_t peak_rss;         /* from wait4 */
+	double cpu;                /* user + system seconds, from wait4 or
+				    * Slurm's end file; -1: not known */
 	uint64_t voxels;           /* from the stage's stats, for throughput */
 	int logged;                /* its skip is in runner.log */
 	int key_absent;            /* job_is_fresh found no key */
@@ -255,6 +257,7 @@ struct job_end {
 	int exited, code, signal;  /* exited: code valid; else signal (or 0) */
 	double seconds;
 	uint64_t peak_rss;         /* bytes */
+	double cpu;                /* user + system seconds; -1: not known */
 	char reason[160];          /* Slurm's state and reason when it failed */
 };
 

@@ -169,6 +169,8 @@ struct stage_row {
 	int jobs;
 	double seconds;        /* sum of the stages' own seconds */
 	double wall_this_run;  /* sum of the jobs run this time */
+	double cpu;            /* the jobs' CPU seconds, user + system */
+	int cpu_unknown;       /* jobs whose CPU is not known */
 	uint64_t peak_rss;     /* largest job */
 	uint64_t budget;       /* largest --mem-budget given; 0: none */
 };
@@ -583,6 +585,16 @@ static void read_rows(const struct plan *p, struct stage_row *rows)
 			secs = j->seconds;
 		r->seconds += secs;
 		r->wall_this_run += j->seconds;
+		/* the stage's own count, which outlives the run that made it;
+		 * else what the runner measured of a job it ran this time */
+		json_t *cpu = json_is_object(root) ?
+			json_object_get(root, "process_cpu_seconds") : NULL;
+		if (json_is_number(cpu))
+			r->cpu += json_number_value(cpu);
+		else if (j->state == JOB_DONE && j->cpu >= 0 && j->seconds > 0)
+			r->cpu += j->cpu;
+		else
+			r->cpu_unknown++;
 		uint64_t rss = (uint64_t)json_get(root, NULL, "peak_rss_bytes");
 		json_decref(root);
 		if (j->peak_rss > rss)
@@ -648,21 +660,26 @@ static void write_report_md(FILE *f, const struct plan *p,
 	write_colours(f, p);
 	fprintf(f, "## The run\n\n");
 	fprintf(f, "Seconds are the stages' own (sum over a stage's jobs, from "
-		"their statistics files); peak memory is the largest job's, "
+		"their statistics files); CPU seconds are the jobs' processes' "
+		"user and system time, all threads (from the same files, else "
+		"as the runner measured it; `-`: not known for some job); "
+		"peak memory is the largest job's, "
 		"against the largest `--mem-budget` given to the stage's jobs: "
 		"the per-job budget of %llu MiB, or more for a job that could "
 		"not fit it (started when the whole budget had room for it).\n\n",
 		(unsigned long long)(c->job_mem_budget >> 20));
-	fprintf(f, "| job | stage | processes | seconds | peak MiB | budget MiB |\n"
-		   "|---|---|---:|---:|---:|---:|\n");
+	fprintf(f, "| job | stage | processes | seconds | CPU seconds | peak MiB "
+		   "| budget MiB |\n|---|---|---:|---:|---:|---:|---:|\n");
 	for (int d = 0; d < c->njobs; d++) {
-		char b[32] = "-";
+		char b[32] = "-", cpu[32] = "-";
 		if (rows[d].budget)
 			snprintf(b, sizeof b, "%llu",
 				 (unsigned long long)(rows[d].budget >> 20));
-		fprintf(f, "| %s | %s | %d | %.2f | %.0f | %s |\n",
+		if (!rows[d].cpu_unknown)
+			snprintf(cpu, sizeof cpu, "%.2f", rows[d].cpu);
+		fprintf(f, "| %s | %s | %d | %.2f | %s | %.0f | %s |\n",
 			c->jobs_decl[d].name, c->jobs_decl[d].stage->name,
-			rows[d].jobs, rows[d].seconds,
+			rows[d].jobs, rows[d].seconds, cpu,
 			(double)rows[d].peak_rss / (1 << 20), b);
 	}
 }
@@ -672,15 +689,19 @@ static void write_report_csv(FILE *f, const struct plan *p,
 			     const struct stage_row *rows)
 {
 	const struct config *c = p->cfg;
-	fprintf(f, "job,stage,processes,seconds,peak_rss_bytes,budget_bytes\n");
+	fprintf(f, "job,stage,processes,seconds,cpu_seconds,peak_rss_bytes,"
+		"budget_bytes\n");
 	for (int d = 0; d < c->njobs; d++) {
-		char b[32] = ""; /* empty: the stage takes no budget */
+		/* empty: the stage takes no budget; its CPU is not known */
+		char b[32] = "", cpu[32] = "";
 		if (rows[d].budget)
 			snprintf(b, sizeof b, "%llu",
 				 (unsigned long long)rows[d].budget);
-		fprintf(f, "%s,%s,%d,%.3f,%llu,%s\n", c->jobs_decl[d].name,
+		if (!rows[d].cpu_unknown)
+			snprintf(cpu, sizeof cpu, "%.3f", rows[d].cpu);
+		fprintf(f, "%s,%s,%d,%.3f,%s,%llu,%s\n", c->jobs_decl[d].name,
 			c->jobs_decl[d].stage->name, rows[d].jobs,
-			rows[d].seconds,
+			rows[d].seconds, cpu,
 			(unsigned long long)rows[d].peak_rss, b);
 	}
 }
@@ -711,6 +732,8 @@ static int write_report_json(const struct plan *p,
 			vd_json_str(j, "stage", c->jobs_decl[d].stage->name);
 			vd_json_u64(j, "processes", (uint64_t)rows[d].jobs);
 			vd_json_f64(j, "seconds", rows[d].seconds);
+			if (!rows[d].cpu_unknown) /* absent: not known */
+				vd_json_f64(j, "cpu_seconds", rows[d].cpu);
 			vd_json_u64(j, "peak_rss_bytes", rows[d].peak_rss);
 			if (rows[d].budget) /* absent: the stage takes none */
 				vd_json_u64(j, "budget_bytes", rows[d].budget);

@@ -618,6 +618,7 @@ static int take_running(const struct plan *p, int r, struct job_end *e)
 	running_local[r] = running_local[--nrunning_local];
 	memset(e, 0, sizeof *e);
 	e->seconds = vd_seconds() - p->jobs[i].start;
+	e->cpu = -1;
 	return i;
 }
 
@@ -656,6 +657,7 @@ static int reap_launched(const struct plan *p, struct job_end *e)
 				continue;
 			int i = take_running(p, r, e);
 			e->peak_rss = sr.peak_rss;
+			e->cpu = (double)(sr.utime_us + sr.stime_us) / 1e6;
 			set_status(e, sr.status);
 			return i;
 		}
@@ -706,6 +708,7 @@ static int reap_local(const struct plan *p, struct job_end *e)
 		int i = take_running(p, r, e);
 		/* started directly: its peak includes the runner's memory */
 		e->peak_rss = (uint64_t)ru.ru_maxrss * 1024;
+		e->cpu = rusage_seconds(&ru);
 		set_status(e, status);
 		return i;
 	}
@@ -720,6 +723,7 @@ static int end_job(struct plan *p, struct job *j, const struct job_end *e,
 {
 	j->seconds = e->seconds;
 	j->peak_rss = e->peak_rss;
+	j->cpu = e->cpu;
 	int ok = e->exited && e->code == 0 && !*e->reason;
 	char key_error[1500] = "";
 	/* a local job's log first: a job whose warnings cannot be kept is
@@ -736,8 +740,12 @@ static int end_job(struct plan *p, struct job *j, const struct job_end *e,
 		job_set_state(p, j, JOB_DONE);
 		if (!j->cell) /* a cell's count was read when it was planned */
 			j->voxels = job_voxels(j);
-		run_log("done %s in %.2fs, peak %llu MiB (estimate %llu MiB)",
-			 j->id, j->seconds, (unsigned long long)(j->peak_rss >> 20),
+		char cpu[32] = "";
+		if (j->cpu >= 0)
+			snprintf(cpu, sizeof cpu, " (cpu %.2fs)", j->cpu);
+		run_log("done %s in %.2fs%s, peak %llu MiB (estimate %llu MiB)",
+			 j->id, j->seconds, cpu,
+			 (unsigned long long)(j->peak_rss >> 20),
 			 (unsigned long long)(j->mem_estimate >> 20));
 		if (j->slurm_id > 0)
 			slurm_forget(p, j);

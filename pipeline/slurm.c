@@ -270,9 +270,10 @@ static int read_end(const char *path, struct job_end *e)
 		 sscanf(text + sizeof END_MAGIC, "exit %d\nsignal %d\nseconds "
 			"%lf\npeak_rss %llu\n%n", &e->code, &e->signal,
 			&e->seconds, &rss, &at) == 4 && at > 0;
-	double cpu = 0;
+	double cpu = -1;
 	if (ok && sscanf(text + sizeof END_MAGIC + at, "cpu %lf", &cpu) == 1)
 		stages_cpu_seen += cpu; /* since bundles */
+	e->cpu = cpu;
 	e->exited = e->signal == 0;
 	e->peak_rss = rss;
 	return ok ? 0 : -1;
@@ -1419,6 +1420,7 @@ static void bundle_ended(const struct plan *p, int bi, int by_done)
 		job_file(p, &p->jobs[ji], "slurm", "end", end, sizeof end);
 		if (read_end(end, &e) != 0) {
 			memset(&e, 0, sizeof e);
+			e.cpu = -1;
 			if (by_done) {
 				snprintf(e.reason, sizeof e.reason, "not run in "
 					 "Slurm job %s: a job it needs did not "

@@ -117,13 +117,13 @@ pipeline() { # pipeline NAME SCENE LEVELS (SCENE: a file in $DATA, or a path)
 		return
 	fi
 	local vox=$(sed -n 's/^  "voxels": \([0-9]*\),*$/\1/p' "out/$name/report.json")
-	# report.csv: job,stage,processes,seconds,peak_rss_bytes,budget_bytes
+	# report.csv: job,stage,processes,seconds,cpu_seconds,peak_rss_bytes,budget_bytes
 	awk -F, -v name="$1" -v vox="$vox" -v w1="$w1" -v wn="$wn" -v cores="$cores" '
 		FNR == 1 { f++; next }
 		f == 1 { s1[$1] = $4; next }
 		{ printf "%-18s %-15s %5d procs %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx %8.0f MiB peak\n",
 			name, $2, $3, s1[$1], (s1[$1] > 0 ? vox / s1[$1] : 0), $4,
-			($4 > 0 ? s1[$1] / $4 : 0), $5 / 1048576 }
+			($4 > 0 ? s1[$1] / $4 : 0), $6 / 1048576 }
 		END { printf "%-18s %-15s %11s %9.2f s %14.0f voxels/s/core %9.2f s %6.2fx   (wall; %.0f voxels, %d cores)\n",
 			name, "(all)", "", w1, vox / w1, wn, w1 / wn, vox, cores }' \
 		"out/$name-j1/report.csv" "out/$name/report.csv"

@@ -53,6 +53,14 @@ uint64_t vd_peak_rss_bytes(void)
 	return (uint64_t)ru.ru_maxrss * 1024; /* Linux reports KiB */
 }
 
+double vd_cpu_seconds(void)
+{
+	struct timespec t;
+	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t) != 0)
+		return 0;
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 uint64_t vd_current_rss_bytes(void)
 {
 	FILE *f = fopen("/proc/self/statm", "r");

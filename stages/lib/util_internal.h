@@ -19,6 +19,9 @@ int vd_parallel_for(size_t n, int threads,
 
 /* Peak resident set size of this process so far, in bytes. */
 uint64_t vd_peak_rss_bytes(void);
+/* CPU seconds of this process so far, user and system, all threads:
+ * work per CPU second is the per-core rate whatever the machine's load. */
+double vd_cpu_seconds(void);
 /* Resident set size of this process now, in bytes (the peak if
  * /proc/self/statm cannot be read). */
 uint64_t vd_current_rss_bytes(void);

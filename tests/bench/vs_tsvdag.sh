@@ -213,10 +213,10 @@ EOF
 	enc=$d/ours/enc
 	svdag=$enc/$name.svdag
 	[ -f "$svdag" ] || die "voxdag wrote no '$svdag'"
-	# report.csv: job,stage,processes,seconds,peak_rss_bytes,budget_bytes
+	# report.csv: job,stage,processes,seconds,cpu_seconds,peak_rss_bytes,budget_bytes
 	read -r ours_from_svdag ours_peak < <(awk -F, 'NR > 1 {
 		if ($2 == "symmetry-merge" || $2 == "encode") s += $4
-		if ($5 > p) p = $5 }
+		if ($6 > p) p = $6 }
 		END { printf "%.2f %.0f\n", s, p / 1024 }' "$d/ours/report.csv")
 	read -r vox b_svdag b_ssvdag b_s48 n_svdag n_ssvdag n_s48 < <(jq -r '"\(.voxels) \(.bytes_svdag) \(.bytes_ssvdag) \(.bytes_ssvdag48) \(.nodes_svdag) \(.nodes_ssvdag) \(.nodes_ssvdag48)"' "$enc/$name.encode.stats.json")
 	# the .svdag holds our voxels (decoded, compared with the SVO chunks)

@@ -82,6 +82,19 @@ csv_s=$(awk -F, '$2 == "encode" {print $4}' $D/report.csv)
 awk -v a="$enc_s" -v b="$csv_s" 'BEGIN { exit !(a != "" && b != "" && (a - b) ^ 2 < 1e-6) }' &&
 	pass report_encode_seconds_total ||
 	fail report_encode_seconds_total "stats '$enc_s', report.csv '$csv_s'"
+# CPU per stage: the stages' own count (clock_gettime in each job, read
+# from its statistics) against the kernel's (wait4, in runner.log's done
+# lines, to 0.01 s): each job's own is at most the kernel's, taken later
+dag=$(awk -F, '$2 == "svo-to-dag" {print $1}' $D/report.csv)
+csv_cpu=$(awk -F, '$2 == "svo-to-dag" {print $5}' $D/report.csv)
+read -r log_cpu log_n < <(awk -v j="$dag" '$3 == "done" && ($4 == j || index($4, j "/") == 1) &&
+	match($0, /\(cpu [0-9.]+s\)/) { s += substr($0, RSTART + 5, RLENGTH - 7); n++ }
+	END { print s + 0, n + 0 }' $D/logs/runner.log)
+ndag=$(awk -F, '$2 == "svo-to-dag" {print $3}' $D/report.csv)
+awk -v c="$csv_cpu" -v l="$log_cpu" -v n="$log_n" -v want="$ndag" 'BEGIN {
+	exit !(c != "" && c > 0 && n == want && c <= l + 0.005 * n && c >= 0.5 * l) }' &&
+	pass report_cpu_seconds_per_stage ||
+	fail report_cpu_seconds_per_stage "report.csv '$csv_cpu', runner.log $log_cpu s over $log_n of $ndag jobs"
 ncells=$(ls $D/vox/*.svo | wc -l)
 [ "$ncells" -gt 8 ] && pass run_many_cells || fail run_many_cells "$ncells cells"
 sums() { find $D -name '*.svo' -o -name '*.dag' -o -name '*.sdag' -o -name '*.ssvdag' -o -name '*.svdag' -o -name '*.esvdag' -o -name '*.ussvdag' | sort | xargs sha256sum; }
@@ -353,7 +366,7 @@ mb=$($BIN/chunk-check -v $D/dag/root.dag | sed -n "s/.*'--mem-budget' '\([0-9]*\
 	fail budget_merge_gets_its_estimate "root --mem-budget '$mb'"
 # the report's budget column: the largest budget a stage's jobs were
 # given (the root's, in MiB), the job budget elsewhere, '-' for render
-row() { grep "^| $1 | " $D/report.md | awk -F'|' '{gsub(/ /, "", $7); print $7}'; }
+row() { grep "^| $1 | " $D/report.md | awk -F'|' '{gsub(/ /, "", $8); print $8}'; }
 [ "$(row dag)" = $((mb >> 20)) ] && [ "$(row vox)" = 32 ] &&
 	grep -q "^dag,svo-to-dag,.*,$mb\$" $D/report.csv &&
 	pass budget_report_shows_merge_budget ||

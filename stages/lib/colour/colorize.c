@@ -169,15 +169,6 @@ static int load_cell(const char *dir, const struct cell *c,
 	return VD_OK;
 }
 
-/* CPU seconds of the whole process (all threads): voxels per CPU second
- * is the per-core rate whatever the load of the machine. */
-static double cpu_seconds(void)
-{
-	struct timespec t;
-	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-	return (double)t.tv_sec + t.tv_nsec * 1e-9;
-}
-
 struct method_run {
 	int method;
 	struct vd_cpack_writer *w;
@@ -263,6 +254,7 @@ static int write_stats(const char *path, const struct vd_colorize_job *job,
 	vd_json_f64(j, "seconds_read", seconds_read);
 	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	vd_json_u64(j, "threads", (uint64_t)(job->threads ? job->threads
 							   : vd_hardware_threads()));
 	vd_json_object(j, "methods");
@@ -299,17 +291,17 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 	/* the palette's pass: a histogram of every colour, then the global
 	 * palette (Dado et al. quantise the whole scene first) */
 	if (job->methods & 1 << VD_CPACK_PALETTE) {
-		double tp = vd_seconds(), cp = cpu_seconds(), cpu_read = 0;
+		double tp = vd_seconds(), cp = vd_cpu_seconds(), cpu_read = 0;
 		if ((err = vd_colour_hist_init(&hist)))
 			goto out;
 		for (size_t i = 0; i < ncells; i++) {
 			struct vd_colours col;
-			double tr = vd_seconds(), cr = cpu_seconds();
+			double tr = vd_seconds(), cr = vd_cpu_seconds();
 			if ((err = load_cell(job->indir, &cells[i], &col, &first,
 					     i == 0)))
 				goto out;
 			seconds_read += vd_seconds() - tr;
-			cpu_read += cpu_seconds() - cr;
+			cpu_read += vd_cpu_seconds() - cr;
 			vd_colour_hist_add(&hist, col.rgb, col.voxels);
 			vd_colours_release(&col);
 		}
@@ -317,7 +309,7 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 					    job->lossless, job->threads)))
 			goto out;
 		seconds_palette = vd_seconds() - tp - seconds_read;
-		cpu_palette = cpu_seconds() - cp - cpu_read;
+		cpu_palette = vd_cpu_seconds() - cp - cpu_read;
 	}
 	if ((err = vd_dir_stage(job->outdir, colorize_file, staging,
 				sizeof staging)))
@@ -345,12 +337,12 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 							   job->provenance);
 			}
 		for (int r = 0; r < nruns && !err; r++) {
-			double tm = vd_seconds(), cm = cpu_seconds();
+			double tm = vd_seconds(), cm = vd_cpu_seconds();
 			err = vd_cpack_writer_add(runs[r].w, (int)cells[i].level,
 						  cells[i].morton, col.rgb,
 						  col.voxels);
 			runs[r].seconds += vd_seconds() - tm;
-			runs[r].cpu_seconds += cpu_seconds() - cm;
+			runs[r].cpu_seconds += vd_cpu_seconds() - cm;
 		}
 		voxels += col.voxels;
 		vd_colours_release(&col);
@@ -358,11 +350,11 @@ int vd_colorize_run(const struct vd_colorize_job *job)
 			goto out;
 	}
 	for (int r = 0; r < nruns; r++) {
-		double tm = vd_seconds(), cm = cpu_seconds();
+		double tm = vd_seconds(), cm = vd_cpu_seconds();
 		int e = vd_cpack_writer_commit(runs[r].w, &runs[r].st);
 		runs[r].w = NULL;
 		runs[r].seconds += vd_seconds() - tm;
-		runs[r].cpu_seconds += cpu_seconds() - cm;
+		runs[r].cpu_seconds += vd_cpu_seconds() - cm;
 		if (e && !err)
 			err = e;
 		char path[4200];

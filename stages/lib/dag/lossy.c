@@ -27,13 +27,6 @@
 #define NOMEM() vd_fail(VD_ERR_NOMEM, "out of memory in %s", __func__)
 #define NONE UINT32_MAX
 
-static double cpu_seconds(void)
-{
-	struct timespec t;
-	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t)) return 0;
-	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 /* The brick (height-2 encoding) of node i on level L-2: byte c = the leaf
  * mask of child slot c. */
 static uint64_t node_brick(const struct vd_dag *d, uint64_t i)
@@ -1984,11 +1977,11 @@ int vd_lossy_cluster(struct vd_dag *d, const struct vd_lossy_opts *o,
 	if (copy_levels(&orig, d)) goto nomem;
 	st->nodes_before = dag_nodes(d);
 	st->voxels_before = d->voxels;
-	double cpu0 = cpu_seconds();
+	double cpu0 = vd_cpu_seconds();
 	int64_t net = 0; /* the voxel count change so far */
 	for (int l = L - 2; l >= A && !err; l--)
 		err = cluster_level(d, l, o, st, &net);
-	st->cpu_seconds_lossy = cpu_seconds() - cpu0;
+	st->cpu_seconds_lossy = vd_cpu_seconds() - cpu0;
 	if (!err) err = rebuild_bricks(d);
 	if (!err) err = diff_levels(&orig, d, o, st);
 	st->nodes_after = dag_nodes(d);
@@ -2249,6 +2242,7 @@ int vd_lossy_write_stats(const struct vd_dag *dag,
 	vd_json_f64(j, "cpu_seconds_lossy", st->cpu_seconds_lossy);
 	vd_json_f64(j, "seconds_save", seconds_save);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	return vd_json_close(j);
 }
 

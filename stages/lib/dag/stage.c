@@ -59,6 +59,7 @@ int vd_dag_write_stats(const struct vd_dag *dag,
 		    (double)st->input_voxels / st->seconds_build : 0);
 	vd_json_u64(j, "memory_estimate_bytes", st->memory_estimate_bytes);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	return vd_json_close(j);
 }
 

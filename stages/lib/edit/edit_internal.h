@@ -170,9 +170,6 @@ int hd_budget_check(const struct vd_hashdag *h, uint64_t more,
 		    const char *what);
 uint64_t hd_used_bytes(const struct vd_hashdag *h);
 
-/* CPU seconds of the process, all threads. */
-double hd_cpu_seconds(void);
-
 /* Colours (colours.c). */
 void hd_cellcol_unref(struct hd_colours *c, struct hd_cellcol *p);
 void hd_coltab_free(struct hd_colours *c, struct hd_cellcol **tab);

@@ -197,14 +197,6 @@ uint32_t hd_lookup(const struct vd_hashdag *h, uint32_t root, int l,
 	return p;
 }
 
-double hd_cpu_seconds(void)
-{
-	struct timespec t;
-	if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t))
-		return 0;
-	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 uint64_t hd_used_bytes(const struct vd_hashdag *h)
 {
 	return h->fixed_bytes +
@@ -988,7 +980,7 @@ static void gc_move_range(void *ctx, size_t i, int worker)
 int vd_hashdag_gc(struct vd_hashdag *h, int keep_history,
 		  struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
+	double t0 = vd_seconds(), c0 = vd_cpu_seconds();
 	int L = h->levels, err;
 	const uint32_t *keep = keep_history ? h->roots : &h->roots[h->cur];
 	size_t nkeep = keep_history ? h->nroots : 1;
@@ -1098,7 +1090,7 @@ done:
 	free(fresh);
 	if (st) {
 		st->seconds = vd_seconds() - t0;
-		st->cpu_seconds = hd_cpu_seconds() - c0;
+		st->cpu_seconds = vd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

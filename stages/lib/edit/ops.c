@@ -375,7 +375,7 @@ int vd_edit_op_check(const struct vd_hashdag *h, const struct vd_edit_op *op)
 int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		     struct vd_edit_stats *st)
 {
-	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
+	double t0 = vd_seconds(), c0 = vd_cpu_seconds();
 	int err = vd_edit_op_check(h, op);
 	if (err)
 		return err;
@@ -431,7 +431,7 @@ int vd_hashdag_apply(struct vd_hashdag *h, const struct vd_edit_op *op,
 		for (int l = 0; l <= h->levels - 2; l++)
 			st->nodes_added[l] = h->lv[l].nodes - before[l];
 		st->seconds = vd_seconds() - t0;
-		st->cpu_seconds = hd_cpu_seconds() - c0;
+		st->cpu_seconds = vd_cpu_seconds() - c0;
 		st->hash_bytes = vd_hashdag_memory_bytes(h);
 	}
 	return err;

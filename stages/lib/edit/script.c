@@ -617,7 +617,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		return err;
 	}
 	vd_json_end_array(j);
-	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
+	double t0 = vd_seconds(), c0 = vd_cpu_seconds();
 	struct vd_dag dag;
 	if ((err = vd_hashdag_to_dag(h, &dag)) ||
 	    (err = vd_dag_save(&dag, &h->t, staged, job->provenance)))
@@ -632,7 +632,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		vd_json_u64(j, "hash_bytes", vd_hashdag_memory_bytes(h));
 		vd_json_u64(j, "dag_bytes", vd_dag_memory_bytes(&dag));
 		vd_json_f64(j, "seconds_save", vd_seconds() - t0);
-		vd_json_f64(j, "cpu_seconds_save", hd_cpu_seconds() - c0);
+		vd_json_f64(j, "cpu_seconds_save", vd_cpu_seconds() - c0);
 		vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
 		if (!job->quiet)
 			fprintf(stderr, "%s: %zu lines applied, %llu voxels, "
@@ -645,7 +645,7 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 	/* the colours are staged too before anything is replaced */
 	char cstage[4096];
 	t0 = vd_seconds();
-	c0 = hd_cpu_seconds();
+	c0 = vd_cpu_seconds();
 	if (!err && job->colours_out &&
 	    (err = vd_hashdag_colours_stage(h, job->colours_out,
 					    job->provenance, cstage,
@@ -653,9 +653,11 @@ static int run_script(const struct vd_edit_job *job, struct vd_hashdag *h,
 		err = rewrap(err, 1, "cannot write '%s'", job->colours_out);
 	if (!err && job->colours_out) {
 		vd_json_f64(j, "seconds_save_colours", vd_seconds() - t0);
-		vd_json_f64(j, "cpu_seconds_save_colours", hd_cpu_seconds() - c0);
+		vd_json_f64(j, "cpu_seconds_save_colours", vd_cpu_seconds() - c0);
 		vd_json_u64(j, "peak_rss_bytes_colours", vd_peak_rss_bytes());
 	}
+	if (!err)
+		vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	if (!err && (err = vd_json_close(j))) {
 		err = rewrap(err, 1, "cannot write '%s'", stats);
 		if (job->colours_out)
@@ -711,7 +713,7 @@ static int run_shell(const struct vd_edit_job *job, struct vd_hashdag *h)
 
 int vd_edit_run(const struct vd_edit_job *job)
 {
-	double t0 = vd_seconds(), c0 = hd_cpu_seconds();
+	double t0 = vd_seconds(), c0 = vd_cpu_seconds();
 	struct vd_hashdag *h;
 	int err = vd_hashdag_load(&h, job->input, &job->opts);
 	if (err)
@@ -724,7 +726,7 @@ int vd_edit_run(const struct vd_edit_job *job)
 		return rewrap(err, 1, "cannot read colours '%s'", job->colours);
 	}
 	err = job->script ? run_script(job, h, vd_seconds() - t0,
-				       hd_cpu_seconds() - c0)
+				       vd_cpu_seconds() - c0)
 			  : run_shell(job, h);
 	vd_hashdag_free(h);
 	return err;

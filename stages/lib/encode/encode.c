@@ -1836,6 +1836,7 @@ static int run_stats(struct enc_run *r)
 	vd_json_f64(j, "seconds_tables", r->t_tab);
 	vd_json_f64(j, "seconds_total", vd_seconds() - r->t0);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	if ((err = vd_json_close(j))) {
 		err = reword(err, "cannot write", path);
 		return err;

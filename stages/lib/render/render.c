@@ -1179,6 +1179,7 @@ static int write_stats(const char *path, const struct vd_render_opts *o,
 	vd_json_f64(j, "seconds_shade", img->seconds_shade);
 	vd_json_f64(j, "seconds_total", vd_seconds() - t0);
 	vd_json_u64(j, "peak_rss_bytes", vd_peak_rss_bytes());
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	vd_json_u64(j, "threads", (uint64_t)threads);
 	return vd_json_close(j);
 }

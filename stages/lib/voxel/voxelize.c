@@ -3292,6 +3292,7 @@ void vd_voxelize_stats_totals(struct vd_json *j,
 	vd_json_f64(j, "voxels_per_second", (double)t->voxels / secs);
 	vd_json_u64(j, "threads", (uint64_t)t->threads);
 	vd_json_u64(j, "peak_rss_bytes", t->peak_rss_bytes);
+	vd_json_f64(j, "process_cpu_seconds", vd_cpu_seconds());
 	vd_json_u64(j, "mem_budget_bytes", t->mem_budget_bytes);
 	vd_json_object(j, "transform");
 	vd_json_f64(j, "origin_x", t->transform->origin[0]);
