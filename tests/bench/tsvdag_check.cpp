@@ -54,6 +54,24 @@ struct Decoder {
     static bool getBit(const Cube& c, uint32_t i) { return (c[i >> 6] >> (i & 63)) & 1; }
     static void setBit(Cube& c, uint32_t i) { c[i >> 6] |= uint64_t(1) << (i & 63); }
 
+    // Calls fn(v) for each voxel of cube c (side 2^l) moved by t that
+    // stays inside the cube: a translation moves voxels out of the child's
+    // cell, and those are empty.
+    template <typename F>
+    static void forEachMoved(const Cube& c, uint32_t l, glm::ivec3 t, F&& fn)
+    {
+        const uint32_t half = 1u << l;
+        for (uint32_t z = 0; z < half; ++z)
+            for (uint32_t y = 0; y < half; ++y)
+                for (uint32_t x = 0; x < half; ++x) {
+                    if (!getBit(c, x + (y << l) + (z << 2 * l)))
+                        continue;
+                    const glm::ivec3 v = glm::ivec3(x, y, z) + t;
+                    if (glm::all(glm::greaterThanEqual(v, glm::ivec3(0))) && glm::all(glm::lessThan(v, glm::ivec3(int(half)))))
+                        fn(v);
+                }
+    }
+
     // The voxels of node `node` at `level` seen through accumulated
     // transform `transform` (an index into allTransforms), in local
     // world-frame coordinates.
@@ -87,17 +105,10 @@ struct Decoder {
                 }
                 const Cube& c = cube(childLevel, ptr.index, transformCombineTable[transform * 48 + ptr.transformID]);
                 const glm::ivec3 origin = glm::ivec3(morton_decode32<3>(worldChild)) * int(half);
-                for (uint32_t z = 0; z < half; ++z)
-                    for (uint32_t y = 0; y < half; ++y)
-                        for (uint32_t x = 0; x < half; ++x) {
-                            if (!getBit(c, x + (y << childLevel) + (z << 2 * childLevel)))
-                                continue;
-                            const glm::ivec3 v = glm::ivec3(x, y, z) + t;
-                            if (glm::any(glm::lessThan(v, glm::ivec3(0))) || glm::any(glm::greaterThanEqual(v, glm::ivec3(int(half)))))
-                                continue; // shifted out of the child's cell: empty
-                            const glm::ivec3 w = origin + v;
-                            setBit(out, uint32_t(w.x) + (uint32_t(w.y) << level) + (uint32_t(w.z) << 2 * level));
-                        }
+                forEachMoved(c, childLevel, t, [&](glm::ivec3 v) {
+                    const glm::ivec3 w = origin + v;
+                    setBit(out, uint32_t(w.x) + (uint32_t(w.y) << level) + (uint32_t(w.z) << 2 * level));
+                });
             }
         }
         return cubes.emplace(key, std::move(out)).first->second;
@@ -137,17 +148,8 @@ struct Decoder {
             const auto global = allTransformPointers[transform];
             t = applyAxisPermutation(t, global.getAxisPermutation());
             t = glm::mix(t, -t, global.getSymmetry());
-            const uint32_t cl = level - 1, half = 1u << cl;
-            const Cube& c = cube(cl, ptr.index, childTransform);
-            for (uint32_t z = 0; z < half; ++z)
-                for (uint32_t y = 0; y < half; ++y)
-                    for (uint32_t x = 0; x < half; ++x) {
-                        if (!getBit(c, x + (y << cl) + (z << 2 * cl)))
-                            continue;
-                        const glm::ivec3 v = glm::ivec3(x, y, z) + t;
-                        if (glm::all(glm::greaterThanEqual(v, glm::ivec3(0))) && glm::all(glm::lessThan(v, glm::ivec3(int(half)))))
-                            ++n;
-                    }
+            forEachMoved(cube(level - 1, ptr.index, childTransform), level - 1, t,
+                         [&](glm::ivec3) { ++n; });
         }
         return counts.emplace(key, n).first->second;
     }
