@@ -104,6 +104,77 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 	}
 }
 
+/* Every colour of a block that is not coded (entry e, bytes at d, n
+ * voxels) into rgb[0 .. 3n): vd_auto_decode's rule, with the mode's
+ * header read once a block (a part, for the endpoints) instead of once a
+ * voxel. The encoder's check of the block it keeps and the reader's range
+ * decoding. */
+static inline void vd_auto_decode_all(uint32_t e, const uint8_t *d,
+				      uint32_t n, uint8_t *rgb)
+{
+	unsigned mode = e >> 24, b = mode & 15;
+	switch (mode >> 4) {
+	case VD_AUTO_CONST >> 4:
+		for (uint32_t j = 0; j < n; j++) {
+			rgb[3 * j] = (uint8_t)e;
+			rgb[3 * j + 1] = (uint8_t)(e >> 8);
+			rgb[3 * j + 2] = (uint8_t)(e >> 16);
+		}
+		return;
+	case VD_AUTO_PALETTE >> 4: {
+		unsigned k = d[0] + 1u;
+		const uint8_t *idx = d + 1 + 3 * k;
+		for (uint32_t j = 0; j < n; j++)
+			memcpy(rgb + 3 * j,
+			       d + 1 + 3 * vd_auto_bits(idx, (uint64_t)j * b, b), 3);
+		return;
+	}
+	case VD_AUTO_ENDPOINTS >> 4: {
+		unsigned m = (1u << b) - 1, len = d[0] & 15;
+		unsigned esz = d[0] & 16 ? 4 : 6;
+		unsigned parts = (n + (1u << len) - 1) >> len;
+		const uint8_t *wb = d + 1 + esz * parts;
+		uint64_t r = vd_auto_recip[b];
+		for (uint32_t q = 0, j = 0; q < parts; q++) {
+			const uint8_t *ep = d + 1 + esz * q;
+			uint8_t c0[3], c1[3];
+			if (esz == 4) {
+				vd_rgb565_decode((uint16_t)(ep[0] | ep[1] << 8), c0);
+				vd_rgb565_decode((uint16_t)(ep[2] | ep[3] << 8), c1);
+			} else {
+				memcpy(c0, ep, 3);
+				memcpy(c1, ep + 3, 3);
+			}
+			uint32_t end = (q + 1) << len < n ? (q + 1) << len : n;
+			for (; j < end; j++) {
+				unsigned w = vd_auto_bits(wb, (uint64_t)j * b, b);
+				for (int c = 0; c < 3; c++)
+					rgb[3 * j + c] = (uint8_t)(((uint64_t)(
+						c0[c] * (m - w) + c1[c] * w + m / 2) * r) >> 32);
+			}
+		}
+		return;
+	}
+	case VD_AUTO_QUANT >> 4: {
+		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
+		unsigned wsum = wr + wg + wb;
+		for (uint32_t j = 0; j < n; j++) {
+			uint32_t q = vd_auto_bits(d + 6, (uint64_t)j * wsum, wsum);
+			unsigned qv[3] = {q & ((1u << wr) - 1),
+					  q >> wr & ((1u << wg) - 1),
+					  q >> (wr + wg) & ((1u << wb) - 1)};
+			for (int c = 0; c < 3; c++) {
+				unsigned v = d[c] + qv[c] * d[3];
+				rgb[3 * j + c] = (uint8_t)(v > 255 ? 255 : v);
+			}
+		}
+		return;
+	}
+	default: /* VD_AUTO_RAW */
+		memcpy(rgb, d, 3 * (size_t)n);
+	}
+}
+
 /* Bytes of a block of n voxels after its directory entry (mode `e >> 24`,
  * header bytes at `d`): 0 for a constant one. The reader's check and the
  * encoder's layout. */
