@@ -467,13 +467,16 @@ static void try_palette(struct blk *k)
 			int r = k->dist[i] & 255, g = k->dist[i] >> 8 & 255,
 			    b = (int)(k->dist[i] >> 16);
 			unsigned key = (unsigned)(r + g + b);
-			uint32_t lo = 0, hi = np;
-			while (lo < hi) { /* the first key >= key - R */
-				uint32_t mid = (lo + hi) / 2;
-				if (sk[mid] + R < key)
-					lo = mid + 1;
-				else
-					hi = mid;
+			/* the first key >= key - R, by a search without
+			 * branches on the keys (they mispredicted half the time) */
+			uint32_t lo = 0;
+			if (np) {
+				for (uint32_t m = np; m > 1;) {
+					uint32_t half = m / 2;
+					lo = sk[lo + half] + R < key ? lo + half : lo;
+					m -= half;
+				}
+				lo += sk[lo] + R < key;
 			}
 			int best = INT32_MAX;
 			uint32_t bi = UINT32_MAX;
