@@ -689,6 +689,56 @@ static int open_crafted(uint32_t block_log, uint64_t voxels,
 
 /* Coded segments (1.2): a table or a block that breaks a rule is
  * refused however good the checksums. */
+/* Lookups in coded blocks start at the reader's restart point at or
+ * before the voxel (VD_AUTO_RESTART, colour_pack.c): every voxel of
+ * blocks where runs of one colour start before a restart point and end
+ * at, just before or after later ones, and where noise and a few
+ * alternating colours (the recent list's hits) cross them, looked up
+ * one by one and compared with the array. */
+static void test_coded_restart(void)
+{
+	uint64_t n[1] = {4 * 512 + 77};
+	uint8_t *rgb = malloc(3 * n[0]);
+	uint32_t s = 7;
+	for (uint64_t i = 0; i < n[0]; i++) {
+		uint32_t j = (uint32_t)(i % 512), blk = (uint32_t)(i / 512);
+		uint8_t *x = rgb + 3 * i;
+		/* block b: a run over [40 + 7b, 40 + 7b + 64 (b + 1) + b), so
+		 * its end falls on, before and after restart points */
+		uint32_t r0 = 40 + 7 * blk, r1 = r0 + 64 * (blk + 1) + blk;
+		s = s * 1103515245u + 12345u;
+		if (j >= r0 && j < r1) {
+			x[0] = 9, x[1] = 99, x[2] = (uint8_t)blk;
+		} else if (j % 128 < 30) {
+			static const uint8_t few[3][3] = {
+				{1, 2, 3}, {200, 10, 40}, {60, 61, 62}};
+			memcpy(x, few[(s >> 20) % 3], 3);
+		} else {
+			x[0] = (uint8_t)(s >> 16);
+			x[1] = (uint8_t)(x[0] + (s >> 28));
+			x[2] = (uint8_t)(s >> 24);
+		}
+	}
+	uint8_t *cells[1] = {rgb};
+	for (int bl = 6; bl <= 9; bl++) {
+		struct vd_auto_params p = {.block_log = bl, .coded = 1};
+		CHECK_EQ(write_cells("restart.auto", &p, 1, cells, n), VD_OK);
+		char path[256];
+		path_of(path, sizeof path, "restart.auto");
+		struct vd_cpack *c;
+		CHECK_EQ(vd_cpack_open(&c, path), VD_OK);
+		uint64_t bad = 0;
+		for (uint64_t i = 0; c && i < n[0]; i++) {
+			uint8_t o[3] = {0, 0, 0};
+			CHECK_EQ(vd_cpack_colour(c, i, o), VD_OK);
+			bad += memcmp(o, rgb + 3 * i, 3) != 0;
+		}
+		CHECK_EQ(bad, 0);
+		vd_cpack_free(c);
+	}
+	free(rgb);
+}
+
 static void test_coded_inconsistent(void)
 {
 	enum { T = VD_AUTO_TABLE_BYTES, ND = sizeof golden2_data };
@@ -829,6 +879,7 @@ int main(void)
 	RUN(test_inconsistent);
 	RUN(test_golden_coded);
 	RUN(test_coded_inconsistent);
+	RUN(test_coded_restart);
 	char cmd[300];
 	snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
 	if (system(cmd)) {

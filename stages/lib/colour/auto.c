@@ -15,6 +15,9 @@
 
 #include <math.h>
 #include <stdint.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -117,13 +120,19 @@ int vd_auto_code_build(struct vd_auto_code *c, const uint8_t *tab)
  * fit, greedily. Returns how many. */
 static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 {
-	uint32_t recent[VD_AUTO_RECENT], nr = 1, m = 0;
+	/* the list as a ring, as the decoder keeps it (position a at
+	 * ring[(h + a) & 15]; a delta inserts in O(1)); the slots not in
+	 * the list hold a key no colour has, and the list's colours are
+	 * distinct, so a colour matches at most one slot */
+	uint32_t ring[VD_AUTO_RECENT], nr = 1, h = 0, m = 0;
+	for (int a = 0; a < VD_AUTO_RECENT; a++)
+		ring[a] = UINT32_MAX;
 	unsigned ctx = 2 * VD_AUTO_SYM_A; /* A's context, as a symbol offset */
-	recent[0] = packed_rgb(rgb);
+	ring[0] = packed_rgb(rgb);
 	for (uint32_t i = 1; i < n;) {
 		const uint8_t *x = rgb + 3 * i, *p = x - 3;
-		uint32_t key = packed_rgb(x), a = 0;
-		if (key == recent[0]) {
+		uint32_t key = packed_rgb(x);
+		if (key == ring[h]) {
 			uint32_t len = 1;
 			while (i + len < n && packed_rgb(x + 3 * len) == key)
 				len++;
@@ -138,11 +147,32 @@ static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 			}
 			continue;
 		}
-		while (a < nr && recent[a] != key)
-			a++;
-		if (a < nr) {
+		int slot = -1;
+#ifdef __SSE2__
+		__m128i kv = _mm_set1_epi32((int)key);
+		unsigned hit = (unsigned)_mm_movemask_ps(_mm_castsi128_ps(
+				       _mm_cmpeq_epi32(kv, _mm_loadu_si128((const __m128i *)ring)))) |
+			       (unsigned)_mm_movemask_ps(_mm_castsi128_ps(
+				       _mm_cmpeq_epi32(kv, _mm_loadu_si128((const __m128i *)(ring + 4))))) << 4 |
+			       (unsigned)_mm_movemask_ps(_mm_castsi128_ps(
+				       _mm_cmpeq_epi32(kv, _mm_loadu_si128((const __m128i *)(ring + 8))))) << 8 |
+			       (unsigned)_mm_movemask_ps(_mm_castsi128_ps(
+				       _mm_cmpeq_epi32(kv, _mm_loadu_si128((const __m128i *)(ring + 12))))) << 12;
+		if (hit)
+			slot = __builtin_ctz(hit);
+#else
+		for (int a = 0; a < VD_AUTO_RECENT; a++)
+			if (ring[a] == key)
+				slot = a;
+#endif
+		if (slot >= 0) {
+			uint32_t a = ((uint32_t)slot - h) & (VD_AUTO_RECENT - 1);
 			sym[m++] = (uint16_t)(ctx + VD_AUTO_HIT0 - 1 + a);
 			ctx = VD_AUTO_SYM_A;
+			for (; a; a--)
+				ring[(h + a) & (VD_AUTO_RECENT - 1)] =
+					ring[(h + a - 1) & (VD_AUTO_RECENT - 1)];
+			ring[h] = key;
 		} else {
 			unsigned d0 = (x[1] - p[1]) & 255;
 			unsigned d1 = ((x[0] - x[1]) - (p[0] - p[1])) & 255;
@@ -151,13 +181,13 @@ static uint32_t coded_symbols(const uint8_t *rgb, uint32_t n, uint16_t *sym)
 			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + d1);
 			sym[m++] = (uint16_t)(VD_AUTO_SYM_B + 256 + d2);
 			ctx = 2 * VD_AUTO_SYM_A;
-			a = nr < VD_AUTO_RECENT ? nr++ : VD_AUTO_RECENT - 1;
+			nr += nr < VD_AUTO_RECENT;
+			h = (h - 1) & (VD_AUTO_RECENT - 1);
+			ring[h] = key; /* over the last colour when the list is full */
 		}
-		for (; a; a--)
-			recent[a] = recent[a - 1];
-		recent[0] = key;
 		i++;
 	}
+	(void)nr;
 	return m;
 }
 
@@ -226,7 +256,11 @@ struct seg_code {
 	uint16_t code[VD_AUTO_SYMS];
 	uint8_t table[VD_AUTO_TABLE_BYTES];
 	struct vd_auto_code dec;
-	uint16_t sym[3 * MAX_BLOCK];
+	/* every block's symbols, from the pass that counts them, so that
+	 * try_coded does not derive them again: block b's at
+	 * sym[first[b] .. first[b + 1]) (none for a block of one colour) */
+	uint16_t *sym;
+	uint32_t *first;
 };
 
 static void seg_code_make(struct seg_code *sc)
@@ -264,7 +298,10 @@ struct blk {
 	uint64_t best_sse;
 	unsigned best_max;
 	float t[MAX_BLOCK];
+	uint8_t w[MAX_BLOCK];        /* the endpoints mode's weights */
 	struct seg_code *code;       /* the segment's code, NULL: no coded mode */
+	int checked;                 /* verify every candidate (check_best) */
+	uint32_t b;                  /* the block's number in its segment */
 	size_t plain_bytes;          /* the best without the coded mode */
 	uint8_t all[3 * MAX_BLOCK];
 };
@@ -414,18 +451,41 @@ static void try_palette(struct blk *k)
 			lead[i] = k->dist[i], of[i] = i;
 		np = k->ndist;
 	} else {
-		/* leaders by channel, so the nearest-leader loop vectorises */
+		/* the leaders also sorted by r + g + b: a leader within the
+		 * limit of a colour has a sum within R = sqrt(3 limit) of the
+		 * colour's (Cauchy-Schwarz), so only that window is searched;
+		 * the nearest (the first on a tie) is the same leader as over
+		 * all of them whenever one is within the limit */
 		int lr[256], lg[256], lb[256];
+		unsigned sk[256], R = (unsigned)sqrt(3.0 * k->limit);
+		uint8_t sq[256];
+		while ((R + 1) * (R + 1) <= 3 * k->limit)
+			R++;
+		while (R * R > 3 * k->limit)
+			R--;
 		for (uint32_t i = 0; i < k->ndist; i++) {
 			int r = k->dist[i] & 255, g = k->dist[i] >> 8 & 255,
 			    b = (int)(k->dist[i] >> 16);
+			unsigned key = (unsigned)(r + g + b);
+			/* the first key >= key - R, by a search without
+			 * branches on the keys (they mispredicted half the time) */
+			uint32_t lo = 0;
+			if (np) {
+				for (uint32_t m = np; m > 1;) {
+					uint32_t half = m / 2;
+					lo = sk[lo + half] + R < key ? lo + half : lo;
+					m -= half;
+				}
+				lo += sk[lo] + R < key;
+			}
 			int best = INT32_MAX;
-			uint32_t bi = 0;
-			for (uint32_t q = 0; q < np; q++) {
+			uint32_t bi = UINT32_MAX;
+			for (uint32_t at = lo; at < np && sk[at] <= key + R; at++) {
+				uint32_t q = sq[at];
 				int e = (r - lr[q]) * (r - lr[q]) +
 					(g - lg[q]) * (g - lg[q]) +
 					(b - lb[q]) * (b - lb[q]);
-				if (e < best)
+				if (e < best || (e == best && q < bi))
 					best = e, bi = q;
 			}
 			if (best <= (int)k->limit) {
@@ -436,6 +496,13 @@ static void try_palette(struct blk *k)
 				      ((size_t)k->n * width_of(np + 1) + 7) / 8;
 			if (need >= k->best_bytes)
 				return;
+			uint32_t at = lo;
+			while (at < np && sk[at] < key)
+				at++;
+			memmove(sk + at + 1, sk + at, (np - at) * sizeof sk[0]);
+			memmove(sq + at + 1, sq + at, np - at);
+			sk[at] = key;
+			sq[at] = (uint8_t)np;
 			of[i] = np;
 			lr[np] = r, lg[np] = g, lb[np] = b;
 			lead[np++] = k->dist[i];
@@ -481,74 +548,131 @@ static void try_palette(struct blk *k)
 	for (uint32_t i = 0; i < k->n; i++)
 		put_bits(idx, (uint64_t)i * b, b, of[k->id[i]]);
 	uint32_t e = (uint32_t)(VD_AUTO_PALETTE | b) << 24;
-	uint64_t sse;
-	unsigned maxd;
-	if (verify(k, e, d, &sse, &maxd))
+	uint64_t sse = 0;
+	unsigned maxd = 0;
+	if (!k->checked || verify(k, e, d, &sse, &maxd))
 		offer(k, e, bytes, sse, maxd);
 }
 
-/* The line through one part's colours: endpoints the part's colours at
- * the two ends of its principal direction (the widest channel, the others
- * signed by their covariance with it), t[i] each colour's projection on
- * the segment between them, in [0, 1]. */
-static void fit_line(const uint8_t *rgb, uint32_t n, uint8_t c0[3],
-		     uint8_t c1[3], float *t, float *perp2, float *span2)
+/* A run of voxels' bounds and moments: try_endpoints sums them over its
+ * smallest parts once and merges them for the larger ones, instead of a
+ * pass over the voxels a part and a part size. */
+struct moments {
+	unsigned lo[3], hi[3];
+	long sum[3];
+	long sxx[3][3]; /* sum of x_c x_d */
+	uint32_t n;
+};
+
+static void moments_of(const uint8_t *rgb, uint32_t n, struct moments *m)
 {
 	unsigned lo[3] = {255, 255, 255}, hi[3] = {0, 0, 0};
-	long sum[3] = {0, 0, 0};
-	for (uint32_t i = 0; i < n; i++)
-		for (int c = 0; c < 3; c++) {
-			unsigned v = rgb[3 * i + c];
-			lo[c] = v < lo[c] ? v : lo[c];
-			hi[c] = v > hi[c] ? v : hi[c];
-			sum[c] += v;
-		}
+	uint32_t sum[3] = {0, 0, 0}, s00 = 0, s01 = 0, s02 = 0, s11 = 0,
+		 s12 = 0, s22 = 0; /* n <= 2^12: below 2^32 */
+	for (uint32_t i = 0; i < n; i++) {
+		uint32_t r = rgb[3 * i], g = rgb[3 * i + 1], b = rgb[3 * i + 2];
+		lo[0] = r < lo[0] ? r : lo[0];
+		lo[1] = g < lo[1] ? g : lo[1];
+		lo[2] = b < lo[2] ? b : lo[2];
+		hi[0] = r > hi[0] ? r : hi[0];
+		hi[1] = g > hi[1] ? g : hi[1];
+		hi[2] = b > hi[2] ? b : hi[2];
+		sum[0] += r, sum[1] += g, sum[2] += b;
+		s00 += r * r, s01 += r * g, s02 += r * b;
+		s11 += g * g, s12 += g * b, s22 += b * b;
+	}
+	for (int c = 0; c < 3; c++) {
+		m->lo[c] = lo[c];
+		m->hi[c] = hi[c];
+		m->sum[c] = sum[c];
+	}
+	m->sxx[0][0] = s00, m->sxx[1][1] = s11, m->sxx[2][2] = s22;
+	m->sxx[0][1] = m->sxx[1][0] = s01;
+	m->sxx[0][2] = m->sxx[2][0] = s02;
+	m->sxx[1][2] = m->sxx[2][1] = s12;
+	m->n = n;
+}
+
+static void moments_merge(struct moments *m, const struct moments *a)
+{
+	for (int c = 0; c < 3; c++) {
+		m->lo[c] = a->lo[c] < m->lo[c] ? a->lo[c] : m->lo[c];
+		m->hi[c] = a->hi[c] > m->hi[c] ? a->hi[c] : m->hi[c];
+		m->sum[c] += a->sum[c];
+		for (int d = 0; d < 3; d++)
+			m->sxx[c][d] += a->sxx[c][d];
+	}
+	m->n += a->n;
+}
+
+/* The line through one part's colours (moments m): endpoints the part's
+ * colours at the two ends of its principal direction (the widest channel,
+ * the others signed by their covariance with it), t[i] each colour's
+ * projection on the segment between them, in [0, 1]. Returns 0, leaving
+ * t unfinished, when a colour lies farther than thr (squared) from the
+ * line through the ends: no weights fit that part (try_endpoints). */
+static int fit_line(const uint8_t *rgb, const struct moments *mo,
+		    uint8_t c0[3], uint8_t c1[3], float *t, float thr)
+{
+	uint32_t n = mo->n;
+	const unsigned *lo = mo->lo, *hi = mo->hi;
+	const long *sum = mo->sum;
 	int p = 0;
 	for (int c = 1; c < 3; c++)
 		if (hi[c] - lo[c] > hi[p] - lo[p])
 			p = c;
-	long cov[3] = {0, 0, 0};
-	for (uint32_t i = 0; i < n; i++)
-		for (int c = 0; c < 3; c++)
-			cov[c] += ((long)n * rgb[3 * i + p] - sum[p]) *
-				  ((long)rgb[3 * i + c] * n - sum[c]);
+	/* n times the scatter matrix, exactly (below 2^41 for n <= 2^12):
+	 * the sum over the voxels of (n x_c - S_c)(n x_d - S_d), the
+	 * covariance whose sign orients the direction, is n of it */
+	long nc[3][3];
+	for (int c = 0; c < 3; c++)
+		for (int d = 0; d < 3; d++)
+			nc[c][d] = (long)n * mo->sxx[c][d] - sum[c] * sum[d];
+	/* no line lies nearer the colours, in the mean of the squared
+	 * distances, than the principal axis, whose mean is (trace -
+	 * lambda1) / n of the scatter matrix, and lambda1 is at most its
+	 * Frobenius norm; the largest distance is at least the mean. So
+	 * when that bound is above thr (with a margin far beyond the float
+	 * arithmetic of the distances below, < 0.1), the voxel pass would
+	 * find a colour farther than thr: skipped. */
+	double tr = (double)(nc[0][0] + nc[1][1] + nc[2][2]), fr = 0;
+	for (int c = 0; c < 3; c++)
+		for (int d = 0; d < 3; d++)
+			fr += (double)nc[c][d] * (double)nc[c][d];
+	if ((tr - sqrt(fr)) * (1 - 1e-9) > ((double)thr + 1) * n * n)
+		return 0;
 	int dir[3];
 	for (int c = 0; c < 3; c++)
-		dir[c] = (cov[c] < 0 ? -1 : 1) * (int)(hi[c] - lo[c]);
-	long tmin = 0, tmax = 0;
+		dir[c] = (nc[p][c] < 0 ? -1 : 1) * (int)(hi[c] - lo[c]);
+	/* the products below stay under 2^18: int arithmetic, exactly */
+	int d0 = dir[0], d1 = dir[1], d2 = dir[2];
+	int tmin = d0 * rgb[0] + d1 * rgb[1] + d2 * rgb[2], tmax = tmin;
 	uint32_t imin = 0, imax = 0;
-	for (uint32_t i = 0; i < n; i++) {
-		long v = 0;
-		for (int c = 0; c < 3; c++)
-			v += (long)dir[c] * rgb[3 * i + c];
-		if (i == 0 || v < tmin)
+	for (uint32_t i = 1; i < n; i++) {
+		const uint8_t *x = rgb + 3 * i;
+		int v = d0 * x[0] + d1 * x[1] + d2 * x[2];
+		if (v < tmin)
 			tmin = v, imin = i;
-		if (i == 0 || v > tmax)
+		if (v > tmax)
 			tmax = v, imax = i;
 	}
 	memcpy(c0, rgb + 3 * imin, 3);
 	memcpy(c1, rgb + 3 * imax, 3);
-	int D[3];
-	long L = 0;
-	for (int c = 0; c < 3; c++) {
-		D[c] = c1[c] - c0[c];
-		L += (long)D[c] * D[c];
-	}
-	float inv = L ? 1.0f / (float)L : 0, worst = 0;
+	int D0 = c1[0] - c0[0], D1 = c1[1] - c0[1], D2 = c1[2] - c0[2];
+	int L = D0 * D0 + D1 * D1 + D2 * D2;
+	float inv = L ? 1.0f / (float)L : 0;
 	for (uint32_t i = 0; i < n; i++) {
-		long v = 0, r2 = 0;
-		for (int c = 0; c < 3; c++) {
-			int x = rgb[3 * i + c] - c0[c];
-			v += (long)x * D[c];
-			r2 += (long)x * x;
-		}
+		const uint8_t *y = rgb + 3 * i;
+		int x0 = y[0] - c0[0], x1 = y[1] - c0[1], x2 = y[2] - c0[2];
+		int v = x0 * D0 + x1 * D1 + x2 * D2;
+		int r2 = x0 * x0 + x1 * x1 + x2 * x2;
 		float x = (float)v * inv;
 		float p2 = (float)r2 - (float)v * x;
-		worst = p2 > worst ? p2 : worst;
+		if (p2 > thr)
+			return 0;
 		t[i] = x < 0 ? 0 : x > 1 ? 1 : x;
 	}
-	*perp2 = worst;
-	*span2 = (float)L;
+	return 1;
 }
 
 static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
@@ -567,27 +691,40 @@ static void try_endpoints(struct blk *k, int block_log)
 		return;
 	const uint8_t *rgb = k->rgb;
 	uint32_t n = k->n;
+	int sf = block_log - 3 > 4 ? block_log - 3 : 4; /* the smallest parts */
+	if (sf > block_log)
+		sf = block_log;
+	uint32_t nch = (n + (1u << sf) - 1) >> sf;
+	struct moments ch[8];
+	int have = 0;
 	for (int s = block_log; s >= block_log - 3 && s >= 4; s--) {
 		uint32_t len = 1u << s, parts = (n + len - 1) >> s;
 		if (1 + 4 * (size_t)parts + (n + 7) / 8 >= k->best_bytes)
 			return; /* more parts only cost more */
 		uint8_t e[64][6];
-		float perp2 = 0, span2 = 0;
-		for (uint32_t q = 0; q < parts; q++) {
-			uint32_t m = q + 1 < parts ? len : n - q * len;
-			float p2, s2;
-			fit_line(rgb + 3 * (size_t)q * len, m, e[q], e[q] + 3,
-				 k->t + q * len, &p2, &s2);
-			perp2 = p2 > perp2 ? p2 : perp2;
-			span2 = s2 > span2 ? s2 : span2;
+		if (!have) {
+			for (uint32_t q = 0; q < nch; q++)
+				moments_of(rgb + 3 * ((size_t)q << sf),
+					   q + 1 < nch ? 1u << sf : n - (q << sf), &ch[q]);
+			have = 1;
 		}
 		/* a colour farther from the line through its part's ends
 		 * than the limit fits no weights on it (RGB565 endpoints
 		 * move the line a little: a heuristic there, and every
-		 * candidate is verified anyway) */
-		if (perp2 > (float)k->limit + 0.5f)
+		 * candidate is verified anyway); the first such colour ends
+		 * the try of these parts */
+		uint32_t q = 0;
+		for (; q < parts; q++) {
+			uint32_t c = q << (s - sf), ce = (q + 1) << (s - sf);
+			struct moments mo = ch[c];
+			for (c++; c < ce && c < nch; c++)
+				moments_merge(&mo, &ch[c]);
+			if (!fit_line(rgb + 3 * (size_t)q * len, &mo, e[q], e[q] + 3,
+				      k->t + q * len, (float)k->limit + 0.5f))
+				break;
+		}
+		if (q < parts)
 			continue;
-		(void)span2;
 		unsigned wlo = 1;
 		/* RGB565 endpoints first (4 bytes a part, as VBR stores them),
 		 * then RGB8 */
@@ -595,6 +732,28 @@ static void try_endpoints(struct blk *k, int block_log)
 			if (endpoints_parts(k, s, parts, esz, e, wlo))
 				break;
 	}
+}
+
+/* The weight of colour v (projection t) between decoded endpoints c0, c1
+ * with m = 2^w - 1 (r = vd_auto_recip[w]): of the two around t, the one
+ * whose decoded colour (the decoder's arithmetic) is nearest, the first
+ * on a tie; its squared distance in *err. */
+static inline unsigned endpoint_weight(const uint8_t *c0, const uint8_t *c1,
+				       unsigned m, uint64_t r, float t,
+				       const uint8_t *v, unsigned *err)
+{
+	unsigned x = (unsigned)(t * (float)m), er = ~0u, xb = x;
+	for (unsigned y = x ? x - 1 : 0; y <= x + 1 && y <= m; y++) {
+		uint8_t o[3];
+		for (int c = 0; c < 3; c++)
+			o[c] = (uint8_t)(((uint64_t)(c0[c] * (m - y) + c1[c] * y +
+						     m / 2) * r) >> 32);
+		unsigned e1 = vd_rgb_dist2(o, v);
+		if (e1 < er)
+			er = e1, xb = y;
+	}
+	*err = er;
+	return xb;
 }
 
 /* Endpoints mode of `parts` parts of 2^s voxels with the fitted endpoints
@@ -621,11 +780,63 @@ static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
 			vd_rgb565_decode(e565[q][h], ed[q] + 3 * h);
 		}
 	}
+	/* the voxels that failed a weight width: tried first at the next,
+	 * where they mostly fail again, before a pass over the block */
+	uint32_t fails[4], nf = 0;
 	for (unsigned w = wlo; w <= 8; w++) {
 		size_t bytes = 1 + (size_t)esz * parts + ((size_t)n * w + 7) / 8;
 		if (bytes >= k->best_bytes)
 			return 0;
-		unsigned m = (1u << w) - 1;
+		unsigned m = (1u << w) - 1, er;
+		uint64_t r = vd_auto_recip[w];
+		uint32_t f = 0;
+		while (f < nf) {
+			uint32_t i = fails[f], q = i >> s;
+			endpoint_weight(ed[q], ed[q] + 3, m, r, k->t[i], rgb + 3 * i, &er);
+			if (er > k->limit)
+				break;
+			f++;
+		}
+		if (f < nf)
+			continue;
+		uint32_t i = 0;
+		for (uint32_t q = 0; q < parts && i == q * len; q++) {
+			/* the decoded colours tabled when the part has at least
+			 * as many voxels as levels, else decoded on demand */
+			const uint8_t *c0 = ed[q], *c1 = ed[q] + 3;
+			uint32_t end = q + 1 < parts ? (q + 1) * len : n;
+			if (m + 1 > end - i) {
+				for (; i < end; i++) {
+					k->w[i] = (uint8_t)endpoint_weight(c0, c1, m, r, k->t[i],
+									  rgb + 3 * i, &er);
+					if (er > k->limit)
+						break;
+				}
+				continue;
+			}
+			uint8_t lv[256][4];
+			for (unsigned y = 0; y <= m; y++)
+				for (int c = 0; c < 3; c++)
+					lv[y][c] = (uint8_t)(((uint64_t)(c0[c] * (m - y) + c1[c] * y +
+									 m / 2) * r) >> 32);
+			for (; i < end; i++) {
+				const uint8_t *v = rgb + 3 * i;
+				unsigned x = (unsigned)(k->t[i] * (float)m), xb = x;
+				er = ~0u;
+				for (unsigned y = x ? x - 1 : 0; y <= x + 1 && y <= m; y++) {
+					unsigned e1 = vd_rgb_dist2(lv[y], v);
+					if (e1 < er)
+						er = e1, xb = y;
+				}
+				k->w[i] = (uint8_t)xb;
+				if (er > k->limit)
+					break;
+			}
+		}
+		if (i < n) {
+			fails[nf < 4 ? nf++ : 3] = i;
+			continue;
+		}
 		uint8_t *d = k->cand;
 		memset(d, 0, bytes + VD_AUTO_PAD);
 		d[0] = (uint8_t)(s | (esz == 4 ? 16 : 0));
@@ -640,39 +851,12 @@ static int endpoints_parts(struct blk *k, int s, uint32_t parts, int esz,
 			}
 		}
 		uint8_t *wb = d + 1 + esz * parts;
-		uint32_t i = 0;
-		for (uint32_t q = 0; q < parts && i == q * len; q++) {
-			/* decoded on demand, not tabled: a table of 2^w entries
-			 * per part and per try cost more than the voxels */
-			const uint8_t *c0 = ed[q], *c1 = ed[q] + 3;
-			uint64_t r = vd_auto_recip[w];
-			uint32_t end = q + 1 < parts ? (q + 1) * len : n;
-			for (; i < end; i++) {
-				const uint8_t *v = rgb + 3 * i;
-				unsigned x = (unsigned)(k->t[i] * (float)m), er = ~0u;
-				unsigned xb = x;
-				for (unsigned y = x ? x - 1 : 0; y <= x + 1 && y <= m; y++) {
-					uint8_t o[3];
-					for (int c = 0; c < 3; c++)
-						o[c] = (uint8_t)(((uint64_t)(c0[c] * (m - y) +
-									     c1[c] * y + m / 2) *
-								  r) >> 32);
-					unsigned e1 = vd_rgb_dist2(o, v);
-					if (e1 < er)
-						er = e1, xb = y;
-				}
-				x = xb;
-				if (er > k->limit)
-					break;
-				put_bits(wb, (uint64_t)i * w, w, x);
-			}
-		}
-		if (i < n)
-			continue;
+		for (i = 0; i < n; i++)
+			put_bits(wb, (uint64_t)i * w, w, k->w[i]);
 		uint32_t en = (uint32_t)(VD_AUTO_ENDPOINTS | w) << 24;
-		uint64_t sse;
-		unsigned maxd;
-		if (verify(k, en, d, &sse, &maxd)) {
+		uint64_t sse = 0;
+		unsigned maxd = 0;
+		if (!k->checked || verify(k, en, d, &sse, &maxd)) {
 			offer(k, en, bytes, sse, maxd);
 			return 1;
 		}
@@ -723,9 +907,9 @@ static void try_quant(struct blk *k)
 		put_bits(d + 6, (uint64_t)i * wsum, wsum, v);
 	}
 	uint32_t e = (uint32_t)VD_AUTO_QUANT << 24;
-	uint64_t sse;
-	unsigned maxd;
-	if (verify(k, e, d, &sse, &maxd))
+	uint64_t sse = 0;
+	unsigned maxd = 0;
+	if (!k->checked || verify(k, e, d, &sse, &maxd))
 		offer(k, e, bytes, sse, maxd);
 }
 
@@ -736,10 +920,11 @@ static void try_coded(struct blk *k)
 	struct seg_code *sc = k->code;
 	if (!sc || k->n < 2 || k->limit)
 		return;
-	uint32_t m = coded_symbols(k->rgb, k->n, sc->sym);
+	const uint16_t *sym = sc->sym + sc->first[k->b];
+	uint32_t m = sc->first[k->b + 1] - sc->first[k->b];
 	uint64_t bits = 0;
 	for (uint32_t i = 0; i < m; i++) {
-		unsigned l = sc->len[sc->sym[i]];
+		unsigned l = sc->len[sym[i]];
 		if (!l)
 			return;
 		bits += l;
@@ -754,8 +939,8 @@ static void try_coded(struct blk *k)
 	memcpy(d + 2, k->rgb, 3);
 	uint64_t pos = 0;
 	for (uint32_t i = 0; i < m; i++) {
-		unsigned l = sc->len[sc->sym[i]];
-		put_bits(d + 5, pos, l, sc->code[sc->sym[i]]);
+		unsigned l = sc->len[sym[i]];
+		put_bits(d + 5, pos, l, sc->code[sym[i]]);
 		pos += l;
 	}
 	uint8_t last[3];
@@ -764,6 +949,33 @@ static void try_coded(struct blk *k)
 	    memcmp(k->all, k->rgb, 3 * (size_t)k->n))
 		return; /* cannot happen: the decoder is the rule */
 	offer(k, (uint32_t)VD_AUTO_CODED << 24, bytes, 0, 0);
+}
+
+/* The palette, endpoints and quantised candidates keep every colour
+ * within the limit by construction (each voxel's index, weight or step is
+ * chosen with the decoder's arithmetic), so only the one kept is decoded
+ * and checked, which also gives its errors; were it ever off, the block is
+ * encoded again with every candidate checked (k->checked), as the
+ * constant mode's always is. Returns 1 when the best passed. */
+static int check_best(struct blk *k)
+{
+	uint32_t e = k->best_entry;
+	unsigned m = e >> 28;
+	if (k->checked || m == VD_AUTO_CONST >> 4 || m == VD_AUTO_RAW >> 4)
+		return 1;
+	vd_auto_decode_all(e, k->best, k->n, k->all);
+	uint64_t sse = 0;
+	unsigned maxd = 0;
+	for (uint32_t i = 0; i < k->n; i++) {
+		unsigned d = vd_rgb_dist2(k->all + 3 * i, k->rgb + 3 * i);
+		if (d > k->limit)
+			return 0;
+		sse += d;
+		maxd = d > maxd ? d : maxd;
+	}
+	k->best_sse = sse;
+	k->best_max = maxd;
+	return 1;
 }
 
 static void encode_block(struct blk *k, int block_log)
@@ -786,6 +998,12 @@ static void encode_block(struct blk *k, int block_log)
 	try_quant(k);
 	if (k->ndist > 16)
 		try_palette(k);
+	if (!check_best(k)) {
+		k->checked = 1;
+		encode_block(k, block_log);
+		k->checked = 0;
+		return;
+	}
 	k->plain_bytes = k->best_bytes -
 			 (k->best_entry >> 24 == VD_AUTO_RAW ? 1 : 0);
 	try_coded(k);
@@ -805,6 +1023,7 @@ static size_t encode_blocks(struct vd_auto_segment *s, struct blk *k,
 	s->max_dist2 = 0;
 	memset(s->mode_blocks, 0, sizeof s->mode_blocks);
 	for (uint32_t b = 0; b < nb; b++) {
+		k->b = b;
 		k->rgb = rgb + 3 * (size_t)b * bs;
 		k->n = b + 1 < nb ? bs : n - b * bs;
 		/* a block of one colour is the constant block whatever the
@@ -857,10 +1076,19 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 	size_t head = p->coded ? 2 + VD_AUTO_TABLE_BYTES : 0;
 	struct blk *k = malloc(sizeof *k);
 	struct seg_code *sc = p->coded ? calloc(1, sizeof *sc) : NULL;
+	if (sc) {
+		sc->sym = malloc(3 * (size_t)n * sizeof *sc->sym);
+		sc->first = malloc(((size_t)nb + 1) * sizeof *sc->first);
+	}
 	s->dir = malloc((size_t)nb * 4);
 	s->data = malloc(head + 3 * (size_t)n + VD_AUTO_PAD);
-	if (!k || !s->dir || !s->data || (p->coded && !sc)) {
+	if (!k || !s->dir || !s->data ||
+	    (p->coded && (!sc || !sc->sym || !sc->first))) {
 		free(k);
+		if (sc) {
+			free(sc->sym);
+			free(sc->first);
+		}
 		free(sc);
 		vd_auto_segment_release(s);
 		return vd_fail(VD_ERR_NOMEM, "auto colour segment of %u", n);
@@ -871,20 +1099,25 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 	k->cand = k->bufb;
 	k->limit = vd_colour_error_limit(p->max_error);
 	k->code = NULL;
+	k->checked = 0;
 	s->n = n;
 	s->count = nb;
 	if (sc) {
+		uint32_t at = 0;
 		for (uint32_t b = 0; b < nb; b++) {
 			const uint8_t *x = rgb + 3 * (size_t)b * bs;
 			uint32_t m = b + 1 < nb ? bs : n - b * bs, i = 1;
+			sc->first[b] = at;
 			while (i < m && !memcmp(x + 3 * i, x, 3))
 				i++;
 			if (i == m)
 				continue;
-			uint32_t c = coded_symbols(x, m, sc->sym);
+			uint32_t c = coded_symbols(x, m, sc->sym + at);
 			for (uint32_t q = 0; q < c; q++)
-				sc->freq[sc->sym[q]]++;
+				sc->freq[sc->sym[at + q]]++;
+			at += c;
 		}
+		sc->first[nb] = at;
 		seg_code_make(sc);
 		k->code = sc;
 		if (encode_blocks(s, k, rgb, n, bl, head) > VD_AUTO_TABLE_BYTES) {
@@ -901,6 +1134,10 @@ int vd_auto_encode(struct vd_auto_segment *s, const uint8_t *rgb, uint32_t n,
 		encode_blocks(s, k, rgb, n, bl, 0);
 	}
 	memset(s->data + s->data_bytes, 0, VD_AUTO_PAD);
+	if (sc) {
+		free(sc->sym);
+		free(sc->first);
+	}
 	free(sc);
 	free(k);
 	return VD_OK;

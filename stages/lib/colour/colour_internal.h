@@ -104,6 +104,77 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 	}
 }
 
+/* Every colour of a block that is not coded (entry e, bytes at d, n
+ * voxels) into rgb[0 .. 3n): vd_auto_decode's rule, with the mode's
+ * header read once a block (a part, for the endpoints) instead of once a
+ * voxel. The encoder's check of the block it keeps and the reader's range
+ * decoding. */
+static inline void vd_auto_decode_all(uint32_t e, const uint8_t *d,
+				      uint32_t n, uint8_t *rgb)
+{
+	unsigned mode = e >> 24, b = mode & 15;
+	switch (mode >> 4) {
+	case VD_AUTO_CONST >> 4:
+		for (uint32_t j = 0; j < n; j++) {
+			rgb[3 * j] = (uint8_t)e;
+			rgb[3 * j + 1] = (uint8_t)(e >> 8);
+			rgb[3 * j + 2] = (uint8_t)(e >> 16);
+		}
+		return;
+	case VD_AUTO_PALETTE >> 4: {
+		unsigned k = d[0] + 1u;
+		const uint8_t *idx = d + 1 + 3 * k;
+		for (uint32_t j = 0; j < n; j++)
+			memcpy(rgb + 3 * j,
+			       d + 1 + 3 * vd_auto_bits(idx, (uint64_t)j * b, b), 3);
+		return;
+	}
+	case VD_AUTO_ENDPOINTS >> 4: {
+		unsigned m = (1u << b) - 1, len = d[0] & 15;
+		unsigned esz = d[0] & 16 ? 4 : 6;
+		unsigned parts = (n + (1u << len) - 1) >> len;
+		const uint8_t *wb = d + 1 + esz * parts;
+		uint64_t r = vd_auto_recip[b];
+		for (uint32_t q = 0, j = 0; q < parts; q++) {
+			const uint8_t *ep = d + 1 + esz * q;
+			uint8_t c0[3], c1[3];
+			if (esz == 4) {
+				vd_rgb565_decode((uint16_t)(ep[0] | ep[1] << 8), c0);
+				vd_rgb565_decode((uint16_t)(ep[2] | ep[3] << 8), c1);
+			} else {
+				memcpy(c0, ep, 3);
+				memcpy(c1, ep + 3, 3);
+			}
+			uint32_t end = (q + 1) << len < n ? (q + 1) << len : n;
+			for (; j < end; j++) {
+				unsigned w = vd_auto_bits(wb, (uint64_t)j * b, b);
+				for (int c = 0; c < 3; c++)
+					rgb[3 * j + c] = (uint8_t)(((uint64_t)(
+						c0[c] * (m - w) + c1[c] * w + m / 2) * r) >> 32);
+			}
+		}
+		return;
+	}
+	case VD_AUTO_QUANT >> 4: {
+		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
+		unsigned wsum = wr + wg + wb;
+		for (uint32_t j = 0; j < n; j++) {
+			uint32_t q = vd_auto_bits(d + 6, (uint64_t)j * wsum, wsum);
+			unsigned qv[3] = {q & ((1u << wr) - 1),
+					  q >> wr & ((1u << wg) - 1),
+					  q >> (wr + wg) & ((1u << wb) - 1)};
+			for (int c = 0; c < 3; c++) {
+				unsigned v = d[c] + qv[c] * d[3];
+				rgb[3 * j + c] = (uint8_t)(v > 255 ? 255 : v);
+			}
+		}
+		return;
+	}
+	default: /* VD_AUTO_RAW */
+		memcpy(rgb, d, 3 * (size_t)n);
+	}
+}
+
 /* Bytes of a block of n voxels after its directory entry (mode `e >> 24`,
  * header bytes at `d`): 0 for a constant one. The reader's check and the
  * encoder's layout. */
@@ -189,28 +260,71 @@ static inline uint32_t vd_auto_peek(const uint8_t *d, uint64_t pos)
 	return (uint32_t)(v >> (pos & 7)) & ((1u << VD_AUTO_MAXLEN) - 1);
 }
 
-/* Colour of voxel j of the coded block at d (u16 stream bytes S, R, G, B
- * of voxel 0, the stream) into rgb, decoding from the block's start.
- * Returns the bits of the stream read, or -1 for a symbol with no code,
- * a hit past the list, or (when all != NULL) a run past voxel j. The
- * reader runs every block through this once with j = n - 1 and all set
- * (every voxel's colour, 3 bytes each, goes to all[0..3(j+1))) and
- * compares the bits with S. */
-static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
-					   const uint8_t *d, uint32_t j,
-					   uint8_t rgb[3], uint8_t *all)
+/* A coded block's decoder between two steps: voxels 0 .. i-1 decoded,
+ * cur the colour of voxel i - 1, pos the bits of the stream read, the
+ * recent colours as a ring (position q at ring[(h + q) & 15]: a delta,
+ * the common step of noisy textures, inserts in O(1)), ctx the context of
+ * the next symbol of alphabet A. The reader keeps one every
+ * VD_AUTO_RESTART voxels of each coded block (a restart point), so that a
+ * lookup decodes at most that many voxels, not the block from its start:
+ * memory only, the file is unchanged. */
+#define VD_AUTO_RESTART 64
+struct vd_auto_coded_state {
+	uint32_t ring[VD_AUTO_RECENT];
+	uint32_t cur, pos, i;
+	uint8_t h, nr, ctx;
+};
+
+static inline void vd_auto_coded_start(const uint8_t *d,
+				       struct vd_auto_coded_state *st)
 {
-	/* the list as a ring (position q at ring[(h + q) & 15]): a delta,
-	 * the common step of noisy textures, inserts in O(1) */
-	uint32_t ring[VD_AUTO_RECENT], nr = 1, h = 0;
-	uint32_t cur = (uint32_t)d[2] | (uint32_t)d[3] << 8 | (uint32_t)d[4] << 16;
-	ring[0] = cur;
+	st->cur = (uint32_t)d[2] | (uint32_t)d[3] << 8 | (uint32_t)d[4] << 16;
+	st->ring[0] = st->cur;
+	st->pos = 0;
+	st->i = 1;
+	st->h = 0;
+	st->nr = 1;
+	st->ctx = 2;
+}
+
+/* Decodes the coded block at d (u16 stream bytes S, R, G, B of voxel 0,
+ * the stream) from state st on until voxel j is decoded (st->i > j), and
+ * puts its colour in rgb (st itself is left at the start state). Returns
+ * the bits of the stream read, or -1 for a symbol with no code, a hit
+ * past the list, or (when all != NULL) a run past voxel j. With all set,
+ * every colour decoded goes to all[3 st->i ..]. With snap set, the state
+ * when it first reaches voxel k * VD_AUTO_RESTART (1 <= k, k
+ * VD_AUTO_RESTART <= j) goes to snap[k - 1] (a run across several such
+ * voxels fills each of them). */
+static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
+					   const uint8_t *d,
+					   const struct vd_auto_coded_state *st,
+					   uint32_t j, uint8_t rgb[3],
+					   uint8_t *all,
+					   struct vd_auto_coded_state *snap)
+{
+	uint32_t ring[VD_AUTO_RECENT], nr = st->nr, h = st->h;
+	uint32_t cur = st->cur, i = st->i;
+	memcpy(ring, st->ring, sizeof ring);
 	const uint8_t *s = d + 5;
-	uint64_t pos = 0;
-	unsigned ctx = 2;
-	if (all)
-		memcpy(all, d + 2, 3);
-	for (uint32_t i = 1; i <= j;) {
+	uint64_t pos = st->pos;
+	unsigned ctx = st->ctx;
+	uint32_t next = snap ? ((i + VD_AUTO_RESTART - 1) / VD_AUTO_RESTART
+				+ (i == 0)) * VD_AUTO_RESTART : UINT32_MAX;
+	for (;;) {
+		while (i >= next && next <= j) {
+			struct vd_auto_coded_state *o = snap + next / VD_AUTO_RESTART - 1;
+			memcpy(o->ring, ring, sizeof ring);
+			o->cur = cur;
+			o->pos = (uint32_t)pos;
+			o->i = i;
+			o->h = (uint8_t)h;
+			o->nr = (uint8_t)nr;
+			o->ctx = (uint8_t)ctx;
+			next += VD_AUTO_RESTART;
+		}
+		if (i > j)
+			break;
 		uint32_t e = c->t[ctx][vd_auto_peek(s, pos)];
 		if (!(e & 15))
 			return -1;
@@ -269,6 +383,22 @@ static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
 	rgb[1] = (uint8_t)(cur >> 8);
 	rgb[2] = (uint8_t)(cur >> 16);
 	return (int64_t)pos;
+}
+
+/* Colour of voxel j of the coded block at d into rgb, decoding from the
+ * block's start (vd_auto_coded_resume from the start state). The reader
+ * runs every block through this once with j = n - 1 and all set (every
+ * voxel's colour, 3 bytes each, goes to all[0..3(j+1))) and compares the
+ * bits with S. */
+static inline int64_t vd_auto_coded_decode(const struct vd_auto_code *c,
+					   const uint8_t *d, uint32_t j,
+					   uint8_t rgb[3], uint8_t *all)
+{
+	struct vd_auto_coded_state st;
+	vd_auto_coded_start(d, &st);
+	if (all)
+		memcpy(all, d + 2, 3);
+	return vd_auto_coded_resume(c, d, &st, j, rgb, all, NULL);
 }
 
 #endif /* VD_COLOUR_INTERNAL_H */

@@ -660,6 +660,12 @@ struct vd_cpack {
 	int block_log;               /* auto */
 	int coded;                   /* auto: segments carry code tables */
 	struct vd_auto_code **code;  /* auto, coded: per segment, NULL: none */
+	/* auto, coded: the restart points of coded block b at
+	 * restart[blk_restart[b] ..], (2^block_log - 1) / VD_AUTO_RESTART
+	 * of them (UINT32_MAX: not coded), taken while the block is checked
+	 * at open */
+	struct vd_auto_coded_state *restart;
+	uint32_t *blk_restart;
 	uint8_t *data;               /* VWGT, POFS or the raw array */
 	size_t data_size;
 	/* palette */
@@ -688,6 +694,8 @@ void vd_cpack_free(struct vd_cpack *c)
 		for (uint64_t s = 0; s < c->segments; s++)
 			free(c->code[s]);
 	free(c->code);
+	free(c->restart);
+	free(c->blk_restart);
 	free(c->data);
 	free(c->glb);
 	free(c->pal_first);
@@ -1101,6 +1109,23 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 				    : NULL;
 	if (c->coded && !scratch)
 		return vd_fail(VD_ERR_NOMEM, "colour blocks");
+	if (c->coded) {
+		uint64_t coded = 0;
+		unsigned per = ((1u << c->block_log) - 1) / VD_AUTO_RESTART;
+		c->blk_restart = malloc((size_t)c->blocks * sizeof *c->blk_restart);
+		for (uint64_t b = 0; b < c->blocks && c->blk_restart; b++) {
+			c->blk_restart[b] = UINT32_MAX;
+			if (c->dir[b] >> 24 == VD_AUTO_CODED && per &&
+			    coded * per < UINT32_MAX - per)
+				c->blk_restart[b] = (uint32_t)(coded++ * per);
+		}
+		if (!c->blk_restart || (coded && !(c->restart = malloc(
+				(size_t)(coded * per) * sizeof *c->restart)))) {
+			free(scratch);
+			return vd_fail(VD_ERR_NOMEM, "restart points of %llu coded "
+				       "blocks", (unsigned long long)coded);
+		}
+	}
 	err = read_auto_blocks(c, scratch);
 	free(scratch);
 	return err;
@@ -1191,12 +1216,16 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 			if (m == VD_AUTO_CODED) {
 				/* decoded from a copy padded with zeros, so that a
 				 * corrupt stream cannot run past the data */
-				uint8_t last[3];
+				uint8_t last[3], *all = scratch + 5 + 65535 + SCRATCH_PAD;
 				memset(scratch, 0, sz + SCRATCH_PAD);
 				memcpy(scratch, d, sz);
+				struct vd_auto_coded_state st;
+				vd_auto_coded_start(scratch, &st);
+				memcpy(all, scratch + 2, 3);
 				int64_t bits = len < 2 ? -1
-					: vd_auto_coded_decode(code, scratch, len - 1, last,
-							       scratch + 5 + 65535 + SCRATCH_PAD);
+					: vd_auto_coded_resume(code, scratch, &st, len - 1, last,
+							       all, c->blk_restart[bi] == UINT32_MAX
+							       ? NULL : c->restart + c->blk_restart[bi]);
 				if (bits < 0 || (uint64_t)(bits + 7) / 8 != sz - 5)
 					return vd_fail(VD_ERR_CORRUPT, "block %llu: "
 						       "coded colours %s",
@@ -1350,8 +1379,24 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	uint32_t first = k >> c->block_log << c->block_log;
 	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
 	if (e >> 24 == VD_AUTO_CODED) {
-		vd_auto_coded_decode(c->code[s], c->data + c->seg_data[s] +
-						 (e & 0xffffff), k - first, rgb, NULL);
+		/* from the restart point at or before the voxel: one past it
+		 * means a run that covers the voxel (the step before it ended
+		 * before the point), so its colour is the point's */
+		const uint8_t *d = c->data + c->seg_data[s] + (e & 0xffffff);
+		uint32_t j = k - first, q = j / VD_AUTO_RESTART;
+		uint32_t r = c->blk_restart[c->seg_block[s] + (k >> c->block_log)];
+		if (q == 0 || r == UINT32_MAX) {
+			vd_auto_coded_decode(c->code[s], d, j, rgb, NULL);
+			return;
+		}
+		const struct vd_auto_coded_state *st = c->restart + r + q - 1;
+		if (st->i > j) {
+			rgb[0] = (uint8_t)st->cur;
+			rgb[1] = (uint8_t)(st->cur >> 8);
+			rgb[2] = (uint8_t)(st->cur >> 16);
+			return;
+		}
+		vd_auto_coded_resume(c->code[s], d, st, j, rgb, NULL, NULL);
 		return;
 	}
 	vd_auto_decode(e, c->data + c->seg_data[s] + (e & 0xffffff),
