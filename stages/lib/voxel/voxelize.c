@@ -1629,21 +1629,21 @@ __attribute__((target("avx2"))) static inline int v4_any(v4l m)
  * triangle has no area there, whose nearest point (of three segments)
  * the caller finds with nearest_bary itself. */
 __attribute__((target("avx2"))) static int
-nearest4(const struct near_tri *nt, const double c[3][4], float d2[4],
-	 double w[3][4])
+nearest4(const struct near_tri *nt, const double *const c[3], float d2[4],
+	 double *const w[3])
 {
-	v4d p[3][3], d1, d2_, d3, d4, d5, d6;
+	/* the centres straight from their arrays: copied through the stack
+	 * in two halves they were read back whole, which the store buffer
+	 * cannot forward (perf put a third of nearest4 there) */
+	v4d p[3][3], cv[3], d1, d2_, d3, d4, d5, d6;
 	for (int i = 0; i < 3; i++) {
-		v4d ctr;
-		memcpy(&ctr, c[i], sizeof ctr);
+		cv[i] = (v4d)_mm256_loadu_pd(c[i]);
 		for (int k = 0; k < 3; k++)
-			p[k][i] = nt->tv[k][i] - ctr;
+			p[k][i] = nt->tv[k][i] - cv[i];
 	}
 	if (nt->exact) {
 		/* two dot products instead of six, the same values (see
 		 * struct near_tri) */
-		v4d cv[3];
-		memcpy(cv, c, sizeof cv);
 		d1 = nt->ab[0] * cv[0] + nt->ab[1] * cv[1] + nt->ab[2] * cv[2] -
 		     nt->ab_a;
 		d2_ = nt->ac[0] * cv[0] + nt->ac[1] * cv[1] + nt->ac[2] * cv[2] -
@@ -1708,9 +1708,9 @@ nearest4(const struct near_tri *nt, const double c[3][4], float d2[4],
 	for (int i = 0; i < 3; i++)
 		q[i] = w0 * p[0][i] + w1 * p[1][i] + w2 * p[2][i];
 	_mm_storeu_ps(d2, _mm256_cvtpd_ps((__m256d)v4_dot(q, q)));
-	memcpy(w[0], &w0, sizeof w0);
-	memcpy(w[1], &w1, sizeof w1);
-	memcpy(w[2], &w2, sizeof w2);
+	_mm256_storeu_pd(w[0], (__m256d)w0);
+	_mm256_storeu_pd(w[1], (__m256d)w1);
+	_mm256_storeu_pd(w[2], (__m256d)w2);
 	return _mm256_movemask_pd((__m256d)flat);
 }
 
@@ -1743,7 +1743,9 @@ int vd__nearest_check(const int64_t v[3][3], int levels,
 #if NEAR_AVX2
 	if (!__builtin_cpu_supports("avx2"))
 		return -1;
-	flat = nearest4(&nt, c, d2[1], w[1]);
+	const double *cp[3] = {c[0], c[1], c[2]};
+	double *wp[3] = {w[1][0], w[1][1], w[1][2]};
+	flat = nearest4(&nt, cp, d2[1], wp);
 	return flat | nt.exact << 4;
 #else
 	(void)flat;
@@ -1814,12 +1816,10 @@ static void colour_flush(struct colour_ctx *c)
 				c->qc[a][i] = c->qc[a][0];
 		flat = 0;
 		for (int g = 0; g < n; g += 4) {
-			double cg[3][4], wg[3][4];
-			for (int a = 0; a < 3; a++)
-				memcpy(cg[a], &c->qc[a][g], sizeof cg[a]);
+			const double *cg[3] = {&c->qc[0][g], &c->qc[1][g],
+					       &c->qc[2][g]};
+			double *wg[3] = {&b[0][g], &b[1][g], &b[2][g]};
 			flat |= (uint64_t)nearest4(&c->nt, cg, d2 + g, wg) << g;
-			for (int k = 0; k < 3; k++)
-				memcpy(&b[k][g], wg[k], sizeof wg[k]);
 		}
 		flat &= (1ull << n) - 1;
 	}
