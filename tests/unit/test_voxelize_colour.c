@@ -971,6 +971,88 @@ static const char *random_soup(uint32_t ntri)
 	return path;
 }
 
+/* The AVX2 nearest points (nearest4, with its shortcut of edge products
+ * computed once per triangle) against the rule's scalar arithmetic
+ * (nearest_bary), bit for bit, on random triangles at random depths:
+ * small ones around a voxel, large ones, slivers, ones without area, and
+ * corners at the ends of the shortcut's range and beyond it (which must
+ * take the six dot products), seen from voxels near them and anywhere. */
+static uint64_t near_seed = 7;
+static uint64_t near_rand(uint64_t n)
+{
+	near_seed = near_seed * 6364136223846793005ull + 1442695040888963407ull;
+	return (near_seed >> 16) % n;
+}
+
+static void test_nearest4_same_as_scalar(void)
+{
+	const int64_t top = (int64_t)1 << 24, edge = (int64_t)1 << 22;
+	int exact = 0, inexact = 0, lanes = 0;
+	for (int it = 0; it < 200000; it++) {
+		int L = 1 + (int)near_rand(21);
+		int64_t s = vd_snap_voxel(L), side = (int64_t)1 << L;
+		int64_t v[3][3], vox[4][3];
+		int kind = (int)near_rand(6);
+		int64_t span = kind == 0 ? 4 * s : kind == 1 ? top : 64 * s;
+		for (int a = 0; a < 3; a++) {
+			int64_t o = (int64_t)near_rand((uint64_t)top);
+			for (int k = 0; k < 3; k++)
+				v[k][a] = o + (int64_t)near_rand((uint64_t)span) -
+					  span / 2;
+		}
+		if (kind == 2) /* a sliver: c a hair off the middle of ab */
+			for (int a = 0; a < 3; a++)
+				v[2][a] = (v[0][a] + v[1][a]) / 2 +
+					  (a == 0 ? (int64_t)near_rand(3) - 1 : 0);
+		if (kind == 3) /* no area: a repeated corner */
+			memcpy(v[2], v[1], sizeof v[1]);
+		if (kind == 4) /* corners at the shortcut's ends */
+			for (int k = 0; k < 3; k++)
+				for (int a = 0; a < 3; a++)
+					v[k][a] = near_rand(2) ? -edge - 1 +
+						  (int64_t)near_rand(2) :
+						  top + edge + (int64_t)near_rand(2);
+		if (kind == 5) /* beyond it */
+			v[near_rand(3)][near_rand(3)] =
+				(int64_t)near_rand(2) ? ((int64_t)1 << 40) :
+				-((int64_t)1 << 33);
+		for (int l = 0; l < 4; l++)
+			for (int a = 0; a < 3; a++) {
+				int64_t x = l < 2 ? v[near_rand(3)][a] / s +
+						    (int64_t)near_rand(5) - 2 :
+						    (int64_t)near_rand((uint64_t)side);
+				vox[l][a] = x < 0 ? 0 : x >= side ? side - 1 : x;
+			}
+		float d2[2][4];
+		double w[2][3][4];
+		int r = vd__nearest_check(v, L, vox, d2, w);
+		if (r < 0) {
+			printf("SKIP no AVX2\n");
+			return;
+		}
+		if (r & 16)
+			exact++;
+		else
+			inexact++;
+		int in = 1;
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				in &= v[k][a] >= -edge && v[k][a] <= top + edge;
+		CHECK_EQ(!!(r & 16), in);
+		for (int l = 0; l < 4; l++) {
+			if (r >> l & 1)
+				continue; /* no area: nearest_bary's own */
+			lanes++;
+			CHECK(!memcmp(&d2[0][l], &d2[1][l], sizeof(float)));
+			for (int k = 0; k < 3; k++)
+				CHECK(w[0][k][l] == w[1][k][l]);
+		}
+	}
+	CHECK(exact > 100000);
+	CHECK(inexact > 10000);
+	CHECK(lanes > 600000);
+}
+
 /* The colour pass's fast paths (brick walks, nearest points four at a
  * time in AVX2) and its reference (spans, one at a time): the same
  * colours, bit for bit, on random triangles, flat ones, a scan and a
@@ -1288,6 +1370,7 @@ int main(void)
 	RUN(test_big_triangle_vertex_colours);
 	RUN(test_tie_earlier_wins);
 	RUN(test_nearest_brute_force);
+	RUN(test_nearest4_same_as_scalar);
 	RUN(test_simd_same_as_scalar);
 	RUN(test_chunked_concat);
 	RUN(test_svo_identical);

@@ -65,6 +65,17 @@ extern int vd_raster_simd;
  * compare the two, bit for bit. */
 extern int vd_colour_fast;
 
+/* For the tests: the nearest points of the triangle of snapped corners v
+ * (grid depth `levels`) to the centres of the voxels vox[0..4), by the
+ * rule's scalar arithmetic into d2[0], w[0] (distances, weights by
+ * corner and voxel) and by the colour pass's AVX2 path into d2[1], w[1].
+ * Returns -1 without AVX2, else the AVX2 path's lanes without area (bit
+ * l: d2[1][l] and w[1][..][l] not computed), plus 16 when the triangle
+ * took the exact shortcut of precomputed edge products. */
+int vd__nearest_check(const int64_t v[3][3], int levels,
+		      const int64_t vox[4][3], float d2[2][4],
+		      double w[2][3][4]);
+
 /* The most bytes voxelize keeps of a mesh's triangles between its passes
  * over the file (besides a sixteenth of the budget): tests set 0 (every
  * pass reads the file) or a size a mesh overflows midway. */

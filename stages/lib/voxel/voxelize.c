@@ -1536,6 +1536,56 @@ static double nearest_bary(const double a[3], const double b[3],
 	return dot3(q, q);
 }
 
+/* A triangle as the nearest-point arithmetic sees it: its corners a, b, c
+ * in voxels (tv: lattice integers over a power of two, exact), and, when
+ * every lattice coordinate is within [-2^22, 2^24 + 2^22] (`exact`; a
+ * mesh's own cube is [0, 2^24]), its edges ab = b - a, ac = c - a and the
+ * dot products ab.a, ac.a, ab.ab, ab.ac, ac.ac. nearest_bary's six dot
+ * products d1..d6 of the edges with the corners seen from a voxel centre
+ * q (ap = q - a, ...) are then exact: in lattice units every factor is an
+ * integer below 1.5 * 2^24 in magnitude (q's too: a voxel's centre is an
+ * integer number of lattice steps from the origin, as a voxel has at
+ * least 8 of them), so every product is an integer below 2.25 * 2^48,
+ * every sum of three below 2^51, exactly representable; scaling by
+ * powers of two to voxels keeps them exact. So d1 = ab.q - ab.a and
+ * d2 = ac.q - ac.a, exact in the same way, and d3 = ab.bp = d1 - ab.ab,
+ * d4 = ac.bp = d2 - ab.ac, d5 = ab.cp = d1 - ab.ac, d6 = ac.cp = d2 -
+ * ac.ac, each an exact difference, are the values nearest_bary computes,
+ * bit for bit up to the sign of a zero, which no comparison sees and which
+ * leaves every weight and distance as it was (a zero weight times a corner
+ * is added to the others' products or squared). */
+struct near_tri {
+	double tv[3][3];
+	int exact;
+	double ab[3], ac[3];
+	double ab_a, ac_a, ab_ab, ab_ac, ac_ac;
+};
+
+/* t's fields from the snapped corners v and the lattice steps per voxel
+ * s (a power of two). */
+static void near_tri_init(struct near_tri *t, const int64_t v[3][3],
+			  int64_t s)
+{
+	const double inv_s = 1.0 / (double)s; /* exact */
+	const int64_t lo = -((int64_t)1 << 22),
+		      hi = ((int64_t)1 << 24) + ((int64_t)1 << 22);
+	t->exact = 1;
+	for (int k = 0; k < 3; k++)
+		for (int a = 0; a < 3; a++) {
+			t->tv[k][a] = (double)v[k][a] * inv_s;
+			t->exact &= v[k][a] >= lo && v[k][a] <= hi;
+		}
+	for (int a = 0; a < 3; a++) {
+		t->ab[a] = t->tv[1][a] - t->tv[0][a];
+		t->ac[a] = t->tv[2][a] - t->tv[0][a];
+	}
+	t->ab_a = dot3(t->ab, t->tv[0]);
+	t->ac_a = dot3(t->ac, t->tv[0]);
+	t->ab_ab = dot3(t->ab, t->ab);
+	t->ab_ac = dot3(t->ab, t->ac);
+	t->ac_ac = dot3(t->ac, t->ac);
+}
+
 /* The nearest points of four voxel centres at once, in the lanes of
  * AVX2 vectors, when the processor has them: the same operations as
  * nearest_bary in the same order (IEEE double, rounded alike; no FMA,
@@ -1573,30 +1623,48 @@ __attribute__((target("avx2"))) static inline int v4_any(v4l m)
 	return _mm256_movemask_pd((__m256d)m) != 0;
 }
 
-/* nearest_bary of the triangle tv (corners in voxels) seen from the
- * centres (cx[l], cy[l], cz[l]) of lanes l = 0..3: the squared distance
- * rounded to float into d2[l], the weights into w[0..2][l]. Returns the
- * lanes (bit l) whose triangle has no area there, whose nearest point
- * (of three segments) the caller finds with nearest_bary itself. */
+/* nearest_bary of the triangle nt seen from the centres (cx[l], cy[l],
+ * cz[l]) of lanes l = 0..3: the squared distance rounded to float into
+ * d2[l], the weights into w[0..2][l]. Returns the lanes (bit l) whose
+ * triangle has no area there, whose nearest point (of three segments)
+ * the caller finds with nearest_bary itself. */
 __attribute__((target("avx2"))) static int
-nearest4(const double tv[3][3], const double c[3][4], float d2[4],
-	 double w[3][4])
+nearest4(const struct near_tri *nt, const double *const c[3], float d2[4],
+	 double *const w[3])
 {
-	v4d p[3][3], ab[3], ac[3], ap[3], bp[3], cp[3];
+	/* the centres straight from their arrays: copied through the stack
+	 * in two halves they were read back whole, which the store buffer
+	 * cannot forward (perf put a third of nearest4 there) */
+	v4d p[3][3], cv[3], d1, d2_, d3, d4, d5, d6;
 	for (int i = 0; i < 3; i++) {
-		v4d ctr;
-		memcpy(&ctr, c[i], sizeof ctr);
+		cv[i] = (v4d)_mm256_loadu_pd(c[i]);
 		for (int k = 0; k < 3; k++)
-			p[k][i] = tv[k][i] - ctr;
-		ab[i] = p[1][i] - p[0][i];
-		ac[i] = p[2][i] - p[0][i];
-		ap[i] = -p[0][i];
-		bp[i] = -p[1][i];
-		cp[i] = -p[2][i];
+			p[k][i] = nt->tv[k][i] - cv[i];
 	}
-	const v4d d1 = v4_dot(ab, ap), d2_ = v4_dot(ac, ap);
-	const v4d d3 = v4_dot(ab, bp), d4 = v4_dot(ac, bp);
-	const v4d d5 = v4_dot(ab, cp), d6 = v4_dot(ac, cp);
+	if (nt->exact) {
+		/* two dot products instead of six, the same values (see
+		 * struct near_tri) */
+		d1 = nt->ab[0] * cv[0] + nt->ab[1] * cv[1] + nt->ab[2] * cv[2] -
+		     nt->ab_a;
+		d2_ = nt->ac[0] * cv[0] + nt->ac[1] * cv[1] + nt->ac[2] * cv[2] -
+		      nt->ac_a;
+		d3 = d1 - nt->ab_ab;
+		d4 = d2_ - nt->ab_ac;
+		d5 = d1 - nt->ab_ac;
+		d6 = d2_ - nt->ac_ac;
+	} else {
+		v4d ab[3], ac[3], ap[3], bp[3], cp[3];
+		for (int i = 0; i < 3; i++) {
+			ab[i] = p[1][i] - p[0][i];
+			ac[i] = p[2][i] - p[0][i];
+			ap[i] = -p[0][i];
+			bp[i] = -p[1][i];
+			cp[i] = -p[2][i];
+		}
+		d1 = v4_dot(ab, ap), d2_ = v4_dot(ac, ap);
+		d3 = v4_dot(ab, bp), d4 = v4_dot(ac, bp);
+		d5 = v4_dot(ab, cp), d6 = v4_dot(ac, cp);
+	}
 	const v4d vc = d1 * d4 - d3 * d2_, vb = d5 * d2_ - d1 * d6,
 		  va = d3 * d6 - d5 * d4;
 	const v4d zero = {0, 0, 0, 0}, one = {1, 1, 1, 1};
@@ -1611,42 +1679,38 @@ nearest4(const double tv[3][3], const double c[3][4], float d2[4],
 	done |= m;
 	const v4l flat = ~done & ~(sum > 0);
 	done |= flat;
-	m = ~done & (vc <= 0) & (d1 >= 0) & (d3 <= 0);
-	if (v4_any(m)) {
-		v4d v = d1 / (d1 - d3);
-		w0 = v4_sel(m, 1 - v, w0);
-		w1 = v4_sel(m, v, w1);
-	}
-	done |= m;
-	m = ~done & (vb <= 0) & (d2_ >= 0) & (d6 <= 0);
-	if (v4_any(m)) {
-		v4d t = d2_ / (d2_ - d6);
-		w0 = v4_sel(m, 1 - t, w0);
-		w2 = v4_sel(m, t, w2);
-	}
-	done |= m;
-	m = ~done & (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0);
-	if (v4_any(m)) {
-		v4d t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-		w1 = v4_sel(m, 1 - t, w1);
-		w2 = v4_sel(m, t, w2);
-	}
-	done |= m;
-	m = ~done;
-	if (v4_any(m)) {
-		v4d den = 1 / sum;
-		v4d v = vb * den, t = vc * den;
-		w0 = v4_sel(m, 1 - v - t, w0);
-		w1 = v4_sel(m, v, w1);
-		w2 = v4_sel(m, t, w2);
+	const v4l mab = ~done & (vc <= 0) & (d1 >= 0) & (d3 <= 0);
+	done |= mab;
+	const v4l mac = ~done & (vb <= 0) & (d2_ >= 0) & (d6 <= 0);
+	done |= mac;
+	const v4d d43 = d4 - d3, d56 = d5 - d6;
+	const v4l mbc = ~done & (va <= 0) & (d43 >= 0) & (d56 >= 0);
+	done |= mbc;
+	const v4l face = ~done;
+	if (v4_any(mab | mac | mbc | face)) {
+		/* one division for the four lanes, each its region's: the
+		 * edges' parameters and the face's 1 / sum */
+		v4d num = v4_sel(mab, d1, v4_sel(mac, d2_, v4_sel(mbc, d43,
+								one)));
+		v4d den = v4_sel(mab, d1 - d3,
+				 v4_sel(mac, d2_ - d6,
+					v4_sel(mbc, d43 + d56, sum)));
+		v4d r = num / den;
+		w0 = v4_sel(mab | mac, 1 - r, w0);
+		w1 = v4_sel(mab, r, v4_sel(mbc, 1 - r, w1));
+		w2 = v4_sel(mac | mbc, r, w2);
+		v4d v = vb * r, t = vc * r;
+		w0 = v4_sel(face, 1 - v - t, w0);
+		w1 = v4_sel(face, v, w1);
+		w2 = v4_sel(face, t, w2);
 	}
 	v4d q[3];
 	for (int i = 0; i < 3; i++)
 		q[i] = w0 * p[0][i] + w1 * p[1][i] + w2 * p[2][i];
 	_mm_storeu_ps(d2, _mm256_cvtpd_ps((__m256d)v4_dot(q, q)));
-	memcpy(w[0], &w0, sizeof w0);
-	memcpy(w[1], &w1, sizeof w1);
-	memcpy(w[2], &w2, sizeof w2);
+	_mm256_storeu_pd(w[0], (__m256d)w0);
+	_mm256_storeu_pd(w[1], (__m256d)w1);
+	_mm256_storeu_pd(w[2], (__m256d)w2);
 	return _mm256_movemask_pd((__m256d)flat);
 }
 
@@ -1656,7 +1720,51 @@ static int near_avx2(void)
 }
 #endif
 
-enum { NEAR_BATCH = 8 };  /* voxels whose nearest points go together */
+int vd__nearest_check(const int64_t v[3][3], int levels,
+		      const int64_t vox[4][3], float d2[2][4],
+		      double w[2][3][4])
+{
+	struct near_tri nt;
+	near_tri_init(&nt, v, vd_snap_voxel(levels));
+	double c[3][4];
+	for (int l = 0; l < 4; l++)
+		for (int a = 0; a < 3; a++)
+			c[a][l] = (double)vox[l][a] + 0.5;
+	int flat = 0;
+	for (int l = 0; l < 4; l++) {
+		double p[3][3], b[3];
+		for (int k = 0; k < 3; k++)
+			for (int a = 0; a < 3; a++)
+				p[k][a] = nt.tv[k][a] - c[a][l];
+		d2[0][l] = (float)nearest_bary(p[0], p[1], p[2], b);
+		for (int k = 0; k < 3; k++)
+			w[0][k][l] = b[k];
+	}
+#if NEAR_AVX2
+	if (!__builtin_cpu_supports("avx2"))
+		return -1;
+	const double *cp[3] = {c[0], c[1], c[2]};
+	double *wp[3] = {w[1][0], w[1][1], w[1][2]};
+	flat = nearest4(&nt, cp, d2[1], wp);
+	return flat | nt.exact << 4;
+#else
+	(void)flat;
+	return -1;
+#endif
+}
+
+/* A triangle's voxels go through two queues. Its bricks' words first
+ * (block, word, the triangle's bits there), whose geometry word and rank
+ * are fetched into the cache as they are queued and read when the queue
+ * is drained, a queue later; each voxel then gets its slot (its rank in
+ * the cell's Morton order), fetched too, and joins the voxels waiting for
+ * their nearest points, whose slots are read a batch later. perf put the
+ * colour pass's time in waiting on those loads when each voxel's word,
+ * rank and slot were fetched 8 voxels ahead. */
+enum {
+	WORD_QUEUE = 64,          /* words whose geometry is being fetched */
+	NEAR_BATCH = 32           /* voxels whose nearest points go together */
+};
 
 struct colour_ctx {
 	struct worker *w;
@@ -1664,7 +1772,7 @@ struct colour_ctx {
 	int64_t lo[3];            /* cell corner, voxels */
 	int64_t s;                /* lattice steps per voxel */
 	const struct vd_snapped_tri *st;
-	double tv[3][3];          /* its corners in voxels: st / s, exact */
+	struct near_tri nt;       /* its corners in voxels: st / s, exact */
 	const struct vd_tri_attr *a;
 	const struct vd_texture *tex;
 	uint32_t last_b[3];       /* block of the last voxel, */
@@ -1675,15 +1783,17 @@ struct colour_ctx {
 	 * its three corners alike (a material's colour; test_uniform_colour
 	 * holds vd_tri_attr_colour to it for weights within +-2) */
 	int uniform;
-	/* the triangle's voxels waiting for their nearest points: centres
-	 * (voxels) by axis, and where their bits are (block index in
-	 * w->order, word, bit), which are read only when the batch is done,
-	 * so that the loads of a batch overlap */
+	/* the words waiting: block index in w->order, word, the triangle's
+	 * bits in it, the brick's first voxel */
+	int nw;
+	uint32_t wb[WORD_QUEUE];
+	uint16_t ww[WORD_QUEUE];
+	uint64_t wm[WORD_QUEUE];
+	int64_t wc[WORD_QUEUE][3];
+	/* the voxels waiting: centres (voxels) by axis, and their slots */
 	int nq;
 	double qc[3][NEAR_BATCH];
-	uint32_t qb[NEAR_BATCH];
-	uint16_t qw[NEAR_BATCH];
-	uint8_t qbit[NEAR_BATCH];
+	struct vox_col *qv[NEAR_BATCH];
 };
 
 /* The nearest points of the waiting voxels, then their colours, in the
@@ -1694,25 +1804,10 @@ static void colour_flush(struct colour_ctx *c)
 {
 	float d2[NEAR_BATCH];
 	double b[3][NEAR_BATCH];
-	struct vox_col *qv[NEAR_BATCH];
-	int n = c->nq, flat = (1 << n) - 1;
-	const struct worker *w = c->w;
-	/* the voxels' slots: their ranks in the cell's Morton order (the
-	 * slots' cache lines are fetched while the nearest points are
-	 * found: they are far apart when a triangle crosses blocks) */
-	for (int i = 0; i < n; i++) {
-		size_t bi = c->qb[i];
-		uint64_t word = w->blk[bi][c->qw[i]];
-		if (!(word >> c->qbit[i] & 1)) {
-			qv[i] = NULL; /* cannot be: the geometry pass set it */
-			continue;
-		}
-		uint64_t rank = w->base[bi] +
-				w->prefix[bi * BLOCK_WORDS + c->qw[i]] +
-				vd_popcount64(word & ((1ull << c->qbit[i]) - 1));
-		qv[i] = &w->vox[rank];
-		__builtin_prefetch(qv[i], 1);
-	}
+	struct vox_col *const *qv = c->qv;
+	const int n = c->nq;
+	_Static_assert(NEAR_BATCH < 64 && NEAR_BATCH % 4 == 0, "lane masks");
+	uint64_t flat = (1ull << n) - 1;
 #if NEAR_AVX2
 	if (c->simd) {
 		/* the lanes past n repeat voxel 0: computed, not used */
@@ -1721,14 +1816,12 @@ static void colour_flush(struct colour_ctx *c)
 				c->qc[a][i] = c->qc[a][0];
 		flat = 0;
 		for (int g = 0; g < n; g += 4) {
-			double cg[3][4], wg[3][4];
-			for (int a = 0; a < 3; a++)
-				memcpy(cg[a], &c->qc[a][g], sizeof cg[a]);
-			flat |= nearest4(c->tv, cg, d2 + g, wg) << g;
-			for (int k = 0; k < 3; k++)
-				memcpy(&b[k][g], wg[k], sizeof wg[k]);
+			const double *cg[3] = {&c->qc[0][g], &c->qc[1][g],
+					       &c->qc[2][g]};
+			double *wg[3] = {&b[0][g], &b[1][g], &b[2][g]};
+			flat |= (uint64_t)nearest4(&c->nt, cg, d2 + g, wg) << g;
 		}
-		flat &= (1 << n) - 1;
+		flat &= (1ull << n) - 1;
 	}
 #endif
 	/* without AVX2 every voxel, with it the lanes without area: the
@@ -1736,31 +1829,32 @@ static void colour_flush(struct colour_ctx *c)
 	 * integers over a power of two, less a half-integer, well inside 53
 	 * bits) and so the same in every chunking */
 	for (; flat; flat &= flat - 1) {
-		int i = __builtin_ctz((unsigned)flat);
+		int i = __builtin_ctzll(flat);
 		double p[3][3], bi[3];
 		for (int k = 0; k < 3; k++)
 			for (int a = 0; a < 3; a++)
-				p[k][a] = c->tv[k][a] - c->qc[a][i];
+				p[k][a] = c->nt.tv[k][a] - c->qc[a][i];
 		d2[i] = (float)nearest_bary(p[0], p[1], p[2], bi);
 		for (int k = 0; k < 3; k++)
 			b[k][i] = bi[k];
 	}
 	/* the voxels this triangle is nearer to, their texels found and
 	 * fetched before any is read */
-	int take = 0, texels = 0;
+	uint64_t take = 0, texels = 0;
 	struct vd_texel_quad tq[NEAR_BATCH];
 	for (int i = 0; i < n; i++) {
 		struct vox_col *v = qv[i];
-		if (!v || (v->set && !(d2[i] < v->d2)))
+		if (v->set && !(d2[i] < v->d2))
 			continue; /* an earlier triangle is as near: it stays */
-		take |= 1 << i;
+		take |= 1ull << i;
 		if (c->tex) {
 			double bi[3] = {b[0][i], b[1][i], b[2][i]};
-			texels |= vd_tri_attr_texels(c->a, c->tex, bi, &tq[i]) << i;
+			texels |= (uint64_t)vd_tri_attr_texels(c->a, c->tex, bi,
+							      &tq[i]) << i;
 		}
 	}
 	for (; take; take &= take - 1) {
-		int i = __builtin_ctz((unsigned)take);
+		int i = __builtin_ctzll(take);
 		struct vox_col *v = qv[i];
 		v->d2 = d2[i];
 		v->set = 1;
@@ -1779,19 +1873,61 @@ static void colour_flush(struct colour_ctx *c)
 	c->nq = 0;
 }
 
-/* Voxel (x, y, z), bit `bit` of word wi of block bi (its index in
- * w->order), joins the triangle's batch. */
-static inline void colour_push(struct colour_ctx *c, size_t bi, unsigned wi,
-			       unsigned bit, int64_t x, int64_t y, int64_t z)
+/* The waiting words' voxels into the nearest-point batches: a word's
+ * geometry and rank are read once for its voxels. */
+static void colour_drain(struct colour_ctx *c)
 {
-	int q = c->nq;
-	c->qb[q] = (uint32_t)bi;
-	c->qw[q] = (uint16_t)wi;
-	c->qbit[q] = (uint8_t)bit;
-	c->qc[0][q] = (double)x + 0.5;
-	c->qc[1][q] = (double)y + 0.5;
-	c->qc[2][q] = (double)z + 0.5;
-	if ((c->nq = q + 1) == NEAR_BATCH)
+	const struct worker *w = c->w;
+	for (int k = 0; k < c->nw; k++) {
+		size_t bi = c->wb[k];
+		unsigned wi = c->ww[k];
+		uint64_t word = w->blk[bi][wi];
+		uint64_t m = c->wm[k] & word; /* other bits cannot be: the
+					       * geometry pass set them */
+		uint64_t rank = w->base[bi] + w->prefix[bi * BLOCK_WORDS + wi];
+		const int64_t *o = c->wc[k];
+		for (; m; m &= m - 1) {
+			unsigned j = (unsigned)__builtin_ctzll(m);
+			int q = c->nq;
+			struct vox_col *v = &w->vox[rank + (uint64_t)
+				vd_popcount64(word & ((1ull << j) - 1))];
+			__builtin_prefetch(v, 1);
+			c->qv[q] = v;
+			c->qc[0][q] = (double)(o[0] + (j >> 2 & 1) +
+					       (j >> 4 & 2)) + 0.5;
+			c->qc[1][q] = (double)(o[1] + (j >> 1 & 1) +
+					       (j >> 3 & 2)) + 0.5;
+			c->qc[2][q] = (double)(o[2] + (j & 1) + (j >> 2 & 2)) +
+				      0.5;
+			if ((c->nq = q + 1) == NEAR_BATCH)
+				colour_flush(c);
+		}
+	}
+	c->nw = 0;
+}
+
+/* The triangle's bits m of word wi of block bi (its index in w->order),
+ * whose brick's first voxel is (x, y, z), join the words waiting. */
+static inline void colour_word(struct colour_ctx *c, size_t bi, unsigned wi,
+			       uint64_t m, int64_t x, int64_t y, int64_t z)
+{
+	const struct worker *w = c->w;
+	__builtin_prefetch(&w->blk[bi][wi]);
+	__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
+	int k = c->nw;
+	c->wb[k] = (uint32_t)bi;
+	c->ww[k] = (uint16_t)wi;
+	c->wm[k] = m;
+	c->wc[k][0] = x, c->wc[k][1] = y, c->wc[k][2] = z;
+	if ((c->nw = k + 1) == WORD_QUEUE)
+		colour_drain(c);
+}
+
+/* A triangle's voxels are all queued: their colours now. */
+static void colour_finish(struct colour_ctx *c)
+{
+	colour_drain(c);
+	if (c->nq)
 		colour_flush(c);
 }
 
@@ -1827,16 +1963,13 @@ static inline void colour_voxel(struct colour_ctx *c, int64_t x, int64_t y,
 		c->last_b[0] = bx, c->last_b[1] = by, c->last_b[2] = bz;
 		c->have_last = 1;
 	}
-	size_t bi = c->last;
 	unsigned wi = (unsigned)spread3[(lx >> 2) & 7] << 2 |
 		      (unsigned)spread3[(ly >> 2) & 7] << 1 |
 		      spread3[(lz >> 2) & 7];
 	unsigned bit = (unsigned)spread3[lx & 3] << 2 |
 		       (unsigned)spread3[ly & 3] << 1 | spread3[lz & 3];
-	/* the word and its rank are read in colour_flush: fetched now */
-	__builtin_prefetch(&w->blk[bi][wi]);
-	__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
-	colour_push(c, bi, wi, bit, x, y, z);
+	colour_word(c, c->last, wi, 1ull << bit, x & ~(int64_t)3,
+		    y & ~(int64_t)3, z & ~(int64_t)3);
 }
 
 /* A run of voxels, in the order vd_raster_triangle visits them: the
@@ -1937,15 +2070,8 @@ static int colour_walk(struct colour_ctx *c, struct tri_blocks *tb,
 					tw[wi] = 0;
 					if (bi == c->nb)
 						continue; /* cannot be */
-					__builtin_prefetch(&w->blk[bi][wi]);
-					__builtin_prefetch(&w->prefix[bi * BLOCK_WORDS + wi]);
-					for (; m; m &= m - 1) {
-						unsigned j = (unsigned)__builtin_ctzll(m);
-						colour_push(c, bi, wi, j,
-							    org[0] + 4 * x + (j >> 2 & 1) + (j >> 4 & 2),
-							    org[1] + 4 * y + (j >> 1 & 1) + (j >> 3 & 2),
-							    org[2] + 4 * z + (j & 1) + (j >> 2 & 2));
-					}
+					colour_word(c, bi, wi, m, org[0] + 4 * x,
+						    org[1] + 4 * y, org[2] + 4 * z);
 				}
 	}
 	return 1;
@@ -2031,7 +2157,6 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 #if NEAR_AVX2
 	cc.simd = near_avx2();
 #endif
-	const double inv_s = 1.0 / (double)cc.s; /* a power of two: exact */
 	memcpy(cc.lo, lo, sizeof cc.lo);
 	/* without the scratch blocks (or in the tests' reference pass),
 	 * every triangle takes the spans */
@@ -2053,9 +2178,7 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 			if (err)
 				break;
 			cc.st = &st;
-			for (int k = 0; k < 3; k++)
-				for (int a = 0; a < 3; a++)
-					cc.tv[k][a] = (double)st.v[k][a] * inv_s;
+			near_tri_init(&cc.nt, st.v, cc.s);
 			cc.a = &rec.a;
 			cc.tex = vd_mesh_texture(r->mesh, rec.a.texture);
 			cc.uniform = !(rec.a.texture >= 0 && cc.tex) &&
@@ -2066,8 +2189,7 @@ static int colour_pass(struct run *r, struct worker *w, struct worker *rd,
 				vd_raster_triangle_spans(&st, r->g.L, clip_lo,
 							 clip_hi, colour_span,
 							 &cc);
-			if (cc.nq)
-				colour_flush(&cc);
+			colour_finish(&cc);
 		}
 	}
 	if (!err && ferror(f))
