@@ -48,6 +48,19 @@ static const uint64_t vd_auto_recip[9] = {
 	0, 0x100000001ull, 0x55555556ull, 0x24924925ull, 0x11111112ull,
 	0x8421085ull, 0x4104105ull, 0x2040811ull, 0x1010102ull};
 
+/* A part's endpoint pair at ep: RGB565 (esz 4 bytes) or RGB8 (6). */
+static inline void vd_auto_endpoints(const uint8_t *ep, unsigned esz,
+				     uint8_t c0[3], uint8_t c1[3])
+{
+	if (esz == 4) {
+		vd_rgb565_decode((uint16_t)(ep[0] | ep[1] << 8), c0);
+		vd_rgb565_decode((uint16_t)(ep[2] | ep[3] << 8), c1);
+	} else {
+		memcpy(c0, ep, 3);
+		memcpy(c1, ep + 3, 3);
+	}
+}
+
 static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 				  uint32_t j, uint8_t rgb[3])
 {
@@ -71,15 +84,8 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		unsigned m = (1u << b) - 1, len = d[0] & 15;
 		unsigned esz = d[0] & 16 ? 4 : 6;
 		unsigned parts = (n + (1u << len) - 1) >> len;
-		const uint8_t *ep = d + 1 + esz * (j >> len);
 		uint8_t c0[3], c1[3];
-		if (esz == 4) {
-			vd_rgb565_decode((uint16_t)(ep[0] | ep[1] << 8), c0);
-			vd_rgb565_decode((uint16_t)(ep[2] | ep[3] << 8), c1);
-		} else {
-			memcpy(c0, ep, 3);
-			memcpy(c1, ep + 3, 3);
-		}
+		vd_auto_endpoints(d + 1 + esz * (j >> len), esz, c0, c1);
 		unsigned w = vd_auto_bits(d + 1 + esz * parts, (uint64_t)j * b, b);
 		for (int c = 0; c < 3; c++)
 			rgb[c] = (uint8_t)(((uint64_t)(c0[c] * (m - w) + c1[c] * w +
@@ -136,15 +142,8 @@ static inline void vd_auto_decode_all(uint32_t e, const uint8_t *d,
 		const uint8_t *wb = d + 1 + esz * parts;
 		uint64_t r = vd_auto_recip[b];
 		for (uint32_t q = 0, j = 0; q < parts; q++) {
-			const uint8_t *ep = d + 1 + esz * q;
 			uint8_t c0[3], c1[3];
-			if (esz == 4) {
-				vd_rgb565_decode((uint16_t)(ep[0] | ep[1] << 8), c0);
-				vd_rgb565_decode((uint16_t)(ep[2] | ep[3] << 8), c1);
-			} else {
-				memcpy(c0, ep, 3);
-				memcpy(c1, ep + 3, 3);
-			}
+			vd_auto_endpoints(d + 1 + esz * q, esz, c0, c1);
 			uint32_t end = (q + 1) << len < n ? (q + 1) << len : n;
 			for (; j < end; j++) {
 				unsigned w = vd_auto_bits(wb, (uint64_t)j * b, b);
