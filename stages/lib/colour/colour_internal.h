@@ -61,6 +61,21 @@ static inline void vd_auto_endpoints(const uint8_t *ep, unsigned esz,
 	}
 }
 
+/* A quantized voxel's colour: its packed steps q (wr bits of red, wg of
+ * green, the rest blue: vd_auto_bits gives no more bits than the three
+ * widths) from the block's base colour d[0..3) by step d[3], clamped to
+ * 255. */
+static inline void vd_auto_quant(const uint8_t *d, unsigned wr, unsigned wg,
+				 uint32_t q, uint8_t rgb[3])
+{
+	unsigned qv[3] = {q & ((1u << wr) - 1), q >> wr & ((1u << wg) - 1),
+			  q >> (wr + wg)};
+	for (int c = 0; c < 3; c++) {
+		unsigned v = d[c] + qv[c] * d[3];
+		rgb[c] = (uint8_t)(v > 255 ? 255 : v);
+	}
+}
+
 static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 				  uint32_t j, uint8_t rgb[3])
 {
@@ -95,14 +110,8 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 	case VD_AUTO_QUANT >> 4: {
 		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
 		unsigned wsum = wr + wg + wb;
-		uint32_t q = vd_auto_bits(d + 6, (uint64_t)j * wsum, wsum);
-		unsigned qv[3] = {q & ((1u << wr) - 1),
-				  q >> wr & ((1u << wg) - 1),
-				  q >> (wr + wg) & ((1u << wb) - 1)};
-		for (int c = 0; c < 3; c++) {
-			unsigned v = d[c] + qv[c] * d[3];
-			rgb[c] = (uint8_t)(v > 255 ? 255 : v);
-		}
+		vd_auto_quant(d, wr, wg, vd_auto_bits(d + 6, (uint64_t)j * wsum,
+						      wsum), rgb);
 		return;
 	}
 	default: /* VD_AUTO_RAW */
@@ -157,16 +166,10 @@ static inline void vd_auto_decode_all(uint32_t e, const uint8_t *d,
 	case VD_AUTO_QUANT >> 4: {
 		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
 		unsigned wsum = wr + wg + wb;
-		for (uint32_t j = 0; j < n; j++) {
-			uint32_t q = vd_auto_bits(d + 6, (uint64_t)j * wsum, wsum);
-			unsigned qv[3] = {q & ((1u << wr) - 1),
-					  q >> wr & ((1u << wg) - 1),
-					  q >> (wr + wg) & ((1u << wb) - 1)};
-			for (int c = 0; c < 3; c++) {
-				unsigned v = d[c] + qv[c] * d[3];
-				rgb[3 * j + c] = (uint8_t)(v > 255 ? 255 : v);
-			}
-		}
+		for (uint32_t j = 0; j < n; j++)
+			vd_auto_quant(d, wr, wg, vd_auto_bits(d + 6, (uint64_t)j *
+							      wsum, wsum),
+				      rgb + 3 * j);
 		return;
 	}
 	default: /* VD_AUTO_RAW */
