@@ -797,6 +797,26 @@ static int check_graph(struct ctx *x, yaml_node_t *jobs_node)
 	return 0;
 }
 
+/* `keep: [job, ...]`: the jobs whose outputs stay; each must be a job. */
+static int parse_keep(struct ctx *x, yaml_node_t *v)
+{
+	struct config *c = x->c;
+	c->keep_given = 1;
+	for (yaml_node_item_t *ni = v->data.sequence.items.start;
+	     ni < v->data.sequence.items.top; ni++) {
+		yaml_node_t *e = yaml_document_get_node(&x->doc, *ni);
+		const char *s = scalar(e);
+		int d = 0;
+		while (s && d < c->njobs && strcmp(c->jobs_decl[d].name, s))
+			d++;
+		if (!s || d == c->njobs)
+			return fail_at(x, e, "'keep' names '%s', which is not a "
+				       "job", s ? s : "?");
+		c->keep_mask |= 1u << d;
+	}
+	return 0;
+}
+
 static int parse_root(struct ctx *x, yaml_node_t *root)
 {
 	struct config *c = x->c;
@@ -804,7 +824,7 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 		return fail_at(x, root, "a pipeline is a mapping of version, "
 			       "name, input, levels, resources, jobs");
 	yaml_node_t *k, *v, *jobs_node = NULL, *input = NULL, *levels = NULL,
-			      *res_node = NULL;
+			      *res_node = NULL, *keep = NULL;
 	int have_version = 0;
 	FOR_PAIRS(x, root, k, v, it) {
 		const char *key = scalar(k);
@@ -858,6 +878,11 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 					  sizeof c->outputs - 64);
 			if (!err && !*c->outputs)
 				return fail_at(x, v, "'outputs' is empty");
+		} else if (!strcmp(key, "keep")) {
+			keep = v; /* names jobs: read once they are known */
+			if (v->type != YAML_SEQUENCE_NODE)
+				return fail_at(x, v, "'keep' must be a list of "
+					       "job names");
 		} else if (!strcmp(key, "jobs")) {
 			jobs_node = v;
 			if (want_mapping(x, v, "jobs"))
@@ -887,7 +912,7 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 			return fail_at(x, k, "unknown key '%s' (known: version, "
 				       "name, input, levels, chunk_level, "
 				       "resolutions, resources, slurm, outputs, "
-				       "jobs, report)", key);
+				       "keep, jobs, report)", key);
 		}
 		if (err)
 			return 1;
@@ -915,6 +940,8 @@ static int parse_root(struct ctx *x, yaml_node_t *root)
 		return fail_at(x, root, "'job_mem_budget' is larger than "
 			       "'mem_budget'");
 	if (check_graph(x, jobs_node))
+		return 1;
+	if (keep && parse_keep(x, keep))
 		return 1;
 	struct stat st;
 	const char *in = *c->mesh ? c->mesh : c->vdb;

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 static const char usage[] =
@@ -54,21 +55,38 @@ static int cmd_plan(struct plan *p)
 	       c->mesh, c->levels, c->chunk_level < 0 ? "auto" : "fixed",
 	       c->jobs, (unsigned long long)(c->mem_budget >> 20),
 	       (unsigned long long)(c->job_mem_budget >> 20), c->threads);
+	uint64_t total = 0;
 	for (int d = 0; d < c->njobs; d++) {
-		int n = 0, fresh = 0;
-		uint64_t est = 0;
+		int n = 0, fresh = 0, read = 0;
+		uint64_t est = 0, disk = 0;
 		for (int i = 0; i < p->n; i++)
 			if (p->jobs[i].decl == d) {
 				n++;
+				read |= p->jobs[i].nrdeps > 0;
 				fresh += p->jobs[i].state == JOB_SKIPPED;
 				if (p->jobs[i].mem_estimate > est)
 					est = p->jobs[i].mem_estimate;
+				disk += job_disk_bytes(&p->jobs[i]);
 			}
+		total += disk;
 		printf("  %-12s %-15s %4d processes (%d done), largest estimate "
-		       "%llu MiB\n", c->jobs_decl[d].name,
+		       "%llu MiB, %.1f MiB on disk%s\n", c->jobs_decl[d].name,
 		       c->jobs_decl[d].stage->name, n, fresh,
-		       (unsigned long long)(est >> 20));
+		       (unsigned long long)(est >> 20), (double)disk / (1 << 20),
+		       c->keep_given && !(c->keep_mask >> d & 1) && read ? " (keep: "
+		       "intermediate)" : "");
 	}
+	/* what the outputs hold, beside what their file system has free: a
+	 * bound of what is still to come is not known before it is written
+	 * (every chunk is compressed) */
+	struct statvfs fs;
+	printf("  disk: %.1f MiB in the outputs", (double)total / (1 << 20));
+	if (statvfs(p->dir, &fs) == 0)
+		printf(", %.1f GiB free there",
+		       (double)fs.f_bavail * fs.f_frsize / (1 << 30));
+	if (c->keep_given)
+		printf("; keep: deleted %zu files so far", keep_gone_files());
+	printf("\n");
 	if (!p->expanded)
 		printf("  (the per-cell jobs and merges are known once voxelize "
 		       "has run: at most 8^L0 cells)\n");
@@ -102,6 +120,30 @@ static int cmd_clean(struct plan *p, int staging)
 	char cmd[1300];
 	snprintf(cmd, sizeof cmd, "rm -rf -- '%s'", p->dir);
 	return system(cmd) != 0;
+}
+
+/* keep: deleted a file that a job needs: the run starts over in a new
+ * process (the lock, the journal and the launcher are a process's), where
+ * the job that wrote the file, its key dropped, runs again first. Each
+ * start over drops at least one key, so a graph needs at most its depth of
+ * them; a bound catches what should never happen. Returns 1 when it
+ * cannot. */
+static int start_over(char **argv)
+{
+	const char *was = getenv("VOXDAG_STARTS");
+	int n = was ? atoi(was) : 0;
+	if (n >= 64) {
+		fprintf(stderr, "voxdag: started over %d times to rebuild what "
+			"keep: deleted; giving up\n", n);
+		return 1;
+	}
+	char v[16];
+	snprintf(v, sizeof v, "%d", n + 1);
+	setenv("VOXDAG_STARTS", v, 1);
+	fflush(NULL);
+	execv("/proc/self/exe", argv);
+	fprintf(stderr, "voxdag: cannot start over: %s\n", strerror(errno));
+	return 1;
 }
 
 int main(int argc, char **argv)
@@ -175,6 +217,8 @@ int main(int argc, char **argv)
 	switch (which) {
 	case 0:
 		rc = run_pipeline(&p, &o);
+		if (rc == RUN_AGAIN)
+			rc = start_over(argv);
 		if (rc == 0 && !o.quiet)
 			fprintf(stderr, "voxdag: done; the report is %s/report.md\n",
 				p.dir);

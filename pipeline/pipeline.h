@@ -93,6 +93,12 @@ struct config {
 	struct job_decl jobs_decl[MAX_JOBS_DECL];
 	char title[256];
 	char outputs[1024];        /* the output directory; default out/<name> */
+	/* keep: given, the outputs of the jobs not in keep_mask (bit d: job
+	 * decl d) are intermediates, deleted once every job reading them has
+	 * finished (plan.c, "keep:"); the outputs nothing reads are always
+	 * kept */
+	int keep_given;
+	uint32_t keep_mask;
 	enum executor { EXECUTOR_LOCAL, EXECUTOR_SLURM } executor;
 	struct slurm_opts {
 		char partition[MAX_NAME], account[MAX_NAME];
@@ -171,6 +177,9 @@ struct job {
 	int key_absent;            /* job_is_fresh found no key */
 	int fresh_checked;         /* ...and nothing can have made one since */
 	int adopt_checked;         /* Slurm: looked for an earlier submission */
+	int keep_done;             /* keep: deleted its output */
+	int revived;               /* keep: its key dropped to write again
+				    * what it wrote, which a job needs */
 };
 
 struct plan {
@@ -243,6 +252,23 @@ void keys_sync(int force);
  * (never finished). */
 int job_is_fresh(struct job *j, char *why, size_t cap);
 
+/* keep: (plan.c). vd_chunk_read_header, or for a chunk keep: deleted
+ * the header its G record kept. */
+int plan_chunk_header(const char *path, struct vd_chunk_header *h);
+
+/* With keep: and the graph whole, deletes the intermediates that no
+ * unfinished job reads any more: those job `finished` read (-1: all). */
+void keep_sweep(struct plan *p, int finished);
+
+/* 1 when job j needs a file keep: deleted: the job that wrote it loses
+ * its key (it runs again when the run starts over), and `why` says so. */
+int keep_revive(struct plan *p, struct job *j, char *why, size_t cap);
+
+/* What j's outputs take on disk now (allocated bytes), and how many files
+ * keep: has deleted in the outputs: for `voxdag plan`. */
+uint64_t job_disk_bytes(const struct job *j);
+size_t keep_gone_files(void);
+
 /* ------------------------------------------------------------- running */
 
 struct run_opts {
@@ -250,6 +276,10 @@ struct run_opts {
 	int dry;   /* plan only */
 };
 
+/* Runs the plan; returns the exit code (0, 1), or RUN_AGAIN when keep:
+ * deleted a file a job needs: the run starts over (main.c), and the job
+ * that wrote it, its key dropped, runs again first. */
+#define RUN_AGAIN 3
 int run_pipeline(struct plan *p, const struct run_opts *o);
 
 /* How a job ended, from wait4 (local) or its status file (Slurm). */

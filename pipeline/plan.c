@@ -272,14 +272,17 @@ static int job_finished(const struct job *j)
 
 /* ------------------------------------------------------------------ keys */
 
+static int gone_fp(const char *path, uint64_t *fp);
+
 /* A file's fingerprint: for chunk files the footer (size and whole-file
- * checksum, already computed by the writer), otherwise a hash of all of it.
- * Returns 0 if the file is missing or cannot be read whole. */
+ * checksum, already computed by the writer), otherwise a hash of all of it;
+ * for a file keep: deleted, the one recorded then. Returns 0 if the file
+ * is missing (and not deleted by keep:) or cannot be read whole. */
 static int fingerprint(const char *path, uint64_t *out)
 {
 	int fd = vd_open_read(path);
 	if (fd < 0)
-		return 0;
+		return errno == ENOENT && gone_fp(path, out);
 	struct stat st;
 	uint8_t foot[24];
 	static const uint8_t footer_magic[8] = {0x89, 'V', 'X', 'D', 'E', 'N', 'D', '\n'};
@@ -386,6 +389,16 @@ static int stat_sig(const char *path, int64_t t0, uint64_t *sig, int *ok,
 	return 0;
 }
 
+/* A file of directory output `dir` that keep: deleted. */
+static int gone_in_dir(void *ctx, const char *dir, const char *name)
+{
+	(void)ctx;
+	char path[2200];
+	snprintf(path, sizeof path, "%s/%s", dir, name);
+	uint64_t fp;
+	return gone_fp(path, &fp);
+}
+
 /* What a finished output is, checked before it is trusted again: a
  * directory output (voxelize, encode) through its manifest (every file's
  * size and checksum, no file more), a file through the XXH3 of all its
@@ -405,7 +418,7 @@ static int output_digest(const char *path, uint64_t *digest, uint64_t *sig,
 		return 1;
 	}
 	if (is_dir) {
-		err = vd_manifest_verify(path, digest);
+		err = vd_manifest_verify_except(path, digest, gone_in_dir, NULL);
 	} else {
 		uint64_t size;
 		err = vd_file_xxh3(path, digest, &size);
@@ -517,7 +530,13 @@ int job_key(const struct job *j, char key[17])
  *   CHECK K KEY DIGEST SIG PATH   the job that wrote PATH finished: its
  *                                 key, its output's digest, and its stat
  *                                 signature ("-" when it was not settled)
- *   CHECK D PATH                  PATH is being rebuilt: no key
+ *   CHECK D PATH                  PATH is being rebuilt: no key (and
+ *                                 not gone)
+ *   CHECK G FP HEADER PATH        keep: deleted the file PATH once every
+ *                                 job reading it had finished: its
+ *                                 fingerprint and, for a chunk, the
+ *                                 header the planner reads ("-" else),
+ *                                 which stand in for the file
  * CHECK is the XXH3-64 of the rest of the line; PATH is relative to the
  * outputs directory; the last valid record of a PATH counts. A line that
  * a crash tore, or any damage, fails its check and is ignored (that job
@@ -529,6 +548,9 @@ struct key_rec {
 	uint64_t key, digest, sig;
 	char op;        /* 'K' or 'D' */
 	char has_sig;
+	char gone;      /* a G record: the file was deleted by keep: */
+	uint64_t fp;    /* ...its fingerprint */
+	char *hdr;      /* ...its chunk header as written, or NULL */
 };
 
 static struct {
@@ -583,12 +605,18 @@ static struct key_rec *kj_find(const char *path, int add)
 	return r;
 }
 
-/* One record's line (without CHECK) into buf; returns its length. */
-static int kj_line(char *buf, size_t cap, const struct key_rec *r)
+/* One record's line (without CHECK) into buf; returns its length. With
+ * `gone`, its G line instead. */
+static int kj_line_of(char *buf, size_t cap, const struct key_rec *r,
+		      int gone)
 {
-	char body[1400];
+	char body[2400];
 	int n;
-	if (r->op == 'K') {
+	if (gone) {
+		n = snprintf(body, sizeof body, "G %016llx %s %s",
+			     (unsigned long long)r->fp, r->hdr ? r->hdr : "-",
+			     r->path);
+	} else if (r->op == 'K') {
 		char sig[17] = "-";
 		if (r->has_sig)
 			snprintf(sig, sizeof sig, "%016llx", (unsigned long long)r->sig);
@@ -600,6 +628,11 @@ static int kj_line(char *buf, size_t cap, const struct key_rec *r)
 	}
 	return snprintf(buf, cap, "%016llx %s\n",
 			(unsigned long long)XXH3_64bits(body, (size_t)n), body);
+}
+
+static int kj_line(char *buf, size_t cap, const struct key_rec *r)
+{
+	return kj_line_of(buf, cap, r, 0);
 }
 
 /* Applies one line (without its '\n'); 0 if it is not a valid record. */
@@ -615,6 +648,21 @@ static int kj_parse(char *line, size_t len)
 	if (body[0] == 'D' && body[1] == ' ' && body[2]) {
 		struct key_rec *r = kj_find(body + 2, 1);
 		r->op = 'D';
+		r->gone = 0;
+		return 1;
+	}
+	if (body[0] == 'G') {
+		unsigned long long fp;
+		char hdr[600];
+		int at = 0;
+		if (sscanf(body + 1, " %16llx %599s %n", &fp, hdr, &at) != 2 ||
+		    !at || !body[1 + at])
+			return 0;
+		struct key_rec *r = kj_find(body + 1 + at, 1);
+		r->gone = 1;
+		r->fp = fp;
+		free(r->hdr);
+		r->hdr = strcmp(hdr, "-") ? xstrdup(hdr) : NULL;
 		return 1;
 	}
 	char sigs[17];
@@ -718,7 +766,7 @@ int keys_open(const char *dir, int write)
 		}
 		size_t live = 0;
 		for (size_t i = 0; i < kj.n; i++)
-			live += kj.r[i].op == 'K';
+			live += (kj.r[i].op == 'K') + kj.r[i].gone;
 		kj.fd = -2; /* compact when opened for writing */
 		if (!bad && lines <= 2 * live + 1024)
 			kj.fd = -1;
@@ -732,9 +780,13 @@ int keys_open(const char *dir, int write)
 		struct vd_atomic a;
 		int err = vd_atomic_open(&a, path);
 		for (size_t i = 0; !err && i < kj.n; i++) {
-			char line[1500];
+			char line[2500];
 			if (kj.r[i].op == 'K') {
 				kj_line(line, sizeof line, &kj.r[i]);
+				fputs(line, a.f);
+			}
+			if (kj.r[i].gone) {
+				kj_line_of(line, sizeof line, &kj.r[i], 1);
 				fputs(line, a.f);
 			}
 		}
@@ -756,11 +808,32 @@ int keys_open(const char *dir, int write)
 }
 
 /* j's output as the journal names it: relative to the outputs. */
+static const char *kj_rel(const char *path)
+{
+	if (!strncmp(path, kj.dir, kj.dirlen) && path[kj.dirlen] == '/')
+		return path + kj.dirlen + 1;
+	return path;
+}
+
 static const char *kj_name(const struct job *j)
 {
-	if (!strncmp(j->output, kj.dir, kj.dirlen) && j->output[kj.dirlen] == '/')
-		return j->output + kj.dirlen + 1;
-	return j->output;
+	return kj_rel(j->output);
+}
+
+/* The G record of `path`, when keep: deleted it and nothing wrote it
+ * since (a job about to write it drops the record: job_key_drop). */
+static struct key_rec *gone_rec(const char *path)
+{
+	struct key_rec *r = kj_find(kj_rel(path), 0);
+	return r && r->gone ? r : NULL;
+}
+
+static int gone_fp(const char *path, uint64_t *fp)
+{
+	const struct key_rec *g = gone_rec(path);
+	if (g)
+		*fp = g->fp;
+	return g != NULL;
 }
 
 /* Keys reach the disk in groups: an fdatasync of the journal once a
@@ -774,6 +847,12 @@ static const char *kj_name(const struct job *j)
 static size_t kj_unsynced;
 static double kj_synced_at;
 
+/* The files keep: deleted, unlinked once their G records are durable:
+ * a power cut may then lose a record, never leave a file gone without one
+ * (gone unrecorded, its producer and readers would run again). */
+static char **unlink_q;
+static size_t unlink_n, unlink_cap;
+
 void keys_sync(int force)
 {
 	double now = (double)now_ns() * 1e-9;
@@ -781,20 +860,27 @@ void keys_sync(int force)
 	    (!force && kj_unsynced < KJ_GROUP && now - kj_synced_at < 1.0))
 		return;
 	/* a failed sync (EIO) loses only keys: those jobs run again */
-	vd_sync_fd(kj.fd);
+	int synced = vd_sync_fd(kj.fd) == VD_OK;
 	kj_unsynced = 0;
 	kj_synced_at = now;
+	for (size_t i = 0; i < unlink_n; i++) {
+		if (synced && unlink(unlink_q[i]) != 0 && errno != ENOENT)
+			run_log("cannot delete '%s' (keep:): %s", unlink_q[i],
+				strerror(errno));
+		free(unlink_q[i]);
+	}
+	unlink_n = 0;
 }
 
 /* 1 after a write that may have left part of a line (a full disk): the
  * next record starts on a line of its own, so only the torn one is lost. */
 static int kj_torn;
 
-static int kj_append(const struct key_rec *r)
+static int kj_append_of(const struct key_rec *r, int gone)
 {
-	char line[1500];
+	char line[2500];
 	line[0] = '\n';
-	int n = kj_line(line + 1, sizeof line - 1, r);
+	int n = kj_line_of(line + 1, sizeof line - 1, r, gone);
 	const char *at = kj_torn ? line : line + 1;
 	size_t len = (size_t)n + (kj_torn ? 1 : 0);
 	if (kj.fd < 0)
@@ -812,13 +898,35 @@ static int kj_append(const struct key_rec *r)
 	return 0;
 }
 
+static int kj_append(const struct key_rec *r)
+{
+	return kj_append_of(r, 0);
+}
+
+/* Appends a D record for r: no key, not gone. */
+static void kj_drop(struct key_rec *r)
+{
+	if (r->op == 'K' || r->gone) {
+		r->op = 'D';
+		r->gone = 0;
+		kj_append(r);
+	}
+}
+
 void job_key_drop(const struct job *j)
 {
 	struct key_rec *r = kj_find(kj_name(j), 0);
-	if (r && r->op == 'K') {
-		r->op = 'D';
-		kj_append(r);
-	}
+	if (r)
+		kj_drop(r);
+	if (!j->dir_output)
+		return;
+	/* the files keep: deleted from the directory it replaces */
+	const char *name = kj_name(j);
+	size_t len = strlen(name);
+	for (size_t i = 0; i < kj.n; i++)
+		if (kj.r[i].gone && !strncmp(kj.r[i].path, name, len) &&
+		    kj.r[i].path[len] == '/')
+			kj_drop(&kj.r[i]);
 }
 
 int job_key_write(const struct job *j, char *why, size_t cap)
@@ -867,6 +975,10 @@ static int output_is_fresh(struct job *j, char *why, size_t cap)
 		return 0; /* never finished, or being rebuilt */
 	if (job_key(j, want) || strtoull(want, NULL, 16) != r->key)
 		return 0; /* its inputs, arguments or stage version changed */
+	if (!j->dir_output && gone_rec(j->output) &&
+	    access(j->output, F_OK) != 0 && errno == ENOENT)
+		return 1; /* keep: deleted it once its readers finished; its
+			   * key, in the journal, stands for it */
 	uint64_t digest, sig;
 	int sig_ok;
 	if (r->has_sig) {
@@ -922,6 +1034,260 @@ int job_is_fresh(struct job *j, char *why, size_t cap)
 	if (fresh != 1 || !j->sources)
 		return fresh;
 	return sources_fresh(j, why, cap);
+}
+
+/* ------------------------------------------------------------------ keep:
+ *
+ * With `keep: [jobs]` in the YAML, every other job's output that some job
+ * reads is an intermediate: once the graph is whole (every job planned,
+ * so every reader known) and every job reading it has finished, the
+ * runner deletes it (a directory output's data files; its manifest,
+ * statistics and sources stay), after a G record in the journal keeps
+ * what the planner and the keys read from it: its fingerprint (so its
+ * readers' keys still match) and its chunk header (so the cells and the
+ * merge tree are planned as before). A deleted file is then as good as
+ * there for resume: its job is fresh while its key matches. A job that
+ * must run again and needs one (its arguments changed, its output was
+ * damaged) gets it back: the job that wrote it loses its key and the run
+ * starts over (keep_revive, main.c), so that job runs again first. */
+
+/* A chunk header as a G record keeps it: the fields the planner reads. */
+static void hdr_text(const struct vd_chunk_header *h, char *buf, size_t cap)
+{
+	int n = snprintf(buf, cap, "%x.%x.%x.%llx", (unsigned)h->kind,
+			 (unsigned)h->levels, (unsigned)h->chunk_level,
+			 (unsigned long long)h->cell_morton);
+	for (uint32_t l = 0; l < h->level_count && l <= VD_MAX_LEVELS &&
+	     n > 0 && (size_t)n < cap; l++)
+		n += snprintf(buf + n, cap - (size_t)n, ".%llx",
+			      (unsigned long long)h->level_nodes[l]);
+}
+
+static int hdr_parse(const char *s, struct vd_chunk_header *h)
+{
+	memset(h, 0, sizeof *h);
+	unsigned long long v[4 + VD_MAX_LEVELS + 1];
+	int n = 0;
+	for (const char *at = s; n < (int)(sizeof v / sizeof *v);) {
+		char *end;
+		errno = 0;
+		v[n++] = strtoull(at, &end, 16);
+		if (end == at || errno)
+			return 0;
+		if (!*end)
+			break;
+		if (*end != '.')
+			return 0;
+		at = end + 1;
+	}
+	if (n < 4)
+		return 0;
+	h->kind = (uint32_t)v[0];
+	h->levels = (uint32_t)v[1];
+	h->chunk_level = (uint32_t)v[2];
+	h->cell_morton = v[3];
+	h->level_count = (uint32_t)(n - 4);
+	for (int l = 4; l < n; l++)
+		h->level_nodes[l - 4] = v[l];
+	return 1;
+}
+
+int plan_chunk_header(const char *path, struct vd_chunk_header *h)
+{
+	int err = vd_chunk_read_header(path, h);
+	if (err == VD_OK || access(path, F_OK) == 0 || errno != ENOENT)
+		return err;
+	const struct key_rec *g = gone_rec(path);
+	if (!g || !g->hdr || !hdr_parse(g->hdr, h))
+		return err;
+	vd_error_clear();
+	return VD_OK;
+}
+
+/* Records `path` as deleted (its fingerprint, its header when it is a
+ * chunk) and queues it for unlinking once the record is durable. */
+static void keep_forget_file(const char *path)
+{
+	uint64_t fp;
+	if (access(path, F_OK) != 0 || !fingerprint(path, &fp))
+		return; /* gone already, or unreadable: left as it is */
+	struct vd_chunk_header h;
+	char hdr[600] = "";
+	if (vd_chunk_read_header(path, &h) == VD_OK)
+		hdr_text(&h, hdr, sizeof hdr);
+	else
+		vd_error_clear();
+	struct key_rec *r = kj_find(kj_rel(path), 1);
+	r->gone = 1;
+	r->fp = fp;
+	free(r->hdr);
+	r->hdr = *hdr ? xstrdup(hdr) : NULL;
+	if (kj_append_of(r, 1) != 0) {
+		r->gone = 0; /* not recorded: not deleted */
+		return;
+	}
+	if (unlink_n == unlink_cap) {
+		unlink_cap = unlink_cap ? 2 * unlink_cap : 256;
+		unlink_q = xrealloc(unlink_q, unlink_cap * sizeof *unlink_q);
+	}
+	unlink_q[unlink_n++] = xstrdup(path);
+}
+
+/* A directory output's data files: all but its manifest, sources and
+ * statistics (the report reads those), and hidden names. */
+static int data_file(const char *name)
+{
+	size_t n = strlen(name);
+	return name[0] != '.' && strcmp(name, VD_MANIFEST_NAME) &&
+	       strcmp(name, VD_SOURCES_NAME) &&
+	       !(n > 5 && !strcmp(name + n - 5, ".json"));
+}
+
+/* 1 when keep: makes j's output an intermediate that may go now. */
+static int keep_may_delete(const struct plan *p, const struct job *j)
+{
+	const struct config *c = p->cfg;
+	if (!c->keep_given || (c->keep_mask >> j->decl & 1) || j->keep_done ||
+	    !job_finished(j) || j->nrdeps == 0)
+		return 0;
+	for (int k = 0; k < j->nrdeps; k++)
+		if (!job_finished(&p->jobs[j->rdeps[k]]))
+			return 0;
+	return 1;
+}
+
+static void keep_delete(struct job *j)
+{
+	j->keep_done = 1;
+	if (!j->dir_output) {
+		keep_forget_file(j->output);
+		return;
+	}
+	DIR *d = opendir(j->output);
+	if (!d)
+		return;
+	struct dirent *e;
+	while ((e = readdir(d)))
+		if (data_file(e->d_name) && e->d_type != DT_DIR) {
+			char path[2200];
+			snprintf(path, sizeof path, "%s/%s", j->output, e->d_name);
+			keep_forget_file(path);
+		}
+	closedir(d);
+}
+
+void keep_sweep(struct plan *p, int finished)
+{
+	if (!p->cfg->keep_given || !p->expanded)
+		return;
+	if (finished < 0) {
+		for (int i = 0; i < p->n; i++)
+			if (keep_may_delete(p, &p->jobs[i]))
+				keep_delete(&p->jobs[i]);
+	} else {
+		const struct job *f = &p->jobs[finished];
+		for (int k = 0; k < f->ndeps; k++)
+			if (keep_may_delete(p, &p->jobs[f->deps[k]]))
+				keep_delete(&p->jobs[f->deps[k]]);
+	}
+	/* now, not with the next group of keys: one sync for all a job's
+	 * end let go (at 2^18, a few hundred merges end after the graph is
+	 * whole) */
+	if (unlink_n)
+		keys_sync(1);
+}
+
+/* The job among j's dependencies that writes `in` (its output, or a file
+ * of its directory output), or -1. */
+static int producer_of(const struct plan *p, const struct job *j,
+		       const char *in)
+{
+	for (int k = 0; k < j->ndeps; k++) {
+		const struct job *d = &p->jobs[j->deps[k]];
+		size_t len = strlen(d->output);
+		if (!strcmp(in, d->output) ||
+		    (d->dir_output && !strncmp(in, d->output, len) &&
+		     in[len] == '/'))
+			return j->deps[k];
+	}
+	return -1;
+}
+
+/* j runs again: each input of it that keep: deleted must be written again
+ * first, so the job that wrote it loses its key, and so on up the graph
+ * (that job runs again too, and needs its own inputs). Returns how many
+ * inputs of j are gone; `why` names the first. */
+static int revive_inputs(struct plan *p, struct job *j, char *why,
+			 size_t cap)
+{
+	int gone = 0;
+	for (int i = 0; i < j->ninputs; i++) {
+		const char *in = j->inputs[i];
+		if (access(in, F_OK) == 0 || errno != ENOENT || !gone_rec(in))
+			continue;
+		int k = producer_of(p, j, in);
+		if (k < 0) {
+			/* no job of the plan writes it: forgotten, the job
+			 * fails on it as it would without keep: */
+			kj_drop(gone_rec(in));
+			continue;
+		}
+		struct job *d = &p->jobs[k];
+		if (!gone++)
+			snprintf(why, cap, "needs '%s', which keep: deleted; %s "
+				 "runs again first", in, d->id);
+		if (d->revived)
+			continue;
+		d->revived = 1;
+		job_key_drop(d);
+		char up[600];
+		revive_inputs(p, d, up, sizeof up);
+	}
+	return gone;
+}
+
+int keep_revive(struct plan *p, struct job *j, char *why, size_t cap)
+{
+	return revive_inputs(p, j, why, cap) > 0;
+}
+
+/* Bytes of a file, or of the regular files of a directory, on disk. */
+static uint64_t disk_bytes(const char *path)
+{
+	struct stat st;
+	if (stat(path, &st) != 0)
+		return 0;
+	if (!S_ISDIR(st.st_mode))
+		return (uint64_t)st.st_blocks * 512;
+	uint64_t sum = 0;
+	DIR *d = opendir(path);
+	struct dirent *e;
+	while (d && (e = readdir(d))) {
+		struct stat es;
+		if (fstatat(dirfd(d), e->d_name, &es, AT_SYMLINK_NOFOLLOW) == 0 &&
+		    S_ISREG(es.st_mode))
+			sum += (uint64_t)es.st_blocks * 512;
+	}
+	if (d)
+		closedir(d);
+	return sum;
+}
+
+uint64_t job_disk_bytes(const struct job *j)
+{
+	uint64_t sum = disk_bytes(j->output);
+	for (int k = 0; k < 2; k++)
+		if (j->side[k])
+			sum += disk_bytes(j->side[k]);
+	return sum;
+}
+
+size_t keep_gone_files(void)
+{
+	size_t n = 0;
+	for (size_t i = 0; i < kj.n; i++)
+		n += kj.r[i].gone;
+	return n;
 }
 
 /* -------------------------------------------------------------- expansion */
@@ -1020,6 +1386,26 @@ static int list_files(const char *dir, const char *ext, char ***out)
 		names[n++] = xstrdup(e->d_name);
 	}
 	closedir(d);
+	/* ...and those keep: deleted, which the planner still needs */
+	const char *rel = kj_rel(dir);
+	size_t rl = strlen(rel);
+	for (size_t i = 0; i < kj.n; i++) {
+		const char *g = kj.r[i].path, *nm = g + rl + 1;
+		size_t len = strlen(nm);
+		char path[2200];
+		if (!kj.r[i].gone || strncmp(g, rel, rl) || g[rl] != '/' ||
+		    strchr(nm, '/') || len <= el || strcmp(nm + len - el, ext) ||
+		    strncmp(nm, "chunk-", 6))
+			continue;
+		snprintf(path, sizeof path, "%s/%s", dir, nm);
+		if (access(path, F_OK) == 0)
+			continue; /* listed above */
+		if (n == cap) {
+			cap = cap ? 2 * cap : 64;
+			names = xrealloc(names, (size_t)cap * sizeof *names);
+		}
+		names[n++] = xstrdup(nm);
+	}
 	qsort(names, (size_t)n, sizeof *names, cmp_str);
 	*out = names;
 	return n;
@@ -1363,7 +1749,7 @@ static int plan_single_root(struct plan *p, int d, const char *src_dir,
 	char in[1400], out[1200], id[200], budget[32], threads[16];
 	snprintf(in, sizeof in, "%s/%s", src_dir, name);
 	struct vd_chunk_header h;
-	if (vd_chunk_read_header(in, &h) != VD_OK || h.chunk_level != 0)
+	if (plan_chunk_header(in, &h) != VD_OK || h.chunk_level != 0)
 		return 0;
 	snprintf(out, sizeof out, "%s/%s/root.dag", p->dir, decl_of(p, d)->name);
 	snprintf(id, sizeof id, "%s/root", decl_of(p, d)->name);
@@ -1468,7 +1854,7 @@ static void plan_dag_stage(struct plan *p, int d)
 			 (int)(strlen(names[i]) - strlen(src_ext)), names[i]);
 		snprintf(threads, sizeof threads, "%d", c->threads);
 		struct vd_chunk_header h;
-		int ok = vd_chunk_read_header(in, &h) == VD_OK;
+		int ok = plan_chunk_header(in, &h) == VD_OK;
 		/* the stage's own bound for this input */
 		uint64_t est = !ok ? c->job_mem_budget : is_dag ?
 			vd_dag_estimate_header(&h) : merge_share(&h, kind);
@@ -1529,7 +1915,7 @@ static void plan_dag_merges(struct plan *p, int d, const char *ext,
 	for (int i = 0; i < n && all_built; i++) {
 		struct vd_chunk_header h;
 		all_built = parts[i].job >= 0 && job_finished(&p->jobs[parts[i].job]) &&
-			    vd_chunk_read_header(parts[i].path, &h) == VD_OK;
+			    plan_chunk_header(parts[i].path, &h) == VD_OK;
 		if (all_built) {
 			parts[i].level = (int)h.chunk_level;
 			parts[i].cell = h.cell_morton;

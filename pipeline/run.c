@@ -538,7 +538,7 @@ static uint64_t job_voxels(const struct job *j)
 	/* voxels handled: the level-L count of the first chunk input */
 	for (int i = 0; i < j->ninputs; i++) {
 		struct vd_chunk_header h;
-		if (vd_chunk_read_header(j->inputs[i], &h) == VD_OK &&
+		if (plan_chunk_header(j->inputs[i], &h) == VD_OK &&
 		    h.level_count > 0)
 			return h.level_nodes[h.level_count - 1];
 	}
@@ -867,6 +867,9 @@ struct run_state {
 	sigset_t chld;
 	/* Slurm: a job ended or was submitted since the last pass */
 	int dirty;
+	/* keep: the first sweep (over every job) once the graph is whole;
+	 * a job needs what keep: deleted: no new job, then start over */
+	int keep_swept, restart;
 };
 
 /* Removes the staging entries of dead processes under the outputs (every
@@ -1000,6 +1003,7 @@ static void consider_job(struct run_state *s, int i, int lone)
 		job_set_state(p, j, JOB_SKIPPED);
 		j->logged = 1;
 		run_log("skipped %s (output is fresh)", j->id);
+		keep_sweep(p, i);
 		return;
 	}
 	if (fresh < 0) {
@@ -1016,7 +1020,16 @@ static void consider_job(struct run_state *s, int i, int lone)
 			fprintf(stderr, "%svoxdag: rebuilding %s: %s\n",
 				s->tty ? "\r\033[K" : "", j->id, why);
 	}
-	if (!launch_ready(s, i, lone))
+	/* once the run is to start over, the pass only looks for more jobs
+	 * that need what keep: deleted, so that one start over serves them */
+	if (keep_revive(p, j, why, sizeof why)) {
+		run_log("%s %s; the run starts over", j->id, why);
+		if (!s->o->quiet)
+			fprintf(stderr, "%svoxdag: %s %s\n",
+				s->tty ? "\r\033[K" : "", j->id, why);
+		s->restart = 1;
+	}
+	if (s->restart || !launch_ready(s, i, lone))
 		return;
 	j->state = JOB_RUNNING;
 	j->start = vd_seconds();
@@ -1032,6 +1045,10 @@ static void start_ready(struct run_state *s)
 	int all_left = 1;
 	int lone = !s->slurm && s->running == 0 && s->c->jobs > 1 ?
 		   lone_ready(p, s->scan_from) : -1;
+	if (!s->keep_swept && p->expanded) {
+		keep_sweep(p, -1);
+		s->keep_swept = 1;
+	}
 	for (int i = s->scan_from; i < p->n; i++) {
 		struct job *j = &p->jobs[i];
 		if (all_left && j->state != JOB_PENDING &&
@@ -1133,6 +1150,8 @@ static void run_reaped(struct run_state *s, int done,
 		s->failures++;
 		if (s->slurm)
 			cancel_dependents(p, &s->running);
+	} else {
+		keep_sweep(p, done);
 	}
 }
 
@@ -1153,6 +1172,11 @@ static int run_close(struct run_state *s)
 	sweep_staging(p, s->slurm); /* nothing of ours runs now */
 	if (s->slurm)
 		slurm_done(p);
+	if (s->restart && !s->failures) {
+		run_log("starting over (keep:)");
+		run_log_flush();
+		return RUN_AGAIN;
+	}
 	/* the runner's own cost against the stages' (children reaped) */
 	struct rusage self, kids;
 	getrusage(RUSAGE_SELF, &self);
@@ -1225,7 +1249,7 @@ int run_pipeline(struct plan *p, const struct run_opts *o)
 		}
 		if (s.running == 0) {
 			s.dirty = 1;
-			if (run_idle(&s))
+			if (s.restart || run_idle(&s))
 				break;
 			continue;
 		}

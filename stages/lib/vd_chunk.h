@@ -251,6 +251,15 @@ int vd_manifest_write(const char *dir);
  * (a malformed manifest, a file not listed); the detail names the file. */
 int vd_manifest_verify(const char *dir, uint64_t *digest);
 
+/* The same, except that a listed file which is absent passes when
+ * gone(ctx, dir, name) returns non-zero (the runner's `keep:` deletes
+ * intermediates a job wrote once every job that reads them finished, and
+ * remembers each one; the rest of the directory is still checked whole). */
+int vd_manifest_verify_except(const char *dir, uint64_t *digest,
+			      int (*gone)(void *ctx, const char *dir,
+					  const char *name),
+			      void *ctx);
+
 /* Checks one file against the manifest of its directory (the encodings:
  * SymVox reads them by offsets, so their checksum lives beside them).
  * Errors as vd_manifest_verify(); a missing manifest's detail names the

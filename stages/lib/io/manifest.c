@@ -277,7 +277,10 @@ static int verify_entry(const char *dir, const struct entry *e)
 	return VD_OK;
 }
 
-int vd_manifest_verify(const char *dir, uint64_t *digest)
+int vd_manifest_verify_except(const char *dir, uint64_t *digest,
+			      int (*gone)(void *ctx, const char *dir,
+					  const char *name),
+			      void *ctx)
 {
 	struct entry *e;
 	size_t n;
@@ -285,26 +288,41 @@ int vd_manifest_verify(const char *dir, uint64_t *digest)
 	int err = manifest_read(dir, &e, &n, &d);
 	if (err)
 		return err;
-	for (size_t i = 0; i < n && !err; i++)
-		err = verify_entry(dir, &e[i]);
-	/* a file the manifest does not list was not part of the output */
 	char **names = NULL;
 	size_t m = 0;
-	if (!err)
-		err = list_dir(dir, &names, &m);
-	for (size_t i = 0; i < m; i++) {
-		if (!err && (i >= n || strcmp(names[i], e[i].name) != 0))
+	err = list_dir(dir, &names, &m);
+	/* both sorted: a walk over the two lists; a listed file that is
+	 * absent is whole only when `gone` vouches for it */
+	size_t i = 0, k = 0;
+	while (!err && (i < n || k < m)) {
+		int c = i == n ? 1 : k == m ? -1 : strcmp(e[i].name, names[k]);
+		if (c == 0) {
+			err = verify_entry(dir, &e[i]);
+			i++, k++;
+		} else if (c < 0) {
+			if (gone && gone(ctx, dir, e[i].name))
+				i++;
+			else
+				err = verify_entry(dir, &e[i]); /* says why */
+		} else {
+			/* a file the manifest does not list was not part of
+			 * the output */
 			err = vd_fail(VD_ERR_CORRUPT, "'%s/%s' is not in the "
-				      "manifest", dir,
-				      i < n && strcmp(names[i], e[i].name) > 0
-					      ? e[i].name : names[i]);
-		free(names[i]);
+				      "manifest", dir, names[k]);
+		}
 	}
+	for (k = 0; k < m; k++)
+		free(names[k]);
 	free(names);
 	free(e);
 	if (!err && digest)
 		*digest = d;
 	return err;
+}
+
+int vd_manifest_verify(const char *dir, uint64_t *digest)
+{
+	return vd_manifest_verify_except(dir, digest, NULL, NULL);
 }
 
 /* The directory part of path into dir ("." or "/" when it has none) and
