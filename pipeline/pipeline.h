@@ -193,6 +193,7 @@ struct plan {
 	int unfinished[MAX_JOBS_DECL]; /* per declared job: planned, not
 					* done or skipped */
 	int cells_planned[MAX_JOBS_DECL], merges_planned[MAX_JOBS_DECL];
+	int planned[MAX_JOBS_DECL];     /* per declared job: jobs planned */
 	int cells_left[MAX_JOBS_DECL];  /* cell jobs not ended */
 };
 
@@ -256,8 +257,8 @@ int job_is_fresh(struct job *j, char *why, size_t cap);
  * the header its G record kept. */
 int plan_chunk_header(const char *path, struct vd_chunk_header *h);
 
-/* With keep: and the graph whole, deletes the intermediates that no
- * unfinished job reads any more: those job `finished` read (-1: all). */
+/* With keep:, deletes the intermediates whose readers are all planned
+ * and finished: those job `finished` read (-1: all, after the plan grew). */
 void keep_sweep(struct plan *p, int finished);
 
 /* 1 when job j needs a file keep: deleted: the job that wrote it loses

@@ -867,8 +867,9 @@ struct run_state {
 	sigset_t chld;
 	/* Slurm: a job ended or was submitted since the last pass */
 	int dirty;
-	/* keep: the first sweep (over every job) once the graph is whole;
-	 * a job needs what keep: deleted: no new job, then start over */
+	/* keep: jobs planned at the last sweep over every job (the plan grew
+	 * since: more readers known); a job needs what keep: deleted: no new
+	 * job, then start over */
 	int keep_swept, restart;
 };
 
@@ -1045,9 +1046,9 @@ static void start_ready(struct run_state *s)
 	int all_left = 1;
 	int lone = !s->slurm && s->running == 0 && s->c->jobs > 1 ?
 		   lone_ready(p, s->scan_from) : -1;
-	if (!s->keep_swept && p->expanded) {
+	if (s->keep_swept != p->n) {
 		keep_sweep(p, -1);
-		s->keep_swept = 1;
+		s->keep_swept = p->n;
 	}
 	for (int i = s->scan_from; i < p->n; i++) {
 		struct job *j = &p->jobs[i];

@@ -55,6 +55,13 @@ cmp -s "$T/ref.kept" "$T/got.kept" && pass keep_outputs_identical ||
 	fail keep_outputs_identical "$(diff "$T/ref.kept" "$T/got.kept" | head -5)"
 [ -z "$(left $D)" ] && pass keep_intermediates_deleted ||
 	fail keep_intermediates_deleted "$(left $D | head -3)"
+# a file of a directory output goes as soon as its readers finished: the
+# first cell's SVO chunk before the last cell's DAG is built
+first_del=$(grep -n 'deleted vox/chunk-' $D/logs/runner.log | head -n 1 | cut -d: -f1)
+last_cell=$(grep -n ' done dag/cells/' $D/logs/runner.log | tail -n 1 | cut -d: -f1)
+[ -n "$first_del" ] && [ -n "$last_cell" ] && [ "$first_del" -lt "$last_cell" ] &&
+	pass keep_file_goes_with_its_reader ||
+	fail keep_file_goes_with_its_reader "first deletion at line $first_del, last cell at $last_cell"
 # nothing went before its last reader finished: no job needed it again
 ! grep -q 'starting over' $D/logs/runner.log && pass keep_run_no_start_over ||
 	fail keep_run_no_start_over "$(grep -m3 'keep: deleted' $D/logs/runner.log)"
