@@ -108,15 +108,7 @@ sed -i 's/, group: 48//' "$T/k.yaml" "$T/r.yaml"
 # after the deletions), then resume: no finished job runs again
 for n in 5 44 80 88; do
 	rm -rf $D
-	$R -q run "$T/k.yaml" &
-	pid=$!
-	while kill -0 $pid 2>/dev/null &&
-	      [ "$(cat $D/logs/runner.log 2>/dev/null | grep -c ' done ')" -lt "$n" ]; do
-		sleep 0.005
-	done
-	kill -9 $pid 2>/dev/null
-	wait $pid 2>/dev/null
-	before=$(grep -s ' done ' $D/logs/runner.log | sed 's/.* done \([^ ]*\) .*/\1/' | sort)
+	before=$(kill_runner_after "$n" "$T/k.yaml" $D)
 	expect "keep_resume_after_kill_at_$n" 0 '' $R -q run "$T/k.yaml"
 	kept $D > "$T/got.kept"
 	cmp -s "$T/ref.kept" "$T/got.kept" && [ -z "$(left $D)" ] &&

@@ -124,3 +124,19 @@ bad_voxelize() {
 	expect "$name" 1 "$pattern" $BIN/voxelize "$@" -o "$T/bad" -q
 	expect_no_chunks "${name}_leaves_nothing" "$T/bad"
 }
+
+# kill_runner_after N CONFIG DIR: runs the pipeline, SIGKILLs the runner
+# once DIR/logs/runner.log has N "done" lines (or it ended), and prints
+# the ids of the jobs it finished, sorted.
+kill_runner_after() {
+	local n=$1 cfg=$2 dir=$3 pid
+	$BIN/voxdag -q run "$cfg" >/dev/null &
+	pid=$!
+	while kill -0 $pid 2>/dev/null &&
+	      [ "$(cat "$dir/logs/runner.log" 2>/dev/null | grep -c ' done ')" -lt "$n" ]; do
+		sleep 0.005
+	done
+	kill -9 $pid 2>/dev/null
+	wait $pid 2>/dev/null
+	grep -s ' done ' "$dir/logs/runner.log" | sed 's/.* done \([^ ]*\) .*/\1/' | sort
+}

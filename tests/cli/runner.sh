@@ -115,15 +115,7 @@ write_cfg 8 2
 # --- SIGKILL of the runner after N finished jobs, then resume
 for n in 1 4 $((total / 2)) $((total - 2)); do
 	rm -rf $D
-	$R -q run "$CFG" &
-	pid=$!
-	while kill -0 $pid 2>/dev/null &&
-	      [ "$(cat $D/logs/runner.log 2>/dev/null | grep -c ' done ')" -lt "$n" ]; do
-		sleep 0.01
-	done
-	kill -9 $pid 2>/dev/null
-	wait $pid 2>/dev/null
-	before=$(grep -s ' done ' $D/logs/runner.log | sed 's/.* done \([^ ]*\) .*/\1/' | sort)
+	before=$(kill_runner_after "$n" "$CFG" $D)
 	expect "resume_after_kill_at_$n" 0 '' $R -q run "$CFG"
 	sums > "$T/got.sums"
 	if cmp -s "$T/ref.sums" "$T/got.sums"; then
