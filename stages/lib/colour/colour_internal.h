@@ -291,19 +291,21 @@ static inline void vd_auto_coded_start(const uint8_t *d,
 
 /* Decodes the coded block at d (u16 stream bytes S, R, G, B of voxel 0,
  * the stream) from state st on until voxel j is decoded (st->i > j), and
- * puts its colour in rgb (st itself is left at the start state). Returns
+ * puts its colour in rgb; st is left at the state after that step, so a
+ * later voxel of the block can go on from it (vd_auto_coded_resume
+ * below leaves its state as it was). Returns
  * the bits of the stream read, or -1 for a symbol with no code, a hit
  * past the list, or (when all != NULL) a run past voxel j. With all set,
  * every colour decoded goes to all[3 st->i ..]. With snap set, the state
  * when it first reaches voxel k * VD_AUTO_RESTART (1 <= k, k
  * VD_AUTO_RESTART <= j) goes to snap[k - 1] (a run across several such
  * voxels fills each of them). */
-static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
-					   const uint8_t *d,
-					   const struct vd_auto_coded_state *st,
-					   uint32_t j, uint8_t rgb[3],
-					   uint8_t *all,
-					   struct vd_auto_coded_state *snap)
+static inline int64_t vd_auto_coded_run(const struct vd_auto_code *c,
+					const uint8_t *d,
+					struct vd_auto_coded_state *st,
+					uint32_t j, uint8_t rgb[3],
+					uint8_t *all,
+					struct vd_auto_coded_state *snap)
 {
 	uint32_t ring[VD_AUTO_RECENT], nr = st->nr, h = st->h;
 	uint32_t cur = st->cur, i = st->i;
@@ -384,7 +386,27 @@ static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
 	rgb[0] = (uint8_t)cur;
 	rgb[1] = (uint8_t)(cur >> 8);
 	rgb[2] = (uint8_t)(cur >> 16);
+	memcpy(st->ring, ring, sizeof ring);
+	st->cur = cur;
+	st->pos = (uint32_t)pos;
+	st->i = i;
+	st->h = (uint8_t)h;
+	st->nr = (uint8_t)nr;
+	st->ctx = (uint8_t)ctx;
 	return (int64_t)pos;
+}
+
+/* vd_auto_coded_run from a copy of st: st stays as it was (a restart
+ * point the reader keeps). */
+static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
+					   const uint8_t *d,
+					   const struct vd_auto_coded_state *st,
+					   uint32_t j, uint8_t rgb[3],
+					   uint8_t *all,
+					   struct vd_auto_coded_state *snap)
+{
+	struct vd_auto_coded_state t = *st;
+	return vd_auto_coded_run(c, d, &t, j, rgb, all, snap);
 }
 
 /* Colour of voxel j of the coded block at d into rgb, decoding from the
