@@ -76,10 +76,43 @@ static inline void vd_auto_quant(const uint8_t *d, unsigned wr, unsigned wg,
 	}
 }
 
-static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
-				  uint32_t j, uint8_t rgb[3])
+/* Where a block's bits are, from its header: the offset of the voxels'
+ * bits from the block's first byte (bits 0-15), the bits a voxel (16-20),
+ * for the endpoints mode log2 of the part length (21-24) and 1 for RGB565
+ * endpoints (25); 0 for a constant or coded block. The reader keeps it
+ * beside each directory entry (4 bytes a block), so that a lookup finds
+ * the voxel's bits without reading the header first: the two cache
+ * misses (header, bits) are independent, not one after the other. */
+static inline uint32_t vd_auto_layout(uint32_t e, const uint8_t *d,
+				      uint32_t n)
 {
 	unsigned mode = e >> 24, b = mode & 15;
+	switch (mode >> 4) {
+	case VD_AUTO_PALETTE >> 4:
+		return (1 + 3 * (d[0] + 1u)) | b << 16;
+	case VD_AUTO_ENDPOINTS >> 4: {
+		unsigned len = d[0] & 15, esz = d[0] & 16 ? 4 : 6;
+		unsigned parts = (n + (1u << len) - 1) >> len;
+		return (1 + esz * parts) | b << 16 | len << 21 |
+		       (uint32_t)(esz == 4) << 25;
+	}
+	case VD_AUTO_QUANT >> 4:
+		return 6 | (unsigned)((d[4] & 15) + (d[4] >> 4) + (d[5] & 15)) << 16;
+	case VD_AUTO_RAW >> 4:
+		return 24u << 16;
+	default:
+		return 0;
+	}
+}
+
+/* vd_auto_decode with the block's layout (vd_auto_layout) given. */
+static inline void vd_auto_decode_laid(uint32_t e, uint32_t lay,
+				       const uint8_t *d, uint32_t j,
+				       uint8_t rgb[3])
+{
+	unsigned mode = e >> 24, b = mode & 15;
+	const uint8_t *bits = d + (lay & 0xffff);
+	unsigned bpv = lay >> 16 & 31;
 	switch (mode >> 4) {
 	case VD_AUTO_CONST >> 4:
 		rgb[0] = (uint8_t)e;
@@ -87,8 +120,7 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		rgb[2] = (uint8_t)(e >> 16);
 		return;
 	case VD_AUTO_PALETTE >> 4: {
-		unsigned k = d[0] + 1u;
-		unsigned x = vd_auto_bits(d + 1 + 3 * k, (uint64_t)j * b, b);
+		unsigned x = vd_auto_bits(bits, (uint64_t)j * b, b);
 		memcpy(rgb, d + 1 + 3 * x, 3);
 		return;
 	}
@@ -96,27 +128,29 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		/* d[0]: log2 of the part length, bit 4 RGB565 endpoints (4
 		 * bytes a part) instead of RGB8 (6); the parts' endpoint
 		 * pairs; the weights */
-		unsigned m = (1u << b) - 1, len = d[0] & 15;
-		unsigned esz = d[0] & 16 ? 4 : 6;
-		unsigned parts = (n + (1u << len) - 1) >> len;
+		unsigned m = (1u << b) - 1, len = lay >> 21 & 15;
+		unsigned esz = lay >> 25 & 1 ? 4 : 6;
 		uint8_t c0[3], c1[3];
 		vd_auto_endpoints(d + 1 + esz * (j >> len), esz, c0, c1);
-		unsigned w = vd_auto_bits(d + 1 + esz * parts, (uint64_t)j * b, b);
+		unsigned w = vd_auto_bits(bits, (uint64_t)j * b, b);
 		for (int c = 0; c < 3; c++)
 			rgb[c] = (uint8_t)(((uint64_t)(c0[c] * (m - w) + c1[c] * w +
 						       m / 2) * vd_auto_recip[b]) >> 32);
 		return;
 	}
-	case VD_AUTO_QUANT >> 4: {
-		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
-		unsigned wsum = wr + wg + wb;
-		vd_auto_quant(d, wr, wg, vd_auto_bits(d + 6, (uint64_t)j * wsum,
-						      wsum), rgb);
+	case VD_AUTO_QUANT >> 4:
+		vd_auto_quant(d, d[4] & 15, d[4] >> 4,
+			      vd_auto_bits(bits, (uint64_t)j * bpv, bpv), rgb);
 		return;
-	}
 	default: /* VD_AUTO_RAW */
 		memcpy(rgb, d + 3 * (size_t)j, 3);
 	}
+}
+
+static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
+				  uint32_t j, uint8_t rgb[3])
+{
+	vd_auto_decode_laid(e, vd_auto_layout(e, d, n), d, j, rgb);
 }
 
 /* Every colour of a block that is not coded (entry e, bytes at d, n

@@ -653,7 +653,10 @@ struct vd_cpack {
 	uint32_t *blk_start;
 	uint16_t *c0, *c1;           /* vbr */
 	uint32_t *blk_pal, *blk_bit; /* palette */
-	uint32_t *dir;               /* auto: directory entries */
+	/* auto: per block its directory entry (low 32 bits) and its
+	 * layout (vd_auto_layout, high 32): 4 bytes a block more than the
+	 * file's directory, 1/64 byte a voxel at 2^8 voxels a block */
+	uint64_t *dir;
 	/* auto: seg_at[p] the segment holding voxel p << 18, so a lookup
 	 * searches only the segments that start in its 2^18 window */
 	uint32_t *seg_at;
@@ -1081,7 +1084,7 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_CORRUPT, "%zu blocks, CPAR says %llu",
 			       n / 4, (unsigned long long)c->blocks);
 	}
-	c->dir = malloc((size_t)c->blocks * 4 + 4);
+	c->dir = malloc((size_t)c->blocks * 8 + 8);
 	if (!c->dir) {
 		free(blk);
 		return vd_fail(VD_ERR_NOMEM, "%llu blocks",
@@ -1115,7 +1118,7 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 		c->blk_restart = malloc((size_t)c->blocks * sizeof *c->blk_restart);
 		for (uint64_t b = 0; b < c->blocks && c->blk_restart; b++) {
 			c->blk_restart[b] = UINT32_MAX;
-			if (c->dir[b] >> 24 == VD_AUTO_CODED && per &&
+			if ((uint32_t)c->dir[b] >> 24 == VD_AUTO_CODED && per &&
 			    coded * per < UINT32_MAX - per)
 				c->blk_restart[b] = (uint32_t)(coded++ * per);
 		}
@@ -1173,7 +1176,7 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 		}
 		for (uint64_t b = 0; b < nb; b++) {
 			uint64_t bi = c->seg_block[s] + b;
-			uint32_t e = c->dir[bi], m = e >> 24;
+			uint32_t e = (uint32_t)c->dir[bi], m = e >> 24;
 			uint32_t len = b + 1 < nb ? bs : c->seg_n[s] - (uint32_t)b * bs;
 			if (m == VD_AUTO_CONST)
 				continue;
@@ -1235,6 +1238,7 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 						       "there" : "not filling their "
 						       "bytes");
 			}
+			c->dir[bi] = e | (uint64_t)vd_auto_layout(e, d, len) << 32;
 			at += sz;
 		}
 		data += at;
@@ -1375,7 +1379,8 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	uint64_t p = i >> 18;
 	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 	uint32_t k = (uint32_t)(i - c->seg_first[s]);
-	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
+	uint64_t x = c->dir[c->seg_block[s] + (k >> c->block_log)];
+	uint32_t e = (uint32_t)x;
 	uint32_t first = k >> c->block_log << c->block_log;
 	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
 	if (e >> 24 == VD_AUTO_CODED) {
@@ -1399,8 +1404,10 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 		vd_auto_coded_resume(c->code[s], d, st, j, rgb, NULL, NULL);
 		return;
 	}
-	vd_auto_decode(e, c->data + c->seg_data[s] + (e & 0xffffff),
-		       left < bs ? left : bs, k - first, rgb);
+	(void)left;
+	(void)bs;
+	vd_auto_decode_laid(e, (uint32_t)(x >> 32), c->data + c->seg_data[s] +
+			    (e & 0xffffff), k - first, rgb);
 }
 
 int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
@@ -1433,26 +1440,26 @@ int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 
 /* ---------------------------------------------- batched lookups (auto) */
 
-/* vd_cpack_colour_many's pipeline: a lookup goes through four stages,
+/* vd_cpack_colour_many's pipeline: a lookup goes through three stages,
  * LK_D lookups apart, each of which prefetches what the next one reads:
- * (1) its segment and block, prefetch the directory entry; (2) the entry,
- * prefetch the block's header (a raw block's colour, a coded block's
- * restart point); (3) the header, prefetch the voxel's bits (and its
- * part's endpoints); (4) decode. A single lookup waits for each of these
- * misses in turn (entry, header, bits); in the batch, 3 LK_D lookups are
- * in flight at once, so the misses overlap. LK_D: enough to cover a miss
- * to memory with the few tens of ns a stage costs. */
+ * (1) its segment and block, prefetch the directory entry; (2) the entry
+ * and the block's layout, prefetch the header and the voxel's bits (and
+ * its part's endpoints; a coded block's restart point); (3) decode. A
+ * single lookup waits for the entry's miss, then the data's; in the
+ * batch, 2 LK_D lookups are in flight at once, so the misses overlap.
+ * LK_D: enough to cover a miss to memory with the few ns a stage costs. */
 #ifndef LK_D
-#define LK_D 8
+#define LK_D 16
 #endif
-#define LK_RING 64 /* > 3 LK_D, a power of two */
+#define LK_RING 64 /* > 2 LK_D, a power of two */
 #define LK_CHUNK (1u << 20) /* coded lookups sorted at once, at most */
 
 struct lk {
-	const uint8_t *d; /* the block's bytes */
-	uint32_t e, n, j; /* entry, voxels in the block, voxel in it */
-	uint32_t s;       /* segment */
-	uint64_t bi;      /* block */
+	const uint8_t *d;   /* the block's bytes */
+	uint32_t e, lay;    /* directory entry, layout */
+	uint32_t n, j;      /* voxels in the block, voxel in it */
+	uint32_t s;         /* segment */
+	uint64_t bi;        /* block */
 };
 
 static inline void lk_locate(const struct vd_cpack *c, uint64_t i,
@@ -1467,32 +1474,6 @@ static inline void lk_locate(const struct vd_cpack *c, uint64_t i,
 	l->bi = c->seg_block[s] + (k >> c->block_log);
 	l->j = k - first;
 	l->n = left < bs ? left : bs;
-}
-
-/* Stage 3: the voxel's bits (and endpoints) from its block's header. */
-static inline void lk_prefetch_bits(const struct lk *l)
-{
-	const uint8_t *d = l->d;
-	unsigned mode = l->e >> 24, b = mode & 15;
-	switch (mode >> 4) {
-	case VD_AUTO_PALETTE >> 4:
-		__builtin_prefetch(d + 1 + 3 * (d[0] + 1u) +
-				   (((uint64_t)l->j * b) >> 3));
-		return;
-	case VD_AUTO_ENDPOINTS >> 4: {
-		unsigned len = d[0] & 15, esz = d[0] & 16 ? 4 : 6;
-		unsigned parts = (l->n + (1u << len) - 1) >> len;
-		__builtin_prefetch(d + 1 + esz * (l->j >> len));
-		__builtin_prefetch(d + 1 + esz * parts + (((uint64_t)l->j * b) >> 3));
-		return;
-	}
-	case VD_AUTO_QUANT >> 4:
-		__builtin_prefetch(d + 6 + (((uint64_t)l->j * ((d[4] & 15) +
-				   (d[4] >> 4) + (d[5] & 15))) >> 3));
-		return;
-	default: /* constant: nothing; raw: prefetched in stage 2 */
-		return;
-	}
 }
 
 /* Colours of the coded lookups keys[0..m) (voxel << 20 | position in
@@ -1528,7 +1509,7 @@ static void coded_sorted(const struct vd_cpack *c, uint64_t *keys,
 		struct lk l;
 		lk_locate(c, keys[q] >> 20, &l);
 		uint8_t *rgb = out + 3 * (keys[q] & (LK_CHUNK - 1));
-		uint32_t e = c->dir[l.bi], j = l.j;
+		uint32_t e = (uint32_t)c->dir[l.bi], j = l.j;
 		const uint8_t *d = c->data + c->seg_data[l.s] + (e & 0xffffff);
 		if (l.bi != cur_bi) {
 			vd_auto_coded_start(d, &st);
@@ -1574,7 +1555,7 @@ static int auto_many(const struct vd_cpack *c, const uint64_t *idx,
 		const uint64_t *ix = idx + base;
 		uint8_t *out = rgb + 3 * base;
 		m = 0;
-		for (size_t t = 0; t < cn + 3 * LK_D; t++) {
+		for (size_t t = 0; t < cn + 2 * LK_D; t++) {
 			if (t < cn) {
 				struct lk *l = &r[t & (LK_RING - 1)];
 				lk_locate(c, ix[t], l);
@@ -1582,7 +1563,9 @@ static int auto_many(const struct vd_cpack *c, const uint64_t *idx,
 			}
 			if (t >= LK_D && t - LK_D < cn) {
 				struct lk *l = &r[(t - LK_D) & (LK_RING - 1)];
-				l->e = c->dir[l->bi];
+				uint64_t x = c->dir[l->bi];
+				l->e = (uint32_t)x;
+				l->lay = (uint32_t)(x >> 32);
 				l->d = c->data + c->seg_data[l->s] + (l->e & 0xffffff);
 				unsigned mode = l->e >> 24;
 				if (mode == VD_AUTO_CODED) {
@@ -1590,23 +1573,23 @@ static int auto_many(const struct vd_cpack *c, const uint64_t *idx,
 					uint32_t p = l->j / VD_AUTO_RESTART;
 					if (p && rp != UINT32_MAX)
 						__builtin_prefetch(&c->restart[rp + p - 1]);
-					__builtin_prefetch(l->d);
-				} else if (mode == VD_AUTO_RAW) {
-					__builtin_prefetch(l->d + 3 * (size_t)l->j);
 				} else if (mode != VD_AUTO_CONST) {
+					/* the header, the bits, and for the endpoints
+					 * mode the part's pair (else the header again) */
+					unsigned len = l->lay >> 21 & 15;
+					unsigned esz = l->lay >> 25 & 1 ? 4 : 6;
 					__builtin_prefetch(l->d);
+					__builtin_prefetch(l->d + (l->lay & 0xffff) +
+							   (((uint64_t)l->j * (l->lay >> 16 & 31)) >> 3));
+					__builtin_prefetch(mode >> 4 == VD_AUTO_ENDPOINTS >> 4
+							   ? l->d + 1 + esz * (l->j >> len) : l->d);
 				}
 			}
-			if (t >= 2 * LK_D && t - 2 * LK_D < cn) {
-				struct lk *l = &r[(t - 2 * LK_D) & (LK_RING - 1)];
-				if (l->e >> 24 != VD_AUTO_CODED)
-					lk_prefetch_bits(l);
-			}
-			if (t >= 3 * LK_D) {
-				size_t q = t - 3 * LK_D;
+			if (t >= 2 * LK_D) {
+				size_t q = t - 2 * LK_D;
 				struct lk *l = &r[q & (LK_RING - 1)];
 				if (l->e >> 24 != VD_AUTO_CODED)
-					vd_auto_decode(l->e, l->d, l->n, l->j, out + 3 * q);
+					vd_auto_decode_laid(l->e, l->lay, l->d, l->j, out + 3 * q);
 				else if (sort)
 					keys[m++] = ix[q] << 20 | q;
 				else
@@ -1657,7 +1640,7 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 			uint64_t i = first + k, p = i >> 18;
 			size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 			uint32_t j = (uint32_t)(i - c->seg_first[s]);
-			uint32_t e = c->dir[c->seg_block[s] + (j >> c->block_log)];
+			uint32_t e = (uint32_t)c->dir[c->seg_block[s] + (j >> c->block_log)];
 			uint32_t b0 = j >> c->block_log << c->block_log;
 			uint32_t len = c->seg_n[s] - b0 < (1u << c->block_log)
 					       ? c->seg_n[s] - b0 : 1u << c->block_log;
