@@ -368,7 +368,18 @@ struct vd_colour_source {
 		    uint8_t rgb[3]);
 	void *impl;
 	void (*release)(struct vd_colour_source *s);
+	/* optional: the colours of index[0 .. n) into rgb (3n bytes), as
+	 * get() gives them one by one, but faster for many (a packed file's
+	 * lookups overlap, vd_cpack_colour_many); NULL: get() is used.
+	 * Called through vd_colour_source_get_many. */
+	void (*get_many)(const struct vd_colour_source *s,
+			 const uint64_t *index, size_t n, uint8_t *rgb);
 };
+
+/* The colours of index[0 .. n) (each < voxels) into rgb (3n bytes):
+ * s->get_many, or s->get for each. Thread-safe like get(). */
+void vd_colour_source_get_many(const struct vd_colour_source *s,
+			       const uint64_t *index, size_t n, uint8_t *rgb);
 
 /* Opens `path`: a directory of colour chunks (each checked against the SVO
  * chunk beside it, concatenated in cell order), or a packed colours file of
