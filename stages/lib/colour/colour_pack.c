@@ -1382,7 +1382,6 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	uint64_t x = c->dir[c->seg_block[s] + (k >> c->block_log)];
 	uint32_t e = (uint32_t)x;
 	uint32_t first = k >> c->block_log << c->block_log;
-	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
 	if (e >> 24 == VD_AUTO_CODED) {
 		/* from the restart point at or before the voxel: one past it
 		 * means a run that covers the voxel (the step before it ended
@@ -1404,8 +1403,6 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 		vd_auto_coded_resume(c->code[s], d, st, j, rgb, NULL, NULL);
 		return;
 	}
-	(void)left;
-	(void)bs;
 	vd_auto_decode_laid(e, (uint32_t)(x >> 32), c->data + c->seg_data[s] +
 			    (e & 0xffffff), k - first, rgb);
 }
@@ -1457,7 +1454,7 @@ int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 struct lk {
 	const uint8_t *d;   /* the block's bytes */
 	uint32_t e, lay;    /* directory entry, layout */
-	uint32_t n, j;      /* voxels in the block, voxel in it */
+	uint32_t j;         /* voxel in the block */
 	uint32_t s;         /* segment */
 	uint64_t bi;        /* block */
 };
@@ -1468,12 +1465,9 @@ static inline void lk_locate(const struct vd_cpack *c, uint64_t i,
 	uint64_t p = i >> 18;
 	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 	uint32_t k = (uint32_t)(i - c->seg_first[s]);
-	uint32_t first = k >> c->block_log << c->block_log;
-	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
 	l->s = (uint32_t)s;
 	l->bi = c->seg_block[s] + (k >> c->block_log);
-	l->j = k - first;
-	l->n = left < bs ? left : bs;
+	l->j = k & ((1u << c->block_log) - 1);
 }
 
 /* Colours of the coded lookups keys[0..m) (voxel << 20 | position in
