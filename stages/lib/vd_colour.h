@@ -282,6 +282,17 @@ uint64_t vd_cpack_voxels(const struct vd_cpack *c);
 /* Colour of voxel `i` (binary search over segments, then block headers).
  * VD_ERR_RANGE when i >= voxels. */
 int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3]);
+/* Colours of voxels idx[0 .. n) into rgb (3n bytes, rgb + 3q for
+ * idx[q]): the same colours as vd_cpack_colour, in any order, duplicates
+ * allowed. For the auto method many lookups are in flight at once (their
+ * cache misses overlap), and a coded file's lookups are sorted so that
+ * each block touched is decoded once: batches of a few hundred or more
+ * pay, and the nearer the voxels (a frame's hits), the more. Every index
+ * is checked first: VD_ERR_RANGE, with rgb untouched, when one is >=
+ * voxels; VD_ERR_NOMEM (coded files allocate 16 bytes a lookup, at most
+ * 2^20 at once). Thread-safe on one reader. */
+int vd_cpack_colour_many(const struct vd_cpack *c, const uint64_t *idx,
+			 size_t n, uint8_t *rgb);
 /* Colours of voxels first .. first+n-1 into rgb (3n bytes). */
 int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		    uint8_t *rgb);
@@ -357,7 +368,18 @@ struct vd_colour_source {
 		    uint8_t rgb[3]);
 	void *impl;
 	void (*release)(struct vd_colour_source *s);
+	/* optional: the colours of index[0 .. n) into rgb (3n bytes), as
+	 * get() gives them one by one, but faster for many (a packed file's
+	 * lookups overlap, vd_cpack_colour_many); NULL: get() is used.
+	 * Called through vd_colour_source_get_many. */
+	void (*get_many)(const struct vd_colour_source *s,
+			 const uint64_t *index, size_t n, uint8_t *rgb);
 };
+
+/* The colours of index[0 .. n) (each < voxels) into rgb (3n bytes):
+ * s->get_many, or s->get for each. Thread-safe like get(). */
+void vd_colour_source_get_many(const struct vd_colour_source *s,
+			       const uint64_t *index, size_t n, uint8_t *rgb);
 
 /* Opens `path`: a directory of colour chunks (each checked against the SVO
  * chunk beside it, concatenated in cell order), or a packed colours file of

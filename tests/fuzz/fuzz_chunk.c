@@ -35,6 +35,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			uint8_t rgb[3];
 			(void)vd_cpack_colour(p, i, rgb);
 		}
+		/* the batched lookups too, from the end back (a coded file's
+		 * are sorted) */
+		uint64_t idx[256];
+		uint8_t out[3 * 256];
+		size_t m = 0;
+		for (uint64_t i = voxels; i-- > 0 && m < 256;)
+			idx[m++] = i;
+		(void)vd_cpack_colour_many(p, idx, m, out);
 		vd_cpack_free(p);
 	}
 	return 0;

@@ -369,6 +369,7 @@ static void make_array(uint8_t *rgb, uint64_t n, int kind)
 
 /* Opens `name`, decodes everything and a sample at random, and checks
  * every colour against the originals: within `et` (0: equal). */
+static int many_big; /* check_file: a batch over 2^20 lookups too */
 static void check_file(const char *name, int cells, uint8_t *const *rgb,
 		       const uint64_t *n, double et)
 {
@@ -402,6 +403,8 @@ static void check_file(const char *name, int cells, uint8_t *const *rgb,
 		}
 	CHECK_EQ(bad, 0);
 	CHECK_EQ(ra_bad, 0);
+	/* batched: the same colours as the full decode, in any order */
+	CHECK_EQ(test_cpack_many_bad(c, all, total, many_big, &rng), 0);
 	/* ranges that start and end inside blocks (a coded block is decoded
 	 * whole for them) */
 	for (uint64_t f = total / 7, k = 0; k < 3 && f < total; k++, f += total / 5 + 13) {
@@ -572,7 +575,9 @@ static void test_spider(void)
 	}
 	struct vd_auto_params pc = {.max_error = 0, .coded = 1};
 	CHECK_EQ(write_cells("spider.auto", &pc, 1, cells, n), VD_OK);
+	many_big = 1;
 	check_file("spider.auto", 1, cells, n, 0);
+	many_big = 0;
 	/* through the DAG: voxel i of the SVO's depth-first (Morton) order
 	 * has colour i of the chunk; its index comes from the path (the
 	 * coded file, the slower lookup) */
@@ -734,6 +739,10 @@ static void test_coded_restart(void)
 			bad += memcmp(o, rgb + 3 * i, 3) != 0;
 		}
 		CHECK_EQ(bad, 0);
+		/* batched, in random order: the decoder going on from the
+		 * previous voxel asked of the block or from a restart point */
+		if (c)
+			CHECK_EQ(test_cpack_many_bad(c, rgb, n[0], 0, &rng), 0);
 		vd_cpack_free(c);
 	}
 	free(rgb);

@@ -104,6 +104,9 @@ static uint64_t compare(const char *name, int first, int last,
 			sse += vd_rgb_dist2(cell_rgb[k] + 3 * j, all + 3 * i);
 		}
 	CHECK_EQ(ra_bad, 0);
+	/* batched lookups give the same colours, in any order */
+	uint64_t seed = 99;
+	CHECK_EQ(test_cpack_many_bad(c, all, total, 0, &seed), 0);
 	/* a range decode from the middle agrees too */
 	if (total > 1000) {
 		uint8_t mid[300];

@@ -76,10 +76,43 @@ static inline void vd_auto_quant(const uint8_t *d, unsigned wr, unsigned wg,
 	}
 }
 
-static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
-				  uint32_t j, uint8_t rgb[3])
+/* Where a block's bits are, from its header: the offset of the voxels'
+ * bits from the block's first byte (bits 0-15), the bits a voxel (16-20),
+ * for the endpoints mode log2 of the part length (21-24) and 1 for RGB565
+ * endpoints (25); 0 for a constant or coded block. The reader keeps it
+ * beside each directory entry (4 bytes a block), so that a lookup finds
+ * the voxel's bits without reading the header first: the two cache
+ * misses (header, bits) are independent, not one after the other. */
+static inline uint32_t vd_auto_layout(uint32_t e, const uint8_t *d,
+				      uint32_t n)
 {
 	unsigned mode = e >> 24, b = mode & 15;
+	switch (mode >> 4) {
+	case VD_AUTO_PALETTE >> 4:
+		return (1 + 3 * (d[0] + 1u)) | b << 16;
+	case VD_AUTO_ENDPOINTS >> 4: {
+		unsigned len = d[0] & 15, esz = d[0] & 16 ? 4 : 6;
+		unsigned parts = (n + (1u << len) - 1) >> len;
+		return (1 + esz * parts) | b << 16 | len << 21 |
+		       (uint32_t)(esz == 4) << 25;
+	}
+	case VD_AUTO_QUANT >> 4:
+		return 6 | (unsigned)((d[4] & 15) + (d[4] >> 4) + (d[5] & 15)) << 16;
+	case VD_AUTO_RAW >> 4:
+		return 24u << 16;
+	default:
+		return 0;
+	}
+}
+
+/* vd_auto_decode with the block's layout (vd_auto_layout) given. */
+static inline void vd_auto_decode_laid(uint32_t e, uint32_t lay,
+				       const uint8_t *d, uint32_t j,
+				       uint8_t rgb[3])
+{
+	unsigned mode = e >> 24, b = mode & 15;
+	const uint8_t *bits = d + (lay & 0xffff);
+	unsigned bpv = lay >> 16 & 31;
 	switch (mode >> 4) {
 	case VD_AUTO_CONST >> 4:
 		rgb[0] = (uint8_t)e;
@@ -87,8 +120,7 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		rgb[2] = (uint8_t)(e >> 16);
 		return;
 	case VD_AUTO_PALETTE >> 4: {
-		unsigned k = d[0] + 1u;
-		unsigned x = vd_auto_bits(d + 1 + 3 * k, (uint64_t)j * b, b);
+		unsigned x = vd_auto_bits(bits, (uint64_t)j * b, b);
 		memcpy(rgb, d + 1 + 3 * x, 3);
 		return;
 	}
@@ -96,27 +128,29 @@ static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
 		/* d[0]: log2 of the part length, bit 4 RGB565 endpoints (4
 		 * bytes a part) instead of RGB8 (6); the parts' endpoint
 		 * pairs; the weights */
-		unsigned m = (1u << b) - 1, len = d[0] & 15;
-		unsigned esz = d[0] & 16 ? 4 : 6;
-		unsigned parts = (n + (1u << len) - 1) >> len;
+		unsigned m = (1u << b) - 1, len = lay >> 21 & 15;
+		unsigned esz = lay >> 25 & 1 ? 4 : 6;
 		uint8_t c0[3], c1[3];
 		vd_auto_endpoints(d + 1 + esz * (j >> len), esz, c0, c1);
-		unsigned w = vd_auto_bits(d + 1 + esz * parts, (uint64_t)j * b, b);
+		unsigned w = vd_auto_bits(bits, (uint64_t)j * b, b);
 		for (int c = 0; c < 3; c++)
 			rgb[c] = (uint8_t)(((uint64_t)(c0[c] * (m - w) + c1[c] * w +
 						       m / 2) * vd_auto_recip[b]) >> 32);
 		return;
 	}
-	case VD_AUTO_QUANT >> 4: {
-		unsigned wr = d[4] & 15, wg = d[4] >> 4, wb = d[5] & 15;
-		unsigned wsum = wr + wg + wb;
-		vd_auto_quant(d, wr, wg, vd_auto_bits(d + 6, (uint64_t)j * wsum,
-						      wsum), rgb);
+	case VD_AUTO_QUANT >> 4:
+		vd_auto_quant(d, d[4] & 15, d[4] >> 4,
+			      vd_auto_bits(bits, (uint64_t)j * bpv, bpv), rgb);
 		return;
-	}
 	default: /* VD_AUTO_RAW */
 		memcpy(rgb, d + 3 * (size_t)j, 3);
 	}
+}
+
+static inline void vd_auto_decode(uint32_t e, const uint8_t *d, uint32_t n,
+				  uint32_t j, uint8_t rgb[3])
+{
+	vd_auto_decode_laid(e, vd_auto_layout(e, d, n), d, j, rgb);
 }
 
 /* Every colour of a block that is not coded (entry e, bytes at d, n
@@ -291,19 +325,21 @@ static inline void vd_auto_coded_start(const uint8_t *d,
 
 /* Decodes the coded block at d (u16 stream bytes S, R, G, B of voxel 0,
  * the stream) from state st on until voxel j is decoded (st->i > j), and
- * puts its colour in rgb (st itself is left at the start state). Returns
+ * puts its colour in rgb; st is left at the state after that step, so a
+ * later voxel of the block can go on from it (vd_auto_coded_resume
+ * below leaves its state as it was). Returns
  * the bits of the stream read, or -1 for a symbol with no code, a hit
  * past the list, or (when all != NULL) a run past voxel j. With all set,
  * every colour decoded goes to all[3 st->i ..]. With snap set, the state
  * when it first reaches voxel k * VD_AUTO_RESTART (1 <= k, k
  * VD_AUTO_RESTART <= j) goes to snap[k - 1] (a run across several such
  * voxels fills each of them). */
-static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
-					   const uint8_t *d,
-					   const struct vd_auto_coded_state *st,
-					   uint32_t j, uint8_t rgb[3],
-					   uint8_t *all,
-					   struct vd_auto_coded_state *snap)
+static inline int64_t vd_auto_coded_run(const struct vd_auto_code *c,
+					const uint8_t *d,
+					struct vd_auto_coded_state *st,
+					uint32_t j, uint8_t rgb[3],
+					uint8_t *all,
+					struct vd_auto_coded_state *snap)
 {
 	uint32_t ring[VD_AUTO_RECENT], nr = st->nr, h = st->h;
 	uint32_t cur = st->cur, i = st->i;
@@ -384,7 +420,27 @@ static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
 	rgb[0] = (uint8_t)cur;
 	rgb[1] = (uint8_t)(cur >> 8);
 	rgb[2] = (uint8_t)(cur >> 16);
+	memcpy(st->ring, ring, sizeof ring);
+	st->cur = cur;
+	st->pos = (uint32_t)pos;
+	st->i = i;
+	st->h = (uint8_t)h;
+	st->nr = (uint8_t)nr;
+	st->ctx = (uint8_t)ctx;
 	return (int64_t)pos;
+}
+
+/* vd_auto_coded_run from a copy of st: st stays as it was (a restart
+ * point the reader keeps). */
+static inline int64_t vd_auto_coded_resume(const struct vd_auto_code *c,
+					   const uint8_t *d,
+					   const struct vd_auto_coded_state *st,
+					   uint32_t j, uint8_t rgb[3],
+					   uint8_t *all,
+					   struct vd_auto_coded_state *snap)
+{
+	struct vd_auto_coded_state t = *st;
+	return vd_auto_coded_run(c, d, &t, j, rgb, all, snap);
 }
 
 /* Colour of voxel j of the coded block at d into rgb, decoding from the

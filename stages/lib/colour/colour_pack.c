@@ -653,7 +653,10 @@ struct vd_cpack {
 	uint32_t *blk_start;
 	uint16_t *c0, *c1;           /* vbr */
 	uint32_t *blk_pal, *blk_bit; /* palette */
-	uint32_t *dir;               /* auto: directory entries */
+	/* auto: per block its directory entry (low 32 bits) and its
+	 * layout (vd_auto_layout, high 32): 4 bytes a block more than the
+	 * file's directory, 1/64 byte a voxel at 2^8 voxels a block */
+	uint64_t *dir;
 	/* auto: seg_at[p] the segment holding voxel p << 18, so a lookup
 	 * searches only the segments that start in its 2^18 window */
 	uint32_t *seg_at;
@@ -1081,7 +1084,7 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 		return vd_fail(VD_ERR_CORRUPT, "%zu blocks, CPAR says %llu",
 			       n / 4, (unsigned long long)c->blocks);
 	}
-	c->dir = malloc((size_t)c->blocks * 4 + 4);
+	c->dir = malloc((size_t)c->blocks * 8 + 8);
 	if (!c->dir) {
 		free(blk);
 		return vd_fail(VD_ERR_NOMEM, "%llu blocks",
@@ -1115,7 +1118,7 @@ static int read_auto(struct vd_cpack *c, const struct vd_chunk *ch)
 		c->blk_restart = malloc((size_t)c->blocks * sizeof *c->blk_restart);
 		for (uint64_t b = 0; b < c->blocks && c->blk_restart; b++) {
 			c->blk_restart[b] = UINT32_MAX;
-			if (c->dir[b] >> 24 == VD_AUTO_CODED && per &&
+			if ((uint32_t)c->dir[b] >> 24 == VD_AUTO_CODED && per &&
 			    coded * per < UINT32_MAX - per)
 				c->blk_restart[b] = (uint32_t)(coded++ * per);
 		}
@@ -1173,7 +1176,7 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 		}
 		for (uint64_t b = 0; b < nb; b++) {
 			uint64_t bi = c->seg_block[s] + b;
-			uint32_t e = c->dir[bi], m = e >> 24;
+			uint32_t e = (uint32_t)c->dir[bi], m = e >> 24;
 			uint32_t len = b + 1 < nb ? bs : c->seg_n[s] - (uint32_t)b * bs;
 			if (m == VD_AUTO_CONST)
 				continue;
@@ -1235,6 +1238,7 @@ static int read_auto_blocks(struct vd_cpack *c, uint8_t *scratch)
 						       "there" : "not filling their "
 						       "bytes");
 			}
+			c->dir[bi] = e | (uint64_t)vd_auto_layout(e, d, len) << 32;
 			at += sz;
 		}
 		data += at;
@@ -1375,9 +1379,9 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	uint64_t p = i >> 18;
 	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 	uint32_t k = (uint32_t)(i - c->seg_first[s]);
-	uint32_t e = c->dir[c->seg_block[s] + (k >> c->block_log)];
+	uint64_t x = c->dir[c->seg_block[s] + (k >> c->block_log)];
+	uint32_t e = (uint32_t)x;
 	uint32_t first = k >> c->block_log << c->block_log;
-	uint32_t left = c->seg_n[s] - first, bs = 1u << c->block_log;
 	if (e >> 24 == VD_AUTO_CODED) {
 		/* from the restart point at or before the voxel: one past it
 		 * means a run that covers the voxel (the step before it ended
@@ -1399,8 +1403,8 @@ static void auto_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 		vd_auto_coded_resume(c->code[s], d, st, j, rgb, NULL, NULL);
 		return;
 	}
-	vd_auto_decode(e, c->data + c->seg_data[s] + (e & 0xffffff),
-		       left < bs ? left : bs, k - first, rgb);
+	vd_auto_decode_laid(e, (uint32_t)(x >> 32), c->data + c->seg_data[s] +
+			    (e & 0xffffff), k - first, rgb);
 }
 
 int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
@@ -1431,6 +1435,184 @@ int vd_cpack_colour(const struct vd_cpack *c, uint64_t i, uint8_t rgb[3])
 	return VD_OK;
 }
 
+/* ---------------------------------------------- batched lookups (auto) */
+
+/* vd_cpack_colour_many's pipeline: a lookup goes through three stages,
+ * LK_D lookups apart, each of which prefetches what the next one reads:
+ * (1) its segment and block, prefetch the directory entry; (2) the entry
+ * and the block's layout, prefetch the header and the voxel's bits (and
+ * its part's endpoints; a coded block's restart point); (3) decode. A
+ * single lookup waits for the entry's miss, then the data's; in the
+ * batch, 2 LK_D lookups are in flight at once, so the misses overlap.
+ * LK_D: enough to cover a miss to memory with the few ns a stage costs. */
+#ifndef LK_D
+#define LK_D 16
+#endif
+#define LK_RING 64 /* > 2 LK_D, a power of two */
+#define LK_CHUNK (1u << 20) /* coded lookups sorted at once, at most */
+
+struct lk {
+	const uint8_t *d;   /* the block's bytes */
+	uint32_t e, lay;    /* directory entry, layout */
+	uint32_t j;         /* voxel in the block */
+	uint32_t s;         /* segment */
+	uint64_t bi;        /* block */
+};
+
+static inline void lk_locate(const struct vd_cpack *c, uint64_t i,
+			     struct lk *l)
+{
+	uint64_t p = i >> 18;
+	size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
+	uint32_t k = (uint32_t)(i - c->seg_first[s]);
+	l->s = (uint32_t)s;
+	l->bi = c->seg_block[s] + (k >> c->block_log);
+	l->j = k & ((1u << c->block_log) - 1);
+}
+
+/* Colours of the coded lookups keys[0..m) (voxel << 20 | position in
+ * out) into out: sorted by voxel, so each block touched is decoded once,
+ * from the restart point at or before its first voxel asked, or from
+ * where the previous voxel asked left the decoder when that is later. */
+static void coded_sorted(const struct vd_cpack *c, uint64_t *keys,
+			 uint64_t *tmp, size_t m, uint8_t *out)
+{
+	/* LSD radix sort, 11 bits a pass, over the bits the keys use */
+	unsigned bits = 20;
+	while (bits < 64 && c->voxels > 1ull << (bits - 20))
+		bits++;
+	for (unsigned sh = 0; sh < bits; sh += 11) {
+		size_t cnt[2048] = {0};
+		for (size_t q = 0; q < m; q++)
+			cnt[keys[q] >> sh & 2047]++;
+		size_t at = 0;
+		for (unsigned v = 0; v < 2048; v++) {
+			size_t t = cnt[v];
+			cnt[v] = at;
+			at += t;
+		}
+		for (size_t q = 0; q < m; q++)
+			tmp[cnt[keys[q] >> sh & 2047]++] = keys[q];
+		uint64_t *x = keys;
+		keys = tmp;
+		tmp = x;
+	}
+	struct vd_auto_coded_state st;
+	uint64_t cur_bi = UINT64_MAX;
+	for (size_t q = 0; q < m; q++) {
+		struct lk l;
+		lk_locate(c, keys[q] >> 20, &l);
+		uint8_t *rgb = out + 3 * (keys[q] & (LK_CHUNK - 1));
+		uint32_t e = (uint32_t)c->dir[l.bi], j = l.j;
+		const uint8_t *d = c->data + c->seg_data[l.s] + (e & 0xffffff);
+		if (l.bi != cur_bi) {
+			vd_auto_coded_start(d, &st);
+			cur_bi = l.bi;
+		}
+		uint32_t r = c->blk_restart[l.bi], p = j / VD_AUTO_RESTART;
+		if (p && r != UINT32_MAX && c->restart[r + p - 1].i > st.i)
+			st = c->restart[r + p - 1];
+		if (j == 0 || st.i > j) {
+			/* voxel 0, or inside the step that ended at st (a
+			 * run: the voxels asked come in order) */
+			uint32_t v = j == 0 ? (uint32_t)d[2] | (uint32_t)d[3] << 8 |
+						      (uint32_t)d[4] << 16 : st.cur;
+			rgb[0] = (uint8_t)v;
+			rgb[1] = (uint8_t)(v >> 8);
+			rgb[2] = (uint8_t)(v >> 16);
+			continue;
+		}
+		vd_auto_coded_run(c->code[l.s], d, &st, j, rgb, NULL, NULL);
+	}
+}
+
+static int auto_many(const struct vd_cpack *c, const uint64_t *idx,
+		     size_t n, uint8_t *rgb)
+{
+	struct lk r[LK_RING];
+	uint64_t *keys = NULL, *tmp = NULL;
+	size_t m = 0;
+	/* coded lookups are sorted only where the keys hold the voxel */
+	int sort = c->coded && c->blk_restart && c->voxels <= 1ull << 44;
+	if (sort) {
+		size_t cap = n < LK_CHUNK ? n : LK_CHUNK;
+		keys = malloc(cap * sizeof *keys);
+		tmp = malloc(cap * sizeof *tmp);
+		if (!keys || !tmp) {
+			free(keys);
+			free(tmp);
+			return vd_fail(VD_ERR_NOMEM, "%zu colour lookups", cap);
+		}
+	}
+	for (size_t base = 0; base < n; base += LK_CHUNK) {
+		size_t cn = n - base < LK_CHUNK ? n - base : LK_CHUNK;
+		const uint64_t *ix = idx + base;
+		uint8_t *out = rgb + 3 * base;
+		m = 0;
+		for (size_t t = 0; t < cn + 2 * LK_D; t++) {
+			if (t < cn) {
+				struct lk *l = &r[t & (LK_RING - 1)];
+				lk_locate(c, ix[t], l);
+				__builtin_prefetch(&c->dir[l->bi]);
+			}
+			if (t >= LK_D && t - LK_D < cn) {
+				struct lk *l = &r[(t - LK_D) & (LK_RING - 1)];
+				uint64_t x = c->dir[l->bi];
+				l->e = (uint32_t)x;
+				l->lay = (uint32_t)(x >> 32);
+				l->d = c->data + c->seg_data[l->s] + (l->e & 0xffffff);
+				unsigned mode = l->e >> 24;
+				if (mode == VD_AUTO_CODED) {
+					uint32_t rp = c->blk_restart[l->bi];
+					uint32_t p = l->j / VD_AUTO_RESTART;
+					if (p && rp != UINT32_MAX)
+						__builtin_prefetch(&c->restart[rp + p - 1]);
+				} else if (mode != VD_AUTO_CONST) {
+					/* the header, the bits, and for the endpoints
+					 * mode the part's pair (else the header again) */
+					unsigned len = l->lay >> 21 & 15;
+					unsigned esz = l->lay >> 25 & 1 ? 4 : 6;
+					__builtin_prefetch(l->d);
+					__builtin_prefetch(l->d + (l->lay & 0xffff) +
+							   (((uint64_t)l->j * (l->lay >> 16 & 31)) >> 3));
+					__builtin_prefetch(mode >> 4 == VD_AUTO_ENDPOINTS >> 4
+							   ? l->d + 1 + esz * (l->j >> len) : l->d);
+				}
+			}
+			if (t >= 2 * LK_D) {
+				size_t q = t - 2 * LK_D;
+				struct lk *l = &r[q & (LK_RING - 1)];
+				if (l->e >> 24 != VD_AUTO_CODED)
+					vd_auto_decode_laid(l->e, l->lay, l->d, l->j, out + 3 * q);
+				else if (sort)
+					keys[m++] = ix[q] << 20 | q;
+				else
+					auto_colour(c, ix[q], out + 3 * q);
+			}
+		}
+		if (m)
+			coded_sorted(c, keys, tmp, m, out);
+	}
+	free(keys);
+	free(tmp);
+	return VD_OK;
+}
+
+int vd_cpack_colour_many(const struct vd_cpack *c, const uint64_t *idx,
+			 size_t n, uint8_t *rgb)
+{
+	for (size_t q = 0; q < n; q++)
+		if (idx[q] >= c->voxels)
+			return vd_fail(VD_ERR_RANGE, "colour %llu of %llu (lookup "
+				       "%zu of %zu)", (unsigned long long)idx[q],
+				       (unsigned long long)c->voxels, q, n);
+	if (c->method == VD_CPACK_AUTO)
+		return auto_many(c, idx, n, rgb);
+	for (size_t q = 0; q < n; q++)
+		vd_cpack_colour(c, idx[q], rgb + 3 * q);
+	return VD_OK;
+}
+
 int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 		    uint8_t *rgb)
 {
@@ -1452,7 +1634,7 @@ int vd_cpack_decode(const struct vd_cpack *c, uint64_t first, uint64_t n,
 			uint64_t i = first + k, p = i >> 18;
 			size_t s = segment_in(c, i, c->seg_at[p], c->seg_at[p + 1] + 1);
 			uint32_t j = (uint32_t)(i - c->seg_first[s]);
-			uint32_t e = c->dir[c->seg_block[s] + (j >> c->block_log)];
+			uint32_t e = (uint32_t)c->dir[c->seg_block[s] + (j >> c->block_log)];
 			uint32_t b0 = j >> c->block_log << c->block_log;
 			uint32_t len = c->seg_n[s] - b0 < (1u << c->block_log)
 					       ? c->seg_n[s] - b0 : 1u << c->block_log;

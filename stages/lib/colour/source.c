@@ -169,6 +169,16 @@ static void cpack_get(const struct vd_colour_source *s, uint64_t index,
 	(void)vd_cpack_colour(s->impl, index, rgb);
 }
 
+static void cpack_get_many(const struct vd_colour_source *s,
+			   const uint64_t *index, size_t n, uint8_t *rgb)
+{
+	/* the indices are < voxels (the interface's promise), so only
+	 * memory can fail: then one by one, which cannot */
+	if (vd_cpack_colour_many(s->impl, index, n, rgb) != VD_OK)
+		for (size_t q = 0; q < n; q++)
+			(void)vd_cpack_colour(s->impl, index[q], rgb + 3 * q);
+}
+
 static void cpack_release(struct vd_colour_source *s)
 {
 	vd_cpack_free(s->impl);
@@ -195,6 +205,7 @@ static int open_cpack(struct vd_colour_source *s, const char *path)
 	s->levels = (int)h.levels;
 	s->cell_level = vd_cpack_cell_level(c);
 	s->get = cpack_get;
+	s->get_many = cpack_get_many;
 	s->impl = c;
 	s->release = cpack_release;
 	return VD_OK;
@@ -222,6 +233,17 @@ int vd_colour_source_open(struct vd_colour_source *s, const char *path)
 	s->impl = rgb;
 	s->release = raw_release;
 	return VD_OK;
+}
+
+void vd_colour_source_get_many(const struct vd_colour_source *s,
+			       const uint64_t *index, size_t n, uint8_t *rgb)
+{
+	if (s->get_many) {
+		s->get_many(s, index, n, rgb);
+		return;
+	}
+	for (size_t q = 0; q < n; q++)
+		s->get(s, index[q], rgb + 3 * q);
 }
 
 void vd_colour_source_release(struct vd_colour_source *s)

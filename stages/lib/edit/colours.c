@@ -329,9 +329,17 @@ static int sr_get(struct srcread *r, uint64_t ci, uint64_t at, uint64_t n,
 	const struct hd_colours *c = r->c;
 	uint64_t want = c->input[ci] ? c->input[ci]->n : 0;
 	if (!c->src_dir) {
+		/* in batches: a packed file's run of voxels then decodes each
+		 * coded block once, not from a restart point for every voxel
+		 * (vd_cpack_colour_many) */
 		const struct vd_colour_source *s = &c->pack;
-		for (uint64_t k = 0; k < n; k++)
-			s->get(s, c->cell_first[ci] + at + k, out + 3 * k);
+		uint64_t idx[1024];
+		for (uint64_t k = 0; k < n; k += 1024) {
+			size_t m = n - k < 1024 ? (size_t)(n - k) : 1024;
+			for (size_t q = 0; q < m; q++)
+				idx[q] = c->cell_first[ci] + at + k + q;
+			vd_colour_source_get_many(s, idx, m, out + 3 * k);
+		}
 		return VD_OK;
 	}
 	if (r->ci != ci) {

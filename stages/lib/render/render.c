@@ -733,6 +733,39 @@ static void shade_row(void *ctx, size_t row, int worker)
 	int y = (int)row;
 	double inv_vs = 1.0 / s->voxel_size;
 	uint64_t shadow_rays = 0;
+	/* the row's voxel colours first, looked up all at once (a packed
+	 * file's lookups then overlap their cache misses): at[x] the
+	 * pixel's place in index[] and rgb[], -1 for none (or, when the
+	 * scratch cannot be had, looked up one by one below) */
+	int32_t *at = NULL;
+	uint64_t *index = NULL;
+	uint8_t *rgb_row = NULL;
+	if (c->counts) {
+		at = malloc((size_t)img->width * sizeof *at);
+		index = malloc((size_t)img->width * sizeof *index);
+		rgb_row = malloc(3 * (size_t)img->width);
+		if (!at || !index || !rgb_row) {
+			free(at);
+			free(index);
+			free(rgb_row);
+			at = NULL;
+			index = NULL;
+			rgb_row = NULL;
+		}
+	}
+	if (at) {
+		size_t m = 0;
+		for (int x = 0; x < img->width; x++) {
+			size_t i = (size_t)y * img->width + x;
+			const struct vd_hit *h = &img->hits[i];
+			at[x] = -1;
+			if (h->level >= 0 && !(img->differs && img->differs[i]) &&
+			    vd_voxcount_index(c->counts, h->level, h->cell[0],
+					      h->cell[1], h->cell[2], &index[m]))
+				at[x] = (int32_t)m++;
+		}
+		vd_colour_source_get_many(c->o->colours, index, m, rgb_row);
+	}
 	for (int x = 0; x < img->width; x++) {
 		size_t i = (size_t)y * img->width + x;
 		uint8_t *px = img->rgb + 3 * i;
@@ -791,21 +824,28 @@ static void shade_row(void *ctx, size_t row, int worker)
 		static const double grey[3] = {0.82, 0.76, 0.66},
 				    red[3] = {0.90, 0.05, 0.04};
 		double albedo[3] = {grey[0], grey[1], grey[2]};
-		uint64_t index;
+		uint64_t one;
 		if (img->differs && img->differs[i]) {
 			memcpy(albedo, red, sizeof albedo);
-		} else if (c->counts &&
-			   vd_voxcount_index(c->counts, h->level, h->cell[0],
-					     h->cell[1], h->cell[2], &index)) {
+		} else if (at ? at[x] >= 0
+			      : c->counts &&
+				vd_voxcount_index(c->counts, h->level, h->cell[0],
+						  h->cell[1], h->cell[2], &one)) {
 			/* a voxel's own colour; an LOD cell's first voxel's */
 			uint8_t rgb[3];
-			c->o->colours->get(c->o->colours, index, rgb);
+			if (at)
+				memcpy(rgb, rgb_row + 3 * (size_t)at[x], 3);
+			else
+				c->o->colours->get(c->o->colours, one, rgb);
 			for (int k = 0; k < 3; k++)
 				albedo[k] = c->srgb_to_linear[rgb[k]];
 		}
 		for (int k = 0; k < 3; k++) px[k] = to_srgb8(albedo[k] * light);
 	}
 	c->shadow_rays[row] = shadow_rays;
+	free(at);
+	free(index);
+	free(rgb_row);
 }
 
 void vd_image_release(struct vd_image *img)
