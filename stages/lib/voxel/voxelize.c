@@ -163,10 +163,74 @@ static void tri_cache_add(struct tri_cache *c, const struct vd_triangle *t,
 	c->n += n;
 }
 
+/* With more than one thread and a budget of FEED_MIN_BUDGET or more, a
+ * pass that reads no attributes (all but binning with colours) reads the
+ * mesh on a thread of its own, a batch ahead of the one that works on it
+ * (estimate, bins): decoding a large file is as much work as the pass.
+ * The batches are handed on in the file's order, so a pass sees what it
+ * sees on one thread. d->tris then holds FEED_SLOTS batches, allocated
+ * before the first pass, so the plan's `base` has them; a smaller budget
+ * keeps the one batch it had (its cells' share decides its chunk level,
+ * and so its bytes). */
+enum { FEED_SLOTS = 2 };
+#define FEED_MIN_BUDGET ((uint64_t)256 << 20)
+
+struct feed {
+	struct vd_mesh *m;
+	struct vd_triangle *buf;     /* FEED_SLOTS batches of TRI_BATCH */
+	struct vd_tri_attr *attr;    /* the same, or NULL */
+	size_t n[FEED_SLOTS];
+	uint64_t made, used;         /* batches read, batches worked on */
+	int done, stop, err;
+	char detail[512];
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+};
+
+static void *feed_main(void *arg)
+{
+	struct feed *f = arg;
+	for (;;) {
+		pthread_mutex_lock(&f->lock);
+		while (f->made - f->used == FEED_SLOTS && !f->stop)
+			pthread_cond_wait(&f->cond, &f->lock);
+		int stop = f->stop;
+		size_t s = (size_t)(f->made % FEED_SLOTS);
+		pthread_mutex_unlock(&f->lock);
+		if (stop)
+			break;
+		size_t n = 0;
+		struct vd_triangle *t = f->buf + s * TRI_BATCH;
+		int err = f->attr ? vd_mesh_read_attr(f->m, t, f->attr +
+						      s * TRI_BATCH, TRI_BATCH, &n)
+				  : vd_mesh_read(f->m, t, TRI_BATCH, &n);
+		pthread_mutex_lock(&f->lock);
+		if (err) {
+			f->err = err;
+			snprintf(f->detail, sizeof f->detail, "%s",
+				 vd_error_detail());
+		}
+		if (err || n == 0) {
+			f->done = 1;
+		} else {
+			f->n[s] = n;
+			f->made++;
+		}
+		pthread_cond_broadcast(&f->cond);
+		pthread_mutex_unlock(&f->lock);
+		if (err || n == 0)
+			break;
+	}
+	return NULL;
+}
+
 /* Reads the mesh once (or its triangles from the cache), calling fn for
- * each batch of triangles; with `attr` (colours), their attributes too. */
+ * each batch of triangles; with `attr` (colours), their attributes too.
+ * With `threads` > 1 (then `buf` holds FEED_SLOTS batches) and no `attr`,
+ * the mesh is read on a thread of its own (struct feed). */
 static int for_each_batch(struct vd_mesh *m, struct tri_cache *c,
 			  struct vd_triangle *buf, struct vd_tri_attr *attr,
+			  int threads,
 			  int (*fn)(void *ctx, const struct vd_triangle *t,
 				    const struct vd_tri_attr *a, size_t n),
 			  void *ctx)
@@ -180,15 +244,49 @@ static int for_each_batch(struct vd_mesh *m, struct tri_cache *c,
 	}
 	int fill = !attr && c->state == 0;
 	err = vd_mesh_rewind(m);
+	struct feed f = {.m = m, .buf = buf, .attr = attr,
+			 .lock = PTHREAD_MUTEX_INITIALIZER,
+			 .cond = PTHREAD_COND_INITIALIZER};
+	pthread_t th;
+	int feeding = !err && threads > 1 && !attr &&
+		      pthread_create(&th, NULL, feed_main, &f) == 0;
 	while (!err) {
 		size_t n;
-		err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
-			   : vd_mesh_read(m, buf, TRI_BATCH, &n);
+		struct vd_triangle *t = buf;
+		struct vd_tri_attr *a = attr;
+		if (feeding) {
+			pthread_mutex_lock(&f.lock);
+			while (f.made == f.used && !f.done)
+				pthread_cond_wait(&f.cond, &f.lock);
+			size_t s = (size_t)(f.used % FEED_SLOTS);
+			n = f.made == f.used ? 0 : f.n[s];
+			pthread_mutex_unlock(&f.lock);
+			t = buf + s * TRI_BATCH;
+			a = attr ? attr + s * TRI_BATCH : NULL;
+		} else {
+			err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
+				   : vd_mesh_read(m, buf, TRI_BATCH, &n);
+		}
 		if (err || n == 0)
 			break;
 		if (fill && c->state == 0)
-			tri_cache_add(c, buf, n);
-		err = fn(ctx, buf, attr, n);
+			tri_cache_add(c, t, n);
+		err = fn(ctx, t, a, n);
+		if (feeding) {
+			pthread_mutex_lock(&f.lock);
+			f.used++;
+			pthread_cond_broadcast(&f.cond);
+			pthread_mutex_unlock(&f.lock);
+		}
+	}
+	if (feeding) {
+		pthread_mutex_lock(&f.lock);
+		f.stop = 1;
+		pthread_cond_broadcast(&f.cond);
+		pthread_mutex_unlock(&f.lock);
+		pthread_join(th, NULL);
+		if (!err && f.err)
+			err = vd_fail(f.err, "%s", f.detail);
 	}
 	if (fill && c->state == 0)
 		c->state = err ? -1 : 1;
@@ -3179,8 +3277,11 @@ struct driver {
 	int F;                   /* the deepest candidate chunk level */
 	struct progress prog;
 	struct vd_mesh *mesh;
-	struct vd_triangle *tris;  /* a pass's batch: TRI_BATCH */
+	struct vd_triangle *tris;  /* a pass's batch: TRI_BATCH, or
+				    * FEED_SLOTS of them (struct feed) */
 	struct vd_tri_attr *attrs; /* its attributes, with colours */
+	int feed_threads;          /* > 1: the mesh is read on a thread of
+				    * its own (struct feed) */
 	struct tri_cache cache;    /* the first pass's copy of the triangles */
 	struct bounds bd;
 	struct estimate est;
@@ -3212,7 +3313,7 @@ static int read_bounds(struct driver *d)
 	progress_say(&d->prog, 1, "reading %s (%s)", d->mesh_path,
 		     vd_mesh_format(d->mesh));
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
-				 bounds_batch, &d->bd);
+				 d->feed_threads, bounds_batch, &d->bd);
 	if (err)
 		return err;
 	/* the whole file has been seen: its colour sources are known, its
@@ -3252,7 +3353,7 @@ static int estimate_cells(struct driver *d)
 	progress_say(&d->prog, 1, "%llu triangles; estimating memory per cell",
 		     (unsigned long long)d->bd.n);
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
-				 estimate_batch, est);
+				 d->feed_threads, estimate_batch, est);
 	if (!err)
 		err = estimate_sorted(est, &d->bkeys, &d->nbkeys);
 	if (err)
@@ -3419,7 +3520,7 @@ static int bin_triangles(struct driver *d)
 			     b->sub ? ", by octant" : "", d->plan.threads,
 			     (unsigned long long)(d->opts->mem_budget_bytes >> 20));
 		err = for_each_batch(d->mesh, &d->cache, d->tris, d->attrs,
-				     bin_batch, b);
+				     d->feed_threads, bin_batch, b);
 		if (!err)
 			err = r->colours ? flush_bins_col(b) : flush_bins(b);
 		tri_cache_drop(&d->cache); /* the bins have them now */
@@ -3702,7 +3803,12 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	int err = vd_mesh_open_opts(&d.mesh, mesh_path, &mo);
 	if (err)
 		return err;
-	d.tris = malloc(TRI_BATCH * sizeof *d.tris);
+	d.feed_threads = opts->threads > 0 ? opts->threads
+					   : vd_hardware_threads();
+	if (opts->mem_budget_bytes < FEED_MIN_BUDGET)
+		d.feed_threads = 1;
+	d.tris = malloc((d.feed_threads > 1 ? FEED_SLOTS : 1) * TRI_BATCH *
+			sizeof *d.tris);
 	/* the plan counts it in `base` */
 	d.cache.limit = d.share.tri_cache_bytes;
 	if (d.cache.limit > vd_tri_cache_max)
