@@ -4,7 +4,10 @@
  * Passes over the mesh:
  *   1. bounds: the tight bounding box fixes the grid;
  *   2. estimate (only when L0 is chosen automatically): an upper bound of
- *      each cell's in-core memory at every candidate level;
+ *      each cell's in-core memory at every candidate level; without
+ *      colours, when the reader has every vertex before any face (PLY),
+ *      passes 1 and 2 are one on the grid of the vertices' bounds, made
+ *      again when the triangles' bounds turn out other (guess_grid);
  *   3. binning: every triangle is appended to the bin file of each cell it
  *      overlaps (bounded in-memory buffers, flushed to disk), snapped and
  *      packed (struct bin_rec); a cell that all the threads will rasterize
@@ -3300,6 +3303,8 @@ struct driver {
 	uint64_t nodes[VD_MAX_LEVELS + 1]; /* levels L0..L, summed by workers */
 	int split;                 /* each cell on all the workers */
 	int cleaned;               /* outdir cleaned: a failure empties it */
+	int guessed;               /* estimate_cells gathers the bounds too
+				    * (guess_grid) */
 };
 
 /* Pass 1, bounds: reads the whole mesh once for its tight bounding box,
@@ -3307,15 +3312,25 @@ struct driver {
  * d->cache when they fit its share. Memory: the mesh reader (vertices up
  * to share.vertex_bytes), the batch, the cache (share.tri_cache_bytes)
  * and, with colours, the textures the file names. */
+static int bounds_grid(struct driver *d);
+
 static int read_bounds(struct driver *d)
 {
-	struct run *r = &d->r;
 	progress_say(&d->prog, 1, "reading %s (%s)", d->mesh_path,
 		     vd_mesh_format(d->mesh));
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
 				 d->feed_threads, bounds_batch, &d->bd);
 	if (err)
 		return err;
+	return bounds_grid(d);
+}
+
+/* The grid of the triangles' bounds d->bd, once a whole pass has seen
+ * them (read_bounds, or estimate_cells when the grid was guessed). */
+static int bounds_grid(struct driver *d)
+{
+	struct run *r = &d->r;
+	int err;
 	/* the whole file has been seen: its colour sources are known, its
 	 * textures loaded (and so inside `base` below) */
 	r->colours = d->opts->colours && vd_mesh_has_colours(d->mesh);
@@ -3334,6 +3349,9 @@ static int read_bounds(struct driver *d)
 	return VD_OK;
 }
 
+static int estimate_bounds_batch(void *ctx, const struct vd_triangle *t,
+				 const struct vd_tri_attr *attr, size_t n);
+
 /* Pass 2, estimate: one more pass over the triangles collects the 32^3
  * blocks they may touch (at most share.estimate_keys keys,
  * coarsened past it), sorted into d->bkeys; from them, per candidate
@@ -3350,10 +3368,16 @@ static int estimate_cells(struct driver *d)
 	est->max_keys = d->share.estimate_keys;
 	d->F = opts->chunk_level >= 0 ? opts->chunk_level : d->max_level;
 	int F = d->F;
-	progress_say(&d->prog, 1, "%llu triangles; estimating memory per cell",
-		     (unsigned long long)d->bd.n);
+	if (d->guessed)
+		progress_say(&d->prog, 1, "reading %s (%s); estimating memory "
+			     "per cell", d->mesh_path, vd_mesh_format(d->mesh));
+	else
+		progress_say(&d->prog, 1, "%llu triangles; estimating memory "
+			     "per cell", (unsigned long long)d->bd.n);
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
-				 d->feed_threads, estimate_batch, est);
+				 d->feed_threads,
+				 d->guessed ? estimate_bounds_batch : estimate_batch,
+				 d->guessed ? (void *)d : est);
 	if (!err)
 		err = estimate_sorted(est, &d->bkeys, &d->nbkeys);
 	if (err)
@@ -3399,6 +3423,58 @@ static int estimate_cells(struct driver *d)
 			min_blocks[l] = lo < max_blocks[l] ? lo : max_blocks[l];
 	}
 	return VD_OK;
+}
+
+/* Passes 1 and 2 in one when the grid can be guessed: a PLY's vertices
+ * are in memory before its faces are read, and their bounds are the
+ * triangles' unless a vertex no face uses reaches further. The estimate
+ * pass then gathers the triangles' bounds too; when they are not the
+ * guess's, bit for bit, the estimate is dropped and made again on the
+ * grid of the triangles (the cache, when it holds them, replays them), so
+ * the grid, and every chunk, is what the two passes give. Geometry only:
+ * with colours, pass 1 also decides whether there are any. Returns 0
+ * with nothing done when there is no guess. */
+static int estimate_bounds_batch(void *ctx, const struct vd_triangle *t,
+				 const struct vd_tri_attr *attr, size_t n)
+{
+	struct driver *d = ctx;
+	bounds_batch(&d->bd, t, attr, n);
+	return estimate_batch(&d->est, t, attr, n);
+}
+
+static int guess_grid(struct driver *d, int *done)
+{
+	struct run *r = &d->r;
+	float lo[3], hi[3];
+	*done = 0;
+	if (d->opts->colours || !vd_mesh_vertex_bounds(d->mesh, lo, hi) ||
+	    vd_transform_init(&r->g.tr, lo, hi, d->opts->levels) != VD_OK)
+		return VD_OK; /* two passes: read_bounds says what is wrong */
+	r->g.L = d->opts->levels;
+	r->mesh = d->mesh;
+	d->res->seconds_bounds = vd_seconds() - d->t0;
+	d->guessed = 1;
+	int err = estimate_cells(d);
+	d->guessed = 0;
+	if (err)
+		return err;
+	*done = 1;
+	if (!memcmp(lo, d->bd.lo, sizeof lo) && !memcmp(hi, d->bd.hi, sizeof hi)) {
+		d->res->mesh = *vd_mesh_stats(d->mesh);
+		return d->bd.n ? VD_OK : vd_fail(VD_ERR_EMPTY, "'%s' has no "
+						 "triangles", d->mesh_path);
+	}
+	/* the triangles' grid, and the estimate made on it */
+	estimate_free(&d->est);
+	memset(&d->est, 0, sizeof d->est);
+	free(d->bkeys);
+	d->bkeys = NULL;
+	d->nbkeys = 0;
+	memset(d->cells_hit, 0, sizeof d->cells_hit);
+	if ((err = bounds_grid(d)))
+		return err;
+	d->res->seconds_bounds = vd_seconds() - d->t0;
+	return estimate_cells(d);
 }
 
 /* Chooses the chunk level L0 and the workers' share (d->plan, d->r.g.L0):
@@ -3816,11 +3892,17 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	if (!d.tris)
 		return driver_release(&d, vd_fail(VD_ERR_NOMEM,
 						  "triangle buffer"));
-	if ((err = read_bounds(&d)))
-		return driver_release(&d, err);
-	/* planning is timed with binning */
+	/* planning is timed with binning (with a guessed grid, from open) */
 	double t1 = vd_seconds();
-	if ((err = estimate_cells(&d)) || (err = choose_chunk_level(&d)))
+	int guessed;
+	if ((err = guess_grid(&d, &guessed)))
+		return driver_release(&d, err);
+	if (!guessed && (err = read_bounds(&d)))
+		return driver_release(&d, err);
+	if (!guessed)
+		t1 = vd_seconds();
+	if ((!guessed && (err = estimate_cells(&d))) ||
+	    (err = choose_chunk_level(&d)))
 		return driver_release(&d, err);
 	res->seconds_bin = vd_seconds() - t1;
 	if ((err = bin_triangles(&d)))
