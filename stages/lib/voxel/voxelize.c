@@ -708,11 +708,13 @@ struct bin_rec_col {
 	struct vd_tri_attr a;
 };
 
-/* Bytes of one triangle in a bin file. */
+/* Bytes of one triangle where raster_bin reads it: the one cell kept in
+ * memory (run.mem_tris: nine floats) or a colour bin file (geometry bin
+ * files are raster_snapped's: BIN_SMALL_BYTES, BIN_BIG_BYTES). */
 #define BIN_BYTES_GEOM (sizeof(float) * 9)
 #define BIN_BYTES_COL (sizeof(struct bin_rec_col) - sizeof(uint64_t))
 _Static_assert(sizeof(struct vd_triangle) == BIN_BYTES_GEOM,
-	       "a geometry bin's record is a vd_triangle (run.mem_tris)");
+	       "the in-memory cell's record is a vd_triangle (run.mem_tris)");
 
 struct binner {
 	const struct vd_triangle *tri; /* being binned by bin_cell */
@@ -2803,7 +2805,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 				to[i] = r->mem_tris[sel[at + i]];
 			at += n;
 		} else {
-			/* a bin's record is a vd_triangle (BIN_BYTES_GEOM) */
+			/* mem_tris: a vd_triangle a record (BIN_BYTES_GEOM) */
 			n = r->mem_n - at < RASTER_BATCH ? r->mem_n - at
 							 : RASTER_BATCH;
 			rb = (const unsigned char *)(r->mem_tris + at);
