@@ -88,6 +88,43 @@ scaling() { # scaling SCENE LEVELS
 scaling stanford_dragon.ply 14
 scaling fg_terrain_reykjavik.ply 14
 
+# Boeing-scale input (issue 39): 256 layers of the terrain
+# (tests/bench/stack.c), 352 M triangles, 8.3 GB of PLY, made in out/ and
+# deleted after; voxelized at 2^12 within 8 GiB, geometry only. Triangles
+# per second over the whole run and over each pass's mesh side, peak
+# memory (GNU time), the load average. Needs ~18 GB of
+# disk (the PLY and its bins); VOXDAG_BENCH_STACK=0 skips it.
+stack_bench() { # stack_bench LAYERS LEVELS BUDGET
+	local ply=out/stack-$1.ply dir=$OUT/stack-$1 u s e kib
+	if [ "$(df -Pk out | awk 'NR == 2 { print $4 }')" -lt $((20 << 20)) ]; then
+		echo "bench: less than 20 GB free in out/; no stack row"
+		return
+	fi
+	gcc -O2 -o out/stack tests/bench/stack.c &&
+		out/stack "$1" "$DATA/fg_terrain_reykjavik.ply" "$ply" > /dev/null 2>&1 ||
+		{ echo "bench: making the stack failed"; rm -f "$ply"; return; }
+	if ! /usr/bin/time -f "%U %S %e %M" -o "$OUT/time" out/bin/voxelize "$ply" \
+		-o "$dir" --levels "$2" --mem-budget "$3" -q --no-colours; then
+		echo "bench: voxelize of the stack failed"
+		rm -rf "$dir" "$ply"
+		return
+	fi
+	read -r u s e kib < "$OUT/time"
+	local st=$dir/voxelize.stats.json
+	get() { sed -n "s/^ *\"$1\": \([0-9.e+]*\),*$/\1/p" "$st" | head -n 1; }
+	printf '%-10s %3s %12s %8s %8s %8s %8s %8s %14s %9s  %s\n' scene L triangles \
+		'wall s' 'cpu s' 'bounds' 'plan+bin' 'voxelize' 'tri/s (wall)' 'peak MiB' load
+	awk -v n="$(get triangles_read)" -v L="$2" -v u="$u" -v s="$s" -v e="$e" \
+		-v b="$(get bounds)" -v pb="$(get plan_and_bin)" -v vx="$(get voxelize)" \
+		-v kib="$kib" -v sc="stack-$1" -v load="$(cut -d' ' -f1-3 /proc/loadavg)" 'BEGIN {
+		printf "%-10s %3d %12.0f %8.1f %8.1f %8.1f %8.1f %8.1f %14.0f %9.0f  %s\n",
+			sc, L, n, e, u + s, b, pb, vx, n / e, kib / 1024, load }'
+	rm -rf "$dir" "$ply"
+}
+if [ "${VOXDAG_BENCH_STACK:-1}" != 0 ]; then
+	stack_bench 256 12 8GiB
+fi
+
 # The whole pipeline through the runner, twice: on one thread (one job at a
 # time, one thread a process) and on every core (2 jobs at once; a job that
 # runs alone, as the root chain does, gets every core). Per stage: the

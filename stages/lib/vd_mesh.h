@@ -93,6 +93,13 @@ const char *vd_mesh_format(const struct vd_mesh *m);
  * final only after a whole pass. */
 size_t vd_mesh_memory_bytes(const struct vd_mesh *m);
 const struct vd_mesh_stats *vd_mesh_stats(const struct vd_mesh *m);
+/* The bounds of the vertices, when the reader holds them all before any
+ * face is read: a PLY's vertex element is loaded at open, and when it is
+ * in memory (not spilled) and finite, sets lo[] and hi[] and returns 1;
+ * else returns 0 (other formats, which meet vertices among the faces).
+ * The triangles' bounds lie inside; they are equal unless a face-less
+ * vertex reaches further, which the caller must check when it matters. */
+int vd_mesh_vertex_bounds(const struct vd_mesh *m, float lo[3], float hi[3]);
 void vd_mesh_close(struct vd_mesh *m);
 
 /* ------------------------------------------------------- surface colours

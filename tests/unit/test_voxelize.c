@@ -784,6 +784,85 @@ static void test_real_mesh_brute_force(void)
 	vd_tri_cache_max = UINT64_MAX;
 }
 
+/* A mesh for the bins: small triangles (some of them across 2^18 of the
+ * lattice, the most a 24-byte record holds), a few spanning the whole cube
+ * (too large for a 24-byte bin record: the .big bins) and, after them, a
+ * vertex no face uses, beyond the triangles' bounds (with `far`): the grid
+ * is the triangles' bounds, so the voxels must be those of the same mesh
+ * without it, whatever the vertices' bounds guess. */
+static void write_bins_mesh(const char *path, int far)
+{
+	enum { SMALL = 3000, LARGE = 4 };
+	uint32_t nv = 3 * (SMALL + LARGE) + (far ? 1 : 0);
+	FILE *f = fopen(path, "wb");
+	CHECK(f != NULL);
+	if (!f)
+		return;
+	fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %u\n"
+		"property float x\nproperty float y\nproperty float z\n"
+		"element face %u\nproperty list uchar int vertex_indices\n"
+		"end_header\n", nv, SMALL + LARGE);
+	for (int i = 0; i < SMALL + LARGE; i++) {
+		float c[3], e = i < SMALL ? 0.03f : 1.0f;
+		for (int a = 0; a < 3; a++)
+			c[a] = i < SMALL ? (float)uniform(1000) / 1000.0f : 0.0f;
+		for (int k = 0; k < 3; k++) {
+			float v[3];
+			for (int a = 0; a < 3; a++)
+				v[a] = c[a] + (i < SMALL ? e * (float)uniform(1000) /
+					       1000.0f : (float)((k + a + i) % 3 == 0)
+					       * e);
+			fwrite(v, 4, 3, f);
+		}
+	}
+	if (far) {
+		float v[3] = {5.0f, -3.0f, 7.0f};
+		fwrite(v, 4, 3, f);
+	}
+	for (int i = 0; i < SMALL + LARGE; i++) {
+		unsigned char n = 3;
+		int32_t ix[3] = {3 * i, 3 * i + 1, 3 * i + 2};
+		fwrite(&n, 1, 1, f);
+		fwrite(ix, 4, 3, f);
+	}
+	CHECK_EQ(fclose(f), 0);
+}
+
+/* The bins (snapped 24-byte records, .big records, octant bins for a
+ * cell split over the workers) and the grid guessed from the vertices:
+ * every chunk level, with the triangles kept in memory and without,
+ * gives the brute-force voxels of the triangles' grid. */
+static void test_bins_snapped(void)
+{
+	char mesh[800], plain[800];
+	snprintf(mesh, sizeof mesh, "%s.far.ply", dir);
+	snprintf(plain, sizeof plain, "%s.plain.ply", dir);
+	uint64_t seed = rng;
+	write_bins_mesh(mesh, 1);
+	rng = seed;
+	write_bins_mesh(plain, 0);
+	for (int L = 6; L <= 7; L++) {
+		struct vset want = {0};
+		ref_mesh(plain, L, &want);
+		CHECK(want.n > 1000);
+		for (int c = 0; c < 8; c++) {
+			struct vset got = {0};
+			int n;
+			vd_tri_cache_max = c & 1 ? 0 : UINT64_MAX;
+			int L0 = (c >> 1) - 1; /* -1 (automatic) .. 2 */
+			CHECK_EQ(test_voxelize(mesh, L, L0, dir, NULL), VD_OK);
+			CHECK_EQ(test_load_chunks(dir, morton_key, NULL, &got, &n),
+				 VD_OK);
+			CHECK(vset_equal(&got, &want, "bins", morton_name));
+			free(got.v);
+		}
+		free(want.v);
+	}
+	vd_tri_cache_max = UINT64_MAX;
+	unlink(mesh);
+	unlink(plain);
+}
+
 static void test_chunked_equals_monolithic(void)
 {
 	struct vset base = {0};
@@ -960,6 +1039,7 @@ int main(void)
 	RUN(test_real_mesh_brute_force);
 	RUN(test_plain_rasterizer);
 	RUN(test_chunked_equals_monolithic);
+	RUN(test_bins_snapped);
 	RUN(test_resolutions_agree);
 	RUN(test_underworks_vs_symvox);
 	return CHECK_DONE();

@@ -4,9 +4,14 @@
  * Passes over the mesh:
  *   1. bounds: the tight bounding box fixes the grid;
  *   2. estimate (only when L0 is chosen automatically): an upper bound of
- *      each cell's in-core memory at every candidate level;
+ *      each cell's in-core memory at every candidate level; without
+ *      colours, when the reader has every vertex before any face (PLY),
+ *      passes 1 and 2 are one on the grid of the vertices' bounds, made
+ *      again when the triangles' bounds turn out other (guess_grid);
  *   3. binning: every triangle is appended to the bin file of each cell it
- *      overlaps (bounded in-memory buffers, flushed to disk);
+ *      overlaps (bounded in-memory buffers, flushed to disk), snapped and
+ *      packed (struct bin_rec); a cell that all the threads will rasterize
+ *      together is binned by octant, so each reads only its own;
  * then each cell's bin is rasterized in core, in parallel, and written as
  * one SVO chunk. The driver at the end of this file runs them as passes,
  * each a function saying what it does and what memory it may use:
@@ -161,10 +166,74 @@ static void tri_cache_add(struct tri_cache *c, const struct vd_triangle *t,
 	c->n += n;
 }
 
+/* With more than one thread and a budget of FEED_MIN_BUDGET or more, a
+ * pass that reads no attributes (all but binning with colours) reads the
+ * mesh on a thread of its own, a batch ahead of the one that works on it
+ * (estimate, bins): decoding a large file is as much work as the pass.
+ * The batches are handed on in the file's order, so a pass sees what it
+ * sees on one thread. d->tris then holds FEED_SLOTS batches, allocated
+ * before the first pass, so the plan's `base` has them; a smaller budget
+ * keeps the one batch it had (its cells' share decides its chunk level,
+ * and so its bytes). */
+enum { FEED_SLOTS = 2 };
+#define FEED_MIN_BUDGET ((uint64_t)256 << 20)
+
+struct feed {
+	struct vd_mesh *m;
+	struct vd_triangle *buf;     /* FEED_SLOTS batches of TRI_BATCH */
+	struct vd_tri_attr *attr;    /* the same, or NULL */
+	size_t n[FEED_SLOTS];
+	uint64_t made, used;         /* batches read, batches worked on */
+	int done, stop, err;
+	char detail[512];
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+};
+
+static void *feed_main(void *arg)
+{
+	struct feed *f = arg;
+	for (;;) {
+		pthread_mutex_lock(&f->lock);
+		while (f->made - f->used == FEED_SLOTS && !f->stop)
+			pthread_cond_wait(&f->cond, &f->lock);
+		int stop = f->stop;
+		size_t s = (size_t)(f->made % FEED_SLOTS);
+		pthread_mutex_unlock(&f->lock);
+		if (stop)
+			break;
+		size_t n = 0;
+		struct vd_triangle *t = f->buf + s * TRI_BATCH;
+		int err = f->attr ? vd_mesh_read_attr(f->m, t, f->attr +
+						      s * TRI_BATCH, TRI_BATCH, &n)
+				  : vd_mesh_read(f->m, t, TRI_BATCH, &n);
+		pthread_mutex_lock(&f->lock);
+		if (err) {
+			f->err = err;
+			snprintf(f->detail, sizeof f->detail, "%s",
+				 vd_error_detail());
+		}
+		if (err || n == 0) {
+			f->done = 1;
+		} else {
+			f->n[s] = n;
+			f->made++;
+		}
+		pthread_cond_broadcast(&f->cond);
+		pthread_mutex_unlock(&f->lock);
+		if (err || n == 0)
+			break;
+	}
+	return NULL;
+}
+
 /* Reads the mesh once (or its triangles from the cache), calling fn for
- * each batch of triangles; with `attr` (colours), their attributes too. */
+ * each batch of triangles; with `attr` (colours), their attributes too.
+ * With `threads` > 1 (then `buf` holds FEED_SLOTS batches) and no `attr`,
+ * the mesh is read on a thread of its own (struct feed). */
 static int for_each_batch(struct vd_mesh *m, struct tri_cache *c,
 			  struct vd_triangle *buf, struct vd_tri_attr *attr,
+			  int threads,
 			  int (*fn)(void *ctx, const struct vd_triangle *t,
 				    const struct vd_tri_attr *a, size_t n),
 			  void *ctx)
@@ -178,15 +247,49 @@ static int for_each_batch(struct vd_mesh *m, struct tri_cache *c,
 	}
 	int fill = !attr && c->state == 0;
 	err = vd_mesh_rewind(m);
+	struct feed f = {.m = m, .buf = buf, .attr = attr,
+			 .lock = PTHREAD_MUTEX_INITIALIZER,
+			 .cond = PTHREAD_COND_INITIALIZER};
+	pthread_t th;
+	int feeding = !err && threads > 1 && !attr &&
+		      pthread_create(&th, NULL, feed_main, &f) == 0;
 	while (!err) {
 		size_t n;
-		err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
-			   : vd_mesh_read(m, buf, TRI_BATCH, &n);
+		struct vd_triangle *t = buf;
+		struct vd_tri_attr *a = attr;
+		if (feeding) {
+			pthread_mutex_lock(&f.lock);
+			while (f.made == f.used && !f.done)
+				pthread_cond_wait(&f.cond, &f.lock);
+			size_t s = (size_t)(f.used % FEED_SLOTS);
+			n = f.made == f.used ? 0 : f.n[s];
+			pthread_mutex_unlock(&f.lock);
+			t = buf + s * TRI_BATCH;
+			a = attr ? attr + s * TRI_BATCH : NULL;
+		} else {
+			err = attr ? vd_mesh_read_attr(m, buf, attr, TRI_BATCH, &n)
+				   : vd_mesh_read(m, buf, TRI_BATCH, &n);
+		}
 		if (err || n == 0)
 			break;
 		if (fill && c->state == 0)
-			tri_cache_add(c, buf, n);
-		err = fn(ctx, buf, attr, n);
+			tri_cache_add(c, t, n);
+		err = fn(ctx, t, a, n);
+		if (feeding) {
+			pthread_mutex_lock(&f.lock);
+			f.used++;
+			pthread_cond_broadcast(&f.cond);
+			pthread_mutex_unlock(&f.lock);
+		}
+	}
+	if (feeding) {
+		pthread_mutex_lock(&f.lock);
+		f.stop = 1;
+		pthread_cond_broadcast(&f.cond);
+		pthread_mutex_unlock(&f.lock);
+		pthread_join(th, NULL);
+		if (!err && f.err)
+			err = vd_fail(f.err, "%s", f.detail);
 	}
 	if (fill && c->state == 0)
 		c->state = err ? -1 : 1;
@@ -523,14 +626,80 @@ static uint64_t cell_bound(const uint64_t *keys, size_t n, size_t i, int L,
 /* ------------------------------------------------------------- binning */
 
 /* Triangles waiting to be appended to their cell's bin: one arena of
- * records {cell, 9 floats} of a fixed size (the budget's share), sorted by
- * cell when full and written out, so memory does not grow with the number
- * of cells a mesh touches. With colours the records are bin_rec_col, sorted
- * by (cell, index); what follows `cell` is what the bin file holds. */
+ * records of a fixed size (the budget's share), sorted by cell when full
+ * and written out, so memory does not grow with the number of cells a mesh
+ * touches. With colours the records are bin_rec_col, sorted by (cell,
+ * index); what follows `cell` is what the bin file holds.
+ *
+ * Without colours a bin holds the triangles snapped (vd_snap_triangle),
+ * which is all the rasterizer reads of them, so it does not snap them
+ * again and a record needs fewer bytes than nine floats: in `.tri` files
+ * 24 bytes (bin_pack: per axis the first corner in 25 bits, the other two
+ * as differences of 19 bits), in `.big` files nine int32 for a triangle whose
+ * numbers do not fit that. The geometry path ORs voxels, so the two files
+ * of a cell may be read in any order. */
 struct bin_rec {
-	uint64_t cell;
-	float v[9];
+	uint64_t key;          /* cell << 1 | 1 for a .big record */
+	union {
+		uint64_t w[3];     /* .tri: bin_pack */
+		int32_t v[9];      /* .big */
+	} u;
 };
+
+enum {
+	BIN_V0_BITS = 25,      /* 0 .. 2^24 and then some: the lattice's cube */
+	BIN_D_BITS = 19,       /* -2^18 .. 2^18 - 1 */
+	BIN_SMALL_BYTES = 24,
+	BIN_BIG_BYTES = 36,
+};
+_Static_assert(BIN_V0_BITS + 2 * BIN_D_BITS <= 64, "an axis a word");
+
+/* Packs `t` into 24 bytes, a 64-bit word an axis: the first corner's
+ * coordinate in bits 0-24, the second's and third's differences from it
+ * (plus 2^18) in bits 25-43 and 44-62 (constant shifts: no bit stream
+ * to walk, a tenth of binning's time when it was one). Returns 0 if a
+ * number does not fit (a .big record). */
+static int bin_pack(const struct vd_snapped_tri *t, uint64_t w[3])
+{
+	const int64_t dmax = (int64_t)1 << (BIN_D_BITS - 1);
+	int ok = 1;
+	for (int a = 0; a < 3; a++) {
+		int64_t d1 = t->v[1][a] - t->v[0][a], d2 = t->v[2][a] - t->v[0][a];
+		ok &= t->v[0][a] >= 0 && t->v[0][a] < (int64_t)1 << BIN_V0_BITS &&
+		      d1 >= -dmax && d1 < dmax && d2 >= -dmax && d2 < dmax;
+		w[a] = (uint64_t)t->v[0][a] |
+		       (uint64_t)(d1 + dmax) << BIN_V0_BITS |
+		       (uint64_t)(d2 + dmax) << (BIN_V0_BITS + BIN_D_BITS);
+	}
+	return ok;
+}
+
+static inline void bin_unpack(const uint64_t w[3], struct vd_snapped_tri *t)
+{
+	const int64_t dmax = (int64_t)1 << (BIN_D_BITS - 1);
+	const uint64_t m0 = ((uint64_t)1 << BIN_V0_BITS) - 1,
+		       md = ((uint64_t)1 << BIN_D_BITS) - 1;
+	for (int a = 0; a < 3; a++) {
+		int64_t v0 = (int64_t)(w[a] & m0);
+		t->v[0][a] = v0;
+		t->v[1][a] = v0 - dmax + (int64_t)(w[a] >> BIN_V0_BITS & md);
+		t->v[2][a] = v0 - dmax +
+			     (int64_t)(w[a] >> (BIN_V0_BITS + BIN_D_BITS) & md);
+	}
+}
+
+/* As a .big record: nine int32; 0 if one does not fit (it cannot: the
+ * corners lie in the bounds' cube, 0 .. 2^24 give or take rounding). */
+static int bin_pack_big(const struct vd_snapped_tri *t, int32_t v[9])
+{
+	for (int i = 0; i < 9; i++) {
+		int64_t x = t->v[i / 3][i % 3];
+		if (x < INT32_MIN || x > INT32_MAX)
+			return 0;
+		v[i] = (int32_t)x;
+	}
+	return 1;
+}
 
 struct bin_rec_col {
 	uint64_t cell;
@@ -539,19 +708,28 @@ struct bin_rec_col {
 	struct vd_tri_attr a;
 };
 
-/* Bytes of one triangle in a bin file. */
+/* Bytes of one triangle where raster_bin reads it: the one cell kept in
+ * memory (run.mem_tris: nine floats) or a colour bin file (geometry bin
+ * files are raster_snapped's: BIN_SMALL_BYTES, BIN_BIG_BYTES). */
 #define BIN_BYTES_GEOM (sizeof(float) * 9)
 #define BIN_BYTES_COL (sizeof(struct bin_rec_col) - sizeof(uint64_t))
 _Static_assert(sizeof(struct vd_triangle) == BIN_BYTES_GEOM,
-	       "a geometry bin's record is a vd_triangle (run.mem_tris)");
+	       "the in-memory cell's record is a vd_triangle (run.mem_tris)");
 
 struct binner {
 	const struct vd_triangle *tri; /* being binned by bin_cell */
+	const struct vd_snapped_tri *st; /* the same, snapped */
+	const int64_t *tlo, *thi;      /* its voxel range (tri_voxel_range) */
 	const struct vd_tri_attr *attr;/* its attributes (colours) */
 	int err;
 	struct grid g;
 	const char *dir;
+	/* octant bins (no colours, a cell to be split over the workers):
+	 * a cell's triangles binned by the octants of it they may reach,
+	 * keys of level L0 + 1, so an octant's worker reads its own */
+	int sub;
 	uint64_t *totals;      /* 8^L0: triangles binned to each cell */
+	uint64_t records;      /* records written to the bins */
 	struct bin_rec *recs;
 	struct bin_rec_col *crecs; /* instead of recs, with colours */
 	uint32_t *perm;        /* with colours: the order crecs are written */
@@ -560,15 +738,24 @@ struct binner {
 	uint64_t index;        /* triangles seen so far */
 };
 
+/* A bin file: of the cell or (octant bins, `sub`) the octant `key`, its
+ * 24-byte records (or, with colours, its bin_rec_col) or its .big ones. */
+static void bin_file(char *buf, size_t cap, const char *dir, int sub,
+		     uint64_t key, int big)
+{
+	snprintf(buf, cap, "%s/bins.tmp/%s%llx.%s", dir, sub ? "o" : "",
+		 (unsigned long long)key, big ? "big" : "tri");
+}
+
 static void bin_path(char *buf, size_t cap, const char *dir, uint64_t cell)
 {
-	snprintf(buf, cap, "%s/bins.tmp/%llx.tri", dir, (unsigned long long)cell);
+	bin_file(buf, cap, dir, 0, cell, 0);
 }
 
 static int cmp_rec(const void *a, const void *b)
 {
-	uint64_t x = ((const struct bin_rec *)a)->cell,
-		 y = ((const struct bin_rec *)b)->cell;
+	uint64_t x = ((const struct bin_rec *)a)->key,
+		 y = ((const struct bin_rec *)b)->key;
 	return (x > y) - (x < y);
 }
 
@@ -655,7 +842,7 @@ static void sort_recs(struct bin_rec *r, size_t n, size_t ncell)
 	size_t next[BUCKET_CELLS], end[BUCKET_CELLS];
 	memset(end, 0, ncell * sizeof *end);
 	for (size_t i = 0; i < n; i++)
-		end[r[i].cell]++;
+		end[r[i].key]++;
 	for (size_t c = 0, at = 0; c < ncell; c++) {
 		next[c] = at;
 		at += end[c];
@@ -664,7 +851,7 @@ static void sort_recs(struct bin_rec *r, size_t n, size_t ncell)
 	/* each record is moved straight to its cell's next free place */
 	for (size_t c = 0; c < ncell; c++)
 		while (next[c] < end[c]) {
-			uint64_t d = r[next[c]].cell;
+			uint64_t d = r[next[c]].key;
 			if (d == c) {
 				next[c]++;
 				continue;
@@ -680,17 +867,21 @@ static void sort_recs(struct bin_rec *r, size_t n, size_t ncell)
 static int flush_bins(struct binner *b)
 {
 	char path[4096];
-	sort_recs(b->recs, b->buffered, (size_t)1 << 3 * b->g.L0);
+	/* keys: (bin << 1 | big), bins of level L0 or L0 + 1 */
+	sort_recs(b->recs, b->buffered,
+		  (size_t)2 << 3 * (b->g.L0 + b->sub));
 	for (size_t i = 0; i < b->buffered;) {
-		uint64_t c = b->recs[i].cell;
-		bin_path(path, sizeof path, b->dir, c);
+		uint64_t c = b->recs[i].key;
+		int big = (int)(c & 1);
+		bin_file(path, sizeof path, b->dir, b->sub, c >> 1, big);
 		FILE *f = fopen(path, "ab");
 		if (!f)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
 				       strerror(errno));
 		size_t w = 0, j = i;
-		for (; j < b->buffered && b->recs[j].cell == c; j++)
-			w += fwrite(b->recs[j].v, sizeof b->recs[j].v, 1, f);
+		for (; j < b->buffered && b->recs[j].key == c; j++)
+			w += big ? fwrite(b->recs[j].u.v, BIN_BIG_BYTES, 1, f)
+				 : fwrite(b->recs[j].u.w, BIN_SMALL_BYTES, 1, f);
 		int rc = fclose(f);
 		if (w != j - i || rc != 0)
 			return vd_fail(VD_ERR_IO, "cannot write '%s': %s", path,
@@ -716,18 +907,53 @@ static int bin_add_col(struct binner *b, uint64_t cell,
 	return VD_OK;
 }
 
+/* One record of the snapped triangle into bin `key`. */
+static int bin_put(struct binner *b, uint64_t key,
+		   const struct vd_snapped_tri *st)
+{
+	struct bin_rec *r = &b->recs[b->buffered];
+	if (bin_pack(st, r->u.w))
+		r->key = key << 1;
+	else if (bin_pack_big(st, r->u.v))
+		r->key = key << 1 | 1;
+	else
+		return vd_fail(VD_ERR_RANGE, "snapped corner outside the "
+			       "grid's lattice");
+	b->buffered++;
+	b->records++;
+	if (b->buffered == b->cap)
+		return flush_bins(b);
+	return VD_OK;
+}
+
 static int bin_add(struct binner *b, uint64_t cell, const struct vd_triangle *t)
 {
 	if (b->crecs)
 		return bin_add_col(b, cell, t, b->attr);
-	struct bin_rec *r = &b->recs[b->buffered++];
-	r->cell = cell;
-	memcpy(r->v, t->v, sizeof r->v);
 	b->totals[cell]++;
 	b->pairs++;
-	if (b->buffered == b->cap)
-		return flush_bins(b);
-	return VD_OK;
+	if (!b->sub)
+		return bin_put(b, cell, b->st);
+	/* the octants of the cell its bounding box reaches: a superset of
+	 * those it overlaps, which the octant's clip box makes exact */
+	int sh = b->g.L - b->g.L0 - 1;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	int64_t o0[3], o1[3];
+	for (int a = 0; a < 3; a++) {
+		int64_t first = (int64_t)c[a] << 1;
+		o0[a] = b->tlo[a] >> sh;
+		o1[a] = b->thi[a] >> sh;
+		o0[a] = o0[a] < first ? first : o0[a];
+		o1[a] = o1[a] > first + 1 ? first + 1 : o1[a];
+	}
+	int err = VD_OK;
+	for (int64_t x = o0[0]; x <= o1[0] && !err; x++)
+		for (int64_t y = o0[1]; y <= o1[1] && !err; y++)
+			for (int64_t z = o0[2]; z <= o1[2] && !err; z++)
+				err = bin_put(b, vd_morton3((uint32_t)x, (uint32_t)y,
+							    (uint32_t)z), b->st);
+	return err;
 }
 
 static void bin_cell(void *ctx, int64_t x, int64_t y, int64_t z)
@@ -753,6 +979,9 @@ static int bin_batch(void *ctx, const struct vd_triangle *t,
 			return err;
 		if (!tri_voxel_range(&st, b->g.L, lo, hi))
 			continue;
+		b->st = &st;
+		b->tlo = lo;
+		b->thi = hi;
 		int64_t c0[3], c1[3];
 		for (int a = 0; a < 3; a++)
 			c0[a] = lo[a] >> shift, c1[a] = hi[a] >> shift;
@@ -1016,6 +1245,7 @@ struct run {
 	const char *outdir;
 	const struct vd_voxelize_opts *opts;
 	int colours;             /* bins hold bin_rec_col; write .col chunks */
+	int sub_bins;            /* octant bins (binner.sub) */
 	/* one cell (L0 = 0) and the whole mesh in the triangle cache: the
 	 * cell's triangles are read from there, and no bin is written */
 	const struct vd_triangle *mem_tris;
@@ -2261,6 +2491,22 @@ struct split_cell {
 static int colour_split(struct run *r, struct split_cell *sc,
 			const struct cell_blocks *cb, uint64_t *voxels_out);
 
+/* Removes the bin files of `cell` (its bin at `path`, or its geometry
+ * bins: .tri and .big, of the cell or of its octants). */
+static void unlink_bins(const struct run *r, uint64_t cell, const char *path)
+{
+	unlink(path);
+	if (r->colours)
+		return;
+	char p[4096];
+	for (uint64_t k = 0; k < (r->sub_bins ? 8u : 1u); k++)
+		for (int big = 0; big < 2; big++) {
+			bin_file(p, sizeof p, r->outdir, r->sub_bins,
+				 r->sub_bins ? cell << 3 | k : cell, big);
+			unlink(p);
+		}
+}
+
 /* The rest of a cell once its geometry is in maps[0..nmaps) (found
  * through cb): the colour pass when there are colours (here, or on every
  * worker for a split cell `sc`), the bin removed, the SVO chunk and the
@@ -2279,7 +2525,7 @@ static int finish_cell(struct run *r, struct worker *w,
 	if (!err && r->colours && nb)
 		err = sc ? colour_split(r, sc, cb, &ncol)
 			 : colour_cell(r, w, cb, cell, nb, path, lo, hi, &ncol);
-	unlink(path);
+	unlink_bins(r, cell, path);
 	if (!err && atomic_load(&r->failed))
 		return VD_OK; /* a worker's failure, said by the caller */
 	struct vd_chunk_header h;
@@ -2375,6 +2621,138 @@ static size_t raster_batch(const struct run *r)
 	return r->colours ? TRI_BATCH : RASTER_BATCH;
 }
 
+/* progress inside a cell (large cells take minutes): n more of the
+ * r->pairs_total records rasterized */
+static void raster_progress(struct run *r, size_t n)
+{
+	uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
+	double el = vd_seconds() - r->prog->start;
+	progress_say(r->prog, 0, "voxelizing: %llu of %llu triangles "
+		     "(in cells), %zu/%zu cells done, ETA %.0fs",
+		     (unsigned long long)pd,
+		     (unsigned long long)r->pairs_total,
+		     atomic_load(&r->done), r->njobs,
+		     pd && pd < r->pairs_total ?
+		     el / (double)pd * (double)(r->pairs_total - pd) : 0);
+}
+
+static int budget_fail(struct run *r, struct worker *w, uint64_t cell)
+{
+	return vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
+		       "MiB, the budget's share per %s (%zu blocks of "
+		       "32^3 voxels); %s", (unsigned long long)cell,
+		       (unsigned long long)(r->worker_bytes >> 20),
+		       w->map.shared ? "cell" : "worker", w->map.limit,
+		       budget_advice(r));
+}
+
+/* raster_bin of a geometry bin (snapped records, bin_rec): the .tri and
+ * .big files of bin `key` (a cell of L0, or of L0 + 1 with octant bins)
+ * of `cell`, clipped to [clip_lo, clip_hi]. Same order of work as
+ * raster_bin (a batch in the Morton order of its first corners); the
+ * triangles whose bounds miss the clip box are not rasterized. */
+static int raster_snapped(struct run *r, struct worker *w, uint64_t cell,
+			  uint64_t key, const int64_t clip_lo[3],
+			  const int64_t clip_hi[3], int count)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	struct vd_brick_sink sink = {.block = sink_block, .ctx = &w->map};
+	for (int a = 0; a < 3; a++)
+		sink.lo[a] = (int64_t)c[a] << shift;
+	/* the clip box on the lattice, a voxel wider on every side (a
+	 * triangle whose bounds miss it reaches no voxel of the box) */
+	const int vsh = VD_SNAP_ROOT_BITS - r->g.L;
+	int64_t blo[3], bhi[3];
+	for (int a = 0; a < 3; a++) {
+		blo[a] = (clip_lo[a] - 1) * ((int64_t)1 << vsh);
+		bhi[a] = (clip_hi[a] + 2) * ((int64_t)1 << vsh);
+	}
+	/* raster_bin's batch order: blocks of 2^ksh voxels */
+	int ksh = BLOCK_SHIFT;
+	if (shift - ksh > 10)
+		ksh = shift - 10;
+	const uint32_t kmax = shift > ksh ? (1u << (shift - ksh)) - 1 : 0;
+	const int qsh = vsh + ksh;
+	int err = VD_OK;
+	char path[4096];
+	for (int big = 0; big < 2 && !err && !w->map.over; big++) {
+		bin_file(path, sizeof path, r->outdir, r->sub_bins, key, big);
+		FILE *f = fopen(path, "rb");
+		if (!f) {
+			if (errno == ENOENT)
+				continue; /* no triangle of this kind */
+			return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,
+				       strerror(errno));
+		}
+		size_t rec = big ? BIN_BIG_BYTES : BIN_SMALL_BYTES, n;
+		const unsigned char *rb = (const unsigned char *)w->tris;
+		while (!err && !w->map.over &&
+		       (n = fread(w->tris, rec, RASTER_BATCH, f)) > 0) {
+			uint64_t *ord = w->order_tri;
+			size_t m = 0;
+			for (size_t i = 0; i < n; i++) {
+				struct vd_snapped_tri st;
+				if (big) {
+					int32_t v[9];
+					memcpy(v, rb + rec * i, sizeof v);
+					for (int j = 0; j < 9; j++)
+						st.v[j / 3][j % 3] = v[j];
+				} else {
+					uint64_t wd[3];
+					memcpy(wd, rb + rec * i, sizeof wd);
+					bin_unpack(wd, &st);
+				}
+				int miss = 0;
+				uint32_t q[3];
+				for (int a = 0; a < 3; a++) {
+					int64_t mn = st.v[0][a], mx = st.v[0][a];
+					for (int k = 1; k < 3; k++) {
+						mn = st.v[k][a] < mn ? st.v[k][a] : mn;
+						mx = st.v[k][a] > mx ? st.v[k][a] : mx;
+					}
+					miss |= mx < blo[a] || mn > bhi[a];
+					int64_t g = (st.v[0][a] >> qsh) -
+						    (sink.lo[a] >> ksh);
+					q[a] = g < 0 ? 0 : g >= (int64_t)kmax ? kmax
+									   : (uint32_t)g;
+				}
+				if (!miss)
+					ord[m++] = vd_morton3(q[0], q[1], q[2]) << 16 | i;
+			}
+			vd_sort_keys(ord, ord + RASTER_BATCH, m, 16,
+				     3 * (shift > ksh ? shift - ksh : 0));
+			for (size_t o = 0; o < m && !w->map.over; o++) {
+				size_t i = (size_t)(ord[o] & 0xffff);
+				if (o + 4 < m)
+					__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff));
+				struct vd_snapped_tri st;
+				if (big) {
+					int32_t v[9];
+					memcpy(v, rb + rec * i, sizeof v);
+					for (int j = 0; j < 9; j++)
+						st.v[j / 3][j % 3] = v[j];
+				} else {
+					uint64_t wd[3];
+					memcpy(wd, rb + rec * i, sizeof wd);
+					bin_unpack(wd, &st);
+				}
+				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
+							  clip_hi, &sink);
+			}
+			if (count)
+				raster_progress(r, n);
+		}
+		if (ferror(f))
+			err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
+		fclose(f);
+	}
+	if (!err && w->map.over)
+		err = budget_fail(r, w, cell);
+	return err;
+}
+
 /* Rasterizes the triangles of `cell`'s bin (at `path`, or r->mem_tris)
  * into w's map, clipped to [clip_lo, clip_hi]: the whole cell, or one
  * octant of a split cell. With `sel`, only mem_tris[sel[0..nsel)] (those
@@ -2427,7 +2805,7 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 				to[i] = r->mem_tris[sel[at + i]];
 			at += n;
 		} else {
-			/* a bin's record is a vd_triangle (BIN_BYTES_GEOM) */
+			/* mem_tris: a vd_triangle a record (BIN_BYTES_GEOM) */
 			n = r->mem_n - at < RASTER_BATCH ? r->mem_n - at
 							 : RASTER_BATCH;
 			rb = (const unsigned char *)(r->mem_tris + at);
@@ -2467,29 +2845,15 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 		}
 		if (r->mem_once && !f && !sel)
 			release_tris(r, at, &released);
-		if (!count)
-			continue;
-		/* progress inside a cell: large cells take minutes */
-		uint64_t pd = atomic_fetch_add(&r->pairs_done, n) + n;
-		double el = vd_seconds() - r->prog->start;
-		progress_say(r->prog, 0, "voxelizing: %llu of %llu triangles "
-			     "(in cells), %zu/%zu cells done, ETA %.0fs",
-			     (unsigned long long)pd,
-			     (unsigned long long)r->pairs_total,
-			     atomic_load(&r->done), r->njobs,
-			     pd ? el / (double)pd * (double)(r->pairs_total - pd) : 0);
+		if (count)
+			raster_progress(r, n);
 	}
 	if (f && !err && ferror(f))
 		err = vd_fail(VD_ERR_IO, "cannot read '%s'", path);
 	if (f)
 		fclose(f);
 	if (!err && w->map.over)
-		err = vd_fail(VD_ERR_BUDGET, "cell %llx needs more than %llu "
-			      "MiB, the budget's share per %s (%zu blocks of "
-			      "32^3 voxels); %s", (unsigned long long)cell,
-			      (unsigned long long)(r->worker_bytes >> 20),
-			      w->map.shared ? "cell" : "worker", w->map.limit,
-			      budget_advice(r));
+		err = budget_fail(r, w, cell);
 	return err;
 }
 
@@ -2510,7 +2874,24 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 
 	char path[4096];
 	bin_path(path, sizeof path, r->outdir, cell);
-	int err = raster_bin(r, w, cell, path, NULL, 0, lo, hi, 1);
+	int err = VD_OK;
+	if (r->colours || r->mem_tris) {
+		err = raster_bin(r, w, cell, path, NULL, 0, lo, hi, 1);
+	} else if (!r->sub_bins) {
+		err = raster_snapped(r, w, cell, cell, lo, hi, 1);
+	} else {
+		/* octant bins of a cell planned to be split: each octant's
+		 * triangles clipped to it, into the one map */
+		int64_t half = ((int64_t)1 << shift) / 2;
+		for (uint64_t k = 0; k < 8 && !err; k++) {
+			int64_t plo[3], phi[3];
+			for (int a = 0; a < 3; a++) {
+				plo[a] = lo[a] + (int64_t)(k >> (2 - a) & 1) * half;
+				phi[a] = plo[a] + half - 1;
+			}
+			err = raster_snapped(r, w, cell, cell << 3 | k, plo, phi, 1);
+		}
+	}
 	tri_cache_done(r); /* one cell: this one */
 	struct block_map *mp = &w->map;
 	struct cell_blocks cb = {.part_shift = 0};
@@ -2519,7 +2900,7 @@ static int voxelize_cell(struct run *r, struct worker *w, uint64_t cell)
 	if (!err)
 		err = finish_cell(r, w, &cb, &mp, 1, cell, path, lo, hi, NULL);
 	else
-		unlink(path);
+		unlink_bins(r, cell, path);
 	if (map_reset(&w->map) && !err)
 		err = vd_fail(VD_ERR_NOMEM, "block list");
 	return err;
@@ -2556,10 +2937,16 @@ static void octant_task(void *ctx, size_t k, int worker)
 		return;
 	int64_t plo[3], phi[3];
 	octant_box(sc, k, plo, phi);
-	int err = raster_bin(r, &r->workers[worker], sc->cell, sc->path,
-			     sc->sel ? sc->sel + sc->sel_at[k] : NULL,
-			     sc->sel ? sc->sel_at[k + 1] - sc->sel_at[k] : 0,
-			     plo, phi, k == 0);
+	int err;
+	if (r->colours || r->mem_tris)
+		err = raster_bin(r, &r->workers[worker], sc->cell, sc->path,
+				 sc->sel ? sc->sel + sc->sel_at[k] : NULL,
+				 sc->sel ? sc->sel_at[k + 1] - sc->sel_at[k] : 0,
+				 plo, phi, k == 0);
+	else
+		err = raster_snapped(r, &r->workers[worker], sc->cell,
+				     r->sub_bins ? sc->cell << 3 | k : sc->cell,
+				     plo, phi, r->sub_bins || k == 0);
 	if (err)
 		run_fail(r, err);
 }
@@ -2698,7 +3085,7 @@ static int split_cell(struct run *r, uint64_t cell)
 		err = finish_cell(r, &r->workers[0], &cb, maps, nmaps, cell,
 				  sc.path, sc.lo, hi, &sc);
 	} else {
-		unlink(sc.path);
+		unlink_bins(r, cell, sc.path);
 	}
 	/* freed, not kept: the next cell's blocks may fall to other
 	 * workers, and kept blocks would add up beyond one cell's */
@@ -2874,8 +3261,11 @@ struct driver {
 	int F;                   /* the deepest candidate chunk level */
 	struct progress prog;
 	struct vd_mesh *mesh;
-	struct vd_triangle *tris;  /* a pass's batch: TRI_BATCH */
+	struct vd_triangle *tris;  /* a pass's batch: TRI_BATCH, or
+				    * FEED_SLOTS of them (struct feed) */
 	struct vd_tri_attr *attrs; /* its attributes, with colours */
+	int feed_threads;          /* > 1: the mesh is read on a thread of
+				    * its own (struct feed) */
 	struct tri_cache cache;    /* the first pass's copy of the triangles */
 	struct bounds bd;
 	struct estimate est;
@@ -2894,6 +3284,8 @@ struct driver {
 	uint64_t nodes[VD_MAX_LEVELS + 1]; /* levels L0..L, summed by workers */
 	int split;                 /* each cell on all the workers */
 	int cleaned;               /* outdir cleaned: a failure empties it */
+	int guessed;               /* estimate_cells gathers the bounds too
+				    * (guess_grid) */
 };
 
 /* Pass 1, bounds: reads the whole mesh once for its tight bounding box,
@@ -2901,15 +3293,25 @@ struct driver {
  * d->cache when they fit its share. Memory: the mesh reader (vertices up
  * to share.vertex_bytes), the batch, the cache (share.tri_cache_bytes)
  * and, with colours, the textures the file names. */
+static int bounds_grid(struct driver *d);
+
 static int read_bounds(struct driver *d)
 {
-	struct run *r = &d->r;
 	progress_say(&d->prog, 1, "reading %s (%s)", d->mesh_path,
 		     vd_mesh_format(d->mesh));
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
-				 bounds_batch, &d->bd);
+				 d->feed_threads, bounds_batch, &d->bd);
 	if (err)
 		return err;
+	return bounds_grid(d);
+}
+
+/* The grid of the triangles' bounds d->bd, once a whole pass has seen
+ * them (read_bounds, or estimate_cells when the grid was guessed). */
+static int bounds_grid(struct driver *d)
+{
+	struct run *r = &d->r;
+	int err;
 	/* the whole file has been seen: its colour sources are known, its
 	 * textures loaded (and so inside `base` below) */
 	r->colours = d->opts->colours && vd_mesh_has_colours(d->mesh);
@@ -2928,6 +3330,9 @@ static int read_bounds(struct driver *d)
 	return VD_OK;
 }
 
+static int estimate_bounds_batch(void *ctx, const struct vd_triangle *t,
+				 const struct vd_tri_attr *attr, size_t n);
+
 /* Pass 2, estimate: one more pass over the triangles collects the 32^3
  * blocks they may touch (at most share.estimate_keys keys,
  * coarsened past it), sorted into d->bkeys; from them, per candidate
@@ -2944,10 +3349,16 @@ static int estimate_cells(struct driver *d)
 	est->max_keys = d->share.estimate_keys;
 	d->F = opts->chunk_level >= 0 ? opts->chunk_level : d->max_level;
 	int F = d->F;
-	progress_say(&d->prog, 1, "%llu triangles; estimating memory per cell",
-		     (unsigned long long)d->bd.n);
+	if (d->guessed)
+		progress_say(&d->prog, 1, "reading %s (%s); estimating memory "
+			     "per cell", d->mesh_path, vd_mesh_format(d->mesh));
+	else
+		progress_say(&d->prog, 1, "%llu triangles; estimating memory "
+			     "per cell", (unsigned long long)d->bd.n);
 	int err = for_each_batch(d->mesh, &d->cache, d->tris, NULL,
-				 estimate_batch, est);
+				 d->feed_threads,
+				 d->guessed ? estimate_bounds_batch : estimate_batch,
+				 d->guessed ? (void *)d : est);
 	if (!err)
 		err = estimate_sorted(est, &d->bkeys, &d->nbkeys);
 	if (err)
@@ -2995,6 +3406,58 @@ static int estimate_cells(struct driver *d)
 	return VD_OK;
 }
 
+/* Passes 1 and 2 in one when the grid can be guessed: a PLY's vertices
+ * are in memory before its faces are read, and their bounds are the
+ * triangles' unless a vertex no face uses reaches further. The estimate
+ * pass then gathers the triangles' bounds too; when they are not the
+ * guess's, bit for bit, the estimate is dropped and made again on the
+ * grid of the triangles (the cache, when it holds them, replays them), so
+ * the grid, and every chunk, is what the two passes give. Geometry only:
+ * with colours, pass 1 also decides whether there are any. Returns 0
+ * with nothing done when there is no guess. */
+static int estimate_bounds_batch(void *ctx, const struct vd_triangle *t,
+				 const struct vd_tri_attr *attr, size_t n)
+{
+	struct driver *d = ctx;
+	bounds_batch(&d->bd, t, attr, n);
+	return estimate_batch(&d->est, t, attr, n);
+}
+
+static int guess_grid(struct driver *d, int *done)
+{
+	struct run *r = &d->r;
+	float lo[3], hi[3];
+	*done = 0;
+	if (d->opts->colours || !vd_mesh_vertex_bounds(d->mesh, lo, hi) ||
+	    vd_transform_init(&r->g.tr, lo, hi, d->opts->levels) != VD_OK)
+		return VD_OK; /* two passes: read_bounds says what is wrong */
+	r->g.L = d->opts->levels;
+	r->mesh = d->mesh;
+	d->res->seconds_bounds = vd_seconds() - d->t0;
+	d->guessed = 1;
+	int err = estimate_cells(d);
+	d->guessed = 0;
+	if (err)
+		return err;
+	*done = 1;
+	if (!memcmp(lo, d->bd.lo, sizeof lo) && !memcmp(hi, d->bd.hi, sizeof hi)) {
+		d->res->mesh = *vd_mesh_stats(d->mesh);
+		return d->bd.n ? VD_OK : vd_fail(VD_ERR_EMPTY, "'%s' has no "
+						 "triangles", d->mesh_path);
+	}
+	/* the triangles' grid, and the estimate made on it */
+	estimate_free(&d->est);
+	memset(&d->est, 0, sizeof d->est);
+	free(d->bkeys);
+	d->bkeys = NULL;
+	d->nbkeys = 0;
+	memset(d->cells_hit, 0, sizeof d->cells_hit);
+	if ((err = bounds_grid(d)))
+		return err;
+	d->res->seconds_bounds = vd_seconds() - d->t0;
+	return estimate_cells(d);
+}
+
 /* Chooses the chunk level L0 and the workers' share (d->plan, d->r.g.L0):
  * the coarsest candidate level whose largest cell fits a worker's share of
  * what the budget leaves beside the process as it is now (`base`: the
@@ -3030,6 +3493,37 @@ static int choose_chunk_level(struct driver *d)
 	return VD_OK;
 }
 
+/* With `ncells` cells to voxelize, whether each goes on all the threads
+ * (split_cell): the threads asked for are more than one and have too few
+ * cells, octants are whole blocks, and what the budget leaves the workers
+ * holds the largest cell's blocks plus every worker's overhead. Returns
+ * the block limit they then share, else 0. */
+static size_t split_limit(const struct driver *d, size_t ncells)
+{
+	const struct plan *plan = &d->plan;
+	if (plan->want <= 1 || ncells >= 4 * (size_t)plan->want ||
+	    d->opts->levels - d->r.g.L0 <= BLOCK_SHIFT)
+		return 0;
+	uint64_t over = (uint64_t)plan->want * WORKER_OVERHEAD;
+	size_t limit = plan->avail > over ?
+		(size_t)((plan->avail - over) / d->block_cost) : 0;
+	return limit >= plan->cell_blocks ? limit : 0;
+}
+
+/* The non-empty cells of L0 by the estimate (its keys reach them; when
+ * coarsened past L0, every cell). */
+static size_t estimated_cells(const struct driver *d)
+{
+	int L = d->opts->levels, L0 = d->r.g.L0;
+	int sh = L - BLOCK_SHIFT - d->est.coarse - L0;
+	if (sh < 0)
+		return (size_t)1 << 3 * L0;
+	size_t n = 0;
+	for (size_t i = 0; i < d->nbkeys; i++)
+		n += i == 0 || d->bkeys[i] >> 3 * sh != d->bkeys[i - 1] >> 3 * sh;
+	return n;
+}
+
 /* Pass 3, binning: empties the output directory (a failure from here on
  * removes what this run wrote) and appends every triangle to the bin file
  * of each cell of level L0 it overlaps, counting them per cell
@@ -3060,6 +3554,11 @@ static int bin_triangles(struct driver *d)
 		b->totals[0] = b->pairs = d->cache.n;
 	} else {
 		uint64_t bin_bytes = d->share.bin_bytes;
+		/* cells that will be split get octant bins: each octant's
+		 * worker then reads its triangles, not the whole cell's */
+		if (!r->colours && r->g.L0 + 1 <= MAX_CHUNK_LEVEL &&
+		    split_limit(d, estimated_cells(d)))
+			b->sub = r->sub_bins = 1;
 		if (r->colours) {
 			/* the order of the writes out of the same share */
 			b->cap = bin_bytes / (sizeof *b->crecs + sizeof *b->perm);
@@ -3074,11 +3573,11 @@ static int bin_triangles(struct driver *d)
 		if (!(b->recs || (b->crecs && b->perm)))
 			return vd_fail(VD_ERR_NOMEM, "bins");
 		progress_say(&d->prog, 1, "binning triangles into cells of "
-			     "level %d (%d threads, budget %llu MiB)", r->g.L0,
-			     d->plan.threads,
+			     "level %d%s (%d threads, budget %llu MiB)", r->g.L0,
+			     b->sub ? ", by octant" : "", d->plan.threads,
 			     (unsigned long long)(d->opts->mem_budget_bytes >> 20));
 		err = for_each_batch(d->mesh, &d->cache, d->tris, d->attrs,
-				     bin_batch, b);
+				     d->feed_threads, bin_batch, b);
 		if (!err)
 			err = r->colours ? flush_bins_col(b) : flush_bins(b);
 		tri_cache_drop(&d->cache); /* the bins have them now */
@@ -3159,19 +3658,15 @@ static int start_workers(struct driver *d)
 	r->prog = &d->prog;
 	r->block_limit = plan->block_limit;
 	r->worker_bytes = plan->worker_bytes;
-	r->pairs_total = d->b.pairs;
+	/* progress counts records: with octant bins, those of the octants */
+	r->pairs_total = r->sub_bins ? d->b.records : d->b.pairs;
 	int nw = plan->threads;
-	if (plan->want > 1 && r->njobs < 4 * (size_t)plan->want &&
-	    d->opts->levels - r->g.L0 > BLOCK_SHIFT) {
-		uint64_t over = (uint64_t)plan->want * WORKER_OVERHEAD;
-		size_t limit = plan->avail > over ?
-			(size_t)((plan->avail - over) / d->block_cost) : 0;
-		if (limit >= plan->cell_blocks) {
-			d->split = 1;
-			nw = plan->want;
-			r->block_limit = limit;
-			r->worker_bytes = (uint64_t)limit * d->block_cost;
-		}
+	size_t limit = split_limit(d, r->njobs);
+	if (limit) {
+		d->split = 1;
+		nw = plan->want;
+		r->block_limit = limit;
+		r->worker_bytes = (uint64_t)limit * d->block_cost;
 	}
 	r->mem_once = !d->split;
 	r->workers = calloc((size_t)nw, sizeof *r->workers);
@@ -3365,7 +3860,12 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	int err = vd_mesh_open_opts(&d.mesh, mesh_path, &mo);
 	if (err)
 		return err;
-	d.tris = malloc(TRI_BATCH * sizeof *d.tris);
+	d.feed_threads = opts->threads > 0 ? opts->threads
+					   : vd_hardware_threads();
+	if (opts->mem_budget_bytes < FEED_MIN_BUDGET)
+		d.feed_threads = 1;
+	d.tris = malloc((d.feed_threads > 1 ? FEED_SLOTS : 1) * TRI_BATCH *
+			sizeof *d.tris);
 	/* the plan counts it in `base` */
 	d.cache.limit = d.share.tri_cache_bytes;
 	if (d.cache.limit > vd_tri_cache_max)
@@ -3373,11 +3873,17 @@ int vd_voxelize_mesh(const char *mesh_path, const char *outdir,
 	if (!d.tris)
 		return driver_release(&d, vd_fail(VD_ERR_NOMEM,
 						  "triangle buffer"));
-	if ((err = read_bounds(&d)))
-		return driver_release(&d, err);
-	/* planning is timed with binning */
+	/* planning is timed with binning (with a guessed grid, from open) */
 	double t1 = vd_seconds();
-	if ((err = estimate_cells(&d)) || (err = choose_chunk_level(&d)))
+	int guessed;
+	if ((err = guess_grid(&d, &guessed)))
+		return driver_release(&d, err);
+	if (!guessed && (err = read_bounds(&d)))
+		return driver_release(&d, err);
+	if (!guessed)
+		t1 = vd_seconds();
+	if ((!guessed && (err = estimate_cells(&d))) ||
+	    (err = choose_chunk_level(&d)))
 		return driver_release(&d, err);
 	res->seconds_bin = vd_seconds() - t1;
 	if ((err = bin_triangles(&d)))

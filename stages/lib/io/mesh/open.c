@@ -229,6 +229,29 @@ int vd_mesh_open_opts(struct vd_mesh **out, const char *path,
 	return VD_OK;
 }
 
+int vd_mesh_vertex_bounds(const struct vd_mesh *m, float lo[3], float hi[3])
+{
+	if (!m || (m->kind != MESH_PLY_LE && m->kind != MESH_PLY_BE &&
+		   m->kind != MESH_PLY_ASCII) || m->spill || m->spill_wanted ||
+	    m->nonfinite || !m->verts || m->nverts == 0)
+		return 0;
+	const float *v = m->verts;
+	const size_t step = (size_t)m->vfloats;
+	/* six scalars (see voxelize's bounds_batch) */
+	float lx = v[0], hx = v[0], ly = v[1], hy = v[1], lz = v[2], hz = v[2];
+	for (uint64_t i = 0; i < m->nverts; i++, v += step) {
+		lx = v[0] < lx ? v[0] : lx;
+		hx = v[0] > hx ? v[0] : hx;
+		ly = v[1] < ly ? v[1] : ly;
+		hy = v[1] > hy ? v[1] : hy;
+		lz = v[2] < lz ? v[2] : lz;
+		hz = v[2] > hz ? v[2] : hz;
+	}
+	lo[0] = lx, lo[1] = ly, lo[2] = lz;
+	hi[0] = hx, hi[1] = hy, hi[2] = hz;
+	return 1;
+}
+
 int vd_mesh_has_colours(const struct vd_mesh *m)
 {
 	return m && m->col_on && m->col_seen;
