@@ -323,6 +323,21 @@ static inline void vd_auto_coded_start(const uint8_t *d,
 	st->ctx = 2;
 }
 
+/* The decoder's state, as vd_auto_coded_run keeps it between voxels. */
+static inline void vd_auto_coded_save(struct vd_auto_coded_state *o,
+				      const uint32_t *ring, uint32_t cur,
+				      uint64_t pos, uint32_t i, uint32_t h,
+				      uint32_t nr, unsigned ctx)
+{
+	memcpy(o->ring, ring, sizeof o->ring);
+	o->cur = cur;
+	o->pos = (uint32_t)pos;
+	o->i = i;
+	o->h = (uint8_t)h;
+	o->nr = (uint8_t)nr;
+	o->ctx = (uint8_t)ctx;
+}
+
 /* Decodes the coded block at d (u16 stream bytes S, R, G, B of voxel 0,
  * the stream) from state st on until voxel j is decoded (st->i > j), and
  * puts its colour in rgb; st is left at the state after that step, so a
@@ -351,14 +366,8 @@ static inline int64_t vd_auto_coded_run(const struct vd_auto_code *c,
 				+ (i == 0)) * VD_AUTO_RESTART : UINT32_MAX;
 	for (;;) {
 		while (i >= next && next <= j) {
-			struct vd_auto_coded_state *o = snap + next / VD_AUTO_RESTART - 1;
-			memcpy(o->ring, ring, sizeof ring);
-			o->cur = cur;
-			o->pos = (uint32_t)pos;
-			o->i = i;
-			o->h = (uint8_t)h;
-			o->nr = (uint8_t)nr;
-			o->ctx = (uint8_t)ctx;
+			vd_auto_coded_save(snap + next / VD_AUTO_RESTART - 1, ring,
+					   cur, pos, i, h, nr, ctx);
 			next += VD_AUTO_RESTART;
 		}
 		if (i > j)
@@ -420,13 +429,7 @@ static inline int64_t vd_auto_coded_run(const struct vd_auto_code *c,
 	rgb[0] = (uint8_t)cur;
 	rgb[1] = (uint8_t)(cur >> 8);
 	rgb[2] = (uint8_t)(cur >> 16);
-	memcpy(st->ring, ring, sizeof ring);
-	st->cur = cur;
-	st->pos = (uint32_t)pos;
-	st->i = i;
-	st->h = (uint8_t)h;
-	st->nr = (uint8_t)nr;
-	st->ctx = (uint8_t)ctx;
+	vd_auto_coded_save(st, ring, cur, pos, i, h, nr, ctx);
 	return (int64_t)pos;
 }
 

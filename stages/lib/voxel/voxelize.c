@@ -307,24 +307,11 @@ static int bounds_batch(void *ctx, const struct vd_triangle *t,
 			const struct vd_tri_attr *attr, size_t n)
 {
 	struct bounds *b = ctx;
-	/* six scalars, not arrays indexed by axis: gcc kept those in
-	 * memory, 120 instructions a triangle */
-	const float *f = t[0].v[0];
-	float lx = b->n ? b->lo[0] : f[0], hx = b->n ? b->hi[0] : f[0];
-	float ly = b->n ? b->lo[1] : f[1], hy = b->n ? b->hi[1] : f[1];
-	float lz = b->n ? b->lo[2] : f[2], hz = b->n ? b->hi[2] : f[2];
-	for (size_t i = 0; i < n; i++)
-		for (int k = 0; k < 3; k++) {
-			const float *v = t[i].v[k];
-			lx = v[0] < lx ? v[0] : lx;
-			hx = v[0] > hx ? v[0] : hx;
-			ly = v[1] < ly ? v[1] : ly;
-			hy = v[1] > hy ? v[1] : hy;
-			lz = v[2] < lz ? v[2] : lz;
-			hz = v[2] > hz ? v[2] : hz;
-		}
-	b->lo[0] = lx, b->lo[1] = ly, b->lo[2] = lz;
-	b->hi[0] = hx, b->hi[1] = hy, b->hi[2] = hz;
+	if (!b->n && n)
+		for (int a = 0; a < 3; a++)
+			b->lo[a] = b->hi[a] = t[0].v[0][a];
+	/* a vd_triangle is its three corners, 3 floats each */
+	vd_bounds_widen(t[0].v[0], 3 * n, 3, b->lo, b->hi);
 	b->n += n;
 	return VD_OK;
 }
@@ -685,6 +672,23 @@ static inline void bin_unpack(const uint64_t w[3], struct vd_snapped_tri *t)
 		t->v[1][a] = v0 - dmax + (int64_t)(w[a] >> BIN_V0_BITS & md);
 		t->v[2][a] = v0 - dmax +
 			     (int64_t)(w[a] >> (BIN_V0_BITS + BIN_D_BITS) & md);
+	}
+}
+
+/* One geometry bin record at r: nine int32 (a .big bin) or the packed
+ * 24-byte form. */
+static inline void bin_record(const unsigned char *r, int big,
+			      struct vd_snapped_tri *st)
+{
+	if (big) {
+		int32_t v[9];
+		memcpy(v, r, sizeof v);
+		for (int j = 0; j < 9; j++)
+			st->v[j / 3][j % 3] = v[j];
+	} else {
+		uint64_t wd[3];
+		memcpy(wd, r, sizeof wd);
+		bin_unpack(wd, st);
 	}
 }
 
@@ -2646,6 +2650,20 @@ static int budget_fail(struct run *r, struct worker *w, uint64_t cell)
 		       budget_advice(r));
 }
 
+/* The sink that puts a cell's bricks into w's blocks, from the cell's
+ * first voxel; returns the levels below the cell (L - L0). */
+static int cell_sink(const struct run *r, struct worker *w, uint64_t cell,
+		     struct vd_brick_sink *sink)
+{
+	int shift = r->g.L - r->g.L0;
+	uint32_t c[3];
+	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
+	*sink = (struct vd_brick_sink){.block = sink_block, .ctx = &w->map};
+	for (int a = 0; a < 3; a++)
+		sink->lo[a] = (int64_t)c[a] << shift;
+	return shift;
+}
+
 /* raster_bin of a geometry bin (snapped records, bin_rec): the .tri and
  * .big files of bin `key` (a cell of L0, or of L0 + 1 with octant bins)
  * of `cell`, clipped to [clip_lo, clip_hi]. Same order of work as
@@ -2655,12 +2673,8 @@ static int raster_snapped(struct run *r, struct worker *w, uint64_t cell,
 			  uint64_t key, const int64_t clip_lo[3],
 			  const int64_t clip_hi[3], int count)
 {
-	int shift = r->g.L - r->g.L0;
-	uint32_t c[3];
-	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
-	struct vd_brick_sink sink = {.block = sink_block, .ctx = &w->map};
-	for (int a = 0; a < 3; a++)
-		sink.lo[a] = (int64_t)c[a] << shift;
+	struct vd_brick_sink sink;
+	int shift = cell_sink(r, w, cell, &sink);
 	/* the clip box on the lattice, a voxel wider on every side (a
 	 * triangle whose bounds miss it reaches no voxel of the box) */
 	const int vsh = VD_SNAP_ROOT_BITS - r->g.L;
@@ -2694,16 +2708,7 @@ static int raster_snapped(struct run *r, struct worker *w, uint64_t cell,
 			size_t m = 0;
 			for (size_t i = 0; i < n; i++) {
 				struct vd_snapped_tri st;
-				if (big) {
-					int32_t v[9];
-					memcpy(v, rb + rec * i, sizeof v);
-					for (int j = 0; j < 9; j++)
-						st.v[j / 3][j % 3] = v[j];
-				} else {
-					uint64_t wd[3];
-					memcpy(wd, rb + rec * i, sizeof wd);
-					bin_unpack(wd, &st);
-				}
+				bin_record(rb + rec * i, big, &st);
 				int miss = 0;
 				uint32_t q[3];
 				for (int a = 0; a < 3; a++) {
@@ -2728,16 +2733,7 @@ static int raster_snapped(struct run *r, struct worker *w, uint64_t cell,
 				if (o + 4 < m)
 					__builtin_prefetch(rb + rec * (ord[o + 4] & 0xffff));
 				struct vd_snapped_tri st;
-				if (big) {
-					int32_t v[9];
-					memcpy(v, rb + rec * i, sizeof v);
-					for (int j = 0; j < 9; j++)
-						st.v[j / 3][j % 3] = v[j];
-				} else {
-					uint64_t wd[3];
-					memcpy(wd, rb + rec * i, sizeof wd);
-					bin_unpack(wd, &st);
-				}
+				bin_record(rb + rec * i, big, &st);
 				vd_raster_triangle_bricks(&st, r->g.L, clip_lo,
 							  clip_hi, &sink);
 			}
@@ -2763,12 +2759,8 @@ static int raster_bin(struct run *r, struct worker *w, uint64_t cell,
 		      const int64_t clip_lo[3], const int64_t clip_hi[3],
 		      int count)
 {
-	int shift = r->g.L - r->g.L0;
-	uint32_t c[3];
-	vd_morton3_decode(cell, &c[0], &c[1], &c[2]);
-	struct vd_brick_sink sink = {.block = sink_block, .ctx = &w->map};
-	for (int a = 0; a < 3; a++)
-		sink.lo[a] = (int64_t)c[a] << shift;
+	struct vd_brick_sink sink;
+	int shift = cell_sink(r, w, cell, &sink);
 	FILE *f = NULL;
 	if (!r->mem_tris && !(f = fopen(path, "rb")))
 		return vd_fail(VD_ERR_IO, "cannot read '%s': %s", path,

@@ -2,6 +2,7 @@
  * its format's reader (ply.c, obj.c, stl.c, ac3d.c, imported.c), the
  * accessors, and vd_mesh_close. */
 #include "io/mesh/mesh_internal.h"
+#include "util_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -235,20 +236,9 @@ int vd_mesh_vertex_bounds(const struct vd_mesh *m, float lo[3], float hi[3])
 		   m->kind != MESH_PLY_ASCII) || m->spill || m->spill_wanted ||
 	    m->nonfinite || !m->verts || m->nverts == 0)
 		return 0;
-	const float *v = m->verts;
-	const size_t step = (size_t)m->vfloats;
-	/* six scalars (see voxelize's bounds_batch) */
-	float lx = v[0], hx = v[0], ly = v[1], hy = v[1], lz = v[2], hz = v[2];
-	for (uint64_t i = 0; i < m->nverts; i++, v += step) {
-		lx = v[0] < lx ? v[0] : lx;
-		hx = v[0] > hx ? v[0] : hx;
-		ly = v[1] < ly ? v[1] : ly;
-		hy = v[1] > hy ? v[1] : hy;
-		lz = v[2] < lz ? v[2] : lz;
-		hz = v[2] > hz ? v[2] : hz;
-	}
-	lo[0] = lx, lo[1] = ly, lo[2] = lz;
-	hi[0] = hx, hi[1] = hy, hi[2] = hz;
+	for (int a = 0; a < 3; a++)
+		lo[a] = hi[a] = m->verts[a];
+	vd_bounds_widen(m->verts, m->nverts, (size_t)m->vfloats, lo, hi);
 	return 1;
 }
 
